@@ -1,0 +1,136 @@
+"""Choosing Mitsuba's variant, and a libLLVM that Dr.Jit can use.
+
+Dr.Jit's llvm backend loads libLLVM lazily and *aborts the whole process* when
+the library is too old (libLLVM 15 fails with "Cannot select: fminimum"). An
+abort cannot be caught, so the library must be chosen before Dr.Jit starts:
+this module finds the newest libLLVM >= 16 on the machine and points
+``DRJIT_LIBLLVM_PATH`` at it. When none exists, the default variant falls back
+to ``scalar_rgb`` with a one-line warning. This is the only place that decides
+the variant.
+"""
+
+from __future__ import annotations
+
+import glob
+import os
+import re
+import sys
+
+from .errors import WhittedError
+
+MIN_LLVM_VERSION = 16
+DEFAULT_VARIANT = "llvm_ad_rgb"
+FALLBACK_VARIANT = "scalar_rgb"
+SUPPORTED_VARIANTS = ("scalar_rgb", "llvm_ad_rgb", "cuda_ad_rgb")
+
+_LIB_DIRS = (
+    "/usr/lib/x86_64-linux-gnu",
+    "/usr/lib/aarch64-linux-gnu",
+    "/usr/lib64",
+    "/usr/lib",
+    "/usr/local/lib",
+    "/usr/lib/llvm-*/lib",
+    "/opt/homebrew/opt/llvm/lib",
+    "/usr/local/opt/llvm/lib",
+)
+# libLLVM-19.so, libLLVM-19.so.1, libLLVM.so.19.1, libLLVM.so.19, libLLVM-19.dylib
+_VERSION_PATTERNS = (
+    re.compile(r"^libLLVM-(\d+)(?:\.\d+)*\.(?:so|dylib)(?:\.\d+)*$"),
+    re.compile(r"^libLLVM\.so\.(\d+)(?:\.\d+)*$"),
+    re.compile(r"^libLLVM\.(\d+)(?:\.\d+)*\.dylib$"),
+)
+_fallback_warned = False
+
+
+def llvm_version_of(path: str) -> int | None:
+    """The major version in a libLLVM file name, or None when the name has none."""
+    name = os.path.basename(path)
+    for pattern in _VERSION_PATTERNS:
+        match = pattern.match(name)
+        if match:
+            return int(match.group(1))
+    # /usr/lib/llvm-19/lib/libLLVM.so: the version is in the folder.
+    match = re.search(r"llvm-(\d+)", path)
+    if name.startswith("libLLVM") and match:
+        return int(match.group(1))
+    return None
+
+
+def find_libllvm() -> str | None:
+    """The newest libLLVM with major version >= 16 on this machine, or None.
+
+    A path in ``DRJIT_LIBLLVM_PATH`` is the user's choice and wins when it exists.
+    """
+    chosen = os.environ.get("DRJIT_LIBLLVM_PATH")
+    if chosen and os.path.isfile(chosen):
+        return chosen
+    candidates = []
+    for pattern in _LIB_DIRS:
+        for folder in glob.glob(pattern):
+            for path in glob.glob(os.path.join(folder, "libLLVM*")):
+                version = llvm_version_of(path)
+                if version is not None and version >= MIN_LLVM_VERSION and os.path.isfile(path):
+                    candidates.append((version, len(path), path))
+    if not candidates:
+        return None
+    # Newest version first; among its names, the shortest (libLLVM-19.so).
+    candidates.sort(key=lambda c: (-c[0], c[1], c[2]))
+    return candidates[0][2]
+
+
+def prepare_llvm() -> str | None:
+    """Point Dr.Jit at a usable libLLVM before it starts; return its path."""
+    path = find_libllvm()
+    if path is not None:
+        os.environ["DRJIT_LIBLLVM_PATH"] = path
+    return path
+
+
+def default_variant() -> str:
+    """``$WHITTED_VARIANT``, else llvm_ad_rgb when a good libLLVM exists, else scalar_rgb."""
+    global _fallback_warned
+    requested = os.environ.get("WHITTED_VARIANT")
+    if requested:
+        return requested
+    if prepare_llvm() is not None:
+        return DEFAULT_VARIANT
+    if not _fallback_warned:
+        _fallback_warned = True
+        print(f"whitted: warning: no libLLVM >= {MIN_LLVM_VERSION} found (install Debian's "
+              f"libllvm19 or set DRJIT_LIBLLVM_PATH); using the slow {FALLBACK_VARIANT} variant",
+              file=sys.stderr)
+    return FALLBACK_VARIANT
+
+
+def set_variant(variant: str | None = None) -> str:
+    """Select a Mitsuba variant and register the project's plugins for it.
+
+    ``None`` keeps a variant already chosen through Mitsuba, else takes the default.
+    """
+    import mitsuba as mi
+
+    if variant is None:
+        variant = mi.variant() or default_variant()
+    if variant not in SUPPORTED_VARIANTS:
+        raise WhittedError(f"unsupported variant '{variant}'; choose one of "
+                           + ", ".join(SUPPORTED_VARIANTS))
+    if variant.startswith("llvm") and prepare_llvm() is None:
+        raise WhittedError(f"variant {variant} needs libLLVM >= {MIN_LLVM_VERSION}: install "
+                           "Debian's libllvm19 or set DRJIT_LIBLLVM_PATH")
+    if variant.startswith("cuda"):
+        import drjit as dr
+        if not dr.has_backend(dr.JitBackend.CUDA):
+            raise WhittedError(f"variant {variant} needs an NVIDIA GPU with a CUDA driver")
+    if variant not in mi.variants():
+        raise WhittedError(f"this Mitsuba build has no variant {variant}")
+    if mi.variant() != variant:
+        mi.set_variant(variant)
+    from whitted import plugins
+    plugins.register()
+    return variant
+
+
+def is_vectorized() -> bool:
+    """True in the JIT variants, where one call processes a whole wavefront of rays."""
+    import mitsuba as mi
+    return not mi.variant().startswith("scalar")
