@@ -134,3 +134,41 @@ def is_vectorized() -> bool:
     """True in the JIT variants, where one call processes a whole wavefront of rays."""
     import mitsuba as mi
     return not mi.variant().startswith("scalar")
+
+
+def ensure_llvm(allow_install: bool = True) -> str | None:
+    """Find a libLLVM >= 16; when none exists, install Debian's libllvm19 if allowed.
+
+    Installing needs apt-get and root (or password-less sudo) and no
+    ``$WHITTED_NO_APT``; otherwise this says what to do and whitted falls back
+    to scalar_rgb.
+    """
+    import shutil
+    import subprocess
+
+    path = find_libllvm()
+    if path is not None:
+        print(f"whitted: using {path} for the llvm variants")
+        return path
+    apt = shutil.which("apt-get")
+    if allow_install and apt and not os.environ.get("WHITTED_NO_APT"):
+        prefix = []
+        if os.geteuid() != 0:
+            sudo = shutil.which("sudo")
+            if sudo and subprocess.run([sudo, "-n", "true"], capture_output=True).returncode == 0:
+                prefix = [sudo, "-n"]
+            else:
+                prefix = None
+        if prefix is not None:
+            print("whitted: no libLLVM >= 16 found; installing Debian's libllvm19")
+            env = dict(os.environ, DEBIAN_FRONTEND="noninteractive")
+            subprocess.run(prefix + [apt, "-qq", "update"], env=env, check=False)
+            subprocess.run(prefix + [apt, "-qq", "install", "-y", "libllvm19"], env=env, check=False)
+            path = find_libllvm()
+            if path is not None:
+                print(f"whitted: using {path} for the llvm variants")
+                return path
+    print(f"whitted: warning: no libLLVM >= {MIN_LLVM_VERSION}; install Debian's libllvm19 "
+          f"(apt-get install libllvm19) or set DRJIT_LIBLLVM_PATH. Using {FALLBACK_VARIANT}.")
+    return None
+

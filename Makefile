@@ -1,0 +1,58 @@
+# The two commands of the README: `make demo` and `make test`. Each creates .venv
+# when missing, installs the package and what it needs, makes sure a usable
+# libLLVM (>= 16) exists for Mitsuba's llvm variants, then does its job.
+# Everything is idempotent: a second run reinstalls nothing.
+
+PYTHON  ?= python3
+VENV    := .venv
+PY      := $(VENV)/bin/python
+STAMP   := $(VENV)/.installed
+SCENES  := $(wildcard scenes/*.scn)
+OUT     := out
+
+.PHONY: all demo test bench scenes setup llvm clean
+
+all: demo
+
+setup: $(STAMP) llvm
+
+$(PY):
+	$(PYTHON) -m venv $(VENV)
+
+# Reinstalled only when the package's metadata changes.
+$(STAMP): pyproject.toml | $(PY)
+	$(PY) -m pip install --quiet --upgrade pip
+	$(PY) -m pip install --quiet -e '.[test]'
+	touch $(STAMP)
+
+# Finds libLLVM >= 16, or installs Debian's libllvm19 when missing and allowed;
+# without one, whitted falls back to the scalar_rgb variant with a warning.
+llvm: $(STAMP)
+	@WHITTED_VARIANT=scalar_rgb $(PY) -c 'from whitted.variant import ensure_llvm; ensure_llvm()'
+
+scenes: setup
+	@if [ -f scenes/make_textures.py ]; then $(PY) scenes/make_textures.py; fi
+	@mkdir -p scenes_xml
+	@for scn in $(SCENES); do \
+		$(VENV)/bin/whitted convert $$scn -o scenes_xml/$$(basename $${scn%.scn}).xml || exit 1; \
+	done
+	@echo "scenes_xml/ regenerated from scenes/"
+
+demo: setup
+	@mkdir -p $(OUT)/demo
+	@for scn in $(SCENES); do \
+		name=$$(basename $${scn%.scn}); \
+		echo "rendering $$scn"; \
+		$(VENV)/bin/whitted render scenes_xml/$$name.xml -o $(OUT)/demo/$$name.png || exit 1; \
+		$(VENV)/bin/whitted render scenes_xml/$$name.xml -o $(OUT)/demo/$$name.exr -q || exit 1; \
+	done
+	@echo "demo images in $(OUT)/demo/"
+
+test: setup
+	$(PY) -m pytest -q
+
+bench: setup
+	$(PY) benchmarks/run.py
+
+clean:
+	rm -rf $(OUT) .pytest_cache .hypothesis
