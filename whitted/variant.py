@@ -59,13 +59,16 @@ def llvm_version_of(path: str) -> int | None:
 def find_libllvm() -> str | None:
     """The newest libLLVM with major version >= 16 on this machine, or None.
 
-    A path in ``DRJIT_LIBLLVM_PATH`` is the user's choice and wins when it exists.
+    A path in ``DRJIT_LIBLLVM_PATH`` is the user's choice and wins when it exists;
+    ``WHITTED_LIBLLVM_DIRS`` (folders separated by ``os.pathsep``) replaces the
+    folders searched.
     """
     chosen = os.environ.get("DRJIT_LIBLLVM_PATH")
     if chosen and os.path.isfile(chosen):
         return chosen
+    dirs = os.environ.get("WHITTED_LIBLLVM_DIRS")
     candidates = []
-    for pattern in _LIB_DIRS:
+    for pattern in (dirs.split(os.pathsep) if dirs is not None else _LIB_DIRS):
         for folder in glob.glob(pattern):
             for path in glob.glob(os.path.join(folder, "libLLVM*")):
                 version = llvm_version_of(path)

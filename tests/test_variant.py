@@ -1,0 +1,92 @@
+"""Variant selection: a good libLLVM is chosen before Dr.Jit starts, else scalar_rgb."""
+
+import os
+import subprocess
+import sys
+
+import pytest
+
+from whitted import variant
+
+
+@pytest.mark.parametrize("name, version", [
+    ("libLLVM-19.so", 19),
+    ("libLLVM-19.so.1", 19),
+    ("libLLVM.so.19.1", 19),
+    ("libLLVM-15.so", 15),
+    ("libLLVM-14.0.6.so.1", 14),
+    ("libLLVM.19.dylib", 19),
+    ("libLLVM.so", None),
+    ("libfoo.so.19", None),
+])
+def test_version_from_file_name(name, version):
+    assert variant.llvm_version_of(f"/usr/lib/{name}") == version
+
+
+def test_version_from_llvm_folder():
+    assert variant.llvm_version_of("/usr/lib/llvm-17/lib/libLLVM.so") == 17
+
+
+def _fake_libs(folder, names):
+    for name in names:
+        (folder / name).write_bytes(b"")
+
+
+def test_newest_good_library_wins(tmp_path, monkeypatch):
+    _fake_libs(tmp_path, ["libLLVM-15.so", "libLLVM-16.so", "libLLVM-19.so", "libLLVM-19.so.1"])
+    monkeypatch.delenv("DRJIT_LIBLLVM_PATH", raising=False)
+    monkeypatch.setenv("WHITTED_LIBLLVM_DIRS", str(tmp_path))
+    assert variant.find_libllvm() == str(tmp_path / "libLLVM-19.so")
+
+
+def test_old_libraries_are_refused(tmp_path, monkeypatch):
+    _fake_libs(tmp_path, ["libLLVM-14.so", "libLLVM-15.so", "libLLVM-15.so.1"])
+    monkeypatch.delenv("DRJIT_LIBLLVM_PATH", raising=False)
+    monkeypatch.setenv("WHITTED_LIBLLVM_DIRS", str(tmp_path))
+    assert variant.find_libllvm() is None
+
+
+def test_user_choice_wins(tmp_path, monkeypatch):
+    chosen = tmp_path / "custom-llvm.so"
+    chosen.write_bytes(b"")
+    monkeypatch.setenv("DRJIT_LIBLLVM_PATH", str(chosen))
+    assert variant.find_libllvm() == str(chosen)
+
+
+def _run_python(code, **env_changes):
+    env = {k: v for k, v in os.environ.items() if k not in ("DRJIT_LIBLLVM_PATH", "WHITTED_VARIANT")}
+    env.update(env_changes)
+    return subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env,
+                          timeout=300)
+
+
+def test_without_libllvm_falls_back_to_scalar_with_one_warning(tmp_path):
+    _fake_libs(tmp_path, ["libLLVM-15.so"])
+    code = ("import whitted, mitsuba as mi; "
+            "s = mi.load_dict({'type': 'scene', 's': {'type': 'sphere'}}); "
+            "print(mi.variant(), s.ray_test(mi.Ray3f([0, 0, -5], [0, 0, 1])))")
+    done = _run_python(code, WHITTED_LIBLLVM_DIRS=str(tmp_path))
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.split() == ["scalar_rgb", "True"]
+    warnings = [line for line in done.stderr.splitlines() if "warning" in line]
+    assert len(warnings) == 1 and "libllvm19" in warnings[0]
+
+
+def test_with_libllvm_defaults_to_llvm():
+    if variant.find_libllvm() is None:
+        pytest.skip("no libLLVM >= 16 on this machine")
+    done = _run_python("import whitted, mitsuba as mi; print(mi.variant())")
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == "llvm_ad_rgb"
+
+
+def test_variant_already_chosen_is_kept():
+    done = _run_python("import mitsuba as mi; mi.set_variant('scalar_rgb'); import whitted; "
+                       "print(mi.variant())")
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == "scalar_rgb"
+
+
+def test_unknown_variant_is_a_clean_error():
+    with pytest.raises(variant.WhittedError, match="unsupported variant"):
+        variant.set_variant("llvm_ad_spectral_polarized_typo")
