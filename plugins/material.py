@@ -1,8 +1,51 @@
 """``article``: the article's material as a Mitsuba BSDF.
 
-Parameters (as in the scene format): ``color`` (RGB or texture, the base
-colour B), ``reflect`` (KR), ``refract`` (KT) and ``ior``. The Whitted
-integrator reads them through :meth:`eval_diffuse_reflectance` and
+The article shades a sphere point as the linear combination
+
+    colour = (1 − KR − KT)·point + KR·reflected + KT·refracted
+
+Read as a BSDF this is a mixture of three lobes, which is what this plugin
+gives Mitsuba's stock integrators (``path`` in particular):
+
+=========  ====================  ===========  =================================
+component  flags                 weight       lobe
+=========  ====================  ===========  =================================
+0          DiffuseReflection     1 − KR − KT  Lambertian, albedo B: f = w·B/π
+1          DeltaReflection       KR           perfect mirror, R = V + 2·c1·N'
+2          DeltaTransmission     KT           perfect refraction with ``ior``,
+                                              T = n·V + (n·c1 − √k)·N'
+=========  ====================  ===========  =================================
+
+Total internal reflection (k < 0) moves the refraction lobe's weight KT onto
+the mirror direction, as the article does; the weights always add up to 1, so
+the material neither creates nor (apart from B < 1) absorbs energy.
+
+Sidedness follows the article: a ray arriving from inside the sphere is shaded
+with N' = −N. All three lobes are therefore two-sided (a ray inside a glass
+sphere that hits its wall sees the same diffuse lobe as one outside), and the
+refraction lobe uses the relative index n = 1/ior entering (Mitsuba's
+``bs.eta = ior``) and n = ior leaving (``bs.eta = 1/ior``). The outside
+includes grazing incidence, ``wi.z = 0``, where the article's test
+``ray·N > 0`` is false.
+
+No radiance scaling by η² on refraction, in either transport mode: the
+article's model has none, and neither has the Whitted integrator's physical
+mode, which the path tracer is compared with. For spheres seen from outside
+and lit from outside the choice makes no difference to a complete light path:
+every path that enters a sphere also leaves it, and the factors η² and 1/η²
+of a physically based dielectric cancel. The material is thus the same in
+both transport directions (no ``NonSymmetric`` flag).
+
+Lobes are sampled in proportion to their weights (among those a context
+enables), so that each sample's weight is B (diffuse) or 1 (mirror,
+refraction) when all lobes are enabled, and a pure-delta material never
+samples the diffuse lobe. ``pdf`` and ``eval`` describe the diffuse lobe only,
+as for every Mitsuba BSDF with delta components; the probability of choosing
+the diffuse lobe is part of its pdf.
+
+The Whitted integrator reads the parameters directly: ``color`` (a texture),
+``reflect``, ``refract`` and ``ior`` (Python floats), or through
+:meth:`eval_diffuse_reflectance` (B, without the weight 1 − KR − KT) and
 :meth:`eval_attribute_1`.
 """
 
@@ -10,6 +53,42 @@ from __future__ import annotations
 
 import drjit as dr
 import mitsuba as mi
+
+DIFFUSE, REFLECTION, TRANSMISSION = 0, 1, 2
+
+_BOTH_SIDES = mi.BSDFFlags.FrontSide | mi.BSDFFlags.BackSide
+COMPONENT_FLAGS = (
+    mi.BSDFFlags.DiffuseReflection | _BOTH_SIDES,
+    mi.BSDFFlags.DeltaReflection | _BOTH_SIDES,
+    mi.BSDFFlags.DeltaTransmission | _BOTH_SIDES,
+)
+_LOBE_TYPES = (mi.BSDFFlags.DiffuseReflection, mi.BSDFFlags.DeltaReflection,
+               mi.BSDFFlags.DeltaTransmission)
+
+
+def refraction(wi, ior):
+    """The article's refraction of the incident direction ``wi`` (local frame,
+    pointing away from the surface) at a sphere of index ``ior``.
+
+    Returns (T, total_internal_reflection, eta), with eta the relative index
+    n2/n1 of the side T enters (Mitsuba's ``bs.eta``). Under total internal
+    reflection T is meaningless (and finite).
+    """
+    cos_i = mi.Frame3f.cos_theta(wi)
+    outside = cos_i >= 0
+    side = dr.select(outside, 1.0, -1.0)        # N' = side·(0, 0, 1)
+    n = dr.select(outside, dr.rcp(ior), ior)    # n1/n2
+    c1 = dr.abs(cos_i)                          # −N'·V with V = −wi
+    k = 1.0 - dr.square(n) * (1.0 - dr.square(c1))
+    tir = k < 0
+    # T = n·V + (n·c1 − √k)·N': its tangential part is −n·wi, its normal part −side·√k.
+    t = mi.Vector3f(-n * wi.x, -n * wi.y, -side * dr.safe_sqrt(k))
+    return t, tir, dr.rcp(n)
+
+
+def mirror(wi):
+    """The article's reflection R = V + 2·c1·N' in the local frame (either side)."""
+    return mi.Vector3f(-wi.x, -wi.y, wi.z)
 
 
 class ArticleBSDF(mi.BSDF):
@@ -20,11 +99,112 @@ class ArticleBSDF(mi.BSDF):
         self.reflect = float(props.get("reflect", 0.0))
         self.refract = float(props.get("refract", 0.0))
         self.ior = float(props.get("ior", 1.0))
-        flags = mi.BSDFFlags.DiffuseReflection | mi.BSDFFlags.FrontSide
-        self.m_components = [flags]
+        if not (0.0 <= self.reflect <= 1.0 and 0.0 <= self.refract <= 1.0):
+            raise ValueError(f"article BSDF: reflect and refract must lie in [0, 1], got "
+                             f"{self.reflect} and {self.refract}")
+        if self.reflect + self.refract > 1.0 + 1e-6:
+            raise ValueError(f"article BSDF: reflect + refract must be <= 1, got "
+                             f"{self.reflect} + {self.refract}")
+        if not self.ior > 0.0:
+            raise ValueError(f"article BSDF: ior must be > 0, got {self.ior}")
+        # Component indices are fixed (0 diffuse, 1 mirror, 2 refraction); the
+        # material's flags name only the lobes it can actually use, so that
+        # integrators skip light sampling on pure mirrors and glass.
+        self.m_components = list(COMPONENT_FLAGS)
+        flags = mi.BSDFFlags.Empty
+        if self.diffuse_weight > 0:
+            flags |= COMPONENT_FLAGS[DIFFUSE]
+        if self.reflect > 0 or self.refract > 0:    # refraction may turn into TIR
+            flags |= COMPONENT_FLAGS[REFLECTION]
+        if self.refract > 0:
+            flags |= COMPONENT_FLAGS[TRANSMISSION]
         self.m_flags = flags
 
+    @property
+    def diffuse_weight(self) -> float:
+        return max(0.0, 1.0 - self.reflect - self.refract)
+
+    # -- the lobes' weights and selection probabilities ---------------------
+
+    def _lobe_weights(self, ctx, wi):
+        """The weights of the enabled lobes (diffuse, mirror, refraction) for ``wi``,
+        with total internal reflection moving KT onto the mirror."""
+        _, tir, _ = refraction(wi, self.ior)
+        enabled = [ctx.is_enabled(_LOBE_TYPES[i], i) for i in range(3)]
+        w_d = mi.Float(self.diffuse_weight if enabled[DIFFUSE] else 0.0)
+        w_r = mi.Float(self.reflect) + dr.select(tir, self.refract, 0.0)
+        w_t = dr.select(tir, 0.0, self.refract)
+        w_r = w_r if enabled[REFLECTION] else mi.Float(0.0)
+        w_t = w_t if enabled[TRANSMISSION] else mi.Float(0.0)
+        return w_d, w_r, w_t
+
+    def _diffuse_pdf(self, ctx, si, wo):
+        """(probability of choosing the diffuse lobe, w_d, whether ``wo`` is on ``wi``'s side)."""
+        w_d, w_r, w_t = self._lobe_weights(ctx, si.wi)
+        total = w_d + w_r + w_t
+        p_d = dr.select(total > 0, w_d / dr.select(total > 0, total, 1.0), 0.0)
+        same_side = mi.Frame3f.cos_theta(si.wi) * mi.Frame3f.cos_theta(wo) > 0
+        return p_d, w_d, same_side
+
+    # -- Mitsuba's BSDF interface -------------------------------------------
+
+    def sample(self, ctx, si, sample1, sample2, active=True):
+        wi = si.wi
+        cos_i = mi.Frame3f.cos_theta(wi)
+        w_d, w_r, w_t = self._lobe_weights(ctx, wi)
+        total = w_d + w_r + w_t
+        inv_total = dr.select(total > 0, dr.rcp(dr.select(total > 0, total, 1.0)), 0.0)
+        p_d, p_r, p_t = w_d * inv_total, w_r * inv_total, w_t * inv_total
+
+        # Diffuse below p_d, refraction (when possible) above p_d + p_r, else mirror:
+        # round-off in the sums can never select a lobe of probability 0.
+        pick_d = sample1 < p_d
+        pick_t = (sample1 >= p_d) & (sample1 >= p_d + p_r) & (p_t > 0)
+
+        t_dir, _, t_eta = refraction(wi, self.ior)
+        d_dir = mi.warp.square_to_cosine_hemisphere(sample2)   # on wi's side, mirrored below
+        d_pdf = p_d * mi.warp.square_to_cosine_hemisphere_pdf(d_dir)
+        d_dir = mi.Vector3f(d_dir.x, d_dir.y, dr.select(cos_i >= 0, d_dir.z, -d_dir.z))
+
+        bs = dr.zeros(mi.BSDFSample3f)
+        bs.wo = dr.select(pick_d, d_dir, dr.select(pick_t, t_dir, mirror(wi)))
+        bs.pdf = dr.select(pick_d, d_pdf, dr.select(pick_t, p_t, p_r))
+        bs.eta = dr.select(pick_t, t_eta, 1.0)
+        bs.sampled_component = dr.select(pick_d, mi.UInt32(DIFFUSE),
+                                         dr.select(pick_t, mi.UInt32(TRANSMISSION),
+                                                   mi.UInt32(REFLECTION)))
+        bs.sampled_type = dr.select(pick_d, mi.UInt32(+mi.BSDFFlags.DiffuseReflection),
+                                    dr.select(pick_t, mi.UInt32(+mi.BSDFFlags.DeltaTransmission),
+                                              mi.UInt32(+mi.BSDFFlags.DeltaReflection)))
+
+        # weight = f·|cos θo| / pdf = (lobe weight · lobe value) / (lobe weight / total):
+        # B·total for the diffuse lobe (f = w_d·B/π, pdf = p_d·|cos θo|/π), total for a delta lobe.
+        albedo = self.color.eval(si, active & pick_d)
+        diffuse_ok = (cos_i != 0) & (bs.pdf > 0)
+        weight = dr.select(pick_d, albedo * dr.select(diffuse_ok, total, 0.0), mi.Color3f(total))
+        valid = active & (total > 0)
+        bs.pdf = dr.select(valid, bs.pdf, 0.0)
+        return bs, dr.select(valid, weight, 0.0)
+
+    def eval(self, ctx, si, wo, active=True):
+        value, _ = self.eval_pdf(ctx, si, wo, active)
+        return value
+
+    def pdf(self, ctx, si, wo, active=True):
+        p_d, _, same_side = self._diffuse_pdf(ctx, si, wo)
+        pdf = p_d * dr.abs(mi.Frame3f.cos_theta(wo)) * dr.inv_pi
+        return dr.select(active & same_side, pdf, 0.0)
+
+    def eval_pdf(self, ctx, si, wo, active=True):
+        p_d, w_d, same_side = self._diffuse_pdf(ctx, si, wo)
+        cos_o = dr.abs(mi.Frame3f.cos_theta(wo))
+        active = active & same_side
+        value = self.color.eval(si, active) * (w_d * dr.inv_pi * cos_o)
+        pdf = p_d * cos_o * dr.inv_pi
+        return dr.select(active, value, 0.0), dr.select(active, pdf, 0.0)
+
     def eval_diffuse_reflectance(self, si, active=True):
+        """The base colour B (the diffuse lobe's albedo before its weight 1 − KR − KT)."""
         return self.color.eval(si, active)
 
     def eval_attribute_1(self, name, si, active=True):
@@ -36,18 +216,11 @@ class ArticleBSDF(mi.BSDF):
     def has_attribute(self, name, active=True):
         return name in ("color", "reflect", "refract", "ior")
 
-    def sample(self, ctx, si, sample1, sample2, active=True):
-        raise NotImplementedError("article BSDF sampling: see issue 4")
-
-    def eval(self, ctx, si, wo, active=True):
-        raise NotImplementedError("article BSDF evaluation: see issue 4")
-
-    def pdf(self, ctx, si, wo, active=True):
-        raise NotImplementedError("article BSDF pdf: see issue 4")
-
     def traverse(self, callback):
+        # KR, KT and the IOR are plain floats that the integrators may bake into
+        # their kernels: they are scene structure, not differentiable parameters.
         callback.put("color", self.color, mi.ParamFlags.Differentiable)
 
     def to_string(self):
-        return (f"ArticleBSDF[color={self.color}, reflect={self.reflect}, "
-                f"refract={self.refract}, ior={self.ior}]")
+        return (f"ArticleBSDF[\n  color = {self.color},\n  reflect = {self.reflect},\n"
+                f"  refract = {self.refract},\n  ior = {self.ior}\n]")
