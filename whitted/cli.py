@@ -35,6 +35,11 @@ def _render(args: argparse.Namespace) -> None:
     render_command(args)
 
 
+def _compare(args: argparse.Namespace) -> None:
+    from .compare import compare_command
+    compare_command(args)
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="whitted",
@@ -78,6 +83,16 @@ def build_parser() -> argparse.ArgumentParser:
     render.add_argument("-v", "--verbose", action="store_true", help="print a one-line summary")
     render.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     render.set_defaults(run=_render)
+
+    from .compare import add_arguments as add_compare_arguments
+    compare = sub.add_parser(
+        "compare", help="what accuracy costs in time: sweep the methods against a path-traced reference",
+        description="Render a converged path-traced reference (cached), then sweep the Whitted "
+                    "integrator (max depth x spp, article and physical lighting) and the path "
+                    "tracer (spp) and score each render's relative MSE and FLIP against it. Writes "
+                    "DIR/results.csv, DIR/error_vs_time.png and DIR/contact_sheet.png.")
+    add_compare_arguments(compare)
+    compare.set_defaults(run=_compare)
     return parser
 
 
