@@ -94,8 +94,7 @@ def mirror(wi):
 class ArticleBSDF(mi.BSDF):
     def __init__(self, props: mi.Properties):
         super().__init__(props)
-        self.color = props.get_texture("color", 1.0) if props.has_property("color") else \
-            mi.load_dict({"type": "uniform", "value": 1.0})
+        self.color = props.get_texture("color", 1.0)
         self.reflect = float(props.get("reflect", 0.0))
         self.refract = float(props.get("refract", 0.0))
         self.ior = float(props.get("ior", 1.0))
