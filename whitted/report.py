@@ -152,57 +152,58 @@ def _save(fig, path: str | os.PathLike, dpi: int) -> None:
 # --------------------------------------------------------------------------- contact sheet
 
 
-def _sheet_rows(entry: "SceneResult") -> list[tuple[str, list]]:
-    """(row label, cells) for one scene; a cell is (title, measurement or None)."""
+def _sheet_rows(entry: "SceneResult") -> list[list[tuple[str, np.ndarray | None, str]]]:
+    """The cells (title, thumbnail or None, caption) of one scene's block, row by row:
+    the reference and the path tracer's ladder first, then one row per depth with the
+    Whitted integrator's spp ladder in article lighting, then in physical lighting."""
     done = {(m.setting.method, m.setting.max_depth, m.setting.spp): m for m in entry.measurements}
-    rows = [("reference", [("reference", None)])]
-    for method in WHITTED_METHODS:
-        lighting = method.split("-")[1]
-        for depth in entry.depths:
-            rows.append((f"{method} d{depth}", [(f"{lighting} d{depth} · {spp} spp",
-                                                 done.get((method, depth, spp)))
-                                                for spp in entry.whitted_spp]))
-    rows.append(("path", [(f"path · {spp} spp", done.get(("path", entry.path_depth, spp)))
-                          for spp in entry.path_spp]))
+
+    def cell(title: str, m: "Measurement | None") -> tuple[str, np.ndarray | None, str]:
+        if m is None:
+            return title, None, "not rendered"
+        return title, m.thumbnail, f"rel {m.rel_mse:.3g} · FLIP {m.flip:.3f}\n{_seconds(m.seconds)}"
+
+    rows = [[(f"reference: path · {entry.reference_spp} spp", entry.reference_thumbnail,
+              f"cached" if entry.reference_cached else _seconds(entry.reference_seconds))]
+            + [cell(f"path · {spp} spp", done.get(("path", entry.path_depth, spp)))
+               for spp in entry.path_spp]]
+    for depth in entry.depths:
+        rows.append([cell(f"{method.split('-')[1]} d{depth} · {spp} spp",
+                          done.get((method, depth, spp)))
+                     for method in WHITTED_METHODS for spp in entry.whitted_spp])
     return rows
 
 
 def contact_sheet(path: str | os.PathLike, entries: list["SceneResult"]) -> None:
     """Thumbnails of every render beside the reference, each with its error and time.
 
-    One block per scene: the reference, then a row per (lighting, depth) of the
-    Whitted integrator across its spp ladder, then the path tracer's ladder.
+    One block per scene: the reference and the path tracer's spp ladder on top,
+    then a row per Whitted max depth: its spp ladder in article lighting, then in
+    physical lighting.
     """
     from matplotlib.figure import Figure
 
-    cell_w = 1.55
+    cell_w = 1.45
     blocks = []
     for entry in entries:
         rows = _sheet_rows(entry)
-        columns = max(len(cells) for _, cells in rows)
         aspect = entry.height / entry.width
-        blocks.append((entry, rows, columns, len(rows) * (cell_w * aspect + 0.42) + 0.3))
-    columns = max(b[2] for b in blocks)
-    fig = Figure(figsize=(cell_w * columns + 0.2, sum(b[3] for b in blocks)))
-    subfigs = fig.subfigures(len(blocks), 1, squeeze=False, height_ratios=[b[3] for b in blocks])
-    for (entry, rows, _, _), subfig in zip(blocks, subfigs[:, 0]):
-        subfig.suptitle(f"{entry.name} ({entry.width}×{entry.height}): relative MSE · FLIP · "
-                        f"median render time", fontsize=9)
+        blocks.append((entry, rows, len(rows) * (cell_w * aspect + 0.5) + 0.3))
+    columns = max(len(row) for _, rows, _ in blocks for row in rows)
+    fig = Figure(figsize=(cell_w * columns, sum(b[2] for b in blocks)), layout="constrained")
+    subfigs = fig.subfigures(len(blocks), 1, squeeze=False, height_ratios=[b[2] for b in blocks])
+    for (entry, rows, _), subfig in zip(blocks, subfigs[:, 0]):
+        subfig.suptitle(f"{entry.name} ({entry.width}×{entry.height}): relative MSE · FLIP against "
+                        f"the reference, median render time", fontsize=8)
         axes = subfig.subplots(len(rows), columns, squeeze=False)
         for ax in axes.flat:
             ax.set_axis_off()
-        for (label, cells), ax_row in zip(rows, axes):
-            for (title, m), ax in zip(cells, ax_row):
-                if label == "reference":
-                    ax.imshow(entry.reference_thumbnail, interpolation="nearest")
-                    ax.set_title(f"reference\npath · {entry.reference_spp} spp\n"
-                                 f"{_seconds(entry.reference_seconds)}", fontsize=6)
-                elif m is None:
-                    ax.set_title(f"{title}\n(not rendered)", fontsize=6, color="0.5")
-                else:
-                    ax.imshow(m.thumbnail, interpolation="nearest")
-                    ax.set_title(f"{title}\n{m.rel_mse:.3g} · {m.flip:.3f}\n{_seconds(m.seconds)}",
-                                 fontsize=6)
+        for row, ax_row in zip(rows, axes):
+            for (title, image, caption), ax in zip(row, ax_row):
+                if image is not None:
+                    ax.imshow(image, interpolation="nearest")
+                ax.set_title(f"{title}\n{caption}", fontsize=5.5,
+                             color="0.5" if image is None else "black")
     _save(fig, path, dpi=110)
 
 
