@@ -1,10 +1,541 @@
-"""Placeholder until the parser lands (issue 2)."""
-from .scene import Scene
+"""The legacy ``.scn`` text -> :class:`Scene`, checking every rule of the scene format.
+
+A file is accepted as a whole or rejected with one :class:`SceneError` that names
+the file and the first line of the offending statement, so that nothing invalid
+ever reaches Mitsuba. Reading happens in three layers, each small:
+
+* :func:`parse_file` turns bytes into text (missing, unreadable, binary and
+  non-UTF-8 files are rejected here);
+* :func:`_statements` turns text into statements: comments, blank lines, ``\\``
+  continuations and ``"quoted paths"``;
+* :class:`_Parser` gives each statement its meaning, defaults and constraints.
+
+Beyond the format's own constraints, numbers are kept where Mitsuba's 32-bit
+floats stay finite and meaningful (see :data:`MAX_MAGNITUDE` and
+:data:`MIN_POSITIVE`): a scene that passes here never makes the renderer
+divide by zero or overflow.
+"""
+
+from __future__ import annotations
+
+import difflib
+import math
+import os
+import re
+import stat
+import struct
+from dataclasses import dataclass
+from decimal import Decimal
+from pathlib import Path
+
+from ..errors import SceneError
+from .scene import Light, Material, Scene, Sphere, Vec3
+
+#: Every number's magnitude is at most this: light intensities (colour * pi * d^2)
+#: and squared distances then stay far inside 32-bit float range.
+MAX_MAGNITUDE = Decimal("1e12")
+#: Radius, index of refraction and field of view are at least this, so that
+#: their squares and reciprocals stay normal 32-bit floats.
+MIN_POSITIVE = Decimal("1e-6")
+MAX_SIZE = 16384
+MAX_DEPTH = 64
+MAX_SAMPLES = 65536
+#: Two directions count as parallel when the sine of their angle is below this.
+PARALLEL_SINE = 1e-9
+
+GLOBALS = ("size", "eye", "lookat", "up", "fov", "background", "ambient", "depth", "samples")
+STATEMENTS = GLOBALS + ("light", "sphere")
+#: Sphere attribute -> names of its values (their count is the attribute's arity).
+ATTRIBUTES = {
+    "color": ("R", "G", "B"),
+    "reflect": ("KR",),
+    "refract": ("KT", "IOR"),
+    "texture": ("PATH",),
+    "north": ("X", "Y", "Z"),
+    "equator": ("X", "Y", "Z"),
+}
+
+_NUMBER = re.compile(r"[+-]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][+-]?[0-9]+)?")
+_INTEGER = re.compile(r"[+-]?[0-9]+")
+_NON_FINITE = re.compile(r"[+-]?(?:nan|inf|infinity)", re.IGNORECASE)
+_LINE_BREAK = re.compile(r"\r\n|\r|\n")
+_BLANKS = " \t\f\v"
 
 
-def parse_text(text, source):
-    raise NotImplementedError
+# --------------------------------------------------------------------------- text
 
 
-def parse_file(path):
-    raise NotImplementedError
+def parse_file(path: str | os.PathLike) -> Scene:
+    """Read and parse a ``.scn`` file; errors name ``path`` as given."""
+    path = Path(path)
+    try:
+        info = path.stat()
+    except FileNotFoundError:
+        raise SceneError(path, None, "no such file") from None
+    except OSError as error:
+        raise SceneError(path, None, f"cannot read: {error.strerror or error}") from None
+    if stat.S_ISDIR(info.st_mode):
+        raise SceneError(path, None, "is a folder, not a scene file")
+    if not stat.S_ISREG(info.st_mode):
+        raise SceneError(path, None, "is not a regular file")
+    try:
+        data = path.read_bytes()
+    except OSError as error:
+        raise SceneError(path, None, f"cannot read: {error.strerror or error}") from None
+    return parse_text(decode(data, path), path)
+
+
+def decode(data: bytes, path: str | os.PathLike) -> str:
+    """The text of a scene file's bytes: UTF-8 (a leading BOM is dropped), no NUL bytes."""
+    nul = data.find(b"\0")
+    if nul >= 0:
+        raise SceneError(path, _line_of(data, nul), "binary file (NUL byte), not a text scene")
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError as error:
+        raise SceneError(path, _line_of(data, error.start),
+                         f"not UTF-8 text (byte 0x{data[error.start]:02x})") from None
+    return text[1:] if text.startswith("\ufeff") else text
+
+
+def _line_of(data: bytes, offset: int) -> int:
+    """1-based line of byte ``offset``; the bytes before it may be any encoding."""
+    head = data[:offset].decode("utf-8", errors="replace")
+    return len(_LINE_BREAK.findall(head)) + 1
+
+
+@dataclass(frozen=True)
+class Token:
+    text: str
+    quoted: bool = False
+
+    def show(self) -> str:
+        """The token as written, quoted and safe for a one-line message."""
+        return repr(_clip(self.text))
+
+
+def _clip(text: str) -> str:
+    return text if len(text) <= 40 else text[:37] + "..."
+
+
+def _statements(text: str, path) -> list[tuple[int, list[Token]]]:
+    """Split ``text`` into statements: (first line number, tokens).
+
+    ``#`` outside quotes starts a comment. A line whose text (without its
+    comment and trailing blanks) ends in ``\\`` continues on the next line; the
+    backslash separates tokens like a blank. A token that starts with ``"``
+    runs to the next ``"`` on the same line and may hold blanks and ``#``.
+    """
+    statements = []
+    tokens: list[Token] = []
+    first = 0
+    lines = _LINE_BREAK.split(text)
+    for number, line in enumerate(lines, start=1):
+        if not tokens:
+            first = number
+        line_tokens, continued = _split_line(line, path, first)
+        tokens += line_tokens
+        if continued:
+            if number == len(lines):
+                raise SceneError(path, first, "the last line ends with '\\' but no line follows")
+            continue
+        if tokens:
+            statements.append((first, tokens))
+        tokens = []
+    return statements
+
+
+def _split_line(line: str, path, first: int) -> tuple[list[Token], bool]:
+    """Tokens of one physical line, and whether it ends with a continuation ``\\``."""
+    if "\0" in line:
+        raise SceneError(path, first, "binary file (NUL character), not a text scene")
+    tokens: list[Token] = []
+    i, n = 0, len(line)
+    while i < n:
+        c = line[i]
+        if c in _BLANKS:
+            i += 1
+        elif c == "#":
+            break
+        elif c == '"':
+            end = line.find('"', i + 1)
+            if end < 0:
+                raise SceneError(path, first, f"unterminated quote: {line[i:][:40]!r}")
+            if end + 1 < n and line[end + 1] not in _BLANKS + "#":
+                raise SceneError(path, first, f"a closing quote must be followed by a blank, "
+                                              f"got {line[i:end + 2][:40]!r}")
+            tokens.append(Token(line[i + 1:end], quoted=True))
+            i = end + 1
+        else:
+            j = i
+            while j < n and line[j] not in _BLANKS and line[j] not in '#"':
+                j += 1
+            if j < n and line[j] == '"':
+                raise SceneError(path, first, f"a quote may only start a value, "
+                                              f"got {line[i:j + 1][:40]!r}")
+            tokens.append(Token(line[i:j]))
+            i = j
+    continued = bool(tokens) and not tokens[-1].quoted and tokens[-1].text.endswith("\\")
+    if continued:
+        rest = tokens[-1].text[:-1]
+        tokens[-1:] = [Token(rest)] if rest else []
+    return tokens, continued
+
+
+def parse_text(text: str, source: str | os.PathLike) -> Scene:
+    """Parse scene text; ``source`` names the file in messages and anchors relative textures."""
+    source = Path(source)
+    if text.startswith("\ufeff"):
+        text = text[1:]
+    return _Parser(source).parse(_statements(text, source))
+
+
+# ---------------------------------------------------------------------- statements
+
+
+def suggest(word: str, known) -> str:
+    """', did you mean 'x'?' for the nearest known name, or the list of known names."""
+    word = word.lower()
+    ranked = sorted(known, key=lambda k: (-difflib.SequenceMatcher(None, word, k).ratio(), k))
+    best = ranked[0]
+    if difflib.SequenceMatcher(None, word, best).ratio() >= 0.5:
+        return f"; did you mean '{best}'?"
+    return "; known names: " + ", ".join(known)
+
+
+class _Parser:
+    def __init__(self, source: Path):
+        self.source = source
+        self.scene = Scene(source=source)
+        self.seen: dict[str, int] = {}        # global statement -> its line
+        self.line = 0
+        self._images: dict[Path, str | None] = {}
+
+    def fail(self, message: str):
+        raise SceneError(self.source, self.line, message)
+
+    # ---- values
+
+    def number(self, token: Token, what: str, *, integer: bool = False) -> Decimal:
+        """The exact value of a number token (constraints compare what was written)."""
+        text = _clip(token.text)
+        if token.quoted:
+            self.fail(f"{what} must be a number, got the quoted text {token.show()} "
+                      f"(only texture paths are quoted)")
+        if (_INTEGER if integer else _NUMBER).fullmatch(token.text):
+            value = Decimal(token.text)
+            if not integer and abs(value) > MAX_MAGNITUDE:  # integers have their own ranges
+                self.fail(f"{what} must lie within -1e12 and 1e12, got {text}")
+            return value
+        if _NON_FINITE.fullmatch(token.text):
+            self.fail(f"{what} must be a finite number, got {text}")
+        if integer and _NUMBER.fullmatch(token.text):
+            self.fail(f"{what} must be an integer, got {text}")
+        kind = "an integer" if integer else "a number"
+        self.fail(f"{what} must be {kind}, got {token.show()}")
+
+    def vector(self, tokens: list[Token], what: str) -> tuple[Decimal, Decimal, Decimal]:
+        return tuple(self.number(t, what) for t in tokens)
+
+    def count(self, keyword: str, args: list[Token], names: str, *counts: int) -> None:
+        if len(args) not in counts:
+            wanted = " or ".join(str(c) for c in counts)
+            noun = "value" if counts == (1,) else "values"
+            self.fail(f"{keyword} takes {wanted} {noun} ({names}), got {len(args)}")
+
+    def in_range(self, value: Decimal, token_text: str, what: str, low, high,
+                 *, low_open: bool = False, high_open: bool = False) -> None:
+        """``low <= value <= high`` (or strict where open); None means unbounded."""
+        token_text = _clip(token_text)
+        bad_low = low is not None and (value <= low if low_open else value < low)
+        bad_high = high is not None and (value >= high if high_open else value > high)
+        if not (bad_low or bad_high):
+            return
+        if low is not None and high is not None:
+            left, right = (">" if low_open else ">="), ("<" if high_open else "<=")
+            self.fail(f"{what} must be {left} {low} and {right} {high}, got {token_text}")
+        if low is not None:
+            self.fail(f"{what} must be {'>' if low_open else '>='} {low}, got {token_text}")
+        self.fail(f"{what} must be {'<' if high_open else '<='} {high}, got {token_text}")
+
+    def positive(self, value: Decimal, token_text: str, what: str) -> None:
+        self.in_range(value, token_text, what, 0, None, low_open=True)
+        if value < MIN_POSITIVE:
+            self.fail(f"{what} must be at least 1e-6 (32-bit floats), got {token_text}")
+
+    # ---- the file
+
+    def parse(self, statements) -> Scene:
+        for line, tokens in statements:
+            self.line = line
+            keyword, args = tokens[0], tokens[1:]
+            name = keyword.text.lower()
+            if keyword.quoted:
+                self.fail(f"expected a statement name, got the quoted text {keyword.show()}")
+            if name not in STATEMENTS:
+                self.fail(f"unknown statement {keyword.show()}{suggest(keyword.text, STATEMENTS)}")
+            if name in GLOBALS:
+                if name in self.seen:
+                    self.fail(f"{name} given twice (first on line {self.seen[name]})")
+                self.seen[name] = line
+            getattr(self, f"statement_{name}")(args)
+        self.check_camera()
+        return self.scene
+
+    def statement_size(self, args):
+        self.count("size", args, "W H", 2)
+        width, height = (self.number(t, f"size {n}", integer=True) for t, n in zip(args, ("width", "height")))
+        for value, token, n in ((width, args[0], "width"), (height, args[1], "height")):
+            self.in_range(value, token.text, f"size {n}", 1, MAX_SIZE)
+        self.scene.width, self.scene.height = int(width), int(height)
+
+    def _point(self, name, args) -> Vec3:
+        self.count(name, args, "X Y Z", 3)
+        return _floats(self.vector(args, name))
+
+    def statement_eye(self, args):
+        self.scene.eye = self._point("eye", args)
+
+    def statement_lookat(self, args):
+        self.scene.lookat = self._point("lookat", args)
+
+    def statement_up(self, args):
+        self.scene.up = self._point("up", args)
+        if _is_zero(self.scene.up):
+            self.fail("up must not be zero")
+
+    def statement_fov(self, args):
+        self.count("fov", args, "DEG", 1)
+        fov = self.number(args[0], "fov")
+        self.in_range(fov, args[0].text, "fov", 0, 180, low_open=True, high_open=True)
+        self.positive(fov, args[0].text, "fov")
+        if _float32(float(fov)) >= 180.0:
+            self.fail(f"fov must be < 180 (it rounds to 180 in 32-bit floats), got {args[0].text}")
+        self.scene.fov = float(fov)
+
+    def statement_background(self, args):
+        self.count("background", args, "R G B", 3)
+        color = self.vector(args, "background colour")
+        for value, token in zip(color, args):
+            self.in_range(value, token.text, "background colour", 0, None)
+        self.scene.background = _floats(color)
+
+    def statement_ambient(self, args):
+        self.count("ambient", args, "A", 1)
+        ambient = self.number(args[0], "ambient")
+        self.in_range(ambient, args[0].text, "ambient", 0, 1)
+        self.scene.ambient = float(ambient)
+
+    def statement_depth(self, args):
+        self.count("depth", args, "N", 1)
+        depth = self.number(args[0], "depth", integer=True)
+        self.in_range(depth, args[0].text, "depth", 1, MAX_DEPTH)
+        self.scene.depth = int(depth)
+
+    def statement_samples(self, args):
+        self.count("samples", args, "N", 1)
+        samples = self.number(args[0], "samples", integer=True)
+        self.in_range(samples, args[0].text, "samples", 1, MAX_SAMPLES)
+        self.scene.samples = int(samples)
+
+    def statement_light(self, args):
+        self.count("light", args, "X Y Z [R G B]", 3, 6)
+        position = self.vector(args[:3], "light position")
+        color = self.vector(args[3:], "light colour") if len(args) == 6 else (1, 1, 1)
+        for value, token in zip(color, args[3:]):
+            self.in_range(value, token.text, "light colour", 0, None)
+        self.scene.lights.append(Light(_floats(position), _floats(color), line=self.line))
+
+    def statement_sphere(self, args):
+        numbers = 0
+        while numbers < len(args) and not args[numbers].quoted and _NUMBER.fullmatch(args[numbers].text):
+            numbers += 1
+        if numbers < 4:
+            if numbers < len(args) and not _looks_like_name(args[numbers]):
+                self.number(args[numbers], "sphere " + ("centre" if numbers < 3 else "radius"))
+            self.fail(f"sphere takes 4 numbers (CX CY CZ RADIUS), got {numbers}")
+        if numbers > 4:
+            self.fail(f"sphere takes 4 numbers (CX CY CZ RADIUS) before its attributes, got {numbers}")
+        center = self.vector(args[:3], "sphere centre")
+        radius = self.number(args[3], "sphere radius")
+        self.positive(radius, args[3].text, "sphere radius")
+        values = self.attributes(args[4:])
+
+        kr, kt = values.get("reflect", (0,))[0], values.get("refract", (0, 1))[0]
+        if kr + kt > 1:
+            self.fail(f"sphere reflect + refract must be <= 1, got {kr} + {kt}")
+        north = _floats(values.get("north", Sphere.north))
+        equator = _floats(values.get("equator", Sphere.equator))
+        if _is_zero(north):
+            self.fail("sphere north must not be zero")
+        if _is_zero(equator):
+            self.fail("sphere equator must not be zero")
+        if _sine(north, equator) < PARALLEL_SINE:
+            default = "" if "equator" in values else " (the default)"
+            self.fail(f"sphere equator {_show_vec(equator)}{default} must not be parallel "
+                      f"to north {_show_vec(north)}")
+        material = Material(
+            color=_floats(values.get("color", Material.color)),
+            reflect=float(kr),
+            refract=float(kt),
+            ior=float(values.get("refract", (0, 1))[1]),
+            texture=values.get("texture"),
+        )
+        self.scene.spheres.append(Sphere(_floats(center), float(radius), material, north, equator,
+                                         line=self.line))
+
+    def attributes(self, args: list[Token]) -> dict:
+        """The sphere attributes after the radius, checked and converted."""
+        values: dict = {}
+        i = 0
+        while i < len(args):
+            token = args[i]
+            name = token.text.lower()
+            if token.quoted:
+                self.fail(f"expected a sphere attribute name, got the quoted text {token.show()}")
+            if name not in ATTRIBUTES:
+                if _NUMBER.fullmatch(token.text):
+                    self.fail(f"expected a sphere attribute name, got the number {token.text}; "
+                              f"attributes are {', '.join(ATTRIBUTES)}")
+                self.fail(f"unknown sphere attribute {token.show()}{suggest(token.text, ATTRIBUTES)}")
+            if name in values:
+                self.fail(f"sphere attribute {name} given twice")
+            names = ATTRIBUTES[name]
+            given = args[i + 1:i + 1 + len(names)]
+            # Stop at the next attribute name so the message counts what was given.
+            for k, value in enumerate(given):
+                if not value.quoted and value.text.lower() in ATTRIBUTES and name != "texture":
+                    given = given[:k]
+                    break
+            if len(given) < len(names):
+                self.fail(f"sphere {name} takes {len(names)} "
+                          f"{'value' if len(names) == 1 else 'values'} ({' '.join(names)}), "
+                          f"got {len(given)}")
+            values[name] = getattr(self, f"attribute_{name}")(given)
+            i += 1 + len(names)
+        return values
+
+    def attribute_color(self, args):
+        color = self.vector(args, "sphere color")
+        for value, token in zip(color, args):
+            self.in_range(value, token.text, "sphere color", 0, 1)
+        return color
+
+    def attribute_reflect(self, args):
+        kr = self.number(args[0], "sphere reflect")
+        self.in_range(kr, args[0].text, "sphere reflect", 0, 1)
+        return (kr,)
+
+    def attribute_refract(self, args):
+        kt = self.number(args[0], "sphere refract KT")
+        self.in_range(kt, args[0].text, "sphere refract KT", 0, 1)
+        ior = self.number(args[1], "sphere refract IOR")
+        self.positive(ior, args[1].text, "sphere refract IOR")
+        return kt, ior
+
+    def attribute_north(self, args):
+        return self.vector(args, "sphere north")
+
+    def attribute_equator(self, args):
+        return self.vector(args, "sphere equator")
+
+    def attribute_texture(self, args) -> Path:
+        token = args[0]
+        if not token.text:
+            self.fail("sphere texture path is empty")
+        if any(ord(c) < 32 or ord(c) == 127 for c in token.text):
+            self.fail(f"sphere texture path {token.show()} holds a control character")
+        path = Path(os.path.abspath(self.source.parent / token.text))
+        try:
+            str(path).encode("utf-8")
+        except UnicodeEncodeError:
+            self.fail(f"sphere texture path {path} is not valid UTF-8")
+        problem = self.image_problem(path)
+        if problem:
+            self.fail(f"sphere texture {token.show()}: {problem}")
+        return path
+
+    def image_problem(self, path: Path) -> str | None:
+        """Why Mitsuba could not use ``path`` as a texture, or None (cached per parse)."""
+        if path not in self._images:
+            self._images[path] = _image_problem(path)
+        return self._images[path]
+
+    # ---- checks across statements
+
+    def check_camera(self) -> None:
+        scene, seen = self.scene, self.seen
+        view = tuple(b - a for a, b in zip(scene.eye, scene.lookat))
+        if _is_zero(view):
+            self.line = max(seen.get("eye", 0), seen.get("lookat", 0))
+            self.fail(f"eye and lookat must differ, both are {_show_vec(scene.eye)}")
+        if sum(c * c for c in view) < 1e-300:  # Mitsuba's look_at would divide by zero
+            self.line = max(seen.get("eye", 0), seen.get("lookat", 0))
+            self.fail(f"eye and lookat are too close together to give a direction "
+                      f"({_show_vec(scene.eye)} and {_show_vec(scene.lookat)})")
+        if _sine(view, scene.up) < PARALLEL_SINE:
+            self.line = seen.get("up") or max(seen.get("eye", 0), seen.get("lookat", 0))
+            default = "" if "up" in seen else " (the default)"
+            self.fail(f"up {_show_vec(scene.up)}{default} must not be parallel to the viewing "
+                      f"direction (from eye {_show_vec(scene.eye)} to lookat {_show_vec(scene.lookat)})")
+
+
+# ------------------------------------------------------------------------- helpers
+
+
+def _image_problem(path: Path) -> str | None:
+    if not path.exists():
+        return f"no such file {path}"
+    if path.is_dir():
+        return f"{path} is a folder, not an image"
+    if not os.access(path, os.R_OK):
+        return f"cannot read {path}: permission denied"
+    import mitsuba as mi
+    try:
+        # Exactly what the converted XML asks of Mitsuba.
+        mi.load_dict({"type": "bitmap", "filename": str(path),
+                      "filter_type": "nearest", "wrap_mode": "clamp"})
+    except Exception as error:  # Mitsuba reports decoding failures as RuntimeError
+        reason = " ".join(str(error).split()) or type(error).__name__
+        reason = re.sub(r"^\[[^\]]*\]\s*", "", reason)           # [parser.cpp:1718]
+        reason = re.sub(r"^.*failed to instantiate [^:]*: ", "", reason)
+        reason = reason.replace(f'"{path}": ', "")
+        return f"{path} is not an image Mitsuba can read ({reason[:160]})"
+    return None
+
+
+def _looks_like_name(token: Token) -> bool:
+    return not token.quoted and token.text.lower() in ATTRIBUTES
+
+
+def _floats(values) -> Vec3:
+    return tuple(float(v) for v in values)
+
+
+def _float32(x: float) -> float:
+    return struct.unpack("f", struct.pack("f", x))[0]
+
+
+def _is_zero(v) -> bool:
+    return all(c == 0 for c in v)
+
+
+def _unit(v) -> Vec3:
+    """``v`` normalized without underflow or overflow, whatever its magnitude."""
+    scale = max(abs(c) for c in v)
+    w = [c / scale for c in v]
+    n = math.sqrt(sum(c * c for c in w))
+    return tuple(c / n for c in w)
+
+
+def _sine(a, b) -> float:
+    """Sine of the angle between two directions (0 when either is zero)."""
+    if _is_zero(a) or _is_zero(b):
+        return 0.0
+    a, b = _unit(a), _unit(b)
+    cross = (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
+    return math.sqrt(sum(c * c for c in cross))
+
+
+def _show_vec(v) -> str:
+    return " ".join(f"{c:g}" for c in v)

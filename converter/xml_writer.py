@@ -18,6 +18,8 @@ from __future__ import annotations
 
 import math
 import os
+import re
+from dataclasses import replace
 from pathlib import Path
 from xml.sax.saxutils import escape
 
@@ -58,8 +60,18 @@ def _cross(a: Vec3, b: Vec3) -> Vec3:
 
 
 def _normalize(a: Vec3) -> Vec3:
+    """``a`` / |a|, scaled first so that tiny or huge components neither underflow nor overflow."""
+    scale = max(abs(c) for c in a)
+    a = (a[0] / scale, a[1] / scale, a[2] / scale)
     n = math.sqrt(_dot(a, a))
     return (a[0] / n, a[1] / n, a[2] / n)
+
+
+def comment(text: str) -> str:
+    """``text`` made safe inside an XML comment: printable, no '--', not ending in '-'."""
+    text = "".join(c if c.isprintable() and not 0xD800 <= ord(c) <= 0xDFFF else "?" for c in text)
+    text = re.sub(r"-(?=-)", "- ", text)
+    return text + " " if text.endswith("-") else text
 
 
 def texture_frame(north: Vec3, equator: Vec3) -> tuple[Vec3, Vec3, Vec3]:
@@ -89,13 +101,17 @@ def clip_range(scene: Scene) -> tuple[float, float]:
     for s in scene.spheres:
         extent = max(extent, math.sqrt(_dot(_sub(s.center, scene.eye), _sub(s.center, scene.eye))) + s.radius)
     far = 4.0 * extent
-    return far * 1e-7, far
+    # Mitsuba moves primary rays' origins by near_clip; a near/far ratio of 1e-9
+    # keeps its camera directions float32-exact (measured) and clips nothing visible.
+    return far * 1e-9, far
 
 
 def _material_xml(material: Material, mat_id: str, base_dir: Path | None) -> list[str]:
     lines = [f'    <bsdf type="article" id="{mat_id}">']
     if material.texture is not None:
-        rel = material.texture if base_dir is None else os.path.relpath(material.texture, base_dir)
+        # Real paths: the OS resolves '..' after following a symlinked output folder.
+        rel = material.texture if base_dir is None else \
+            os.path.relpath(os.path.realpath(material.texture), os.path.realpath(base_dir))
         lines += [
             '        <texture type="bitmap" name="color">',
             f'            <string name="filename" value="{attr(Path(rel).as_posix())}"/>',
@@ -136,6 +152,11 @@ def _sphere_xml(sphere: Sphere, index: int, mat_id: str) -> list[str]:
     return lines
 
 
+def _shared(material: Material) -> Material:
+    """The material as written: a texture replaces the colour, which then plays no part."""
+    return material if material.texture is None else replace(material, color=Material.color)
+
+
 def scene_to_xml(scene: Scene, base_dir: str | os.PathLike | None) -> str:
     """The Mitsuba XML of ``scene``. Texture paths are written relative to ``base_dir``
     (the folder the XML will live in: Mitsuba resolves paths against it), or
@@ -144,7 +165,7 @@ def scene_to_xml(scene: Scene, base_dir: str | os.PathLike | None) -> str:
     near, far = clip_range(scene)
     out = [
         '<?xml version="1.0" encoding="utf-8"?>',
-        f'<!-- Converted by whitted from {attr(scene.source.name).replace("--", "- -")}. -->',
+        f'<!-- Converted by whitted from {comment(scene.source.name)} -->',
         f'<scene version="{FORMAT_VERSION}">',
         f'    <default name="spp" value="{scene.samples}"/>',
         f'    <default name="max_depth" value="{scene.depth}"/>',
@@ -165,7 +186,7 @@ def scene_to_xml(scene: Scene, base_dir: str | os.PathLike | None) -> str:
         f'        <float name="far_clip" value="{num(far)}"/>',
         '        <transform name="to_world">',
         f'            <lookat origin="{vec(scene.eye, ", ")}" target="{vec(scene.lookat, ", ")}"'
-        f' up="{vec(scene.up, ", ")}"/>',
+        f' up="{vec(_normalize(scene.up), ", ")}"/>',
         '        </transform>',
         '        <sampler type="independent">',
         '            <integer name="sample_count" value="$spp"/>',
@@ -191,11 +212,11 @@ def scene_to_xml(scene: Scene, base_dir: str | os.PathLike | None) -> str:
     # per-material dispatch small for scenes of many spheres.
     materials: dict[Material, str] = {}
     for sphere in scene.spheres:
-        if sphere.material not in materials:
-            materials[sphere.material] = f"material_{len(materials)}"
+        if _shared(sphere.material) not in materials:
+            materials[_shared(sphere.material)] = f"material_{len(materials)}"
     for material, mat_id in materials.items():
         out += [''] + _material_xml(material, mat_id, base_dir)
     for i, sphere in enumerate(scene.spheres):
-        out += [''] + _sphere_xml(sphere, i, materials[sphere.material])
+        out += [''] + _sphere_xml(sphere, i, materials[_shared(sphere.material)])
     out += ['</scene>', '']
     return "\n".join(out)

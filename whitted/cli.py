@@ -21,11 +21,17 @@ def _convert(args: argparse.Namespace) -> None:
     from .converter import parse_file, scene_to_xml
 
     source = Path(args.scene)
+    scene = parse_file(source)  # first: nothing is written for an invalid scene
     target = Path(args.output) if args.output else source.with_suffix(".xml")
     if target.resolve() == source.resolve():
         raise WhittedError(f"{source}: output would overwrite the input; choose another with -o")
-    scene = parse_file(source)
-    write_text(target, scene_to_xml(scene, base_dir=target.parent))
+    if target.is_dir():
+        raise WhittedError(f"{target}: is a folder; give the output file's name")
+    xml = scene_to_xml(scene, base_dir=target.parent)
+    try:
+        write_text(target, xml)
+    except OSError as error:
+        raise WhittedError(f"{target}: cannot write: {error.strerror or error}") from None
     if args.verbose:
         print(f"wrote {target}", file=sys.stderr)
 
