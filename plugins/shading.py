@@ -1,0 +1,162 @@
+"""The article's shading model (shared/scene-format.md, "Shading"), for one level of the ray tree.
+
+:meth:`Shader.shade` takes rays (one in the scalar variants, a wavefront in
+the JIT variants) with their path weights ``w`` and returns
+
+- the colour they contribute: ``w·(1 - KR - KT)·point`` on a hit, ``w·background``
+  on a miss;
+- their children: the reflected ray with weight ``w·KR`` and the refracted ray
+  (or, under total internal reflection, the mirror ray) with weight ``w·KT``.
+
+Summing the contributions of every level gives exactly the article's recursion
+``colour = (1 - KR - KT)·point + KR·reflected + KT·refracted`` (it is linear),
+which is how the integrator evaluates the tree without recursion. Code for an
+effect the scene lacks (see :mod:`.effects`) is left out of the kernels.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import drjit as dr
+import mitsuba as mi
+
+from . import optics
+from .surfaces import SurfaceTable
+
+
+@dataclass
+class Child:
+    """A secondary ray and its path weight; ``kind`` is "reflection" or "refraction"."""
+    kind: str
+    ray: object      # mi.Ray3f
+    weight: object   # mi.Float, 0 on lanes that spawn no such ray
+
+
+@dataclass
+class Shaded:
+    colour: object   # mi.Color3f, already multiplied by the path weight
+    children: list   # [Child], empty when the tree ends at this level
+
+
+#: a floor for squared distances: keeps 1/r and 1/r^2 finite when a light sits on the surface
+_TINY = 1e-30
+
+
+def _not(mask):
+    """Logical not for a Dr.Jit mask or a Python bool (where ``~True`` is -2)."""
+    return ~mask if dr.is_jit_v(mi.Float) else not mask
+
+
+def _constant(tp, value):
+    """A per-render constant: opaque in JIT variants, so kernels are reused across scenes."""
+    return dr.opaque(tp, value) if dr.is_jit_v(mi.Float) else tp(value)
+
+
+class RayCounter:
+    """Counts shadow rays where they are cast (on the device in JIT variants)."""
+
+    def __init__(self):
+        self.vectorized = dr.is_jit_v(mi.Float)
+        self._shadow = dr.zeros(mi.UInt32, 1) if self.vectorized else 0
+        if self.vectorized:
+            dr.make_opaque(self._shadow)
+
+    def add_shadow(self, cast):
+        if self.vectorized:
+            dr.scatter_reduce(dr.ReduceOp.Add, self._shadow, mi.UInt32(1), mi.UInt32(0), cast)
+        else:
+            self._shadow += int(bool(cast))
+
+    @property
+    def shadow(self) -> int:
+        return int(self._shadow[0]) if self.vectorized else self._shadow
+
+
+class Shader:
+    """The article's model for one scene (see the module docstring)."""
+
+    def __init__(self, scene, analysis, ambient: float, lighting: str, counter: RayCounter):
+        self.scene = scene
+        self.vectorized = dr.is_jit_v(mi.Float)
+        self.physical = lighting == "physical"
+        self.ambient = _constant(mi.Float, ambient)
+        # Article lighting uses the light's colour; physical lighting its intensity (divided by r^2).
+        self.lights = [(_constant(mi.Point3f, light.position),
+                        _constant(mi.Color3f, light.intensity if self.physical else light.colour))
+                       for light in analysis.lights]
+        self.environment = analysis.environment
+        self.reflection = analysis.has("reflection")
+        self.refraction = analysis.has("refraction")
+        self.surfaces = SurfaceTable(analysis.surfaces, need_ior=self.refraction)
+        self.ray_flags = mi.RayFlags.Minimal
+        if analysis.has("textures"):
+            self.ray_flags |= mi.RayFlags.UV
+        self.counter = counter
+        self.depth = analysis.depth
+
+    def background(self, ray, active):
+        """The colour of rays that escape: the environment emitter, black without one."""
+        si = dr.zeros(mi.SurfaceInteraction3f)
+        si.wi = -ray.d
+        return self.environment.eval(si, active)
+
+    def shade(self, ray, weight, spawn: bool, coherent: bool = False) -> Shaded:
+        """One level of the tree for ``ray``; ``spawn`` is False at the last level."""
+        si = self.scene.ray_intersect(ray, ray_flags=self.ray_flags, coherent=coherent)
+        hit = si.is_valid()
+        colour = mi.Color3f(0)
+        if self.environment is not None:
+            colour = dr.select(hit, colour, weight * self.background(ray, _not(hit)))
+        if not self.vectorized and not hit:
+            return Shaded(colour, [])   # a scalar miss has no shape to ask for a material
+
+        v = ray.d
+        n_facing, inside = optics.facing_normal(v, si.n)
+        surface = self.surfaces.lookup(si, hit)
+        point = self.point_colour(si, n_facing, surface.base, hit)
+        diffuse = 1 - surface.reflect - surface.refract
+        colour = dr.select(hit, weight * diffuse * point, colour)
+
+        children = []
+        if spawn and (self.reflection or self.refraction):
+            c1 = optics.cos_incidence(v, n_facing)
+            mirror = optics.unit(optics.reflect(v, n_facing, c1))
+            if self.reflection:
+                children.append(Child("reflection", si.spawn_ray(mirror),
+                                      dr.select(hit, weight * surface.reflect, 0)))
+            if self.refraction:
+                eta = optics.relative_ior(surface.ior, inside)
+                t, tir = optics.refract(v, n_facing, c1, eta)
+                t = dr.select(tir, mirror, optics.unit(t))
+                children.append(Child("refraction", si.spawn_ray(t),
+                                      dr.select(hit, weight * surface.refract, 0)))
+        return Shaded(colour, children)
+
+    def point_colour(self, si, n_facing, base, active):
+        """``B·(A + (1 - A)·Σ s·light)`` (article) or ``(B/π)·Σ I·max(0, N'·L)/r²`` (physical)."""
+        direct = mi.Color3f(0)
+        for position, strength in self.lights:
+            direct += self.light(si, n_facing, position, strength, active)
+        if self.physical:
+            return base * dr.inv_pi * direct
+        return base * (self.ambient + (1 - self.ambient) * direct)
+
+    def light(self, si, n_facing, position, strength, active):
+        """One light's ``s·light_colour`` (article) or ``I·cos/r²`` (physical), 0 in shadow.
+
+        Every sphere blocks the segment to the light, transparent ones too. The
+        shadow ray leaves from a point offset off the surface (Mitsuba's
+        ``spawn_ray_to``, scaled to |P|) so it cannot hit the surface it leaves.
+        """
+        to_light = position - si.p
+        dist2 = dr.squared_norm(to_light)
+        cos = dr.dot(n_facing, to_light) * dr.rsqrt(dr.maximum(dist2, _TINY))
+        facing = active & (dist2 > 0) & (cos > 0)
+        if not self.vectorized and not facing:
+            return mi.Color3f(0)
+        self.counter.add_shadow(facing)
+        visible = facing & _not(self.scene.ray_test(si.spawn_ray_to(position), facing))
+        if self.physical:
+            strength = strength * dr.rcp(dr.maximum(dist2, _TINY))
+        return dr.select(visible, cos * strength, 0)
