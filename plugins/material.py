@@ -54,6 +54,8 @@ from __future__ import annotations
 import drjit as dr
 import mitsuba as mi
 
+from . import optics
+
 DIFFUSE, REFLECTION, TRANSMISSION = 0, 1, 2
 
 _BOTH_SIDES = mi.BSDFFlags.FrontSide | mi.BSDFFlags.BackSide
@@ -66,29 +68,20 @@ _LOBE_TYPES = (mi.BSDFFlags.DiffuseReflection, mi.BSDFFlags.DeltaReflection,
                mi.BSDFFlags.DeltaTransmission)
 
 
-def refraction(wi, ior):
-    """The article's refraction of the incident direction ``wi`` (local frame,
-    pointing away from the surface) at a sphere of index ``ior``.
+def delta_directions(wi, ior):
+    """The article's mirror and refracted directions for ``wi`` (local frame,
+    pointing away from the surface, normal +z), with :mod:`.optics`' formulas.
 
-    Returns (T, total_internal_reflection, eta), with eta the relative index
-    n2/n1 of the side T enters (Mitsuba's ``bs.eta``). Under total internal
-    reflection T is meaningless (and finite).
+    Returns (R, T, total_internal_reflection, eta), eta being Mitsuba's
+    ``bs.eta``: the relative index n2/n1 of the side T enters. Under total
+    internal reflection T is meaningless (and finite).
     """
-    cos_i = mi.Frame3f.cos_theta(wi)
-    outside = cos_i >= 0
-    side = dr.select(outside, 1.0, -1.0)        # N' = side·(0, 0, 1)
-    n = dr.select(outside, dr.rcp(ior), ior)    # n1/n2
-    c1 = dr.abs(cos_i)                          # −N'·V with V = −wi
-    k = 1.0 - dr.square(n) * (1.0 - dr.square(c1))
-    tir = k < 0
-    # T = n·V + (n·c1 − √k)·N': its tangential part is −n·wi, its normal part −side·√k.
-    t = mi.Vector3f(-n * wi.x, -n * wi.y, -side * dr.safe_sqrt(k))
-    return t, tir, dr.rcp(n)
-
-
-def mirror(wi):
-    """The article's reflection R = V + 2·c1·N' in the local frame (either side)."""
-    return mi.Vector3f(-wi.x, -wi.y, wi.z)
+    v = -wi
+    n_facing, inside = optics.facing_normal(v, mi.Vector3f(0, 0, 1))
+    c1 = optics.cos_incidence(v, n_facing)
+    n = optics.relative_ior(ior, inside)
+    t, tir = optics.refract(v, n_facing, c1, n)
+    return optics.reflect(v, n_facing, c1), t, tir, dr.rcp(n)
 
 
 class ArticleBSDF(mi.BSDF):
@@ -128,7 +121,7 @@ class ArticleBSDF(mi.BSDF):
     def _lobe_weights(self, ctx, wi):
         """The weights of the enabled lobes (diffuse, mirror, refraction) for ``wi``,
         with total internal reflection moving KT onto the mirror."""
-        _, tir, _ = refraction(wi, self.ior)
+        _, _, tir, _ = delta_directions(wi, self.ior)
         enabled = [ctx.is_enabled(_LOBE_TYPES[i], i) for i in range(3)]
         w_d = mi.Float(self.diffuse_weight if enabled[DIFFUSE] else 0.0)
         w_r = mi.Float(self.reflect) + dr.select(tir, self.refract, 0.0)
@@ -160,13 +153,13 @@ class ArticleBSDF(mi.BSDF):
         pick_d = sample1 < p_d
         pick_t = (sample1 >= p_d) & (sample1 >= p_d + p_r) & (p_t > 0)
 
-        t_dir, _, t_eta = refraction(wi, self.ior)
+        r_dir, t_dir, _, t_eta = delta_directions(wi, self.ior)
         d_dir = mi.warp.square_to_cosine_hemisphere(sample2)   # on wi's side, mirrored below
         d_pdf = p_d * mi.warp.square_to_cosine_hemisphere_pdf(d_dir)
         d_dir = mi.Vector3f(d_dir.x, d_dir.y, dr.select(cos_i >= 0, d_dir.z, -d_dir.z))
 
         bs = dr.zeros(mi.BSDFSample3f)
-        bs.wo = dr.select(pick_d, d_dir, dr.select(pick_t, t_dir, mirror(wi)))
+        bs.wo = dr.select(pick_d, d_dir, dr.select(pick_t, t_dir, r_dir))
         bs.pdf = dr.select(pick_d, d_pdf, dr.select(pick_t, p_t, p_r))
         bs.eta = dr.select(pick_t, t_eta, 1.0)
         bs.sampled_component = dr.select(pick_d, mi.UInt32(DIFFUSE),
