@@ -130,6 +130,8 @@ def _statements(text: str, path) -> list[tuple[int, list[Token]]]:
     tokens: list[Token] = []
     first = 0
     lines = _LINE_BREAK.split(text)
+    if len(lines) > 1 and lines[-1] == "":
+        lines.pop()  # the final line break ends the last line; no empty line follows it
     for number, line in enumerate(lines, start=1):
         if not tokens:
             first = number

@@ -1,0 +1,499 @@
+"""The parser against shared/scene-format.md: every statement, default and constraint.
+
+Expected values are the spec's own (its tables and example); every rejected
+input is checked for the file and line its message names.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import pytest
+
+from whitted.converter import parse_file, parse_text
+from whitted.converter.scene import Light, Material, Scene, Sphere
+from whitted.errors import SceneError
+
+SPEC_EXAMPLE = """\
+# two spheres and a light
+size 320 200
+eye 0 0 8
+fov 50
+ambient 0.2
+light 5 5 10
+sphere 0 0 0 1   color 0.9 0.2 0.2  reflect 0.3
+sphere 2 0 -1 0.7 color 1 1 1  refract 0.8 1.5
+sphere -2 0 0 1  texture earth.png  north 0 1 0  equator 0 0 -1
+"""
+
+
+def parse(text: str, source="scene.scn") -> Scene:
+    return parse_text(text, Path(source))
+
+
+def error_of(text: str, source="scene.scn") -> SceneError:
+    with pytest.raises(SceneError) as info:
+        parse(text, source)
+    return info.value
+
+
+def assert_error(text: str, line: int, message: str, source="scene.scn") -> None:
+    """The error names ``source`` and ``line`` and says ``message`` (a substring)."""
+    error = error_of(text, source)
+    assert (error.path, error.line) == (str(source), line), str(error)
+    assert message in error.message, str(error)
+    assert str(error) == f"{source}:{line}: {error.message}"
+
+
+# ---------------------------------------------------------------- defaults
+
+
+def test_empty_file_is_the_default_scene():
+    scene = parse("")
+    assert (scene.width, scene.height) == (640, 400)
+    assert scene.eye == (0, 0, 10) and scene.lookat == (0, 0, 0) and scene.up == (0, 1, 0)
+    assert scene.fov == 45 and scene.background == (0, 0, 0) and scene.ambient == 0.2
+    assert scene.depth == 5 and scene.samples == 1
+    assert scene.lights == [] and scene.spheres == []
+
+
+def test_comments_and_blank_lines_only():
+    assert parse("# nothing\n\n   \t\n# more # comments\n") == parse("")
+
+
+def test_sphere_and_light_defaults():
+    scene = parse("light 1 2 3\nsphere 0 0 0 1\n")
+    assert scene.lights == [Light((1, 2, 3), (1, 1, 1), line=1)]
+    (sphere,) = scene.spheres
+    assert sphere.material == Material((1, 1, 1), 0.0, 0.0, 1.0, None)
+    assert sphere.north == (0, 1, 0) and sphere.equator == (0, 0, -1)
+    assert sphere.line == 2
+
+
+def test_spec_example(tmp_path, texture_png):
+    texture = texture_png("earth.png")
+    path = tmp_path / "scene.scn"
+    path.write_text(SPEC_EXAMPLE)
+    scene = parse_file(path)
+    assert scene.source == path
+    assert (scene.width, scene.height, scene.eye, scene.fov, scene.ambient) == \
+        (320, 200, (0, 0, 8), 50, 0.2)
+    assert scene.lights == [Light((5, 5, 10), (1, 1, 1), line=6)]
+    a, b, c = scene.spheres
+    assert (a.center, a.radius, a.line) == ((0, 0, 0), 1, 7)
+    assert a.material == Material((0.9, 0.2, 0.2), 0.3, 0.0, 1.0)
+    assert (b.center, b.radius) == ((2, 0, -1), 0.7)
+    assert b.material == Material((1, 1, 1), 0.0, 0.8, 1.5)
+    assert c.material.texture == texture and c.material.texture.is_absolute()
+    assert (c.north, c.equator, c.line) == ((0, 1, 0), (0, 0, -1), 9)
+
+
+# -------------------------------------------------------------- statements
+
+
+def test_every_global_statement():
+    scene = parse("size 16384 1\neye 1 2 3\nlookat -1 -2 -3.5\nup 0 0 1\nfov 179\n"
+                  "background 0.5 2 0\nambient 1\ndepth 64\nsamples 65536\n")
+    assert (scene.width, scene.height) == (16384, 1)
+    assert scene.eye == (1, 2, 3) and scene.lookat == (-1, -2, -3.5) and scene.up == (0, 0, 1)
+    assert scene.fov == 179 and scene.background == (0.5, 2, 0) and scene.ambient == 1
+    assert scene.depth == 64 and scene.samples == 65536
+
+
+def test_lower_bounds_of_globals():
+    scene = parse("size 1 1\nambient 0\ndepth 1\nsamples 1\nfov 0.001\nbackground 0 0 0\n")
+    assert (scene.width, scene.height, scene.ambient, scene.depth, scene.samples, scene.fov) == \
+        (1, 1, 0, 1, 1, 0.001)
+
+
+def test_lights_any_number_and_colours():
+    scene = parse("light 0 0 0\nlight 1 2 3 0 0.5 7\n" + "light 9 9 9\n" * 10)
+    assert len(scene.lights) == 12
+    assert scene.lights[1] == Light((1, 2, 3), (0, 0.5, 7), line=2)
+
+
+def test_every_sphere_attribute_in_any_order(texture_png):
+    texture = texture_png("tex.png")
+    text = (f"sphere 1 2 3 4 equator 1 0 0 refract 0.25 1.33 texture tex.png "
+            f"north 0 0 1 reflect 0.75 color 0 0.5 1\n")
+    (sphere,) = parse_text(text, texture.parent / "a.scn").spheres
+    assert (sphere.center, sphere.radius) == ((1, 2, 3), 4)
+    assert sphere.material == Material((0, 0.5, 1), 0.75, 0.25, 1.33, texture)
+    assert (sphere.north, sphere.equator) == ((0, 0, 1), (1, 0, 0))
+
+
+def test_coefficients_at_their_bounds():
+    scene = parse("sphere 0 0 0 1 reflect 1\nsphere 0 0 0 1 refract 1 0.5\n"
+                  "sphere 0 0 0 1 reflect 0.1 refract 0.9 2\nsphere 0 0 0 1 color 0 1 0\n")
+    assert [s.material.reflect + s.material.refract for s in scene.spheres] == [1, 1, 1, 0]
+
+
+def test_keywords_are_case_insensitive():
+    scene = parse("SIZE 10 20\nEye 0 0 5\nLookAt 0 0 1\nsPhErE 0 0 0 1 COLOR 0 0 0 Reflect 0.5\n")
+    assert (scene.width, scene.height, scene.eye, scene.lookat) == (10, 20, (0, 0, 5), (0, 0, 1))
+    assert scene.spheres[0].material.reflect == 0.5
+
+
+@pytest.mark.parametrize("text, value", [
+    ("1", 1.0), ("-0.5", -0.5), ("2e-3", 2e-3), ("+3", 3.0), ("1.", 1.0), (".5", 0.5),
+    ("1E2", 100.0), ("1.5e+1", 15.0), ("007", 7.0), ("-0", 0.0),
+])
+def test_ordinary_decimal_and_scientific_numbers(text, value):
+    assert parse(f"eye 0 0 {text}\nlookat 0 0 99\n").eye[2] == value
+
+
+def test_tabs_and_extra_blanks_separate():
+    assert parse("  size\t 10 \t 20   \n").width == 10
+
+
+def test_line_continuation_joins_a_statement():
+    scene = parse("\n# intro\nsphere 0 0 0 1 \\\n   color 0.5 0.5 0.5 \\\n\n"
+                  "light 1 1 1\nsphere 1 1 1 1\\\nreflect 0.5\n")
+    assert [s.line for s in scene.spheres] == [3, 7]
+    assert scene.spheres[0].material.color == (0.5, 0.5, 0.5)
+    assert scene.spheres[1].material.reflect == 0.5
+    assert scene.lights[0].line == 6
+
+
+def test_comment_after_continuation_and_backslash_in_comment():
+    scene = parse("sphere 0 0 0 1 \\  # the colour follows\n color 0 0 0\n"
+                  "# a comment ending in \\\nlight 1 2 3\n")
+    assert scene.spheres[0].material.color == (0, 0, 0)
+    assert scene.lights[0].line == 4
+
+
+def test_comment_ends_a_token():
+    assert parse("fov 30#wide\n").fov == 30
+
+
+@pytest.mark.parametrize("ending", ["\n", "\r\n", "\r"])
+def test_line_endings(ending):
+    scene = parse(ending.join(["size 10 20", "", "light 1 2 3", "sphere 0 0 0 1"]) + ending)
+    assert scene.width == 10 and scene.spheres[0].line == 4 and scene.lights[0].line == 3
+
+
+def test_byte_order_mark_and_no_final_newline(write_scene):
+    assert parse_file(write_scene(b"\xef\xbb\xbfsize 10 20")).width == 10
+
+
+def test_globals_may_come_after_spheres():
+    scene = parse("sphere 0 0 0 1\nlight 1 1 1\nsize 20 10\nsphere 1 1 1 1\n")
+    assert scene.width == 20 and len(scene.spheres) == 2
+
+
+# ----------------------------------------------------------------- textures
+
+
+def test_quoted_texture_path_with_spaces_and_hash(tmp_path, texture_png):
+    texture = texture_png("my maps/earth #2.png")
+    (sphere,) = parse_text('sphere 0 0 0 1 texture "my maps/earth #2.png" # a comment\n',
+                           tmp_path / "s.scn").spheres
+    assert sphere.material.texture == texture
+
+
+def test_relative_texture_is_relative_to_the_scene_folder(tmp_path, texture_png, monkeypatch):
+    texture = texture_png("scenes/sub/tex.png")
+    monkeypatch.chdir(tmp_path)  # not the scene's folder
+    (sphere,) = parse_text("sphere 0 0 0 1 texture sub/tex.png\n", Path("scenes/a.scn")).spheres
+    assert sphere.material.texture == texture
+    assert sphere.material.texture.is_absolute()
+
+
+def test_absolute_texture_path(tmp_path, texture_png):
+    texture = texture_png("abs.png")
+    (sphere,) = parse_text(f'sphere 0 0 0 1 texture "{texture}"\n', Path("/elsewhere/a.scn")).spheres
+    assert sphere.material.texture == texture
+
+
+def test_exr_texture(tmp_path):
+    import mitsuba as mi
+    import numpy as np
+    mi.Bitmap(np.ones((2, 4, 3), np.float32)).write(str(tmp_path / "t.exr"))
+    (sphere,) = parse_text("sphere 0 0 0 1 texture t.exr\n", tmp_path / "a.scn").spheres
+    assert sphere.material.texture == tmp_path / "t.exr"
+
+
+@pytest.mark.parametrize("make, message", [
+    (None, "no such file"),
+    (lambda p: p.mkdir(), "is a folder, not an image"),
+    (lambda p: p.write_bytes(b""), "is not an image Mitsuba can read"),
+    (lambda p: p.write_text("this is text, not a picture " * 10), "is not an image Mitsuba can read"),
+    (lambda p: p.write_bytes(b"\x89PNG\r\n\x1a\n" + b"\0" * 40), "is not an image Mitsuba can read"),
+])
+def test_missing_and_unreadable_textures(tmp_path, make, message):
+    target = tmp_path / "tex.png"
+    if make:
+        make(target)
+    source = tmp_path / "a.scn"
+    error = error_of("size 10 10\n\nsphere 0 0 0 1 texture tex.png\n", source)
+    assert (error.path, error.line) == (str(source), 3)
+    assert message in error.message and "texture 'tex.png'" in error.message
+
+
+def test_texture_without_read_permission(tmp_path, texture_png, monkeypatch):
+    texture = texture_png("tex.png")
+    real_access = os.access
+    monkeypatch.setattr(os, "access",
+                        lambda p, mode, **kw: False if Path(p) == texture else real_access(p, mode, **kw))
+    error = error_of("sphere 0 0 0 1 texture tex.png\n", tmp_path / "a.scn")
+    assert error.line == 1 and "permission denied" in error.message
+
+
+@pytest.mark.parametrize("text, message", [
+    ('sphere 0 0 0 1 texture ""\n', "texture path is empty"),
+    ('sphere 0 0 0 1 texture "a\tb.png"\n', "control character"),
+    ("sphere 0 0 0 1 texture\n", "texture takes 1 value (PATH), got 0"),
+])
+def test_bad_texture_paths(text, message):
+    assert_error(text, 1, message)
+
+
+# ----------------------------------------------------------- constraints
+
+
+@pytest.mark.parametrize("text, message", [
+    # size
+    ("size 0 10", "size width must be >= 1 and <= 16384, got 0"),
+    ("size 10 16385", "size height must be >= 1 and <= 16384, got 16385"),
+    ("size 10 -5", "size height must be >= 1 and <= 16384, got -5"),
+    ("size 99999999999999999999999999 1", "size width must be >= 1 and <= 16384"),
+    ("size 1.5 10", "size width must be an integer, got 1.5"),
+    ("size 640.0 10", "size width must be an integer, got 640.0"),
+    ("size 1e3 10", "size width must be an integer, got 1e3"),
+    ("size 10", "size takes 2 values (W H), got 1"),
+    ("size 10 10 10", "size takes 2 values (W H), got 3"),
+    # camera
+    ("eye 0 0", "eye takes 3 values (X Y Z), got 2"),
+    ("lookat 0 0 0 0", "lookat takes 3 values (X Y Z), got 4"),
+    ("up 0 0 0", "up must not be zero"),
+    ("fov 0", "fov must be > 0 and < 180, got 0"),
+    ("fov 180", "fov must be > 0 and < 180, got 180"),
+    ("fov -10", "fov must be > 0 and < 180, got -10"),
+    ("fov 179.9999999999", "rounds to 180 in 32-bit floats"),
+    ("fov 1e-9", "fov must be at least 1e-6"),
+    ("fov", "fov takes 1 value (DEG), got 0"),
+    # background, ambient, depth, samples
+    ("background 0 -0.1 0", "background colour must be >= 0, got -0.1"),
+    ("background 1 1", "background takes 3 values (R G B), got 2"),
+    ("ambient -0.01", "ambient must be >= 0 and <= 1, got -0.01"),
+    ("ambient 1.0000000000000000001", "ambient must be >= 0 and <= 1"),
+    ("depth 0", "depth must be >= 1 and <= 64, got 0"),
+    ("depth 65", "depth must be >= 1 and <= 64, got 65"),
+    ("depth 2.5", "depth must be an integer, got 2.5"),
+    ("samples 0", "samples must be >= 1 and <= 65536, got 0"),
+    ("samples 65537", "samples must be >= 1 and <= 65536, got 65537"),
+    ("samples 1e2", "samples must be an integer, got 1e2"),
+    # lights
+    ("light 1 2", "light takes 3 or 6 values (X Y Z [R G B]), got 2"),
+    ("light 1 2 3 1 1", "light takes 3 or 6 values (X Y Z [R G B]), got 5"),
+    ("light 1 2 3 1 1 -1", "light colour must be >= 0, got -1"),
+    # spheres
+    ("sphere 0 0 0 -1", "sphere radius must be > 0, got -1"),
+    ("sphere 0 0 0 0", "sphere radius must be > 0, got 0"),
+    ("sphere 0 0 0 1e-7", "sphere radius must be at least 1e-6"),
+    ("sphere 0 0 1", "sphere takes 4 numbers (CX CY CZ RADIUS), got 3"),
+    ("sphere", "sphere takes 4 numbers (CX CY CZ RADIUS), got 0"),
+    ("sphere 0 0 0 color 1 1 1", "sphere takes 4 numbers (CX CY CZ RADIUS), got 3"),
+    ("sphere 0 0 0 1 2", "sphere takes 4 numbers (CX CY CZ RADIUS) before its attributes, got 5"),
+    ("sphere 0 0 0 1 color 1 1 1 0.5", "expected a sphere attribute name, got the number 0.5"),
+    ("sphere 0 0 0 1 color 1.1 0 0", "sphere color must be >= 0 and <= 1, got 1.1"),
+    ("sphere 0 0 0 1 color 0 -1 0", "sphere color must be >= 0 and <= 1, got -1"),
+    ("sphere 0 0 0 1 color 1 1", "sphere color takes 3 values (R G B), got 2"),
+    ("sphere 0 0 0 1 color 1 1 reflect 0.5", "sphere color takes 3 values (R G B), got 2"),
+    ("sphere 0 0 0 1 reflect 1.5", "sphere reflect must be >= 0 and <= 1, got 1.5"),
+    ("sphere 0 0 0 1 reflect -0.5", "sphere reflect must be >= 0 and <= 1, got -0.5"),
+    ("sphere 0 0 0 1 refract 2 1.5", "sphere refract KT must be >= 0 and <= 1, got 2"),
+    ("sphere 0 0 0 1 refract 0.5 0", "sphere refract IOR must be > 0, got 0"),
+    ("sphere 0 0 0 1 refract 0.5 -1.5", "sphere refract IOR must be > 0, got -1.5"),
+    ("sphere 0 0 0 1 refract 0.5", "sphere refract takes 2 values (KT IOR), got 1"),
+    ("sphere 0 0 0 1 reflect 0.6 refract 0.5 1.5", "reflect + refract must be <= 1, got 0.6 + 0.5"),
+    ("sphere 0 0 0 1 refract 0.41 1 reflect 0.6", "reflect + refract must be <= 1, got 0.6 + 0.41"),
+    ("sphere 0 0 0 1 north 0 0 0", "sphere north must not be zero"),
+    ("sphere 0 0 0 1 equator 0 0 0", "sphere equator must not be zero"),
+    ("sphere 0 0 0 1 north 0 0 1", "equator 0 0 -1 (the default) must not be parallel to north 0 0 1"),
+    ("sphere 0 0 0 1 north 1 1 0 equator -2 -2 0", "equator -2 -2 0 must not be parallel to north 1 1 0"),
+    ("sphere 0 0 0 1 equator 0 3 0", "must not be parallel to north 0 1 0"),
+    ("sphere 0 0 0 1 color 1 1 1 color 1 1 1", "sphere attribute color given twice"),
+    ("sphere 0 0 0 1 reflect 0 REFLECT 0", "sphere attribute reflect given twice"),
+    ("sphere 0 0 0 1 north 0 1 0", ""),  # valid: checked below not to raise
+])
+def test_constraints(text, message):
+    if not message:
+        parse(text)
+        return
+    assert_error(f"# header\n\n{text}\n", 3, message)
+
+
+@pytest.mark.parametrize("token", ["nan", "NaN", "inf", "-inf", "+Infinity", "INF"])
+def test_nan_and_inf_are_errors(token):
+    assert_error(f"sphere 0 0 0 1 color 1 1 1\nfov {token}\n", 2, f"fov must be a finite number, got {token}")
+    assert_error(f"sphere 0 {token} 0 1\n", 1, "sphere centre must be a finite number")
+
+
+@pytest.mark.parametrize("token", ["1_000", "0x10", "1e", "e5", "1.2.3", "--1", "1e+", "½", "١",
+                                   "1,5", "0b1", "1j", "1f", "five", "'1'"])
+def test_python_isms_and_other_non_numbers_are_errors(token):
+    assert_error(f"light 0 0 {token}\n", 1, "light position must be a number")
+
+
+def test_out_of_range_magnitudes():
+    assert_error("eye 0 0 1e13\n", 1, "eye must lie within -1e12 and 1e12, got 1e13")
+    assert_error("light 0 0 0 1 1 1e999\n", 1, "light colour must lie within -1e12 and 1e12")
+    assert parse("eye 0 0 1e12\n").eye == (0, 0, 1e12)
+
+
+def test_camera_constraints_name_the_right_line():
+    assert_error("eye 0 0 0\n", 1, "eye and lookat must differ, both are 0 0 0")
+    assert_error("eye 1 2 3\nfov 30\nlookat 1 2 3\n", 3, "eye and lookat must differ")
+    assert_error("lookat 1 2 3\n\neye 1 2 3\n", 3, "eye and lookat must differ")
+    assert_error("up 0 0 1\n", 1, "up 0 0 1 must not be parallel to the viewing direction")
+    assert_error("fov 40\nup 0 0 -3\nsize 10 10\n", 2, "must not be parallel")
+    # the default up made parallel by the eye: the eye's line is named
+    assert_error("size 10 10\neye 0 5 0\n", 2, "up 0 1 0 (the default) must not be parallel")
+    assert_error("eye 0 0 1e-200\n", 1, "eye and lookat are too close together")
+    assert parse("eye 0 5 0.001\n").eye == (0, 5, 0.001)  # nearly, not quite, parallel
+
+
+@pytest.mark.parametrize("name", ["size", "eye", "lookat", "up", "fov", "background",
+                                  "ambient", "depth", "samples"])
+def test_globals_at_most_once(name):
+    values = {"size": "10 10", "fov": "30", "ambient": "0.5", "depth": "3", "samples": "2",
+              "background": "0 0 0", "up": "0 1 0", "eye": "0 0 5", "lookat": "0 0 1"}[name]
+    assert_error(f"{name} {values}\nlight 1 1 1\n{name.upper()} {values}\n", 3,
+                 f"{name} given twice (first on line 1)")
+
+
+def test_lights_and_spheres_may_repeat():
+    assert len(parse("sphere 0 0 0 1\nsphere 0 0 0 1\n").spheres) == 2
+
+
+# ----------------------------------------------------------- unknown names
+
+
+@pytest.mark.parametrize("text, message", [
+    ("sphre 0 0 0 1", "unknown statement 'sphre'; did you mean 'sphere'?"),
+    ("lite 1 2 3", "unknown statement 'lite'; did you mean 'light'?"),
+    ("look_at 0 0 0", "did you mean 'lookat'?"),
+    ("Backround 0 0 0", "did you mean 'background'?"),
+    ("sample 4", "did you mean 'samples'?"),
+    ("zzzz", "unknown statement 'zzzz'; known names: size, eye, lookat, up, fov, background"),
+    ("sphere 0 0 0 1 colour 1 1 1", "unknown sphere attribute 'colour'; did you mean 'color'?"),
+    ("sphere 0 0 0 1 refrct 0.5 1.5", "did you mean 'refract'?"),
+    ("sphere 0 0 0 1 texure a.png", "did you mean 'texture'?"),
+    ("sphere 0 0 0 1 nort 0 1 0", "did you mean 'north'?"),
+    ("sphere 0 0 0 1 equater 1 0 0", "did you mean 'equator'?"),
+    ("sphere 0 0 0 1 reflection 0.5", "did you mean 'reflect'?"),
+    ('"sphere" 0 0 0 1', "expected a statement name, got the quoted text 'sphere'"),
+    ('sphere 0 0 0 1 "color" 1 1 1', "expected a sphere attribute name, got the quoted text"),
+    ('fov "45"', "fov must be a number, got the quoted text '45'"),
+])
+def test_unknown_names_suggest_the_nearest(text, message):
+    assert_error(f"\n{text}\n", 2, message)
+
+
+# ---------------------------------------------------------- syntax errors
+
+
+@pytest.mark.parametrize("text, line, message", [
+    ('sphere 0 0 0 1 texture "a.png\n', 1, "unterminated quote"),
+    ('sphere 0 0 0 1 texture "a.png"x\n', 1, "a closing quote must be followed by a blank"),
+    ('fov 4"5"\n', 1, "a quote may only start a value"),
+    ("size 10 10\nsphere 0 0 \\\n  0 -1\n", 2, "sphere radius must be > 0, got -1"),
+    ("\n\nsphere 0 0 0 1 \\\n color 1 1 \\\n  1 \\\n reflect 9\n", 3, "reflect must be >= 0"),
+    ('sphere 0 0 0 1 \\\n texture "a\n', 1, "unterminated quote"),
+    ("size 10 10\nfov 30 \\", 2, "ends with '\\' but no line follows"),
+    ("size 10 10\nfov 30 \\\n", 2, "ends with '\\' but no line follows"),
+    ("fov 30 \\\n\nfov 40\n", 3, "fov given twice"),  # the blank line ended the statement
+    ("fov 30 \\ 40\n", 1, "fov takes 1 value (DEG), got 3"),  # a lone backslash mid-line is a token
+])
+def test_syntax_errors_name_the_first_line_of_the_statement(text, line, message):
+    assert_error(text, line, message)
+
+
+def test_spec_message_format(write_scene):
+    path = write_scene("# example\nsize 320 200\n\n\nlight 5 5 10\n\nsphere 0 0 0 -1\n")
+    with pytest.raises(SceneError) as info:
+        parse_file(path)
+    assert str(info.value) == f"{path}:7: sphere radius must be > 0, got -1"
+
+
+def test_message_shows_long_or_odd_tokens_on_one_line():
+    error = error_of("sphere 0 0 0 1 " + "x" * 500 + "\n")
+    assert "\n" not in str(error) and len(str(error)) < 200
+    error = error_of("fov 4\x1b[31m\n")
+    assert "\x1b" not in str(error) and "\\x1b" in str(error)
+
+
+# ------------------------------------------------------ whole-file errors
+
+
+def test_missing_file(tmp_path):
+    with pytest.raises(SceneError) as info:
+        parse_file(tmp_path / "nope.scn")
+    assert str(info.value) == f"{tmp_path / 'nope.scn'}: no such file" and info.value.line is None
+
+
+def test_folder(tmp_path):
+    with pytest.raises(SceneError) as info:
+        parse_file(tmp_path)
+    assert str(info.value) == f"{tmp_path}: is a folder, not a scene file"
+
+
+def test_not_a_regular_file(tmp_path):
+    fifo = tmp_path / "pipe.scn"
+    os.mkfifo(fifo)  # reading it would block forever
+    with pytest.raises(SceneError) as info:
+        parse_file(fifo)
+    assert str(info.value) == f"{fifo}: is not a regular file"
+
+
+@pytest.mark.skipif(os.geteuid() == 0, reason="root reads any file")
+def test_unreadable_file(write_scene):
+    path = write_scene("size 10 10\n")
+    path.chmod(0)
+    with pytest.raises(SceneError) as info:
+        parse_file(path)
+    assert str(info.value) == f"{path}: cannot read: Permission denied"
+
+
+def test_unreadable_file_simulated(write_scene, monkeypatch):
+    path = write_scene("size 10 10\n")
+
+    def denied(self):
+        raise PermissionError(13, "Permission denied", str(self))
+    monkeypatch.setattr(Path, "read_bytes", denied)
+    with pytest.raises(SceneError) as info:
+        parse_file(path)
+    assert str(info.value) == f"{path}: cannot read: Permission denied"
+
+
+@pytest.mark.parametrize("data, line, message", [
+    (b"size 10 10\nfov 3\x000\n", 2, "binary file (NUL byte)"),
+    (b"\x89PNG\r\n\x1a\n\x00\x00\x00\rIHDR", 3, "binary file (NUL byte)"),  # PNG header: 2 line breaks
+    (b"size 10 10\n\nfov \xff30\n", 3, "not UTF-8 text (byte 0xff)"),
+    (b"# caf\xe9\nsize 10 10\n", 1, "not UTF-8 text (byte 0xe9)"),
+    (b"# \xc3\xa9t\xc3\xa9 \xe2\x82\xac\r\n\r\nsize 1 1\r\n\xc3", 4, "not UTF-8 text (byte 0xc3)"),
+    (b"light 1 2 3\n# surrogate \xed\xa0\x80\n", 2, "not UTF-8 text (byte 0xed)"),
+])
+def test_binary_and_non_utf8_files(write_scene, data, line, message):
+    path = write_scene(data)
+    with pytest.raises(SceneError) as info:
+        parse_file(path)
+    assert (info.value.path, info.value.line) == (str(path), line)
+    assert str(info.value).startswith(f"{path}:{line}: {message}")
+
+
+def test_utf8_in_comments_and_texture_names(tmp_path, texture_png):
+    texture = texture_png("Erde ü €.png")
+    scene = parse_text('# Grüße, 地球\nsphere 0 0 0 1 texture "Erde ü €.png" # ok\n', tmp_path / "s.scn")
+    assert scene.spheres[0].material.texture == texture
+
+
+def test_nul_character_in_text():
+    assert_error("size 10 10\n\x00\n", 2, "binary file")
+
+
+def test_parse_text_names_the_source_given():
+    error = error_of("fov 0\n", "relative/dir/x.scn")
+    assert str(error).startswith("relative/dir/x.scn:1: ")
