@@ -100,6 +100,22 @@ def one_vector(d):
     return mi.Vector3f(mi.Float(float(d[0])), mi.Float(float(d[1])), mi.Float(float(d[2])))
 
 
+def sample_many(bsdf, ctx, wi, sample1, sample2):
+    """``bsdf.sample`` for rows of directions and first samples, in either variant (one
+    call per row in scalar variants). Returns numpy arrays: sampled component, wo,
+    weight, pdf, eta, sampled type."""
+    if not mi.variant().startswith("scalar"):
+        bs, weight = bsdf.sample(ctx, interaction(wi), mi.Float(sample1), mi.Point2f(*sample2))
+        return (as_np(bs.sampled_component), as_np(bs.wo), as_np(weight), as_np(bs.pdf),
+                as_np(bs.eta), as_np(bs.sampled_type))
+    rows = []
+    for w, u in zip(wi, sample1):
+        bs, weight = bsdf.sample(ctx, scalar_interaction(w), float(u), mi.Point2f(*sample2))
+        rows.append((bs.sampled_component, as_np(bs.wo), as_np(weight), bs.pdf, bs.eta,
+                     bs.sampled_type))
+    return tuple(np.array([row[i] for row in rows]) for i in range(6))
+
+
 def as_np(value):
     """A Dr.Jit value of the current variant as float64 numpy (vectors as (N, 3))."""
     a = np.array(value, dtype=np.float64)
@@ -155,41 +171,35 @@ def test_lobe_choice_and_directions_follow_the_spec(variant, kr, kt, ior):
     diffuse / mirror / refraction with probabilities 1−KR−KT, KR, KT (KR+KT and 0
     under total internal reflection); delta directions and weights are the spec's."""
     bsdf = mi.load_dict(article(kr, kt, ior))
-    ctx = mi.BSDFContext()
     strata = 50
-    for wi in random_directions(12, seed=int(ior * 100) + int(kr * 10)):
-        r, t, eta = spec_delta(wi, ior)
+    directions = random_directions(12, seed=int(ior * 100) + int(kr * 10))
+    wi = np.repeat(directions, strata, axis=0)
+    u = np.tile((np.arange(strata) + 0.5) / strata, len(directions))
+    samples = sample_many(bsdf, mi.BSDFContext(), wi, u, (0.37, 0.61))
+    for d, direction in enumerate(directions):
+        r, t, eta = spec_delta(direction, ior)
         tir = t is None
         expected = {0: 1 - kr - kt, 1: kr + (kt if tir else 0.0), 2: 0.0 if tir else kt}
-        counts = {0: 0, 1: 0, 2: 0}
-        si = one_interaction(wi)
-        for j in range(strata):
-            u = (j + 0.5) / strata
-            bs, weight = bsdf.sample(ctx, si, u, mi.Point2f(0.37, 0.61))
-            component = int(as_np(bs.sampled_component).reshape(-1)[0])
-            wo = as_np(bs.wo).reshape(3)
-            w = as_np(weight).reshape(3)
-            pdf = float(as_np(bs.pdf).reshape(-1)[0])
-            counts[component] += 1
-            if component == 0:
-                np.testing.assert_allclose(w, ALBEDO, rtol=1e-5)
-                assert wo[2] * wi[2] > 0  # diffuse stays on wi's side
-                continue
-            np.testing.assert_allclose(w, 1.0, rtol=1e-5)
-            assert pdf == pytest.approx(expected[component], rel=1e-5)
-            if component == 1:
-                np.testing.assert_allclose(wo, r, atol=2e-6)
-                assert float(as_np(bs.eta).reshape(-1)[0]) == 1.0
-                assert mi.has_flag(int(as_np(bs.sampled_type).reshape(-1)[0]),
-                                   mi.BSDFFlags.DeltaReflection)
-            else:
-                assert not tir
-                np.testing.assert_allclose(wo, t, atol=2e-6)
-                assert float(as_np(bs.eta).reshape(-1)[0]) == pytest.approx(eta, rel=1e-6)
-                assert mi.has_flag(int(as_np(bs.sampled_type).reshape(-1)[0]),
-                                   mi.BSDFFlags.DeltaTransmission)
-        for component, p in expected.items():
-            assert counts[component] / strata == pytest.approx(p, abs=1.0 / strata + 1e-9)
+        rows = slice(d * strata, (d + 1) * strata)
+        component, wo, weight, pdf, bs_eta, kind = (a[rows] for a in samples)
+        for c, p in expected.items():
+            assert np.mean(component == c) == pytest.approx(p, abs=1.0 / strata + 1e-9)
+        diffuse, mirror, refracted = (component == c for c in (0, 1, 2))
+        np.testing.assert_allclose(weight[diffuse], np.broadcast_to(ALBEDO, weight[diffuse].shape),
+                                   rtol=1e-5)
+        assert np.all(wo[diffuse, 2] * direction[2] > 0)  # diffuse stays on wi's side
+        np.testing.assert_allclose(weight[~diffuse], 1.0, rtol=1e-5)
+        np.testing.assert_allclose(pdf[mirror], expected[1], rtol=1e-5)
+        np.testing.assert_allclose(pdf[refracted], expected[2], rtol=1e-5)
+        np.testing.assert_allclose(wo[mirror], np.broadcast_to(r, wo[mirror].shape), atol=2e-6)
+        assert np.all(bs_eta[mirror] == 1.0)
+        assert all(mi.has_flag(int(k), mi.BSDFFlags.DeltaReflection) for k in kind[mirror])
+        if refracted.any():
+            np.testing.assert_allclose(wo[refracted], np.broadcast_to(t, wo[refracted].shape),
+                                       atol=2e-6)
+            np.testing.assert_allclose(bs_eta[refracted], eta, rtol=1e-6)
+            assert all(mi.has_flag(int(k), mi.BSDFFlags.DeltaTransmission)
+                       for k in kind[refracted])
 
 
 def test_total_internal_reflection_sends_kt_along_the_mirror(variant):
