@@ -47,6 +47,12 @@ def attr(text: str) -> str:
     return escape(str(text), {'"': "&quot;", "\n": "&#10;", "\r": "&#13;", "\t": "&#9;"})
 
 
+def string_value(text: str) -> str:
+    """A literal string for a Mitsuba attribute: XML-escaped, and '$' escaped as '\\$'
+    so that Mitsuba's parameter substitution ($spp, ...) leaves it alone."""
+    return attr(str(text).replace("$", "\\$"))
+
+
 def _sub(a: Vec3, b: Vec3) -> Vec3:
     return (a[0] - b[0], a[1] - b[1], a[2] - b[2])
 
@@ -114,7 +120,7 @@ def _material_xml(material: Material, mat_id: str, base_dir: Path | None) -> lis
             os.path.relpath(os.path.realpath(material.texture), os.path.realpath(base_dir))
         lines += [
             '        <texture type="bitmap" name="color">',
-            f'            <string name="filename" value="{attr(Path(rel).as_posix())}"/>',
+            f'            <string name="filename" value="{string_value(Path(rel).as_posix())}"/>',
             '            <string name="filter_type" value="nearest"/>',
             '            <string name="wrap_mode" value="clamp"/>',
             '        </texture>',

@@ -1,0 +1,297 @@
+"""``whitted convert`` and the XML it writes: CLI behaviour, the XML contract
+(docs/CONTRACTS.md), escaping, determinism, and the example scenes."""
+
+from __future__ import annotations
+
+import importlib.util
+import os
+import subprocess
+import sys
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+import mitsuba as mi
+import numpy as np
+import pytest
+
+import whitted
+from whitted.cli import main
+from whitted.converter import parse_file, parse_text, scene_to_xml
+
+REPO = Path(__file__).resolve().parent.parent
+SCENES = sorted((REPO / "scenes").glob("*.scn"))
+BAD = "# a broken scene\nsize 320 200\n\n\nlight 5 5 10\n\nsphere 0 0 0 -1\n"
+
+
+def convert(*args: str) -> int:
+    return main(["convert", *map(str, args)])
+
+
+# --------------------------------------------------------------------- CLI
+
+
+def test_default_output_is_beside_the_input(write_scene, capsys):
+    scene = write_scene("sphere 0 0 0 1\n", "demo.scn")
+    assert convert(scene) == 0
+    xml = scene.with_suffix(".xml")
+    assert xml.read_text().startswith('<?xml version="1.0" encoding="utf-8"?>')
+    assert capsys.readouterr() == ("", "")
+
+
+def test_output_option(write_scene, tmp_path, capsys):
+    scene = write_scene("sphere 0 0 0 1\n")
+    (tmp_path / "out").mkdir()
+    assert convert(scene, "-o", tmp_path / "out" / "x.xml", "-v") == 0
+    assert (tmp_path / "out" / "x.xml").is_file()
+    assert not scene.with_suffix(".xml").exists()
+    assert "wrote" in capsys.readouterr().err
+
+
+def test_error_is_one_line_with_file_and_line_and_writes_nothing(write_scene, tmp_path, capsys):
+    scene = write_scene(BAD)
+    assert convert(scene) == 2
+    out, err = capsys.readouterr()
+    assert out == ""
+    assert err.count("\n") == 1 and "Traceback" not in err
+    assert f"{scene}:7: sphere radius must be > 0, got -1" in err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["scene.scn"]  # no output, no temp file
+
+
+def test_error_leaves_an_existing_output_untouched(write_scene, tmp_path):
+    target = tmp_path / "keep.xml"
+    target.write_text("old")
+    assert convert(write_scene(BAD), "-o", target) == 2
+    assert target.read_text() == "old"
+
+
+@pytest.mark.parametrize("case, message", [
+    ("missing", "no such file"),
+    ("folder", "is a folder, not a scene file"),
+    ("no_output_folder", "output folder"),
+    ("output_is_folder", "is a folder; give the output file's name"),
+    ("overwrite_input", "output would overwrite the input"),
+    ("binary", ":1: binary file"),
+])
+def test_cli_user_errors(case, message, write_scene, tmp_path, capsys):
+    good = write_scene("sphere 0 0 0 1\n")
+    args = {
+        "missing": [tmp_path / "nope.scn"],
+        "folder": [tmp_path],
+        "no_output_folder": [good, "-o", tmp_path / "no" / "such" / "x.xml"],
+        "output_is_folder": [good, "-o", tmp_path],
+        "overwrite_input": [good, "-o", good],
+        "binary": [write_scene(b"\x00\x01\x02", "bin.scn")],
+    }[case]
+    before = sorted(tmp_path.rglob("*"))
+    assert convert(*args) == 2
+    err = capsys.readouterr().err
+    assert message in err and err.count("\n") == 1 and "Traceback" not in err
+    assert sorted(tmp_path.rglob("*")) == before
+    assert good.read_text() == "sphere 0 0 0 1\n"
+
+
+def test_cli_process_exit_status_and_stderr(write_scene, tmp_path):
+    """The real command: non-zero status, the spec's message, no traceback, no file."""
+    scene = write_scene(BAD)
+    run = subprocess.run([sys.executable, "-m", "whitted", "convert", str(scene)],
+                         capture_output=True, text=True, cwd=tmp_path)
+    assert run.returncode != 0
+    assert f"{scene}:7: sphere radius must be > 0, got -1" in run.stderr
+    assert "Traceback" not in run.stderr and run.stdout == ""
+    assert not scene.with_suffix(".xml").exists()
+
+
+def test_cli_process_relative_name_in_message(write_scene, tmp_path):
+    write_scene("size 10 10\nfov 200\n", "rel.scn")
+    run = subprocess.run([sys.executable, "-m", "whitted", "convert", "rel.scn"],
+                         capture_output=True, text=True, cwd=tmp_path)
+    assert run.returncode == 2
+    assert "rel.scn:2: fov must be > 0 and < 180, got 200" in run.stderr
+    assert run.stderr.strip().endswith("rel.scn:2: fov must be > 0 and < 180, got 200")
+
+
+def test_conversion_is_deterministic(write_scene, texture_png, tmp_path, monkeypatch):
+    texture_png("tex.png")
+    scene = write_scene("light 1 2 3 0.5 0.25 1\nsphere 0 0 0 1 texture tex.png reflect 0.2\n"
+                        "sphere 1 1 1 0.5 color 0.1 0.2 0.3\nsphere 2 2 2 0.5 color 0.1 0.2 0.3\n")
+    assert convert(scene, "-o", tmp_path / "a.xml") == 0
+    monkeypatch.chdir(tmp_path)
+    assert convert("scene.scn", "-o", "b.xml") == 0
+    assert (tmp_path / "a.xml").read_bytes() == (tmp_path / "b.xml").read_bytes()
+    assert scene_to_xml(parse_file(scene), tmp_path) == (tmp_path / "a.xml").read_text()
+
+
+# ------------------------------------------------------------ texture paths
+
+
+def test_texture_paths_are_relative_to_the_output_folder(write_scene, texture_png, tmp_path,
+                                                         monkeypatch):
+    texture_png("scenes/maps/tex.png")
+    scene = write_scene("sphere 0 0 0 1 texture maps/tex.png\n", "scenes/a.scn")
+    (tmp_path / "out" / "deep").mkdir(parents=True)
+    target = tmp_path / "out" / "deep" / "a.xml"
+    assert convert(scene, "-o", target) == 0
+    (filename,) = [e.get("value") for e in ET.parse(target).iter("string")
+                   if e.get("name") == "filename"]
+    assert filename == "../../scenes/maps/tex.png"
+    monkeypatch.chdir(REPO)  # Mitsuba resolves it against the XML's folder, not the cwd
+    loaded = mi.load_file(str(target))
+    assert np.array(mi.traverse(loaded)["material_0.color.data"]).shape == (2, 4, 3)
+
+
+def test_xml_moved_with_its_texture_still_loads(write_scene, texture_png, tmp_path):
+    texture_png("t.png")
+    scene = write_scene("sphere 0 0 0 1 texture t.png\n")
+    assert convert(scene) == 0
+    moved = tmp_path / "elsewhere"
+    moved.mkdir()
+    for name in ("scene.xml", "t.png"):
+        (tmp_path / name).rename(moved / name)
+    assert len(mi.load_file(str(moved / "scene.xml")).shapes()) == 1
+
+
+def test_xml_from_memory_uses_absolute_paths(write_scene, texture_png):
+    texture = texture_png("t.png")
+    xml = scene_to_xml(parse_file(write_scene("sphere 0 0 0 1 texture t.png\n")), base_dir=None)
+    assert f'value="{texture}"' in xml
+    assert len(mi.load_string(xml).shapes()) == 1
+
+
+@pytest.mark.parametrize("name", ["a&b.png", "<tag>.png", 'quo"te.png', "it's.png",
+                                  "cost $spp.png", "x--y.png", "sp ace#.png", "ünï €.png"])
+def test_odd_texture_names_are_escaped(tmp_path, texture_png, name):
+    texture_png(name)
+    quoted = name.replace('"', "")  # a quote cannot appear inside a quoted path
+    if quoted != name:
+        texture_png(quoted)
+    scene = parse_text(f'sphere 0 0 0 1 texture "{quoted}"\n', tmp_path / "a.scn")
+    xml = scene_to_xml(scene, tmp_path)
+    ET.fromstring(xml.encode("utf-8"))  # well-formed
+    (tmp_path / "a.xml").write_text(xml, encoding="utf-8")
+    assert len(mi.load_file(str(tmp_path / "a.xml")).shapes()) == 1
+
+
+@pytest.mark.parametrize("name", ["x--y.scn", "a-.scn", "<&>.scn", "tab\tname.scn", "--.scn"])
+def test_odd_scene_names_give_well_formed_xml(write_scene, name):
+    xml = scene_to_xml(parse_file(write_scene("sphere 0 0 0 1\n", name)), None)
+    root = ET.fromstring(xml.encode("utf-8"))
+    assert root.tag == "scene" and root.get("version") == "3.0.0"
+
+
+# ------------------------------------------------------------- the contract
+
+
+def xml_of(text: str, tmp_path=None) -> ET.Element:
+    return ET.fromstring(scene_to_xml(parse_text(text, Path("s.scn")), None).encode("utf-8"))
+
+
+def test_xml_contract_defaults_integrator_sensor():
+    root = xml_of("size 32 24\nfov 60\nlookat 1 2 3\nambient 0.4\ndepth 7\nsamples 9\n")
+    defaults = {d.get("name"): d.get("value") for d in root.findall("default")}
+    assert defaults == {"spp": "9", "max_depth": "7", "ambient": "0.4", "lighting": "article"}
+    (integrator,) = root.findall("integrator")
+    assert integrator.get("type") == "whitted"
+    props = {e.get("name"): (e.tag, e.get("value")) for e in integrator}
+    assert props == {"max_depth": ("integer", "$max_depth"), "ambient": ("float", "$ambient"),
+                     "lighting": ("string", "$lighting"),
+                     "light_reference": ("point", "1.0, 2.0, 3.0")}
+    (sensor,) = root.findall("sensor")
+    assert sensor.get("type") == "perspective"
+    values = {e.get("name"): e.get("value") for e in sensor if e.get("name")}
+    assert values["fov_axis"] == "x" and values["fov"] == "60.0"
+    assert sensor.find("sampler").get("type") == "independent"
+    assert sensor.find("sampler/integer").get("value") == "$spp"
+    film = {e.get("name"): e.get("value") for e in sensor.find("film")}
+    assert (film["width"], film["height"]) == ("32", "24")
+    assert sensor.find("film/rfilter").get("type") == "box"
+
+
+def test_background_is_an_emitter_only_when_not_black():
+    assert xml_of("").findall("emitter") == []
+    (emitter,) = xml_of("background 0 0.5 0\n").findall("emitter")
+    assert (emitter.get("type"), emitter.get("id")) == ("constant", "background")
+    assert emitter.find("rgb").get("value") == "0.0 0.5 0.0"
+
+
+def test_materials_are_shared_and_textures_ignore_colour(texture_png, tmp_path):
+    texture_png("t.png")
+    scene = parse_text("sphere 0 0 0 1 color 0.5 0.5 0.5\nsphere 1 0 0 1 color 0.5 0.5 0.5\n"
+                       "sphere 2 0 0 1 color 0.5 0.5 0.6\nsphere 3 0 0 1 texture t.png\n"
+                       "sphere 4 0 0 1 texture t.png color 0 0 0\n"
+                       "sphere 5 0 0 1 texture t.png reflect 0.5\n", tmp_path / "a.scn")
+    root = ET.fromstring(scene_to_xml(scene, tmp_path).encode())
+    assert len(root.findall("bsdf")) == 4
+    refs = [s.find("ref").get("id") for s in root.findall("shape")]
+    assert refs == ["material_0", "material_0", "material_1", "material_2", "material_2", "material_3"]
+
+
+def test_numbers_are_written_exactly():
+    root = xml_of("sphere 0.1 -1e-07 123456.789 0.3333333333333333 color 0.1 0.2 0.3\n")
+    shape = root.find("shape")
+    center = [float(c) for c in shape.find("point").get("value").split(",")]
+    assert center == [0.1, -1e-07, 123456.789]
+    assert float(shape.find("float").get("value")) == 0.3333333333333333
+
+
+# ------------------------------------------------------------ example scenes
+
+
+def test_there_are_example_scenes():
+    assert {p.stem for p in SCENES} >= {"spheres", "globe", "mirrors", "tir"}
+
+
+@pytest.mark.parametrize("scn", SCENES, ids=lambda p: p.stem)
+def test_scenes_xml_is_not_stale(scn):
+    """scenes_xml/ must be what `make scenes` writes now (run it after editing scenes/)."""
+    xml = REPO / "scenes_xml" / f"{scn.stem}.xml"
+    assert xml.is_file(), f"{xml} is missing: run `make scenes`"
+    assert scene_to_xml(parse_file(scn), xml.parent) == xml.read_text(encoding="utf-8"), \
+        f"{xml} is stale: run `make scenes`"
+
+
+def test_no_xml_without_its_scene():
+    assert {p.stem for p in (REPO / "scenes_xml").glob("*.xml")} == {p.stem for p in SCENES}
+
+
+def test_texture_image_is_not_stale():
+    spec = importlib.util.spec_from_file_location("make_textures", REPO / "scenes" / "make_textures.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    pixels = module.earth()
+    assert pixels.shape == (128, 256, 3) and pixels.dtype == np.uint8
+    stored = np.array(mi.Bitmap(str(REPO / "scenes" / "earth.png")))
+    assert np.array_equal(stored, pixels), "scenes/earth.png is stale: run `make scenes`"
+
+
+def test_globe_texture_is_north_up():
+    """The map's markers: the white cap is at the top rows, the red arrow points up."""
+    pixels = np.array(mi.Bitmap(str(REPO / "scenes" / "earth.png"))).astype(int)
+    white = (pixels > 240).all(axis=-1)
+    assert white[:3].mean() > 0.8 and white[-3:].mean() < 0.1  # grid lines cross the cap
+    red = (pixels[..., 0] > 200) & (pixels[..., 1] < 60)
+    column = red[:, 120:136]  # the arrow at the centre column: narrow tip above a wide head
+    rows = np.nonzero(column.any(axis=1))[0]
+    widths = column[rows].sum(axis=1)
+    assert widths[0] < widths[8]
+
+
+@pytest.fixture
+def each_variant():
+    """Runs the test body in scalar_rgb and llvm_ad_rgb, then restores the variant."""
+    previous = mi.variant()
+    yield ("scalar_rgb", "llvm_ad_rgb")
+    whitted.set_variant(previous)
+
+
+@pytest.mark.parametrize("scn", SCENES, ids=lambda p: p.stem)
+def test_example_xml_loads_in_both_variants(scn, each_variant):
+    scene = parse_file(scn)
+    lights = len(scene.lights) + (1 if any(scene.background) else 0)
+    for variant in each_variant:
+        whitted.set_variant(variant)
+        loaded = mi.load_file(str(REPO / "scenes_xml" / f"{scn.stem}.xml"))
+        assert len(loaded.shapes()) == len(scene.spheres)
+        assert len(loaded.emitters()) == lights
+        assert type(loaded.integrator()).__name__ == "WhittedIntegrator"
+        assert all(type(s.bsdf()).__name__ == "ArticleBSDF" for s in loaded.shapes())
+        assert len(whitted.load_scene(scn).shapes()) == len(scene.spheres)  # .scn from memory
