@@ -215,7 +215,7 @@ class WhittedIntegrator(mi.SamplingIntegrator):
 
     def _trace(self, shader, ray, rays: RayCounts):
         """Sum of ``w·contribution`` over the trees of the camera rays ``ray``."""
-        total = None
+        total, scattered = None, False
         stack = [Wavefront(ray, mi.Float(1), None, 1)]
         while stack:
             front = stack.pop()
@@ -229,10 +229,13 @@ class WhittedIntegrator(mi.SamplingIntegrator):
                 total = shaded.colour
             elif self.vectorized:
                 dr.scatter_reduce(dr.ReduceOp.Add, total, shaded.colour, front.owner)
+                scattered = True
             else:
                 total += shaded.colour
             if shaded.children:
                 stack.extend(self._spawn(front, shaded.children, total, rays))
+        if scattered:
+            dr.eval(total)   # finish the last scatter before anything reads the total
         return total
 
     def _spawn(self, front, children, total, rays):

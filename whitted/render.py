@@ -1,0 +1,272 @@
+"""The rendering API and ``whitted render``.
+
+:func:`render` renders a loaded ``mi.Scene`` with the article's model (the
+``whitted`` integrator) or with Mitsuba's stock ``path`` integrator, and
+reports timings and statistics.
+
+Timing. ``seconds`` is the wall-clock time of the whole render (tracing
+kernels, Python, reading the image back) minus the time Dr.Jit spent
+compiling kernels, which is reported separately as ``compile_seconds``. The
+compile time is measured, not estimated: Dr.Jit's kernel history records, for
+every kernel launched, the time its backend (LLVM or the CUDA/OptiX JIT) took
+to compile it, zero when the kernel came from the in-memory or on-disk cache.
+In ``scalar_rgb`` nothing is compiled.
+
+Statistics (``result.stats``, written by ``--stats FILE.json``)::
+
+    {"rays": {"camera", "shadow", "reflection", "refraction"},
+     "seconds", "compile_seconds", "effects": [...], "max_depth_reached",
+     "peak_memory_bytes"}
+
+``peak_memory_bytes`` is, in the JIT variants, the high-water mark of Dr.Jit's
+memory allocator during the render (every array Dr.Jit holds: the scene's
+own arrays, the wavefronts and the image; not Embree's or OptiX's
+acceleration structures, nor Python's heap); its cache is flushed before the
+render so that the mark starts from what is really in use. In
+``scalar_rgb``, where Dr.Jit allocates nothing, it is the peak resident set
+size of the whole process. Mitsuba's ``path`` integrator does not count its
+rays: for it only ``camera`` is given and the others are null, as is
+``max_depth_reached``.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import math
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .errors import WhittedError
+
+INTEGRATORS = ("whitted", "path")
+LIGHTING_MODES = ("article", "physical")
+DEFAULTS = {"max_depth": 5, "ambient": 0.2, "lighting": "article"}
+#: camera samples per ``mi.render`` call of the path tracer (bounds its memory)
+PATH_SAMPLES_PER_PASS = 1 << 20
+
+
+@dataclass
+class RenderResult:
+    image: np.ndarray        # float32 (H, W, 3), linear RGB
+    seconds: float           # render time, kernel compilation excluded
+    compile_seconds: float   # kernel compilation (0 when every kernel was cached)
+    stats: dict              # see the module docstring
+
+
+def _whitted_settings(scene) -> dict:
+    """The scene's own Whitted settings (its integrator's properties), else the defaults."""
+    import mitsuba as mi
+    integrator = scene.integrator()
+    if integrator is not None and hasattr(integrator, "light_reference"):
+        return {"max_depth": integrator.max_depth, "ambient": integrator.ambient,
+                "lighting": integrator.lighting, "light_reference": integrator.light_reference}
+    return {**DEFAULTS, "light_reference": mi.ScalarPoint3f(0, 0, 0)}
+
+
+def _whitted_integrator(scene, settings: dict, depth: int, lighting: str):
+    """The scene's own Whitted integrator, or a new one where depth or lighting differ."""
+    import mitsuba as mi
+    own = scene.integrator()
+    if hasattr(own, "light_reference") and own.max_depth == depth and own.lighting == lighting:
+        return own
+    with quiet_mitsuba():
+        return mi.load_dict({"type": "whitted", "max_depth": depth, "ambient": settings["ambient"],
+                             "lighting": lighting, "light_reference": settings["light_reference"]})
+
+
+@contextlib.contextmanager
+def quiet_mitsuba():
+    """Silence Mitsuba's warnings (e.g. that a Python integrator is slow in scalar mode)."""
+    import mitsuba as mi
+    logger = mi.Thread.thread().logger()
+    level = logger.log_level()
+    logger.set_log_level(mi.LogLevel.Error)
+    try:
+        yield
+    finally:
+        logger.set_log_level(level)
+
+
+def _check(spp, max_depth, lighting, integrator):
+    if integrator not in INTEGRATORS:
+        raise WhittedError(f"unknown integrator '{integrator}'; choose one of {', '.join(INTEGRATORS)}")
+    if spp is not None and not 1 <= int(spp) <= 2 ** 31:
+        raise WhittedError(f"spp must be a positive integer, got {spp}")
+    if max_depth is not None and int(max_depth) < 1:
+        raise WhittedError(f"max depth must be >= 1 (primary rays have depth 1), got {max_depth}")
+    if lighting is not None and lighting not in LIGHTING_MODES:
+        raise WhittedError(f"lighting must be one of {', '.join(LIGHTING_MODES)}, got '{lighting}'")
+
+
+class _Clock:
+    """Wall time and kernel compilation time of a block of work."""
+
+    def __enter__(self):
+        import drjit as dr
+        import mitsuba as mi
+        self.jit = dr.is_jit_v(mi.Float)
+        if self.jit:
+            self.backend = dr.backend_v(mi.Float)
+            self._flag = dr.scoped_set_flag(dr.JitFlag.KernelHistory, True)
+            self._flag.__enter__()
+            dr.eval()
+            dr.sync_thread()
+            dr.kernel_history_clear()
+            dr.flush_malloc_cache()
+            dr.detail.malloc_clear_statistics()
+        self.start = time.perf_counter()
+        return self
+
+    def __exit__(self, *exc):
+        import drjit as dr
+        self.wall = time.perf_counter() - self.start
+        self.compile = 0.0
+        if self.jit:
+            history = dr.kernel_history()
+            self._flag.__exit__(*exc)
+            self.compile = sum(k.get("backend_time", 0.0) for k in history) / 1000.0
+            self.peak_memory = int(dr.detail.malloc_watermark(self.backend))
+        else:
+            import resource
+            self.peak_memory = int(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss) * 1024
+        return False
+
+    @property
+    def seconds(self) -> float:
+        return max(0.0, self.wall - self.compile)
+
+
+def _progress_bar(enabled: bool, total: int, what: str):
+    from tqdm import tqdm
+    # 'delay': short renders finish before a bar would appear.
+    return tqdm(total=total, desc=f"whitted: {what}", unit="sample", unit_scale=True,
+                file=sys.stderr, disable=not enabled, delay=0.5, leave=False)
+
+
+def render(scene, integrator: str = "whitted", spp: int | None = None, max_depth: int | None = None,
+           lighting: str | None = None, progress: bool = False, seed: int = 0) -> RenderResult:
+    """Render ``scene`` (a ``mi.Scene``); see the module docstring and docs/CONTRACTS.md.
+
+    ``spp``, ``max_depth`` (the article's depth, primary rays being depth 1)
+    and ``lighting`` default to the scene's own settings. ``integrator="path"``
+    uses Mitsuba's ``path`` integrator with ``max_depth + 1`` (one more
+    segment for the connection to a light).
+    """
+    import mitsuba as mi
+
+    _check(spp, max_depth, lighting, integrator)
+    settings = _whitted_settings(scene)
+    depth = int(max_depth) if max_depth is not None else settings["max_depth"]
+    sensor = scene.sensors()[0]
+    spp = int(spp) if spp is not None else sensor.sampler().sample_count()
+    width, height = (int(c) for c in sensor.film().crop_size())
+
+    if integrator == "whitted":
+        whitted = _whitted_integrator(scene, settings, depth, lighting or settings["lighting"])
+        with _progress_bar(progress, width * height * spp, "render") as bar, _Clock() as clock:
+            rendering = whitted.render_detailed(scene, sensor, seed=seed, spp=spp, progress=bar.update)
+            image = np.array(rendering.image, dtype=np.float32)
+        rays = rendering.rays
+        stats_rays, effects, reached = rays.rays(), list(rendering.effects), rays.max_depth_reached
+    else:
+        path = mi.load_dict({"type": "path", "max_depth": depth + 1})
+        with _progress_bar(progress, width * height * spp, "path tracing") as bar, _Clock() as clock:
+            image = _render_path(scene, path, sensor, spp, seed, bar.update)
+        stats_rays = {"camera": width * height * spp, "shadow": None, "reflection": None,
+                      "refraction": None}
+        effects, reached = _effects_or_none(scene, depth), None
+
+    image = image[..., :3]
+    stats = {"rays": stats_rays, "seconds": clock.seconds, "compile_seconds": clock.compile,
+             "effects": effects, "max_depth_reached": reached, "peak_memory_bytes": clock.peak_memory}
+    return RenderResult(np.ascontiguousarray(image), clock.seconds, clock.compile, stats)
+
+
+def _render_path(scene, integrator, sensor, spp, seed, progress) -> np.ndarray:
+    """Mitsuba's path tracer in passes of whole samples per pixel, averaged."""
+    import mitsuba as mi
+    width, height = (int(c) for c in sensor.film().crop_size())
+    spp_per_pass = max(1, min(spp, PATH_SAMPLES_PER_PASS // (width * height)))
+    passes = math.ceil(spp / spp_per_pass)
+    total = None
+    own_spp = sensor.sampler().sample_count()   # mi.render changes it: put it back after
+    try:
+        for k in range(passes):
+            n = min(spp_per_pass, spp - k * spp_per_pass)
+            # Distinct seeds per pass: passes are independent estimates.
+            image = np.array(mi.render(scene, sensor=sensor, integrator=integrator, spp=n,
+                                       seed=seed * passes + k), dtype=np.float64)
+            total = image * n if total is None else total + image * n
+            progress(n * width * height)
+    finally:
+        sensor.sampler().set_sample_count(own_spp)
+    return (total / spp).astype(np.float32)
+
+
+def _effects_or_none(scene, depth: int) -> list:
+    """The effects of an article scene (for the stats of a path-traced render), else []."""
+    from .plugins.effects import analyse
+    try:
+        return list(analyse(scene, depth, _whitted_settings(scene)["light_reference"]).effects)
+    except WhittedError:
+        return []
+
+
+# --------------------------------------------------------------------------- the command
+
+
+def _summary(args, result: RenderResult, width: int, height: int, spp: int) -> str:
+    import mitsuba as mi
+    s = result.stats
+    rays = ", ".join(f"{v} {k}" for k, v in s["rays"].items() if v is not None)
+    depth = "" if s["max_depth_reached"] is None else f"depth reached {s['max_depth_reached']}; "
+    return (f"whitted: {width}x{height} at {spp} spp with {args.integrator} ({mi.variant()}): "
+            f"{s['seconds']:.3f} s (+{s['compile_seconds']:.3f} s compiling); rays: {rays}; {depth}"
+            f"effects: {' '.join(s['effects']) or 'none'}; "
+            f"peak memory {s['peak_memory_bytes'] / 2**20:.1f} MiB")
+
+
+def _check_output(path: Path, scene_path: Path) -> None:
+    folder = path.parent if str(path.parent) else Path(".")
+    if not folder.is_dir():
+        raise WhittedError(f"{path}: output folder {folder} does not exist")
+    if path.exists() and path.resolve() == scene_path.resolve():
+        raise WhittedError(f"{path}: output would overwrite the input scene")
+
+
+def _load_quietly(args):
+    from .loading import load_scene
+    with quiet_mitsuba():
+        return load_scene(args.scene, variant=args.variant, spp=args.spp, max_depth=args.max_depth,
+                          ambient=args.ambient, lighting=args.lighting)
+
+
+def render_command(args) -> None:
+    """``whitted render SCENE -o OUT``: everything is checked before anything is written."""
+    from .atomic import write_text
+    from .imageio import image_format, write_image
+
+    output = Path(args.output)
+    image_format(output)
+    _check_output(output, Path(args.scene))
+    if args.stats:
+        _check_output(Path(args.stats), Path(args.scene))
+    _check(args.spp, args.max_depth, args.lighting, args.integrator)
+    if args.ambient is not None and not 0.0 <= args.ambient <= 1.0:
+        raise WhittedError(f"ambient must be in [0, 1], got {args.ambient}")
+
+    scene = _load_quietly(args)
+    sensor = scene.sensors()[0]
+    width, height = (int(c) for c in sensor.film().crop_size())
+    spp = sensor.sampler().sample_count()
+    result = render(scene, integrator=args.integrator, progress=not args.quiet)
+    write_image(output, result.image)
+    if args.stats:
+        write_text(args.stats, json.dumps(result.stats, indent=2) + "\n")
+    if args.verbose:
+        print(_summary(args, result, width, height, spp), file=sys.stderr)
