@@ -151,11 +151,12 @@ class ArticleBSDF(mi.BSDF):
         # Diffuse below p_d, refraction (when possible) above p_d + p_r, else mirror:
         # round-off in the sums can never select a lobe of probability 0.
         pick_d = sample1 < p_d
-        pick_t = (sample1 >= p_d) & (sample1 >= p_d + p_r) & (p_t > 0)
+        pick_t = (sample1 >= p_d + p_r) & (p_t > 0)
 
         r_dir, t_dir, _, t_eta = delta_directions(wi, self.ior)
         d_dir = mi.warp.square_to_cosine_hemisphere(sample2)   # on wi's side, mirrored below
-        d_pdf = p_d * mi.warp.square_to_cosine_hemisphere_pdf(d_dir)
+        # At grazing incidence (cos θi = 0) wi has no side and the diffuse lobe no value.
+        d_pdf = dr.select(cos_i != 0, p_d * mi.warp.square_to_cosine_hemisphere_pdf(d_dir), 0.0)
         d_dir = mi.Vector3f(d_dir.x, d_dir.y, dr.select(cos_i >= 0, d_dir.z, -d_dir.z))
 
         bs = dr.zeros(mi.BSDFSample3f)
@@ -172,8 +173,7 @@ class ArticleBSDF(mi.BSDF):
         # weight = f·|cos θo| / pdf = (lobe weight · lobe value) / (lobe weight / total):
         # B·total for the diffuse lobe (f = w_d·B/π, pdf = p_d·|cos θo|/π), total for a delta lobe.
         albedo = self.color.eval(si, active & pick_d)
-        diffuse_ok = (cos_i != 0) & (bs.pdf > 0)
-        weight = dr.select(pick_d, albedo * dr.select(diffuse_ok, total, 0.0), mi.Color3f(total))
+        weight = dr.select(pick_d, albedo * dr.select(bs.pdf > 0, total, 0.0), mi.Color3f(total))
         valid = active & (total > 0)
         bs.pdf = dr.select(valid, bs.pdf, 0.0)
         return bs, dr.select(valid, weight, 0.0)
