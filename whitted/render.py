@@ -83,7 +83,7 @@ def _whitted_integrator(scene, settings: dict, depth: int, lighting: str):
 def quiet_mitsuba():
     """Silence Mitsuba's warnings (e.g. that a Python integrator is slow in scalar mode)."""
     import mitsuba as mi
-    logger = mi.Thread.thread().logger()
+    logger = mi.logger() if hasattr(mi, "logger") else mi.Thread.thread().logger()
     level = logger.log_level()
     logger.set_log_level(mi.LogLevel.Error)
     try:
