@@ -181,6 +181,10 @@ class Reference:
         self.a = self.scene.ambient if self.ambient is None else self.ambient
         self._textures = {}
         self.tir_events = 0            # how often total internal reflection happened
+        # rays traced, as --stats counts them; a shadow ray is cast towards every light
+        # in front of the shading point (N'·L > 0)
+        self.rays = {"camera": 0, "shadow": 0, "reflection": 0, "refraction": 0}
+        self.deepest = 0               # the deepest level that traced a ray
 
     def base_colour(self, sphere, point):
         material = sphere.material
@@ -198,7 +202,10 @@ class Reference:
         if r == 0:
             return (0.0, 0.0, 0.0)
         cos = dot(normal, to_light) / r
-        if cos <= 0 or blocked(self.scene, point, light.position):
+        if cos <= 0:
+            return (0.0, 0.0, 0.0)
+        self.rays["shadow"] += 1
+        if blocked(self.scene, point, light.position):
             return (0.0, 0.0, 0.0)
         if self.lighting == "article":
             return mul(light.color, cos)
@@ -207,6 +214,7 @@ class Reference:
         return mul(intensity, cos / (r * r))
 
     def trace(self, origin, direction, depth: int = 1):
+        self.deepest = max(self.deepest, depth)
         hit = nearest_hit(self.scene, origin, direction)
         if hit is None:
             return tuple(self.scene.background)
@@ -230,8 +238,10 @@ class Reference:
         c1 = -dot(n_facing, direction)
         r = add(direction, mul(n_facing, 2 * c1))
         if m.reflect > 0 and depth < self.depth:
+            self.rays["reflection"] += 1
             colour = add(colour, mul(self.trace(p, normalize(r), depth + 1), m.reflect))
         if m.refract > 0 and depth < self.depth:
+            self.rays["refraction"] += 1
             eta = m.ior if inside else 1 / m.ior
             k = 1 - eta * eta * (1 - c1 * c1)
             if k < 0:
@@ -252,6 +262,7 @@ class Reference:
                 total = (0.0, 0.0, 0.0)
                 for sy in offsets:
                     for sx in offsets:
+                        self.rays["camera"] += 1
                         total = add(total, self.trace(*camera_ray(s, i + sx, j + sy)))
                 image[j, i] = mul(total, 1 / subsamples ** 2)
         return image

@@ -160,6 +160,8 @@ def render(scene, integrator: str = "whitted", spp: int | None = None, max_depth
     import mitsuba as mi
 
     _check(spp, max_depth, lighting, integrator)
+    if not scene.sensors():
+        raise WhittedError("the scene has no sensor (camera) to render from")
     settings = _whitted_settings(scene)
     depth = int(max_depth) if max_depth is not None else settings["max_depth"]
     sensor = scene.sensors()[0]
@@ -261,6 +263,8 @@ def render_command(args) -> None:
         raise WhittedError(f"ambient must be in [0, 1], got {args.ambient}")
 
     scene = _load_quietly(args)
+    if not scene.sensors():
+        raise WhittedError(f"{args.scene}: the scene has no sensor (camera) to render from")
     sensor = scene.sensors()[0]
     width, height = (int(c) for c in sensor.film().crop_size())
     spp = sensor.sampler().sample_count()
