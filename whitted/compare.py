@@ -32,6 +32,7 @@ import hashlib
 import json
 import math
 import os
+import re
 import statistics
 import sys
 import time
@@ -45,9 +46,9 @@ from .errors import WhittedError
 WHITTED_METHODS = ("whitted-article", "whitted-physical")
 METHODS = WHITTED_METHODS + ("path",)
 
-DEFAULT_REFERENCE_SPP = 1024
+DEFAULT_REFERENCE_SPP = 4096
 DEFAULT_WHITTED_SPP = (1, 4, 16)
-DEFAULT_PATH_SPP = (1, 4, 16, 64, 256)
+DEFAULT_PATH_SPP = (1, 4, 16, 64, 256, 1024)
 DEFAULT_REPEATS = 3
 DEFAULT_LEVELS = (0.1, 0.03, 0.01)
 #: The default Whitted sweep is 1…min(scene depth, this): deeper trees rarely change a pixel.
@@ -300,7 +301,7 @@ class ReferenceCache:
         import mitsuba as mi
 
         import whitted
-        from .loading import scene_xml
+        from .converter import parse_file, scene_to_xml
 
         digest = hashlib.sha256()
 
@@ -312,8 +313,11 @@ class ReferenceCache:
         add("settings", json.dumps(settings, sort_keys=True).encode())
         add("versions", f"{whitted.__version__} {mi.__version__}".encode())
         add("scene", path.read_bytes())
-        if path.suffix.lower() == ".scn":  # what the scene means today, converter included
-            add("xml", scene_xml(path).encode())
+        if path.suffix.lower() == ".scn":
+            # What the scene means to today's converter, independent of where the file lies:
+            # texture paths relative to the scene, comments (which name the file) dropped.
+            xml = scene_to_xml(parse_file(path), base_dir=path.parent)
+            add("xml", re.sub(r"<!--.*?-->", "", xml, flags=re.S).encode())
         for texture in _textures(path):
             add("texture", texture.read_bytes())
         return digest.hexdigest()

@@ -97,6 +97,12 @@ def pareto_front(points: list[tuple[float, float]]) -> list[tuple[float, float]]
     return front
 
 
+def _crowded(point: tuple[float, float], labelled: list[tuple[float, float]]) -> bool:
+    """Whether a label at ``point`` would overlap one already placed (log–log axes)."""
+    x, y = math.log10(point[0]), math.log10(point[1])
+    return any(abs(x - math.log10(a)) < 0.2 and abs(y - math.log10(b)) < 0.08 for a, b in labelled)
+
+
 def _usable(value: float) -> bool:
     return math.isfinite(value) and value > 0
 
@@ -110,6 +116,7 @@ def plot_error_vs_time(path: str | os.PathLike, entries: list["SceneResult"]) ->
     axes = fig.subplots(rows, 2, squeeze=False)
     for entry, (ax_mse, ax_flip) in zip(entries, axes):
         for ax, metric, name in ((ax_mse, "rel_mse", "relative MSE"), (ax_flip, "flip", "FLIP")):
+            labelled: list[tuple[float, float]] = []
             for method in METHODS:
                 ms = [m for m in entry.measurements if m.setting.method == method
                       and _usable(m.seconds) and _usable(getattr(m, metric))]
@@ -123,6 +130,9 @@ def plot_error_vs_time(path: str | os.PathLike, entries: list["SceneResult"]) ->
                         label=method)
                 by_point = {(m.seconds, getattr(m, metric)): m.setting for m in ms}
                 for point in front:
+                    if _crowded(point, labelled):
+                        continue
+                    labelled.append(point)
                     setting = by_point[point]
                     text = (f"{setting.spp}" if setting.integrator == "path"
                             else f"d{setting.max_depth}" + (f"×{setting.spp}" if setting.spp > 1 else ""))
@@ -136,7 +146,8 @@ def plot_error_vs_time(path: str | os.PathLike, entries: list["SceneResult"]) ->
         ax_mse.set_title(f"{entry.name} ({entry.width}×{entry.height}): relative MSE", fontsize=9)
         ax_flip.set_title(f"{entry.name}: FLIP (HDR)", fontsize=9)
         if entry.measurements:
-            ax_mse.legend(fontsize=7, title=f"reference: path, {entry.reference_spp} spp",
+            ax_mse.legend(loc="lower left", fontsize=7,
+                          title=f"reference: path, {entry.reference_spp} spp",
                           title_fontsize=7)
         else:
             ax_mse.text(0.5, 0.5, "no render within the budget", transform=ax_mse.transAxes,

@@ -1,0 +1,334 @@
+"""``whitted compare``: the sweep's outputs, its error trends, the reference cache,
+the time budget and bad input.
+
+The scenes are tiny (32×24) and the ladders short so the whole file runs in
+seconds. Expectations come from outside the code under test: the 1/spp variance
+law of Monte Carlo estimators, the fact that each extra level of a physically lit
+ray tree adds light the reference also has, and the formula of relative MSE.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from whitted import compare as cmp
+from whitted import metrics
+from whitted.cli import main
+
+PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
+
+# A mirror sphere facing a red, slightly glossy sphere: every extra depth adds a
+# visible inter-reflection.
+MIRROR_SCENE = """\
+size 32 24
+eye 0 0 6
+fov 50
+light 4 5 6
+light -5 3 4 0.5 0.5 0.5
+depth 3
+sphere -0.9 0 0 0.8  color 0.9 0.9 0.9  reflect 0.8
+sphere 0.9 0 0 0.8   color 0.9 0.2 0.2  reflect 0.3
+"""
+
+DIFFUSE_SCENE = """\
+size 32 24
+eye 0 0 6
+light 3 4 5
+background 0.1 0.1 0.2
+sphere 0 0 0 1.2 color 0.3 0.8 0.3
+"""
+
+REFERENCE_SPP = 1024
+DEPTHS = (1, 2, 3)
+WHITTED_SPP = (1, 4)
+PATH_SPP = (1, 4, 16, 64)
+REQUIRED_COLUMNS = {"scene", "integrator", "lighting", "spp", "max_depth", "seconds",
+                    "compile_seconds", "rel_mse", "flip"}
+
+
+def read_rows(path: Path) -> list[dict]:
+    with open(path, newline="", encoding="utf-8") as f:
+        return list(csv.DictReader(f))
+
+
+@pytest.fixture(scope="module")
+def mirror_scene(tmp_path_factory) -> Path:
+    path = tmp_path_factory.mktemp("scenes") / "mirror.scn"
+    path.write_text(MIRROR_SCENE)
+    return path
+
+
+@pytest.fixture(scope="module")
+def sweep(mirror_scene, tmp_path_factory):
+    """One full (small) comparison of the mirror scene, shared by the tests below."""
+    out = tmp_path_factory.mktemp("compare")
+    options = cmp.Options(out=out, reference_spp=REFERENCE_SPP, depths=DEPTHS,
+                          whitted_spp=WHITTED_SPP, path_spp=PATH_SPP, repeats=2, quiet=True)
+    entries = cmp.compare([mirror_scene], options)
+    return out, entries
+
+
+def by_method(rows: list[dict], method: str) -> list[dict]:
+    return [r for r in rows if r["method"] == method]
+
+
+# --------------------------------------------------------------------------- outputs
+
+
+def test_csv_has_one_row_per_render_with_the_schema(sweep):
+    out, entries = sweep
+    rows = read_rows(out / "results.csv")
+    assert REQUIRED_COLUMNS <= set(rows[0])
+    assert len(rows) == 2 * len(DEPTHS) * len(WHITTED_SPP) + len(PATH_SPP)
+    assert {r["method"] for r in rows} == {"whitted-article", "whitted-physical", "path"}
+    for r in rows:
+        assert r["scene"] == "mirror"
+        assert r["integrator"] in ("whitted", "path")
+        assert r["lighting"] in ("article", "physical")
+        assert float(r["seconds"]) > 0 and float(r["compile_seconds"]) >= 0
+        assert math.isfinite(float(r["rel_mse"])) and float(r["rel_mse"]) >= 0
+        assert 0 <= float(r["flip"]) <= 1
+        assert (int(r["width"]), int(r["height"])) == (32, 24)
+    whitted_rows = [r for r in rows if r["integrator"] == "whitted"]
+    assert {(r["lighting"], int(r["max_depth"]), int(r["spp"])) for r in whitted_rows} == {
+        (lighting, d, s) for lighting in ("article", "physical") for d in DEPTHS for s in WHITTED_SPP}
+    assert sorted(int(r["spp"]) for r in by_method(rows, "path")) == list(PATH_SPP)
+    assert not entries[0].skipped
+
+
+def test_path_tracer_error_falls_as_one_over_spp(sweep):
+    rows = sorted(by_method(read_rows(sweep[0] / "results.csv"), "path"), key=lambda r: int(r["spp"]))
+    errors = [float(r["rel_mse"]) for r in rows]
+    assert all(a > b for a, b in zip(errors, errors[1:])), errors
+    # Variance of an N-sample estimate is σ²/N, and the reference adds its own σ²/1024:
+    # from 1 to 64 spp the error shrinks by (1 + 1/1024) / (1/64 + 1/1024) ≈ 60.
+    assert errors[0] / errors[-1] > 15, errors
+    assert float(rows[-1]["flip"]) < float(rows[0]["flip"])
+
+
+@pytest.mark.parametrize("spp", WHITTED_SPP)
+def test_physical_whitted_error_does_not_grow_with_depth(sweep, spp):
+    """Each level of a physically lit ray tree adds reflected light the reference has too."""
+    rows = [r for r in by_method(read_rows(sweep[0] / "results.csv"), "whitted-physical")
+            if int(r["spp"]) == spp]
+    errors = [float(r["rel_mse"]) for r in sorted(rows, key=lambda r: int(r["max_depth"]))]
+    assert errors[1] < 0.95 * errors[0], errors  # the mirror's first reflection matters
+    assert all(b <= a * 1.001 for a, b in zip(errors, errors[1:])), errors
+
+
+def test_plot_and_contact_sheet_are_png_images(sweep):
+    out, _ = sweep
+    for name in ("error_vs_time.png", "contact_sheet.png"):
+        path = out / name
+        assert path.read_bytes()[:8] == PNG_SIGNATURE
+        import mitsuba as mi
+        bitmap = mi.Bitmap(str(path))
+        assert min(bitmap.size()) > 100
+        assert np.array(bitmap).std() > 0  # not a blank canvas
+    assert not [p for p in out.iterdir() if p.name.startswith(".")]  # no leftover temporaries
+
+
+def test_reference_is_the_path_tracer_at_high_spp(sweep):
+    """The cached reference is a linear image of the scene's size, brighter than black."""
+    from whitted import imageio
+    _, entries = sweep
+    reference = imageio.read_image(entries[0].reference_file)
+    assert reference.shape == (24, 32, 3) and np.all(np.isfinite(reference))
+    assert reference.mean() > 0.01
+    assert not entries[0].reference_cached
+
+
+# --------------------------------------------------------------------------- cache
+
+
+def test_second_run_reuses_the_cached_reference(sweep, mirror_scene, tmp_path, monkeypatch):
+    out, first = sweep
+    reference_file = first[0].reference_file
+    stamp = reference_file.stat().st_mtime_ns
+    import whitted.render as render_module
+    calls = []
+    real = render_module.render
+
+    def counting(scene, **kwargs):
+        calls.append(kwargs)
+        return real(scene, **kwargs)
+
+    monkeypatch.setattr(render_module, "render", counting)
+    options = cmp.Options(out=tmp_path, reference_spp=REFERENCE_SPP, depths=(1,), whitted_spp=(1,),
+                          path_spp=(1,), repeats=1, cache=out / "references", quiet=True)
+    entries = cmp.compare([mirror_scene], options)
+    assert entries[0].reference_cached
+    assert entries[0].reference_file == reference_file
+    assert reference_file.stat().st_mtime_ns == stamp
+    assert not [c for c in calls if c.get("spp") == REFERENCE_SPP]
+    assert len(calls) == 3  # the sweep's renders only
+
+
+def test_cache_key_follows_scene_content_and_settings(mirror_scene, tmp_path):
+    settings = {"spp": 64, "width": 32, "height": 24}
+    copy = tmp_path / "copy.scn"
+    copy.write_text(MIRROR_SCENE)
+    key = cmp.ReferenceCache.key(mirror_scene, settings)
+    assert cmp.ReferenceCache.key(copy, settings) == key  # content, not location
+    assert cmp.ReferenceCache.key(mirror_scene, {**settings, "spp": 128}) != key
+    copy.write_text(MIRROR_SCENE.replace("light 4 5 6", "light 4 5 7"))
+    assert cmp.ReferenceCache.key(copy, settings) != key
+
+
+def test_damaged_cache_entry_is_rendered_again(tmp_path):
+    cache = cmp.ReferenceCache(tmp_path)
+    image = np.full((24, 32, 3), 0.5, np.float32)
+    cache.store("scene", "k" * 64, image, {"seconds": 1.0})
+    loaded, info = cache.load("scene", "k" * 64, (24, 32))
+    np.testing.assert_array_equal(loaded, image)
+    exr, description = cache.entry("scene", "k" * 64)
+    exr.write_bytes(exr.read_bytes()[:100])  # an image cut short
+    assert cache.load("scene", "k" * 64, (24, 32)) is None
+    cache.store("scene", "k" * 64, image, {"seconds": 1.0})
+    description.write_text('{"key": "another"}')  # a description of something else
+    assert cache.load("scene", "k" * 64, (24, 32)) is None
+    cache.store("scene", "k" * 64, image, {"seconds": 1.0})
+    assert cache.load("scene", "k" * 64, (48, 64)) is None
+
+
+# --------------------------------------------------------------------------- budget
+
+
+def test_exhausted_budget_skips_every_render_but_still_writes_outputs(sweep, mirror_scene,
+                                                                       tmp_path, capsys):
+    out, _ = sweep
+    target = tmp_path / "out"
+    status = main(["compare", str(mirror_scene), "--out", str(target), "--budget", "1e-9",
+                   "--reference-spp", str(REFERENCE_SPP), "--depths", "1-3", "--spp", "1",
+                   "--path-spp", "1,4", "--repeats", "1", "--cache", str(out / "references"), "-q"])
+    assert status == 0
+    assert read_rows(target / "results.csv") == []
+    for name in ("error_vs_time.png", "contact_sheet.png"):
+        assert (target / name).read_bytes()[:8] == PNG_SIGNATURE
+    assert "skipped 8 of 8 renders" in capsys.readouterr().out
+
+
+def test_budget_bounds_the_sweep(sweep, mirror_scene, tmp_path):
+    """A ladder far too long for the budget: the cheap end is done, the rest skipped, in time."""
+    out, _ = sweep
+    budget = 3.0
+    ladder = tuple(4 ** k for k in range(10))  # up to 262144 spp: minutes if all were done
+    options = cmp.Options(out=tmp_path, reference_spp=REFERENCE_SPP, depths=(1,), whitted_spp=(1,),
+                          path_spp=ladder, repeats=1, budget=budget, cache=out / "references",
+                          quiet=True)
+    start = time.monotonic()
+    entries = cmp.compare([mirror_scene], options)
+    elapsed = time.monotonic() - start
+    done = {m.setting.spp for m in entries[0].measurements if m.setting.integrator == "path"}
+    assert 1 in done and ladder[-1] not in done
+    assert {s.spp for s in entries[0].skipped} >= {ladder[-1]}
+    assert elapsed < budget + 4.0  # the plotting after the sweep and one misjudged render
+    assert len(read_rows(tmp_path / "results.csv")) == len(entries[0].measurements)
+
+
+# --------------------------------------------------------------------------- several scenes, CLI
+
+
+def test_folder_of_scenes_through_the_cli(tmp_path, capsys):
+    folder = tmp_path / "scenes"
+    folder.mkdir()
+    (folder / "mirror.scn").write_text(MIRROR_SCENE)
+    (folder / "diffuse.scn").write_text(DIFFUSE_SCENE)
+    target = tmp_path / "out"
+    status = main(["compare", str(folder), "--out", str(target), "--reference-spp", "64",
+                   "--depths", "1,2", "--spp", "1", "--path-spp", "1,4", "--repeats", "1",
+                   "--levels", "1,0.1", "-q"])
+    assert status == 0
+    rows = read_rows(target / "results.csv")
+    assert {r["scene"] for r in rows} == {"mirror", "diffuse"}
+    assert len(rows) == 2 * (2 * 2 + 2)
+    printed = capsys.readouterr().out
+    assert "mirror" in printed and "diffuse" in printed and "rel_mse ≤" in printed
+    assert len(list((target / "references").glob("*.exr"))) == 2
+
+
+# --------------------------------------------------------------------------- bad input
+
+
+@pytest.mark.parametrize("arguments, message", [
+    (["missing.scn"], "missing.scn: no such file or folder"),
+    (["bad.scn"], "bad.scn:2:"),
+    (["empty"], "empty: folder holds no .scn or .xml scene"),
+    (["notes.txt"], "notes.txt: not a scene"),
+])
+def test_bad_input_is_one_clean_error_and_no_output(tmp_path, capsys, monkeypatch, arguments, message):
+    monkeypatch.chdir(tmp_path)
+    Path("bad.scn").write_text("size 32 24\nsphere 0 0 0 -1\n")
+    Path("empty").mkdir()
+    Path("notes.txt").write_text("hello")
+    status = main(["compare", *arguments, "--out", "out", "-q"])
+    err = capsys.readouterr().err
+    assert status == 2
+    assert message in err and "Traceback" not in err
+    assert err.startswith("whitted: error:")
+    assert not Path("out").exists()
+
+
+@pytest.mark.parametrize("option", [["--spp", "0"], ["--depths", "3-1"], ["--levels", "-1"],
+                                    ["--spp", "x"]])
+def test_bad_options_are_rejected(tmp_path, option, capsys):
+    with pytest.raises(SystemExit) as exit_info:
+        main(["compare", "scene.scn", "--out", str(tmp_path / "out"), *option])
+    assert exit_info.value.code == 2
+    assert not (tmp_path / "out").exists()
+
+
+def test_output_that_is_a_file_is_refused(mirror_scene, tmp_path, capsys):
+    target = tmp_path / "taken"
+    target.write_text("mine")
+    assert main(["compare", str(mirror_scene), "--out", str(target), "-q"]) == 2
+    assert "not a folder" in capsys.readouterr().err
+    assert target.read_text() == "mine"
+
+
+# --------------------------------------------------------------------------- pieces
+
+
+def test_relative_mse_is_the_documented_formula():
+    rng = np.random.default_rng(3)
+    b = rng.random((5, 7, 3))
+    a = b + rng.normal(0, 0.1, b.shape)
+    expected = sum((a.flat[i] - b.flat[i]) ** 2 / (b.flat[i] ** 2 + 0.01) for i in range(b.size)) / b.size
+    assert metrics.relative_mse(a, b) == pytest.approx(expected, rel=1e-12)
+    assert metrics.relative_mse(b, b) == 0
+
+
+def test_flip_is_zero_for_equal_images_and_survives_a_black_reference():
+    rng = np.random.default_rng(4)
+    image = rng.random((24, 32, 3)).astype(np.float32) * 2
+    assert metrics.flip(image, image) == 0
+    assert 0 < metrics.flip(image * 1.5, image) < metrics.flip(image * 4, image) <= 1
+    black = np.zeros_like(image)
+    assert metrics.flip(black, black) == 0
+    assert 0 < metrics.flip(image, black) <= 1
+
+
+def test_lists_of_the_command_line():
+    assert cmp.int_list("1-3,8") == (1, 2, 3, 8)
+    assert cmp.int_list("16,1,4,4") == (1, 4, 16)
+    assert cmp.float_list("0.01,0.1") == (0.1, 0.01)
+
+
+def test_plan_puts_cheap_renders_of_every_method_first():
+    settings = cmp.plan((1, 2), (1, 4), (1, 4, 16), 5)
+    assert len(settings) == 2 * 2 * 2 + 3
+    first = settings[:5]
+    assert {s.method for s in first} == {"whitted-article", "whitted-physical", "path"}
+    assert [s.spp for s in settings] == sorted(s.spp for s in settings)
+
+
+def test_pareto_front_keeps_only_unbeaten_points():
+    from whitted.report import pareto_front
+    points = [(1.0, 0.5), (2.0, 0.6), (3.0, 0.2), (0.5, 0.9), (4.0, 0.2)]
+    assert pareto_front(points) == [(0.5, 0.9), (1.0, 0.5), (3.0, 0.2)]
