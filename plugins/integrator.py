@@ -41,6 +41,9 @@ LIGHTING_MODES = ("article", "physical")
 #: default camera samples per pass (and widest wavefront) in the JIT variants:
 #: a level holds about 100 bytes per lane, so a pass stays around 100 MiB
 JIT_SAMPLES_PER_PASS = 1 << 20
+#: the same when the tree has a single level: then one kernel traces, shades
+#: and splats each sample, storing nothing per lane, and larger passes are free
+JIT_SAMPLES_PER_FLAT_PASS = 1 << 24
 #: the scalar variant traces one ray at a time; passes only pace the progress bar
 SCALAR_SAMPLES_PER_PASS = 1 << 10
 
@@ -146,8 +149,12 @@ class WhittedIntegrator(mi.SamplingIntegrator):
         film.prepare([])
         block = film.create_block()
         block.set_coalesce(block.coalesce() and spp >= 4)
-        per_pass = self.samples_per_pass or (JIT_SAMPLES_PER_PASS if self.vectorized
-                                             else SCALAR_SAMPLES_PER_PASS)
+        if self.samples_per_pass:
+            per_pass = self.samples_per_pass
+        elif not self.vectorized:
+            per_pass = SCALAR_SAMPLES_PER_PASS
+        else:
+            per_pass = JIT_SAMPLES_PER_PASS if analysis.depth > 1 else JIT_SAMPLES_PER_FLAT_PASS
         passes = 0
         for first in range(0, total, per_pass):
             count = min(per_pass, total - first)

@@ -10,6 +10,7 @@ each other to float32 round-off.
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import mitsuba as mi
 import numpy as np
@@ -344,3 +345,18 @@ def test_sample_traces_a_whole_tree(suite, variant):
 def test_bad_properties_are_rejected(props, message):
     with pytest.raises(Exception, match=message):
         mi.load_dict({"type": "whitted", **props})
+
+
+# -- the project's example scenes ----------------------------------------------------------------------
+
+EXAMPLES = sorted((Path(__file__).resolve().parent.parent / "scenes").glob("*.scn"))
+
+
+@pytest.mark.parametrize("variant", VARIANTS)
+@pytest.mark.parametrize("path", EXAMPLES, ids=[p.stem for p in EXAMPLES])
+def test_example_scenes_match_the_reference(path, variant):
+    """The scenes/ examples (parsed, at a fifth of their size) match the reference."""
+    from whitted.converter import parse_file
+    model = parse_file(path)
+    model.width, model.height = max(1, model.width // 5), max(1, model.height // 5)
+    assert_matches(render(model, variant), render_reference(model))
