@@ -3,7 +3,7 @@
 Properties: ``max_depth`` (the article's depth N, primary rays have depth 1),
 ``ambient`` (A), ``lighting`` ("article" or "physical") and
 ``light_reference`` (the point where an article light's colour was measured,
-the scene's ``lookat``; see :mod:`.effects`), plus ``samples_per_pass``
+the scene's ``lookat``; see :mod:`.effects`), plus ``wavefront_size``
 (camera samples per pass, 0 = automatic), which bounds memory.
 
 How the ray tree is evaluated. The article's ``trace`` is recursive, but its
@@ -14,12 +14,12 @@ keeps a stack of *wavefronts*: rays of one level with their weights and the
 camera sample each belongs to. Shading a wavefront adds its contributions to
 its camera samples and pushes one wavefront of children, holding only the
 lanes that really spawn a ray (``dr.compress``). In the JIT variants a
-wavefront is a Dr.Jit array of up to ``samples_per_pass`` lanes (wider ones
+wavefront is a Dr.Jit array of up to ``wavefront_size`` lanes (wider ones
 are split, so trees that double at each level still run in bounded memory);
 in the scalar variant it is a single ray and the same loop is an ordinary
 depth-first traversal. No Python runs per ray in the JIT variants.
 
-The image is rendered in passes of at most ``samples_per_pass`` camera
+The image is rendered in passes of at most ``wavefront_size`` camera
 samples, accumulated in Mitsuba's image block and developed by the film.
 Camera rays come from the sensor's ``sample_ray`` (Mitsuba's perspective
 camera), placed in their pixels by :mod:`.pixel_samples`.
@@ -98,7 +98,7 @@ class WhittedIntegrator(mi.SamplingIntegrator):
         self.ambient = float(props.get("ambient", 0.2))
         self.lighting = str(props.get("lighting", "article"))
         self.light_reference = mi.ScalarPoint3f(props.get("light_reference", mi.ScalarPoint3f(0, 0, 0)))
-        self.samples_per_pass = int(props.get("samples_per_pass", 0))
+        self.wavefront_size = int(props.get("wavefront_size", 0))
         if self.max_depth < 1:
             raise ValueError(f"whitted: max_depth must be >= 1, got {self.max_depth}")
         if not 0.0 <= self.ambient <= 1.0:
@@ -106,10 +106,10 @@ class WhittedIntegrator(mi.SamplingIntegrator):
         if self.lighting not in LIGHTING_MODES:
             raise ValueError(f"whitted: lighting must be one of {', '.join(LIGHTING_MODES)}, "
                              f"got '{self.lighting}'")
-        if self.samples_per_pass < 0:
-            raise ValueError(f"whitted: samples_per_pass must be >= 0, got {self.samples_per_pass}")
+        if self.wavefront_size < 0:
+            raise ValueError(f"whitted: wavefront_size must be >= 0, got {self.wavefront_size}")
         self.vectorized = dr.is_jit_v(mi.Float)
-        self._lanes = self.samples_per_pass or JIT_SAMPLES_PER_PASS
+        self._lanes = self.wavefront_size or JIT_SAMPLES_PER_PASS
 
     # -- Mitsuba's entry points ------------------------------------------------------------------
 
@@ -149,8 +149,8 @@ class WhittedIntegrator(mi.SamplingIntegrator):
         film.prepare([])
         block = film.create_block()
         block.set_coalesce(block.coalesce() and spp >= 4)
-        if self.samples_per_pass:
-            per_pass = self.samples_per_pass
+        if self.wavefront_size:
+            per_pass = self.wavefront_size
         elif not self.vectorized:
             per_pass = SCALAR_SAMPLES_PER_PASS
         else:
@@ -169,13 +169,18 @@ class WhittedIntegrator(mi.SamplingIntegrator):
         return Rendering(image, rays, analysis.effects, analysis.depth, passes)
 
     def _render_pass_jit(self, shader, sensor, block, first, count, width, spp, seed, rays):
-        index = dr.arange(mi.UInt32, count) + dr.opaque(mi.UInt32, first)
+        # Samples first .. first + count - 1 (of every pixel's spp, pixel after pixel);
+        # counted from the pass's first pixel, so that 32-bit indices never overflow.
+        first_pixel, first_sample = divmod(first, spp)
+        index = dr.arange(mi.UInt32, count)
         if spp == 1:
             pixel, sample = index, mi.UInt32(0)
         else:
             spp_ = dr.opaque(mi.UInt32, spp)
+            index += dr.opaque(mi.UInt32, first_sample)
             pixel = index // spp_
             sample = index - pixel * spp_
+        pixel += dr.opaque(mi.UInt32, first_pixel)
         width_ = dr.opaque(mi.UInt32, width)
         y = pixel // width_
         x = pixel - y * width_
@@ -290,7 +295,7 @@ class WhittedIntegrator(mi.SamplingIntegrator):
         return [Wavefront(ray, weight, owner, front.level + 1)]
 
     def _split(self, front):
-        """``front`` cut into wavefronts of at most ``samples_per_pass`` lanes."""
+        """``front`` cut into wavefronts of at most ``wavefront_size`` lanes."""
         dr.eval(front.ray, front.weight, front.owner)
         n = dr.width(front.weight)
         pieces = []
