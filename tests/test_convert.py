@@ -295,3 +295,24 @@ def test_example_xml_loads_in_both_variants(scn, each_variant):
         assert type(loaded.integrator()).__name__ == "WhittedIntegrator"
         assert all(type(s.bsdf()).__name__ == "ArticleBSDF" for s in loaded.shapes())
         assert len(whitted.load_scene(scn).shapes()) == len(scene.spheres)  # .scn from memory
+
+
+@pytest.mark.parametrize("content, line", [
+    ("size 10 10\n\nsphre 0 0 0 1\n", 3),                       # unknown statement
+    ("sphere 0 0 0 1 \\\n  colr 1 1 1\n", 1),                   # unknown attribute, continued
+    ("fov 30\nfov 40\n", 2),                                     # global twice
+    ("\nambient 1.5\n", 2),                                      # range
+    ("depth 2.5\n", 1),                                          # integer
+    ("light 0 0 nan\n", 1),                                      # nan
+    ("# c\neye 0 0 0\n", 2),                                     # camera
+    ("\n\nsphere 0 0 0 1 texture missing.png\n", 3),             # texture
+    ('sphere 0 0 0 1 texture "a.png\n', 1),                      # quote
+    (b"size 1 1\n\xfe\n", 2),                                    # not UTF-8
+    (b"size 1 1\n\n\x00", 3),                                    # binary
+])
+def test_cli_names_file_and_line_for_each_error_class(write_scene, capsys, content, line):
+    scene = write_scene(content)
+    assert convert(scene) == 2
+    err = capsys.readouterr().err
+    assert f"{scene}:{line}: " in err and err.count("\n") == 1
+    assert not scene.with_suffix(".xml").exists()
