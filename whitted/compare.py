@@ -531,8 +531,12 @@ def compare_command(args: argparse.Namespace) -> None:
     print(report.fastest_table(entries, options.levels))
     if skipped:
         print(f"\nbudget of {options.budget:g} s reached: skipped {skipped} of "
-              f"{skipped + sum(len(e.measurements) for e in entries)} renders "
-              f"(the most expensive ones); outputs hold the renders that were done")
+              f"{skipped + sum(len(e.measurements) for e in entries)} renders; "
+              f"the outputs hold the renders that were done")
+    for e in entries:
+        how = "read from the cache" if e.reference_cached else f"rendered in {e.reference_seconds:.1f} s"
+        print(f"{e.name}: reference (path tracer, {e.reference_spp} spp) {how}: {e.reference_file}",
+              file=sys.stderr)
     print(f"\n{sum(len(e.measurements) for e in entries)} renders in "
           f"{time.monotonic() - start:.1f} s; wrote {report.output_files(options.out)}",
           file=sys.stderr)
