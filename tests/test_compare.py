@@ -304,14 +304,32 @@ def test_relative_mse_is_the_documented_formula():
     assert metrics.relative_mse(b, b) == 0
 
 
-def test_flip_is_zero_for_equal_images_and_survives_a_black_reference():
+def test_flip_is_zero_for_equal_images_and_grows_with_the_difference():
     rng = np.random.default_rng(4)
-    image = rng.random((24, 32, 3)).astype(np.float32) * 2
+    image = rng.random((24, 32, 3)).astype(np.float32) * 0.25
     assert metrics.flip(image, image) == 0
     assert 0 < metrics.flip(image * 1.5, image) < metrics.flip(image * 4, image) <= 1
     black = np.zeros_like(image)
     assert metrics.flip(black, black) == 0
     assert 0 < metrics.flip(image, black) <= 1
+
+
+def test_flip_judges_the_displayed_srgb_images():
+    """FLIP of linear images equals LDR-FLIP of their sRGB encodings (Mitsuba's), clipped."""
+    import flip_evaluator
+    import mitsuba as mi
+
+    def srgb(x):
+        bitmap = mi.Bitmap(np.ascontiguousarray(np.clip(x, 0, 1), dtype=np.float32))
+        return np.array(bitmap.convert(mi.Bitmap.PixelFormat.RGB, mi.Struct.Type.Float32,
+                                       srgb_gamma=True))
+
+    rng = np.random.default_rng(5)
+    reference = rng.random((24, 32, 3)).astype(np.float32) * 1.5  # some values above 1
+    image = np.clip(reference + rng.normal(0, 0.1, reference.shape), 0, None).astype(np.float32)
+    _, expected, _ = flip_evaluator.evaluate(srgb(reference), srgb(image), "LDR", inputsRGB=True,
+                                             applyMagma=False)
+    assert metrics.flip(image, reference) == pytest.approx(expected, abs=1e-5)
 
 
 def test_lists_of_the_command_line():

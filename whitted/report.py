@@ -144,7 +144,7 @@ def plot_error_vs_time(path: str | os.PathLike, entries: list["SceneResult"]) ->
             ax.set_ylabel(f"{name} vs reference")
             ax.grid(True, which="both", alpha=0.2)
         ax_mse.set_title(f"{entry.name} ({entry.width}×{entry.height}): relative MSE", fontsize=9)
-        ax_flip.set_title(f"{entry.name}: FLIP (HDR)", fontsize=9)
+        ax_flip.set_title(f"{entry.name}: FLIP (as displayed, [0, 1] sRGB)", fontsize=9)
         if entry.measurements:
             ax_mse.legend(loc="lower left", fontsize=7,
                           title=f"reference: path, {entry.reference_spp} spp",
