@@ -284,6 +284,21 @@ def test_bad_options_are_rejected(tmp_path, option, capsys):
     assert not (tmp_path / "out").exists()
 
 
+@pytest.mark.parametrize("option, message", [
+    (["--depths", "1-65"], "--depths"), (["--path-depth", "0"], "--path-depth"),
+    (["--repeats", "0"], "--repeats"), (["--budget", "0"], "--budget"),
+    (["--cache", "taken.txt"], "taken.txt: the reference cache exists and is not a folder"),
+])
+def test_bad_settings_are_one_clean_error_and_no_output(mirror_scene, tmp_path, monkeypatch, capsys,
+                                                          option, message):
+    monkeypatch.chdir(tmp_path)
+    Path("taken.txt").write_text("mine")
+    assert main(["compare", str(mirror_scene), "--out", "out", "-q", *option]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("whitted: error:") and message in err
+    assert not Path("out").exists()
+
+
 def test_output_that_is_a_file_is_refused(mirror_scene, tmp_path, capsys):
     target = tmp_path / "taken"
     target.write_text("mine")

@@ -53,6 +53,8 @@ DEFAULT_REPEATS = 3
 DEFAULT_LEVELS = (0.1, 0.03, 0.01)
 #: The default Whitted sweep is 1…min(scene depth, this): deeper trees rarely change a pixel.
 MAX_DEFAULT_DEPTH = 8
+#: The scene format's largest ``depth``.
+MAX_DEPTH = 64
 SWEEP_SEED = 0
 #: The reference's samples must be independent of the sweep's, or its noise would
 #: correlate with theirs and flatter the path tracer.
@@ -441,6 +443,13 @@ def compare(scenes: list[str | os.PathLike], options: Options) -> list[SceneResu
         raise WhittedError("--repeats and --reference-spp must be >= 1")
     if options.budget is not None and not options.budget > 0:
         raise WhittedError(f"--budget must be a positive number of seconds, got {options.budget}")
+    if options.depths and max(options.depths) > MAX_DEPTH:
+        raise WhittedError(f"--depths: the scene format allows depths up to {MAX_DEPTH}")
+    if options.path_depth is not None and not 1 <= options.path_depth <= MAX_DEPTH:
+        raise WhittedError(f"--path-depth must be in 1…{MAX_DEPTH}, got {options.path_depth}")
+    cache_folder = Path(options.cache) if options.cache is not None else out / "references"
+    if cache_folder.exists() and not cache_folder.is_dir():
+        raise WhittedError(f"{cache_folder}: the reference cache exists and is not a folder")
     variant = set_variant(options.variant)
     files = scene_files(scenes)
 
@@ -463,7 +472,7 @@ def compare(scenes: list[str | os.PathLike], options: Options) -> list[SceneResu
               f"{options.reference_spp} spp; its error will stop falling there", file=sys.stderr)
 
     out.mkdir(parents=True, exist_ok=True)
-    cache = ReferenceCache(options.cache if options.cache is not None else out / "references")
+    cache = ReferenceCache(cache_folder)
     bar = tqdm(total=sum(map(len, plans)), desc="whitted compare", unit="render",
                disable=options.quiet, file=sys.stderr, dynamic_ncols=True)
     try:

@@ -175,7 +175,7 @@ def _sheet_rows(entry: "SceneResult") -> list[list[tuple[str, np.ndarray | None,
         return title, m.thumbnail, f"rel {m.rel_mse:.3g} · FLIP {m.flip:.3f}\n{_seconds(m.seconds)}"
 
     rows = [[(f"reference: path · {entry.reference_spp} spp", entry.reference_thumbnail,
-              f"cached" if entry.reference_cached else _seconds(entry.reference_seconds))]
+              "cached" if entry.reference_cached else _seconds(entry.reference_seconds))]
             + [cell(f"path · {spp} spp", done.get(("path", entry.path_depth, spp)))
                for spp in entry.path_spp]]
     for depth in entry.depths:
