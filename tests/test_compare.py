@@ -197,6 +197,46 @@ def test_damaged_cache_entry_is_rendered_again(tmp_path):
     assert cache.load("scene", "k" * 64, (48, 64)) is None
 
 
+def test_interrupted_store_leaves_no_usable_entry(tmp_path, monkeypatch):
+    """Interrupted between the image and its description: the entry is not trusted."""
+    import whitted.atomic
+    cache = cmp.ReferenceCache(tmp_path)
+    image = np.full((24, 32, 3), 0.5, np.float32)
+
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(whitted.atomic, "write_text", interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        cache.store("scene", "k" * 64, image, {"seconds": 1.0})
+    monkeypatch.undo()
+    assert cache.load("scene", "k" * 64, (24, 32)) is None
+    assert not [p for p in tmp_path.iterdir() if p.name.startswith(".")]
+
+
+def test_interrupted_sweep_writes_what_was_done(sweep, mirror_scene, tmp_path, monkeypatch):
+    import whitted.render as render_module
+    out, _ = sweep
+    real, calls = render_module.render, []
+
+    def interrupted_on_the_third(scene, **kwargs):
+        calls.append(kwargs)
+        if len(calls) == 3:
+            raise KeyboardInterrupt
+        return real(scene, **kwargs)
+
+    monkeypatch.setattr(render_module, "render", interrupted_on_the_third)
+    options = cmp.Options(out=tmp_path, reference_spp=REFERENCE_SPP, depths=DEPTHS,
+                          whitted_spp=WHITTED_SPP, path_spp=PATH_SPP, repeats=1,
+                          cache=out / "references", quiet=True)
+    with pytest.raises(KeyboardInterrupt):
+        cmp.compare([mirror_scene], options)
+    assert len(read_rows(tmp_path / "results.csv")) == 2
+    for name in ("error_vs_time.png", "contact_sheet.png"):
+        assert (tmp_path / name).read_bytes()[:8] == PNG_SIGNATURE
+    assert not [p for p in tmp_path.iterdir() if p.name.startswith(".")]
+
+
 # --------------------------------------------------------------------------- budget
 
 
