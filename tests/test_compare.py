@@ -272,6 +272,25 @@ def test_budget_bounds_the_sweep(sweep, mirror_scene, tmp_path):
     assert len(read_rows(tmp_path / "results.csv")) == len(entries[0].measurements)
 
 
+def test_no_reference_is_rendered_once_the_budget_is_spent(tmp_path, monkeypatch, capsys):
+    """Budget gone (here: by the time the scenes are loaded): uncached references are not rendered."""
+    import whitted.render as render_module
+    scene = tmp_path / "diffuse.scn"
+    scene.write_text(DIFFUSE_SCENE)
+    calls = []
+    monkeypatch.setattr(render_module, "render", lambda *a, **k: calls.append(k))
+    target = tmp_path / "out"
+    status = main(["compare", str(scene), "--out", str(target), "--budget", "1e-9", "--depths", "1",
+                   "--spp", "1", "--path-spp", "1", "-q"])
+    assert status == 0 and calls == []
+    assert read_rows(target / "results.csv") == []
+    assert (target / "contact_sheet.png").read_bytes()[:8] == PNG_SIGNATURE
+    references = target / "references"
+    assert not references.exists() or not any(references.iterdir())
+    captured = capsys.readouterr()
+    assert "no time was left" in captured.err and "skipped 3 of 3 renders" in captured.out
+
+
 # --------------------------------------------------------------------------- several scenes, CLI
 
 

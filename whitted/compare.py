@@ -363,7 +363,9 @@ def _render(*args, **kwargs):
     return render_module.render(*args, **kwargs)
 
 
-def _reference(entry: SceneResult, scene, cache: ReferenceCache, options: Options) -> np.ndarray:
+def _reference(entry: SceneResult, scene, cache: ReferenceCache, options: Options,
+               may_render: bool = True) -> np.ndarray | None:
+    """The scene's reference, from the cache or rendered (None: not cached, may not render)."""
     settings = {"integrator": "path", "spp": options.reference_spp, "max_depth": entry.path_depth,
                 "seed": REFERENCE_SEED, "width": entry.width, "height": entry.height,
                 "variant": entry.variant}
@@ -373,6 +375,8 @@ def _reference(entry: SceneResult, scene, cache: ReferenceCache, options: Option
         image, info = cached
         entry.reference_cached = True
         entry.reference_seconds = float(info.get("seconds", math.nan))
+    elif not may_render:
+        return None
     else:
         if not options.quiet:
             print(f"whitted compare: {entry.name}: rendering the reference "
@@ -411,7 +415,12 @@ def _sweep_scene(entry: SceneResult, scene, settings: list[Setting], cache: Refe
                  options: Options, deadline: float, bar) -> None:
     from . import report
 
-    reference = _reference(entry, scene, cache, options)
+    # With no time left, a scene whose reference is not cached is skipped whole.
+    reference = _reference(entry, scene, cache, options, may_render=time.monotonic() < deadline)
+    if reference is None:
+        entry.skipped.extend(settings)
+        bar.update(len(settings))
+        return
     entry.reference_thumbnail = report.thumbnail(reference)
     done: list[tuple[Setting, float, float]] = []
     for setting in settings:
@@ -483,15 +492,19 @@ def compare(scenes: list[str | os.PathLike], options: Options) -> list[SceneResu
             loaded[index] = None  # free the scene's memory
     except KeyboardInterrupt:
         bar.close()
-        finished = [e for e in entries if e.reference_thumbnail is not None]
-        if finished:
-            report.write_all(out, finished)
+        if any(e.reference_thumbnail is not None for e in entries):
+            report.write_all(out, _with_reference(entries))
             print(f"whitted compare: interrupted; the outputs in {out} hold what was done",
                   file=sys.stderr)
         raise
     bar.close()
-    report.write_all(out, entries)
+    report.write_all(out, _with_reference(entries))
     return entries
+
+
+def _with_reference(entries: list[SceneResult]) -> list[SceneResult]:
+    """The scenes that got as far as their reference (the others have nothing to show)."""
+    return [e for e in entries if e.reference_thumbnail is not None]
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -543,6 +556,10 @@ def compare_command(args: argparse.Namespace) -> None:
               f"{skipped + sum(len(e.measurements) for e in entries)} renders; "
               f"the outputs hold the renders that were done")
     for e in entries:
+        if e.reference_file is None:
+            print(f"{e.name}: skipped whole: no time was left to render its reference",
+                  file=sys.stderr)
+            continue
         how = "read from the cache" if e.reference_cached else f"rendered in {e.reference_seconds:.1f} s"
         print(f"{e.name}: reference (path tracer, {e.reference_spp} spp) {how}: {e.reference_file}",
               file=sys.stderr)

@@ -114,6 +114,8 @@ def plot_error_vs_time(path: str | os.PathLike, entries: list["SceneResult"]) ->
     rows = max(1, len(entries))
     fig = Figure(figsize=(9.0, 3.4 * rows), layout="constrained")
     axes = fig.subplots(rows, 2, squeeze=False)
+    if not entries:
+        fig.suptitle("nothing rendered within the budget")
     for entry, (ax_mse, ax_flip) in zip(entries, axes):
         for ax, metric, name in ((ax_mse, "rel_mse", "relative MSE"), (ax_flip, "flip", "FLIP")):
             labelled: list[tuple[float, float]] = []
@@ -194,6 +196,11 @@ def contact_sheet(path: str | os.PathLike, entries: list["SceneResult"]) -> None
     """
     from matplotlib.figure import Figure
 
+    if not entries:
+        fig = Figure(figsize=(4, 1))
+        fig.text(0.5, 0.5, "nothing rendered within the budget", ha="center", va="center")
+        _save(fig, path, dpi=100)
+        return
     cell_w = 1.45
     blocks = []
     for entry in entries:
@@ -256,7 +263,8 @@ def fastest_table(entries: list["SceneResult"], levels: tuple[float, ...]) -> st
         for r in table:
             lines.append("  " + "   ".join(cell.ljust(w) for cell, w in zip(r, widths)).rstrip())
         if entry.skipped:
-            lines.append(f"  ({len(entry.skipped)} renders skipped: budget)")
+            why = "budget" if entry.reference_file else "budget; no time was left for its reference"
+            lines.append(f"  ({len(entry.skipped)} renders skipped: {why})")
     return "\n".join(lines)
 
 
