@@ -191,3 +191,19 @@ def test_exit_status_of_the_real_command(scene_xml, tmp_path):
                           str(tmp_path / "bad.tiff"), "-q"], capture_output=True, text=True)
     assert bad.returncode == 2 and "Traceback" not in bad.stderr
     assert not (tmp_path / "bad.tiff").exists()
+
+
+def test_path_tracer_renders_in_passes_and_averages_them(scene_xml, monkeypatch):
+    """Memory stays bounded for the path tracer too: passes of whole spp, averaged."""
+    scene = mi.load_file(str(scene_xml))
+    sensor = scene.sensors()[0]
+    own_spp = sensor.sampler().sample_count()
+    monkeypatch.setattr(whitted.render, "PATH_SAMPLES_PER_PASS", W * H * 2)   # 2 spp per pass
+    result = whitted.render.render(scene, integrator="path", spp=5, seed=3)
+    assert sensor.sampler().sample_count() == own_spp   # mi.render's change is undone
+    path = mi.load_dict({"type": "path", "max_depth": MODEL.depth + 1})
+    seeds = [3] + [(3 * 0x9E3779B1 + k) & 0xFFFFFFFF for k in (1, 2)]
+    passes = [np.array(mi.render(scene, integrator=path, spp=n, seed=s), dtype=np.float64)
+              for n, s in zip((2, 2, 1), seeds)]
+    expected = (2 * passes[0] + 2 * passes[1] + passes[2]) / 5
+    np.testing.assert_allclose(result.image, expected, rtol=1e-5, atol=1e-6)

@@ -200,9 +200,11 @@ def _render_path(scene, integrator, sensor, spp, seed, progress) -> np.ndarray:
     try:
         for k in range(passes):
             n = min(spp_per_pass, spp - k * spp_per_pass)
-            # Distinct seeds per pass: passes are independent estimates.
+            # Distinct seeds per pass: passes are independent estimates (a single
+            # pass is exactly mi.render with the caller's seed).
+            pass_seed = seed if k == 0 else (seed * 0x9E3779B1 + k) & 0xFFFFFFFF
             image = np.array(mi.render(scene, sensor=sensor, integrator=integrator, spp=n,
-                                       seed=seed * passes + k), dtype=np.float64)
+                                       seed=pass_seed), dtype=np.float64)
             total = image * n if total is None else total + image * n
             progress(n * width * height)
     finally:
