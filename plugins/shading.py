@@ -22,6 +22,7 @@ import drjit as dr
 import mitsuba as mi
 
 from . import optics
+from .geometry import hit_finder
 from .surfaces import SurfaceTable
 
 
@@ -89,9 +90,7 @@ class Shader:
         self.reflection = analysis.has("reflection")
         self.refraction = analysis.has("refraction")
         self.surfaces = SurfaceTable(analysis.surfaces, need_ior=self.refraction)
-        self.ray_flags = mi.RayFlags.Minimal
-        if analysis.has("textures"):
-            self.ray_flags |= mi.RayFlags.UV
+        self.hits = hit_finder(scene, need_uv=analysis.has("textures"))
         self.counter = counter
         self.depth = analysis.depth
 
@@ -103,8 +102,7 @@ class Shader:
 
     def shade(self, ray, weight, spawn: bool, coherent: bool = False) -> Shaded:
         """One level of the tree for ``ray``; ``spawn`` is False at the last level."""
-        si = self.scene.ray_intersect(ray, ray_flags=self.ray_flags, coherent=coherent)
-        hit = si.is_valid()
+        hit, si, bsdf = self.hits.intersect(ray, coherent)
         colour = mi.Color3f(0)
         if self.environment is not None:
             colour = dr.select(hit, colour, weight * self.background(ray, _not(hit)))
@@ -113,7 +111,7 @@ class Shader:
 
         v = ray.d
         n_facing, inside = optics.facing_normal(v, si.n)
-        surface = self.surfaces.lookup(si, hit)
+        surface = self.surfaces.lookup(si, bsdf, hit)
         point = self.point_colour(si, n_facing, surface.base, hit)
         diffuse = 1 - surface.reflect - surface.refract
         colour = dr.select(hit, weight * diffuse * point, colour)

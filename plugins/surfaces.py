@@ -3,7 +3,7 @@
 In the JIT variants a per-instance method call for every material would make
 Dr.Jit trace one Python function per BSDF, which does not scale to scenes of
 thousands of spheres. Instead the materials' numbers sit in a table indexed by
-the BSDF's instance ID (``si.bsdf()`` reinterpreted as an integer), so a lookup
+the BSDF's instance ID (a ``BSDFPtr`` reinterpreted as an integer), so a lookup
 is a handful of gathers whatever the number of materials. Textures are the
 exception: each textured material evaluates its own texture, only on the lanes
 that hit it. In the scalar variant a hit asks its BSDF directly.
@@ -61,11 +61,14 @@ class SurfaceTable:
         self._slot = mi.UInt32(texture_slot)
         dr.make_opaque(self._colour, self._reflect, self._refract, self._ior, self._slot)
 
-    def lookup(self, si, active) -> SurfaceSample:
-        """The material at ``si`` on the lanes ``active`` (hits only)."""
+    def lookup(self, si, bsdf, active) -> SurfaceSample:
+        """The material at ``si`` on the lanes ``active`` (hits only).
+
+        ``bsdf`` is the hit BSDF's instance ID (JIT variants) or the BSDF itself (scalar).
+        """
         if not dr.is_jit_v(mi.Float):
-            return self._lookup_scalar(si, active)
-        row = dr.reinterpret_array(mi.UInt32, si.bsdf())
+            return self._lookup_scalar(si, bsdf)
+        row = bsdf
         base = dr.gather(mi.Color3f, self._colour, row, active)
         if self.textured:
             slot = dr.gather(mi.UInt32, self._slot, row, active)
@@ -78,7 +81,7 @@ class SurfaceTable:
                              dr.gather(mi.Float, self._refract, row, active),
                              ior)
 
-    def _lookup_scalar(self, si, active) -> SurfaceSample:
-        s = self._by_bsdf[id(si.bsdf())]
+    def _lookup_scalar(self, si, bsdf) -> SurfaceSample:
+        s = self._by_bsdf[id(bsdf)]
         base = s.texture.eval(si) if s.texture is not None else mi.Color3f(s.colour)
         return SurfaceSample(mi.Color3f(base), mi.Float(s.reflect), mi.Float(s.refract), mi.Float(s.ior))
