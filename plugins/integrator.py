@@ -20,9 +20,15 @@ in the scalar variant it is a single ray and the same loop is an ordinary
 depth-first traversal. No Python runs per ray in the JIT variants.
 
 The image is rendered in passes of at most ``wavefront_size`` camera
-samples, accumulated in Mitsuba's image block and developed by the film.
-Camera rays come from the sensor's ``sample_ray`` (Mitsuba's perspective
+samples (2^20 by default; 2^24 when the tree has a single level, which stores
+nothing per lane), accumulated in Mitsuba's image block and developed by the
+film. Camera rays come from the sensor's ``sample_ray`` (Mitsuba's perspective
 camera), placed in their pixels by :mod:`.pixel_samples`.
+
+The modules behind it: :mod:`.effects` (what the scene calls for),
+:mod:`.geometry` (hit points, normals, UV), :mod:`.surfaces` (material
+lookups), :mod:`.shading` (the article's model), :mod:`.optics` (reflection
+and refraction) and :mod:`.pixel_samples`.
 """
 
 from __future__ import annotations
