@@ -49,11 +49,11 @@ class SurfaceTable:
         coefficients = np.zeros((3, size), np.float32)   # KR, KT, IOR
         coefficients[2] = 1.0
         texture_slot = np.zeros(size, np.uint32)         # 0: untextured, k: self.textured[k-1]
+        slots = {id(s): k for k, s in enumerate(self.textured, start=1)}
         for row, s in zip(ids, surfaces):
             colour[:, row] = s.colour
             coefficients[:, row] = (s.reflect, s.refract, s.ior)
-        for slot, s in enumerate(self.textured, start=1):
-            texture_slot[ids[surfaces.index(s)]] = slot
+            texture_slot[row] = slots.get(id(s), 0)
         self._colour = mi.Color3f(colour)
         self._reflect = mi.Float(coefficients[0])
         self._refract = mi.Float(coefficients[1])
@@ -68,7 +68,7 @@ class SurfaceTable:
         """
         if not dr.is_jit_v(mi.Float):
             return self._lookup_scalar(si, bsdf)
-        row = bsdf
+        row = bsdf   # the table is indexed by instance ID; row 0 (a miss) is never read
         base = dr.gather(mi.Color3f, self._colour, row, active)
         if self.textured:
             slot = dr.gather(mi.UInt32, self._slot, row, active)
