@@ -256,10 +256,18 @@ class WhittedIntegrator(mi.SamplingIntegrator):
             dr.eval(total)   # finish the last scatter before anything reads the total
         return total
 
+    @staticmethod
+    def _traced(weight):
+        """Whether a child ray is traced: any ray that can still add colour.
+
+        (Hall and Greenberg's adaptive depth control would raise this threshold.)
+        """
+        return weight > 0
+
     def _spawn(self, front, children, total, rays):
         """The wavefronts of ``children``: only the lanes with a positive weight."""
         if not self.vectorized:
-            live = [c for c in children if c.weight > 0]
+            live = [c for c in children if self._traced(c.weight)]
             for c in live:
                 setattr(rays, c.kind, getattr(rays, c.kind) + 1)
             return [Wavefront(c.ray, c.weight, None, front.level + 1) for c in live]
@@ -270,13 +278,13 @@ class WhittedIntegrator(mi.SamplingIntegrator):
         # interleaved so that siblings stay next to each other.
         kinds = len(children)
         if kinds == 1:
-            lane = dr.compress(children[0].weight > 0)
+            lane = dr.compress(self._traced(children[0].weight))
         else:
             slot = dr.arange(mi.UInt32, kinds * dr.width(children[0].weight))
             weight = dr.select((slot & 1) == 1,
                                dr.gather(mi.Float, children[1].weight, slot >> 1),
                                dr.gather(mi.Float, children[0].weight, slot >> 1))
-            lane = dr.compress(weight > 0)
+            lane = dr.compress(self._traced(weight))
         live = dr.width(lane)
         if live == 0:
             return []
