@@ -45,8 +45,10 @@ demo: setup
 		echo "rendering $$scn"; \
 		$(VENV)/bin/whitted render scenes_xml/$$name.xml -o $(OUT)/demo/$$name.png || exit 1; \
 		$(VENV)/bin/whitted render scenes_xml/$$name.xml -o $(OUT)/demo/$$name.exr -q || exit 1; \
+		$(VENV)/bin/whitted render scenes_xml/$$name.xml -o $(OUT)/demo/$$name-path.png \
+			--integrator path --spp 64 -q || exit 1; \
 	done
-	@echo "demo images in $(OUT)/demo/"
+	@echo "demo images in $(OUT)/demo/: NAME.png and NAME.exr (the article's model), NAME-path.png (Mitsuba's path tracer, 64 spp)"
 
 test: setup
 	$(PY) -m pytest -q
