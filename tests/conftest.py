@@ -4,11 +4,35 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import mitsuba as mi
 import pytest
 
-import whitted  # noqa: F401  (selects the default variant and registers the plugins)
+import whitted  # selects the default variant and registers the plugins
 
 REPO = Path(__file__).resolve().parent.parent
+#: the variants every rendering test runs in (cuda_ad_rgb needs a GPU, which CI lacks)
+VARIANTS = ("scalar_rgb", "llvm_ad_rgb")
+
+
+@pytest.fixture(autouse=True)
+def restore_variant():
+    """Every test leaves Mitsuba's variant as it found it."""
+    previous = mi.variant()
+    yield
+    whitted.set_variant(previous)
+
+
+@pytest.fixture(params=VARIANTS)
+def variant(request):
+    """Runs the test once in each of :data:`VARIANTS`, with that variant selected."""
+    whitted.set_variant(request.param)
+    return request.param
+
+
+@pytest.fixture
+def llvm():
+    """Runs the test in llvm_ad_rgb."""
+    whitted.set_variant("llvm_ad_rgb")
 
 
 @pytest.fixture

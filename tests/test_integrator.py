@@ -21,7 +21,7 @@ import whitted.render
 from reference import Reference, camera_ray, render_reference
 from whitted.converter import Light, Material, Scene, Sphere, scene_to_xml
 
-VARIANTS = ("llvm_ad_rgb", "scalar_rgb")
+from conftest import VARIANTS
 W, H = 48, 32
 
 
@@ -29,13 +29,6 @@ W, H = 48, 32
 
 def use_variant(variant: str) -> None:
     whitted.set_variant(variant)
-
-
-@pytest.fixture(autouse=True)
-def restore_variant():
-    previous = mi.variant()
-    yield
-    whitted.set_variant(previous)
 
 
 def load(model: Scene, variant: str | None = None):

@@ -17,29 +17,13 @@ from mitsuba.python.chi2 import BSDFAdapter, ChiSquareTest, SphericalDomain
 
 import whitted
 
-VARIANTS = ("scalar_rgb", "llvm_ad_rgb")
+from conftest import VARIANTS
 ALBEDO = (0.5, 0.6, 0.7)
 # (KR, KT, IOR): diffuse only, all three lobes, mostly glass, dense glass (TIR
 # from inside at moderate angles), an IOR below 1 (TIR from *outside*), pure
 # mirror, pure glass.
 MATERIALS = [(0.0, 0.0, 1.0), (0.3, 0.2, 1.5), (0.1, 0.7, 1.33), (0.2, 0.5, 2.4),
              (0.25, 0.25, 0.7), (1.0, 0.0, 1.0), (0.0, 1.0, 1.5)]
-
-
-@pytest.fixture(params=VARIANTS)
-def variant(request):
-    previous = mi.variant()
-    whitted.set_variant(request.param)
-    yield request.param
-    whitted.set_variant(previous)
-
-
-@pytest.fixture
-def llvm():
-    previous = mi.variant()
-    whitted.set_variant("llvm_ad_rgb")
-    yield
-    whitted.set_variant(previous)
 
 
 def article(kr, kt, ior, color=ALBEDO):

@@ -25,24 +25,8 @@ from whitted.converter import Light, Material, Scene, Sphere, scene_to_xml
 from whitted.converter.xml_writer import light_intensity
 from whitted.metrics import relative_mse
 
-VARIANTS = ("scalar_rgb", "llvm_ad_rgb")
+from conftest import VARIANTS
 SCENES = Path(__file__).resolve().parents[1] / "scenes"
-
-
-@pytest.fixture(params=VARIANTS)
-def variant(request):
-    previous = mi.variant()
-    whitted.set_variant(request.param)
-    yield request.param
-    whitted.set_variant(previous)
-
-
-@pytest.fixture
-def llvm():
-    previous = mi.variant()
-    whitted.set_variant("llvm_ad_rgb")
-    yield
-    whitted.set_variant(previous)
 
 
 def load(model: Scene) -> mi.Scene:

@@ -30,13 +30,6 @@ MODEL = Scene(width=W, height=H, eye=(0.0, 1.0, 7.0), lookat=(0.0, 0.3, 0.0), ba
                        Sphere((0.9, 0.3, 0.8), 0.6, Material(color=(1.0, 1.0, 1.0), refract=0.9, ior=1.5))])
 
 
-@pytest.fixture(autouse=True)
-def restore_variant():
-    previous = mi.variant()
-    yield
-    whitted.set_variant(previous)
-
-
 @pytest.fixture
 def scene_xml(tmp_path):
     path = tmp_path / "scene.xml"

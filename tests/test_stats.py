@@ -17,16 +17,9 @@ import whitted.render
 from reference import Reference
 from whitted.converter import Light, Material, Scene, Sphere, scene_to_xml
 
-VARIANTS = ("llvm_ad_rgb", "scalar_rgb")
+from conftest import VARIANTS
 W, H = 24, 16
 KEYS = {"rays", "seconds", "compile_seconds", "effects", "max_depth_reached", "peak_memory_bytes"}
-
-
-@pytest.fixture(autouse=True)
-def restore_variant():
-    previous = mi.variant()
-    yield
-    whitted.set_variant(previous)
 
 
 def load(model: Scene, variant: str):

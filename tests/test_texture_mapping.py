@@ -18,17 +18,10 @@ import whitted.render
 from reference import camera_ray, cross, lat_long, load_texels, nearest_hit, normalize, srgb_to_linear, sub, texel
 from whitted.converter import Material, Scene, Sphere, scene_to_xml
 
-VARIANTS = ("llvm_ad_rgb", "scalar_rgb")
+from conftest import VARIANTS
 CENTER, RADIUS = (0.3, -0.2, 0.5), 1.3
 NORTH, EQUATOR = (1.0, 1.0, 0.2), (0.0, 0.3, 1.0)
 TEX_W, TEX_H = 15, 7   # odd: the faces' centres do not fall on texel edges
-
-
-@pytest.fixture(autouse=True)
-def restore_variant():
-    previous = mi.variant()
-    yield
-    whitted.set_variant(previous)
 
 
 def frame():
