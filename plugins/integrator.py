@@ -3,8 +3,10 @@
 Properties: ``max_depth`` (the article's depth N, primary rays have depth 1),
 ``ambient`` (A), ``lighting`` ("article" or "physical") and
 ``light_reference`` (the point where an article light's colour was measured,
-the scene's ``lookat``; see :mod:`.effects`), plus ``wavefront_size``
-(camera samples per pass, 0 = automatic), which bounds memory.
+the scene's ``lookat``; see :mod:`.effects`), ``wavefront_size``
+(camera samples per pass, 0 = automatic), which bounds memory, and
+``min_weight`` (Hall and Greenberg's adaptive depth control, 0 = off: see
+:meth:`WhittedIntegrator._traced`).
 
 How the ray tree is evaluated. The article's ``trace`` is recursive, but its
 result is linear in the children's colours, so the colour of a camera ray is
@@ -33,7 +35,7 @@ and refraction) and :mod:`.pixel_samples`.
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 
 import drjit as dr
 import mitsuba as mi
@@ -61,17 +63,22 @@ class RayCounts:
     A refracted share sent along the mirror direction by total internal
     reflection still counts as a refraction ray: it is the ray the refraction
     term spawns. ``max_depth_reached`` is the deepest level that traced a ray.
+    ``culled`` counts the reflected and refracted rays left untraced because
+    their path weight was below ``min_weight``, and ``culled_weight`` sums
+    their weights: each would have added at most its weight times the
+    brightest colour in the scene, so ``culled_weight / spp`` times that
+    colour bounds the total error of an image (summed over its pixels).
     """
     camera: int = 0
     shadow: int = 0
     reflection: int = 0
     refraction: int = 0
     max_depth_reached: int = 0
+    culled: int = 0
+    culled_weight: float = 0.0
 
     def rays(self) -> dict:
-        counts = asdict(self)
-        del counts["max_depth_reached"]
-        return counts
+        return {kind: getattr(self, kind) for kind in ("camera", "shadow", "reflection", "refraction")}
 
 
 @dataclass
@@ -105,6 +112,7 @@ class WhittedIntegrator(mi.SamplingIntegrator):
         self.lighting = str(props.get("lighting", "article"))
         self.light_reference = mi.ScalarPoint3f(props.get("light_reference", mi.ScalarPoint3f(0, 0, 0)))
         self.wavefront_size = int(props.get("wavefront_size", 0))
+        self.min_weight = float(props.get("min_weight", 0.0))
         if self.max_depth < 1:
             raise ValueError(f"whitted: max_depth must be >= 1, got {self.max_depth}")
         if not 0.0 <= self.ambient <= 1.0:
@@ -114,6 +122,8 @@ class WhittedIntegrator(mi.SamplingIntegrator):
                              f"got '{self.lighting}'")
         if self.wavefront_size < 0:
             raise ValueError(f"whitted: wavefront_size must be >= 0, got {self.wavefront_size}")
+        if not 0.0 <= self.min_weight <= 1.0:
+            raise ValueError(f"whitted: min_weight must be in [0, 1], got {self.min_weight}")
         self.vectorized = dr.is_jit_v(mi.Float)
         self._lanes = self.wavefront_size or JIT_SAMPLES_PER_PASS
 
@@ -256,20 +266,40 @@ class WhittedIntegrator(mi.SamplingIntegrator):
             dr.eval(total)   # finish the last scatter before anything reads the total
         return total
 
-    @staticmethod
-    def _traced(weight):
-        """Whether a child ray is traced: any ray that can still add colour.
+    def _traced(self, weight):
+        """Whether a child ray is traced: any ray that can still add colour, or,
+        with ``min_weight`` > 0, enough of it.
 
-        (Hall and Greenberg's adaptive depth control would raise this threshold.)
+        This is Hall and Greenberg's adaptive depth control (1983): a ray's
+        colour reaches the pixel multiplied by its path weight, the product of
+        the KR and KT factors above it, so a subtree below weight W can change
+        the pixel by at most W times the brightest colour in the scene, and is
+        not worth tracing when W is below what the image can show.
         """
+        if self.min_weight > 0:
+            return weight >= (dr.opaque(mi.Float, self.min_weight) if self.vectorized else self.min_weight)
         return weight > 0
 
+    def _count_culled(self, weight, rays):
+        """Count the children of weight ``weight`` that had some, but too little for :meth:`_traced`."""
+        if self.min_weight == 0:
+            return
+        if self.vectorized:
+            culled = (weight > 0) & ~self._traced(weight)
+            rays.culled += int(dr.count(culled)[0])
+            rays.culled_weight += float(dr.sum(dr.select(culled, weight, 0))[0])
+        elif 0 < weight and not self._traced(weight):
+            rays.culled += 1
+            rays.culled_weight += float(weight)
+
     def _spawn(self, front, children, total, rays):
-        """The wavefronts of ``children``: only the lanes with a positive weight."""
+        """The wavefronts of ``children``: only the lanes that :meth:`_traced` accepts."""
         if not self.vectorized:
             live = [c for c in children if self._traced(c.weight)]
             for c in live:
                 setattr(rays, c.kind, getattr(rays, c.kind) + 1)
+            for c in children:
+                self._count_culled(c.weight, rays)
             return [Wavefront(c.ray, c.weight, None, front.level + 1) for c in live]
 
         # One kernel shades this level, adds its colour, and stores the children ...
@@ -278,13 +308,14 @@ class WhittedIntegrator(mi.SamplingIntegrator):
         # interleaved so that siblings stay next to each other.
         kinds = len(children)
         if kinds == 1:
-            lane = dr.compress(self._traced(children[0].weight))
+            weight = children[0].weight
         else:
             slot = dr.arange(mi.UInt32, kinds * dr.width(children[0].weight))
             weight = dr.select((slot & 1) == 1,
                                dr.gather(mi.Float, children[1].weight, slot >> 1),
                                dr.gather(mi.Float, children[0].weight, slot >> 1))
-            lane = dr.compress(self._traced(weight))
+        lane = dr.compress(self._traced(weight))
+        self._count_culled(weight, rays)
         live = dr.width(lane)
         if live == 0:
             return []
@@ -322,4 +353,4 @@ class WhittedIntegrator(mi.SamplingIntegrator):
 
     def to_string(self):
         return (f"WhittedIntegrator[max_depth={self.max_depth}, ambient={self.ambient}, "
-                f"lighting={self.lighting}]")
+                f"lighting={self.lighting}, min_weight={self.min_weight}]")

@@ -73,8 +73,8 @@ def test_spp_and_stats(scene_xml, tmp_path):
     assert render(scene_xml, "-o", out, "--spp", 3, "--stats", stats, "-q") == 0
     data = json.loads(stats.read_text())
     assert data["rays"]["camera"] == W * H * 3
-    assert set(data) == {"rays", "seconds", "compile_seconds", "effects", "max_depth_reached",
-                         "peak_memory_bytes"}
+    assert {"rays", "seconds", "compile_seconds", "effects", "max_depth_reached",
+            "peak_memory_bytes"} <= set(data)
 
 
 def test_max_depth_option(scene_xml, tmp_path):

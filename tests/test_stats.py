@@ -19,6 +19,7 @@ from whitted.converter import Light, Material, Scene, Sphere, scene_to_xml
 
 from conftest import VARIANTS
 W, H = 24, 16
+#: the keys issue 6 requires; the adaptive depth control adds its own (tests/test_adaptive.py)
 KEYS = {"rays", "seconds", "compile_seconds", "effects", "max_depth_reached", "peak_memory_bytes"}
 
 
@@ -44,7 +45,7 @@ def mixed(depth=5) -> Scene:
 @pytest.mark.parametrize("variant", VARIANTS)
 def test_diffuse_scene_at_depth_16_traces_no_secondary_rays(variant):
     stats = whitted.render.render(load(diffuse(depth=16), variant), spp=3).stats
-    assert set(stats) == KEYS
+    assert KEYS <= set(stats)
     assert stats["rays"]["camera"] == W * H * 3
     assert stats["rays"]["reflection"] == 0 and stats["rays"]["refraction"] == 0
     assert stats["rays"]["shadow"] > 0
@@ -119,6 +120,6 @@ def test_timings_and_memory_are_reported():
 
 def test_path_integrator_stats():
     stats = whitted.render.render(load(mixed(), "llvm_ad_rgb"), integrator="path", spp=2).stats
-    assert set(stats) == KEYS
+    assert KEYS <= set(stats)
     assert stats["rays"] == {"camera": W * H * 2, "shadow": None, "reflection": None, "refraction": None}
     assert stats["max_depth_reached"] is None

@@ -16,7 +16,13 @@ Statistics (``result.stats``, written by ``--stats FILE.json``)::
 
     {"rays": {"camera", "shadow", "reflection", "refraction"},
      "seconds", "compile_seconds", "effects": [...], "max_depth_reached",
-     "peak_memory_bytes"}
+     "peak_memory_bytes", "min_weight", "culled_rays", "culled_weight"}
+
+``min_weight`` is the adaptive depth control's threshold (0: off; see the
+integrator's ``_traced``), ``culled_rays`` the reflected and refracted rays it
+left untraced and ``culled_weight`` the sum of their path weights: the image's
+error, summed over its pixels, is at most ``culled_weight / spp`` times the
+brightest colour in the scene.
 
 ``peak_memory_bytes`` is, in the JIT variants, the high-water mark of Dr.Jit's
 memory allocator during the render (every array Dr.Jit holds: the scene's
@@ -25,8 +31,8 @@ acceleration structures, nor Python's heap); its cache is flushed before the
 render so that the mark starts from what is really in use. In
 ``scalar_rgb``, where Dr.Jit allocates nothing, it is the peak resident set
 size of the whole process. Mitsuba's ``path`` integrator does not count its
-rays: for it only ``camera`` is given and the others are null, as is
-``max_depth_reached``.
+rays: for it only ``camera`` is given and the others are null, as are
+``max_depth_reached`` and the adaptive depth control's entries.
 """
 
 from __future__ import annotations
@@ -45,7 +51,7 @@ from .errors import WhittedError
 
 INTEGRATORS = ("whitted", "path")
 LIGHTING_MODES = ("article", "physical")
-DEFAULTS = {"max_depth": 5, "ambient": 0.2, "lighting": "article"}
+DEFAULTS = {"max_depth": 5, "ambient": 0.2, "lighting": "article", "min_weight": 0.0}
 #: camera samples per ``mi.render`` call of the path tracer (bounds its memory)
 PATH_SAMPLES_PER_PASS = 1 << 20
 
@@ -64,19 +70,22 @@ def _whitted_settings(scene) -> dict:
     integrator = scene.integrator()
     if integrator is not None and hasattr(integrator, "light_reference"):
         return {"max_depth": integrator.max_depth, "ambient": integrator.ambient,
-                "lighting": integrator.lighting, "light_reference": integrator.light_reference}
+                "lighting": integrator.lighting, "light_reference": integrator.light_reference,
+                "min_weight": integrator.min_weight}
     return {**DEFAULTS, "light_reference": mi.ScalarPoint3f(0, 0, 0)}
 
 
-def _whitted_integrator(scene, settings: dict, depth: int, lighting: str):
-    """The scene's own Whitted integrator, or a new one where depth or lighting differ."""
+def _whitted_integrator(scene, settings: dict, depth: int, lighting: str, min_weight: float):
+    """The scene's own Whitted integrator, or a new one where depth, lighting or min weight differ."""
     import mitsuba as mi
     own = scene.integrator()
-    if hasattr(own, "light_reference") and own.max_depth == depth and own.lighting == lighting:
+    if (hasattr(own, "light_reference") and own.max_depth == depth and own.lighting == lighting
+            and own.min_weight == min_weight):
         return own
     with quiet_mitsuba():
         return mi.load_dict({"type": "whitted", "max_depth": depth, "ambient": settings["ambient"],
-                             "lighting": lighting, "light_reference": settings["light_reference"]})
+                             "lighting": lighting, "light_reference": settings["light_reference"],
+                             "min_weight": min_weight})
 
 
 @contextlib.contextmanager
@@ -92,7 +101,7 @@ def quiet_mitsuba():
         logger.set_log_level(level)
 
 
-def _check(spp, max_depth, lighting, integrator):
+def _check(spp, max_depth, lighting, integrator, min_weight=None):
     if integrator not in INTEGRATORS:
         raise WhittedError(f"unknown integrator '{integrator}'; choose one of {', '.join(INTEGRATORS)}")
     if spp is not None and not 1 <= int(spp) <= 2 ** 31:
@@ -101,6 +110,12 @@ def _check(spp, max_depth, lighting, integrator):
         raise WhittedError(f"max depth must be >= 1 (primary rays have depth 1), got {max_depth}")
     if lighting is not None and lighting not in LIGHTING_MODES:
         raise WhittedError(f"lighting must be one of {', '.join(LIGHTING_MODES)}, got '{lighting}'")
+    if min_weight is not None:
+        if not 0.0 <= float(min_weight) <= 1.0:
+            raise WhittedError(f"min weight must be in [0, 1], got {min_weight}")
+        if integrator != "whitted" and min_weight > 0:
+            raise WhittedError("a min weight (adaptive depth control) applies to the whitted "
+                               "integrator only; the path tracer ends paths by Russian roulette")
 
 
 class _Clock:
@@ -149,17 +164,19 @@ def _progress_bar(enabled: bool, total: int, what: str):
 
 
 def render(scene, integrator: str = "whitted", spp: int | None = None, max_depth: int | None = None,
-           lighting: str | None = None, progress: bool = False, seed: int = 0) -> RenderResult:
+           lighting: str | None = None, progress: bool = False, seed: int = 0,
+           min_weight: float | None = None) -> RenderResult:
     """Render ``scene`` (a ``mi.Scene``); see the module docstring and docs/CONTRACTS.md.
 
-    ``spp``, ``max_depth`` (the article's depth, primary rays being depth 1)
-    and ``lighting`` default to the scene's own settings. ``integrator="path"``
+    ``spp``, ``max_depth`` (the article's depth, primary rays being depth 1),
+    ``lighting`` and ``min_weight`` (the Whitted integrator's adaptive depth
+    control, 0 = off) default to the scene's own settings. ``integrator="path"``
     uses Mitsuba's ``path`` integrator with ``max_depth + 1`` (one more
     segment for the connection to a light).
     """
     import mitsuba as mi
 
-    _check(spp, max_depth, lighting, integrator)
+    _check(spp, max_depth, lighting, integrator, min_weight)
     if not scene.sensors():
         raise WhittedError("the scene has no sensor (camera) to render from")
     settings = _whitted_settings(scene)
@@ -169,12 +186,15 @@ def render(scene, integrator: str = "whitted", spp: int | None = None, max_depth
     width, height = (int(c) for c in sensor.film().crop_size())
 
     if integrator == "whitted":
-        whitted = _whitted_integrator(scene, settings, depth, lighting or settings["lighting"])
+        min_weight = float(min_weight) if min_weight is not None else settings["min_weight"]
+        whitted = _whitted_integrator(scene, settings, depth, lighting or settings["lighting"], min_weight)
         with _progress_bar(progress, width * height * spp, "render") as bar, _Clock() as clock:
             rendering = whitted.render_detailed(scene, sensor, seed=seed, spp=spp, progress=bar.update)
             image = np.array(rendering.image, dtype=np.float32)
         rays = rendering.rays
         stats_rays, effects, reached = rays.rays(), list(rendering.effects), rays.max_depth_reached
+        adaptive = {"min_weight": min_weight, "culled_rays": rays.culled,
+                    "culled_weight": rays.culled_weight}
     else:
         path = mi.load_dict({"type": "path", "max_depth": depth + 1})
         with _progress_bar(progress, width * height * spp, "path tracing") as bar, _Clock() as clock:
@@ -182,10 +202,12 @@ def render(scene, integrator: str = "whitted", spp: int | None = None, max_depth
         stats_rays = {"camera": width * height * spp, "shadow": None, "reflection": None,
                       "refraction": None}
         effects, reached = _effects_or_none(scene, depth), None
+        adaptive = {"min_weight": None, "culled_rays": None, "culled_weight": None}
 
     image = image[..., :3]
     stats = {"rays": stats_rays, "seconds": clock.seconds, "compile_seconds": clock.compile,
-             "effects": effects, "max_depth_reached": reached, "peak_memory_bytes": clock.peak_memory}
+             "effects": effects, "max_depth_reached": reached, "peak_memory_bytes": clock.peak_memory,
+             **adaptive}
     return RenderResult(np.ascontiguousarray(image), clock.seconds, clock.compile, stats)
 
 
@@ -229,6 +251,8 @@ def _summary(args, result: RenderResult, width: int, height: int, spp: int) -> s
     s = result.stats
     rays = ", ".join(f"{v} {k}" for k, v in s["rays"].items() if v is not None)
     depth = "" if s["max_depth_reached"] is None else f"depth reached {s['max_depth_reached']}; "
+    if s["min_weight"]:
+        depth += f"{s['culled_rays']} rays culled below weight {s['min_weight']:g}; "
     return (f"whitted: {width}x{height} at {spp} spp with {args.integrator} ({mi.variant()}): "
             f"{s['seconds']:.3f} s (+{s['compile_seconds']:.3f} s compiling); rays: {rays}; {depth}"
             f"effects: {' '.join(s['effects']) or 'none'}; "
@@ -260,7 +284,7 @@ def render_command(args) -> None:
     _check_output(output, Path(args.scene))
     if args.stats:
         _check_output(Path(args.stats), Path(args.scene))
-    _check(args.spp, args.max_depth, args.lighting, args.integrator)
+    _check(args.spp, args.max_depth, args.lighting, args.integrator, args.min_weight)
     if args.ambient is not None and not 0.0 <= args.ambient <= 1.0:
         raise WhittedError(f"ambient must be in [0, 1], got {args.ambient}")
 
@@ -270,7 +294,8 @@ def render_command(args) -> None:
     sensor = scene.sensors()[0]
     width, height = (int(c) for c in sensor.film().crop_size())
     spp = sensor.sampler().sample_count()
-    result = render(scene, integrator=args.integrator, progress=not args.quiet)
+    result = render(scene, integrator=args.integrator, progress=not args.quiet,
+                    min_weight=args.min_weight)
     write_image(output, result.image)
     if args.stats:
         write_text(args.stats, json.dumps(result.stats, indent=2) + "\n")
