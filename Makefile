@@ -53,8 +53,11 @@ demo: setup
 test: setup
 	$(PY) -m pytest -q
 
+# Speed against Mitsuba's own integrators and the ray-casting floor (benchmarks/RESULTS.md);
+# `make bench BENCHFLAGS=--quick` for a short run.
+BENCHFLAGS ?=
 bench: setup
-	$(PY) benchmarks/run.py
+	$(PY) benchmarks/run.py $(BENCHFLAGS)
 
 clean:
 	rm -rf $(OUT) .pytest_cache .hypothesis

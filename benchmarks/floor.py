@@ -1,0 +1,69 @@
+"""The ray-casting floor: the rays of a Whitted render at depth 1, and nothing else.
+
+For a diffuse scene under one point light, a Whitted render traces one
+camera ray per sample and one shadow ray from each hit that faces the light.
+The floor traces exactly those rays in one Dr.Jit kernel: the integrator's
+own camera rays (the same pixel positions), the nearest hit, the facing test,
+Mitsuba's ``ray_test`` towards the light, and one float per sample written
+out (the cosine where lit) so that nothing is optimised away. No material,
+no film, no image. What a render costs above it is the price of shading and
+of accumulating the image.
+
+Two ways to the nearest hit are timed, and the faster one is the floor:
+Mitsuba's ``scene.ray_intersect`` (a surface interaction from the hit
+shape) and the integrator's sphere table (Embree's preliminary hit, then the
+sphere's normal from a table; :mod:`plugins.geometry`).
+"""
+
+from __future__ import annotations
+
+import drjit as dr
+import mitsuba as mi
+
+HIT_FINDERS = ("ray_intersect", "sphere table")
+
+
+class RayCastingFloor:
+    def __init__(self, scene, light_position, spp: int, hit_finder: str, seed: int = 0):
+        from whitted.plugins.geometry import SphereHits
+        from whitted.plugins.integrator import WhittedIntegrator
+        if hit_finder not in HIT_FINDERS:
+            raise ValueError(f"hit_finder must be one of {HIT_FINDERS}")
+        self.scene, self.spp, self.seed = scene, spp, seed
+        self.light = mi.Point3f(light_position)
+        self.table = SphereHits(scene, need_uv=False) if hit_finder == "sphere table" else None
+        self.camera_ray = WhittedIntegrator._camera_ray
+
+    def trace(self):
+        """``(shadow_ray_cast, value)`` per sample, not yet evaluated."""
+        sensor = self.scene.sensors()[0]
+        width, height = (int(c) for c in sensor.film().crop_size())
+        index = dr.arange(mi.UInt32, width * height * self.spp)
+        if self.spp == 1:
+            pixel, sample = index, mi.UInt32(0)
+        else:
+            pixel = index // dr.opaque(mi.UInt32, self.spp)
+            sample = index - pixel * dr.opaque(mi.UInt32, self.spp)
+        y = pixel // dr.opaque(mi.UInt32, width)
+        x = pixel - y * dr.opaque(mi.UInt32, width)
+        ray, _, _ = self.camera_ray(sensor, x, y, pixel, sample, self.spp, self.seed)
+        if self.table is not None:
+            hit, si = self.table.intersect(ray, coherent=True)[:2]
+        else:
+            si = self.scene.ray_intersect(ray, ray_flags=mi.RayFlags.Minimal, coherent=True)
+            hit = si.is_valid()
+        n = dr.select(dr.dot(ray.d, si.n) > 0, -si.n, si.n)
+        to_light = self.light - si.p
+        cos = dr.dot(n, to_light) * dr.rsqrt(dr.squared_norm(to_light))
+        cast = hit & (cos > 0)
+        visible = cast & ~self.scene.ray_test(si.spawn_ray_to(self.light), cast)
+        return cast, dr.select(visible, cos, 0)
+
+    def __call__(self):
+        _, value = self.trace()
+        dr.eval(value)
+        return value
+
+    def shadow_rays(self) -> int:
+        cast, _ = self.trace()
+        return int(dr.count(cast)[0])

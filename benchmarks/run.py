@@ -1,0 +1,344 @@
+"""Benchmarks of the Whitted integrator (``make bench``; ``--quick`` for a short run).
+
+Every comparison is measured in this one process, as the median of
+interleaved runs after warm-up (compilation excluded; see timing.py), and
+printed as a ratio against the fastest honest alternative doing the same work:
+
+1. Whitted vs Mitsuba's C++ ``direct`` integrator on a diffuse scene under one
+   point light (camera and shadow rays only, same spp), and vs the bare
+   ray-casting floor (floor.py): the same rays and nothing else.
+2. A diffuse scene at depth 16 vs depth 1 (the acceptance scene: 1024×768, 4 spp).
+3. Cost against sphere count (10 → 10 000), resolution and spp, with peak memory.
+4. Each effect: a scene with every effect vs the same scene without that one.
+5. Adaptive depth control: a deep render with and without a minimum path weight.
+
+Usage::
+
+    python benchmarks/run.py [--quick] [--markdown benchmarks/RESULTS.md] [--json FILE]
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime
+import json
+import os
+import platform
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+import drjit as dr  # noqa: E402
+import mitsuba as mi  # noqa: E402
+import numpy as np  # noqa: E402
+
+import whitted  # noqa: E402  (selects the variant, registers the plugins)
+import floor  # noqa: E402
+import scenes  # noqa: E402
+from timing import measure, peak_memory  # noqa: E402
+
+#: acceptance targets of issue 6 (ratios of median times)
+TARGET_DEPTH = 1.15
+TARGET_DIRECT = 1.25
+
+FULL = {"rounds": 11, "counts": (10, 100, 1000, 10_000), "count_rounds": 5, "big_rounds": 3,
+        "resolutions": ((256, 192), (512, 384), (1024, 768), (2048, 1536)), "spps": (1, 4, 16, 64)}
+QUICK = {"rounds": 5, "counts": (10, 1000, 10_000), "count_rounds": 3, "big_rounds": 1,
+         "resolutions": ((256, 192), (1024, 768)), "spps": (1, 16)}
+
+
+def renderer(scene, integrator, spp: int):
+    """One whole render, as a user would call it: ``mi.render`` and the developed image."""
+    def run():
+        image = mi.render(scene, integrator=integrator, spp=spp, seed=0)
+        dr.eval(image)
+        return image
+    return run
+
+
+class Table:
+    def __init__(self, title: str, columns: list[str], note: str = ""):
+        self.title, self.columns, self.note, self.rows = title, columns, note, []
+
+    def add(self, *cells):
+        self.rows.append([c if isinstance(c, str) else f"{c:.3g}" if isinstance(c, float) else str(c)
+                          for c in cells])
+
+    def text(self) -> str:
+        widths = [max(len(r[i]) for r in [self.columns, *self.rows]) for i in range(len(self.columns))]
+        lines = [f"\n== {self.title}", "  ".join(c.ljust(w) for c, w in zip(self.columns, widths))]
+        lines += ["  ".join(c.ljust(w) for c, w in zip(row, widths)) for row in self.rows]
+        return "\n".join(lines + ([self.note] if self.note else []))
+
+    def markdown(self) -> str:
+        lines = [f"### {self.title}", "", "| " + " | ".join(self.columns) + " |",
+                 "|" + "---|" * len(self.columns)]
+        lines += ["| " + " | ".join(row) + " |" for row in self.rows]
+        return "\n".join(lines + (["", self.note] if self.note else []))
+
+
+def ms(seconds: float) -> str:
+    return f"{1000 * seconds:.1f}"
+
+
+def mib(n: int) -> str:
+    return f"{n / 2**20:.1f}"
+
+
+class Bench:
+    def __init__(self, settings: dict, out):
+        self.s = settings
+        self.out = out
+        self.tables: list[Table] = []
+        self.summary: dict[str, float] = {}
+        self.data: dict = {}
+
+    def show(self, table: Table):
+        self.tables.append(table)
+        print(table.text(), file=self.out, flush=True)
+
+    # -- 1 and 2: the acceptance scene ---------------------------------------------------------------
+
+    def against_direct_and_floor(self):
+        width, height, spp = 1024, 768, 4
+        model = scenes.diffuse_spheres(10, width, height, spp)
+        scene, scene_direct = scenes.load(model), scenes.load_for_direct(model)
+        light = model.lights[0].position
+        physical = scenes.whitted_integrator(model, lighting="physical")
+        contenders = {
+            "whitted (physical lighting)": renderer(scene, physical, spp),
+            "whitted (article lighting)": renderer(scene, scenes.whitted_integrator(model), spp),
+            "Mitsuba direct": renderer(scene_direct, scenes.direct_integrator(), spp),
+            **{f"floor: {h} + ray_test": floor.RayCastingFloor(scene, light, spp, h) for h in floor.HIT_FINDERS},
+        }
+        timing = measure(contenders, self.s["rounds"])
+        direct = timing["Mitsuba direct"].median
+        floor_name = min((n for n in timing if n.startswith("floor")), key=lambda n: timing[n].median)
+        floor_time = timing[floor_name].median
+
+        # The same work: the same camera rays, the same shadow rays as the floor, the same image.
+        rays = physical.render_detailed(scene, spp=spp).rays
+        floor_shadow = contenders[floor_name].shadow_rays()
+        ours = np.array(contenders["whitted (physical lighting)"]())[..., :3].mean()
+        theirs = np.array(contenders["Mitsuba direct"]())[..., :3].mean()
+        samples = width * height * spp
+
+        table = Table(f"Whitted vs Mitsuba's direct and the ray-casting floor "
+                      f"({width}×{height}, {spp} spp, {len(model.spheres)} diffuse spheres, 1 point light)",
+                      ["contender", "median ms", "spread", "vs direct", "vs floor", "ns/sample", "compile s"],
+                      note=(f"Rays: {rays.camera} camera, {rays.shadow} shadow (Whitted); the floor casts "
+                            f"{floor_shadow} shadow rays; direct casts one per hit, facing the light or not. "
+                            f"Mean pixel value, Whitted physical / direct: {ours / theirs:.4f}."))
+        for name, t in timing.items():
+            table.add(name, ms(t.median), t.spread(), t.median / direct, t.median / floor_time,
+                      f"{1e9 * t.median / samples:.1f}", f"{t.compile_seconds:.3f}")
+        self.show(table)
+        best_whitted = timing["whitted (physical lighting)"].median
+        self.summary["whitted / direct"] = best_whitted / direct
+        self.summary["whitted (article) / direct"] = timing["whitted (article lighting)"].median / direct
+        self.summary["whitted / floor"] = best_whitted / floor_time
+        self.data["direct"] = {n: vars(t) for n, t in timing.items()}
+        self.data["direct"]["same_image_mean_ratio"] = float(ours / theirs)
+        self.data["direct"]["shadow_rays"] = {"whitted": rays.shadow, "floor": floor_shadow}
+
+    def depth(self):
+        width, height, spp = 1024, 768, 4
+        model = scenes.diffuse_spheres(10, width, height, spp)
+        scene = scenes.load(model)
+        contenders = {f"depth {d}": renderer(scene, scenes.whitted_integrator(model, max_depth=d), spp)
+                      for d in (1, 16)}
+        timing = measure(contenders, self.s["rounds"])
+        ratio = timing["depth 16"].median / timing["depth 1"].median
+        table = Table(f"Depth 16 vs depth 1 on a diffuse scene ({width}×{height}, {spp} spp)",
+                      ["max depth", "median ms", "spread", "vs depth 1"])
+        for name, t in timing.items():
+            table.add(name, ms(t.median), t.spread(), t.median / timing["depth 1"].median)
+        self.show(table)
+        self.summary["depth 16 / depth 1"] = ratio
+        self.data["depth"] = {n: vars(t) for n, t in timing.items()}
+
+    # -- 3: scaling ------------------------------------------------------------------------------
+
+    def _whitted_and_direct(self, model, rounds):
+        scene, scene_direct = scenes.load(model), scenes.load_for_direct(model)
+        whitted_run = renderer(scene, scenes.whitted_integrator(model, lighting="physical"), model.samples)
+        direct_run = renderer(scene_direct, scenes.direct_integrator(), model.samples)
+        timing = measure({"whitted": whitted_run, "direct": direct_run}, rounds)
+        return timing, peak_memory(whitted_run), peak_memory(direct_run)
+
+    def scaling(self):
+        columns = ["whitted ms", "ns/sample", "direct ms", "whitted / direct", "whitted MiB", "direct MiB"]
+
+        def row(table, label, model, rounds):
+            timing, memory, memory_direct = self._whitted_and_direct(model, rounds)
+            w, d = timing["whitted"].median, timing["direct"].median
+            samples = model.width * model.height * model.samples
+            table.add(label, ms(w), f"{1e9 * w / samples:.1f}", ms(d), w / d, mib(memory), mib(memory_direct))
+            return {"whitted": vars(timing["whitted"]), "direct": vars(timing["direct"]),
+                    "whitted_peak_bytes": memory, "direct_peak_bytes": memory_direct}
+
+        table = Table("Cost against sphere count (512×384, 4 spp, 1 light)", ["spheres", *columns],
+                      note="Peak memory: Dr.Jit's allocations during the render (scene arrays, "
+                           "wavefronts, image), not Embree's BVH.")
+        self.data["spheres"] = {}
+        for count in self.s["counts"]:
+            rounds = self.s["big_rounds"] if count >= 10_000 else self.s["count_rounds"]
+            self.data["spheres"][count] = row(table, count, scenes.diffuse_spheres(count, 512, 384, 4), rounds)
+        self.show(table)
+
+        table = Table("Cost against resolution (10 spheres, 4 spp)", ["resolution", *columns])
+        self.data["resolution"] = {}
+        for width, height in self.s["resolutions"]:
+            rounds = self.s["big_rounds"] if width * height > 10**6 else self.s["count_rounds"]
+            self.data["resolution"][f"{width}x{height}"] = row(
+                table, f"{width}×{height}", scenes.diffuse_spheres(10, width, height, 4), rounds)
+        self.show(table)
+
+        table = Table("Cost against samples per pixel (10 spheres, 512×384)", ["spp", *columns])
+        self.data["spp"] = {}
+        for spp in self.s["spps"]:
+            rounds = self.s["big_rounds"] if spp > 16 else self.s["count_rounds"]
+            self.data["spp"][spp] = row(table, spp, scenes.diffuse_spheres(10, 512, 384, spp), rounds)
+        self.show(table)
+
+    # -- 4 and 5: effects and adaptive depth ----------------------------------------------------------
+
+    def effects(self, folder: Path):
+        width, height, spp = 512, 384, 4
+        model = scenes.every_effect(scenes.write_texture(folder / "checker.png"), width, height, spp)
+        variants = {"every effect": model, **{f"without {e}": scenes.without(model, e) for e in scenes.EFFECTS}}
+        loaded = {name: (scenes.load(m), scenes.whitted_integrator(m)) for name, m in variants.items()}
+        timing = measure({name: renderer(s, i, spp) for name, (s, i) in loaded.items()}, self.s["rounds"])
+        full = timing["every effect"].median
+        table = Table(f"With and without each effect ({width}×{height}, {spp} spp, max depth {model.depth})",
+                      ["scene", "median ms", "spread", "every effect / this", "effects", "rays (cam/shadow/refl/refr)"])
+        self.data["effects"] = {}
+        for name, (scene, integrator) in loaded.items():
+            rendering = integrator.render_detailed(scene, spp=spp)
+            r = rendering.rays
+            t = timing[name]
+            table.add(name, ms(t.median), t.spread(), full / t.median, " ".join(rendering.effects) or "none",
+                      f"{r.camera}/{r.shadow}/{r.reflection}/{r.refraction}")
+            self.data["effects"][name] = {**vars(t), "rays": r.rays(), "effects": list(rendering.effects)}
+        self.show(table)
+
+    def adaptive(self, folder: Path):
+        width, height, spp = 512, 384, 4
+        model = scenes.every_effect(folder / "checker.png", width, height, spp, depth=16)
+        scene = scenes.load(model)
+        thresholds = (0.0, 0.001, 0.01, 0.05)
+        integrators = {w: scenes.whitted_integrator(model, min_weight=w) for w in thresholds}
+        timing = measure({f"min_weight {w:g}": renderer(scene, i, spp) for w, i in integrators.items()},
+                         self.s["rounds"])
+        base = timing["min_weight 0"].median
+        reference = np.array(renderer(scene, integrators[0.0], spp)(), np.float64)[..., :3]
+        table = Table(f"Adaptive depth control (every-effect scene at max depth 16, {width}×{height}, {spp} spp)",
+                      ["min weight", "median ms", "vs off", "secondary rays", "culled", "depth reached",
+                       "mean abs error"])
+        self.data["adaptive"] = {}
+        for w, integrator in integrators.items():
+            rays = integrator.render_detailed(scene, spp=spp).rays
+            t = timing[f"min_weight {w:g}"]
+            error = np.abs(np.array(renderer(scene, integrator, spp)(), np.float64)[..., :3] - reference).mean()
+            table.add(f"{w:g}", ms(t.median), t.median / base, rays.reflection + rays.refraction, rays.culled,
+                      rays.max_depth_reached, f"{error:.2e}")
+            self.data["adaptive"][w] = {**vars(t), "rays": rays.rays(), "culled": rays.culled,
+                                        "depth": rays.max_depth_reached, "mean_abs_error": error}
+        self.show(table)
+
+
+def machine() -> dict:
+    cpu = "unknown"
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                cpu = line.split(":", 1)[1].strip()
+                break
+    except OSError:
+        pass
+    llvm = dr.detail.llvm_version() if dr.backend_v(mi.Float) == dr.JitBackend.LLVM else None
+    return {"cpu": cpu, "cores": len(os.sched_getaffinity(0)), "drjit_threads": dr.thread_count(),
+            "variant": mi.variant(), "mitsuba": mi.__version__, "drjit": dr.__version__,
+            "llvm": ".".join(map(str, llvm)) if llvm else None, "python": platform.python_version(),
+            "os": platform.platform(), "date": datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")}
+
+
+REPRODUCE = """\
+## How to reproduce
+
+    make bench                                  # the full run (a few minutes on 2 cores)
+    make bench BENCHFLAGS=--quick               # fewer rounds and sizes (about a minute)
+    .venv/bin/python benchmarks/run.py --markdown benchmarks/RESULTS.md   # rewrite this file
+
+Each number is the median of interleaved runs in one process after two
+warm-up renders per contender (kernels compiled and cached; the "compile s"
+column confirms that nothing was left to compile). Renders are timed as a user
+runs them: `mi.render(scene, integrator, spp, seed=0)` and the developed image.
+Ratios below 1 mean the Whitted integrator is faster. Times vary by a few
+percent from run to run on a shared machine: compare ratios, not times.
+"""
+
+
+def markdown(bench: Bench, info: dict, mode: str, seconds: float) -> str:
+    lines = ["# Benchmark results", "",
+             f"Measured on {info['date']}: {info['cpu']}, {info['cores']} cores "
+             f"({info['drjit_threads']} Dr.Jit threads), variant {info['variant']}, Mitsuba {info['mitsuba']}, "
+             f"Dr.Jit {info['drjit']}, LLVM {info['llvm']}, Python {info['python']}, {info['os']}. "
+             f"Mode: {mode}; the whole run took {seconds:.0f} s.", "",
+             "## Acceptance", "",
+             "| ratio | measured | target |", "|---|---|---|",
+             f"| depth 16 / depth 1 (diffuse, 1024×768, 4 spp) | {bench.summary['depth 16 / depth 1']:.3f} "
+             f"| ≤ {TARGET_DEPTH} |",
+             f"| Whitted / Mitsuba `direct` (same rays) | {bench.summary['whitted / direct']:.3f} "
+             f"| ≤ {TARGET_DIRECT} (stretch: < 1) |",
+             f"| Whitted (article lighting) / `direct` | {bench.summary['whitted (article) / direct']:.3f} | |",
+             f"| Whitted / ray-casting floor | {bench.summary['whitted / floor']:.3f} | (information) |",
+             "", REPRODUCE, "## Results", ""]
+    for table in bench.tables:
+        lines += [table.markdown(), ""]
+    return "\n".join(lines)
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--quick", action="store_true", help="fewer rounds and sizes")
+    parser.add_argument("--variant", default="llvm_ad_rgb", choices=("llvm_ad_rgb", "cuda_ad_rgb"))
+    parser.add_argument("--markdown", metavar="FILE", help="write the results as Markdown (benchmarks/RESULTS.md)")
+    parser.add_argument("--json", metavar="FILE", help="write every number as JSON")
+    args = parser.parse_args(argv)
+
+    whitted.set_variant(args.variant)
+    info = machine()
+    print(f"whitted benchmarks ({'quick' if args.quick else 'full'}): {info['cpu']}, {info['cores']} cores, "
+          f"{info['variant']}, Mitsuba {info['mitsuba']}, Dr.Jit {info['drjit']}", flush=True)
+    start = time.perf_counter()
+    bench = Bench(QUICK if args.quick else FULL, sys.stdout)
+    with tempfile.TemporaryDirectory() as folder:
+        bench.against_direct_and_floor()
+        bench.depth()
+        bench.scaling()
+        bench.effects(Path(folder))
+        bench.adaptive(Path(folder))
+    seconds = time.perf_counter() - start
+
+    print("\n== Acceptance (ratios of median times)")
+    checks = [("depth 16 / depth 1", TARGET_DEPTH), ("whitted / direct", TARGET_DIRECT)]
+    for name, target in checks:
+        value = bench.summary[name]
+        print(f"{name:28s} {value:6.3f}   target <= {target}: {'met' if value <= target else 'MISSED'}")
+    print(f"{'whitted / floor':28s} {bench.summary['whitted / floor']:6.3f}   (information)")
+    print(f"total {seconds:.0f} s")
+
+    if args.markdown:
+        Path(args.markdown).write_text(markdown(bench, info, "quick" if args.quick else "full", seconds))
+    if args.json:
+        Path(args.json).write_text(json.dumps({"machine": info, "summary": bench.summary, **bench.data},
+                                              indent=2, default=float))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,105 @@
+"""The benchmark scenes, written as scene models and converted like any user scene.
+
+Every scene goes through the project's own pipeline (scene model →
+``scene_to_xml`` → ``mi.load_string``). For Mitsuba's ``direct`` integrator the
+same XML gets Mitsuba's C++ ``diffuse`` BSDF in place of each ``article`` BSDF
+(same reflectance), so both integrators see the same sensor, film, spheres
+and light, and Mitsuba runs entirely in C++.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import replace
+from pathlib import Path
+
+import mitsuba as mi
+import numpy as np
+
+from whitted.converter import Light, Material, Scene, Sphere, scene_to_xml
+
+EFFECTS = ("lights", "reflection", "refraction", "textures", "background")
+
+
+def diffuse_spheres(count: int, width: int, height: int, spp: int, depth: int = 1, seed: int = 1) -> Scene:
+    """``count`` diffuse spheres (a ground sphere and ``count - 1`` balls) under one light.
+
+    The balls are scattered at random in a fixed box in view; their radius
+    shrinks as ``count^(-1/3)`` so that they cover about as much of the image
+    whatever their number.
+    """
+    rng = np.random.default_rng(seed)
+    balls = count - 1
+    scale = (10 / max(balls, 1)) ** (1 / 3)
+    spheres = [Sphere((0.0, -1000.0, 0.0), 1000.0, Material(color=(0.8, 0.8, 0.75)))]
+    for _ in range(balls):
+        radius = float(rng.uniform(0.4, 0.8) * scale)
+        centre = (float(rng.uniform(-5, 5)), float(radius + rng.uniform(0, 2.5)), float(rng.uniform(-6, 3)))
+        colour = tuple(float(c) for c in rng.uniform(0.2, 0.9, 3))
+        spheres.append(Sphere(centre, radius, Material(color=colour)))
+    return Scene(width=width, height=height, eye=(0.0, 3.0, 12.0), lookat=(0.0, 0.8, 0.0), fov=50.0,
+                 samples=spp, depth=depth, lights=[Light((6.0, 10.0, 8.0))], spheres=spheres)
+
+
+def every_effect(texture: Path, width: int, height: int, spp: int, depth: int = 5) -> Scene:
+    """A scene calling for every effect: two lights, mirrors, glass, a texture, a background."""
+    return Scene(width=width, height=height, eye=(0.0, 2.0, 9.0), lookat=(0.0, 0.8, 0.0), fov=50.0,
+                 samples=spp, depth=depth, background=(0.35, 0.5, 0.8),
+                 lights=[Light((6.0, 9.0, 7.0)), Light((-8.0, 6.0, 3.0), (0.3, 0.3, 0.35))],
+                 spheres=[Sphere((0.0, -1000.0, 0.0), 1000.0, Material(color=(0.8, 0.8, 0.7), reflect=0.2)),
+                          Sphere((-2.2, 1.0, 0.0), 1.0, Material(color=(0.9, 0.3, 0.2), reflect=0.6)),
+                          Sphere((0.0, 1.0, 1.0), 1.0, Material(color=(1.0, 1.0, 1.0), reflect=0.1,
+                                                                 refract=0.85, ior=1.5)),
+                          Sphere((2.2, 1.0, 0.0), 1.0, Material(texture=texture)),
+                          Sphere((0.8, 0.4, 2.6), 0.4, Material(color=(0.2, 0.5, 0.9)))])
+
+
+def without(model: Scene, effect: str) -> Scene:
+    """``model`` with one effect taken out and everything else kept."""
+    if effect == "lights":
+        return replace(model, lights=[])
+    if effect == "background":
+        return replace(model, background=(0.0, 0.0, 0.0))
+    fields = {"reflection": {"reflect": 0.0}, "refraction": {"refract": 0.0, "ior": 1.0},
+              "textures": {"texture": None}}[effect]
+    return replace(model, spheres=[replace(s, material=replace(s.material, **fields)) for s in model.spheres])
+
+
+def write_texture(path: Path) -> Path:
+    """A 64×32 checker of two colours (8-bit sRGB)."""
+    rows, cols = np.mgrid[0:32, 0:64]
+    checker = ((rows // 4 + cols // 4) % 2).astype(bool)
+    pixels = np.where(checker[..., None], [230, 200, 60], [40, 90, 160]).astype(np.uint8)
+    mi.Bitmap(pixels, pixel_format=mi.Bitmap.PixelFormat.RGB).write(str(path))
+    return path
+
+
+def load(model: Scene):
+    """The scene as ``whitted render`` loads it."""
+    return mi.load_string(scene_to_xml(model, base_dir=None))
+
+
+_ARTICLE = re.compile(r'<bsdf type="article" id="(\w+)">\s*<rgb name="color" value="([^"]*)"/>.*?</bsdf>', re.S)
+
+
+def load_for_direct(model: Scene):
+    """The same scene with Mitsuba's C++ ``diffuse`` BSDF (reflectance = the sphere's colour)."""
+    if any(s.material.reflect or s.material.refract or s.material.texture for s in model.spheres):
+        raise ValueError("Mitsuba's direct integrator is compared on diffuse, untextured spheres only")
+    xml = scene_to_xml(model, base_dir=None)
+    diffuse, replaced = _ARTICLE.subn(r'<bsdf type="diffuse" id="\1"><rgb name="reflectance" value="\2"/></bsdf>',
+                                      xml)
+    assert replaced == xml.count('<bsdf type="article"') and replaced > 0
+    return mi.load_string(diffuse)
+
+
+def whitted_integrator(model: Scene, **properties):
+    """A ``whitted`` integrator with the scene's own settings, ``properties`` overriding them."""
+    return mi.load_dict({"type": "whitted", "max_depth": model.depth, "ambient": model.ambient,
+                         "light_reference": mi.ScalarPoint3f(model.lookat), **properties})
+
+
+def direct_integrator():
+    """Mitsuba's ``direct`` doing a Whitted render's work at depth 1: one emitter sample per
+    hit (for a point light: one shadow ray to it, no random choice), no BSDF samples."""
+    return mi.load_dict({"type": "direct", "emitter_samples": 1, "bsdf_samples": 0})

@@ -1,0 +1,94 @@
+"""Timing and memory for the benchmarks: medians of interleaved runs after warm-up.
+
+Each contender is a function that does one whole render (or kernel) and
+waits for it. All contenders of a comparison are warmed up first, so that
+every kernel they launch is compiled and in Dr.Jit's cache; a checked run
+with Dr.Jit's kernel history then confirms that no compilation is left in
+what is timed. The timed runs alternate between the contenders (in reverse
+order every other round) so that a drift of the machine's speed hits them
+alike, and the median of each is reported with its quartiles.
+"""
+
+from __future__ import annotations
+
+import gc
+import statistics
+import time
+from dataclasses import dataclass
+from typing import Callable
+
+import drjit as dr
+import mitsuba as mi
+
+
+@dataclass
+class Timing:
+    median: float            # seconds
+    q1: float
+    q3: float
+    compile_seconds: float   # compilation left in a run after warm-up (should be 0)
+
+    def spread(self) -> str:
+        """The interquartile range relative to the median, e.g. '±3%'."""
+        return f"±{50 * (self.q3 - self.q1) / self.median:.0f}%" if self.median else "-"
+
+
+def _wait():
+    if dr.is_jit_v(mi.Float):
+        dr.sync_thread()
+
+
+def compile_seconds(run: Callable[[], object]) -> float:
+    """Seconds the JIT backend spent compiling kernels during ``run()``."""
+    if not dr.is_jit_v(mi.Float):
+        return 0.0
+    with dr.scoped_set_flag(dr.JitFlag.KernelHistory, True):
+        _wait()
+        dr.kernel_history_clear()
+        run()
+        _wait()
+        return sum(k.get("backend_time", 0.0) for k in dr.kernel_history()) / 1000.0
+
+
+def measure(contenders: dict[str, Callable[[], object]], rounds: int, warmup: int = 2) -> dict[str, Timing]:
+    """Median wall time of each contender over ``rounds`` interleaved runs."""
+    for run in contenders.values():
+        for _ in range(warmup):
+            run()
+            _wait()
+    compiled = {name: compile_seconds(run) for name, run in contenders.items()}
+    times = {name: [] for name in contenders}
+    names = list(contenders)
+    gc.collect()
+    gc.disable()
+    try:
+        for r in range(rounds):
+            for name in (names if r % 2 == 0 else reversed(names)):
+                _wait()
+                start = time.perf_counter()
+                contenders[name]()
+                _wait()
+                times[name].append(time.perf_counter() - start)
+    finally:
+        gc.enable()
+    result = {}
+    for name, values in times.items():
+        q = statistics.quantiles(values, n=4) if len(values) > 1 else [values[0]] * 3
+        result[name] = Timing(statistics.median(values), q[0], q[2], compiled[name])
+    return result
+
+
+def peak_memory(run: Callable[[], object]) -> int:
+    """Dr.Jit's high-water mark of allocated bytes during ``run()`` (JIT variants; 0 in scalar).
+
+    Counts every array Dr.Jit holds (the scene's, the integrator's and the
+    image), not Embree's acceleration structure or Python's heap.
+    """
+    if not dr.is_jit_v(mi.Float):
+        return 0
+    _wait()
+    dr.flush_malloc_cache()
+    dr.detail.malloc_clear_statistics()
+    run()
+    _wait()
+    return int(dr.detail.malloc_watermark(dr.backend_v(mi.Float)))
