@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-#: hits closer than EPSILON·(1 + |origin|) are the surface the ray leaves
+#: hits closer than EPSILON·(|origin| + r) to a ray's ends are the surfaces it starts or ends on
 EPSILON = 1e-9
 
 
@@ -75,11 +75,17 @@ def camera_ray(scene, i: float, j: float):
 # -- spheres -------------------------------------------------------------------------------------
 
 def intersect(sphere, origin, direction):
-    """Both roots t of |origin + t·direction − C| = r (direction unit), or None."""
-    oc = sub(origin, sphere.center)
-    b = dot(oc, direction)
-    c = dot(oc, oc) - sphere.radius ** 2
-    disc = b * b - c
+    """Both roots t of |origin + t·direction − C| = r (direction unit), or None.
+
+    The discriminant is r² − |f − (f·d)d|² (f = origin − C), not (f·d)² − (|f|² − r²):
+    the latter loses its digits to cancellation when the ray starts far from the
+    sphere (even float64 is off by ~5e-9 at 10^4 radii, more than EPSILON).
+    """
+    f = sub(origin, sphere.center)
+    b = dot(f, direction)
+    c = dot(f, f) - sphere.radius ** 2
+    perpendicular = sub(f, mul(direction, b))
+    disc = sphere.radius ** 2 - dot(perpendicular, perpendicular)
     if disc < 0:
         return None
     root = math.sqrt(disc)
@@ -88,14 +94,19 @@ def intersect(sphere, origin, direction):
     return min(q, t_other), max(q, t_other)
 
 
+def _skip(origin, sphere):
+    """Hits closer than this to a ray's ends are the surfaces the ray starts or ends on."""
+    return EPSILON * (norm(origin) + sphere.radius)
+
+
 def nearest_hit(scene, origin, direction):
     """(t, sphere) of the nearest hit in front of ``origin``, or None."""
-    skip = EPSILON * (1 + norm(origin))
     best = None
     for sphere in scene.spheres:
         roots = intersect(sphere, origin, direction)
         if roots is None:
             continue
+        skip = _skip(origin, sphere)
         for t in roots:
             if t > skip:
                 if best is None or t < best[0]:
@@ -105,14 +116,18 @@ def nearest_hit(scene, origin, direction):
 
 
 def blocked(scene, point, light_position):
-    """True when a sphere crosses the segment from ``point`` to the light."""
+    """True when a sphere crosses the segment from ``point`` to the light.
+
+    Hits within the skip distance of either end are the surfaces the segment
+    starts or ends on: a light sitting exactly on a surface is not hidden by it.
+    """
     to_light = sub(light_position, point)
     distance = norm(to_light)
     direction = mul(to_light, 1 / distance)
-    skip = EPSILON * (1 + norm(point))
     for sphere in scene.spheres:
         roots = intersect(sphere, point, direction)
-        if roots is not None and any(skip < t < distance for t in roots):
+        skip = _skip(point, sphere)
+        if roots is not None and any(skip < t < distance - skip for t in roots):
             return True
     return False
 
