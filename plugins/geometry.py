@@ -27,11 +27,59 @@ import mitsuba as mi
 import numpy as np
 
 
+#: float32's unit round-off, 2^-24
+UNIT_ROUNDOFF = 2.0 ** -24
+#: the error bound of a hit point, in round-offs of its shape's radius and of its centre's
+#: largest coordinate (docs/numerics.md, "Acne")
+RADIUS_ULPS = 8
+CENTRE_ULPS = 4
+
+
+def hit_error(radius, centre):
+    """How far a float32 hit point on a shape may lie off its surface, and how far off
+    a float32 ray-shape test near it may place the surface.
+
+    ``radius`` is the shape's radius (half its bounding box's widest side) and
+    ``centre`` its centre's largest coordinate magnitude. Both terms come from
+    rounding: re-projecting the point (``C + r·N``), subtracting the centre,
+    and Mitsuba's float32 quadratic, whose self-intersection root is off by
+    up to about two ulps of r (head-on rays) and an ulp of |C|. A floor sphere of
+    radius 10^4 under the origin and a unit sphere at 10^4 both get ~5e-3.
+    """
+    return (RADIUS_ULPS * UNIT_ROUNDOFF) * radius + (CENTRE_ULPS * UNIT_ROUNDOFF) * centre
+
+
+def box_error(low, high):
+    """:func:`hit_error` of shapes with bounding boxes ``(low, high)`` (3-vectors or 3×N)."""
+    low, high = np.asarray(low, np.float64), np.asarray(high, np.float64)
+    return hit_error((high - low).max(axis=0) / 2, np.abs((high + low) / 2).max(axis=0))
+
+
 def hit_finder(scene, need_uv: bool):
     """The fastest exact way to intersect ``scene`` in the current variant."""
     if dr.is_jit_v(mi.Float) and SphereHits.applies(scene):
         return SphereHits(scene, need_uv)
     return MitsubaHits(scene, need_uv)
+
+
+def blocked(scene, ray, active):
+    """Whether a surface crosses the segment ``ray`` (from its origin to ``ray.maxt``).
+
+    In the JIT variants Mitsuba's ``ray_test`` on a sphere solves the textbook
+    quadratic in float32, whose discriminant ``B² - 4AC`` loses every digit
+    when the ray starts a few thousand radii from the sphere (a small ball
+    near a distant light casts a shadow of noise). Its ``ray_intersect_preliminary``
+    first moves the origin to the plane through the sphere's centre and stays
+    exact, so shadow rays use it. The scalar variants solve in float64 already.
+    """
+    if dr.is_jit_v(mi.Float):
+        return scene.ray_intersect_preliminary(ray, coherent=False, active=active).is_valid()
+    return scene.ray_test(ray, active)
+
+
+def _shape_rows(scene) -> np.ndarray:
+    """Each shape's instance ID (JIT variants), the row of per-shape tables."""
+    return np.array(dr.reinterpret_array(mi.UInt32, scene.shapes_dr()), np.int64).reshape(-1)
 
 
 class MitsubaHits:
@@ -41,15 +89,31 @@ class MitsubaHits:
         self.scene = scene
         self.flags = mi.RayFlags.Minimal | (mi.RayFlags.UV if need_uv else mi.RayFlags.Empty)
         self.vectorized = dr.is_jit_v(mi.Float)
+        shapes = scene.shapes()
+        boxes = [shape.bbox() for shape in shapes]
+        errors = box_error(np.array([b.min for b in boxes]).T.reshape(3, -1),
+                           np.array([b.max for b in boxes]).T.reshape(3, -1))
+        if self.vectorized:
+            table = np.zeros(int(_shape_rows(scene).max()) + 1 if shapes else 1)
+            table[_shape_rows(scene) if shapes else []] = errors
+            self._error = mi.Float(table)
+            dr.make_opaque(self._error)
+        else:   # the scalar variant hands out the same shape objects each time
+            self._error = {id(shape): float(e) for shape, e in zip(shapes, errors)}
 
     def intersect(self, ray, coherent: bool):
-        """``(hit, si, bsdf)``; ``bsdf`` is the BSDF's instance ID (JIT) or the BSDF itself
-        (scalar, only meaningful where ``hit``)."""
+        """``(hit, si, bsdf, error)``; ``bsdf`` is the BSDF's instance ID (JIT) or the BSDF
+        itself (scalar, only meaningful where ``hit``); ``error`` bounds how far ``si.p``
+        lies off the surface (:func:`hit_error`)."""
         si = self.scene.ray_intersect(ray, ray_flags=self.flags, coherent=coherent)
         hit = si.is_valid()
         if self.vectorized:
-            return hit, si, dr.reinterpret_array(mi.UInt32, si.bsdf())
-        return hit, si, si.bsdf() if hit else None
+            row = dr.reinterpret_array(mi.UInt32, si.shape)
+            return (hit, si, dr.reinterpret_array(mi.UInt32, si.bsdf()),
+                    dr.gather(mi.Float, self._error, row, hit))
+        if not hit:
+            return hit, si, None, 0.0
+        return hit, si, si.bsdf(), self._error[id(si.shape)]
 
 
 class SphereHits:
@@ -64,7 +128,7 @@ class SphereHits:
         self.scene = scene
         self.need_uv = need_uv
         shapes = scene.shapes()
-        ids = np.array(dr.reinterpret_array(mi.UInt32, scene.shapes_dr()), np.int64).reshape(-1)
+        ids = _shape_rows(scene)
         bsdf_ids = np.array(dr.reinterpret_array(mi.UInt32, scene.shapes_dr().bsdf()), np.uint32).reshape(-1)
         size = int(ids.max()) + 1
         centre = np.zeros((3, size))
@@ -85,11 +149,13 @@ class SphereHits:
                 frame[:, :, row] = (matrix[:3, :3] / radius[row]).T
         self._centre = mi.Point3f(centre)
         self._radius = mi.Float(radius)
+        self._error = mi.Float(hit_error(radius, np.abs(centre).max(axis=0)))
         self._bsdf = mi.UInt32(bsdf)
         self._frame = [mi.Vector3f(frame[axis]) for axis in range(3)]
-        dr.make_opaque(self._centre, self._radius, self._bsdf, *self._frame)
+        dr.make_opaque(self._centre, self._radius, self._error, self._bsdf, *self._frame)
 
     def intersect(self, ray, coherent: bool):
+        """``(hit, si, bsdf, error)`` as :meth:`MitsubaHits.intersect`, ``bsdf`` an instance ID."""
         pi = self.scene.ray_intersect_preliminary(ray, coherent=coherent)
         hit = pi.is_valid()
         row = dr.reinterpret_array(mi.UInt32, pi.shape)
@@ -105,4 +171,4 @@ class SphereHits:
             x, y, z = (dr.dot(si.n, dr.gather(mi.Vector3f, axis, row, hit)) for axis in self._frame)
             u = dr.atan2(y, x) * dr.inv_two_pi
             si.uv = mi.Point2f(dr.select(u < 0, u + 1, u), dr.safe_acos(z) * dr.inv_pi)
-        return hit, si, dr.gather(mi.UInt32, self._bsdf, row, hit)
+        return hit, si, dr.gather(mi.UInt32, self._bsdf, row, hit), dr.gather(mi.Float, self._error, row, hit)

@@ -22,7 +22,7 @@ import drjit as dr
 import mitsuba as mi
 
 from . import optics
-from .geometry import hit_finder
+from .geometry import blocked, hit_error, hit_finder
 from .surfaces import SurfaceTable
 
 
@@ -52,6 +52,42 @@ def _not(mask):
 def _constant(tp, value):
     """A per-render constant: opaque in JIT variants, so kernels are reused across scenes."""
     return dr.opaque(tp, value) if dr.is_jit_v(mi.Float) else tp(value)
+
+
+def offset_origin(p, n, error, d):
+    """``p`` moved by ``error`` along the normal ``n``, to the side that ``d`` leaves towards.
+
+    ``error`` bounds how far the float32 hit point ``p`` lies off its surface
+    (see :func:`.geometry.hit_error`): from the moved origin, neither the
+    surface's true position nor the float32 ray-surface test can put the
+    surface in front of the ray again (no acne). Mitsuba's own ``spawn_ray``
+    moves by ``(1 + max|p_i|)·RayEpsilon`` instead, which is too little for a
+    huge sphere under the origin and far too much in a scene of size 10^-3 or
+    at 10^4 (docs/numerics.md).
+    """
+    return dr.fma(dr.mulsign(error, dr.dot(n, d)), n, p)
+
+
+def spawn_ray(si, error, d):
+    """The ray leaving the hit ``si`` along ``d``."""
+    return mi.Ray3f(offset_origin(si.p, si.n, error, d), d)
+
+
+def spawn_ray_to(si, error, target):
+    """The segment from the hit ``si`` to ``target``, stopping just short of ``target``.
+
+    It stops by the error bound of a surface point at ``target`` (a light
+    sitting exactly on a surface is not hidden by that surface), not by a
+    fixed fraction of its length as Mitsuba's ``spawn_ray_to`` does: a light
+    inside a small sphere far away stays inside it.
+    """
+    origin = offset_origin(si.p, si.n, error, target - si.p)
+    d = target - origin
+    distance2 = dr.squared_norm(d)
+    distance = dr.sqrt(distance2)
+    ray = mi.Ray3f(origin, d * dr.rsqrt(dr.maximum(distance2, _TINY)))  # no 0/0 at the target
+    ray.maxt = distance - hit_error(distance, dr.max(dr.abs(target)))
+    return ray
 
 
 class RayCounter:
@@ -102,7 +138,7 @@ class Shader:
 
     def shade(self, ray, weight, spawn: bool, coherent: bool = False) -> Shaded:
         """One level of the tree for ``ray``; ``spawn`` is False at the last level."""
-        hit, si, bsdf = self.hits.intersect(ray, coherent)
+        hit, si, bsdf, error = self.hits.intersect(ray, coherent)
         colour = mi.Color3f(0)
         if self.environment is not None:
             colour = dr.select(hit, colour, weight * self.background(ray, _not(hit)))
@@ -112,7 +148,7 @@ class Shader:
         v = ray.d
         n_facing, inside = optics.facing_normal(v, si.n)
         surface = self.surfaces.lookup(si, bsdf, hit)
-        point = self.point_colour(si, n_facing, surface.base, hit)
+        point = self.point_colour(si, error, n_facing, surface.base, hit)
         diffuse = 1 - surface.reflect - surface.refract
         colour = dr.select(hit, weight * diffuse * point, colour)
 
@@ -121,31 +157,31 @@ class Shader:
             c1 = optics.cos_incidence(v, n_facing)
             mirror = optics.unit(optics.reflect(v, n_facing, c1))
             if self.reflection:
-                children.append(Child("reflection", si.spawn_ray(mirror),
+                children.append(Child("reflection", spawn_ray(si, error, mirror),
                                       dr.select(hit, weight * surface.reflect, 0)))
             if self.refraction:
                 eta = optics.relative_ior(surface.ior, inside)
                 t, tir = optics.refract(v, n_facing, c1, eta)
                 t = dr.select(tir, mirror, optics.unit(t))
-                children.append(Child("refraction", si.spawn_ray(t),
+                children.append(Child("refraction", spawn_ray(si, error, t),
                                       dr.select(hit, weight * surface.refract, 0)))
         return Shaded(colour, children)
 
-    def point_colour(self, si, n_facing, base, active):
+    def point_colour(self, si, error, n_facing, base, active):
         """``B·(A + (1 - A)·Σ s·light)`` (article) or ``(B/π)·Σ I·max(0, N'·L)/r²`` (physical)."""
         direct = mi.Color3f(0)
         for position, strength in self.lights:
-            direct += self.light(si, n_facing, position, strength, active)
+            direct += self.light(si, error, n_facing, position, strength, active)
         if self.physical:
             return base * dr.inv_pi * direct
         return base * (self.ambient + (1 - self.ambient) * direct)
 
-    def light(self, si, n_facing, position, strength, active):
+    def light(self, si, error, n_facing, position, strength, active):
         """One light's ``s·light_colour`` (article) or ``I·cos/r²`` (physical), 0 in shadow.
 
         Every sphere blocks the segment to the light, transparent ones too. The
-        shadow ray leaves from a point offset off the surface (Mitsuba's
-        ``spawn_ray_to``, scaled to |P|) so it cannot hit the surface it leaves.
+        shadow ray leaves from a point moved off the surface by the hit's error
+        bound (:func:`spawn_ray_to`), so it cannot hit the surface it leaves.
         """
         to_light = position - si.p
         dist2 = dr.squared_norm(to_light)
@@ -154,7 +190,7 @@ class Shader:
         if not self.vectorized and not facing:
             return mi.Color3f(0)
         self.counter.add_shadow(facing)
-        visible = facing & _not(self.scene.ray_test(si.spawn_ray_to(position), facing))
+        visible = facing & _not(blocked(self.scene, spawn_ray_to(si, error, position), facing))
         if self.physical:
             strength = strength * dr.rcp(dr.maximum(dist2, _TINY))
         return dr.select(visible, cos * strength, 0)
