@@ -7,7 +7,9 @@ own camera rays (the same pixel positions), the nearest hit, the facing test,
 Mitsuba's ``ray_test`` towards the light, and one float per sample written
 out (the cosine where lit) so that nothing is optimised away. No material,
 no film, no image. What a render costs above it is the price of shading and
-of accumulating the image.
+of accumulating the image. With ``film=True`` the floor also splats that
+value into Mitsuba's film as a grey sample and develops the image, as the
+integrators do: the floor of any renderer that hands back a Mitsuba image.
 
 Two ways to the nearest hit are timed, and the faster one is the floor:
 Mitsuba's ``scene.ray_intersect`` (a surface interaction from the hit
@@ -24,18 +26,18 @@ HIT_FINDERS = ("ray_intersect", "sphere table")
 
 
 class RayCastingFloor:
-    def __init__(self, scene, light_position, spp: int, hit_finder: str, seed: int = 0):
+    def __init__(self, scene, light_position, spp: int, hit_finder: str, seed: int = 0, film: bool = False):
         from whitted.plugins.geometry import SphereHits
         from whitted.plugins.integrator import WhittedIntegrator
         if hit_finder not in HIT_FINDERS:
             raise ValueError(f"hit_finder must be one of {HIT_FINDERS}")
-        self.scene, self.spp, self.seed = scene, spp, seed
+        self.scene, self.spp, self.seed, self.film = scene, spp, seed, film
         self.light = mi.Point3f(light_position)
         self.table = SphereHits(scene, need_uv=False) if hit_finder == "sphere table" else None
         self.camera_ray = WhittedIntegrator._camera_ray
 
     def trace(self):
-        """``(shadow_ray_cast, value)`` per sample, not yet evaluated."""
+        """``(hit, shadow_ray_cast, value)`` per sample, not yet evaluated."""
         sensor = self.scene.sensors()[0]
         width, height = (int(c) for c in sensor.film().crop_size())
         index = dr.arange(mi.UInt32, width * height * self.spp)
@@ -46,7 +48,7 @@ class RayCastingFloor:
             sample = index - pixel * dr.opaque(mi.UInt32, self.spp)
         y = pixel // dr.opaque(mi.UInt32, width)
         x = pixel - y * dr.opaque(mi.UInt32, width)
-        ray, _, _ = self.camera_ray(sensor, x, y, pixel, sample, self.spp, self.seed)
+        ray, _, self.position = self.camera_ray(sensor, x, y, pixel, sample, self.spp, self.seed)
         if self.table is not None:
             hit, si = self.table.intersect(ray, coherent=True)[:2]
         else:
@@ -57,13 +59,24 @@ class RayCastingFloor:
         cos = dr.dot(n, to_light) * dr.rsqrt(dr.squared_norm(to_light))
         cast = hit & (cos > 0)
         visible = cast & ~self.scene.ray_test(si.spawn_ray_to(self.light), cast)
-        return cast, dr.select(visible, cos, 0)
+        return hit, cast, dr.select(visible, cos, 0)
 
     def __call__(self):
-        _, value = self.trace()
-        dr.eval(value)
-        return value
+        value = self.trace()[2]
+        if not self.film:
+            dr.eval(value)
+            return value
+        film = self.scene.sensors()[0].film()
+        film.prepare([])
+        block = film.create_block()
+        block.set_coalesce(block.coalesce() and self.spp >= 4)
+        block.put(self.position, [value, value, value, mi.Float(1)])
+        film.put_block(block)
+        image = film.develop()
+        dr.eval(image)
+        return image
 
-    def shadow_rays(self) -> int:
-        cast, _ = self.trace()
-        return int(dr.count(cast)[0])
+    def counts(self) -> tuple[int, int]:
+        """``(hits, shadow rays)``: camera rays that hit a surface, and the shadow rays cast."""
+        hit, cast, _ = self.trace()
+        return int(dr.count(hit)[0]), int(dr.count(cast)[0])
