@@ -282,11 +282,11 @@ def machine() -> dict:
     def git(*args) -> str:
         try:
             return subprocess.run(["git", *args], capture_output=True, text=True, check=True,
-                                  cwd=Path(__file__).resolve().parent).stdout.strip()
+                                  cwd=Path(__file__).resolve().parent).stdout
         except (OSError, subprocess.CalledProcessError):
-            return "unknown"
-    source = git("describe", "--always", "--dirty")
-    changed = [line[3:] for line in git("status", "--porcelain", "--untracked-files=no").splitlines()]
+            return ""
+    source = git("describe", "--always", "--dirty").strip() or "unknown"
+    changed = [line[3:] for line in git("status", "--porcelain", "--untracked-files=no").splitlines() if line]
     if changed:
         source += f" (uncommitted changes in {', '.join(changed)})"
     return {"source": source, "cpu": cpu, "cores": len(os.sched_getaffinity(0)), "drjit_threads": dr.thread_count(),
