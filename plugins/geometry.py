@@ -49,10 +49,44 @@ def hit_error(radius, centre):
     return (RADIUS_ULPS * UNIT_ROUNDOFF) * radius + (CENTRE_ULPS * UNIT_ROUNDOFF) * centre
 
 
-def box_error(low, high):
-    """:func:`hit_error` of shapes with bounding boxes ``(low, high)`` (3-vectors or 3×N)."""
-    low, high = np.asarray(low, np.float64), np.asarray(high, np.float64)
-    return hit_error((high - low).max(axis=0) / 2, np.abs((high + low) / 2).max(axis=0))
+def lat_long_uv(n, x_axis, y_axis, z_axis):
+    """The article's lat/long mapping of the unit normal ``n`` in a sphere's frame, as
+    Mitsuba's sphere UV: ``u = atan2(y, x)/2π``, ``v = acos(z)/π`` (v = 0 at the north pole).
+
+    The converter orients the frame so that this is the article's (u, 1 - v)
+    (docs/CONTRACTS.md). atan2 needs no division by sin(phi), and its two
+    singular sets follow the spec: at a pole (|z| = 1 in float32: sin(phi) = 0)
+    u = 0, and on the seam (y = 0, x > 0: theta = 0 and (Vn × Ve)·Vp = 0, the
+    "otherwise" case) u = 1. A camera on the axis sees a pole pixel, and one in
+    the seam's plane a whole row of seam pixels.
+    """
+    x, y, z = dr.dot(n, x_axis), dr.dot(n, y_axis), dr.dot(n, z_axis)
+    angle = dr.atan2(y, x)   # (-π, π]
+    u = dr.select(angle > 0, angle, angle + dr.two_pi) * dr.inv_two_pi
+    pole = dr.abs(z) >= 1
+    return mi.Point2f(dr.select(pole, 0.0, u), dr.safe_acos(z) * dr.inv_pi)
+
+
+def _shape_numbers(scene, need_uv: bool):
+    """Per shape, in ``scene.shapes()`` order: ``(centre, radius, error, frame)``.
+
+    Centre and radius come from the bounding box (exact to a float32 ulp of
+    |C| + r for a sphere: within the error bound); ``frame`` (rows: the local
+    x, y and z axes) is the ``to_world`` rotation of a sphere whose colour varies
+    over it, None for every other shape.
+    """
+    numbers = []
+    for shape in scene.shapes():
+        box = shape.bbox()
+        low, high = np.array(box.min, np.float64), np.array(box.max, np.float64)
+        centre, radius = (low + high) / 2, (high - low).max() / 2
+        frame = None
+        if need_uv and shape.class_name() == "Sphere" and shape.bsdf().color.is_spatially_varying():
+            matrix = np.array(mi.traverse(shape)["to_world"].matrix, np.float64).reshape(4, 4)
+            centre, radius = matrix[:3, 3], np.linalg.norm(matrix[:3, 0])
+            frame = (matrix[:3, :3] / radius).T
+        numbers.append((centre, radius, hit_error(radius, np.abs(centre).max()), frame))
+    return numbers
 
 
 def hit_finder(scene, need_uv: bool):
@@ -83,23 +117,34 @@ def _shape_rows(scene) -> np.ndarray:
 
 
 class MitsubaHits:
-    """Surface interactions from Mitsuba's own ``ray_intersect`` (any shape)."""
+    """Surface interactions from Mitsuba's own ``ray_intersect`` (any shape).
+
+    Textured spheres get their UV from :func:`lat_long_uv` rather than from
+    Mitsuba, whose UV goes through the inverse of ``to_world`` and so misses the
+    poles and the seam by a rounding error.
+    """
 
     def __init__(self, scene, need_uv: bool):
         self.scene = scene
+        self.need_uv = need_uv
         self.flags = mi.RayFlags.Minimal | (mi.RayFlags.UV if need_uv else mi.RayFlags.Empty)
         self.vectorized = dr.is_jit_v(mi.Float)
-        shapes = scene.shapes()
-        boxes = [shape.bbox() for shape in shapes]
-        errors = box_error(np.array([b.min for b in boxes]).T.reshape(3, -1),
-                           np.array([b.max for b in boxes]).T.reshape(3, -1))
-        if self.vectorized:
-            table = np.zeros(int(_shape_rows(scene).max()) + 1 if shapes else 1)
-            table[_shape_rows(scene) if shapes else []] = errors
-            self._error = mi.Float(table)
-            dr.make_opaque(self._error)
-        else:   # the scalar variant hands out the same shape objects each time
-            self._error = {id(shape): float(e) for shape, e in zip(shapes, errors)}
+        numbers = _shape_numbers(scene, need_uv)
+        if not self.vectorized:   # the scalar variant hands out the same shape objects each time
+            self._shapes = {id(shape): (error, None if frame is None else [mi.Vector3f(axis) for axis in frame])
+                            for shape, (_, _, error, frame) in zip(scene.shapes(), numbers)}
+            return
+        rows = _shape_rows(scene) if numbers else np.zeros(0, np.int64)
+        size = int(rows.max()) + 1 if numbers else 1
+        error, mapped = np.zeros(size), np.zeros(size, bool)
+        frame = np.zeros((3, 3, size))
+        for row, (_, _, shape_error, shape_frame) in zip(rows, numbers):
+            error[row] = shape_error
+            if shape_frame is not None:
+                mapped[row], frame[:, :, row] = True, shape_frame
+        self._error, self._mapped = mi.Float(error), mi.Bool(mapped)
+        self._frame = [mi.Vector3f(frame[axis]) for axis in range(3)]
+        dr.make_opaque(self._error, self._mapped, *self._frame)
 
     def intersect(self, ray, coherent: bool):
         """``(hit, si, bsdf, error)``; ``bsdf`` is the BSDF's instance ID (JIT) or the BSDF
@@ -107,13 +152,19 @@ class MitsubaHits:
         lies off the surface (:func:`hit_error`)."""
         si = self.scene.ray_intersect(ray, ray_flags=self.flags, coherent=coherent)
         hit = si.is_valid()
-        if self.vectorized:
-            row = dr.reinterpret_array(mi.UInt32, si.shape)
-            return (hit, si, dr.reinterpret_array(mi.UInt32, si.bsdf()),
-                    dr.gather(mi.Float, self._error, row, hit))
-        if not hit:
-            return hit, si, None, 0.0
-        return hit, si, si.bsdf(), self._error[id(si.shape)]
+        if not self.vectorized:
+            if not hit:
+                return hit, si, None, 0.0
+            error, frame = self._shapes[id(si.shape)]
+            if frame is not None:
+                si.uv = lat_long_uv(si.n, *frame)
+            return hit, si, si.bsdf(), error
+        row = dr.reinterpret_array(mi.UInt32, si.shape)
+        if self.need_uv:
+            mapped = dr.gather(mi.Bool, self._mapped, row, hit)
+            frame = [dr.gather(mi.Vector3f, axis, row, mapped) for axis in self._frame]
+            si.uv = dr.select(mapped, lat_long_uv(si.n, *frame), si.uv)
+        return hit, si, dr.reinterpret_array(mi.UInt32, si.bsdf()), dr.gather(mi.Float, self._error, row, hit)
 
 
 class SphereHits:
@@ -127,29 +178,21 @@ class SphereHits:
     def __init__(self, scene, need_uv: bool):
         self.scene = scene
         self.need_uv = need_uv
-        shapes = scene.shapes()
-        ids = _shape_rows(scene)
+        rows = _shape_rows(scene)
         bsdf_ids = np.array(dr.reinterpret_array(mi.UInt32, scene.shapes_dr().bsdf()), np.uint32).reshape(-1)
-        size = int(ids.max()) + 1
-        centre = np.zeros((3, size))
-        radius = np.ones(size)
-        frame = np.zeros((3, 3, size))   # columns: the sphere's local x, y, z axes
+        size = int(rows.max()) + 1
+        centre, radius, error = np.zeros((3, size)), np.ones(size), np.zeros(size)
+        frame = np.zeros((3, 3, size))   # rows: the sphere's local x, y, z axes
         frame[0, 0] = frame[1, 1] = frame[2, 2] = 1.0
         bsdf = np.zeros(size, np.uint32)
-        for row, shape, bsdf_id in zip(ids, shapes, bsdf_ids):
-            box = shape.bbox()
-            low, high = np.array(box.min, np.float64), np.array(box.max, np.float64)
-            centre[:, row] = (low + high) / 2
-            radius[row] = (high[0] - low[0]) / 2
+        for row, bsdf_id, numbers in zip(rows, bsdf_ids, _shape_numbers(scene, need_uv)):
+            centre[:, row], radius[row], error[row], shape_frame = numbers
             bsdf[row] = bsdf_id
-            if need_uv and shape.bsdf().color.is_spatially_varying():
-                matrix = np.array(mi.traverse(shape)["to_world"].matrix, np.float64).reshape(4, 4)
-                centre[:, row] = matrix[:3, 3]
-                radius[row] = np.linalg.norm(matrix[:3, 0])
-                frame[:, :, row] = (matrix[:3, :3] / radius[row]).T
+            if shape_frame is not None:
+                frame[:, :, row] = shape_frame
         self._centre = mi.Point3f(centre)
         self._radius = mi.Float(radius)
-        self._error = mi.Float(hit_error(radius, np.abs(centre).max(axis=0)))
+        self._error = mi.Float(error)
         self._bsdf = mi.UInt32(bsdf)
         self._frame = [mi.Vector3f(frame[axis]) for axis in range(3)]
         dr.make_opaque(self._centre, self._radius, self._error, self._bsdf, *self._frame)
@@ -168,7 +211,5 @@ class SphereHits:
         si.time = ray.time
         si.wavelengths = ray.wavelengths
         if self.need_uv:
-            x, y, z = (dr.dot(si.n, dr.gather(mi.Vector3f, axis, row, hit)) for axis in self._frame)
-            u = dr.atan2(y, x) * dr.inv_two_pi
-            si.uv = mi.Point2f(dr.select(u < 0, u + 1, u), dr.safe_acos(z) * dr.inv_pi)
+            si.uv = lat_long_uv(si.n, *(dr.gather(mi.Vector3f, axis, row, hit) for axis in self._frame))
         return hit, si, dr.gather(mi.UInt32, self._bsdf, row, hit), dr.gather(mi.Float, self._error, row, hit)

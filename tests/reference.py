@@ -164,9 +164,10 @@ def lat_long(sphere, point):
     e = sphere.equator
     ve = normalize(sub(e, mul(vn, dot(e, vn))))
     vp = normalize(sub(point, sphere.center))
-    phi = math.acos(max(-1.0, min(1.0, -dot(vn, vp))))
+    c = dot(vn, vp)
+    phi = math.acos(max(-1.0, min(1.0, -c)))
     v = phi / math.pi
-    s = math.sin(phi)
+    s = math.sqrt(max(0.0, 1.0 - c * c))    # sin(phi); math.sin(math.pi) is 1.2e-16, not 0
     if s == 0:
         return 0.0, v
     theta = math.acos(max(-1.0, min(1.0, dot(vp, ve) / s))) / (2 * math.pi)
