@@ -1,0 +1,247 @@
+"""One small scene per numerical hazard of docs/numerics.md, built with the scene model.
+
+Each builder returns a :class:`whitted.converter.Scene`; ``HAZARDS`` maps the
+catalogue's hazard names to them. Images are tiny (at most 48×32) so that
+both variants and the float64 reference render each scene in well under a
+second. :func:`transformed` makes the moved and scaled copies of the
+invariance tests, and :func:`assert_matches` is the comparison they all use.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+
+from whitted.converter import Light, Material, Scene, Sphere
+
+W, H = 48, 32
+
+GLASS = Material(color=(1.0, 1.0, 1.0), reflect=0.1, refract=0.85, ior=1.5)
+MIRROR = Material(color=(0.9, 0.9, 0.9), reflect=0.8)
+RED = Material(color=(0.9, 0.25, 0.2))
+GREEN = Material(color=(0.25, 0.85, 0.3))
+BLUE = Material(color=(0.2, 0.35, 0.9))
+FLOOR = Material(color=(0.8, 0.8, 0.75))
+
+
+def stripes(path: Path, width: int = 15, height: int = 7) -> Path:
+    """An 8-bit sRGB PNG whose texels all differ: red from the column, green from the row."""
+    import mitsuba as mi
+    rows, cols = np.mgrid[0:height, 0:width]
+    pixels = np.stack([(cols + 0.5) / width, (rows + 0.5) / height, np.full(rows.shape, 0.3)], axis=-1)
+    mi.Bitmap((pixels * 255).round().astype(np.uint8), pixel_format=mi.Bitmap.PixelFormat.RGB).write(str(path))
+    return path
+
+
+def assert_matches(image: np.ndarray, expected: np.ndarray, mean_tol=0.004, outliers=0.01):
+    """Finite, mean absolute difference <= ``mean_tol``, at most ``outliers`` of the pixels
+    off by more than 0.02 (in any channel)."""
+    assert image.shape == expected.shape
+    assert np.all(np.isfinite(image)), "NaN or infinity in the image"
+    diff = np.abs(image.astype(np.float64) - expected)
+    mean = diff.mean()
+    off = (diff.max(axis=2) > 0.02).mean()
+    assert mean <= mean_tol, f"mean absolute difference {mean:.5f} > {mean_tol}"
+    assert off <= outliers, f"{off:.2%} of pixels off by more than 0.02"
+
+
+def _camera(**overrides) -> dict:
+    return dict(width=W, height=H, eye=(0.0, 1.5, 8.0), lookat=(0.0, 0.5, 0.0), **overrides)
+
+
+# -- the hazards ---------------------------------------------------------------------------------
+
+#: the pixel of :func:`texture_poles` whose ray meets a pole exactly (row, column)
+POLE_PIXEL = (12, 16)
+
+
+def texture_poles(tmp_dir: Path) -> Scene:
+    """Two globes, each with a pole facing the eye; with an odd image, the middle pixel's ray
+    meets the left globe's north pole exactly (sin(phi) = 0, |Vn·Vp| = 1 in float32 too).
+    The seam is turned off the middle row: on it, the camera's own rounding (which differs
+    between the variants) would pick the side."""
+    texture = Material(texture=stripes(tmp_dir / "stripes.png"))
+    return Scene(width=33, height=25, eye=(0.0, 0.0, 6.0), lookat=(0.0, 0.0, 0.0), fov=50.0, ambient=1.0,
+                 spheres=[Sphere((0.0, 0.0, 0.0), 1.5, texture, north=(0.0, 0.0, 1.0), equator=(1.0, 0.37, 0.0)),
+                          Sphere((2.6, 0.9, 0.0), 0.8, texture, north=(-0.5, -0.3, -0.9), equator=(0.0, 1.0, 0.0))])
+
+
+def tilted_globes(tmp_dir: Path) -> Scene:
+    """Globes whose north axes are not unit-exact in float32: Vn·Vp lands an ulp beyond ±1
+    near the poles, where arccos is undefined."""
+    texture = Material(texture=stripes(tmp_dir / "stripes.png"))
+    north = (0.31, 0.17, 0.93)
+    return Scene(width=W, height=H, eye=(0.0, 0.0, 7.0), lookat=(0.0, 0.0, 0.0), fov=40.0, ambient=1.0,
+                 spheres=[Sphere((-1.0, 0.0, 0.0), 1.2, texture, north=north, equator=(1.0, 0.0, -0.33)),
+                          Sphere((1.4, 0.2, 0.5), 0.9, texture, north=(-north[0], -north[1], north[2]),
+                                 equator=(0.0, 1.0, 0.2))])
+
+
+def total_internal_reflection() -> Scene:
+    """A glass ball holding an air bubble (IOR 1/1.5): rays inside the glass meet the bubble
+    at grazing angles and are totally reflected (k < 0)."""
+    return Scene(**_camera(depth=8, background=(0.8, 0.85, 0.95), ambient=0.3),
+                 lights=[Light((4.0, 8.0, 6.0)), Light((-5.0, 3.0, 5.0), (0.4, 0.4, 0.4))],
+                 spheres=[Sphere((0.0, -100.0, 0.0), 100.0, FLOOR),
+                          Sphere((0.0, 0.9, 0.0), 1.4, Material(reflect=0.05, refract=0.9, ior=1.5)),
+                          Sphere((0.25, 1.0, 0.3), 0.8, Material(refract=1.0, ior=1 / 1.5)),
+                          Sphere((-1.5, 0.6, -3.0), 0.6, RED), Sphere((1.5, 0.6, -3.0), 0.6, GREEN)])
+
+
+def grazing() -> Scene:
+    """The eye just above a huge transparent floor looking along it: every floor pixel is a
+    grazing hit (c1 near 0). Its IOR 0.8 makes n = 1.25 on entering, so rays with c1 < 0.6
+    are totally reflected, and the rest bend away from the normal."""
+    return Scene(width=W, height=H, eye=(0.0, 0.15, 6.0), lookat=(0.0, 0.05, 0.0), fov=60.0, depth=5,
+                 background=(0.5, 0.6, 0.8), ambient=0.25, lights=[Light((2.0, 5.0, 3.0))],
+                 spheres=[Sphere((0.0, -1000.0, 0.0), 1000.0, Material(color=(0.6, 0.7, 0.6), reflect=0.3,
+                                                                      refract=0.6, ior=0.8)),
+                          Sphere((0.0, -3.0, -4.0), 1.5, RED), Sphere((-1.5, 0.5, -2.0), 0.5, MIRROR),
+                          Sphere((1.2, 0.4, -1.0), 0.4, BLUE)])
+
+
+def low_ior() -> Scene:
+    """IOR below 1 (0.6) and far below (0.02): from outside, n = 1/IOR > 1 and every ray
+    beyond the critical angle is totally reflected; inside, rays bend towards the normal."""
+    return Scene(**_camera(depth=6, background=(0.3, 0.3, 0.35)), lights=[Light((3.0, 6.0, 6.0))],
+                 spheres=[Sphere((0.0, -100.0, 0.0), 100.0, FLOOR),
+                          Sphere((-1.3, 0.8, 0.0), 1.0, Material(reflect=0.1, refract=0.85, ior=0.6)),
+                          Sphere((1.3, 0.8, 0.0), 1.0, Material(color=(0.9, 0.9, 1.0), refract=0.9, ior=0.02)),
+                          Sphere((0.0, 0.5, -3.0), 0.8, RED)])
+
+
+def large_floor() -> Scene:
+    """A reflective floor sphere of radius 10^4 under unit spheres: its float32 surface is
+    only known to ~10^-3, where Mitsuba's offset (1 + |p|)·9e-5 leaves acne on the floor."""
+    return Scene(**_camera(depth=4, background=(0.4, 0.5, 0.7)),
+                 lights=[Light((3.0, 6.0, 4.0)), Light((-4.0, 3.0, 5.0), (0.4, 0.4, 0.4))],
+                 spheres=[Sphere((0.0, -1e4, 0.0), 1e4, Material(color=(0.8, 0.8, 0.75), reflect=0.3)),
+                          Sphere((-1.2, 1.0, 0.0), 1.0, MIRROR), Sphere((1.3, 0.8, 0.8), 0.8, GREEN),
+                          Sphere((0.4, 0.3, -2.0), 0.3, BLUE)])
+
+
+def far_camera() -> Scene:
+    """The eye 10^4 away with a telephoto lens: the quadratic's (f·d)² − (|f|² − r²) cancels
+    for rays that start 10^4 radii from the sphere they hit."""
+    scene = mirror_and_glass()
+    distance = 1e4
+    scene.eye = (0.0, 1.5 * distance / 8.0, distance)
+    scene.fov = math.degrees(2 * math.atan(math.tan(math.radians(45.0) / 2) * 8.0 / distance))
+    return scene
+
+
+def far_occluder() -> Scene:
+    """A ball of radius 0.02 just under a light 100 above the floor: shadow rays from the
+    floor pass it 5000 radii from where they start."""
+    return Scene(width=W, height=H, eye=(0.0, 6.0, 14.0), lookat=(0.0, 0.0, 0.0), ambient=0.2,
+                 lights=[Light((0.0, 100.0, 0.0))],
+                 spheres=[Sphere((0.0, -100.0, 0.0), 100.0, FLOOR), Sphere((0.0, 99.4, 0.0), 0.02, RED),
+                          Sphere((2.5, 0.7, 0.0), 0.7, BLUE)])
+
+
+def mirror_and_glass() -> Scene:
+    """Every kind of secondary ray at once: a reflective floor, a mirror, glass, shadows."""
+    return Scene(**_camera(depth=6, background=(0.3, 0.4, 0.6)),
+                 lights=[Light((3.0, 6.0, 4.0)), Light((-4.0, 3.0, 5.0), (0.4, 0.4, 0.4))],
+                 spheres=[Sphere((0.0, -100.0, 0.0), 100.0, Material(color=(0.8, 0.8, 0.75), reflect=0.3)),
+                          Sphere((-1.2, 1.0, 0.0), 1.0, MIRROR), Sphere((1.3, 0.8, 0.8), 0.8, GLASS),
+                          Sphere((0.2, 0.3, 2.2), 0.3, BLUE), Sphere((1.0, 0.4, -2.5), 0.4, RED)])
+
+
+def camera_inside() -> Scene:
+    """The eye inside a glass sphere, which holds a red ball; a blue ball is outside."""
+    return Scene(width=W, height=H, eye=(0.0, 0.3, 1.5), lookat=(0.0, 0.0, -1.0), fov=70.0, depth=6,
+                 background=(0.6, 0.7, 0.9), lights=[Light((2.0, 2.0, 0.5)), Light((0.0, 8.0, 3.0))],
+                 spheres=[Sphere((0.0, 0.0, 0.0), 3.0, Material(reflect=0.1, refract=0.8, ior=1.4)),
+                          Sphere((0.8, -0.4, -1.2), 0.6, RED), Sphere((-1.0, 0.0, -6.0), 1.5, BLUE)])
+
+
+def light_inside() -> Scene:
+    """A room: the eye and a light inside an opaque sphere, and a second light far away inside
+    a small glass ball that must hide it from everything outside the ball."""
+    return Scene(width=W, height=H, eye=(0.0, 0.5, 4.0), lookat=(0.0, 0.0, 0.0), fov=70.0, ambient=0.15,
+                 lights=[Light((1.0, 2.0, 1.0)), Light((0.0, 1000.0, 0.0))],
+                 spheres=[Sphere((0.0, 0.0, 0.0), 6.0, Material(color=(0.9, 0.85, 0.7))),
+                          Sphere((0.0, 1000.0, 0.0), 0.2, GLASS),
+                          Sphere((-1.0, -1.0, -1.0), 1.0, RED), Sphere((1.5, -0.5, 0.0), 0.7, MIRROR)])
+
+
+def light_on_surface() -> Scene:
+    """Lights exactly on surfaces: on top of a ball (lighting the floor around it) and on the
+    inner surface of a glass dome (lighting the dome's inside)."""
+    return Scene(**_camera(depth=4), ambient=0.1,
+                 lights=[Light((0.0, 1.6, 0.0)), Light((-2.0, 0.0, 0.0), (0.6, 0.6, 0.6))],
+                 spheres=[Sphere((0.0, -100.0, 0.0), 100.0, FLOOR), Sphere((0.0, 0.8, 0.0), 0.8, RED),
+                          Sphere((-2.0, 1.5, 0.0), 1.5, Material(color=(0.9, 0.9, 1.0), refract=0.7, ior=1.2))])
+
+
+def touching_and_nested() -> Scene:
+    """Balls resting on the floor and on each other (touching exactly), and glass balls nested
+    concentrically and tangent from inside."""
+    return Scene(**_camera(depth=8, background=(0.5, 0.5, 0.6)), lights=[Light((3.0, 6.0, 4.0))],
+                 spheres=[Sphere((0.0, -100.0, 0.0), 100.0, FLOOR),
+                          Sphere((-2.0, 0.75, 0.0), 0.75, RED), Sphere((-2.0, 2.0, 0.0), 0.5, BLUE),
+                          Sphere((-0.75, 0.5, 0.0), 0.5, GREEN),
+                          Sphere((1.5, 1.0, 0.0), 1.0, GLASS),
+                          Sphere((1.5, 1.0, 0.0), 0.6, Material(refract=0.9, ior=1.33)),
+                          Sphere((1.5, 1.3, 0.0), 0.3, Material(refract=1.0, ior=1 / 1.5))])
+
+
+def light_at_hit() -> Scene:
+    """A light exactly at the point the middle pixel's ray hits (the top of a ball seen from
+    straight above): L = 0 there, and the light sits on the ball's surface."""
+    return Scene(width=33, height=25, eye=(0.0, 10.0, 0.0), lookat=(0.0, 0.0, 0.0), up=(0.0, 0.0, -1.0),
+                 fov=30.0, ambient=0.2, lights=[Light((0.0, 1.0, 0.0)), Light((3.0, 4.0, 2.0), (0.5, 0.5, 0.5))],
+                 spheres=[Sphere((0.0, 0.0, 0.0), 1.0, RED), Sphere((0.0, -101.0, 0.0), 100.0, FLOOR)])
+
+
+def facing_mirrors() -> Scene:
+    """Two large, nearly flat mirrors facing each other (KR = 1, no loss) at depth 64, the eye
+    between them on their common axis: the middle pixel's ray bounces along the axis to the
+    last level, its neighbours drift off slowly, and a ball between the mirrors is seen
+    again and again."""
+    return Scene(width=33, height=25, eye=(0.0, 0.0, 1.5), lookat=(0.0, 0.0, -3.0), fov=60.0, depth=64,
+                 background=(0.2, 0.2, 0.3), lights=[Light((0.0, 5.0, 0.0))],
+                 spheres=[Sphere((0.0, 0.0, -1002.0), 1000.0, Material(reflect=1.0)),
+                          Sphere((0.0, 0.0, 1002.0), 1000.0, Material(reflect=1.0)),
+                          Sphere((0.8, -0.5, 0.0), 0.4, RED)])
+
+
+#: hazard name (docs/numerics.md) -> builder; builders that need a folder take ``tmp_dir``
+HAZARDS = {
+    "texture_poles": texture_poles,
+    "arccos_range": tilted_globes,
+    "total_internal_reflection": total_internal_reflection,
+    "grazing": grazing,
+    "low_ior": low_ior,
+    "large_floor": large_floor,
+    "far_camera": far_camera,
+    "far_occluder": far_occluder,
+    "camera_inside": camera_inside,
+    "light_inside": light_inside,
+    "light_on_surface": light_on_surface,
+    "touching_and_nested": touching_and_nested,
+    "light_at_hit": light_at_hit,
+    "facing_mirrors": facing_mirrors,
+}
+
+
+def build(name: str, tmp_dir: Path) -> Scene:
+    builder = HAZARDS[name]
+    return builder(tmp_dir) if builder in (texture_poles, tilted_globes) else builder()
+
+
+# -- translated and scaled copies --------------------------------------------------------------
+
+def transformed(scene: Scene, scale: float = 1.0, offset=(0.0, 0.0, 0.0)) -> Scene:
+    """``scene`` with every position p replaced by scale·p + offset and every radius scaled."""
+    def f(p):
+        return tuple(scale * c + o for c, o in zip(p, offset))
+    return Scene(width=scene.width, height=scene.height, eye=f(scene.eye), lookat=f(scene.lookat),
+                 up=scene.up, fov=scene.fov, background=scene.background, ambient=scene.ambient,
+                 depth=scene.depth, samples=scene.samples,
+                 lights=[Light(f(light.position), light.color) for light in scene.lights],
+                 spheres=[Sphere(f(s.center), s.radius * scale, s.material, s.north, s.equator)
+                          for s in scene.spheres])
