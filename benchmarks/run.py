@@ -42,7 +42,7 @@ import numpy as np  # noqa: E402
 import whitted  # noqa: E402  (selects the variant, registers the plugins)
 import floor  # noqa: E402
 import scenes  # noqa: E402
-from timing import measure, peak_memory  # noqa: E402
+from timing import NOISY, measure, peak_memory  # noqa: E402
 
 #: acceptance targets of issue 6 (ratios of median times)
 TARGET_DEPTH = 1.15
@@ -99,6 +99,13 @@ class Bench:
         self.tables: list[Table] = []
         self.summary: dict[str, float] = {}
         self.data: dict = {}
+        self.noisy: list[str] = []   # contenders whose times spread widely
+
+    def measure(self, contenders: dict, rounds: int) -> dict:
+        """:func:`timing.measure`, remembering which contenders ran on a busy machine."""
+        timing = measure(contenders, rounds)
+        self.noisy += [name for name, t in timing.items() if t.noisy()]
+        return timing
 
     def show(self, table: Table):
         self.tables.append(table)
@@ -116,13 +123,14 @@ class Bench:
             "whitted (physical lighting)": renderer(scene, physical, spp),
             "whitted (article lighting)": renderer(scene, scenes.whitted_integrator(model), spp),
             "Mitsuba direct": renderer(scene_direct, scenes.direct_integrator(), spp),
-            **{f"floor: {h} + ray_test": floor.RayCastingFloor(scene, light, spp, h) for h in floor.HIT_FINDERS},
+            **{f"floor: {h} + ray_test": floor.RayCastingFloor(scene, light, spp, h)
+               for h in floor.HIT_FINDERS},
             "floor + Mitsuba's film": floor.RayCastingFloor(scene, light, spp, "sphere table", film=True),
         }
-        timing = measure(contenders, self.s["rounds"])
-        direct = timing["Mitsuba direct"].median
+        timing = self.measure(contenders, self.s["rounds"])
+        direct = timing["Mitsuba direct"]
         floor_name = min((n for n in timing if n.startswith("floor:")), key=lambda n: timing[n].median)
-        floor_time = timing[floor_name].median
+        floor_time = timing[floor_name]
 
         # The same work: the same camera rays, the same shadow rays as the floor, the same image.
         rays = physical.render_detailed(scene, spp=spp).rays
@@ -139,13 +147,13 @@ class Bench:
                             f"({hits}). "
                             f"Mean pixel value, Whitted physical / direct: {ours / theirs:.4f}."))
         for name, t in timing.items():
-            table.add(name, ms(t.median), t.spread(), t.median / direct, t.median / floor_time,
+            table.add(name, ms(t.median), t.spread(), t.over(direct), t.over(floor_time),
                       f"{1e9 * t.median / samples:.1f}", f"{t.compile_seconds:.3f}")
         self.show(table)
-        best_whitted = timing["whitted (physical lighting)"].median
-        self.summary["whitted / direct"] = best_whitted / direct
-        self.summary["whitted (article) / direct"] = timing["whitted (article lighting)"].median / direct
-        self.summary["whitted / floor"] = best_whitted / floor_time
+        best_whitted = timing["whitted (physical lighting)"]
+        self.summary["whitted / direct"] = best_whitted.over(direct)
+        self.summary["whitted (article) / direct"] = timing["whitted (article lighting)"].over(direct)
+        self.summary["whitted / floor"] = best_whitted.over(floor_time)
         self.data["direct"] = {n: vars(t) for n, t in timing.items()}
         self.data["direct"]["same_image_mean_ratio"] = float(ours / theirs)
         self.data["direct"]["shadow_rays"] = {"whitted": rays.shadow, "floor": floor_shadow, "direct": hits}
@@ -156,24 +164,23 @@ class Bench:
         scene = scenes.load(model)
         contenders = {f"depth {d}": renderer(scene, scenes.whitted_integrator(model, max_depth=d), spp)
                       for d in (1, 16)}
-        timing = measure(contenders, self.s["rounds"])
-        ratio = timing["depth 16"].median / timing["depth 1"].median
+        timing = self.measure(contenders, self.s["rounds"])
+        ratio = timing["depth 16"].over(timing["depth 1"])
         table = Table(f"Depth 16 vs depth 1 on a diffuse scene ({width}×{height}, {spp} spp)",
                       ["max depth", "median ms", "spread", "vs depth 1"])
         for name, t in timing.items():
-            table.add(name, ms(t.median), t.spread(), t.median / timing["depth 1"].median)
+            table.add(name, ms(t.median), t.spread(), t.over(timing["depth 1"]))
         self.show(table)
         self.summary["depth 16 / depth 1"] = ratio
         self.data["depth"] = {n: vars(t) for n, t in timing.items()}
 
     # -- 3: scaling ------------------------------------------------------------------------------
 
-    @staticmethod
-    def _whitted_and_direct(model, rounds, memory=True):
+    def _whitted_and_direct(self, model, rounds, memory=True):
         scene, scene_direct = scenes.load(model), scenes.load_for_direct(model)
         whitted_run = renderer(scene, scenes.whitted_integrator(model, lighting="physical"), model.samples)
         direct_run = renderer(scene_direct, scenes.direct_integrator(), model.samples)
-        timing = measure({"whitted": whitted_run, "direct": direct_run}, rounds)
+        timing = self.measure({"whitted": whitted_run, "direct": direct_run}, rounds)
         if not memory:
             return timing, None, None
         return timing, peak_memory(whitted_run), peak_memory(direct_run)
@@ -183,9 +190,10 @@ class Bench:
 
         def row(table, label, model, rounds, *extra):
             timing, memory, memory_direct = self._whitted_and_direct(model, rounds)
-            w, d = timing["whitted"].median, timing["direct"].median
+            w, d = timing["whitted"], timing["direct"]
             samples = model.width * model.height * model.samples
-            table.add(label, ms(w), f"{1e9 * w / samples:.1f}", ms(d), w / d, mib(memory), mib(memory_direct),
+            table.add(label, ms(w.median), f"{1e9 * w.median / samples:.1f}", ms(d.median), w.over(d),
+                      mib(memory), mib(memory_direct),
                       *extra)
             return {"whitted": vars(timing["whitted"]), "direct": vars(timing["direct"]),
                     "whitted_peak_bytes": memory, "direct_peak_bytes": memory_direct}
@@ -230,16 +238,17 @@ class Bench:
         model = scenes.every_effect(scenes.write_texture(folder / "checker.png"), width, height, spp)
         variants = {"every effect": model, **{f"without {e}": scenes.without(model, e) for e in scenes.EFFECTS}}
         loaded = {name: (scenes.load(m), scenes.whitted_integrator(m)) for name, m in variants.items()}
-        timing = measure({name: renderer(s, i, spp) for name, (s, i) in loaded.items()}, self.s["rounds"])
-        full = timing["every effect"].median
+        timing = self.measure({name: renderer(s, i, spp) for name, (s, i) in loaded.items()}, self.s["rounds"])
+        full = timing["every effect"]
         table = Table(f"With and without each effect ({width}×{height}, {spp} spp, max depth {model.depth})",
-                      ["scene", "median ms", "spread", "every effect / this", "effects", "rays (cam/shadow/refl/refr)"])
+                      ["scene", "median ms", "spread", "every effect / this", "effects",
+                       "rays (cam/shadow/refl/refr)"])
         self.data["effects"] = {}
         for name, (scene, integrator) in loaded.items():
             rendering = integrator.render_detailed(scene, spp=spp)
             r = rendering.rays
             t = timing[name]
-            table.add(name, ms(t.median), t.spread(), full / t.median, " ".join(rendering.effects) or "none",
+            table.add(name, ms(t.median), t.spread(), full.over(t), " ".join(rendering.effects) or "none",
                       f"{r.camera}/{r.shadow}/{r.reflection}/{r.refraction}")
             self.data["effects"][name] = {**vars(t), "rays": r.rays(), "effects": list(rendering.effects)}
         self.show(table)
@@ -250,11 +259,12 @@ class Bench:
         scene = scenes.load(model)
         thresholds = (0.0, 0.001, 0.01, 0.05)
         integrators = {w: scenes.whitted_integrator(model, min_weight=w) for w in thresholds}
-        timing = measure({f"min_weight {w:g}": renderer(scene, i, spp) for w, i in integrators.items()},
+        timing = self.measure({f"min_weight {w:g}": renderer(scene, i, spp) for w, i in integrators.items()},
                          self.s["rounds"])
-        base = timing["min_weight 0"].median
+        base = timing["min_weight 0"]
         reference = np.array(renderer(scene, integrators[0.0], spp)(), np.float64)[..., :3]
-        table = Table(f"Adaptive depth control (every-effect scene at max depth 16, {width}×{height}, {spp} spp)",
+        table = Table(f"Adaptive depth control (every-effect scene at max depth 16, "
+                      f"{width}×{height}, {spp} spp)",
                       ["min weight", "median ms", "vs off", "secondary rays", "culled", "depth reached",
                        "mean abs error"])
         self.data["adaptive"] = {}
@@ -262,7 +272,7 @@ class Bench:
             rays = integrator.render_detailed(scene, spp=spp).rays
             t = timing[f"min_weight {w:g}"]
             error = np.abs(np.array(renderer(scene, integrator, spp)(), np.float64)[..., :3] - reference).mean()
-            table.add(f"{w:g}", ms(t.median), t.median / base, rays.reflection + rays.refraction, rays.culled,
+            table.add(f"{w:g}", ms(t.median), t.over(base), rays.reflection + rays.refraction, rays.culled,
                       rays.max_depth_reached, f"{error:.2e}")
             self.data["adaptive"][w] = {**vars(t), "rays": rays.rays(), "culled": rays.culled,
                                         "depth": rays.max_depth_reached, "mean_abs_error": error}
@@ -279,6 +289,7 @@ def machine() -> dict:
     except OSError:
         pass
     llvm = dr.detail.llvm_version() if dr.backend_v(mi.Float) == dr.JitBackend.LLVM else None
+
     def git(*args) -> str:
         try:
             return subprocess.run(["git", *args], capture_output=True, text=True, check=True,
@@ -289,10 +300,12 @@ def machine() -> dict:
     changed = [line[3:] for line in git("status", "--porcelain", "--untracked-files=no").splitlines() if line]
     if changed:
         source += f" (uncommitted changes in {', '.join(changed)})"
-    return {"source": source, "cpu": cpu, "cores": len(os.sched_getaffinity(0)), "drjit_threads": dr.thread_count(),
-            "variant": mi.variant(), "mitsuba": mi.__version__, "drjit": dr.__version__,
-            "llvm": ".".join(map(str, llvm)) if llvm else None, "python": platform.python_version(),
-            "os": platform.platform(), "date": datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")}
+    now = datetime.datetime.now(datetime.timezone.utc)
+    return {"source": source, "cpu": cpu, "cores": len(os.sched_getaffinity(0)),
+            "drjit_threads": dr.thread_count(), "variant": mi.variant(), "mitsuba": mi.__version__,
+            "drjit": dr.__version__, "llvm": ".".join(map(str, llvm)) if llvm else None,
+            "python": platform.python_version(), "os": platform.platform(),
+            "date": now.strftime("%Y-%m-%d %H:%M UTC")}
 
 
 REPRODUCE = """\
@@ -368,7 +381,8 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--quick", action="store_true", help="fewer rounds and sizes")
     parser.add_argument("--variant", default="llvm_ad_rgb", choices=("llvm_ad_rgb", "cuda_ad_rgb"))
-    parser.add_argument("--markdown", metavar="FILE", help="write the results as Markdown (benchmarks/RESULTS.md)")
+    parser.add_argument("--markdown", metavar="FILE",
+                        help="write the results as Markdown (benchmarks/RESULTS.md)")
     parser.add_argument("--json", metavar="FILE", help="write every number as JSON")
     args = parser.parse_args(argv)
 
@@ -394,6 +408,10 @@ def main(argv=None) -> int:
         print(f"{name:28s} {value:6.3f}   target <= {target}: {'MISSED' if name in missed else 'met'}")
     print(f"{'whitted / floor':28s} {bench.summary['whitted / floor']:6.3f}   (information)")
     print(f"total {seconds:.0f} s")
+    if bench.noisy:
+        print(f"warning: the machine was busy (times spread over ±{50 * NOISY:.0f}% for "
+              f"{len(bench.noisy)} contenders); ratios are paired per round, but run again "
+              f"on a quiet machine")
 
     if args.markdown:
         Path(args.markdown).write_text(markdown(bench, info, "quick" if args.quick else "full", seconds))

@@ -87,8 +87,8 @@ def load_for_direct(model: Scene):
     if any(s.material.reflect or s.material.refract or s.material.texture for s in model.spheres):
         raise ValueError("Mitsuba's direct integrator is compared on diffuse, untextured spheres only")
     xml = scene_to_xml(model, base_dir=None)
-    diffuse, replaced = _ARTICLE.subn(r'<bsdf type="diffuse" id="\1"><rgb name="reflectance" value="\2"/></bsdf>',
-                                      xml)
+    diffuse, replaced = _ARTICLE.subn(
+        r'<bsdf type="diffuse" id="\1"><rgb name="reflectance" value="\2"/></bsdf>', xml)
     assert replaced == xml.count('<bsdf type="article"') and replaced > 0
     return mi.load_string(diffuse)
 

@@ -6,7 +6,10 @@ every kernel they launch is compiled and in Dr.Jit's cache; a checked run
 with Dr.Jit's kernel history then confirms that no compilation is left in
 what is timed. The timed runs alternate between the contenders (in reverse
 order every other round) so that a drift of the machine's speed hits them
-alike, and the median of each is reported with its quartiles.
+alike, and the median of each is reported with its quartiles. A ratio of two
+contenders is the median of their per-round ratios: runs of one round are
+close in time, so a burst of load from another process on a shared machine
+scales both and leaves their ratio alone.
 """
 
 from __future__ import annotations
@@ -21,16 +24,28 @@ import drjit as dr
 import mitsuba as mi
 
 
+#: an interquartile range above this fraction of the median means the machine was busy
+NOISY = 0.10
+
+
 @dataclass
 class Timing:
     median: float            # seconds
     q1: float
     q3: float
     compile_seconds: float   # compilation left in a run after warm-up (should be 0)
+    times: list              # seconds, one per round
 
     def spread(self) -> str:
         """The interquartile range relative to the median, e.g. '±3%'."""
         return f"±{50 * (self.q3 - self.q1) / self.median:.0f}%" if self.median else "-"
+
+    def noisy(self) -> bool:
+        return self.q3 - self.q1 > NOISY * self.median
+
+    def over(self, other: "Timing") -> float:
+        """This contender's time over ``other``'s: the median of their per-round ratios."""
+        return statistics.median(a / b for a, b in zip(self.times, other.times))
 
 
 def _wait():
@@ -74,7 +89,7 @@ def measure(contenders: dict[str, Callable[[], object]], rounds: int, warmup: in
     result = {}
     for name, values in times.items():
         q = statistics.quantiles(values, n=4) if len(values) > 1 else [values[0]] * 3
-        result[name] = Timing(statistics.median(values), q[0], q[2], compiled[name])
+        result[name] = Timing(statistics.median(values), q[0], q[2], compiled[name], values)
     return result
 
 
