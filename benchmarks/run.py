@@ -193,8 +193,7 @@ class Bench:
             w, d = timing["whitted"], timing["direct"]
             samples = model.width * model.height * model.samples
             table.add(label, ms(w.median), f"{1e9 * w.median / samples:.1f}", ms(d.median), w.over(d),
-                      mib(memory), mib(memory_direct),
-                      *extra)
+                      mib(memory), mib(memory_direct), *extra)
             return {"whitted": vars(timing["whitted"]), "direct": vars(timing["direct"]),
                     "whitted_peak_bytes": memory, "direct_peak_bytes": memory_direct}
 
@@ -260,7 +259,7 @@ class Bench:
         thresholds = (0.0, 0.001, 0.01, 0.05)
         integrators = {w: scenes.whitted_integrator(model, min_weight=w) for w in thresholds}
         timing = self.measure({f"min_weight {w:g}": renderer(scene, i, spp) for w, i in integrators.items()},
-                         self.s["rounds"])
+                              self.s["rounds"])
         base = timing["min_weight 0"]
         reference = np.array(renderer(scene, integrators[0.0], spp)(), np.float64)[..., :3]
         table = Table(f"Adaptive depth control (every-effect scene at max depth 16, "
