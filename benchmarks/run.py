@@ -101,10 +101,10 @@ class Bench:
         self.data: dict = {}
         self.noisy: list[str] = []   # contenders whose times spread widely
 
-    def measure(self, contenders: dict, rounds: int) -> dict:
+    def measure(self, contenders: dict, rounds: int, label: str = "") -> dict:
         """:func:`timing.measure`, remembering which contenders ran on a busy machine."""
         timing = measure(contenders, rounds)
-        self.noisy += [name for name, t in timing.items() if t.noisy()]
+        self.noisy += [f"{label}{name}" for name, t in timing.items() if t.noisy()]
         return timing
 
     def show(self, table: Table):
@@ -177,10 +177,11 @@ class Bench:
     # -- 3: scaling ------------------------------------------------------------------------------
 
     def _whitted_and_direct(self, model, rounds, memory=True):
+        label = f"{len(model.spheres)} spheres {model.width}×{model.height} {model.samples} spp "
         scene, scene_direct = scenes.load(model), scenes.load_for_direct(model)
         whitted_run = renderer(scene, scenes.whitted_integrator(model, lighting="physical"), model.samples)
         direct_run = renderer(scene_direct, scenes.direct_integrator(), model.samples)
-        timing = self.measure({"whitted": whitted_run, "direct": direct_run}, rounds)
+        timing = self.measure({"whitted": whitted_run, "direct": direct_run}, rounds, label)
         if not memory:
             return timing, None, None
         return timing, peak_memory(whitted_run), peak_memory(direct_run)
@@ -409,7 +410,7 @@ def main(argv=None) -> int:
     print(f"total {seconds:.0f} s")
     if bench.noisy:
         print(f"warning: the machine was busy (times spread over ±{50 * NOISY:.0f}% for "
-              f"{len(bench.noisy)} contenders); ratios are paired per round, but run again "
+              f"{', '.join(bench.noisy)}); ratios are paired per round, but run again "
               f"on a quiet machine")
 
     if args.markdown:
