@@ -363,6 +363,9 @@ def markdown(bench: Bench, info: dict, mode: str, seconds: float) -> str:
              f"Dr.Jit {info['drjit']}, LLVM {info['llvm']}, Python {info['python']}, {info['os']}. "
              f"Source: {info['source']}. "
              f"Mode: {mode}; the whole run took {seconds:.0f} s.", "",
+             *([f"Another process loaded the machine during the run: the times of {len(bench.noisy)} "
+                f"contenders spread over ±{50 * NOISY:.0f}% (see the spread columns); the ratios, "
+                f"paired per round, are less affected.", ""] if bench.noisy else []),
              "## Acceptance", "",
              "| ratio | measured | target |", "|---|---|---|",
              f"| depth 16 / depth 1 (diffuse, 1024×768, 4 spp) | {bench.summary['depth 16 / depth 1']:.3f} "
