@@ -22,9 +22,17 @@ import pytest
 
 import whitted
 
-#: (|C| scale, r): from a speck at the origin to a floor of radius 10^4 and balls at 10^4
-SIZES = [(0.0, 1e-3), (0.0, 1.0), (0.0, 1e4), (1.0, 1e-3), (1.0, 1.0), (1.0, 1e4),
-         (1e2, 1e-1), (1e4, 1.0), (1e4, 1e4), (1e5, 10.0)]
+#: (centre, radius, cap): hits are spread over the part of the sphere within ``cap`` radians
+#: of its top. From a speck at the origin to balls at 10^4, and floors (spheres under the
+#: origin, seen near their top) of radius 10^2 to 10^6.
+SIZES = {
+    "speck": ((0.0, 0.0, 0.0), 1e-3, np.pi), "unit ball": ((0.0, 0.0, 0.0), 1.0, np.pi),
+    "huge ball": ((0.0, 0.0, 0.0), 1e4, np.pi), "speck at 1": ((1.0, -0.7, 0.3), 1e-3, np.pi),
+    "unit ball at 1": ((1.0, -0.7, 0.3), 1.0, np.pi), "small ball at 1e2": ((1e2, -70.0, 30.0), 0.1, np.pi),
+    "unit ball at 1e4": ((1e4, -7e3, 3e3), 1.0, np.pi), "huge ball at 1e4": ((1e4, -7e3, 3e3), 1e4, np.pi),
+    "ball at 1e5": ((1e5, -7e4, 3e4), 10.0, np.pi), "floor r=1e2": ((0.0, -1e2, 0.0), 1e2, 0.05),
+    "floor r=1e4": ((0.0, -1e4, 0.0), 1e4, 1e-3), "floor r=1e6": ((0.0, -1e6, 0.0), 1e6, 1e-5),
+}
 #: rays per size: the JIT variants take them in one wavefront, scalar one by one
 RAYS = {"llvm_ad_rgb": 20000, "scalar_rgb": 2000}
 #: (variant, hit finder): the sphere table serves all-sphere scenes in the JIT variants,
@@ -39,11 +47,15 @@ def unit(v):
     return v / np.linalg.norm(v, axis=0)
 
 
-def hits_and_directions(centre, radius, n, rng):
-    """Rays aimed at random points of the sphere from random points around it, and for each
-    hit an outward and an inward direction making angle acos(cosine) with the tangent plane."""
-    normal = unit(rng.normal(size=(3, n)))
-    origin = centre[:, None] + 3 * radius * unit(normal + 0.5 * rng.normal(size=(3, n)))
+def hits_and_directions(centre, radius, cap, n, rng):
+    """Rays aimed at random points of the sphere's cap from random points around it, and for
+    each hit an outward and an inward direction making angle acos(cosine) with the tangent
+    plane."""
+    polar = np.arccos(rng.uniform(np.cos(cap), 1, n))
+    azimuth = rng.uniform(0, 2 * np.pi, n)
+    normal = np.stack([np.sin(polar) * np.cos(azimuth), np.cos(polar), np.sin(polar) * np.sin(azimuth)])
+    reach = min(3.0, 1 + 10 * cap)   # origins about as far from the cap as the cap is wide
+    origin = centre[:, None] + radius * (normal + (reach - 1) * unit(normal + 0.5 * rng.normal(size=(3, n))))
     direction = unit(centre[:, None] + radius * normal - origin)
     tangent = rng.normal(size=(3, n))
     cosine = rng.uniform(0, 1, n) ** 3   # many grazing ones
@@ -57,10 +69,10 @@ def leaving(si_n, tangent, cosine):
     return unit(t * sine + si_n * cosine), unit(t * sine - si_n * cosine)
 
 
-def failures_jit(scene, hits, centre, radius, n, rng):
+def failures_jit(scene, hits, centre, radius, cap, n, rng):
     from whitted.plugins.geometry import blocked
     from whitted.plugins.shading import spawn_ray, spawn_ray_to
-    origin, direction, tangent, cosine = hits_and_directions(centre, radius, n, rng)
+    origin, direction, tangent, cosine = hits_and_directions(centre, radius, cap, n, rng)
     hit, si, _, error = hits.intersect(mi.Ray3f(mi.Point3f(origin), mi.Vector3f(direction)), False)
     hit = np.array(hit)
     normal = np.array(si.n)
@@ -75,10 +87,10 @@ def failures_jit(scene, hits, centre, radius, n, rng):
     return int(hit.sum()), int((out_hit & judged).sum()), int((lost & judged).sum()), int((shadowed & hit).sum())
 
 
-def failures_scalar(scene, hits, centre, radius, n, rng):
+def failures_scalar(scene, hits, centre, radius, cap, n, rng):
     from whitted.plugins.geometry import blocked
     from whitted.plugins.shading import spawn_ray, spawn_ray_to
-    origin, direction, tangent, cosine = hits_and_directions(centre, radius, n, rng)
+    origin, direction, tangent, cosine = hits_and_directions(centre, radius, cap, n, rng)
     counts = np.zeros(4, int)
     for k in range(n):
         hit, si, _, error = hits.intersect(mi.Ray3f(mi.Point3f(origin[:, k]), mi.Vector3f(direction[:, k])), False)
@@ -96,19 +108,20 @@ def failures_scalar(scene, hits, centre, radius, n, rng):
 
 
 @pytest.mark.parametrize("variant,finder", FINDERS)
-@pytest.mark.parametrize("scale,radius", SIZES)
-def test_no_ray_meets_the_surface_it_leaves(variant, finder, scale, radius, monkeypatch):
+@pytest.mark.parametrize("size", list(SIZES))
+def test_no_ray_meets_the_surface_it_leaves(variant, finder, size, monkeypatch):
     whitted.set_variant(variant)
     from whitted.plugins import geometry
     if finder == "mitsuba":
         monkeypatch.setattr(geometry.SphereHits, "applies", staticmethod(lambda scene: False))
-    centre = np.array([scale, -0.7 * scale, 0.3 * scale])
+    centre, radius, cap = SIZES[size]
+    centre = np.array(centre)
     scene = mi.load_dict({"type": "scene", "ball": {"type": "sphere", "center": centre.tolist(),
                                                      "radius": radius, "bsdf": {"type": "article"}}})
     hits = geometry.hit_finder(scene, need_uv=False)
     assert isinstance(hits, geometry.SphereHits) == (finder == "sphere table")
     check = failures_jit if dr.is_jit_v(mi.Float) else failures_scalar
-    n, outward, inward, shadowed = check(scene, hits, centre, radius, RAYS[variant], np.random.default_rng(5))
+    n, outward, inward, shadowed = check(scene, hits, centre, radius, cap, RAYS[variant], np.random.default_rng(5))
     assert n > 0.9 * RAYS[variant]
     assert (outward, inward, shadowed) == (0, 0, 0), \
         f"{n} hits: {outward} outward rays met the sphere again, {inward} inward rays lost its far " \
