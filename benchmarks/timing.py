@@ -15,6 +15,7 @@ scales both and leaves their ratio alone.
 from __future__ import annotations
 
 import gc
+import math
 import statistics
 import time
 from dataclasses import dataclass
@@ -65,13 +66,25 @@ def compile_seconds(run: Callable[[], object]) -> float:
         return sum(k.get("backend_time", 0.0) for k in dr.kernel_history()) / 1000.0
 
 
-def measure(contenders: dict[str, Callable[[], object]], rounds: int, warmup: int = 2) -> dict[str, Timing]:
-    """Median wall time of each contender over ``rounds`` interleaved runs."""
+def measure(contenders: dict[str, Callable[[], object]], rounds: int, warmup: int = 2,
+            min_seconds: float = 0.5, max_rounds: int = 200) -> dict[str, Timing]:
+    """Median wall time of each contender over at least ``rounds`` interleaved runs.
+
+    Quick contenders get more rounds, up to ``max_rounds``, until the timed
+    runs take about ``min_seconds`` in all: a millisecond render timed five
+    times says little on a shared machine.
+    """
     for run in contenders.values():
         for _ in range(warmup):
             run()
             _wait()
     compiled = {name: compile_seconds(run) for name, run in contenders.items()}
+    start = time.perf_counter()
+    for run in contenders.values():
+        run()
+        _wait()
+    one_round = time.perf_counter() - start
+    rounds = max(rounds, min(max_rounds, math.ceil(min_seconds / max(one_round, 1e-6))))
     times = {name: [] for name in contenders}
     names = list(contenders)
     gc.collect()
