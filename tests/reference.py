@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-#: hits closer than EPSILON·(|origin| + r) to a ray's ends are the surfaces it starts or ends on
+#: hits closer than EPSILON·(1 + |origin|) to a ray's ends are the surfaces it starts or ends on
 EPSILON = 1e-9
 
 
@@ -94,19 +94,19 @@ def intersect(sphere, origin, direction):
     return min(q, t_other), max(q, t_other)
 
 
-def _skip(origin, sphere):
+def _skip(origin):
     """Hits closer than this to a ray's ends are the surfaces the ray starts or ends on."""
-    return EPSILON * (norm(origin) + sphere.radius)
+    return EPSILON * (1 + norm(origin))
 
 
 def nearest_hit(scene, origin, direction):
     """(t, sphere) of the nearest hit in front of ``origin``, or None."""
+    skip = _skip(origin)
     best = None
     for sphere in scene.spheres:
         roots = intersect(sphere, origin, direction)
         if roots is None:
             continue
-        skip = _skip(origin, sphere)
         for t in roots:
             if t > skip:
                 if best is None or t < best[0]:
@@ -124,9 +124,9 @@ def blocked(scene, point, light_position):
     to_light = sub(light_position, point)
     distance = norm(to_light)
     direction = mul(to_light, 1 / distance)
+    skip = _skip(point)
     for sphere in scene.spheres:
         roots = intersect(sphere, point, direction)
-        skip = _skip(point, sphere)
         if roots is not None and any(skip < t < distance - skip for t in roots):
             return True
     return False

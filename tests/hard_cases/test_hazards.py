@@ -146,3 +146,45 @@ def test_a_shadow_ray_to_its_own_origin_is_finite(variant):
     values = np.concatenate([np.ravel(np.array(ray.o)), np.ravel(np.array(ray.d)), np.ravel(np.array(ray.maxt))])
     assert np.all(np.isfinite(values))
     assert np.all(np.array(ray.maxt) <= 0)   # an empty segment: nothing can block it
+
+
+@pytest.mark.parametrize("variant", VARIANTS)
+def test_refraction_stays_finite_beyond_the_critical_angle(variant):
+    """k = 1 - n²(1 - c1²) < 0: the caller takes the mirror direction, but T itself must
+    stay finite (plugins/optics.py), from grazing (c1 = 0) to just past the critical angle,
+    and for c1 an ulp above 1."""
+    whitted.set_variant(variant)
+    from whitted.plugins import optics
+    n = mi.Vector3f(0.0, 0.0, 1.0)
+    for eta in (1.5, 1 / 0.6, 50.0):
+        critical = math.sqrt(1 - 1 / eta ** 2)
+        for c1 in (0.0, 1e-7, 0.5 * critical, math.nextafter(critical, 0.0), critical, 1.0000001):
+            sine = math.sqrt(max(0.0, 1 - c1 * c1))
+            v = mi.Vector3f(sine, 0.0, -c1)
+            t, tir = optics.refract(v, n, optics.cos_incidence(v, n), eta)
+            assert np.all(np.isfinite(np.ravel(np.array(t))))
+            if c1 < 0.99 * critical:
+                assert bool(np.ravel(np.array(tir))[0])
+
+
+@pytest.mark.parametrize("variant", VARIANTS)
+def test_directions_stay_unit_along_a_deep_mirror_chain(variant):
+    """64 reflections (the deepest tree the format allows) off random normals: the ray
+    direction keeps |d| = 1 to float32 round-off, so c1 and k keep their meaning at depth 64."""
+    whitted.set_variant(variant)
+    from whitted.plugins import optics
+    rng = np.random.default_rng(2)
+    lanes = 1000 if dr.is_jit_v(mi.Float) else 20
+    start = rng.normal(size=(3, lanes))
+    normals = rng.normal(size=(64, 3, lanes))
+    worst = 0.0
+    for lane in ([slice(None)] if dr.is_jit_v(mi.Float) else [slice(k, k + 1) for k in range(lanes)]):
+        def vector(a):
+            a = a[:, lane] / np.linalg.norm(a[:, lane], axis=0)
+            return mi.Vector3f(a) if dr.is_jit_v(mi.Float) else mi.Vector3f(*a[:, 0])
+        d = vector(start)
+        for level in range(64):
+            n_facing, _ = optics.facing_normal(d, vector(normals[level]))
+            d = optics.unit(optics.reflect(d, n_facing, optics.cos_incidence(d, n_facing)))
+        worst = max(worst, float(np.abs(np.linalg.norm(np.array(d).reshape(3, -1), axis=0) - 1).max()))
+    assert worst <= 2.5e-7
