@@ -25,8 +25,10 @@ import drjit as dr
 import mitsuba as mi
 
 
-#: an interquartile range above this fraction of the median means the machine was busy
+#: an interquartile range above this fraction of the median (and above the jitter of a
+#: millisecond render, ``JITTER`` seconds) means the machine was busy
 NOISY = 0.10
+JITTER = 0.5e-3
 
 
 @dataclass
@@ -42,7 +44,7 @@ class Timing:
         return f"±{50 * (self.q3 - self.q1) / self.median:.0f}%" if self.median else "-"
 
     def noisy(self) -> bool:
-        return self.q3 - self.q1 > NOISY * self.median
+        return self.q3 - self.q1 > max(NOISY * self.median, JITTER)
 
     def over(self, other: "Timing") -> float:
         """This contender's time over ``other``'s: the median of their per-round ratios."""
