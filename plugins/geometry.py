@@ -18,6 +18,11 @@ longitude and colatitude in the sphere's own frame (``u = atan2(y, x)/2π``,
 mapping. Centre and radius come from the sphere's bounding box (exact to a
 float32 ulp of |C| + r, the precision Mitsuba's own float32 hit has), and
 textured spheres' frames from their ``to_world`` transform.
+
+Both also return each hit's error bound (:func:`hit_error`), by which
+:mod:`.shading` moves secondary and shadow rays off the surface, and both take
+a textured sphere's UV from :func:`lat_long_uv`, which follows the spec at
+the poles and on the seam. docs/numerics.md catalogues the hazards.
 """
 
 from __future__ import annotations
@@ -30,7 +35,7 @@ import numpy as np
 #: float32's unit round-off, 2^-24
 UNIT_ROUNDOFF = 2.0 ** -24
 #: the error bound of a hit point, in round-offs of its shape's radius and of its centre's
-#: largest coordinate (docs/numerics.md, "Acne")
+#: largest coordinate (docs/numerics.md, "The error bound behind the ray offsets")
 RADIUS_ULPS = 8
 CENTRE_ULPS = 4
 
@@ -44,7 +49,8 @@ def hit_error(radius, centre):
     rounding: re-projecting the point (``C + r·N``), subtracting the centre,
     and Mitsuba's float32 quadratic, whose self-intersection root is off by
     up to about two ulps of r (head-on rays) and an ulp of |C|. A floor sphere of
-    radius 10^4 under the origin and a unit sphere at 10^4 both get ~5e-3.
+    radius 10^4 under the origin gets 7e-3, a unit sphere at 10^4 2.4e-3, a
+    unit sphere at the origin 5e-7.
     """
     return (RADIUS_ULPS * UNIT_ROUNDOFF) * radius + (CENTRE_ULPS * UNIT_ROUNDOFF) * centre
 
@@ -68,25 +74,26 @@ def lat_long_uv(n, x_axis, y_axis, z_axis):
 
 
 def _shape_numbers(scene, need_uv: bool):
-    """Per shape, in ``scene.shapes()`` order: ``(centre, radius, error, frame)``.
+    """``(centre, radius, error, frames)`` of ``scene.shapes()``: 3×N, N, N arrays and
+    {shape index: frame}.
 
-    Centre and radius come from the bounding box (exact to a float32 ulp of
-    |C| + r for a sphere: within the error bound); ``frame`` (rows: the local
-    x, y and z axes) is the ``to_world`` rotation of a sphere whose colour varies
-    over it, None for every other shape.
+    Centre and radius come from the bounding boxes (exact to a float32 ulp of
+    |C| + r for a sphere: within the error bound); a frame (rows: the local x,
+    y and z axes) is the ``to_world`` rotation of a sphere whose colour varies
+    over it, which also gives that sphere's centre and radius.
     """
-    numbers = []
-    for shape in scene.shapes():
-        box = shape.bbox()
-        low, high = np.array(box.min, np.float64), np.array(box.max, np.float64)
-        centre, radius = (low + high) / 2, (high - low).max() / 2
-        frame = None
-        if need_uv and shape.class_name() == "Sphere" and shape.bsdf().color.is_spatially_varying():
+    boxes = [shape.bbox() for shape in scene.shapes()]
+    low = np.array([box.min for box in boxes], np.float64).reshape(-1, 3).T
+    high = np.array([box.max for box in boxes], np.float64).reshape(-1, 3).T
+    centre, radius = (low + high) / 2, (high - low).max(axis=0, initial=0.0) / 2
+    frames = {}
+    for index, shape in enumerate(scene.shapes() if need_uv else []):
+        colour = getattr(shape.bsdf(), "color", None)   # the article BSDF's base colour
+        if shape.class_name() == "Sphere" and colour is not None and colour.is_spatially_varying():
             matrix = np.array(mi.traverse(shape)["to_world"].matrix, np.float64).reshape(4, 4)
-            centre, radius = matrix[:3, 3], np.linalg.norm(matrix[:3, 0])
-            frame = (matrix[:3, :3] / radius).T
-        numbers.append((centre, radius, hit_error(radius, np.abs(centre).max()), frame))
-    return numbers
+            centre[:, index], radius[index] = matrix[:3, 3], np.linalg.norm(matrix[:3, 0])
+            frames[index] = (matrix[:3, :3] / radius[index]).T
+    return centre, radius, hit_error(radius, np.abs(centre).max(axis=0, initial=0.0)), frames
 
 
 def hit_finder(scene, need_uv: bool):
@@ -129,20 +136,19 @@ class MitsubaHits:
         self.need_uv = need_uv
         self.flags = mi.RayFlags.Minimal | (mi.RayFlags.UV if need_uv else mi.RayFlags.Empty)
         self.vectorized = dr.is_jit_v(mi.Float)
-        numbers = _shape_numbers(scene, need_uv)
+        _, _, error, frames = _shape_numbers(scene, need_uv)
         if not self.vectorized:   # the scalar variant hands out the same shape objects each time
-            self._shapes = {id(shape): (error, None if frame is None else [mi.Vector3f(axis) for axis in frame])
-                            for shape, (_, _, error, frame) in zip(scene.shapes(), numbers)}
+            self._shapes = {id(shape): (float(error[k]), [mi.Vector3f(axis) for axis in frames[k]]
+                                        if k in frames else None)
+                            for k, shape in enumerate(scene.shapes())}
             return
-        rows = _shape_rows(scene) if numbers else np.zeros(0, np.int64)
-        size = int(rows.max()) + 1 if numbers else 1
-        error, mapped = np.zeros(size), np.zeros(size, bool)
-        frame = np.zeros((3, 3, size))
-        for row, (_, _, shape_error, shape_frame) in zip(rows, numbers):
-            error[row] = shape_error
-            if shape_frame is not None:
-                mapped[row], frame[:, :, row] = True, shape_frame
-        self._error, self._mapped = mi.Float(error), mi.Bool(mapped)
+        rows = _shape_rows(scene) if scene.shapes() else np.zeros(0, np.int64)
+        size = int(rows.max(initial=0)) + 1
+        table, mapped, frame = np.zeros(size), np.zeros(size, bool), np.zeros((3, 3, size))
+        table[rows] = error
+        for k, shape_frame in frames.items():
+            mapped[rows[k]], frame[:, :, rows[k]] = True, shape_frame
+        self._error, self._mapped = mi.Float(table), mi.Bool(mapped)
         self._frame = [mi.Vector3f(frame[axis]) for axis in range(3)]
         dr.make_opaque(self._error, self._mapped, *self._frame)
 
@@ -185,11 +191,10 @@ class SphereHits:
         frame = np.zeros((3, 3, size))   # rows: the sphere's local x, y, z axes
         frame[0, 0] = frame[1, 1] = frame[2, 2] = 1.0
         bsdf = np.zeros(size, np.uint32)
-        for row, bsdf_id, numbers in zip(rows, bsdf_ids, _shape_numbers(scene, need_uv)):
-            centre[:, row], radius[row], error[row], shape_frame = numbers
-            bsdf[row] = bsdf_id
-            if shape_frame is not None:
-                frame[:, :, row] = shape_frame
+        centre[:, rows], radius[rows], error[rows], frames = _shape_numbers(scene, need_uv)
+        bsdf[rows] = bsdf_ids
+        for k, shape_frame in frames.items():
+            frame[:, :, rows[k]] = shape_frame
         self._centre = mi.Point3f(centre)
         self._radius = mi.Float(radius)
         self._error = mi.Float(error)
