@@ -20,9 +20,10 @@ float32 ulp of |C| + r, the precision Mitsuba's own float32 hit has), and
 textured spheres' frames from their ``to_world`` transform.
 
 Both also return each hit's error bound (:func:`hit_error`), by which
-:mod:`.shading` moves secondary and shadow rays off the surface, and both take
-a textured sphere's UV from :func:`lat_long_uv`, which follows the spec at
-the poles and on the seam. docs/numerics.md catalogues the hazards.
+:mod:`.shading` moves secondary and shadow rays off the surface, tell which
+sphere a light sits on (``surface_at``), and take a textured sphere's UV from
+:func:`lat_long_uv`, which follows the spec at the poles and on the seam.
+docs/numerics.md catalogues the hazards.
 """
 
 from __future__ import annotations
@@ -96,6 +97,26 @@ def _shape_numbers(scene, need_uv: bool):
     return centre, radius, hit_error(radius, np.abs(centre).max(axis=0, initial=0.0)), frames
 
 
+class _SurfacesNear:
+    """Which sphere passes through a point, to within its error bound."""
+
+    def __init__(self, scene, centre, radius, error):
+        sphere = np.array([shape.class_name() == "Sphere" for shape in scene.shapes()], bool)
+        self.centre, self.radius, self.error = centre[:, sphere], radius[sphere], error[sphere]
+
+    def surface_at(self, point):
+        """``(error, normal)`` of the sphere that ``point`` lies on (within twice its error
+        bound; the one with the largest bound if several do), ``(0, 0)`` if none."""
+        point = np.asarray(point, np.float64).reshape(3, 1)
+        offset = point - self.centre
+        distance = np.linalg.norm(offset, axis=0)
+        near = np.flatnonzero(np.abs(distance - self.radius) <= 2 * self.error)
+        if not len(near):
+            return 0.0, (0.0, 0.0, 0.0)
+        k = near[np.argmax(self.error[near])]
+        return float(self.error[k]), tuple(offset[:, k] / distance[k])
+
+
 def hit_finder(scene, need_uv: bool):
     """The fastest exact way to intersect ``scene`` in the current variant."""
     if dr.is_jit_v(mi.Float) and SphereHits.applies(scene):
@@ -136,7 +157,8 @@ class MitsubaHits:
         self.need_uv = need_uv
         self.flags = mi.RayFlags.Minimal | (mi.RayFlags.UV if need_uv else mi.RayFlags.Empty)
         self.vectorized = dr.is_jit_v(mi.Float)
-        _, _, error, frames = _shape_numbers(scene, need_uv)
+        centre, radius, error, frames = _shape_numbers(scene, need_uv)
+        self.surface_at = _SurfacesNear(scene, centre, radius, error).surface_at
         if not self.vectorized:   # the scalar variant hands out the same shape objects each time
             self._shapes = {id(shape): (float(error[k]), [mi.Vector3f(axis) for axis in frames[k]]
                                         if k in frames else None)
@@ -191,7 +213,9 @@ class SphereHits:
         frame = np.zeros((3, 3, size))   # rows: the sphere's local x, y, z axes
         frame[0, 0] = frame[1, 1] = frame[2, 2] = 1.0
         bsdf = np.zeros(size, np.uint32)
-        centre[:, rows], radius[rows], error[rows], frames = _shape_numbers(scene, need_uv)
+        numbers = _shape_numbers(scene, need_uv)
+        self.surface_at = _SurfacesNear(scene, *numbers[:3]).surface_at
+        centre[:, rows], radius[rows], error[rows], frames = numbers
         bsdf[rows] = bsdf_ids
         for k, shape_frame in frames.items():
             frame[:, :, rows[k]] = shape_frame

@@ -22,7 +22,7 @@ import drjit as dr
 import mitsuba as mi
 
 from . import optics
-from .geometry import blocked, hit_error, hit_finder
+from .geometry import blocked, hit_finder
 from .surfaces import SurfaceTable
 
 
@@ -73,20 +73,25 @@ def spawn_ray(si, error, d):
     return mi.Ray3f(offset_origin(si.p, si.n, error, d), d)
 
 
-def spawn_ray_to(si, error, target):
-    """The segment from the hit ``si`` to ``target``, stopping just short of ``target``.
+def spawn_ray_to(si, error, target, target_error=0.0, target_normal=None):
+    """The segment from the hit ``si`` to ``target``, which ends short of ``target``.
 
-    It stops by the error bound of a surface point at ``target`` (a light
-    sitting exactly on a surface is not hidden by that surface), not by a
-    fixed fraction of its length as Mitsuba's ``spawn_ray_to`` does: a light
-    inside a small sphere far away stays inside it.
+    When ``target`` sits on a surface (a light on a sphere), the end is moved
+    off that surface by the surface's error bound ``target_error`` along its
+    normal ``target_normal``, to the hit's side, as :func:`offset_origin` moves
+    the start: the surface the light sits on does not hide it, even from
+    segments that meet it at a grazing angle. Nothing else shortens the
+    segment; Mitsuba's ``spawn_ray_to`` stops a fixed fraction of the length
+    short, which lets a light inside a small sphere far away out of it.
     """
+    if target_normal is not None:
+        target = offset_origin(target, target_normal, target_error, si.p - target)
     origin = offset_origin(si.p, si.n, error, target - si.p)
     d = target - origin
     distance2 = dr.squared_norm(d)
     distance = dr.sqrt(distance2)
     ray = mi.Ray3f(origin, d * dr.rsqrt(dr.maximum(distance2, _TINY)))  # no 0/0 at the target
-    ray.maxt = distance - hit_error(distance, dr.max(dr.abs(target)))
+    ray.maxt = distance
     return ray
 
 
@@ -119,14 +124,18 @@ class Shader:
         self.physical = lighting == "physical"
         self.ambient = _constant(mi.Float, ambient)
         # Article lighting uses the light's colour; physical lighting its intensity (divided by r^2).
-        self.lights = [(_constant(mi.Point3f, light.position),
-                        _constant(mi.Color3f, light.intensity if self.physical else light.colour))
-                       for light in analysis.lights]
+        self.hits = hit_finder(scene, need_uv=analysis.has("textures"))
+        # (position, strength, (error bound, normal) of a sphere the light sits on)
+        self.lights = []
+        for light in analysis.lights:
+            error, normal = self.hits.surface_at(light.position)
+            self.lights.append((_constant(mi.Point3f, light.position),
+                                _constant(mi.Color3f, light.intensity if self.physical else light.colour),
+                                (_constant(mi.Float, error), _constant(mi.Vector3f, normal)) if error else None))
         self.environment = analysis.environment
         self.reflection = analysis.has("reflection")
         self.refraction = analysis.has("refraction")
         self.surfaces = SurfaceTable(analysis.surfaces, need_ior=self.refraction)
-        self.hits = hit_finder(scene, need_uv=analysis.has("textures"))
         self.counter = counter
         self.depth = analysis.depth
 
@@ -170,18 +179,20 @@ class Shader:
     def point_colour(self, si, error, n_facing, base, active):
         """``B·(A + (1 - A)·Σ s·light)`` (article) or ``(B/π)·Σ I·max(0, N'·L)/r²`` (physical)."""
         direct = mi.Color3f(0)
-        for position, strength in self.lights:
-            direct += self.light(si, error, n_facing, position, strength, active)
+        for position, strength, on_surface in self.lights:
+            direct += self.light(si, error, n_facing, position, strength, on_surface, active)
         if self.physical:
             return base * dr.inv_pi * direct
         return base * (self.ambient + (1 - self.ambient) * direct)
 
-    def light(self, si, error, n_facing, position, strength, active):
+    def light(self, si, error, n_facing, position, strength, on_surface, active):
         """One light's ``s·light_colour`` (article) or ``I·cos/r²`` (physical), 0 in shadow.
 
         Every sphere blocks the segment to the light, transparent ones too. The
         shadow ray leaves from a point moved off the surface by the hit's error
-        bound (:func:`spawn_ray_to`), so it cannot hit the surface it leaves.
+        bound (:func:`spawn_ray_to`), so it cannot hit the surface it leaves,
+        and ends off the surface the light sits on (``on_surface``: that sphere's
+        error bound and normal at the light, or None).
         """
         to_light = position - si.p
         dist2 = dr.squared_norm(to_light)
@@ -190,7 +201,7 @@ class Shader:
         if not self.vectorized and not facing:
             return mi.Color3f(0)
         self.counter.add_shadow(facing)
-        visible = facing & _not(blocked(self.scene, spawn_ray_to(si, error, position), facing))
+        visible = facing & _not(blocked(self.scene, spawn_ray_to(si, error, position, *(on_surface or ())), facing))
         if self.physical:
             strength = strength * dr.rcp(dr.maximum(dist2, _TINY))
         return dr.select(visible, cos * strength, 0)

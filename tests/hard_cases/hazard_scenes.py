@@ -186,6 +186,19 @@ def light_on_surface() -> Scene:
                           Sphere((-2.0, 1.5, 0.0), 1.5, Material(color=(0.9, 0.9, 1.0), refract=0.7, ior=1.2))])
 
 
+def light_on_floor() -> Scene:
+    """Lights on a floor sphere of radius 100: one exactly on its top, two within a float64
+    round-off of its surface; they light the balls' undersides, and the segments to them
+    meet the floor at the light, many at grazing angles, where the float32 floor is only
+    known to 10^-5."""
+    height = -100.0 + math.sqrt(100.0 ** 2 - 1.5 ** 2)
+    return Scene(width=W, height=H, eye=(0.0, 1.2, 5.0), lookat=(0.0, 0.7, 0.0), fov=55.0, ambient=0.1,
+                 lights=[Light((0.0, 0.0, 0.0)), Light((-1.5, height, 0.0), (0.6, 0.6, 0.6)),
+                         Light((1.5, height, 0.0), (0.6, 0.6, 0.6))],
+                 spheres=[Sphere((0.0, -100.0, 0.0), 100.0, FLOOR), Sphere((-1.3, 1.0, -1.2), 1.0, RED),
+                          Sphere((1.3, 0.8, -1.0), 0.8, BLUE), Sphere((0.0, 0.45, 1.0), 0.45, GREEN)])
+
+
 def touching_and_nested() -> Scene:
     """Balls resting on the floor and on each other (touching exactly), and glass balls nested
     concentrically and tangent from inside."""
@@ -231,6 +244,7 @@ HAZARDS = {
     "camera_inside": camera_inside,
     "light_inside": light_inside,
     "light_on_surface": light_on_surface,
+    "light_on_floor": light_on_floor,
     "touching_and_nested": touching_and_nested,
     "light_at_hit": light_at_hit,
     "facing_mirrors": facing_mirrors,

@@ -21,8 +21,8 @@ from conftest import VARIANTS
 from reference import render_reference
 from whitted.converter import scene_to_xml
 
-SCENES = ["mirror_and_glass", "camera_inside", "touching_and_nested", "light_on_surface", "texture_poles",
-          "facing_mirrors"]
+SCENES = ["mirror_and_glass", "camera_inside", "touching_and_nested", "light_on_surface", "light_on_floor",
+          "texture_poles", "facing_mirrors"]
 TRANSFORMS = {"moved by 1e4": dict(offset=(1e4, -1e4, 1e4)), "scaled by 1e-3": dict(scale=1e-3)}
 
 
