@@ -100,8 +100,7 @@ def _shape_numbers(scene, need_uv: bool):
 class _SurfacesNear:
     """Which sphere passes through a point, to within its error bound."""
 
-    def __init__(self, scene, centre, radius, error):
-        sphere = np.array([shape.class_name() == "Sphere" for shape in scene.shapes()], bool)
+    def __init__(self, centre, radius, error, sphere):
         self.centre, self.radius, self.error = centre[:, sphere], radius[sphere], error[sphere]
 
     def surface_at(self, point):
@@ -158,7 +157,8 @@ class MitsubaHits:
         self.flags = mi.RayFlags.Minimal | (mi.RayFlags.UV if need_uv else mi.RayFlags.Empty)
         self.vectorized = dr.is_jit_v(mi.Float)
         centre, radius, error, frames = _shape_numbers(scene, need_uv)
-        self.surface_at = _SurfacesNear(scene, centre, radius, error).surface_at
+        sphere = np.array([shape.class_name() == "Sphere" for shape in scene.shapes()], bool)
+        self.surface_at = _SurfacesNear(centre, radius, error, sphere).surface_at
         if not self.vectorized:   # the scalar variant hands out the same shape objects each time
             self._shapes = {id(shape): (float(error[k]), [mi.Vector3f(axis) for axis in frames[k]]
                                         if k in frames else None)
@@ -214,7 +214,7 @@ class SphereHits:
         frame[0, 0] = frame[1, 1] = frame[2, 2] = 1.0
         bsdf = np.zeros(size, np.uint32)
         numbers = _shape_numbers(scene, need_uv)
-        self.surface_at = _SurfacesNear(scene, *numbers[:3]).surface_at
+        self.surface_at = _SurfacesNear(*numbers[:3], sphere=np.ones(len(rows), bool)).surface_at
         centre[:, rows], radius[rows], error[rows], frames = numbers
         bsdf[rows] = bsdf_ids
         for k, shape_frame in frames.items():
