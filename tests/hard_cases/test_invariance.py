@@ -67,7 +67,7 @@ def test_same_image_after_moving_or_scaling(originals, name, transform, variant)
 def test_beyond_1e4_the_image_stays_finite_and_close(variant):
     """At 10^5 a float32 coordinate steps by 0.008 and the ray offsets grow to ~0.02 (a
     unit sphere's surface is only known that well): edges move, so single pixels may
-    differ, but nothing becomes NaN, acne or noise (docs/numerics.md, "Far from the
+    differ, but nothing becomes NaN, acne or noise (docs/numerics.md, "Scenes far from the
     origin")."""
     scene = hs.transformed(hs.mirror_and_glass(), offset=(1e5, 1e5, 1e5))
     image = render(scene, variant)
