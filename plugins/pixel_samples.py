@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import math
 
+import drjit as dr
 import mitsuba as mi
 
 #: multiplier that spreads consecutive seeds over the hash's input space
@@ -39,7 +40,12 @@ def pixel_offset(pixel, sample, spp: int, seed: int):
     nx, ny = strata(spp)
     column = sample % nx
     row = sample // nx
-    salt = (sample + ((seed * _SEED_STRIDE) & 0xFFFFFFFF)) & 0xFFFFFFFF  # wraps like UInt32
-    bits_x, bits_y = mi.sample_tea_32(mi.UInt32(pixel), mi.UInt32(salt))
+    # The seed is opaque: a new seed must not compile new kernels.
+    seed_offset = (seed * _SEED_STRIDE) & 0xFFFFFFFF
+    if dr.is_jit_v(mi.Float):
+        salt = mi.UInt32(sample) + dr.opaque(mi.UInt32, seed_offset)   # wraps like UInt32
+    else:
+        salt = mi.UInt32((sample + seed_offset) & 0xFFFFFFFF)
+    bits_x, bits_y = mi.sample_tea_32(mi.UInt32(pixel), salt)
     jitter = mi.Point2f(mi.Float(bits_x >> 8), mi.Float(bits_y >> 8)) * (1.0 / (1 << 24))
     return mi.Point2f((mi.Float(column) + jitter.x) / nx, (mi.Float(row) + jitter.y) / ny)

@@ -95,16 +95,36 @@ def test_textures_are_an_effect(tmp_path):
 
 
 def kernels(scene, **options):
+    """Hashes of the JIT kernels that one ``mi.render`` of ``scene`` launches."""
     with dr.scoped_set_flag(dr.JitFlag.KernelHistory, True):
         dr.kernel_history_clear()
-        whitted.render.render(scene, **options)
-        return [k["hash"] for k in dr.kernel_history() if k["type"] == dr.KernelType.JIT]
+        mi.render(scene, **options)
+        dr.eval()
+        hashes = [k["hash"] for k in dr.kernel_history() if k["type"] == dr.KernelType.JIT]
+    assert hashes, "no kernel was recorded: the comparison would prove nothing"
+    return hashes
+
+
+def whitted_integrator(max_depth):
+    return mi.load_dict({"type": "whitted", "max_depth": max_depth, "light_reference": [0.0, 0.0, 0.0]})
 
 
 def test_depth_16_runs_the_kernels_of_depth_1():
     """A diffuse scene pays nothing for a deep max depth: the very same kernels run."""
     scene = load(diffuse(), "llvm_ad_rgb")
-    assert kernels(scene, max_depth=16) == kernels(scene, max_depth=1)
+    assert kernels(scene, integrator=whitted_integrator(16)) == kernels(scene, integrator=whitted_integrator(1))
+
+
+def test_mirrors_deepen_the_kernels():
+    """The kernel comparison can tell depths apart when the scene calls for them."""
+    scene = load(mixed(), "llvm_ad_rgb")
+    assert kernels(scene, integrator=whitted_integrator(5)) != kernels(scene, integrator=whitted_integrator(1))
+
+
+def test_a_new_seed_compiles_no_new_kernel():
+    """The seed is an input of the kernels, not a constant baked into them."""
+    scene = load(diffuse(), "llvm_ad_rgb")
+    assert kernels(scene, spp=4, seed=1) == kernels(scene, spp=4, seed=2)
 
 
 def test_timings_and_memory_are_reported():
