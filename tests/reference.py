@@ -287,3 +287,17 @@ class Reference:
 def render_reference(scene, **options) -> np.ndarray:
     subsamples = options.pop("subsamples", 1)
     return Reference(scene, **options).render(subsamples)
+
+
+# -- the acceptance rule for a render against this reference ----------------------------------------
+
+def assert_matches(image: np.ndarray, expected: np.ndarray, mean_tol=0.004, outliers=0.01):
+    """Finite, mean absolute difference <= ``mean_tol``, at most ``outliers`` of the pixels
+    off by more than 0.02 (in any channel)."""
+    assert image.shape == expected.shape
+    assert np.all(np.isfinite(image)), "NaN or infinity in the image"
+    diff = np.abs(image.astype(np.float64) - expected)
+    mean = diff.mean()
+    off = (diff.max(axis=2) > 0.02).mean()
+    assert mean <= mean_tol, f"mean absolute difference {mean:.5f} > {mean_tol}"
+    assert off <= outliers, f"{off:.2%} of pixels off by more than 0.02"

@@ -18,7 +18,7 @@ import pytest
 
 import whitted
 import whitted.render
-from reference import Reference, camera_ray, render_reference
+from reference import Reference, assert_matches, camera_ray, render_reference
 from whitted.converter import Light, Material, Scene, Sphere, scene_to_xml
 
 from conftest import VARIANTS
@@ -39,16 +39,6 @@ def load(model: Scene, variant: str | None = None):
 
 def render(model: Scene, variant: str, **options) -> np.ndarray:
     return whitted.render.render(load(model, variant), **options).image
-
-
-def assert_matches(image: np.ndarray, expected: np.ndarray, mean_tol=0.004, outliers=0.01):
-    assert image.shape == expected.shape
-    assert np.all(np.isfinite(image)), "NaN or infinity in the image"
-    diff = np.abs(image.astype(np.float64) - expected)
-    mean = diff.mean()
-    off = (diff.max(axis=2) > 0.02).mean()
-    assert mean <= mean_tol, f"mean absolute difference {mean:.5f} > {mean_tol}"
-    assert off <= outliers, f"{off:.2%} of pixels off by more than 0.02"
 
 
 def floor() -> Sphere:

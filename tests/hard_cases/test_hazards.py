@@ -19,7 +19,7 @@ import hazard_scenes as hs
 import whitted
 import whitted.render
 from conftest import VARIANTS
-from reference import Reference, lat_long, load_texels, texel
+from reference import Reference, assert_matches, lat_long, load_texels, texel
 from whitted.converter import scene_to_xml
 
 
@@ -51,7 +51,7 @@ def hazards(tmp_path_factory):
 @pytest.mark.parametrize("variant", VARIANTS)
 @pytest.mark.parametrize("name", list(hs.HAZARDS))
 def test_hazard_scene_matches_the_reference(hazards, name, variant):
-    hs.assert_matches(hazards(name, variant).image, hazards(name, "reference").image)
+    assert_matches(hazards(name, variant).image, hazards(name, "reference").image)
 
 
 # -- sharper checks where a hazard strikes -------------------------------------------------------

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 import hazard_scenes as hs
-from hazard_scenes import assert_matches
+from reference import assert_matches
 import whitted
 import whitted.render
 from conftest import VARIANTS
