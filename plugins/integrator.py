@@ -40,11 +40,11 @@ from dataclasses import dataclass
 import drjit as dr
 import mitsuba as mi
 
+from whitted.loading import LIGHTING_MODES
+
 from .effects import analyse
 from .pixel_samples import pixel_offset
 from .shading import RayCounter, Shader
-
-LIGHTING_MODES = ("article", "physical")
 
 #: default camera samples per pass (and widest wavefront) in the JIT variants:
 #: a level holds about 100 bytes per lane, so a pass stays around 100 MiB

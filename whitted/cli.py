@@ -12,6 +12,9 @@ import sys
 from pathlib import Path
 
 from .errors import WhittedError
+from .loading import LIGHTING_MODES
+from .render import INTEGRATORS
+from .variant import SUPPORTED_VARIANTS
 
 EXIT_USER_ERROR = 2
 
@@ -72,12 +75,12 @@ def build_parser() -> argparse.ArgumentParser:
     render.add_argument("scene", help="the scene (.scn or converted .xml)")
     render.add_argument("-o", "--output", required=True, metavar="OUT",
                         help="output image, .exr (linear) or .png (sRGB)")
-    render.add_argument("--variant", choices=("scalar_rgb", "llvm_ad_rgb", "cuda_ad_rgb"),
+    render.add_argument("--variant", choices=SUPPORTED_VARIANTS,
                         help="Mitsuba variant (default: llvm_ad_rgb when a libLLVM >= 16 exists, "
                              "else scalar_rgb; or $WHITTED_VARIANT)")
-    render.add_argument("--integrator", choices=("whitted", "path"), default="whitted",
+    render.add_argument("--integrator", choices=INTEGRATORS, default="whitted",
                         help="the article's model (whitted, default) or Mitsuba's path tracer (path)")
-    render.add_argument("--lighting", choices=("article", "physical"), default=None,
+    render.add_argument("--lighting", choices=LIGHTING_MODES, default=None,
                         help="how the whitted integrator lights the scene: the article's model "
                              "(default) or physically (inverse-square fall-off, albedo/pi, no ambient)")
     render.add_argument("--spp", type=int, metavar="N", help="samples per pixel (default: the scene's)")

@@ -42,6 +42,8 @@ from pathlib import Path
 import numpy as np
 
 from .errors import WhittedError
+from .loading import LIGHTING_MODES
+from .variant import SUPPORTED_VARIANTS
 
 WHITTED_METHODS = ("whitted-article", "whitted-physical")
 METHODS = WHITTED_METHODS + ("path",)
@@ -239,7 +241,7 @@ def plan(depths: tuple[int, ...], whitted_spp: tuple[int, ...], path_spp: tuple[
     """Every render of the sweep, cheapest first, methods interleaved, so that a budget
     cut keeps the cheap end of every curve rather than all of one method."""
     settings = [Setting("whitted", lighting, spp, depth)
-                for lighting in ("article", "physical") for spp in whitted_spp for depth in depths]
+                for lighting in LIGHTING_MODES for spp in whitted_spp for depth in depths]
     settings += [Setting("path", "physical", spp, path_depth) for spp in path_spp]
     order = {m: i for i, m in enumerate(METHODS)}
     return sorted(settings, key=lambda s: (s.spp, s.max_depth if s.integrator == "whitted" else 0,
@@ -533,7 +535,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="relative MSE levels of the summary table (default "
                              f"{','.join(map(str, DEFAULT_LEVELS))})")
     parser.add_argument("--cache", metavar="DIR", help="where references are cached (default DIR/references)")
-    parser.add_argument("--variant", choices=("scalar_rgb", "llvm_ad_rgb", "cuda_ad_rgb"),
+    parser.add_argument("--variant", choices=SUPPORTED_VARIANTS,
                         help="Mitsuba variant (default as for render)")
     parser.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
 

@@ -48,9 +48,9 @@ from pathlib import Path
 import numpy as np
 
 from .errors import WhittedError
+from .loading import check_lighting
 
 INTEGRATORS = ("whitted", "path")
-LIGHTING_MODES = ("article", "physical")
 DEFAULTS = {"max_depth": 5, "ambient": 0.2, "lighting": "article", "min_weight": 0.0}
 #: camera samples per ``mi.render`` call of the path tracer (bounds its memory)
 PATH_SAMPLES_PER_PASS = 1 << 20
@@ -108,8 +108,7 @@ def _check(spp, max_depth, lighting, integrator, min_weight=None):
         raise WhittedError(f"spp must be a positive integer, got {spp}")
     if max_depth is not None and int(max_depth) < 1:
         raise WhittedError(f"max depth must be >= 1 (primary rays have depth 1), got {max_depth}")
-    if lighting is not None and lighting not in LIGHTING_MODES:
-        raise WhittedError(f"lighting must be one of {', '.join(LIGHTING_MODES)}, got '{lighting}'")
+    check_lighting(lighting)
     if min_weight is not None:
         if not 0.0 <= float(min_weight) <= 1.0:
             raise WhittedError(f"min weight must be in [0, 1], got {min_weight}")
