@@ -143,6 +143,19 @@ def _shape_rows(scene) -> np.ndarray:
     return np.array(dr.reinterpret_array(mi.UInt32, scene.shapes_dr()), np.int64).reshape(-1)
 
 
+def _frame_table(rows, frames, size: int):
+    """``(mapped, axes)``: per row, whether the shape has a texture frame, and the frame's
+    x, y and z axes as three opaque ``Vector3f`` tables (the identity where it has none)."""
+    mapped, frame = np.zeros(size, bool), np.zeros((3, 3, size))
+    frame[0, 0] = frame[1, 1] = frame[2, 2] = 1.0
+    for k, shape_frame in frames.items():
+        mapped[rows[k]], frame[:, :, rows[k]] = True, shape_frame
+    axes = [mi.Vector3f(frame[axis]) for axis in range(3)]
+    mapped = mi.Bool(mapped)
+    dr.make_opaque(mapped, *axes)
+    return mapped, axes
+
+
 class MitsubaHits:
     """Surface interactions from Mitsuba's own ``ray_intersect`` (any shape).
 
@@ -166,13 +179,11 @@ class MitsubaHits:
             return
         rows = _shape_rows(scene) if scene.shapes() else np.zeros(0, np.int64)
         size = int(rows.max(initial=0)) + 1
-        table, mapped, frame = np.zeros(size), np.zeros(size, bool), np.zeros((3, 3, size))
+        table = np.zeros(size)
         table[rows] = error
-        for k, shape_frame in frames.items():
-            mapped[rows[k]], frame[:, :, rows[k]] = True, shape_frame
-        self._error, self._mapped = mi.Float(table), mi.Bool(mapped)
-        self._frame = [mi.Vector3f(frame[axis]) for axis in range(3)]
-        dr.make_opaque(self._error, self._mapped, *self._frame)
+        self._error = mi.Float(table)
+        dr.make_opaque(self._error)
+        self._mapped, self._frame = _frame_table(rows, frames, size)
 
     def intersect(self, ray, coherent: bool):
         """``(hit, si, bsdf, error)``; ``bsdf`` is the BSDF's instance ID (JIT) or the BSDF
@@ -210,21 +221,17 @@ class SphereHits:
         bsdf_ids = np.array(dr.reinterpret_array(mi.UInt32, scene.shapes_dr().bsdf()), np.uint32).reshape(-1)
         size = int(rows.max()) + 1
         centre, radius, error = np.zeros((3, size)), np.ones(size), np.zeros(size)
-        frame = np.zeros((3, 3, size))   # rows: the sphere's local x, y, z axes
-        frame[0, 0] = frame[1, 1] = frame[2, 2] = 1.0
         bsdf = np.zeros(size, np.uint32)
         numbers = _shape_numbers(scene, need_uv)
         self.surface_at = _SurfacesNear(*numbers[:3], sphere=np.ones(len(rows), bool)).surface_at
         centre[:, rows], radius[rows], error[rows], frames = numbers
         bsdf[rows] = bsdf_ids
-        for k, shape_frame in frames.items():
-            frame[:, :, rows[k]] = shape_frame
         self._centre = mi.Point3f(centre)
         self._radius = mi.Float(radius)
         self._error = mi.Float(error)
         self._bsdf = mi.UInt32(bsdf)
-        self._frame = [mi.Vector3f(frame[axis]) for axis in range(3)]
-        dr.make_opaque(self._centre, self._radius, self._error, self._bsdf, *self._frame)
+        dr.make_opaque(self._centre, self._radius, self._error, self._bsdf)
+        _, self._frame = _frame_table(rows, frames, size)
 
     def intersect(self, ray, coherent: bool):
         """``(hit, si, bsdf, error)`` as :meth:`MitsubaHits.intersect`, ``bsdf`` an instance ID."""
