@@ -28,20 +28,14 @@ from dataclasses import dataclass
 from decimal import Decimal
 from pathlib import Path
 
+from .. import defaults
+from ..defaults import MAX_DEPTH, MAX_SAMPLES, MAX_SIZE, PARALLEL_SINE
 from ..errors import SceneError
 from .scene import Light, Material, Scene, Sphere, Vec3
 
-#: Every number's magnitude is at most this: light intensities (colour * pi * d^2)
-#: and squared distances then stay far inside 32-bit float range.
-MAX_MAGNITUDE = Decimal("1e12")
-#: Radius, index of refraction and field of view are at least this, so that
-#: their squares and reciprocals stay normal 32-bit floats.
-MIN_POSITIVE = Decimal("1e-6")
-MAX_SIZE = 16384
-MAX_DEPTH = 64
-MAX_SAMPLES = 65536
-#: Two directions count as parallel when the sine of their angle is below this.
-PARALLEL_SINE = 1e-9
+# The format's limits live in whitted.defaults (see there why each is what it is).
+MAX_MAGNITUDE = Decimal(defaults.MAX_MAGNITUDE)
+MIN_POSITIVE = Decimal(defaults.MIN_POSITIVE)
 
 GLOBALS = ("size", "eye", "lookat", "up", "fov", "background", "ambient", "depth", "samples")
 STATEMENTS = GLOBALS + ("light", "sphere")

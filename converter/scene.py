@@ -1,13 +1,16 @@
 """The scene model: what a legacy ``.scn`` file says, validated, with defaults filled in.
 
 Data flows one way: text -> :class:`Scene` (parser) -> Mitsuba XML (xml_writer)
--> ``mi.Scene``. Every default of ``shared/scene-format.md`` lives here, once.
+-> ``mi.Scene``. The defaults are the format's (``docs/scene-format.md``), taken from
+:mod:`whitted.defaults`, their one home.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
+
+from .. import defaults as D
 
 Vec3 = tuple[float, float, float]
 
@@ -16,7 +19,7 @@ Vec3 = tuple[float, float, float]
 class Light:
     """A point light; ``color`` is the article's light colour (no distance fall-off)."""
     position: Vec3
-    color: Vec3 = (1.0, 1.0, 1.0)
+    color: Vec3 = D.LIGHT_COLOR
     line: int = 0
 
 
@@ -27,10 +30,10 @@ class Material:
     The diffuse weight is 1 - reflect - refract; ``texture`` (an absolute path)
     replaces ``color`` as the base colour when given.
     """
-    color: Vec3 = (1.0, 1.0, 1.0)
-    reflect: float = 0.0
-    refract: float = 0.0
-    ior: float = 1.0
+    color: Vec3 = D.COLOR
+    reflect: float = D.REFLECT
+    refract: float = D.REFRACT
+    ior: float = D.IOR
     texture: Path | None = None
 
 
@@ -39,8 +42,8 @@ class Sphere:
     center: Vec3
     radius: float
     material: Material = Material()
-    north: Vec3 = (0.0, 1.0, 0.0)
-    equator: Vec3 = (0.0, 0.0, -1.0)
+    north: Vec3 = D.NORTH
+    equator: Vec3 = D.EQUATOR
     line: int = 0
 
 
@@ -48,15 +51,15 @@ class Sphere:
 class Scene:
     """A whole legacy scene. ``source`` is the file it came from (for messages and paths)."""
     source: Path = Path("<memory>")
-    width: int = 640
-    height: int = 400
-    eye: Vec3 = (0.0, 0.0, 10.0)
-    lookat: Vec3 = (0.0, 0.0, 0.0)
-    up: Vec3 = (0.0, 1.0, 0.0)
-    fov: float = 45.0
-    background: Vec3 = (0.0, 0.0, 0.0)
-    ambient: float = 0.2
-    depth: int = 5
-    samples: int = 1
+    width: int = D.WIDTH
+    height: int = D.HEIGHT
+    eye: Vec3 = D.EYE
+    lookat: Vec3 = D.LOOKAT
+    up: Vec3 = D.UP
+    fov: float = D.FOV
+    background: Vec3 = D.BACKGROUND
+    ambient: float = D.AMBIENT
+    depth: int = D.DEPTH
+    samples: int = D.SAMPLES
     lights: list[Light] = field(default_factory=list)
     spheres: list[Sphere] = field(default_factory=list)

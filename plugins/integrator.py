@@ -40,7 +40,7 @@ from dataclasses import dataclass
 import drjit as dr
 import mitsuba as mi
 
-from whitted.loading import LIGHTING_MODES
+from whitted import defaults as D
 
 from .effects import analyse
 from .pixel_samples import pixel_offset
@@ -107,23 +107,14 @@ class Wavefront:
 class WhittedIntegrator(mi.SamplingIntegrator):
     def __init__(self, props: mi.Properties):
         super().__init__(props)
-        self.max_depth = int(props.get("max_depth", 5))
-        self.ambient = float(props.get("ambient", 0.2))
-        self.lighting = str(props.get("lighting", "article"))
+        self.max_depth = D.check_depth(props.get("max_depth", D.DEPTH), "whitted: max_depth")
+        self.ambient = D.check_ambient(props.get("ambient", D.AMBIENT), "whitted: ambient")
+        self.lighting = D.check_lighting(str(props.get("lighting", D.LIGHTING)), "whitted: lighting")
         self.light_reference = mi.ScalarPoint3f(props.get("light_reference", mi.ScalarPoint3f(0, 0, 0)))
         self.wavefront_size = int(props.get("wavefront_size", 0))
-        self.min_weight = float(props.get("min_weight", 0.0))
-        if self.max_depth < 1:
-            raise ValueError(f"whitted: max_depth must be >= 1, got {self.max_depth}")
-        if not 0.0 <= self.ambient <= 1.0:
-            raise ValueError(f"whitted: ambient must be in [0, 1], got {self.ambient}")
-        if self.lighting not in LIGHTING_MODES:
-            raise ValueError(f"whitted: lighting must be one of {', '.join(LIGHTING_MODES)}, "
-                             f"got '{self.lighting}'")
+        self.min_weight = D.check_min_weight(props.get("min_weight", D.MIN_WEIGHT), "whitted: min_weight")
         if self.wavefront_size < 0:
             raise ValueError(f"whitted: wavefront_size must be >= 0, got {self.wavefront_size}")
-        if not 0.0 <= self.min_weight <= 1.0:
-            raise ValueError(f"whitted: min_weight must be in [0, 1], got {self.min_weight}")
         self.vectorized = dr.is_jit_v(mi.Float)
         self._lanes = self.wavefront_size or JIT_SAMPLES_PER_PASS
 

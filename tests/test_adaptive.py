@@ -17,7 +17,7 @@ import mitsuba as mi
 import numpy as np
 import pytest
 
-import whitted.render
+import whitted.rendering
 from whitted.cli import main
 from whitted.converter import Light, Material, Scene, Sphere, scene_to_xml
 from whitted.errors import WhittedError
@@ -70,8 +70,8 @@ def brightest(model: Scene) -> float:
 
 def test_off_by_default_changes_nothing(variant):
     scene = load(inside_mirror(0.5, 0.3, depth=6))
-    default = whitted.render.render(scene)
-    off = whitted.render.render(scene, min_weight=0)
+    default = whitted.render(scene)
+    off = whitted.render(scene, min_weight=0)
     np.testing.assert_array_equal(default.image, off.image)
     assert default.stats["rays"] == off.stats["rays"]
     assert default.stats["min_weight"] == 0
@@ -85,8 +85,8 @@ def test_off_by_default_changes_nothing(variant):
 def test_a_threshold_below_every_weight_changes_nothing(variant):
     """The smallest weight at depth 5 is 0.3·0.5³ = 0.0375: a threshold under it culls nothing."""
     scene = load(inside_mirror(0.5, 0.3, depth=5))
-    off = whitted.render.render(scene)
-    low = whitted.render.render(scene, min_weight=0.03)
+    off = whitted.render(scene)
+    low = whitted.render(scene, min_weight=0.03)
     np.testing.assert_array_equal(off.image, low.image)
     assert off.stats["rays"] == low.stats["rays"]
     assert low.stats["culled_rays"] == 0
@@ -104,7 +104,7 @@ def test_a_threshold_below_every_weight_changes_nothing(variant):
 def test_counts_follow_the_weights(variant, kr, kt, min_weight):
     depth = 16
     scene = load(inside_mirror(kr, kt, depth))
-    stats = whitted.render.render(scene, min_weight=min_weight).stats
+    stats = whitted.render(scene, min_weight=min_weight).stats
     expected = predicted(kr, kt, min_weight, depth)
     n = 8 * 6
     assert stats["min_weight"] == min_weight
@@ -120,7 +120,7 @@ def test_pure_mirror_depth_is_where_the_weight_falls_below_the_threshold(variant
     """KR^k < W first at k = 7 for KR = 0.5, W = 0.01: the deepest ray is at depth 7 (weight 2^-6)."""
     kr, min_weight = 0.5, 0.01
     k = next(k for k in range(1, 64) if kr ** k < min_weight)
-    stats = whitted.render.render(load(inside_mirror(kr, 0.0)), min_weight=min_weight).stats
+    stats = whitted.render(load(inside_mirror(kr, 0.0)), min_weight=min_weight).stats
     assert k == 7
     assert stats["max_depth_reached"] == k
     assert stats["rays"]["reflection"] == (k - 1) * 8 * 6
@@ -144,8 +144,8 @@ def test_error_is_within_the_culled_weight(variant, spp):
     colour: 0 <= full - culled, and the sum over pixels <= culled_weight / spp · brightest."""
     model = mirrors_and_glass(spp)
     scene = load(model)
-    full = whitted.render.render(scene)
-    culled = whitted.render.render(scene, min_weight=0.05)
+    full = whitted.render(scene)
+    culled = whitted.render(scene, min_weight=0.05)
     traced = lambda stats: sum(stats["rays"][k] for k in ("shadow", "reflection", "refraction"))
     assert traced(culled.stats) < traced(full.stats)
     assert culled.stats["culled_rays"] > 0
@@ -165,15 +165,15 @@ def test_scene_property_and_override(llvm):
         '<string name="lighting" value="$lighting"/>',
         '<string name="lighting" value="$lighting"/>\n        <float name="min_weight" value="0.01"/>')
     scene = mi.load_string(xml)
-    assert whitted.render.render(scene).stats["max_depth_reached"] == 7
-    assert whitted.render.render(scene, min_weight=0).stats["max_depth_reached"] == 16
+    assert whitted.render(scene).stats["max_depth_reached"] == 7
+    assert whitted.render(scene, min_weight=0).stats["max_depth_reached"] == 16
 
 
 @pytest.mark.parametrize("value", (-0.1, 1.5, float("nan")))
 def test_bad_thresholds_are_refused(llvm, value):
     scene = load(inside_mirror(0.5, 0.0))
     with pytest.raises(WhittedError, match="min weight"):
-        whitted.render.render(scene, min_weight=value)
+        whitted.render(scene, min_weight=value)
     with pytest.raises((ValueError, RuntimeError), match="min_weight must be in"):  # Mitsuba wraps it
         mi.load_dict({"type": "whitted", "min_weight": value})
 
@@ -181,8 +181,8 @@ def test_bad_thresholds_are_refused(llvm, value):
 def test_path_integrator_refuses_a_threshold(llvm):
     scene = load(inside_mirror(0.5, 0.0))
     with pytest.raises(WhittedError, match="whitted integrator only"):
-        whitted.render.render(scene, integrator="path", min_weight=0.1)
-    stats = whitted.render.render(scene, integrator="path", spp=1).stats
+        whitted.render(scene, integrator="path", min_weight=0.1)
+    stats = whitted.render(scene, integrator="path", spp=1).stats
     assert stats["min_weight"] is None and stats["culled_rays"] is None
 
 

@@ -151,7 +151,7 @@ def test_second_run_reuses_the_cached_reference(sweep, mirror_scene, tmp_path, m
     out, first = sweep
     reference_file = first[0].reference_file
     stamp = reference_file.stat().st_mtime_ns
-    import whitted.render as render_module
+    import whitted.rendering as render_module
     calls = []
     real = render_module.render
 
@@ -215,7 +215,7 @@ def test_interrupted_store_leaves_no_usable_entry(tmp_path, monkeypatch):
 
 
 def test_interrupted_sweep_writes_what_was_done(sweep, mirror_scene, tmp_path, monkeypatch):
-    import whitted.render as render_module
+    import whitted.rendering as render_module
     out, _ = sweep
     real, calls = render_module.render, []
 
@@ -274,7 +274,7 @@ def test_budget_bounds_the_sweep(sweep, mirror_scene, tmp_path):
 
 def test_no_reference_is_rendered_once_the_budget_is_spent(tmp_path, monkeypatch, capsys):
     """Budget gone (here: by the time the scenes are loaded): uncached references are not rendered."""
-    import whitted.render as render_module
+    import whitted.rendering as render_module
     scene = tmp_path / "diffuse.scn"
     scene.write_text(DIFFUSE_SCENE)
     calls = []

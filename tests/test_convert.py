@@ -66,19 +66,19 @@ def test_error_leaves_an_existing_output_untouched(write_scene, tmp_path):
 
 @pytest.mark.parametrize("case, message", [
     ("missing", "no such file"),
-    ("folder", "is a folder, not a scene file"),
+    ("empty_folder", "no .scn files in this folder"),
     ("no_output_folder", "output folder"),
-    ("output_is_folder", "is a folder; give the output file's name"),
     ("overwrite_input", "output would overwrite the input"),
     ("binary", ":1: binary file"),
 ])
 def test_cli_user_errors(case, message, write_scene, tmp_path, capsys):
     good = write_scene("sphere 0 0 0 1\n")
+    empty = tmp_path / "empty"
+    empty.mkdir()
     args = {
         "missing": [tmp_path / "nope.scn"],
-        "folder": [tmp_path],
+        "empty_folder": [empty],
         "no_output_folder": [good, "-o", tmp_path / "no" / "such" / "x.xml"],
-        "output_is_folder": [good, "-o", tmp_path],
         "overwrite_input": [good, "-o", good],
         "binary": [write_scene(b"\x00\x01\x02", "bin.scn")],
     }[case]
@@ -88,6 +88,73 @@ def test_cli_user_errors(case, message, write_scene, tmp_path, capsys):
     assert message in err and err.count("\n") == 1 and "Traceback" not in err
     assert sorted(tmp_path.rglob("*")) == before
     assert good.read_text() == "sphere 0 0 0 1\n"
+
+
+def test_output_folder_receives_the_xml(write_scene, tmp_path):
+    scene = write_scene("sphere 0 0 0 1\n", "ball.scn")
+    out = tmp_path / "out"
+    out.mkdir()
+    assert convert(scene, "-o", out) == 0
+    assert parse_file(scene) is not None and (out / "ball.xml").is_file()
+    assert not scene.with_suffix(".xml").exists()
+
+
+def test_several_files_and_folders_go_on_past_a_bad_file(tmp_path, capsys):
+    """Every good file is converted; each bad one is reported as FILE:LINE and written nowhere."""
+    folder = tmp_path / "legacy"
+    folder.mkdir()
+    (folder / "a.scn").write_text("sphere 0 0 0 1\n")
+    (folder / "b.scn").write_text(BAD)
+    (folder / "notes.txt").write_text("not a scene")
+    c = tmp_path / "c.scn"
+    c.write_text("size 10 10\nsphere 0 0 0 2\n")
+    bad2 = tmp_path / "d.scn"
+    bad2.write_text("sphere 0 0 0 1\nsphear 1 1 1 1\n")
+    assert convert(folder, c, bad2) == 2
+    err = capsys.readouterr().err
+    assert f"{folder / 'b.scn'}:7: sphere radius must be > 0" in err
+    assert f"{bad2}:2: " in err and "2 of 4 scene files not converted" in err
+    assert "Traceback" not in err
+    assert (folder / "a.xml").is_file() and c.with_suffix(".xml").is_file()
+    assert not (folder / "b.xml").exists() and not bad2.with_suffix(".xml").exists()
+    assert not (folder / "notes.xml").exists()
+    # the XML of each good file is what converting it alone gives
+    assert (folder / "a.xml").read_text() == scene_to_xml(parse_file(folder / "a.scn"), base_dir=folder)
+
+
+def test_several_files_into_one_output_folder(tmp_path):
+    for name in ("a", "b"):
+        (tmp_path / f"{name}.scn").write_text("sphere 0 0 0 1\n")
+    out = tmp_path / "new" / "xml"
+    assert convert(tmp_path / "a.scn", tmp_path / "b.scn", "-o", out) == 0
+    assert sorted(p.name for p in out.iterdir()) == ["a.xml", "b.xml"]
+
+
+def test_two_inputs_that_would_write_one_file_are_refused_before_any_work(tmp_path, capsys):
+    for sub in ("x", "y"):
+        (tmp_path / sub).mkdir()
+        (tmp_path / sub / "same.scn").write_text("sphere 0 0 0 1\n")
+    out = tmp_path / "out"
+    out.mkdir()
+    assert convert(tmp_path / "x" / "same.scn", tmp_path / "y" / "same.scn", "-o", out) == 2
+    assert "would be written here" in capsys.readouterr().err
+    assert list(out.iterdir()) == []
+
+
+def test_convert_loads_neither_mitsuba_nor_drjit(write_scene, tmp_path):
+    """The converter stands alone: importing it, and the whole ``whitted convert`` command,
+    leave Mitsuba, Dr.Jit and numpy unloaded (checked in a fresh interpreter)."""
+    scene = write_scene("size 8 8\nlight 1 1 1\nsphere 0 0 0 1 reflect 0.5\n", "light.scn")
+    code = ("import sys\n"
+            "import whitted.converter as c\n"
+            "from whitted.cli import main\n"
+            f"status = main(['convert', {str(scene)!r}])\n"
+            "heavy = sorted(m for m in ('mitsuba', 'drjit', 'numpy') if m in sys.modules)\n"
+            "print(status, ','.join(heavy) or '-')\n")
+    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=tmp_path)
+    assert run.returncode == 0, run.stderr
+    assert run.stdout.split() == ["0", "-"]
+    assert scene.with_suffix(".xml").is_file()
 
 
 def test_cli_process_exit_status_and_stderr(write_scene, tmp_path):

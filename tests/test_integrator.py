@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 import whitted
-import whitted.render
+import whitted.rendering
 from reference import Reference, assert_matches, camera_ray, render_reference
 from whitted.converter import Light, Material, Scene, Sphere, scene_to_xml
 
@@ -38,7 +38,7 @@ def load(model: Scene, variant: str | None = None):
 
 
 def render(model: Scene, variant: str, **options) -> np.ndarray:
-    return whitted.render.render(load(model, variant), **options).image
+    return whitted.render(load(model, variant), **options).image
 
 
 def floor() -> Sphere:
@@ -371,7 +371,7 @@ def test_other_shapes_render_through_mitsubas_interactions(tmp_path):
     images = {}
     for variant in VARIANTS:
         use_variant(variant)
-        result = whitted.render.render(mi.load_string(xml))
+        result = whitted.render(mi.load_string(xml))
         assert result.stats["rays"]["reflection"] > 0
         images[variant] = result.image
     assert np.all(np.isfinite(images["llvm_ad_rgb"]))

@@ -302,7 +302,7 @@ def test_cli_physical_whitted_agrees_with_the_path_tracer(llvm, tmp_path):
 
 @pytest.mark.parametrize("make", [single_diffuse_sphere, mirror_and_diffuse])
 def test_physical_whitted_agrees_with_the_path_tracer(llvm, make):
-    from whitted.render import render
+    from whitted.rendering import render
 
     scene = load(make())
     whitted_image = render(scene, lighting="physical", spp=64).image
@@ -314,7 +314,7 @@ def test_physical_whitted_agrees_with_the_path_tracer(llvm, make):
 
 
 def test_physical_whitted_agrees_with_the_path_tracer_in_scalar_variant():
-    from whitted.render import render
+    from whitted.rendering import render
 
     previous = mi.variant()
     whitted.set_variant("scalar_rgb")
@@ -330,7 +330,7 @@ def test_physical_whitted_agrees_with_the_path_tracer_in_scalar_variant():
 def test_path_sees_the_same_texels_as_the_whitted_integrator(llvm, tmp_path):
     """With ambient 1 and no lights the article's colour is the texel itself; under
     a white sky the path tracer's is too. The same texels, up to noise."""
-    from whitted.render import render
+    from whitted.rendering import render
 
     texture = tmp_path / "texels.exr"
     write_texture(texture, width=24, height=12, seed=5)
@@ -357,7 +357,7 @@ def test_path_traced_brightness_is_comparable_on_the_example_scenes(llvm, path):
     """The light scaling makes path-traced and article images comparable: mean
     luminance within a factor 2 (at a quarter of the scenes' resolution)."""
     from whitted.converter import parse_file
-    from whitted.render import render
+    from whitted.rendering import render
 
     model = parse_file(path)
     model = dataclasses.replace(model, width=max(8, model.width // 4),

@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 import whitted
-import whitted.render
+import whitted.rendering
 from reference import render_reference, srgb_to_linear
 from whitted.cli import main
 from whitted.converter import Light, Material, Scene, Sphere, scene_to_xml
@@ -50,7 +50,7 @@ def test_exr_holds_the_linear_render(scene_xml, tmp_path, capsys):
     assert render(scene_xml, "-o", out, "-q") == 0
     assert capsys.readouterr() == ("", "")
     image = read_image(out)
-    expected = whitted.render.render(mi.load_file(str(scene_xml))).image
+    expected = whitted.render(mi.load_file(str(scene_xml))).image
     np.testing.assert_array_equal(image, expected)
     assert np.abs(image - render_reference(MODEL)).mean() < 0.004
 
@@ -60,7 +60,7 @@ def test_png_holds_srgb_clipped(scene_xml, tmp_path):
     assert render(scene_xml, "-o", out, "-q") == 0
     raw = np.array(mi.Bitmap(str(out)))
     assert raw.dtype == np.uint8 and raw.shape == (H, W, 3)
-    linear = whitted.render.render(mi.load_file(str(scene_xml))).image
+    linear = whitted.render(mi.load_file(str(scene_xml))).image
     # decoding the stored bytes gives back the clipped linear image (to 8-bit precision)
     decoded = srgb_to_linear(raw / 255.0)
     clipped = np.clip(linear, 0, 1)
@@ -109,7 +109,7 @@ def test_path_integrator_runs(scene_xml, tmp_path):
                   "--stats", stats, "-q") == 0
     image = read_image(tmp_path / "path.exr")
     assert image.shape == (H, W, 3) and np.all(np.isfinite(image))
-    whitted_image = whitted.render.render(mi.load_file(str(scene_xml))).image
+    whitted_image = whitted.render(mi.load_file(str(scene_xml))).image
     assert 0.5 < image.mean() / whitted_image.mean() < 2.0
     assert json.loads(stats.read_text())["rays"]["camera"] == W * H * 8
 
@@ -191,8 +191,8 @@ def test_path_tracer_renders_in_passes_and_averages_them(scene_xml, monkeypatch)
     scene = mi.load_file(str(scene_xml))
     sensor = scene.sensors()[0]
     own_spp = sensor.sampler().sample_count()
-    monkeypatch.setattr(whitted.render, "PATH_SAMPLES_PER_PASS", W * H * 2)   # 2 spp per pass
-    result = whitted.render.render(scene, integrator="path", spp=5, seed=3)
+    monkeypatch.setattr(whitted.rendering, "PATH_SAMPLES_PER_PASS", W * H * 2)   # 2 spp per pass
+    result = whitted.render(scene, integrator="path", spp=5, seed=3)
     assert sensor.sampler().sample_count() == own_spp   # mi.render's change is undone
     path = mi.load_dict({"type": "path", "max_depth": MODEL.depth + 1})
     seeds = [3] + [(3 * 0x9E3779B1 + k) & 0xFFFFFFFF for k in (1, 2)]

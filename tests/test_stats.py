@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 import whitted
-import whitted.render
+import whitted.rendering
 from reference import Reference
 from whitted.converter import Light, Material, Scene, Sphere, scene_to_xml
 
@@ -44,7 +44,7 @@ def mixed(depth=5) -> Scene:
 
 @pytest.mark.parametrize("variant", VARIANTS)
 def test_diffuse_scene_at_depth_16_traces_no_secondary_rays(variant):
-    stats = whitted.render.render(load(diffuse(depth=16), variant), spp=3).stats
+    stats = whitted.render(load(diffuse(depth=16), variant), spp=3).stats
     assert KEYS <= set(stats)
     assert stats["rays"]["camera"] == W * H * 3
     assert stats["rays"]["reflection"] == 0 and stats["rays"]["refraction"] == 0
@@ -55,7 +55,7 @@ def test_diffuse_scene_at_depth_16_traces_no_secondary_rays(variant):
 
 @pytest.mark.parametrize("variant", VARIANTS)
 def test_scene_without_lights_casts_no_shadow_rays(variant):
-    stats = whitted.render.render(load(diffuse(lights=False), variant)).stats
+    stats = whitted.render(load(diffuse(lights=False), variant)).stats
     assert stats["rays"]["shadow"] == 0
     assert "lights" not in stats["effects"]
 
@@ -67,7 +67,7 @@ def test_ray_counts_match_the_reference(variant, depth):
     model = mixed(depth)
     reference = Reference(model)
     reference.render()
-    stats = whitted.render.render(load(model, variant)).stats
+    stats = whitted.render(load(model, variant)).stats
     assert stats["rays"]["camera"] == reference.rays["camera"] == W * H
     for kind in ("shadow", "reflection", "refraction"):
         # float32 and float64 may disagree about a grazing ray or two
@@ -82,7 +82,7 @@ def test_ray_counts_match_the_reference(variant, depth):
     (mixed(), 1, ["lights", "background"]),   # depth 1: mirrors and glass spawn nothing
 ])
 def test_effects_are_those_the_scene_calls_for(model, depth, effects):
-    stats = whitted.render.render(load(model, "llvm_ad_rgb"), max_depth=depth).stats
+    stats = whitted.render(load(model, "llvm_ad_rgb"), max_depth=depth).stats
     assert stats["effects"] == effects
 
 
@@ -91,7 +91,7 @@ def test_textures_are_an_effect(tmp_path):
     mi.Bitmap(np.full((2, 4, 3), 100, np.uint8), pixel_format=mi.Bitmap.PixelFormat.RGB).write(str(path))
     model = diffuse()
     model.spheres[1] = Sphere((0.0, 0.2, 0.0), 1.0, Material(texture=path))
-    assert "textures" in whitted.render.render(load(model, "llvm_ad_rgb")).stats["effects"]
+    assert "textures" in whitted.render(load(model, "llvm_ad_rgb")).stats["effects"]
 
 
 def kernels(scene, **options):
@@ -131,7 +131,7 @@ def test_timings_and_memory_are_reported():
     scene = load(mixed(), "llvm_ad_rgb")
     import time
     start = time.perf_counter()
-    stats = whitted.render.render(scene).stats
+    stats = whitted.render(scene).stats
     wall = time.perf_counter() - start
     assert stats["seconds"] > 0 and stats["compile_seconds"] >= 0
     assert stats["seconds"] + stats["compile_seconds"] <= wall
@@ -139,7 +139,7 @@ def test_timings_and_memory_are_reported():
 
 
 def test_path_integrator_stats():
-    stats = whitted.render.render(load(mixed(), "llvm_ad_rgb"), integrator="path", spp=2).stats
+    stats = whitted.render(load(mixed(), "llvm_ad_rgb"), integrator="path", spp=2).stats
     assert KEYS <= set(stats)
     assert stats["rays"] == {"camera": W * H * 2, "shadow": None, "reflection": None, "refraction": None}
     assert stats["max_depth_reached"] is None

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 import whitted
-import whitted.render
+import whitted.rendering
 from reference import camera_ray, cross, lat_long, load_texels, nearest_hit, normalize, srgb_to_linear, sub, texel
 from whitted.converter import Material, Scene, Sphere, scene_to_xml
 
@@ -121,7 +121,7 @@ def near_texel_edge(u: float, v: float, margin=1e-3) -> bool:
 def test_texels_on_every_face(texture, variant, face):
     """Every pixel that sees the sphere shows the texel the spec's mapping picks."""
     model = globe(texture, **face_camera(faces()[face]))
-    image = whitted.render.render(load(model, variant)).image
+    image = whitted.render(load(model, variant)).image
     assert np.all(np.isfinite(image))
     texels = load_texels(texture)
     sphere = model.spheres[0]
@@ -150,7 +150,7 @@ def test_poles_show_the_top_and_bottom_rows(texture, variant, pole, row):
     """The ray through the centre pixel hits the pole: the north pole is the image's top
     row, the south pole its bottom row (any column: u is a convention there), finite."""
     model = globe(texture, **face_camera(faces()[pole]))
-    image = whitted.render.render(load(model, variant)).image
+    image = whitted.render(load(model, variant)).image
     assert np.all(np.isfinite(image))
     centre = image[model.height // 2, model.width // 2]
     texels = load_texels(texture)
@@ -164,7 +164,7 @@ def test_8bit_textures_are_decoded_from_srgb(tmp_path, variant):
     path = tmp_path / "grey.png"
     mi.Bitmap(np.full((4, 8, 3), 128, np.uint8), pixel_format=mi.Bitmap.PixelFormat.RGB).write(str(path))
     model = globe(path, **face_camera(faces()["-east"], size=5))
-    image = whitted.render.render(load(model, variant)).image
+    image = whitted.render(load(model, variant)).image
     np.testing.assert_allclose(image[2, 2], srgb_to_linear(128 / 255), rtol=1e-5)
     assert srgb_to_linear(128 / 255) == pytest.approx(0.2158605, rel=1e-6)
 
@@ -177,7 +177,7 @@ def test_float_textures_are_linear(tmp_path, variant):
     values = np.stack([cols * 0.3, rows * 0.7, np.full(rows.shape, 2.5)], axis=-1).astype(np.float32)
     mi.Bitmap(values, pixel_format=mi.Bitmap.PixelFormat.RGB).write(str(path))
     model = globe(path, **face_camera(faces()["-seam"], size=5))
-    image = whitted.render.render(load(model, variant)).image
+    image = whitted.render(load(model, variant)).image
     u, v = lat_long(model.spheres[0], tuple(c + RADIUS * d for c, d in zip(CENTER, faces()["-seam"])))
     np.testing.assert_allclose(image[2, 2], texel(values.astype(np.float64), u, v), rtol=1e-6)
     assert image[2, 2, 2] == pytest.approx(2.5)

@@ -1,23 +1,94 @@
 """whitted: the classic sphere ray tracer of "Ray Tracing: Graphics for the Masses",
 inside Mitsuba 3.
 
-``import whitted`` chooses a variant (llvm_ad_rgb when a libLLVM >= 16 exists,
-else scalar_rgb; a variant already set through Mitsuba is kept) and registers
-the project's plugins: the ``whitted`` integrator and the ``article`` BSDF.
+Importing this package is cheap: it loads neither Mitsuba nor Dr.Jit, so the
+converter (``whitted.converter``, ``whitted convert``) runs where Mitsuba is
+absent and converting many files costs no renderer start-up. What a Mitsuba
+user needs still happens on its own, through Mitsuba's own hooks:
+
+* before Dr.Jit starts, ``DRJIT_LIBLLVM_PATH`` points at a libLLVM >= 16 (an
+  older one aborts the process; see :mod:`whitted.variant`);
+* once ``mitsuba`` is imported (before or after ``import whitted``), a variant
+  is chosen when none is set (llvm_ad_rgb when a libLLVM >= 16 exists, else
+  scalar_rgb), and the project's plugins — the ``whitted`` integrator and the
+  ``article`` BSDF — are registered for it and for every variant set later
+  (``mitsuba.detail.add_variant_callback``), so that ``mi.load_file`` reads
+  XML files that name them.
+
+The rendering API (:func:`load_scene`, :func:`render`, :func:`write_image`,
+:func:`read_image`, :func:`set_variant`) is loaded on first use.
 """
 
 from __future__ import annotations
 
+import importlib
+import importlib.util
+import sys
+
+from .defaults import VERSION as __version__
 from .errors import SceneError, WhittedError
 from .variant import prepare_llvm as _prepare_llvm
 
-_prepare_llvm()  # before Dr.Jit starts: a bad libLLVM aborts the process
+_prepare_llvm()  # only sets an environment variable: Dr.Jit reads it when it starts
 
-from .variant import set_variant  # noqa: E402
+#: public name -> (module, attribute): the API, imported on first use
+_LAZY = {
+    "load_scene": ("whitted.loading", "load_scene"),
+    "render": ("whitted.rendering", "render"),
+    "RenderResult": ("whitted.rendering", "RenderResult"),
+    "write_image": ("whitted.imageio", "write_image"),
+    "read_image": ("whitted.imageio", "read_image"),
+    "set_variant": ("whitted.variant", "set_variant"),
+}
 
-set_variant()
+__all__ = ["SceneError", "WhittedError", "__version__", *_LAZY]
 
-from .loading import load_scene  # noqa: E402
 
-__all__ = ["SceneError", "WhittedError", "load_scene", "set_variant"]
-__version__ = "0.1.0"
+def __getattr__(name: str):
+    if name in _LAZY:
+        module, attribute = _LAZY[name]
+        value = getattr(importlib.import_module(module), attribute)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module 'whitted' has no attribute '{name}'")
+
+
+def __dir__():
+    return sorted(set(globals()) | set(_LAZY))
+
+
+def _mitsuba_ready(mi) -> None:
+    """Mitsuba has just been imported: choose a variant if none is set, register the plugins."""
+    from .variant import on_variant_changed, set_variant
+    mi.detail.add_variant_callback(on_variant_changed)
+    try:
+        set_variant(None)
+    except WhittedError as error:   # e.g. a bad $WHITTED_VARIANT: the user's to fix, not a crash
+        print(f"whitted: warning: {error}; no variant selected", file=sys.stderr)
+
+
+class _MitsubaHook:
+    """A ``sys.meta_path`` finder that runs :func:`_mitsuba_ready` right after
+    ``import mitsuba`` completes (``importlib.abc`` is not imported: it costs 10 ms)."""
+
+    def find_spec(self, fullname, path=None, target=None):
+        if fullname != "mitsuba":
+            return None
+        sys.meta_path.remove(self)   # once; and let the real finders find it
+        spec = importlib.util.find_spec(fullname)
+        if spec is None or spec.loader is None:
+            return spec
+        exec_module = spec.loader.exec_module
+
+        def exec_then_register(module):
+            exec_module(module)
+            _mitsuba_ready(sys.modules.get(fullname, module))
+
+        spec.loader.exec_module = exec_then_register
+        return spec
+
+
+if "mitsuba" in sys.modules:
+    _mitsuba_ready(sys.modules["mitsuba"])
+elif not any(isinstance(f, _MitsubaHook) for f in sys.meta_path):
+    sys.meta_path.insert(0, _MitsubaHook())

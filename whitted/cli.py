@@ -1,46 +1,66 @@
-"""The ``whitted`` command: convert, render (and later compare) legacy scenes.
+"""The ``whitted`` command: convert, render and compare legacy scenes.
 
-User errors (bad scene files, missing files, bad options) print one line on
-stderr and exit with status 2; no traceback, no output file.
+User errors (bad scene files, missing files, bad options, bad environment
+variables) print one line on stderr (one per problem) and exit with status 2;
+no traceback, no output file. Ctrl-C and SIGTERM print one line and exit with
+status 130 (143 for SIGTERM), leaving no partial output.
+
+This module imports only what argument parsing needs: ``whitted convert``
+never loads Mitsuba, Dr.Jit or numpy (each command imports its own module
+when it runs).
 """
 
 from __future__ import annotations
 
 import argparse
 import os
+import signal
 import sys
 from pathlib import Path
 
+from .defaults import INTEGRATORS, LIGHTING_MODES, VERSION
+from .defaults import VARIANTS as SUPPORTED_VARIANTS
 from .errors import WhittedError
-from .loading import LIGHTING_MODES
-from .render import INTEGRATORS
-from .variant import SUPPORTED_VARIANTS
 
 EXIT_USER_ERROR = 2
+EXIT_INTERRUPTED = 130
 
 
-def _convert(args: argparse.Namespace) -> None:
-    from .atomic import write_text
-    from .converter import parse_file, scene_to_xml
+def _report(error: BaseException) -> None:
+    """Each line of a user error as ``whitted: error: LINE`` on stderr."""
+    for line in (str(error).splitlines() or [type(error).__name__]):
+        print(f"whitted: error: {line}", file=sys.stderr)
 
-    source = Path(args.scene)
-    scene = parse_file(source)  # first: nothing is written for an invalid scene
-    target = Path(args.output) if args.output else source.with_suffix(".xml")
-    if target.resolve() == source.resolve():
-        raise WhittedError(f"{source}: output would overwrite the input; choose another with -o")
-    if target.is_dir():
-        raise WhittedError(f"{target}: is a folder; give the output file's name")
-    xml = scene_to_xml(scene, base_dir=target.parent)
-    try:
-        write_text(target, xml)
-    except OSError as error:
-        raise WhittedError(f"{target}: cannot write: {error.strerror or error}") from None
-    if args.verbose:
-        print(f"wrote {target}", file=sys.stderr)
+
+def _convert(args: argparse.Namespace) -> int:
+    from .converter.batch import check_writable, convert_file, plan
+
+    pairs = plan(args.scenes, args.output)
+    out = Path(args.output) if args.output else None
+    if out is not None and len(pairs) > 1 and not out.exists():
+        try:
+            out.mkdir(parents=True)
+        except OSError as error:
+            raise WhittedError(f"{out}: cannot create the output folder: {error.strerror or error}") from None
+    for folder in sorted({target.parent for _, target in pairs}):
+        check_writable(folder)
+    failed = 0
+    for source, target in pairs:
+        try:
+            convert_file(source, target)
+        except WhittedError as error:
+            _report(error)
+            failed += 1
+        else:
+            if args.verbose:
+                print(f"wrote {target}", file=sys.stderr)
+    if failed and len(pairs) > 1:
+        print(f"whitted: {failed} of {len(pairs)} scene files not converted", file=sys.stderr)
+    return EXIT_USER_ERROR if failed else 0
 
 
 def _render(args: argparse.Namespace) -> None:
-    from .render import render_command
+    from .rendering import render_command
     render_command(args)
 
 
@@ -55,16 +75,21 @@ def build_parser() -> argparse.ArgumentParser:
         description="The classic Whitted sphere ray tracer of 'Ray Tracing: Graphics for the "
                     "Masses', inside Mitsuba 3: convert legacy .scn scenes to Mitsuba XML and "
                     "render them with the article's model or Mitsuba's path tracer.")
+    parser.add_argument("--version", action="version", version=f"whitted {VERSION}")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
     convert = sub.add_parser(
-        "convert", help="convert a legacy .scn scene to Mitsuba 3 XML",
-        description="Convert a legacy .scn scene to Mitsuba 3 XML (format 3.0.0). The XML "
-                    "loads in stock Mitsuba once 'import whitted' has registered the project's "
-                    "plugins. Nothing is written unless the whole scene is valid.")
-    convert.add_argument("scene", help="the legacy scene file (.scn)")
-    convert.add_argument("-o", "--output", metavar="OUT.xml",
-                         help="where to write the XML (default: beside the input, with a .xml suffix)")
+        "convert", help="convert legacy .scn scenes to Mitsuba 3 XML",
+        description="Convert legacy .scn scenes to Mitsuba 3 XML (format 3.0.0): each X.scn "
+                    "becomes X.xml beside it, or in the folder given with -o. The XML loads in "
+                    "stock Mitsuba once 'import whitted' has registered the project's plugins. "
+                    "A bad file is reported as FILE:LINE: message and nothing is written for it; "
+                    "the others are still converted, and the exit status is 2.")
+    convert.add_argument("scenes", nargs="+", metavar="SCENE",
+                         help="legacy scene files (.scn), or folders holding them")
+    convert.add_argument("-o", "--output", metavar="OUT",
+                         help="the XML file (one input file), or the folder that receives every "
+                              "X.xml (default: beside each input)")
     convert.add_argument("-v", "--verbose", action="store_true", help="say what was written")
     convert.set_defaults(run=_convert)
 
@@ -109,21 +134,47 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+class _Interrupted:
+    """SIGINT and SIGTERM as a ``KeyboardInterrupt``, remembered: code that catches
+    and wraps the exception (Dr.Jit's ``custom`` turns it into a RuntimeError)
+    cannot hide that the user asked to stop."""
+
+    signal_number: int | None = None
+
+    @classmethod
+    def handler(cls, number, frame):
+        cls.signal_number = number
+        raise KeyboardInterrupt
+
+    @classmethod
+    def install(cls) -> None:
+        cls.signal_number = None
+        for number in (signal.SIGINT, signal.SIGTERM):
+            signal.signal(number, cls.handler)
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
+    _Interrupted.install()
     try:
-        args.run(args)
+        from .variant import check_environment
+        check_environment()
+        status = args.run(args) or 0
     except WhittedError as error:
-        print(f"whitted: error: {error}", file=sys.stderr)
-        return EXIT_USER_ERROR
-    except KeyboardInterrupt:
-        print("whitted: interrupted", file=sys.stderr)
-        return 130
+        if _Interrupted.signal_number is None:
+            _report(error)
+            return EXIT_USER_ERROR
     except BrokenPipeError:
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 1
-    return 0
+    except BaseException:
+        if _Interrupted.signal_number is None:
+            raise
+    if _Interrupted.signal_number is not None:
+        print("whitted: interrupted", file=sys.stderr)
+        return 128 + _Interrupted.signal_number
+    return status
 
 
 if __name__ == "__main__":

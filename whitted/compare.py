@@ -39,11 +39,14 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import numpy as np
+from typing import TYPE_CHECKING
 
 from .errors import WhittedError
 from .loading import LIGHTING_MODES
 from .variant import SUPPORTED_VARIANTS
+
+if TYPE_CHECKING:
+    import numpy as np
 
 WHITTED_METHODS = ("whitted-article", "whitted-physical")
 METHODS = WHITTED_METHODS + ("path",)
@@ -331,6 +334,7 @@ class ReferenceCache:
         return self.folder / f"{stem}.exr", self.folder / f"{stem}.json"
 
     def load(self, name: str, key: str, shape: tuple[int, int]) -> tuple[np.ndarray, dict] | None:
+        import numpy as np
         from . import imageio
 
         image_file, info_file = self.entry(name, key)
@@ -361,12 +365,13 @@ class ReferenceCache:
 
 def _render(*args, **kwargs):
     """The rendering API, looked up at call time (tests count the calls)."""
-    from . import render as render_module
+    from . import rendering as render_module
     return render_module.render(*args, **kwargs)
 
 
 def _reference(entry: SceneResult, scene, cache: ReferenceCache, options: Options,
                may_render: bool = True) -> np.ndarray | None:
+    import numpy as np
     """The scene's reference, from the cache or rendered (None: not cached, may not render)."""
     settings = {"integrator": "path", "spp": options.reference_spp, "max_depth": entry.path_depth,
                 "seed": REFERENCE_SEED, "width": entry.width, "height": entry.height,
@@ -396,6 +401,7 @@ def _reference(entry: SceneResult, scene, cache: ReferenceCache, options: Option
 
 
 def _measure(scene, setting: Setting, reference: np.ndarray, repeats: int) -> Measurement:
+    import numpy as np
     from . import metrics, report
 
     seconds, compile_seconds, image = [], [], None

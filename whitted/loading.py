@@ -5,18 +5,11 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
+from .defaults import LIGHTING_MODES, check_lighting  # noqa: F401  (LIGHTING_MODES: re-export)
 from .errors import WhittedError
 
 #: Scene parameters that can be overridden at load time (``<default>`` entries of the XML).
 OVERRIDES = ("spp", "max_depth", "ambient", "lighting")
-#: how the Whitted integrator lights a scene: the article's model, or physically
-LIGHTING_MODES = ("article", "physical")
-
-
-def check_lighting(lighting: str | None) -> None:
-    """A clean error for a lighting mode that is not one of :data:`LIGHTING_MODES`."""
-    if lighting is not None and lighting not in LIGHTING_MODES:
-        raise WhittedError(f"lighting must be one of {', '.join(LIGHTING_MODES)}, got '{lighting}'")
 
 
 def scene_xml(path: str | os.PathLike) -> str:
@@ -41,7 +34,8 @@ def load_scene(path: str | os.PathLike, variant: str | None = None, **overrides)
         raise WhittedError(f"unknown scene override(s) {', '.join(unknown)}; "
                            f"choose from {', '.join(OVERRIDES)}")
     params = {k: str(v) for k, v in overrides.items() if v is not None}
-    check_lighting(params.get("lighting"))
+    if "lighting" in params:
+        check_lighting(params["lighting"])
     path = Path(path)
     if not path.exists():
         raise WhittedError(f"{path}: no such file")

@@ -16,12 +16,11 @@ import os
 import re
 import sys
 
+from .defaults import DEFAULT_VARIANT, FALLBACK_VARIANT
+from .defaults import VARIANTS as SUPPORTED_VARIANTS
 from .errors import WhittedError
 
 MIN_LLVM_VERSION = 16
-DEFAULT_VARIANT = "llvm_ad_rgb"
-FALLBACK_VARIANT = "scalar_rgb"
-SUPPORTED_VARIANTS = ("scalar_rgb", "llvm_ad_rgb", "cuda_ad_rgb")
 
 _LIB_DIRS = (
     "/usr/lib/x86_64-linux-gnu",
@@ -89,9 +88,18 @@ def prepare_llvm() -> str | None:
     return path
 
 
+def check_environment() -> None:
+    """A clean error for a ``$WHITTED_VARIANT`` that names no supported variant."""
+    requested = os.environ.get("WHITTED_VARIANT")
+    if requested and requested not in SUPPORTED_VARIANTS:
+        raise WhittedError(f"WHITTED_VARIANT={requested}: not a variant whitted runs in; choose one of "
+                           + ", ".join(SUPPORTED_VARIANTS))
+
+
 def default_variant() -> str:
     """``$WHITTED_VARIANT``, else llvm_ad_rgb when a good libLLVM exists, else scalar_rgb."""
     global _fallback_warned
+    check_environment()
     requested = os.environ.get("WHITTED_VARIANT")
     if requested:
         return requested
@@ -131,6 +139,13 @@ def set_variant(variant: str | None = None) -> str:
     from whitted import plugins
     plugins.register()
     return variant
+
+
+def on_variant_changed(old: str | None, new: str | None) -> None:
+    """Mitsuba's variant callback: register the plugins for each variant the user sets."""
+    if new in SUPPORTED_VARIANTS:
+        from whitted import plugins
+        plugins.register()
 
 
 def is_vectorized() -> bool:

@@ -17,7 +17,7 @@ import pytest
 
 import hazard_scenes as hs
 import whitted
-import whitted.render
+import whitted.rendering
 from conftest import VARIANTS
 from reference import Reference, assert_matches, lat_long, load_texels, texel
 from whitted.converter import scene_to_xml
@@ -42,7 +42,7 @@ def hazards(tmp_path_factory):
             else:
                 previous = mi.variant()
                 whitted.set_variant(what)
-                cache[(name, what)] = whitted.render.render(mi.load_string(scene_to_xml(model, base_dir=None)))
+                cache[(name, what)] = whitted.render(mi.load_string(scene_to_xml(model, base_dir=None)))
                 whitted.set_variant(previous)
         return cache[(name, what)]
     return get

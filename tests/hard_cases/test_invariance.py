@@ -16,7 +16,7 @@ import pytest
 import hazard_scenes as hs
 from reference import assert_matches
 import whitted
-import whitted.render
+import whitted.rendering
 from conftest import VARIANTS
 from reference import render_reference
 from whitted.converter import scene_to_xml
@@ -35,7 +35,7 @@ def render(scene, variant: str) -> np.ndarray:
     previous = mi.variant()
     whitted.set_variant(variant)
     try:
-        return whitted.render.render(mi.load_string(scene_to_xml(scene, base_dir=None))).image
+        return whitted.render(mi.load_string(scene_to_xml(scene, base_dir=None))).image
     finally:
         whitted.set_variant(previous)
 

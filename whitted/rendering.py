@@ -47,11 +47,12 @@ from pathlib import Path
 
 import numpy as np
 
+from . import defaults as D
+from .defaults import INTEGRATORS  # noqa: F401  (re-export)
 from .errors import WhittedError
-from .loading import check_lighting
 
-INTEGRATORS = ("whitted", "path")
-DEFAULTS = {"max_depth": 5, "ambient": 0.2, "lighting": "article", "min_weight": 0.0}
+#: the Whitted settings of a scene whose integrator is not the ``whitted`` plugin
+DEFAULTS = {"max_depth": D.DEPTH, "ambient": D.AMBIENT, "lighting": D.LIGHTING, "min_weight": D.MIN_WEIGHT}
 #: camera samples per ``mi.render`` call of the path tracer (bounds its memory)
 PATH_SAMPLES_PER_PASS = 1 << 20
 
@@ -102,16 +103,18 @@ def quiet_mitsuba():
 
 
 def _check(spp, max_depth, lighting, integrator, min_weight=None):
-    if integrator not in INTEGRATORS:
-        raise WhittedError(f"unknown integrator '{integrator}'; choose one of {', '.join(INTEGRATORS)}")
-    if spp is not None and not 1 <= int(spp) <= 2 ** 31:
-        raise WhittedError(f"spp must be a positive integer, got {spp}")
-    if max_depth is not None and int(max_depth) < 1:
-        raise WhittedError(f"max depth must be >= 1 (primary rays have depth 1), got {max_depth}")
-    check_lighting(lighting)
+    D.check_integrator(integrator)
+    if spp is not None:
+        D.check_spp(spp)
+    if max_depth is not None:
+        D.check_depth(max_depth)
+    if lighting is not None:
+        D.check_lighting(lighting)
+        if integrator != "whitted":
+            raise WhittedError("--lighting applies to the whitted integrator only; "
+                               "the path tracer is always physical")
     if min_weight is not None:
-        if not 0.0 <= float(min_weight) <= 1.0:
-            raise WhittedError(f"min weight must be in [0, 1], got {min_weight}")
+        D.check_min_weight(min_weight)
         if integrator != "whitted" and min_weight > 0:
             raise WhittedError("a min weight (adaptive depth control) applies to the whitted "
                                "integrator only; the path tracer ends paths by Russian roulette")

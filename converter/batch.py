@@ -1,0 +1,93 @@
+"""Converting many files: which ``.scn`` becomes which ``.xml``, and one file at a time.
+
+``whitted convert a.scn b.scn DIR/ [-o OUT]`` must go on past a bad file, say
+what failed, and leave nothing half-written. This module decides the pairs
+(source, target) up front, so that a clash (two inputs that would write the
+same XML, an output that would overwrite its input) is reported before any
+file is touched, and converts each pair atomically. It imports neither
+Mitsuba nor Dr.Jit: conversion is text in, text out.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+from ..atomic import write_text
+from ..errors import WhittedError
+from .parser import parse_file
+from .xml_writer import scene_to_xml
+
+#: the legacy scene files a folder argument stands for
+SCENE_SUFFIX = ".scn"
+
+
+def scene_files(folder: Path) -> list[Path]:
+    """The ``.scn`` files directly in ``folder``, sorted by name."""
+    try:
+        entries = sorted(p for p in folder.iterdir() if p.suffix.lower() == SCENE_SUFFIX and p.is_file())
+    except OSError as error:
+        raise WhittedError(f"{folder}: cannot list: {error.strerror or error}") from None
+    return entries
+
+
+def plan(inputs: list[str | os.PathLike], output: str | os.PathLike | None = None) -> list[tuple[Path, Path]]:
+    """The (source, target) pairs of a conversion.
+
+    Each input is a ``.scn`` file or a folder (its ``.scn`` files). Without
+    ``output`` every ``X.scn`` becomes ``X.xml`` beside it. With one input file,
+    ``output`` names the XML file, unless it is an existing folder or ends with
+    a path separator; otherwise it is the folder that receives every ``X.xml``.
+    """
+    if not inputs:
+        raise WhittedError("no scene given: name .scn files or folders")
+    sources: list[Path] = []
+    single_file = len(inputs) == 1
+    for item in map(Path, inputs):
+        if item.is_dir():
+            found = scene_files(item)
+            if not found:
+                raise WhittedError(f"{item}: no {SCENE_SUFFIX} files in this folder")
+            sources.extend(found)
+            single_file = False
+        else:
+            sources.append(item)   # a missing or unreadable file is reported when converted
+    out = None if output is None else Path(output)
+    into_folder = out is not None and (not single_file or out.is_dir() or str(output).endswith(("/", os.sep)))
+    pairs, seen = [], {}
+    for source in sources:
+        if out is None:
+            target = source.with_suffix(".xml")
+        elif into_folder:
+            target = out / source.with_suffix(".xml").name
+        else:
+            target = out
+        key = os.path.abspath(target)
+        if key in seen and os.path.abspath(seen[key]) != os.path.abspath(source):
+            raise WhittedError(f"{target}: both {seen[key]} and {source} would be written here; "
+                               "convert them into separate folders")
+        if os.path.abspath(source) == key:
+            raise WhittedError(f"{source}: output would overwrite the input; choose another with -o")
+        seen[key] = source
+        pairs.append((source, target))
+    return pairs
+
+
+def check_writable(folder: Path) -> None:
+    """A clean error, before any work, when ``folder`` cannot receive files."""
+    if not folder.is_dir():
+        raise WhittedError(f"{folder}: output folder does not exist")
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise WhittedError(f"{folder}: output folder is not writable")
+
+
+def convert_file(source: Path, target: Path) -> None:
+    """Parse ``source`` and write its XML to ``target`` atomically (nothing for an invalid scene)."""
+    scene = parse_file(source)
+    if target.is_dir():
+        raise WhittedError(f"{target}: is a folder; give the output file's name")
+    xml = scene_to_xml(scene, base_dir=target.parent)
+    try:
+        write_text(target, xml)
+    except OSError as error:
+        raise WhittedError(f"{target}: cannot write: {error.strerror or error}") from None

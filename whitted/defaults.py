@@ -1,0 +1,132 @@
+"""One home for every default and limit: the scene format's, the plugins' and the CLI's.
+
+Why one module: the same number (the format's depth cap of 64, the ambient
+coefficient 0.2, ...) used to be written in the parser, the scene model, the
+integrator's constructor, the rendering API and ``compare``, and the copies
+could drift apart. Everything here is plain Python (no Mitsuba, no Dr.Jit), so
+the standalone converter can import it as cheaply as the plugins do.
+
+The scene format's defaults and limits restate ``docs/scene-format.md`` (the
+project's copy of the format contract); the ``check_*`` functions validate a
+setting once, wherever it comes from (API, CLI, XML), and raise
+:class:`~whitted.errors.WhittedError`, which the CLI prints as one line.
+"""
+
+from __future__ import annotations
+
+import math
+
+from .errors import WhittedError
+
+Vec3 = tuple[float, float, float]
+
+#: the package's version (pyproject.toml reads it from here)
+VERSION = "0.1.0"
+
+# --- The scene format's defaults (docs/scene-format.md, "statements") -------------------------
+WIDTH, HEIGHT = 640, 400
+EYE: Vec3 = (0.0, 0.0, 10.0)
+LOOKAT: Vec3 = (0.0, 0.0, 0.0)
+UP: Vec3 = (0.0, 1.0, 0.0)
+FOV = 45.0                      #: horizontal field of view, degrees
+BACKGROUND: Vec3 = (0.0, 0.0, 0.0)
+AMBIENT = 0.2                   #: the ambient coefficient A; the diffuse one is 1 - A
+DEPTH = 5                       #: the ray tree's maximum depth; primary rays have depth 1
+SAMPLES = 1                     #: samples per pixel
+LIGHT_COLOR: Vec3 = (1.0, 1.0, 1.0)
+COLOR: Vec3 = (1.0, 1.0, 1.0)   #: a sphere's base color
+REFLECT = 0.0                   #: KR
+REFRACT = 0.0                   #: KT
+IOR = 1.0
+NORTH: Vec3 = (0.0, 1.0, 0.0)
+EQUATOR: Vec3 = (0.0, 0.0, -1.0)
+
+# --- The scene format's limits -----------------------------------------------------------------
+MAX_SIZE = 16384                #: image width and height, pixels
+MAX_DEPTH = 64                  #: the deepest ray tree anything accepts (format, CLI, plugins)
+MAX_SAMPLES = 65536             #: samples per pixel in a scene file
+#: Every number's magnitude is at most this: light intensities (color * pi * d^2)
+#: and squared distances then stay far inside 32-bit float range.
+MAX_MAGNITUDE = "1e12"
+#: Radius, index of refraction and field of view are at least this, so that
+#: their squares and reciprocals stay normal 32-bit floats.
+MIN_POSITIVE = "1e-6"
+#: Two directions count as parallel when the sine of their angle is below this.
+PARALLEL_SINE = 1e-9
+
+# --- Rendering -----------------------------------------------------------------------------------
+#: how the Whitted integrator lights a scene: the article's model, or physically
+LIGHTING_MODES = ("article", "physical")
+LIGHTING = "article"
+#: the article's model, or Mitsuba's stock path tracer
+INTEGRATORS = ("whitted", "path")
+INTEGRATOR = "whitted"
+#: Hall and Greenberg's adaptive depth control: branches whose path weight is below
+#: this are not traced (0 traces the exact tree)
+MIN_WEIGHT = 0.0
+#: the most samples per pixel a render accepts (API and CLI; Mitsuba's samplers count in 32 bits)
+MAX_SPP = 2 ** 31
+#: Mitsuba variants whitted runs in: the default when a libLLVM >= 16 exists, else the fallback
+VARIANTS = ("scalar_rgb", "llvm_ad_rgb", "cuda_ad_rgb")
+DEFAULT_VARIANT = "llvm_ad_rgb"
+FALLBACK_VARIANT = "scalar_rgb"
+
+
+# --- Validation, written once ----------------------------------------------------------------------
+
+def _integer(value, what: str) -> int:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) and not hasattr(value, "__index__"):
+        raise WhittedError(f"{what} must be an integer, got {value!r}")
+    if isinstance(value, float) and not value.is_integer():
+        raise WhittedError(f"{what} must be an integer, got {value}")
+    return int(value)
+
+
+def check_depth(depth, what: str = "max depth") -> int:
+    """The ray tree's maximum depth, 1 ... :data:`MAX_DEPTH` (primary rays have depth 1)."""
+    depth = _integer(depth, what)
+    if not 1 <= depth <= MAX_DEPTH:
+        raise WhittedError(f"{what} must be in 1…{MAX_DEPTH} (primary rays have depth 1), got {depth}")
+    return depth
+
+
+def check_spp(spp, what: str = "spp") -> int:
+    """Samples per pixel, 1 ... :data:`MAX_SPP`."""
+    spp = _integer(spp, what)
+    if not 1 <= spp <= MAX_SPP:
+        raise WhittedError(f"{what} must be a positive integer up to 2^31, got {spp}")
+    return spp
+
+
+def _unit_interval(value, what: str) -> float:
+    try:
+        value = float(value)
+    except (TypeError, ValueError):
+        raise WhittedError(f"{what} must be a number in [0, 1], got {value!r}") from None
+    if not (math.isfinite(value) and 0.0 <= value <= 1.0):
+        raise WhittedError(f"{what} must be in [0, 1], got {value}")
+    return value
+
+
+def check_ambient(ambient, what: str = "ambient") -> float:
+    """The article's ambient coefficient A in [0, 1]."""
+    return _unit_interval(ambient, what)
+
+
+def check_min_weight(min_weight, what: str = "min weight") -> float:
+    """The adaptive depth control's threshold in [0, 1] (0: the exact tree)."""
+    return _unit_interval(min_weight, what)
+
+
+def check_lighting(lighting, what: str = "lighting") -> str:
+    """One of :data:`LIGHTING_MODES`."""
+    if lighting not in LIGHTING_MODES:
+        raise WhittedError(f"{what} must be one of {', '.join(LIGHTING_MODES)}, got '{lighting}'")
+    return lighting
+
+
+def check_integrator(integrator) -> str:
+    """One of :data:`INTEGRATORS`."""
+    if integrator not in INTEGRATORS:
+        raise WhittedError(f"unknown integrator '{integrator}'; choose one of {', '.join(INTEGRATORS)}")
+    return integrator
