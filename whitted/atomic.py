@@ -32,6 +32,49 @@ def atomic_path(target: str | os.PathLike):
         raise
 
 
+def check_writable(target: str | os.PathLike, inputs: tuple = ()) -> Path:
+    """Fail now, with one clear line, if ``target`` could not be written later.
+
+    Called before any long work (a render, a sweep), so that an unwritable
+    output is not found after minutes of rendering. The folder must exist and
+    accept a new file: a temporary file is created and removed there, which also
+    catches what permission bits cannot show (``/proc``, ``/sys``, read-only
+    mounts, and root, for whom ``os.access`` says yes to everything).
+    ``inputs`` are files the output must not overwrite.
+    """
+    from .errors import WhittedError
+    target = Path(target)
+    folder = target.parent if str(target.parent) else Path(".")
+    if target.is_dir():
+        raise WhittedError(f"{target}: is a folder; give a file name")
+    if not folder.is_dir():
+        raise WhittedError(f"{target}: output folder {folder} does not exist")
+    for source in inputs:
+        if target.exists() and Path(source).exists() and target.resolve() == Path(source).resolve():
+            raise WhittedError(f"{target}: output would overwrite the input {source}")
+    try:
+        fd, probe = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".probe", dir=folder)
+    except OSError as error:
+        raise WhittedError(f"{target}: cannot write in {folder}: {error.strerror or error}") from None
+    os.close(fd)
+    os.unlink(probe)
+    return target
+
+
+def writable_folder(folder: str | os.PathLike) -> Path:
+    """Create ``folder`` if needed and check it accepts files (see :func:`check_writable`)."""
+    from .errors import WhittedError
+    folder = Path(folder)
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as error:
+        raise WhittedError(f"{folder}: cannot create the output folder: {error.strerror or error}") from None
+    if not folder.is_dir():
+        raise WhittedError(f"{folder}: is not a folder")
+    check_writable(folder / "probe")
+    return folder
+
+
 def write_text(target: str | os.PathLike, text: str) -> None:
     with atomic_path(target) as tmp:
         tmp.write_text(text, encoding="utf-8")

@@ -16,7 +16,6 @@ import argparse
 import os
 import signal
 import sys
-from pathlib import Path
 
 from .defaults import INTEGRATORS, LIGHTING_MODES, VERSION
 from .defaults import VARIANTS as SUPPORTED_VARIANTS
@@ -26,41 +25,19 @@ EXIT_USER_ERROR = 2
 EXIT_INTERRUPTED = 130
 
 
-def _report(error: BaseException) -> None:
+def report(error: BaseException) -> None:
     """Each line of a user error as ``whitted: error: LINE`` on stderr."""
     for line in (str(error).splitlines() or [type(error).__name__]):
         print(f"whitted: error: {line}", file=sys.stderr)
 
 
 def _convert(args: argparse.Namespace) -> int:
-    from .converter.batch import check_writable, convert_file, plan
-
-    pairs = plan(args.scenes, args.output)
-    out = Path(args.output) if args.output else None
-    if out is not None and len(pairs) > 1 and not out.exists():
-        try:
-            out.mkdir(parents=True)
-        except OSError as error:
-            raise WhittedError(f"{out}: cannot create the output folder: {error.strerror or error}") from None
-    for folder in sorted({target.parent for _, target in pairs}):
-        check_writable(folder)
-    failed = 0
-    for source, target in pairs:
-        try:
-            convert_file(source, target)
-        except WhittedError as error:
-            _report(error)
-            failed += 1
-        else:
-            if args.verbose:
-                print(f"wrote {target}", file=sys.stderr)
-    if failed and len(pairs) > 1:
-        print(f"whitted: {failed} of {len(pairs)} scene files not converted", file=sys.stderr)
-    return EXIT_USER_ERROR if failed else 0
+    from .commands import convert_command
+    return convert_command(args)
 
 
 def _render(args: argparse.Namespace) -> None:
-    from .rendering import render_command
+    from .commands import render_command
     render_command(args)
 
 
@@ -163,7 +140,7 @@ def main(argv: list[str] | None = None) -> int:
         status = args.run(args) or 0
     except WhittedError as error:
         if _Interrupted.signal_number is None:
-            _report(error)
+            report(error)
             return EXIT_USER_ERROR
     except BrokenPipeError:
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())

@@ -42,7 +42,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from .errors import WhittedError
-from .loading import LIGHTING_MODES
+from .defaults import LIGHTING_MODES
 from .variant import SUPPORTED_VARIANTS
 
 if TYPE_CHECKING:
