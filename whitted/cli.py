@@ -19,16 +19,10 @@ import sys
 
 from .defaults import INTEGRATORS, LIGHTING_MODES, VERSION
 from .defaults import VARIANTS as SUPPORTED_VARIANTS
-from .errors import WhittedError
+from .errors import WhittedError, report
 
 EXIT_USER_ERROR = 2
 EXIT_INTERRUPTED = 130
-
-
-def report(error: BaseException) -> None:
-    """Each line of a user error as ``whitted: error: LINE`` on stderr."""
-    for line in (str(error).splitlines() or [type(error).__name__]):
-        print(f"whitted: error: {line}", file=sys.stderr)
 
 
 def _convert(args: argparse.Namespace) -> int:
@@ -42,7 +36,7 @@ def _render(args: argparse.Namespace) -> None:
 
 
 def _compare(args: argparse.Namespace) -> None:
-    from .compare import compare_command
+    from .compare.cli import compare_command
     compare_command(args)
 
 
@@ -99,7 +93,7 @@ def build_parser() -> argparse.ArgumentParser:
     render.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     render.set_defaults(run=_render)
 
-    from .compare import add_arguments as add_compare_arguments
+    from .compare.cli import add_arguments as add_compare_arguments
     compare = sub.add_parser(
         "compare", help="what accuracy costs in time: sweep the methods against a path-traced reference",
         description="Render a converged path-traced reference (cached), then sweep the Whitted "

@@ -12,7 +12,7 @@ import json
 import sys
 from pathlib import Path
 
-from .errors import WhittedError
+from .errors import WhittedError, report
 
 EXIT_USER_ERROR = 2
 
@@ -21,7 +21,6 @@ def convert_command(args) -> int:
     """``whitted convert SCENE... [-o OUT]``: every file converted that can be; 2 if any failed."""
     from .atomic import check_writable
     from .converter.batch import convert_file, plan
-    from .cli import report
 
     pairs = plan(args.scenes, args.output)
     out = Path(args.output) if args.output else None

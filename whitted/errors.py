@@ -3,6 +3,13 @@
 from __future__ import annotations
 
 import os
+import sys
+
+
+def report(error: BaseException) -> None:
+    """Each line of a user error as ``whitted: error: LINE`` on stderr (the CLI's one format)."""
+    for line in (str(error).splitlines() or [type(error).__name__]):
+        print(f"whitted: error: {line}", file=sys.stderr)
 
 
 class WhittedError(Exception):
