@@ -61,6 +61,25 @@ def check_writable(target: str | os.PathLike, inputs: tuple = ()) -> Path:
     return target
 
 
+def check_folder_creatable(folder: str | os.PathLike) -> Path:
+    """Check, without creating anything, that ``folder`` exists and accepts files or can
+    be made: its nearest existing ancestor must be a folder that accepts files."""
+    from .errors import WhittedError
+    folder = Path(folder)
+    existing = folder
+    while not existing.exists() and existing != existing.parent:
+        existing = existing.parent
+    if not existing.is_dir():
+        raise WhittedError(f"{folder}: cannot create a folder under the file {existing}")
+    try:
+        fd, probe = tempfile.mkstemp(prefix=".whitted-", suffix=".probe", dir=existing)
+    except OSError as error:
+        raise WhittedError(f"{folder}: cannot write in {existing}: {error.strerror or error}") from None
+    os.close(fd)
+    os.unlink(probe)
+    return folder
+
+
 def writable_folder(folder: str | os.PathLike) -> Path:
     """Create ``folder`` if needed and check it accepts files (see :func:`check_writable`)."""
     from .errors import WhittedError

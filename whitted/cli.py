@@ -14,11 +14,11 @@ from __future__ import annotations
 
 import argparse
 import os
-import signal
 import sys
 
 from .defaults import INTEGRATORS, LIGHTING_MODES, VERSION
 from .defaults import VARIANTS as SUPPORTED_VARIANTS
+from . import interrupt
 from .errors import WhittedError, report
 
 EXIT_USER_ERROR = 2
@@ -105,47 +105,28 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-class _Interrupted:
-    """SIGINT and SIGTERM as a ``KeyboardInterrupt``, remembered: code that catches
-    and wraps the exception (Dr.Jit's ``custom`` turns it into a RuntimeError)
-    cannot hide that the user asked to stop."""
-
-    signal_number: int | None = None
-
-    @classmethod
-    def handler(cls, number, frame):
-        cls.signal_number = number
-        raise KeyboardInterrupt
-
-    @classmethod
-    def install(cls) -> None:
-        cls.signal_number = None
-        for number in (signal.SIGINT, signal.SIGTERM):
-            signal.signal(number, cls.handler)
-
-
 def main(argv: list[str] | None = None) -> int:
+    interrupt.install()
     parser = build_parser()
     args = parser.parse_args(argv)
-    _Interrupted.install()
     try:
         from .variant import check_environment
         check_environment()
         status = args.run(args) or 0
     except WhittedError as error:
-        if _Interrupted.signal_number is None:
+        if not interrupt.requested():
             report(error)
             return EXIT_USER_ERROR
     except BrokenPipeError:
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 1
-    except BaseException:
-        if _Interrupted.signal_number is None:
+    except BaseException as error:
+        if not interrupt.requested(error):
             raise
-    if _Interrupted.signal_number is not None:
-        print("whitted: interrupted", file=sys.stderr)
-        return 128 + _Interrupted.signal_number
-    return status
+    else:
+        return status
+    print("whitted: interrupted", file=sys.stderr)
+    return interrupt.exit_status()
 
 
 if __name__ == "__main__":

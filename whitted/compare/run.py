@@ -15,6 +15,8 @@ import os
 import sys
 from pathlib import Path
 
+from .. import interrupt
+from ..atomic import check_folder_creatable
 from ..errors import WhittedError
 from . import report
 from .budget import Budget
@@ -29,6 +31,7 @@ def check_options(options: Options) -> None:
     out = Path(options.out)
     if out.exists() and not out.is_dir():
         raise WhittedError(f"{out}: exists and is not a folder")
+    check_folder_creatable(out)
     if options.repeats < 1 or options.reference_spp < 1:
         raise WhittedError("--repeats and --reference-spp must be >= 1")
     if options.budget is not None and not options.budget > 0:
@@ -40,6 +43,7 @@ def check_options(options: Options) -> None:
     cache_folder = options.cache_folder
     if cache_folder.exists() and not cache_folder.is_dir():
         raise WhittedError(f"{cache_folder}: the reference cache exists and is not a folder")
+    check_folder_creatable(cache_folder)
 
 
 def compare(scenes: list[str | os.PathLike], options: Options) -> list[SceneResult]:
@@ -77,7 +81,9 @@ def compare(scenes: list[str | os.PathLike], options: Options) -> list[SceneResu
                         loaded=loaded[index], progress=bar)
             report.write_csv(out / report.CSV_NAME, entries[:index + 1])
             loaded[index] = None  # free the scene's memory
-    except KeyboardInterrupt:
+    except BaseException as error:   # Ctrl-C may arrive wrapped (see whitted.interrupt)
+        if not interrupt.requested(error):
+            raise
         bar.close()
         if any(e.reference_thumbnail is not None for e in entries):
             report.write_all(out, _with_reference(entries))
