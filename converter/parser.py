@@ -1,4 +1,5 @@
-"""The legacy ``.scn`` text -> :class:`Scene`, checking every rule of the scene format.
+"""The legacy ``.scn`` text -> :class:`Scene`, checking every rule of the scene format
+(``docs/scene-format.md``, "Syntax" and "Errors").
 
 A file is accepted as a whole or rejected with one :class:`SceneError` that names
 the file and the first line of the offending statement, so that nothing invalid

@@ -1,4 +1,4 @@
-"""The parser against shared/scene-format.md: every statement, default and constraint.
+"""The parser against docs/scene-format.md: every statement, default and constraint.
 
 Expected values are the spec's own (its tables and example); every rejected
 input is checked for the file and line its message names.
