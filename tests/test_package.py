@@ -5,6 +5,7 @@ Each case runs in a fresh interpreter, since what is imported first matters.
 
 from __future__ import annotations
 
+import re
 import subprocess
 import sys
 
@@ -18,7 +19,8 @@ XML = ('<scene version="3.0.0"><integrator type="whitted"><integer name="max_dep
 def run(code: str) -> list[str]:
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert done.returncode == 0, done.stderr
-    return done.stdout.strip().splitlines()[-1].split()   # Mitsuba may log a warning first
+    last = done.stdout.strip().splitlines()[-1]   # Mitsuba may log a warning first, in color
+    return re.sub(r"\x1b\[[0-9;]*m", "", last).split()
 
 
 def test_import_whitted_loads_neither_mitsuba_nor_drjit():
