@@ -52,13 +52,19 @@ def check_writable(target: str | os.PathLike, inputs: tuple = ()) -> Path:
     for source in inputs:
         if target.exists() and Path(source).exists() and target.resolve() == Path(source).resolve():
             raise WhittedError(f"{target}: output would overwrite the input {source}")
+    _probe(folder, target)
+    return target
+
+
+def _probe(folder: Path, named: Path) -> None:
+    """Create and remove a file in ``folder``; a clean error naming ``named`` when that fails."""
+    from .errors import WhittedError
     try:
-        fd, probe = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".probe", dir=folder)
+        fd, probe = tempfile.mkstemp(prefix=".whitted-", suffix=".probe", dir=folder)
     except OSError as error:
-        raise WhittedError(f"{target}: cannot write in {folder}: {error.strerror or error}") from None
+        raise WhittedError(f"{named}: cannot write in {folder}: {error.strerror or error}") from None
     os.close(fd)
     os.unlink(probe)
-    return target
 
 
 def check_folder_creatable(folder: str | os.PathLike) -> Path:
@@ -71,12 +77,7 @@ def check_folder_creatable(folder: str | os.PathLike) -> Path:
         existing = existing.parent
     if not existing.is_dir():
         raise WhittedError(f"{folder}: cannot create a folder under the file {existing}")
-    try:
-        fd, probe = tempfile.mkstemp(prefix=".whitted-", suffix=".probe", dir=existing)
-    except OSError as error:
-        raise WhittedError(f"{folder}: cannot write in {existing}: {error.strerror or error}") from None
-    os.close(fd)
-    os.unlink(probe)
+    _probe(existing, folder)
     return folder
 
 
