@@ -11,6 +11,8 @@ import os
 import tempfile
 from pathlib import Path
 
+from .errors import WhittedError
+
 
 @contextlib.contextmanager
 def atomic_path(target: str | os.PathLike):
@@ -18,16 +20,22 @@ def atomic_path(target: str | os.PathLike):
     target = Path(target)
     folder = target.parent if str(target.parent) else Path(".")
     if not folder.is_dir():
-        from .errors import WhittedError
         raise WhittedError(f"{target}: output folder {folder} does not exist")
-    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=target.suffix or ".tmp", dir=folder)
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=target.suffix or ".tmp", dir=folder)
+    except OSError as error:
+        raise WhittedError(f"{target}: cannot write: {error.strerror or error}") from None
     os.close(fd)
     try:
         yield Path(tmp)
         os.chmod(tmp, 0o644)
         os.replace(tmp, target)
+    except OSError as error:
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+        raise WhittedError(f"{target}: cannot write: {error.strerror or error}") from None
     except BaseException:
-        with contextlib.suppress(FileNotFoundError):
+        with contextlib.suppress(OSError):
             os.unlink(tmp)
         raise
 
@@ -42,7 +50,6 @@ def check_writable(target: str | os.PathLike, inputs: tuple = ()) -> Path:
     mounts, and root, for whom ``os.access`` says yes to everything).
     ``inputs`` are files the output must not overwrite.
     """
-    from .errors import WhittedError
     target = Path(target)
     folder = target.parent if str(target.parent) else Path(".")
     if target.is_dir():
@@ -58,7 +65,6 @@ def check_writable(target: str | os.PathLike, inputs: tuple = ()) -> Path:
 
 def _probe(folder: Path, named: Path) -> None:
     """Create and remove a file in ``folder``; a clean error naming ``named`` when that fails."""
-    from .errors import WhittedError
     try:
         fd, probe = tempfile.mkstemp(prefix=".whitted-", suffix=".probe", dir=folder)
     except OSError as error:
@@ -70,7 +76,6 @@ def _probe(folder: Path, named: Path) -> None:
 def check_folder_creatable(folder: str | os.PathLike) -> Path:
     """Check, without creating anything, that ``folder`` exists and accepts files or can
     be made: its nearest existing ancestor must be a folder that accepts files."""
-    from .errors import WhittedError
     folder = Path(folder)
     existing = folder
     while not existing.exists() and existing != existing.parent:
@@ -83,7 +88,6 @@ def check_folder_creatable(folder: str | os.PathLike) -> Path:
 
 def writable_folder(folder: str | os.PathLike) -> Path:
     """Create ``folder`` if needed and check it accepts files (see :func:`check_writable`)."""
-    from .errors import WhittedError
     folder = Path(folder)
     try:
         folder.mkdir(parents=True, exist_ok=True)

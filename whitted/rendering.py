@@ -40,7 +40,6 @@ from __future__ import annotations
 
 import contextlib
 import math
-import sys
 import time
 from dataclasses import dataclass
 
@@ -48,6 +47,7 @@ import numpy as np
 
 from . import defaults as D
 from .errors import WhittedError
+from .progress import progress_bar
 
 #: the Whitted settings of a scene whose integrator is not the ``whitted`` plugin
 DEFAULTS = {"max_depth": D.DEPTH, "ambient": D.AMBIENT, "lighting": D.LIGHTING, "min_weight": D.MIN_WEIGHT}
@@ -157,33 +157,6 @@ class _Clock:
         return max(0.0, self.wall - self.compile)
 
 
-class _Lines:
-    """A stream for tqdm that turns its in-place updates into whole lines: logs and
-    pipes get one readable line per update instead of carriage returns."""
-
-    def __init__(self, stream):
-        self.stream = stream
-
-    def write(self, text: str) -> None:
-        text = text.replace("\r", "").replace("\x1b[A", "").strip()
-        if text:
-            self.stream.write(text + "\n")
-
-    def flush(self) -> None:
-        self.stream.flush()
-
-
-def _progress_bar(enabled: bool, total: int, what: str):
-    """tqdm on stderr: a bar on a terminal, a line every 10 s in a log (``enabled=False``: none)."""
-    from tqdm import tqdm
-    terminal = sys.stderr.isatty()
-    # 'delay': short renders finish before a bar would appear.
-    return tqdm(total=total, desc=f"whitted: {what}", unit="sample", unit_scale=True,
-                file=sys.stderr if terminal else _Lines(sys.stderr), disable=not enabled,
-                delay=0.5 if terminal else 2.0, mininterval=0.1 if terminal else 10.0,
-                leave=not terminal, ascii=not terminal, dynamic_ncols=terminal)
-
-
 def render(scene, integrator: str = "whitted", spp: int | None = None, max_depth: int | None = None,
            lighting: str | None = None, progress: bool = False, seed: int = 0,
            min_weight: float | None = None) -> RenderResult:
@@ -209,7 +182,7 @@ def render(scene, integrator: str = "whitted", spp: int | None = None, max_depth
     if integrator == "whitted":
         min_weight = float(min_weight) if min_weight is not None else settings["min_weight"]
         whitted = _whitted_integrator(scene, settings, depth, lighting or settings["lighting"], min_weight)
-        with _progress_bar(progress, width * height * spp, "render") as bar, _Clock() as clock:
+        with progress_bar(progress, width * height * spp, "render") as bar, _Clock() as clock:
             rendering = whitted.render_detailed(scene, sensor, seed=seed, spp=spp, progress=bar.update)
             image = np.array(rendering.image, dtype=np.float32)
         rays = rendering.rays
@@ -218,7 +191,7 @@ def render(scene, integrator: str = "whitted", spp: int | None = None, max_depth
                     "culled_weight": rays.culled_weight}
     else:
         path = mi.load_dict({"type": "path", "max_depth": depth + 1})
-        with _progress_bar(progress, width * height * spp, "path tracing") as bar, _Clock() as clock:
+        with progress_bar(progress, width * height * spp, "path tracing") as bar, _Clock() as clock:
             image = _render_path(scene, path, sensor, spp, seed, bar.update)
         stats_rays = {"camera": width * height * spp, "shadow": None, "reflection": None,
                       "refraction": None}

@@ -18,6 +18,7 @@ from pathlib import Path
 from .. import interrupt
 from ..atomic import check_folder_creatable
 from ..errors import WhittedError
+from ..progress import progress_bar
 from . import report
 from .budget import Budget
 from .planning import plan_scene
@@ -48,8 +49,6 @@ def check_options(options: Options) -> None:
 
 def compare(scenes: list[str | os.PathLike], options: Options) -> list[SceneResult]:
     """Run the whole comparison and write its outputs under ``options.out``."""
-    from tqdm import tqdm
-
     from ..variant import set_variant
 
     budget = Budget(options.budget)
@@ -73,8 +72,8 @@ def compare(scenes: list[str | os.PathLike], options: Options) -> list[SceneResu
               f"{options.reference_spp} spp; its error will stop falling there", file=sys.stderr)
 
     out.mkdir(parents=True, exist_ok=True)
-    bar = tqdm(total=sum(map(len, plans)), desc="whitted compare", unit="render",
-               disable=options.quiet, file=sys.stderr, dynamic_ncols=True)
+    bar = progress_bar(not options.quiet, sum(map(len, plans)), "compare", unit="render",
+                       unit_scale=False)
     try:
         for index, (scene, entry, settings) in enumerate(zip(read, entries, plans)):
             sweep_scene(scene, entry, settings, options, budget.share(len(entries) - index),
