@@ -28,8 +28,10 @@ sphere 1.5 0 -1 0.8 reflect 0.8
 sphere -1.5 0.2 -1 0.8 reflect 0.5 refract 0.4 1.3
 sphere 0 -101 0 100 color 0.8 0.8 0.8
 """
-#: how long after the signal the process may take to stop
+#: how long after the signal the process may take to stop (generous: the machine may be busy)
 PATIENCE = 8.0
+#: compare also writes what finished (CSV, plot, contact sheet) before it stops
+COMPARE_PATIENCE = 30.0
 
 
 def start(args, cwd):
@@ -90,4 +92,4 @@ def test_compare_keeps_what_finished(slow_scene, tmp_path):
     rows = (out / "results.csv").read_text().strip().splitlines()
     assert len(rows) >= 2                      # the header and at least one finished render
     assert not [p for p in Path(out).rglob(".*") if p.is_file()]   # no temporary files left
-    assert took < PATIENCE
+    assert took < COMPARE_PATIENCE
