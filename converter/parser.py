@@ -1,8 +1,10 @@
 """The legacy ``.scn`` text -> :class:`Scene`, checking every rule of the scene format.
 
-A file is accepted as a whole or rejected with one :class:`SceneError` that names
-the file and the first line of the offending statement, so that nothing invalid
-ever reaches Mitsuba. Reading happens in three layers, each small:
+A file is accepted as a whole or rejected with one :class:`SceneError` that lists
+every problem in it, each with the file and the first line of its statement, so
+that nothing invalid ever reaches Mitsuba and a user fixes a file in one go:
+after a statement fails, reading goes on with the next. Reading happens in three
+layers, each small:
 
 * :func:`parse_file` turns bytes into text (missing, unreadable, binary and
   non-UTF-8 files are rejected here);
@@ -136,28 +138,40 @@ def _clip(text: str) -> str:
     return text if len(text) <= 40 else text[:37] + "..."
 
 
-def _statements(text: str, path) -> list[tuple[int, list[Token]]]:
+def _statements(text: str, path, errors: list) -> list[tuple[int, list[Token]]]:
     """Split ``text`` into statements: (first line number, tokens).
 
     ``#`` outside quotes starts a comment. A line whose text (without its
     comment and trailing blanks) ends in ``\\`` continues on the next line; the
     backslash separates tokens like a blank. A token that starts with ``"``
     runs to the next ``"`` on the same line and may hold blanks and ``#``.
+    A statement that cannot be split is left out and its problem appended to
+    ``errors`` as (line, message); the statements after it are still read.
     """
     statements = []
     tokens: list[Token] = []
     first = 0
+    skipping = False  # the continuation lines of a statement that could not be split
     lines = _LINE_BREAK.split(text)
     if len(lines) > 1 and lines[-1] == "":
         lines.pop()  # the final line break ends the last line; no empty line follows it
     for number, line in enumerate(lines, start=1):
+        if skipping:
+            skipping = line.rstrip(_BLANKS).endswith("\\")
+            continue
         if not tokens:
             first = number
-        line_tokens, continued = _split_line(line, path, first)
+        try:
+            line_tokens, continued = _split_line(line, path, first)
+        except SceneError as error:
+            errors.append((error.line, error.message))
+            tokens = []
+            skipping = line.rstrip(_BLANKS).endswith("\\")
+            continue
         tokens += line_tokens
         if continued:
             if number == len(lines):
-                raise SceneError(path, first, "the last line ends with '\\' but no line follows")
+                errors.append((first, "the last line ends with '\\' but no line follows"))
             continue
         if tokens:
             statements.append((first, tokens))
@@ -216,7 +230,7 @@ def _parse(text: str, source: str | os.PathLike, *, fast: bool) -> Scene:
     if fast and not _NOT_PLAIN.search(text):
         parser.parse_plain(text)
     else:
-        parser.parse(_statements(text, source))
+        parser.parse(_statements(text, source, parser.errors))
     return parser.finish()
 
 
@@ -238,6 +252,8 @@ class _Parser:
         self.source = source
         self.scene = Scene(source=source)
         self.seen: dict[str, int] = {}        # global statement -> its line
+        self.errors: list[tuple[int | None, str]] = []   # (line, message) of every problem
+        self.failed: set[str] = set()         # the statements (names) that had a problem
         self.line = 0
         self._images: dict[Path, str | None] = {}
         self.exact: set[str] = set()                          # fast path: tokens exactly 0 or 1
@@ -303,11 +319,27 @@ class _Parser:
             self.statement(line, tokens)
 
     def finish(self) -> Scene:
-        """The scene, once every statement is read: the checks across statements."""
-        self.check_camera()
+        """The scene, once every statement is read: the checks across statements, then
+        every problem found, in file order, as one :class:`SceneError`."""
+        if not self.failed & {"eye", "lookat", "up"}:  # else the camera is not what the file says
+            try:
+                self.check_camera()
+            except SceneError as error:
+                self.errors.append((error.line, error.message))
+        if self.errors:
+            self.errors.sort(key=lambda error: error[0] or 0)
+            raise SceneError.collected([(self.source, line, message) for line, message in self.errors])
         return self.scene
 
     def statement(self, line: int, tokens: list[Token]) -> None:
+        """Give one statement its meaning, or note its problem and go on."""
+        try:
+            self._statement(line, tokens)
+        except SceneError as error:
+            self.errors.append((error.line, error.message))
+            self.failed.add(tokens[0].text.lower())
+
+    def _statement(self, line: int, tokens: list[Token]) -> None:
         self.line = line
         keyword, args = tokens[0], tokens[1:]
         name = keyword.text.lower()

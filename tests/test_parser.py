@@ -627,3 +627,82 @@ def test_float_reads_exactly_the_formats_numbers(token):
     except ValueError:
         accepted = False
     assert accepted == bool(parser_module._NUMBER.fullmatch(token))
+
+
+# ------------------------------------------------------------ every error of a file
+
+
+SEVERAL_ERRORS = """\
+size 10 10
+sphre 0 0 0 1
+sphere 0 0 0 -1
+light 1 2 3
+fov 30
+sphere 0 0 0 1 texture "a.png
+FOV 40
+sphere 0 0 0 1 color 1 1 2 \\
+   reflect 0.5
+sphere 1 1 1 1 reflect 0.2
+ambient 2
+"""
+
+
+@pytest.mark.parametrize("fast", [True, False])
+def test_every_error_of_a_file_in_file_order(fast):
+    with pytest.raises(SceneError) as info:
+        parser_module._parse(SEVERAL_ERRORS, "s.scn", fast=fast)
+    error = info.value
+    expected = [
+        ("s.scn", 2, "unknown statement 'sphre'; did you mean 'sphere'?"),
+        ("s.scn", 3, "sphere radius must be > 0, got -1"),
+        ("s.scn", 6, "unterminated quote: '\"a.png'"),
+        ("s.scn", 7, "fov given twice (first on line 5)"),
+        ("s.scn", 8, "sphere color must be >= 0 and <= 1, got 2"),
+        ("s.scn", 11, "ambient must be >= 0 and <= 1, got 2"),
+    ]
+    assert error.errors == expected
+    assert (error.path, error.line, error.message) == expected[0]
+    assert str(error) == "\n".join(f"{p}:{n}: {m}" for p, n, m in expected)
+
+
+def test_a_failed_global_still_counts_as_given():
+    error = error_of("fov 0\nfov 30\n")
+    assert [(line, message) for _, line, message in error.errors] == \
+        [(1, "fov must be > 0 and < 180, got 0"), (2, "fov given twice (first on line 1)")]
+
+
+def test_the_line_after_a_broken_continued_line_is_not_a_statement():
+    error = error_of('sphere 0 0 0 1 texture "a.png"x \\\n  reflect 0.5\nlight 1 2\n')
+    assert [line for _, line, _ in error.errors] == [1, 3]
+
+
+def test_camera_errors_come_in_file_order_and_do_not_follow_from_others():
+    error = error_of("eye 0 0 0\nfov 0\n")
+    assert [(line, message.split(",")[0]) for _, line, message in error.errors] == \
+        [(1, "eye and lookat must differ"), (2, "fov must be > 0 and < 180")]
+    # an up that failed its own check is not checked again against the view
+    assert [line for _, line, _ in error_of("up 0 0 0\n").errors] == [1]
+    assert [line for _, line, _ in error_of("eye 0 0\nlookat 0 0 10\n").errors] == [1]
+
+
+def test_at_most_twenty_errors_are_listed_then_counted():
+    text = "".join(f"sphere 0 0 0 -{i}\n" for i in range(1, 26))
+    for fast in (True, False):
+        with pytest.raises(SceneError) as info:
+            parser_module._parse(text, "many.scn", fast=fast)
+        lines = str(info.value).split("\n")
+        assert len(info.value.errors) == 25 and len(lines) == 21
+        assert lines[0] == "many.scn:1: sphere radius must be > 0, got -1"
+        assert lines[19] == "many.scn:20: sphere radius must be > 0, got -20"
+        assert lines[20] == "... and 5 more errors"
+    assert str(error_of("sphere 0 0 0 -1\n" * 21)).endswith("\n... and 1 more error")
+
+
+def test_the_command_line_prints_every_error(write_scene, tmp_path, capsys):
+    from whitted.cli import main
+    scene = write_scene(SEVERAL_ERRORS)
+    assert main(["convert", str(scene), "-o", str(tmp_path / "out.xml")]) == 2
+    err = capsys.readouterr().err.splitlines()
+    assert len(err) == 6 and all(line.startswith(f"whitted: error: {scene}:") for line in err)
+    assert err[1] == f"whitted: error: {scene}:3: sphere radius must be > 0, got -1"
+    assert not (tmp_path / "out.xml").exists()
