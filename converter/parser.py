@@ -49,7 +49,7 @@ from .scene import Light, Material, Scene, Sphere, Vec3
 MAX_MAGNITUDE = Decimal(defaults.MAX_MAGNITUDE)
 MIN_POSITIVE = Decimal(defaults.MIN_POSITIVE)
 
-GLOBALS = ("size", "eye", "lookat", "up", "fov", "background", "ambient", "depth", "samples")
+GLOBALS = ("size", "eye", "lookat", "up", "fov", "background", "ambient", "depth", "samples", "minweight")
 STATEMENTS = GLOBALS + ("light", "sphere")
 #: Sphere attribute -> names of its values (their count is the attribute's arity).
 ATTRIBUTES = {
@@ -547,6 +547,12 @@ class _Parser:
         samples = self.number(args[0], "samples", integer=True)
         self.in_range(samples, args[0].text, "samples", 1, MAX_SAMPLES)
         self.scene.samples = int(samples)
+
+    def statement_minweight(self, args):
+        self.count("minweight", args, "W", 1)
+        weight = self.number(args[0], "minweight")
+        self.in_range(weight, args[0].text, "minweight", 0, 1)
+        self.scene.min_weight = float(weight)
 
     def statement_light(self, args):
         self.count("light", args, "X Y Z [R G B]", 3, 6)

@@ -706,3 +706,39 @@ def test_the_command_line_prints_every_error(write_scene, tmp_path, capsys):
     assert len(err) == 6 and all(line.startswith(f"whitted: error: {scene}:") for line in err)
     assert err[1] == f"whitted: error: {scene}:3: sphere radius must be > 0, got -1"
     assert not (tmp_path / "out.xml").exists()
+
+
+# ------------------------------------------------------------------ minweight
+
+
+def test_minweight_statement():
+    assert parse("").min_weight is None  # absent: the integrator's default applies
+    assert parse("minweight 0.004\n").min_weight == 0.004
+    assert parse("MinWeight 0\n").min_weight == 0.0 and parse("minweight 1\n").min_weight == 1.0
+
+
+@pytest.mark.parametrize("text, message", [
+    ("minweight 1.5", "minweight must be >= 0 and <= 1, got 1.5"),
+    ("minweight -0.001", "minweight must be >= 0 and <= 1, got -0.001"),
+    ("minweight 1.00000000000000001", "minweight must be >= 0 and <= 1, got 1.00000000000000001"),
+    ("minweight", "minweight takes 1 value (W), got 0"),
+    ("minweight 0.1 0.2", "minweight takes 1 value (W), got 2"),
+    ("minweight nan", "minweight must be a finite number, got nan"),
+    ("minweight x", "minweight must be a number, got 'x'"),
+    ("minweight 0.1\nminweight 0.1", "minweight given twice (first on line 3)"),
+    ("min_weight 0.1", "unknown statement 'min_weight'; did you mean 'minweight'?"),
+])
+def test_minweight_errors(text, message):
+    error = error_of(f"# header\n\n{text}\n")
+    assert message in error.message and error.line == text.count("\n") + 3, str(error)
+
+
+def test_minweight_reaches_the_integrator_through_the_xml():
+    import mitsuba as mi
+    from whitted import defaults
+    from whitted.converter import scene_to_xml
+    scene = mi.load_string(scene_to_xml(parse("size 4 4\nminweight 0.125\n"), base_dir=None))
+    assert scene.integrator().min_weight == 0.125
+    plain = mi.load_string(scene_to_xml(parse("size 4 4\n"), base_dir=None))
+    assert plain.integrator().min_weight == defaults.MIN_WEIGHT
+    assert 'name="min_weight"' not in scene_to_xml(parse("size 4 4\n"), base_dir=None)
