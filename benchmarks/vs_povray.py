@@ -265,10 +265,7 @@ images (in levels of 255) show that both trace the same tree.{note}
 
 POV-Ray counts as "reflected" also the rays its last level spawns and then leaves
 untraced (whitted at `--max-depth 6` counts 115 779 reflected rays on level 2, POV-Ray at
-`max_trace_level 5` 115 780): its counts are whitted's one level deeper. whitted's whole
-process at level 5 is mostly Mitsuba loading the converted XML of 66 431 shapes
-(`mi.load_string`; about 17 s of it in one measurement on the loaded machine, against
-0.3 s CPU for parsing the `.scn`).
+`max_trace_level 5` 115 780): its counts are whitted's one level deeper.
 
 {markdown_table(rows)}
 
