@@ -472,6 +472,6 @@ def test_plan_puts_cheap_renders_of_every_method_first():
 
 
 def test_pareto_front_keeps_only_unbeaten_points():
-    from whitted.compare.report import pareto_front
+    from whitted.compare.curves import pareto_front
     points = [(1.0, 0.5), (2.0, 0.6), (3.0, 0.2), (0.5, 0.9), (4.0, 0.2)]
     assert pareto_front(points) == [(0.5, 0.9), (1.0, 0.5), (3.0, 0.2)]

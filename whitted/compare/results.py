@@ -61,6 +61,18 @@ class Setting:
             return f"{self.spp} spp"
         return f"d{self.max_depth} · {self.spp} spp"
 
+    @property
+    def short_label(self) -> str:
+        """The plot's label: ``d3·4`` (depth · spp) for Whitted, ``64`` (spp) for the path tracer."""
+        return f"{self.spp}" if self.integrator == "path" else f"d{self.max_depth}·{self.spp}"
+
+    @property
+    def slug(self) -> str:
+        """A file name stem: ``whitted-article-d3-4spp``, ``path-64spp``."""
+        if self.integrator == "path":
+            return f"path-{self.spp}spp"
+        return f"{self.method}-d{self.max_depth}-{self.spp}spp"
+
 
 @dataclass
 class Measurement:
@@ -74,6 +86,11 @@ class Measurement:
     ``flip``            LDR-FLIP against the reference
     ``repeats``         how many times it was rendered
     ``thumbnail``       a small sRGB uint8 copy of the image (for the contact sheet)
+    ``times``           every repeat's render time (``seconds`` is their median)
+    ``image``           the render, linear EXR, relative to the output folder (None:
+                        not kept)
+    ``image_png``       the same as an sRGB PNG (for the report page)
+    ``error_map``       FLIP's per-pixel error against the reference, colored (PNG)
     =================== ===============================================================
     """
     setting: Setting
@@ -83,6 +100,18 @@ class Measurement:
     flip: float
     repeats: int
     thumbnail: np.ndarray | None = field(default=None, repr=False)
+    times: tuple[float, ...] = ()
+    image: str | None = None
+    image_png: str | None = None
+    error_map: str | None = None
+
+    @property
+    def seconds_min(self) -> float:
+        return min(self.times, default=self.seconds)
+
+    @property
+    def seconds_max(self) -> float:
+        return max(self.times, default=self.seconds)
 
 
 @dataclass
@@ -103,6 +132,13 @@ class SceneResult:
     ``measurements``        the renders that were done, in the order done
     ``skipped``             the settings the budget left out
     ``whitted_spp``, ``path_spp``, ``depths``: the ladders that were planned
+    ``reference_requested`` the reference spp asked for (``reference_spp`` is less when
+                            ``--budget`` scaled it down)
+    ``reference_noise``     the reference's own relative MSE against the converged
+                            image, estimated from its two independent halves (NaN:
+                            unknown); no render can score much below it
+    ``reference_png``       the reference as an sRGB PNG, relative to the output folder
+    ``notes``               one line each on what the budget did to this scene and why
     ======================= ===========================================================
     """
     name: str
@@ -121,6 +157,19 @@ class SceneResult:
     whitted_spp: tuple[int, ...] = ()
     path_spp: tuple[int, ...] = ()
     depths: tuple[int, ...] = ()
+    reference_requested: int = 0
+    reference_noise: float = math.nan
+    reference_png: str | None = None
+    notes: list[str] = field(default_factory=list)
+
+    def __post_init__(self):
+        if not self.reference_requested:
+            self.reference_requested = self.reference_spp
+
+    @property
+    def folder(self) -> str:
+        """Where this scene's renders lie, relative to the output folder."""
+        return f"renders/{self.name.replace('/', '_')}"
 
 
 @dataclass

@@ -80,12 +80,12 @@ def compare(scenes: list[str | os.PathLike], options: Options) -> list[SceneResu
     except KeyboardInterrupt:
         bar.close()
         if any(e.reference_thumbnail is not None for e in entries):
-            report.write_all(out, _with_reference(entries))
+            report.write_all(out, _with_reference(entries), options.levels)
             print(f"whitted compare: interrupted; the outputs in {out} hold what was done",
                   file=sys.stderr)
         raise
     bar.close()
-    report.write_all(out, _with_reference(entries))
+    report.write_all(out, _with_reference(entries), options.levels)
     return entries
 
 
