@@ -89,9 +89,9 @@ COMPARE_REFERENCE_SHARE = 0.5
 #: (below it, its own noise would swamp the errors it is meant to measure): the scene is refused.
 COMPARE_MIN_REFERENCE_SPP = 8
 #: The probe that estimates a reference's cost doubles its spp until one render takes this long.
-COMPARE_PROBE_SECONDS = 0.25
-#: Seconds of --budget kept back for writing the outputs (plots, report page) at the end.
-COMPARE_REPORT_SECONDS = 3.0
+COMPARE_PROBE_SECONDS = 0.1
+#: Seconds of --budget kept back per scene for writing its outputs (plots, report page).
+COMPARE_REPORT_SECONDS = 2.0
 
 
 # --- Validation, written once ----------------------------------------------------------------------

@@ -25,7 +25,7 @@ from dataclasses import dataclass, field
 
 from ..defaults import COMPARE_FLOOR_TOLERANCE
 from .curves import Floor, Reading, error_at_time, error_floor, time_to_reach
-from .results import METHODS, WHITTED_METHODS, Measurement, SceneResult
+from .results import METHODS, WHITTED_METHODS, Measurement, SceneResult, seconds_text
 
 #: How the prose names each method.
 METHOD_NAMES = {"whitted-article": "the article's model",
@@ -206,13 +206,6 @@ def floor_text(method: str, floor: Floor, render: Measurement, path: Reading | N
         text += (f" Caution: that is within a factor 2 of the reference's own noise "
                  f"({reference_noise:.3g}).")
     return text
-
-
-def seconds_text(value: float) -> str:
-    """A render time for people: ``12.3 ms``, ``1.25 s``."""
-    if not math.isfinite(value):
-        return "time unknown"
-    return f"{value * 1000:.3g} ms" if value < 1 else f"{value:.3g} s"
 
 
 def spread_text(m: Measurement) -> str:

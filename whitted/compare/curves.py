@@ -144,7 +144,10 @@ def reference_noise(half_a: np.ndarray, half_b: np.ndarray, count_a: int, count_
     halves). Weighed as :func:`whitted.metrics.relative_mse` weighs errors (by R² + ε):
     mean((A − B)² / (R² + ε)) · n_a·n_b / N². A render of n spp scored against R then
     has an expected relative MSE of about σ²/n (its own noise) plus this (the
-    reference's): the floor of the plot.
+    reference's): the floor of the plot. Dividing by the noisy R² + ε rather than the
+    converged image's is the weighting every measured error gets too; for a reference
+    whose noise is small beside its values (what a reference is) the two agree
+    (tests/test_compare_curves.py checks it within 10% at a few percent of noise).
     """
     from .. import metrics
 

@@ -22,10 +22,9 @@ from pathlib import Path
 
 from ..atomic import write_text
 from ..defaults import VERSION
-from .analysis import (METHOD_NAMES, Analysis, reach_text, reading_how, seconds_text, speedup_text,
-                       spread_text)
+from .analysis import METHOD_NAMES, Analysis, reach_text, reading_how, speedup_text, spread_text
 from .errormaps import colorbar
-from .results import METHODS, Measurement
+from .results import METHODS, Measurement, SceneResult, seconds_text
 
 TEMPLATE = "report.html.j2"
 #: The viewer enlarges small images by a whole factor (pixels stay square) to at least this width.
@@ -107,14 +106,16 @@ def scene_context(analysis: Analysis, plot: str, out: Path) -> dict:
 
 
 def write_page(path: str | os.PathLike, analyses: list[Analysis], plots: dict[str, str],
-               files: dict[str, str]) -> None:
+               files: dict[str, str], left_out: list[SceneResult] = ()) -> None:
     """Write the report page at ``path`` (atomically); ``plots`` maps a scene's name to its
     plot, ``files`` names the other outputs (csv, plot, sheet, summary), all relative to
-    the page's folder."""
+    the page's folder; ``left_out`` are the scenes that got no reference (their notes say
+    why)."""
     path = Path(path)
     template = _environment().get_template(TEMPLATE)
     text = template.render(
         scenes=[scene_context(a, plots[a.entry.name], path.parent) for a in analyses],
+        left_out=[{"name": e.name, "notes": list(e.notes) or ["no reference"]} for e in left_out],
         files=files, colorbar=colorbar(), version=VERSION,
         created=time.strftime("%Y-%m-%d %H:%M"))
     write_text(path, text)

@@ -8,14 +8,14 @@ versions of whitted and Mitsuba. An entry is written atomically, image first and
 description second, and read only when both are whole: an interrupted run leaves
 either a complete entry or none.
 
-A reference is rendered as two independent halves (half the samples each, their
-own seeds) and averaged: the two halves disagree by exactly the noise the
-reference carries, so their difference estimates it
+A reference is rendered as two independent halves (:class:`Halves`: half the
+samples each, their own seeds) and averaged: the two halves disagree by exactly the
+noise the reference carries, so their difference estimates it
 (:func:`~whitted.compare.curves.reference_noise`), and the report draws it as the
-floor no render can measurably go below. Under ``--budget`` a short probe render
-measures the cost of a sample first, and the reference is scaled down to what the
-scene's share affords (:meth:`~whitted.compare.budget.Budget.reference_spp`) or
-refused.
+floor no render can measurably go below. Under ``--budget`` short probe renders
+(1, 2, 4, ... spp, kept as part of the first half) measure what a render and a
+sample cost first, and the reference is scaled down to what the scene's share
+affords (:meth:`~whitted.compare.budget.Budget.reference_spp`) or refused.
 """
 
 from __future__ import annotations
@@ -31,19 +31,18 @@ from pathlib import Path
 import numpy as np
 
 from .. import rendering  # rendering.render looked up at call time: tests count calls
-from ..defaults import COMPARE_PROBE_SECONDS
-from .budget import Budget
+from ..defaults import COMPARE_PROBE_SECONDS, COMPARE_REFERENCE_SHARE
+from .budget import Budget, fit_cost, render_cost
 from .curves import reference_noise
-from .results import Options, SceneResult
+from .results import Options, SceneResult, seconds_text
 from .scenes import SceneFile
 
-#: The seeds of the reference's two halves. Its samples must be independent of the
-#: sweep's (seed 0, whose later passes use seeds 1, 2, ...), or its noise would correlate
-#: with theirs and flatter the path tracer; and the halves must be independent of each
-#: other, or their difference would understate the noise.
-REFERENCE_SEEDS = (0x5EED0001, 0x5EED0002)
-#: The seed of the probe render that measures a sample's cost (its image is not kept).
-PROBE_SEED = 0x5EED0003
+#: The seeds of the reference's renders are this plus a running count (even: the first
+#: half, odd: the second). Its samples must be independent of the sweep's (seed 0, whose
+#: later passes use seeds 1, 2, ...), or its noise would correlate with theirs and
+#: flatter the path tracer; and the halves must be independent of each other, or their
+#: difference would understate the noise.
+REFERENCE_SEED = 0x5EED0000
 #: Bumped when the meaning of a cached reference changes (2: two halves, noise estimated).
 CACHE_FORMAT = "whitted-compare-reference/2"
 
@@ -125,35 +124,71 @@ class ReferenceCache:
         return image_file
 
 
-def render_reference(loaded, spp: int, max_depth: int, progress: bool = False) -> tuple[np.ndarray, float, float, float]:
-    """A path-traced reference of ``spp`` samples as two independent halves, averaged:
-    (image, its estimated relative MSE against the converged image (NaN at 1 spp), render
-    seconds, compile seconds)."""
-    counts = [spp // 2, spp - spp // 2] if spp >= 2 else [spp]
-    halves, seconds, compile_seconds = [], 0.0, 0.0
-    for count, seed in zip(counts, REFERENCE_SEEDS):
-        result = rendering.render(loaded, integrator="path", spp=count, max_depth=max_depth,
-                                  seed=seed, progress=progress)
-        halves.append(np.asarray(result.image, dtype=np.float64))
-        seconds += float(result.seconds)
-        compile_seconds += float(result.compile_seconds)
-    image = sum(h * n for h, n in zip(halves, counts)) / spp
-    noise = reference_noise(*halves, *counts) if len(halves) == 2 else math.nan
-    return image.astype(np.float32), noise, seconds, compile_seconds
+class Halves:
+    """A reference being rendered: two independent halves, each the sum of path-traced
+    renders of its own seeds, averaged at the end (and differenced for its noise).
+
+    ============= ====================================================================
+    ``loaded``    the scene's ``mi.Scene``
+    ``max_depth`` the path tracer's max depth
+    ``progress``  whether each render shows a progress bar
+    ============= ====================================================================
+    """
+
+    def __init__(self, loaded, max_depth: int, progress: bool = False):
+        self.loaded, self.max_depth, self.progress = loaded, max_depth, progress
+        self.sums: list[np.ndarray | None] = [None, None]
+        self.counts = [0, 0]
+        self.renders = 0
+        self.seconds = 0.0          # render time, compilation excluded
+        self.compile_seconds = 0.0
+
+    def render(self, half: int, spp: int) -> float:
+        """Add ``spp`` samples per pixel to ``half`` (0 or 1); returns the render's seconds."""
+        if spp <= 0:
+            return 0.0
+        result = rendering.render(self.loaded, integrator="path", spp=spp, max_depth=self.max_depth,
+                                  seed=REFERENCE_SEED + 2 * self.renders + half,
+                                  progress=self.progress)
+        self.renders += 1
+        image = np.asarray(result.image, dtype=np.float64) * spp
+        self.sums[half] = image if self.sums[half] is None else self.sums[half] + image
+        self.counts[half] += spp
+        self.seconds += float(result.seconds)
+        self.compile_seconds += float(result.compile_seconds)
+        return float(result.seconds)
+
+    @property
+    def spp(self) -> int:
+        return sum(self.counts)
+
+    def image(self) -> np.ndarray:
+        """The reference: every sample of both halves, averaged."""
+        return (sum(s for s in self.sums if s is not None) / self.spp).astype(np.float32)
+
+    def noise(self) -> float:
+        """The reference's relative MSE against the converged image, estimated from its
+        halves (:func:`~whitted.compare.curves.reference_noise`); NaN with one half."""
+        if not all(self.counts):
+            return math.nan
+        return reference_noise(self.sums[0] / self.counts[0], self.sums[1] / self.counts[1],
+                               *self.counts)
 
 
-def probe_cost(loaded, max_depth: int, most_spp: int) -> tuple[float, float, int]:
-    """The path tracer's seconds per sample per pixel on ``loaded``, measured on renders of
-    1, 2, 4, ... spp until one takes :data:`COMPARE_PROBE_SECONDS` or reaches ``most_spp``:
-    (seconds per spp, wall seconds the probe took, the last probe's spp). The last render's
-    time over its spp includes the fixed cost of a render, so it errs on the high side."""
-    start = time.monotonic()
-    spp = 1
+def probe(halves: Halves, most_spp: int, most_seconds: float) -> list[tuple[int, float]]:
+    """Renders of 1, 2, 4, ... spp into the first half (kept: they are part of the
+    reference) until a third one takes :data:`COMPARE_PROBE_SECONDS` (several, to tell
+    the cost of a render call from that of a sample), the next would pass ``most_spp``
+    or the probe has taken ``most_seconds``; returns [(spp, seconds)] for
+    :func:`~whitted.compare.budget.fit_cost`."""
+    start, points, spp = time.monotonic(), [], 1
     while True:
-        result = rendering.render(loaded, integrator="path", spp=spp, max_depth=max_depth,
-                                  seed=PROBE_SEED, progress=False)
-        if result.seconds >= COMPARE_PROBE_SECONDS or 2 * spp > most_spp:
-            return float(result.seconds) / spp, time.monotonic() - start, spp
+        points.append((spp, halves.render(0, spp)))
+        # three renders: the cost of a sample is read between the last two (the first may
+        # still pay for warm-up), once they are long enough to time
+        enough = len(points) >= 3 and points[-1][1] >= COMPARE_PROBE_SECONDS
+        if enough or 2 * spp > most_spp or time.monotonic() - start >= most_seconds:
+            return points
         spp *= 2
 
 
@@ -162,16 +197,16 @@ def reference_image(scene: SceneFile, loaded, entry: SceneResult, cache: Referen
     """The scene's reference, from the cache or rendered from ``loaded`` (its ``mi.Scene``)
     within ``seconds`` (the scene's share of ``--budget``; ``math.inf``: no budget).
 
-    Under a budget, a reference that is not cached is first probed (:func:`probe_cost`)
-    and rendered at the spp :meth:`Budget.reference_spp` allows: fewer than asked (a
-    reference of that spp is looked up in the cache first), or none, when not even the
-    minimum fits; the reason is then a line of ``entry.notes`` and the result None.
-    Records in ``entry`` where the reference lies, its spp and noise, whether it was
-    cached and what it cost.
+    Under a budget, a reference that is not cached is first probed (:func:`probe`: its
+    first renders, kept) and completed at the spp :meth:`Budget.reference_spp` allows:
+    fewer than asked (a reference of that spp is looked up in the cache first; a line of
+    ``entry.notes`` says so), or none, when not even the minimum fits (the note says why
+    and the result is None). Records in ``entry`` where the reference lies, its spp and
+    noise, whether it was cached and what it cost.
     """
     def settings(spp: int) -> dict:
         return {"integrator": "path", "spp": spp, "max_depth": entry.path_depth,
-                "seeds": list(REFERENCE_SEEDS), "width": entry.width, "height": entry.height,
+                "seed": REFERENCE_SEED, "width": entry.width, "height": entry.height,
                 "variant": entry.variant}
 
     def lookup(spp: int) -> tuple[str, tuple[np.ndarray, dict] | None]:
@@ -179,57 +214,64 @@ def reference_image(scene: SceneFile, loaded, entry: SceneResult, cache: Referen
         return key, cache.load(entry.name, key, (entry.height, entry.width))
 
     start = time.monotonic()
-    spp = options.reference_spp
-    key, cached = lookup(spp)
+    requested = options.reference_spp
+    key, cached = lookup(requested)
+    halves = Halves(loaded, entry.path_depth, progress=not options.quiet)
     if cached is None and math.isfinite(seconds):
         if seconds <= 0:
             entry.notes.append("skipped whole: no time was left to render its reference")
             return None
-        per_spp, spent, probe_spp = probe_cost(loaded, entry.path_depth, max(1, spp // 8))
-        fitted = Budget.reference_spp(spp, per_spp, seconds, spent=time.monotonic() - start)
-        estimate = f"a {probe_spp}-spp probe measured {_duration(per_spp)} per spp"
+        pass_spp = max(1, rendering.PATH_SAMPLES_PER_PASS // (entry.width * entry.height))
+        points = probe(halves, most_spp=min(pass_spp, max(1, requested // 4)),
+                       most_seconds=COMPARE_REFERENCE_SHARE * seconds / 4)
+        overhead, per_spp = fit_cost(points)
+
+        def cost(spp: int) -> float:  # what the rest of an spp-sample reference costs
+            first, second = max(0, spp // 2 - halves.counts[0]), spp - spp // 2
+            return (render_cost(first, overhead, per_spp, pass_spp)
+                    + render_cost(second, overhead, per_spp, pass_spp))
+
+        fitted = Budget.reference_spp(requested, cost, seconds, spent=time.monotonic() - start)
+        estimate = (f"probe renders of 1–{points[-1][0]} spp: {seconds_text(overhead)} a render "
+                    f"plus {seconds_text(per_spp)} per spp" if overhead > 0 else
+                    f"a {points[-1][0]}-spp probe took {seconds_text(points[-1][1])}")
         if fitted is None:
             entry.notes.append(
-                f"skipped whole: its reference would take about {_duration(per_spp * spp)} at "
-                f"{spp} spp ({estimate}); the scene's {_duration(seconds)} share of --budget "
-                f"{options.budget:g} s affords less than the {Budget.minimum_reference_spp} spp a "
-                f"usable reference needs: raise --budget or lower --reference-spp")
+                f"skipped whole: its reference would take about "
+                f"{seconds_text(cost(requested))} at {requested} spp ({estimate}); the scene's "
+                f"{seconds_text(seconds)} share of --budget {options.budget:g} s affords less than "
+                f"the {Budget.minimum_reference_spp} spp a usable reference needs: raise --budget "
+                f"or lower --reference-spp")
             return None
-        if fitted < spp:
+        if fitted < requested:
             entry.notes.append(
-                f"reference scaled down from {spp} to {fitted} spp to fit --budget "
-                f"{options.budget:g} s ({estimate}: {spp} spp would take about "
-                f"{_duration(per_spp * spp)}, {fitted} spp about {_duration(per_spp * fitted)})")
-            spp = fitted
-            key, cached = lookup(spp)
-    entry.reference_spp = spp
+                f"reference scaled down from {requested} to {fitted} spp to fit --budget "
+                f"{options.budget:g} s ({estimate}: {requested} spp would take about "
+                f"{seconds_text(cost(requested))}, {fitted} spp about {seconds_text(cost(fitted))})")
+        target = fitted
+        key, cached = lookup(max(halves.counts[0], target // 2) + target - target // 2)
+    else:
+        target = requested
     if cached is not None:
         image, info = cached
         entry.reference_cached = True
         entry.reference_seconds = float(info.get("seconds", math.nan))
         entry.reference_noise = float(info.get("noise_rel_mse", math.nan))
+        entry.reference_spp = int(info.get("settings", {}).get("spp", target))
     else:
         if not options.quiet:
             print(f"whitted compare: {entry.name}: rendering the reference "
-                  f"(path tracer, {spp} spp in two halves)", file=sys.stderr)
-        image, noise, render_seconds, compile_seconds = render_reference(
-            loaded, spp, entry.path_depth, progress=not options.quiet)
-        entry.reference_seconds = render_seconds
-        entry.reference_noise = noise
+                  f"(path tracer, {target} spp in two halves)", file=sys.stderr)
+        halves.render(0, target // 2 - halves.counts[0])
+        halves.render(1, target - target // 2)
+        image = halves.image()
+        entry.reference_spp = halves.spp
+        entry.reference_seconds = halves.seconds
+        entry.reference_noise = halves.noise()
+        key = cache.key(scene, settings(halves.spp))
         cache.store(entry.name, key, image, {
-            "scene": str(entry.path), "settings": settings(spp), "seconds": render_seconds,
-            "compile_seconds": compile_seconds, "noise_rel_mse": noise,
-            "created": time.strftime("%Y-%m-%dT%H:%M:%S%z")})
+            "scene": str(entry.path), "settings": settings(halves.spp), "seconds": halves.seconds,
+            "compile_seconds": halves.compile_seconds, "noise_rel_mse": entry.reference_noise,
+            "spp_per_half": halves.counts, "created": time.strftime("%Y-%m-%dT%H:%M:%S%z")})
     entry.reference_file = cache.entry(entry.name, key)[0]
     return image
-
-
-def _duration(seconds: float) -> str:
-    """``850 ms``, ``12.3 s``, ``4 min 10 s``, ``3 h 21 min``."""
-    if seconds < 1:
-        return f"{seconds * 1000:.0f} ms"
-    if seconds < 60:
-        return f"{seconds:.1f} s"
-    if seconds < 3600:
-        return f"{int(seconds // 60)} min {int(seconds % 60)} s"
-    return f"{int(seconds // 3600)} h {int(seconds % 3600 // 60)} min"

@@ -25,15 +25,15 @@ import csv
 import io
 import math
 import os
+import shutil
 from pathlib import Path
 
 import numpy as np
 
 from ..atomic import atomic_path, write_text
-from .analysis import (METHOD_NAMES, Analysis, analyse, reach_text, reading_how, seconds_text,
-                       speedup_text)
+from .analysis import METHOD_NAMES, Analysis, analyse, reach_text, reading_how, speedup_text
 from .curves import pareto_front
-from .results import METHODS, WHITTED_METHODS, Measurement, SceneResult
+from .results import METHODS, WHITTED_METHODS, Measurement, SceneResult, seconds_text
 
 #: The CSV's columns; new ones are added at the end, so that readers of the old keep working.
 CSV_COLUMNS = ("scene", "method", "integrator", "lighting", "spp", "max_depth", "seconds",
@@ -190,6 +190,7 @@ def plot_error_vs_time(path: str | os.PathLike, entries: list[SceneResult]) -> N
             ax_mse.text(0.5, 0.5, "no render within the budget", transform=ax_mse.transAxes,
                         ha="center")
     fig.draw_without_rendering()  # the layout is final now: labels can be measured
+    fig.set_layout_engine("none")  # and stays so (labels are not part of it): saving is faster
     for ax, labels, points in pending:
         taken = [Bbox.from_extents(px - 3, py - 3, px + 3, py + 3)
                  for px, py in (ax.transData.transform(p) for p in points)]
@@ -203,7 +204,7 @@ def _time_axis(ax, seconds: list[float]) -> None:
     from matplotlib.ticker import FuncFormatter, NullFormatter
 
     def label(value, _position=None):
-        return seconds_text(value).replace(".0 ", " ") if value > 0 else ""
+        return seconds_text(value) if value > 0 else ""
 
     ax.xaxis.set_major_formatter(FuncFormatter(label))
     narrow = seconds and math.log10(max(seconds) / min(seconds)) < 1.0
@@ -344,23 +345,31 @@ def summary(analyses: list[Analysis], equal_time: bool = True) -> str:
 
 
 def write_all(out: str | os.PathLike, entries: list[SceneResult], levels: tuple[float, ...]) -> list[Analysis]:
-    """Every output for ``entries`` (the scenes that got a reference): the CSV, the plots,
-    the contact sheet, ``summary.txt`` and ``report.html``; returns the analyses."""
+    """Every output for ``entries``: the CSV, the plots, the contact sheet, ``summary.txt``
+    and ``report.html``, of the scenes that got a reference (the page also lists the
+    others, with the reason); returns the analyses."""
     from .page import write_page
 
     out = Path(out)
+    left_out = [e for e in entries if e.reference_thumbnail is None]
+    entries = [e for e in entries if e.reference_thumbnail is not None]
     analyses = [analyse(entry, levels) for entry in entries]
     write_csv(out / CSV_NAME, entries)
-    plot_error_vs_time(out / PLOT_NAME, entries)
     plots = {}
     for entry in entries:
         plots[entry.name] = SCENE_PLOT.format(folder=entry.folder)
         (out / plots[entry.name]).parent.mkdir(parents=True, exist_ok=True)
         plot_error_vs_time(out / plots[entry.name], [entry])
+    if len(entries) == 1:  # the whole run's plot is the scene's
+        with atomic_path(out / PLOT_NAME) as tmp:
+            shutil.copyfile(out / plots[entries[0].name], tmp)
+    else:
+        plot_error_vs_time(out / PLOT_NAME, entries)
     contact_sheet(out / SHEET_NAME, entries)
     write_text(out / SUMMARY_NAME, summary(analyses) + "\n")
     write_page(out / PAGE_NAME, analyses, plots, {"csv": CSV_NAME, "plot": PLOT_NAME,
-                                                   "sheet": SHEET_NAME, "summary": SUMMARY_NAME})
+                                                   "sheet": SHEET_NAME, "summary": SUMMARY_NAME},
+               left_out)
     return analyses
 
 

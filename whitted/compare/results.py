@@ -30,7 +30,7 @@ METHODS = WHITTED_METHODS + ("path",)
 
 __all__ = ["DEFAULT_LEVELS", "DEFAULT_PATH_SPP", "DEFAULT_REFERENCE_SPP", "DEFAULT_REPEATS",
            "DEFAULT_WHITTED_SPP", "MAX_DEFAULT_DEPTH", "MAX_DEPTH", "METHODS", "WHITTED_METHODS",
-           "Measurement", "Options", "SceneResult", "Setting"]
+           "Measurement", "Options", "SceneResult", "Setting", "seconds_text"]
 
 
 @dataclass(frozen=True)
@@ -209,3 +209,17 @@ class Options:
     def cache_folder(self) -> Path:
         """Where references are cached."""
         return Path(self.cache) if self.cache is not None else Path(self.out) / "references"
+
+
+def seconds_text(value: float) -> str:
+    """A duration for people, three significant digits: ``0.104 ms``, ``12.3 ms``,
+    ``1.25 s``, ``4 min 10 s``, ``3 h 21 min``."""
+    if not math.isfinite(value):
+        return "time unknown"
+    if value < 1:
+        return f"{value * 1000:.3g} ms"
+    if value < 60:
+        return f"{value:.3g} s"
+    if value < 3600:
+        return f"{int(value // 60)} min {int(value % 60)} s"
+    return f"{int(value // 3600)} h {int(value % 3600 // 60)} min"

@@ -80,15 +80,11 @@ def compare(scenes: list[str | os.PathLike], options: Options) -> list[SceneResu
     except KeyboardInterrupt:
         bar.close()
         if any(e.reference_thumbnail is not None for e in entries):
-            report.write_all(out, _with_reference(entries), options.levels)
+            report.write_all(out, entries, options.levels)
             print(f"whitted compare: interrupted; the outputs in {out} hold what was done",
                   file=sys.stderr)
         raise
     bar.close()
-    report.write_all(out, _with_reference(entries), options.levels)
+    report.write_all(out, entries, options.levels)
     return entries
 
-
-def _with_reference(entries: list[SceneResult]) -> list[SceneResult]:
-    """The scenes that got as far as their reference (the others have nothing to show)."""
-    return [e for e in entries if e.reference_thumbnail is not None]
