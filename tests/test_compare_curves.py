@@ -134,9 +134,9 @@ def test_render_cost_fits_a_cost_per_call_and_per_spp():
     # probes: 1 spp took 5.1 s, 2 spp 5.9 s: 0.8 s per spp and 4.3 s per render call
     overhead, per_spp = fit_cost([(1, 5.1), (2, 5.9)])
     assert (overhead, per_spp) == (pytest.approx(4.3), pytest.approx(0.8))
-    # 10 spp in passes of at most 4 spp: 3 passes · 4.3 s + 10 · 0.8 s
-    assert render_cost(10, overhead, per_spp, 4) == pytest.approx(3 * 4.3 + 8.0)
-    assert render_cost(0, overhead, per_spp, 4) == 0
+    # 10 spp in 3 passes (4 + 4 + 2): 3 · 4.3 s + 10 · 0.8 s
+    assert render_cost(10, 3, overhead, per_spp) == pytest.approx(3 * 4.3 + 8.0)
+    assert render_cost(0, 0, overhead, per_spp) == 0
     # one probe, or timings that fall (noise): all of the time per spp, an upper bound
     assert fit_cost([(4, 2.0)]) == (0.0, 0.5)
     assert fit_cost([(1, 3.0), (2, 2.5)]) == (0.0, 1.25)

@@ -115,9 +115,9 @@ def fit_cost(points: list[tuple[int, float]]) -> tuple[float, float]:
     return 0.0, t1 / n1
 
 
-def render_cost(spp: int, overhead: float, per_spp: float, pass_spp: int) -> float:
-    """Seconds to render ``spp`` samples per pixel in passes of at most ``pass_spp`` (as the
-    rendering API does for the path tracer), at ``overhead`` per pass and ``per_spp``."""
+def render_cost(spp: int, passes: int, overhead: float, per_spp: float) -> float:
+    """Seconds to render ``spp`` samples per pixel in ``passes`` render passes (the rendering
+    API's :func:`~whitted.rendering.path_passes`), at ``overhead`` a pass and ``per_spp``."""
     if spp <= 0:
         return 0.0
-    return math.ceil(spp / pass_spp) * overhead + spp * per_spp
+    return passes * overhead + spp * per_spp

@@ -221,15 +221,16 @@ def reference_image(scene: SceneFile, loaded, entry: SceneResult, cache: Referen
         if seconds <= 0:
             entry.notes.append("skipped whole: no time was left to render its reference")
             return None
-        pass_spp = max(1, rendering.PATH_SAMPLES_PER_PASS // (entry.width * entry.height))
+        pixels = entry.width * entry.height
+        pass_spp = rendering.path_passes(requested, pixels)[0]  # the most spp of one pass
         points = probe(halves, most_spp=min(pass_spp, max(1, requested // 4)),
                        most_seconds=COMPARE_REFERENCE_SHARE * seconds / 4)
         overhead, per_spp = fit_cost(points)
 
         def cost(spp: int) -> float:  # what the rest of an spp-sample reference costs
-            first, second = max(0, spp // 2 - halves.counts[0]), spp - spp // 2
-            return (render_cost(first, overhead, per_spp, pass_spp)
-                    + render_cost(second, overhead, per_spp, pass_spp))
+            rest = (max(0, spp // 2 - halves.counts[0]), spp - spp // 2)
+            return sum(render_cost(n, len(rendering.path_passes(n, pixels)) if n else 0,
+                                   overhead, per_spp) for n in rest)
 
         fitted = Budget.reference_spp(requested, cost, seconds, spent=time.monotonic() - start)
         estimate = (f"probe renders of 1–{points[-1][0]} spp: {seconds_text(overhead)} a render "
