@@ -28,7 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import metrics
+from .. import imageio, metrics
 from .. import rendering  # rendering.render looked up at call time: tests count calls
 from .budget import Budget
 from .errormaps import write_render
@@ -96,7 +96,9 @@ def sweep_scene(scene: SceneFile, entry: SceneResult, settings: list[Setting], o
             progress.update(len(settings))
         return entry
     entry.reference_thumbnail = thumbnail(reference)
-    entry.reference_png = write_render(out, f"{entry.folder}/reference", reference, None)["image_png"]
+    entry.reference_png = f"{entry.folder}/reference.png"  # its EXR is the cache's
+    (out / entry.folder).mkdir(parents=True, exist_ok=True)
+    imageio.write_image(out / entry.reference_png, reference)
     settings = _below_the_reference(entry, settings, progress)
     done: list[tuple[Setting, float, float]] = []
     overran = 0
