@@ -68,6 +68,10 @@ def scene_context(analysis: Analysis, plot: str, out: Path) -> dict:
     groups = [{"method": method, "name": METHOD_NAMES[method],
                "renders": [r for r in renders if r["method"] == method]}
               for method in METHODS if any(r["method"] == method for r in renders)]
+    # the viewer opens on the article's model at its floor: where it stops improving
+    floor_render = analysis.floors[0].render if analysis.floors else None
+    first = next((r for r, m in zip(renders, measurements) if m is floor_render),
+                 renders[0] if renders else None)
     whitted = [m for m in ("whitted-article", "whitted-physical")
                if any(m in row.reach for row in analysis.equal_quality)]
     methods = [m for m in METHODS if any(m in row.reach for row in analysis.equal_quality)]
@@ -98,7 +102,7 @@ def scene_context(analysis: Analysis, plot: str, out: Path) -> dict:
                       "how": ("read from the cache" if entry.reference_cached
                               else f"rendered in {seconds_text(entry.reference_seconds)}")},
         "notes": list(entry.notes), "floors": [f.text for f in analysis.floors],
-        "plot": plot, "groups": groups, "renders": renders, "first": renders[0] if renders else None,
+        "plot": plot, "groups": groups, "renders": renders, "first": first,
         "methods": methods, "whitted": [m.split("-")[1] for m in whitted],
         "equal_quality": equal_quality, "equal_time": equal_time,
         "skipped": len(entry.skipped),
