@@ -143,11 +143,11 @@ def test_render_cost_fits_a_cost_per_call_and_per_spp():
 
 
 def test_budget_share_keeps_time_for_the_outputs():
-    budget = Budget(20.0)
+    budget = Budget(40.0)
     assert budget.reserve(1) == COMPARE_REPORT_SECONDS
     assert budget.reserve(2) == 2 * COMPARE_REPORT_SECONDS
-    assert budget.reserve(100) == pytest.approx(4.0)  # at most a fifth of the budget
-    assert budget.share(2) == pytest.approx((20.0 - budget.reserve(2)) / 2, abs=0.05)
+    assert budget.reserve(100) == pytest.approx(10.0)  # at most a quarter of the budget
+    assert budget.share(2) == pytest.approx((40.0 - budget.reserve(2)) / 2, abs=0.05)
     assert Budget(None).share(3) == math.inf and Budget(None).reserve(3) == 0
 
 

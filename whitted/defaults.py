@@ -91,7 +91,7 @@ COMPARE_MIN_REFERENCE_SPP = 8
 #: The probe that estimates a reference's cost doubles its spp until one render takes this long.
 COMPARE_PROBE_SECONDS = 0.1
 #: Seconds of --budget kept back per scene for writing its outputs (plots, report page).
-COMPARE_REPORT_SECONDS = 2.0
+COMPARE_REPORT_SECONDS = 3.0
 
 
 # --- Validation, written once ----------------------------------------------------------------------

@@ -50,11 +50,11 @@ class Budget:
 
     def reserve(self, scenes_left: int) -> float:
         """Seconds kept back for writing the outputs of ``scenes_left`` scenes (plots,
-        contact sheet, page): :data:`COMPARE_REPORT_SECONDS` each, at most a fifth of the
-        budget."""
+        contact sheet, page): :data:`COMPARE_REPORT_SECONDS` each, at most a quarter of
+        the budget."""
         if self.seconds is None:
             return 0.0
-        return min(COMPARE_REPORT_SECONDS * max(1, scenes_left), 0.2 * self.seconds)
+        return min(COMPARE_REPORT_SECONDS * max(1, scenes_left), 0.25 * self.seconds)
 
     def share(self, scenes_left: int) -> float:
         """Seconds the next scene may take: the time left, less the outputs' reserve,
