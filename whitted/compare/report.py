@@ -28,7 +28,7 @@ from .results import METHODS, WHITTED_METHODS, Measurement, SceneResult
 
 CSV_COLUMNS = ("scene", "method", "integrator", "lighting", "spp", "max_depth", "seconds",
                "compile_seconds", "rel_mse", "flip", "repeats", "width", "height", "variant",
-               "reference_spp")
+               "reference_spp", "worker")
 CSV_NAME = "results.csv"
 PLOT_NAME = "error_vs_time.png"
 SHEET_NAME = "contact_sheet.png"
@@ -66,7 +66,7 @@ def _row(entry: SceneResult, m: Measurement) -> dict:
             "seconds": f"{m.seconds:.6g}", "compile_seconds": f"{m.compile_seconds:.6g}",
             "rel_mse": f"{m.rel_mse:.6g}", "flip": f"{m.flip:.6g}", "repeats": m.repeats,
             "width": entry.width, "height": entry.height, "variant": entry.variant,
-            "reference_spp": entry.reference_spp}
+            "reference_spp": entry.reference_spp, "worker": entry.worker}
 
 
 def write_csv(path: str | os.PathLike, entries: list[SceneResult]) -> None:
