@@ -64,7 +64,7 @@ sphere 0 -101 0 100 color 0.8 0.8 0.8
 OPTIONS = ["--reference-spp", "256", "--reference-chunk-spp", "64", "--depths", "1,2",
            "--spp", "1", "--path-spp", "1,16", "--repeats", "1", "-q"]
 #: the columns that may differ between runs: times, and who rendered
-VARYING = {"seconds", "compile_seconds", "worker"}
+VARYING = {"seconds", "seconds_min", "seconds_max", "seconds_each", "compile_seconds", "worker"}
 
 
 def read_rows(path: Path) -> list[dict]:
@@ -144,12 +144,15 @@ def test_path_passes_are_powers_of_two_that_add_up():
 
 
 def test_reference_chunks_follow_the_options_alone():
-    from whitted.compare.reference import reference_chunks
+    """Two halves of chunks of at most the chunk's spp, each chunk its own seed, far from
+    the sweep's seed 0 and the small seeds of its passes."""
+    from whitted.compare.reference import REFERENCE_SEED, reference_chunks
     chunks = reference_chunks(4096, 1024)
-    assert [spp for spp, _ in chunks] == [1024] * 4
-    assert len({seed for _, seed in chunks}) == 4 and all(seed > 1 << 16 for _, seed in chunks)
-    assert [spp for spp, _ in reference_chunks(300, 128)] == [128, 128, 44]
-    assert reference_chunks(300, 128)[:2] == reference_chunks(256, 128)  # a prefix keeps its seeds
+    assert [(spp, half) for spp, _, half in chunks] == [(1024, 0)] * 2 + [(1024, 1)] * 2
+    seeds = [seed for _, seed, _ in chunks]
+    assert len(set(seeds)) == 4 and min(seeds) >= REFERENCE_SEED > 1 << 20
+    assert [spp for spp, _, _ in reference_chunks(300, 128)] == [128, 22, 128, 22]
+    assert set(reference_chunks(256, 128)) < set(reference_chunks(512, 128))  # more extends
 
 
 def test_threads_are_the_host_cores_shared_among_its_workers():

@@ -96,6 +96,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def compare_command(args: argparse.Namespace) -> None:
     """The CLI's ``compare`` subcommand."""
     from . import report
+    from .analysis import analyse
     from .run import compare
 
     options = Options(out=Path(args.out), reference_spp=args.reference_spp, depths=args.depths,
@@ -107,19 +108,21 @@ def compare_command(args: argparse.Namespace) -> None:
     start = time.monotonic()
     entries = compare(args.scenes, options)
     skipped = sum(len(e.skipped) for e in entries)
-    print(report.fastest_table(entries, options.levels))
+    done = sum(len(e.measurements) for e in entries)
+    print(report.summary([analyse(e, options.levels) for e in entries if e.reference_file],
+                         equal_time=False))
     if skipped:
-        print(f"\nbudget of {options.budget:g} s reached: skipped {skipped} of "
-              f"{skipped + sum(len(e.measurements) for e in entries)} renders; "
+        print(f"\nbudget of {options.budget:g} s: skipped {skipped} of {skipped + done} renders; "
               f"the outputs hold the renders that were done")
     for e in entries:
+        for note in e.notes:  # what the budget did, and why (also in the report)
+            print(f"{e.name}: {note}", file=sys.stderr)
         if e.reference_file is None:
-            print(f"{e.name}: skipped whole: no time was left to render its reference",
-                  file=sys.stderr)
             continue
         how = "read from the cache" if e.reference_cached else f"rendered in {e.reference_seconds:.1f} s"
         print(f"{e.name}: reference (path tracer, {e.reference_spp} spp) {how}: {e.reference_file}",
               file=sys.stderr)
-    print(f"\n{sum(len(e.measurements) for e in entries)} renders in "
-          f"{time.monotonic() - start:.1f} s; wrote {report.output_files(options.out)}",
+    if done == 0:
+        print("whitted compare: no render was done (see the lines above for why)", file=sys.stderr)
+    print(f"\n{done} renders in {time.monotonic() - start:.1f} s; wrote {report.output_files(options.out)}",
           file=sys.stderr)

@@ -16,7 +16,8 @@ What runs where
 
     * a *chunk* of a reference (:func:`~whitted.compare.reference.reference_chunks`),
       for each reference not in the cache: one reference's chunks run on any
-      workers at once;
+      workers at once (under ``--budget`` the reference is probed and scaled to fit,
+      one step after another, so it is made whole by its scene's sweep instead);
     * a scene's *sweep* (:func:`~whitted.compare.sweep.sweep_scene`): the reference
       averaged from its chunks and stored in the cache (by that worker, atomically),
       then every setting of the scene, one after the other on that one worker, so
@@ -30,8 +31,8 @@ What runs where
     thread pool and slow each other down unevenly.
 
 Same results
-    A cluster writes the results.csv of a run in one process, the time columns and
-    ``worker`` aside: the reference's chunks follow from the options alone, every
+    Without ``--budget``, a cluster writes the results.csv of a run in one process,
+    the time columns and ``worker`` aside: the reference's chunks follow from the options alone, every
     render has a fixed seed, and a render's image depends on its seed alone
     (:func:`whitted.rendering.path_passes`), whatever the worker's thread count.
 
@@ -108,14 +109,12 @@ def _prepare(variant: str, threads: dict[str, int]) -> str:
     return address
 
 
-def chunk_task(scene: SceneFile, variant: str, max_depth: int, spp: int, seed: int,
-               threads: dict[str, int], end: float | None) -> Chunk:
-    """One chunk of a reference (an image of None when the budget ended before it)."""
+def chunk_task(scene: SceneFile, variant: str, max_depth: int, spp: int, seed: int, half: int,
+               threads: dict[str, int]) -> Chunk:
+    """One chunk of a reference (:func:`~whitted.compare.reference.reference_chunks`)."""
     with _RENDERING:
         worker = _prepare(variant, threads)
-        if end is not None and time.time() >= end:
-            return Chunk(spp, seed, None, worker=worker)
-        chunk = render_chunk(scene.load(variant), spp, seed, max_depth)
+        chunk = render_chunk(scene.load(variant), spp, seed, half, max_depth)
         chunk.worker = worker
         return chunk
 
@@ -262,7 +261,7 @@ def sweep_on_cluster(client, scenes: list[SceneFile], entries: list[SceneResult]
     threads, workers = worker_threads(cores), len(cores)
     share, end = math.inf, None
     if budget.seconds is not None:
-        remaining = budget.share(1)
+        remaining = budget.share(len(scenes)) * len(scenes)  # the outputs' time kept back
         share, end = remaining * min(workers, len(scenes)) / len(scenes), time.time() + remaining
     # The workers may start elsewhere: paths absolute; their messages stay in their logs.
     sent = replace(options, out=Path(options.out).resolve(), cache=options.cache_folder.resolve(),
@@ -273,12 +272,12 @@ def sweep_on_cluster(client, scenes: list[SceneFile], entries: list[SceneResult]
     chunks_of = {}
     for index, (scene, entry, settings) in enumerate(zip(scenes, entries, plans)):
         chunks = None
-        key = ReferenceCache.key(scene, reference_settings(entry, options))
-        if cache.load(entry.name, key, (entry.height, entry.width)) is None:
-            chunks = [client.submit(chunk_task, scene, entry.variant, entry.path_depth, spp, seed,
-                                    threads, end, key=f"whitted-reference-{entry.name}-{k}-{run}")
-                      for k, (spp, seed) in enumerate(reference_chunks(options.reference_spp,
-                                                                       options.reference_chunk_spp))]
+        key = ReferenceCache.key(scene, reference_settings(entry, options.reference_spp))
+        if budget.seconds is None and cache.load(entry.name, key, (entry.height, entry.width)) is None:
+            chunks = [client.submit(chunk_task, scene, entry.variant, entry.path_depth, *chunk, threads,
+                                    key=f"whitted-reference-{entry.name}-{k}-{run}")
+                      for k, chunk in enumerate(reference_chunks(options.reference_spp,
+                                                                 options.reference_chunk_spp))]
             tasks.update((future, (index, "chunk")) for future in chunks)
             chunks_of[index] = chunks
         sweep = client.submit(sweep_task, scene, entry, settings, sent, share, end, threads, chunks,

@@ -91,10 +91,10 @@ def compare(scenes: list[str | os.PathLike], options: Options) -> list[SceneResu
             loaded[index] = None  # free the scene's memory
     except KeyboardInterrupt:
         bar.close()
-        _write_what_was_done(out, entries)
+        _write_what_was_done(out, entries, options)
         raise
     bar.close()
-    report.write_all(out, _with_reference(entries))
+    report.write_all(out, entries, options.levels)
     return entries
 
 
@@ -109,20 +109,15 @@ def _compare_on_cluster(scenes: list[SceneFile], entries: list[SceneResult], pla
             out.mkdir(parents=True, exist_ok=True)
             sweep_on_cluster(client, scenes, entries, plans, options, budget)
     except KeyboardInterrupt:  # the cluster is stopped by now: its cores are free to write
-        _write_what_was_done(out, entries)
+        _write_what_was_done(out, entries, options)
         raise
-    report.write_all(out, _with_reference(entries))
+    report.write_all(out, entries, options.levels)
     return entries
 
 
-def _write_what_was_done(out: Path, entries: list[SceneResult]) -> None:
-    """The outputs of an interrupted run: the scenes that got as far as their reference."""
+def _write_what_was_done(out: Path, entries: list[SceneResult], options: Options) -> None:
+    """The outputs of an interrupted run, when a scene got as far as its reference."""
     if any(e.reference_thumbnail is not None for e in entries):
-        report.write_all(out, _with_reference(entries))
+        report.write_all(out, entries, options.levels)
         print(f"whitted compare: interrupted; the outputs in {out} hold what was done",
               file=sys.stderr)
-
-
-def _with_reference(entries: list[SceneResult]) -> list[SceneResult]:
-    """The scenes that got as far as their reference (the others have nothing to show)."""
-    return [e for e in entries if e.reference_thumbnail is not None]
