@@ -30,6 +30,7 @@ The modules, in the order the work flows (each imports only those above it;
                 and the page
 ``sweep``       one scene's work: reference, renders, scores (plain data in/out)
 ``run``         the whole run: read, plan, sweep every scene, write the outputs
+``cluster``     ``--workers``/``--scheduler``: the scenes' sweeps on a Dask cluster
 ``cli``         the ``compare`` subcommand's options and printed summary
 =============== ==================================================================
 """

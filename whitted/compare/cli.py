@@ -14,8 +14,9 @@ import time
 from pathlib import Path
 
 from ..defaults import VARIANTS as SUPPORTED_VARIANTS
-from .results import (DEFAULT_LEVELS, DEFAULT_PATH_SPP, DEFAULT_REFERENCE_SPP, DEFAULT_REPEATS,
-                      DEFAULT_WHITTED_SPP, MAX_DEFAULT_DEPTH, Options)
+from .results import (DEFAULT_LEVELS, DEFAULT_PATH_SPP, DEFAULT_REFERENCE_CHUNK_SPP,
+                      DEFAULT_REFERENCE_SPP, DEFAULT_REPEATS, DEFAULT_WHITTED_SPP, MAX_DEFAULT_DEPTH,
+                      Options)
 
 
 def int_list(text: str) -> tuple[int, ...]:
@@ -78,6 +79,17 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--cache", metavar="DIR", help="where references are cached (default DIR/references)")
     parser.add_argument("--variant", choices=SUPPORTED_VARIANTS,
                         help="Mitsuba variant (default as for render)")
+    parser.add_argument("--reference-chunk-spp", type=int, default=DEFAULT_REFERENCE_CHUNK_SPP,
+                        metavar="N", help="render the reference in chunks of N spp, each with its "
+                                          "own seed, averaged; a cluster spreads them over its "
+                                          f"workers (default {DEFAULT_REFERENCE_CHUNK_SPP})")
+    where = parser.add_mutually_exclusive_group()
+    where.add_argument("--workers", type=int, metavar="N",
+                       help="sweep on a local Dask cluster of N worker processes (each scene's "
+                            "settings on one worker; the cores shared among them)")
+    where.add_argument("--scheduler", metavar="ADDRESS",
+                       help="sweep on the Dask cluster of this scheduler, e.g. tcp://host:8786 "
+                            "(workers started with whitted installed; see docs/cluster.md)")
     parser.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
 
 
@@ -91,7 +103,8 @@ def compare_command(args: argparse.Namespace) -> None:
                       whitted_spp=args.spp, path_spp=args.path_spp, path_depth=args.path_depth,
                       repeats=args.repeats, budget=args.budget, levels=args.levels,
                       cache=Path(args.cache) if args.cache else None, variant=args.variant,
-                      quiet=args.quiet)
+                      quiet=args.quiet, reference_chunk_spp=args.reference_chunk_spp,
+                      workers=args.workers, scheduler=args.scheduler)
     start = time.monotonic()
     entries = compare(args.scenes, options)
     skipped = sum(len(e.skipped) for e in entries)

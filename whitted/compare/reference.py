@@ -16,6 +16,13 @@ floor no render can measurably go below. Under ``--budget`` short probe renders
 (1, 2, 4, ... spp, kept as part of the first half) measure what a render and a
 sample cost first, and the reference is scaled down to what the scene's share
 affords (:meth:`~whitted.compare.budget.Budget.reference_spp`) or refused.
+
+Without a budget, each half is rendered in chunks (:func:`reference_chunks`) of at
+most ``--reference-chunk-spp`` samples per pixel, each from its own seed. The chunks
+follow from the options alone, never from who renders them, so a cluster can spread
+them over its workers (:mod:`.cluster`) and still make the very image a run in one
+process makes, bit for bit (a path-traced image depends only on its seed:
+:func:`whitted.rendering.path_passes`).
 """
 
 from __future__ import annotations
@@ -26,6 +33,7 @@ import math
 import re
 import sys
 import time
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -34,7 +42,7 @@ from .. import rendering  # rendering.render looked up at call time: tests count
 from ..defaults import COMPARE_PROBE_SECONDS, COMPARE_REFERENCE_SHARE
 from .budget import Budget, fit_cost, render_cost
 from .curves import reference_noise
-from .results import Options, SceneResult, seconds_text
+from .results import IN_PROCESS, Options, SceneResult, seconds_text
 from .scenes import SceneFile
 
 #: The seeds of the reference's renders are this plus a running count (even: the first
@@ -45,6 +53,57 @@ from .scenes import SceneFile
 REFERENCE_SEED = 0x5EED0000
 #: Bumped when the meaning of a cached reference changes (2: two halves, noise estimated).
 CACHE_FORMAT = "whitted-compare-reference/2"
+
+
+def reference_chunks(reference_spp: int, chunk_spp: int) -> list[tuple[int, int, int]]:
+    """The chunks of a reference rendered without a budget, as (spp, seed, half), in
+    order: each half (``reference_spp // 2`` samples per pixel, then the rest) cut into
+    chunks of at most ``chunk_spp``; chunk ``i`` of half ``h`` has the seed
+    ``REFERENCE_SEED + 2 i + h``."""
+    chunks = []
+    for half, spp in enumerate((reference_spp // 2, reference_spp - reference_spp // 2)):
+        sizes = [chunk_spp] * (spp // chunk_spp) + ([spp % chunk_spp] if spp % chunk_spp else [])
+        chunks += [(n, REFERENCE_SEED + 2 * i + half, half) for i, n in enumerate(sizes)]
+    return chunks
+
+
+@dataclass
+class Chunk:
+    """One chunk of a reference, rendered (plain data: it travels between processes).
+
+    =================== ===============================================================
+    ``spp``, ``seed``,  what was rendered, for which half (one entry of
+    ``half``            :func:`reference_chunks`)
+    ``image``           the linear image, float32 (H, W, 3)
+    ``seconds``         its render time, compilation excluded
+    ``compile_seconds`` kernel compilation
+    ``worker``          who rendered it (a Dask worker's address, or ``in-process``)
+    =================== ===============================================================
+    """
+    spp: int
+    seed: int
+    half: int
+    image: np.ndarray
+    seconds: float
+    compile_seconds: float
+    worker: str = IN_PROCESS
+
+
+def render_chunk(loaded, spp: int, seed: int, half: int, max_depth: int,
+                 progress: bool = False) -> Chunk:
+    """Render one chunk of a reference with Mitsuba's path tracer (``loaded``: the
+    ``mi.Scene``)."""
+    result = rendering.render(loaded, integrator="path", spp=spp, max_depth=max_depth, seed=seed,
+                              progress=progress)
+    return Chunk(spp, seed, half, np.asarray(result.image, dtype=np.float32),
+                 float(result.seconds), float(result.compile_seconds))
+
+
+def reference_settings(entry: SceneResult, spp: int) -> dict:
+    """What the cache key of an ``spp``-sample reference of ``entry``'s scene covers."""
+    return {"integrator": "path", "spp": spp, "max_depth": entry.path_depth,
+            "seed": REFERENCE_SEED, "width": entry.width, "height": entry.height,
+            "variant": entry.variant}
 
 
 class ReferenceCache:
@@ -147,16 +206,21 @@ class Halves:
         """Add ``spp`` samples per pixel to ``half`` (0 or 1); returns the render's seconds."""
         if spp <= 0:
             return 0.0
-        result = rendering.render(self.loaded, integrator="path", spp=spp, max_depth=self.max_depth,
-                                  seed=REFERENCE_SEED + 2 * self.renders + half,
-                                  progress=self.progress)
+        chunk = render_chunk(self.loaded, spp, REFERENCE_SEED + 2 * self.renders + half, half,
+                             self.max_depth, self.progress)
+        self.add(chunk)
+        return chunk.seconds
+
+    def add(self, chunk: Chunk) -> None:
+        """Add a rendered chunk to its half (in float64: the same chunks in the same
+        order give the same bits)."""
         self.renders += 1
-        image = np.asarray(result.image, dtype=np.float64) * spp
+        image = chunk.image.astype(np.float64) * chunk.spp
+        half = chunk.half
         self.sums[half] = image if self.sums[half] is None else self.sums[half] + image
-        self.counts[half] += spp
-        self.seconds += float(result.seconds)
-        self.compile_seconds += float(result.compile_seconds)
-        return float(result.seconds)
+        self.counts[half] += chunk.spp
+        self.seconds += chunk.seconds
+        self.compile_seconds += chunk.compile_seconds
 
     @property
     def spp(self) -> int:
@@ -193,7 +257,8 @@ def probe(halves: Halves, most_spp: int, most_seconds: float) -> list[tuple[int,
 
 
 def reference_image(scene: SceneFile, loaded, entry: SceneResult, cache: ReferenceCache,
-                    options: Options, seconds: float = math.inf) -> np.ndarray | None:
+                    options: Options, seconds: float = math.inf,
+                    chunks: list[Chunk] | None = None) -> np.ndarray | None:
     """The scene's reference, from the cache or rendered from ``loaded`` (its ``mi.Scene``)
     within ``seconds`` (the scene's share of ``--budget``; ``math.inf``: no budget).
 
@@ -201,13 +266,12 @@ def reference_image(scene: SceneFile, loaded, entry: SceneResult, cache: Referen
     first renders, kept) and completed at the spp :meth:`Budget.reference_spp` allows:
     fewer than asked (a reference of that spp is looked up in the cache first; a line of
     ``entry.notes`` says so), or none, when not even the minimum fits (the note says why
-    and the result is None). Records in ``entry`` where the reference lies, its spp and
-    noise, whether it was cached and what it cost.
+    and the result is None). Without a budget it is rendered in :func:`reference_chunks`,
+    or made of ``chunks`` rendered elsewhere (a cluster's workers). Records in ``entry``
+    where the reference lies, its spp and noise, whether it was cached and what it cost.
     """
     def settings(spp: int) -> dict:
-        return {"integrator": "path", "spp": spp, "max_depth": entry.path_depth,
-                "seed": REFERENCE_SEED, "width": entry.width, "height": entry.height,
-                "variant": entry.variant}
+        return reference_settings(entry, spp)
 
     def lookup(spp: int) -> tuple[str, tuple[np.ndarray, dict] | None]:
         key = cache.key(scene, settings(spp))
@@ -263,8 +327,18 @@ def reference_image(scene: SceneFile, loaded, entry: SceneResult, cache: Referen
         if not options.quiet:
             print(f"whitted compare: {entry.name}: rendering the reference "
                   f"(path tracer, {target} spp in two halves)", file=sys.stderr)
-        halves.render(0, target // 2 - halves.counts[0])
-        halves.render(1, target - target // 2)
+        if math.isfinite(seconds):  # the probe's renders are part of the first half
+            halves.render(0, target // 2 - halves.counts[0])
+            halves.render(1, target - target // 2)
+        else:
+            planned = reference_chunks(target, options.reference_chunk_spp)
+            if chunks is None:
+                chunks = [render_chunk(loaded, *chunk, entry.path_depth, progress=not options.quiet)
+                          for chunk in planned]
+            if [(c.spp, c.seed, c.half) for c in chunks] != planned:
+                raise ValueError("the reference's chunks are not those its options make")
+            for chunk in chunks:
+                halves.add(chunk)
         image = halves.image()
         entry.reference_spp = halves.spp
         entry.reference_seconds = halves.seconds
@@ -273,6 +347,8 @@ def reference_image(scene: SceneFile, loaded, entry: SceneResult, cache: Referen
         cache.store(entry.name, key, image, {
             "scene": str(entry.path), "settings": settings(halves.spp), "seconds": halves.seconds,
             "compile_seconds": halves.compile_seconds, "noise_rel_mse": entry.reference_noise,
-            "spp_per_half": halves.counts, "created": time.strftime("%Y-%m-%dT%H:%M:%S%z")})
+            "spp_per_half": halves.counts, "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
+            "chunks": [{"spp": c.spp, "seed": c.seed, "half": c.half, "seconds": c.seconds,
+                        "worker": c.worker} for c in chunks or ()]})
     entry.reference_file = cache.entry(entry.name, key)[0]
     return image

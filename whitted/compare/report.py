@@ -39,7 +39,7 @@ from .results import METHODS, WHITTED_METHODS, Measurement, SceneResult, seconds
 CSV_COLUMNS = ("scene", "method", "integrator", "lighting", "spp", "max_depth", "seconds",
                "compile_seconds", "rel_mse", "flip", "repeats", "width", "height", "variant",
                "reference_spp", "seconds_min", "seconds_max", "seconds_each", "image", "image_png",
-               "error_map", "reference_noise")
+               "error_map", "reference_noise", "worker")
 CSV_NAME = "results.csv"
 PLOT_NAME = "error_vs_time.png"
 SHEET_NAME = "contact_sheet.png"
@@ -85,7 +85,7 @@ def _row(entry: SceneResult, m: Measurement) -> dict:
             "seconds_max": f"{m.seconds_max:.6g}",
             "seconds_each": ";".join(f"{t:.6g}" for t in m.times),
             "image": m.image or "", "image_png": m.image_png or "", "error_map": m.error_map or "",
-            "reference_noise": f"{entry.reference_noise:.6g}"}
+            "reference_noise": f"{entry.reference_noise:.6g}", "worker": entry.worker}
 
 
 def write_csv(path: str | os.PathLike, entries: list[SceneResult]) -> None:

@@ -17,7 +17,9 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from ..defaults import (COMPARE_LEVELS as DEFAULT_LEVELS, COMPARE_MAX_DEFAULT_DEPTH as MAX_DEFAULT_DEPTH,
-                        COMPARE_PATH_SPP as DEFAULT_PATH_SPP, COMPARE_REFERENCE_SPP as DEFAULT_REFERENCE_SPP,
+                        COMPARE_PATH_SPP as DEFAULT_PATH_SPP,
+                        COMPARE_REFERENCE_CHUNK_SPP as DEFAULT_REFERENCE_CHUNK_SPP,
+                        COMPARE_REFERENCE_SPP as DEFAULT_REFERENCE_SPP,
                         COMPARE_REPEATS as DEFAULT_REPEATS, COMPARE_WHITTED_SPP as DEFAULT_WHITTED_SPP,
                         MAX_DEPTH)
 
@@ -27,10 +29,13 @@ if TYPE_CHECKING:
 #: The Whitted integrator in its two lighting modes, then the path tracer.
 WHITTED_METHODS = ("whitted-article", "whitted-physical")
 METHODS = WHITTED_METHODS + ("path",)
+#: Who rendered a scene's sweep when no cluster did (``SceneResult.worker``).
+IN_PROCESS = "in-process"
 
-__all__ = ["DEFAULT_LEVELS", "DEFAULT_PATH_SPP", "DEFAULT_REFERENCE_SPP", "DEFAULT_REPEATS",
-           "DEFAULT_WHITTED_SPP", "MAX_DEFAULT_DEPTH", "MAX_DEPTH", "METHODS", "WHITTED_METHODS",
-           "Measurement", "Options", "SceneResult", "Setting", "seconds_text"]
+__all__ = ["DEFAULT_LEVELS", "DEFAULT_PATH_SPP", "DEFAULT_REFERENCE_CHUNK_SPP", "DEFAULT_REFERENCE_SPP",
+           "DEFAULT_REPEATS", "DEFAULT_WHITTED_SPP", "IN_PROCESS", "MAX_DEFAULT_DEPTH", "MAX_DEPTH",
+           "METHODS", "WHITTED_METHODS", "Measurement", "Options", "SceneResult", "Setting",
+           "seconds_text"]
 
 
 @dataclass(frozen=True)
@@ -139,6 +144,9 @@ class SceneResult:
                             unknown); no render can score much below it
     ``reference_png``       the reference as an sRGB PNG, relative to the output folder
     ``notes``               one line each on what the budget did to this scene and why
+    ``worker``              who rendered the sweep: a Dask worker's address, or
+                            :data:`IN_PROCESS` (every setting of a scene is rendered
+                            by one worker, so its times compare)
     ======================= ===========================================================
     """
     name: str
@@ -161,6 +169,7 @@ class SceneResult:
     reference_noise: float = math.nan
     reference_png: str | None = None
     notes: list[str] = field(default_factory=list)
+    worker: str = IN_PROCESS
 
     def __post_init__(self):
         if not self.reference_requested:
@@ -176,21 +185,29 @@ class SceneResult:
 class Options:
     """The command's options (``whitted compare --help`` describes each).
 
-    ================= ================================================================
-    ``out``           the output folder
-    ``reference_spp`` the reference's samples per pixel
-    ``depths``        Whitted max depths (None: 1…the scene's depth, at most
-                      :data:`MAX_DEFAULT_DEPTH`)
-    ``whitted_spp``   the Whitted integrator's spp ladder
-    ``path_spp``      the path tracer's spp ladder
-    ``path_depth``    the path tracer's and reference's max depth (None: the scene's)
-    ``repeats``       renders per setting; the median time is kept
-    ``budget``        seconds for the whole command (None: unbounded)
-    ``levels``        relative MSE levels of the summary table
-    ``cache``         the reference cache's folder (None: ``out/references``)
-    ``variant``       the Mitsuba variant (None: as for ``whitted render``)
-    ``quiet``         no progress bar or messages
-    ================= ================================================================
+    ======================= ==========================================================
+    ``out``                 the output folder
+    ``reference_spp``       the reference's samples per pixel
+    ``depths``              Whitted max depths (None: 1…the scene's depth, at most
+                            :data:`MAX_DEFAULT_DEPTH`)
+    ``whitted_spp``         the Whitted integrator's spp ladder
+    ``path_spp``            the path tracer's spp ladder
+    ``path_depth``          the path tracer's and reference's max depth (None: the
+                            scene's)
+    ``repeats``             renders per setting; the median time is kept
+    ``budget``              seconds for the whole command (None: unbounded)
+    ``levels``              relative MSE levels of the summary table
+    ``cache``               the reference cache's folder (None: ``out/references``)
+    ``variant``             the Mitsuba variant (None: as for ``whitted render``)
+    ``quiet``               no progress bar or messages
+    ``reference_chunk_spp`` the reference is rendered in chunks of at most this many
+                            spp, each with its own seed, and averaged: the same chunks
+                            in this process and on a cluster
+    ``workers``             sweep on a local Dask cluster of this many worker
+                            processes (None: in this process)
+    ``scheduler``           sweep on the Dask cluster of this scheduler
+                            (``tcp://host:port``; None: in this process)
+    ======================= ==========================================================
     """
     out: Path
     reference_spp: int = DEFAULT_REFERENCE_SPP
@@ -204,6 +221,9 @@ class Options:
     cache: Path | None = None
     variant: str | None = None
     quiet: bool = False
+    reference_chunk_spp: int = DEFAULT_REFERENCE_CHUNK_SPP
+    workers: int | None = None
+    scheduler: str | None = None
 
     @property
     def cache_folder(self) -> Path:

@@ -32,7 +32,7 @@ from .. import imageio, metrics
 from .. import rendering  # rendering.render looked up at call time: tests count calls
 from .budget import Budget
 from .errormaps import write_render
-from .reference import ReferenceCache, reference_image
+from .reference import Chunk, ReferenceCache, reference_image
 from .report import thumbnail
 from .results import Measurement, Options, SceneResult, Setting
 from .scenes import SceneFile
@@ -64,7 +64,8 @@ def measure(loaded, setting: Setting, reference: np.ndarray, repeats: int,
 
 
 def sweep_scene(scene: SceneFile, entry: SceneResult, settings: list[Setting], options: Options,
-                seconds: float = math.inf, *, loaded=None, progress=None) -> SceneResult:
+                seconds: float = math.inf, *, loaded=None, progress=None,
+                chunks: list[Chunk] | None = None) -> SceneResult:
     """Render and score one scene's ``settings`` (in order) within ``seconds``.
 
     ============ ======================================================================
@@ -81,6 +82,9 @@ def sweep_scene(scene: SceneFile, entry: SceneResult, settings: list[Setting], o
     ``loaded``   the scene's ``mi.Scene`` when the caller has it (else loaded here,
                  in ``entry.variant``)
     ``progress`` a tqdm bar to advance by one per setting, or None
+    ``chunks``   the reference's chunks (:class:`~whitted.compare.reference.Chunk`)
+                 when a cluster's workers rendered them; None: rendered here unless
+                 cached
     ============ ======================================================================
     """
     deadline = time.monotonic() + seconds
@@ -89,7 +93,7 @@ def sweep_scene(scene: SceneFile, entry: SceneResult, settings: list[Setting], o
     out = Path(options.out)
     cache = ReferenceCache(options.cache_folder)
     reference = reference_image(scene, loaded, entry, cache, options,
-                                seconds=deadline - time.monotonic())
+                                seconds=deadline - time.monotonic(), chunks=chunks)
     if reference is None:
         entry.skipped.extend(settings)
         if progress is not None:
