@@ -39,7 +39,6 @@ rays: for it only ``camera`` is given and the others are null, as are
 from __future__ import annotations
 
 import contextlib
-import math
 import time
 from dataclasses import dataclass
 
@@ -205,17 +204,38 @@ def render(scene, integrator: str = "whitted", spp: int | None = None, max_depth
     return RenderResult(np.ascontiguousarray(image), clock.seconds, clock.compile, stats)
 
 
+def path_passes(spp: int, pixels: int) -> list[int]:
+    """The samples per pixel of each pass of the path tracer: powers of two, each pass
+    at most :data:`PATH_SAMPLES_PER_PASS` camera samples (but at least 1 spp).
+
+    Why powers of two: the LLVM backend runs a kernel in blocks of a power of two of
+    lanes spread over its threads, and a pixel's samples are consecutive lanes. When
+    a pass's spp is a power of two, every pixel's samples lie in one block and are
+    added into the film by one thread in a fixed order, so the image depends only on
+    the seed: bit-identical from run to run, process to process, and for any thread
+    count. With 10 spp a pixel can straddle two blocks, and its sum then depends on
+    which thread finishes first (a difference in the last bit), which would make two
+    runs of ``whitted compare`` differ.
+    """
+    most = max(1, min(spp, PATH_SAMPLES_PER_PASS // pixels))
+    most = 1 << (most.bit_length() - 1)
+    passes = [most] * (spp // most)
+    rest = spp % most
+    while rest:
+        passes.append(1 << (rest.bit_length() - 1))
+        rest -= passes[-1]
+    return passes
+
+
 def _render_path(scene, integrator, sensor, spp, seed, progress) -> np.ndarray:
-    """Mitsuba's path tracer in passes of whole samples per pixel, averaged."""
+    """Mitsuba's path tracer in passes of whole samples per pixel (:func:`path_passes`),
+    averaged."""
     import mitsuba as mi
     width, height = (int(c) for c in sensor.film().crop_size())
-    spp_per_pass = max(1, min(spp, PATH_SAMPLES_PER_PASS // (width * height)))
-    passes = math.ceil(spp / spp_per_pass)
     total = None
     own_spp = sensor.sampler().sample_count()   # mi.render changes it: put it back after
     try:
-        for k in range(passes):
-            n = min(spp_per_pass, spp - k * spp_per_pass)
+        for k, n in enumerate(path_passes(spp, width * height)):
             # Distinct seeds per pass: passes are independent estimates (a single
             # pass is exactly mi.render with the caller's seed).
             pass_seed = seed if k == 0 else (seed * 0x9E3779B1 + k) & 0xFFFFFFFF
