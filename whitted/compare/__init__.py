@@ -29,8 +29,9 @@ The modules, in the order the work flows (each imports only those above it;
 ``report``      every output: results.csv, the plots, contact sheet, summary.txt,
                 and the page
 ``sweep``       one scene's work: reference, renders, scores (plain data in/out)
+``cluster``     ``--workers``/``--scheduler``: the scenes' sweeps and the reference's
+                chunks as tasks on a Dask cluster (docs/cluster.md)
 ``run``         the whole run: read, plan, sweep every scene, write the outputs
-``cluster``     ``--workers``/``--scheduler``: the scenes' sweeps on a Dask cluster
 ``cli``         the ``compare`` subcommand's options and printed summary
 =============== ==================================================================
 """

@@ -25,8 +25,9 @@ What runs where
 
     A worker process prepares itself on its first task: it selects the variant and
     registers the plugins (``whitted.set_variant``) and sizes Dr.Jit's thread pool
-    (``dr.set_thread_count``) to its share of its machine's cores: the cores over
-    the number of workers on that machine, but at least :data:`MIN_THREADS`. It renders one task at a time even when
+    (``dr.set_thread_count``), and FLIP's OpenMP threads, to its share of its
+    machine's cores: the cores over the number of workers on that machine, but at
+    least :data:`MIN_THREADS`. It renders one task at a time even when
     started with several threads (a lock): two renders at once would share one
     thread pool and slow each other down unevenly.
 
@@ -105,6 +106,8 @@ def _prepare(variant: str, threads: dict[str, int]) -> str:
     if _prepared != (variant, count):
         set_variant(variant)  # registers the plugins too
         dr.set_thread_count(count)
+        if "flip_evaluator" not in sys.modules:  # its OpenMP reads this when it loads
+            os.environ["OMP_NUM_THREADS"] = str(count)
         _prepared = (variant, count)
     return address
 
