@@ -1,24 +1,20 @@
 """``whitted``: the article's recursive ray tracer as a Mitsuba integrator.
 
-Properties: ``max_depth`` (the article's depth N, primary rays have depth 1),
-``ambient`` (A), ``lighting`` ("article" or "physical") and
-``light_reference`` (the point where an article light's colour was measured,
-the scene's ``lookat``; see :mod:`.effects`), ``wavefront_size``
-(camera samples per pass, 0 = automatic), which bounds memory, and
-``min_weight`` (Hall and Greenberg's adaptive depth control, 0 = off: see
-:meth:`.tracer.Tracer.traced`).
+Why a Python integrator: the article's model is not a light transport
+algorithm Mitsuba has (a point's color is ``B·(A + (1 - A)·Σ s·light)``, a
+ray tree of fixed depth, no sampling), and written with Dr.Jit it runs as
+compiled kernels in the JIT variants, as fast as Mitsuba's own C++ ``direct``
+integrator on the same rays. What it is: see the class docstring.
 
-How the ray tree is evaluated: see :mod:`.tracer`. The shading model is
-written once (:mod:`.shading`); the walk is a :class:`~.wavefront.WavefrontTracer`
-in the JIT variants and a :class:`~.depth_first.DepthFirstTracer` in the
-scalar ones, chosen in :func:`tracer_for_variant`.
+How the ray tree is walked: see :mod:`.tracer`. The shading model is written
+once (:mod:`.shading`); the walk is a :class:`~.wavefront.WavefrontTracer` in
+the JIT variants and a :class:`~.depth_first.DepthFirstTracer` in the scalar
+ones, chosen in :func:`tracer_for_variant`.
 
 The image is rendered in passes of at most ``wavefront_size`` camera
-samples (by default as the tracer prefers: 2^20 in the JIT variants, 2^24 when
-the tree has a single level, which stores nothing per lane), accumulated in
-Mitsuba's image block and developed by the film. Camera rays come from the
-sensor's ``sample_ray`` (Mitsuba's perspective camera), placed in their
-pixels by :mod:`.pixel_samples`.
+samples, accumulated in Mitsuba's image block and developed by the film.
+Camera rays come from the sensor's ``sample_ray`` (Mitsuba's perspective
+camera), placed in their pixels by :mod:`.pixel_samples`.
 
 The modules behind it: :mod:`.effects` (what the scene calls for),
 :mod:`.tracer`, :mod:`.wavefront` and :mod:`.depth_first` (walking the ray
@@ -66,13 +62,97 @@ class Rendering:
 
 
 class WhittedIntegrator(mi.SamplingIntegrator):
+    r"""
+    .. _integrator-whitted:
+
+    Whitted ray tracer (:monosp:`whitted`)
+    --------------------------------------
+
+    .. pluginparameters::
+
+     * - max_depth
+       - |int|
+       - The article's depth N: the deepest level of the ray tree, primary rays
+         having depth 1, from 1 to 64. Depth 1 shows no reflections or
+         refractions. (Default: 5)
+
+     * - ambient
+       - |float|
+       - The article's ambient coefficient A in [0, 1]: a lit point's color is
+         ``B·(A + (1 - A)·Σ s·light)``. Article lighting only. (Default: 0.2)
+
+     * - lighting
+       - |string|
+       - ``article``: the article's model, light colors without fall-off;
+         ``physical``: radiometric point lights, ``(B/π)·Σ I·cos/r²``, no
+         ambient term (what Mitsuba's ``path`` integrator computes).
+         (Default: article)
+
+     * - light_reference
+       - |point|
+       - Where an article light's color was measured: the scene's ``lookat``.
+         The converter writes a light of color c at distance d from it as a
+         point emitter of intensity ``c·π·d²``, and article lighting reads the
+         color back from the intensity. (Default: 0, 0, 0)
+
+     * - min_weight
+       - |float|
+       - Hall and Greenberg's adaptive depth control: a reflected or refracted
+         ray whose path weight (the product of the KR and KT factors above it)
+         is below this is not traced; 0 traces the exact tree. (Default: 0)
+
+     * - wavefront_size
+       - |int|
+       - Camera samples per pass, and the widest wavefront the JIT variants
+         trace at once: it bounds memory. 0 lets the tracer choose (2^20, or
+         2^24 when the tree has a single level). (Default: 0)
+
+    The article's ray tracer (shared/scene-format.md, "Shading"): a camera ray
+    that hits a sphere gets ``(1 - KR - KT)·point + KR·reflected +
+    KT·refracted``, where ``point`` is the sphere's base color B lit by the
+    point lights it sees (every sphere casts shadows, transparent ones too)
+    and the reflected and refracted colors are traced the same way, to
+    ``max_depth``; under total internal reflection the refracted share
+    follows the mirror direction. A ray that escapes gets the background (a
+    ``constant`` environment emitter), black without one. Every surface must
+    carry the :ref:`article <bsdf-article>` BSDF, every emitter be a point
+    light or the environment. No sampling: one sample per pixel passes
+    through the pixel's center, so a render is deterministic; more samples
+    are stratified in the pixel.
+
+    Code for an effect the scene lacks is left out of the kernels: a scene
+    without mirrors or glass is traced to depth 1 whatever ``max_depth``.
+    :meth:`render_detailed` also returns the rays traced
+    (``whitted render --stats``).
+
+    .. tabs::
+
+        .. code-tab:: xml
+            :name: whitted-integrator
+
+            <integrator type="whitted">
+                <integer name="max_depth" value="10"/>
+                <float name="ambient" value="0.3"/>
+                <string name="lighting" value="article"/>
+                <point name="light_reference" value="0, 0.2, 0"/>
+            </integrator>
+
+        .. code-tab:: python
+
+            'type': 'whitted',
+            'max_depth': 10,
+            'ambient': 0.3,
+            'lighting': 'article',
+            'light_reference': [0, 0.2, 0]
+    """
+
     def __init__(self, props: mi.Properties):
         super().__init__(props)
         self.max_depth = D.check_depth(props.get("max_depth", D.DEPTH), "whitted: max_depth")
         self.ambient = D.check_ambient(props.get("ambient", D.AMBIENT), "whitted: ambient")
         self.lighting = D.check_lighting(str(props.get("lighting", D.LIGHTING)), "whitted: lighting")
-        self.light_reference = mi.ScalarPoint3f(props.get("light_reference", mi.ScalarPoint3f(0, 0, 0)))
-        self.wavefront_size = int(props.get("wavefront_size", 0))
+        self.light_reference = mi.ScalarPoint3f(props.get("light_reference", mi.ScalarPoint3f(D.LOOKAT)))
+        self.wavefront_size = int(props.get("wavefront_size", D.WAVEFRONT_SIZE))
         self.min_weight = D.check_min_weight(props.get("min_weight", D.MIN_WEIGHT), "whitted: min_weight")
         if self.wavefront_size < 0:
             raise ValueError(f"whitted: wavefront_size must be >= 0, got {self.wavefront_size}")
