@@ -19,7 +19,11 @@ class RayCounts:
 
     A refracted share sent along the mirror direction by total internal
     reflection still counts as a refraction ray: it is the ray the refraction
-    term spawns. ``max_depth_reached`` is the deepest level that traced a ray.
+    term spawns. When the surface also reflects, that ray and the reflected one
+    are the same, and are traced once (see :mod:`.shading`): it counts as one
+    of each kind, and ``merged`` counts such rays, so that the rays traced are
+    ``camera + shadow + reflection + refraction - merged``.
+    ``max_depth_reached`` is the deepest level that traced a ray.
     ``culled`` counts the reflected and refracted rays left untraced because
     their path weight was below ``min_weight``, and ``culled_weight`` sums
     their weights: each would have added at most its weight times the
@@ -30,6 +34,7 @@ class RayCounts:
     shadow: int = 0
     reflection: int = 0
     refraction: int = 0
+    merged: int = 0
     max_depth_reached: int = 0
     culled: int = 0
     culled_weight: float = 0.0

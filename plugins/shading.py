@@ -8,6 +8,12 @@ the JIT variants) with their path weights ``w`` and returns
 - their children: the reflected ray with weight ``w·KR`` and the refracted ray
   (or, under total internal reflection, the mirror ray) with weight ``w·KT``.
 
+Under total internal reflection both children would be the very same ray, and
+inside a glass ball that traps light the tree would double at every bounce. So
+the mirror ray is traced once, with weight ``w·(KR + KT)``: exact, since the
+colour is linear in the weights. It still counts as a reflection ray and as a
+refraction ray (``Child.merged``), as the article's recursion traces both.
+
 Summing the contributions of every level gives exactly the article's recursion
 ``colour = (1 - KR - KT)·point + KR·reflected + KT·refracted`` (it is linear),
 which lets the tracers (:mod:`.tracer`) walk the tree in any order. Code for an
@@ -36,6 +42,7 @@ class Child:
     kind: str
     ray: object      # mi.Ray3f
     weight: object   # mi.Float, 0 on lanes that spawn no such ray
+    merged: object = None   # mi.Bool: lanes where the ray also carries the refracted share
 
 
 @dataclass
@@ -139,15 +146,19 @@ class Shader:
         if spawn and (self.reflection or self.refraction):
             c1 = optics.cos_incidence(v, n_facing)
             mirror = optics.unit(optics.reflect(v, n_facing, c1))
-            if self.reflection:
-                children.append(Child("reflection", spawn_ray(si, error, mirror),
-                                      dr.select(hit, weight * surface.reflect, 0)))
+            kr, kt, merged = surface.reflect, surface.refract, None
             if self.refraction:
                 eta = optics.relative_ior(surface.ior, inside)
                 t, tir = optics.refract(v, n_facing, c1, eta)
-                t = dr.select(tir, mirror, optics.unit(t))
-                children.append(Child("refraction", spawn_ray(si, error, t),
-                                      dr.select(hit, weight * surface.refract, 0)))
+                refracted = spawn_ray(si, error, dr.select(tir, mirror, optics.unit(t)))
+                if self.reflection:   # the mirror ray carries both shares
+                    merged = tir & (kr > 0) & (kt > 0)
+                    kr, kt = kr + dr.select(merged, kt, 0), dr.select(merged, 0, kt)
+            if self.reflection:
+                children.append(Child("reflection", spawn_ray(si, error, mirror),
+                                      dr.select(hit, weight * kr, 0), merged))
+            if self.refraction:
+                children.append(Child("refraction", refracted, dr.select(hit, weight * kt, 0)))
         return Shaded(colour, children)
 
     def point_colour(self, si, error, n_facing, base, active):

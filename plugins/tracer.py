@@ -87,6 +87,9 @@ class Tracer:
         for child in shaded.children:
             traced = self.traced(child.weight)
             self.tally.add(child.kind, traced)
+            if child.merged is not None:   # one ray, counted as both kinds (see .shading)
+                self.tally.add("refraction", traced & child.merged)
+                self.tally.add("merged", traced & child.merged)
             if self.min_weight > 0:
                 culled = dr.select(traced, False, child.weight > 0)
                 self.tally.add("culled", culled)
