@@ -38,31 +38,47 @@ class WavefrontTracer(Tracer):
         dr.eval()          # the pass's kernels and side effects (the block's accumulation)
         dr.sync_thread()   # so that progress reports finished work
 
-    def trace(self, ray):
-        total, scattered = None, False
-        stack = [Branch(ray, mi.Float(1), 1)]
+    def trace(self, ray, progress=None):
+        count = dr.width(ray.d)
+        color = culled = None
+        camera = self.camera_branch(ray)
+        camera.total = float(count)
+        stack, done, scattered = [camera], 0.0, False
         while stack:
             front = stack.pop()
             if front.owner is not None and dr.width(front.weight) > self.lanes:
-                stack.extend(reversed(self._split(front)))
+                stack.extend(reversed(self._split(front, progress is not None)))
                 continue
-            colour, children = self.step(front)
-            if total is None:   # the camera rays: lane i is sample i
-                total = colour
+            front_color, front_culled, children = self.step(front)
+            if front.owner is None:   # the camera rays: lane i is sample i
+                color, culled = front_color, front_culled
             else:
-                dr.scatter_reduce(dr.ReduceOp.Add, total, colour, front.owner)
                 scattered = True
+                dr.scatter_reduce(dr.ReduceOp.Add, color, front_color, front.owner)
+                if front_culled is not None:
+                    dr.scatter_reduce(dr.ReduceOp.Add, culled, front_culled, front.owner)
             if children:
-                stack.extend(self._next_level(front, children, total))
+                stack.extend(self._next_level(front, children, (color, culled), progress is not None))
+            if progress is not None:
+                # A level is done (its kernels ran: the packing above waited for them), and
+                # Python has control: the place for progress, and for Ctrl-C to land.
+                finished = count - sum(branch.total for branch in stack)
+                if finished > done:
+                    progress(finished - done)
+                    done = finished
+        if progress is not None and count > done:
+            progress(count - done)
         if scattered:
-            dr.eval(total)   # finish the last scatter before anything reads the total
-        return total
+            dr.eval(color, culled)   # finish the last scatters before anything reads the sums
+        if culled is not None:
+            self.tally.note_max("sample_culled_weight", culled)
+        return color
 
-    def _next_level(self, front, children, total):
+    def _next_level(self, front, children, sums, with_total: bool):
         """The wavefront of ``children``: only their traced lanes, siblings side by side."""
-        # One kernel shades this level, adds its colour, and stores the children ...
-        dr.eval(total, front.owner, [(c.branch.ray.o, c.branch.ray.d, c.branch.weight, c.traced)
-                                     for c in children])
+        # One kernel shades this level, adds its color, and stores the children ...
+        dr.eval(sums, front.owner, [(c.branch.ray.o, c.branch.ray.d, c.branch.weight, c.branch.allowance,
+                                     c.traced) for c in children])
         # ... then the traced children of every kind are packed into one wavefront,
         # interleaved so that siblings stay next to each other.
         if len(children) == 1:
@@ -85,17 +101,23 @@ class WavefrontTracer(Tracer):
 
         ray = mi.Ray3f(gather(mi.Point3f, lambda c: c.branch.ray.o), gather(mi.Vector3f, lambda c: c.branch.ray.d))
         weight = gather(mi.Float, lambda c: c.branch.weight)
+        # the allowance is the same for both children of a ray (see .adaptive.split)
+        allowance = None if front.allowance is None else dr.gather(mi.Float, children[0].branch.allowance, parent)
         owner = parent if front.owner is None else dr.gather(mi.UInt32, front.owner, parent)
-        return [Branch(ray, weight, front.level + 1, owner)]
+        return [Branch(ray, weight, front.level + 1, allowance, owner,
+                       float(dr.sum(weight)[0]) if with_total else 0.0)]
 
-    def _split(self, front):
+    def _split(self, front, with_total: bool):
         """``front`` cut into wavefronts of at most ``lanes`` lanes."""
-        dr.eval(front.ray, front.weight, front.owner)
+        dr.eval(front.ray, front.weight, front.allowance, front.owner)
         n = dr.width(front.weight)
         pieces = []
         for start in range(0, n, self.lanes):
             lane = dr.arange(mi.UInt32, min(self.lanes, n - start)) + dr.opaque(mi.UInt32, start)
+            weight = dr.gather(mi.Float, front.weight, lane)
             pieces.append(Branch(
                 mi.Ray3f(dr.gather(mi.Point3f, front.ray.o, lane), dr.gather(mi.Vector3f, front.ray.d, lane)),
-                dr.gather(mi.Float, front.weight, lane), front.level, dr.gather(mi.UInt32, front.owner, lane)))
+                weight, front.level,
+                None if front.allowance is None else dr.gather(mi.Float, front.allowance, lane),
+                dr.gather(mi.UInt32, front.owner, lane), float(dr.sum(weight)[0]) if with_total else 0.0))
         return pieces

@@ -16,18 +16,21 @@ Statistics (``result.stats``, written by ``--stats FILE.json``)::
 
     {"rays": {"camera", "shadow", "reflection", "refraction"}, "merged_rays",
      "seconds", "compile_seconds", "effects": [...], "max_depth_reached",
-     "peak_memory_bytes", "min_weight", "culled_rays", "culled_weight"}
+     "peak_memory_bytes", "min_weight", "culled_rays", "culled_weight", "error_bound"}
 
 ``merged_rays`` counts the rays that carried both a reflected and a
 refracted share (total internal reflection sends the refracted share along
 the mirror direction: one ray, traced once, counted in both ``reflection``
 and ``refraction``); the rays traced are the sum of ``rays`` minus it.
 
-``min_weight`` is the adaptive depth control's threshold (0: off; see the
-integrator's ``_traced``), ``culled_rays`` the reflected and refracted rays it
-left untraced and ``culled_weight`` the sum of their path weights: the image's
-error, summed over its pixels, is at most ``culled_weight / spp`` times the
-brightest colour in the scene.
+``min_weight`` is the adaptive depth control's setting (1/255 by default, 0:
+off; see plugins/adaptive.py): the most the branches it leaves untraced may
+change a pixel. ``culled_rays`` counts the reflected and refracted rays it left
+untraced and ``culled_weight`` sums their path weights; ``error_bound`` is the
+most it can have changed any pixel, in any channel (linear radiance): the
+largest weight culled from one camera sample's tree times the brightest color
+a ray can have in the scene. It is at most ``min_weight``, and 0 when nothing
+was culled.
 
 ``peak_memory_bytes`` is, in the JIT variants, the high-water mark of Dr.Jit's
 memory allocator during the render (every array Dr.Jit holds: the scene's
@@ -201,7 +204,7 @@ def render(scene, integrator: str = "whitted", spp: int | None = None, max_depth
         rays = rendering.rays
         stats_rays, effects, reached = rays.rays(), list(rendering.effects), rays.max_depth_reached
         adaptive = {"merged_rays": rays.merged, "min_weight": min_weight, "culled_rays": rays.culled,
-                    "culled_weight": rays.culled_weight}
+                    "culled_weight": rays.culled_weight, "error_bound": rendering.error_bound}
     else:
         path = mi.load_dict({"type": "path", "max_depth": depth + 1})
         with _progress_bar(progress, width * height * spp, "path tracing") as bar, _Clock() as clock:
@@ -209,7 +212,8 @@ def render(scene, integrator: str = "whitted", spp: int | None = None, max_depth
         stats_rays = {"camera": width * height * spp, "shadow": None, "reflection": None,
                       "refraction": None}
         effects, reached = _effects_or_none(scene, depth), None
-        adaptive = {"merged_rays": None, "min_weight": None, "culled_rays": None, "culled_weight": None}
+        adaptive = {"merged_rays": None, "min_weight": None, "culled_rays": None, "culled_weight": None,
+                    "error_bound": None}
 
     image = image[..., :3]
     stats = {"rays": stats_rays, "seconds": clock.seconds, "compile_seconds": clock.compile,
@@ -259,7 +263,8 @@ def _summary(args, result: RenderResult, width: int, height: int, spp: int) -> s
     rays = ", ".join(f"{v} {k}" for k, v in s["rays"].items() if v is not None)
     depth = "" if s["max_depth_reached"] is None else f"depth reached {s['max_depth_reached']}; "
     if s["min_weight"]:
-        depth += f"{s['culled_rays']} rays culled below weight {s['min_weight']:g}; "
+        depth += (f"{s['culled_rays']} rays culled, error at most {s['error_bound']:.2g} "
+                  f"(min weight {s['min_weight']:.3g}); ")
     return (f"whitted: {width}x{height} at {spp} spp with {args.integrator} ({mi.variant()}): "
             f"{s['seconds']:.3f} s (+{s['compile_seconds']:.3f} s compiling); rays: {rays}; {depth}"
             f"effects: {' '.join(s['effects']) or 'none'}; "
