@@ -8,7 +8,7 @@ a level's rays into; the recursion needs none, and is at most 64 calls deep.
 
 from __future__ import annotations
 
-from .tracer import Branch, Tracer
+from .tracer import Tracer
 
 
 class DepthFirstTracer(Tracer):

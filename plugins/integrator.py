@@ -110,7 +110,7 @@ class WhittedIntegrator(mi.SamplingIntegrator):
        - |int|
        - Camera samples per pass, and the widest wavefront the JIT variants
          trace at once: it bounds memory. 0 lets the tracer choose (2^20, or
-         2^24 when the tree has a single level). (Default: 0)
+         2^21 when the tree has a single level). (Default: 0)
 
     The article's ray tracer (shared/scene-format.md, "Shading"): a camera ray
     that hits a sphere gets ``(1 - KR - KT)·point + KR·reflected +

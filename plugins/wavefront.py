@@ -21,8 +21,10 @@ from .tracer import Branch, Tracer
 #: 100 bytes per lane, so a pass stays around 100 MiB
 SAMPLES_PER_PASS = 1 << 20
 #: the same when the tree has a single level: then one kernel traces, shades
-#: and splats each sample, storing nothing per lane, and larger passes are free
-SAMPLES_PER_FLAT_PASS = 1 << 24
+#: and splats each sample, storing nothing per lane, so a larger pass costs no
+#: memory; but it is one kernel, which Ctrl-C cannot stop, and 2^21 samples keep
+#: it under a second on 2 cores (2^24 took 6 s)
+SAMPLES_PER_FLAT_PASS = 1 << 21
 
 
 class WavefrontTracer(Tracer):
