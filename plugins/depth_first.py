@@ -1,7 +1,7 @@
 """The ray tree walked depth first, one ray at a time (scalar variants).
 
 This is the article's recursion as written: shade a ray, then trace each of
-its children that is traced and add up their colours. In the scalar variants
+its children that is traced and add up their colors. In the scalar variants
 Mitsuba's values are plain numbers, one ray's, so there is no array to gather
 a level's rays into; the recursion needs none, and is at most 64 calls deep.
 """

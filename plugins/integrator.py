@@ -270,8 +270,8 @@ class WhittedIntegrator(mi.SamplingIntegrator):
         return ray, weight, position + mi.ScalarVector2f(film.crop_offset())
 
     @staticmethod
-    def _splat(film, block, position, colour):
-        values = [colour.x, colour.y, colour.z]
+    def _splat(film, block, position, color):
+        values = [color.x, color.y, color.z]
         if mi.has_flag(film.flags(), mi.FilmFlags.Alpha):
             values.append(mi.Float(1))
         values.append(mi.Float(1))   # the sample's weight: the film develops the mean

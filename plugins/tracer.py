@@ -1,7 +1,7 @@
 """How the ray tree is walked, behind one interface.
 
 The article's ``trace`` is recursive, but its result is linear in the
-children's colours, so the colour of a camera ray is a sum over its tree's
+children's colors, so the color of a camera ray is a sum over its tree's
 rays of ``w·contribution``, ``w`` being the product of the KR and KT factors
 on the way down (see :mod:`.shading`). Which rays make up the tree, how they
 are shaded and counted, is the same however the tree is walked, and is written
@@ -100,7 +100,7 @@ class Tracer:
         shaded = self.shader.shade(branch.ray, branch.weight, spawn=branch.level < self.shader.depth,
                                    coherent=branch.level == 1)
         if not shaded.children:
-            return shaded.colour, None, []
+            return shaded.color, None, []
         weights = [child.weight for child in shaded.children]
         if branch.allowance is None:
             traced, allowance, culled = [w > 0 for w in weights], None, None
@@ -122,4 +122,4 @@ class Tracer:
                 self.tally.add_total("culled_weight", child.weight, lost)
             children.append(Child(child.kind, Branch(child.ray, child.weight, branch.level + 1, allowance),
                                   is_traced))
-        return shaded.colour, culled, children
+        return shaded.color, culled, children

@@ -3,7 +3,7 @@
 A *wavefront* is a :class:`~.tracer.Branch` whose fields are Dr.Jit arrays:
 rays of one level of the tree with their path weights and the camera sample
 each belongs to (``owner``). The tracer keeps a stack of them. Shading a
-wavefront adds its colours to their camera samples and pushes one wavefront
+wavefront adds its colors to their camera samples and pushes one wavefront
 of children, holding only the lanes that are really traced (``dr.compress``):
 one kernel shades a level, and a small one packs its children. Wavefronts
 wider than ``lanes`` are split, so that trees which double at each level still
@@ -28,8 +28,8 @@ SAMPLES_PER_FLAT_PASS = 1 << 21
 
 
 class WavefrontTracer(Tracer):
-    def __init__(self, shader, min_weight: float, tally, lanes: int):
-        super().__init__(shader, min_weight, tally)
+    def __init__(self, shader, epsilon: float, tally, lanes: int):
+        super().__init__(shader, epsilon, tally)
         self.lanes = lanes
         self.samples_per_pass = SAMPLES_PER_PASS if shader.depth > 1 else SAMPLES_PER_FLAT_PASS
 
@@ -62,8 +62,8 @@ class WavefrontTracer(Tracer):
             if children:
                 stack.extend(self._next_level(front, children, (color, culled), progress is not None))
             if progress is not None:
-                # A level is done (its kernels ran: the packing above waited for them), and
-                # Python has control: the place for progress, and for Ctrl-C to land.
+                # A level is done (packing its children waited for its kernels) and Python
+                # has control: Ctrl-C lands here, between levels, and progress is told.
                 finished = count - sum(branch.total for branch in stack)
                 if finished > done:
                     progress(finished - done)
