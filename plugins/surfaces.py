@@ -1,4 +1,4 @@
-"""Looking up a hit's material: base color B, KR, KT and IOR.
+"""Looking up a hit's material: base colour B, KR, KT and IOR.
 
 In the JIT variants a per-instance method call for every material would make
 Dr.Jit trace one Python function per BSDF, which does not scale to scenes of
@@ -23,7 +23,7 @@ from .masks import off
 @dataclass
 class SurfaceSample:
     """The material at a hit point."""
-    base: object      # mi.Color3f, B (texel or color)
+    base: object      # mi.Color3f, B (texel or colour)
     reflect: object   # mi.Float, KR
     refract: object   # mi.Float, KT
     ior: object       # mi.Float
@@ -53,16 +53,16 @@ class SurfaceTable:
             self._read = lambda tp, table, row, active: tp(table[..., row].tolist())
             store = lambda tp, values: values
         size = int(rows.max()) + 1 if len(rows) else 1   # row 0: no material (a miss)
-        color = np.zeros((3, size))
+        colour = np.zeros((3, size))
         coefficients = np.zeros((3, size))               # KR, KT, IOR
         coefficients[2] = 1.0
         texture_slot = np.zeros(size, np.uint32)         # 0: untextured, k: self.textured[k-1]
         slots = {id(s): k for k, s in enumerate(self.textured, start=1)}
         for row, s in zip(rows, surfaces):
-            color[:, row] = s.colour
+            colour[:, row] = s.colour
             coefficients[:, row] = (s.reflect, s.refract, s.ior)
             texture_slot[row] = slots.get(id(s), 0)
-        self._color = (mi.Color3f, store(mi.Color3f, color))
+        self._colour = (mi.Color3f, store(mi.Color3f, colour))
         self._reflect, self._refract, self._ior = ((mi.Float, store(mi.Float, c)) for c in coefficients)
         self._slot = (mi.UInt32, store(mi.UInt32, texture_slot))
 
@@ -78,7 +78,7 @@ class SurfaceTable:
         ``bsdf`` is the hit BSDF's instance ID (JIT variants) or the BSDF itself (scalar).
         """
         row = self._row(bsdf)
-        base = self._read(*self._color, row, active)
+        base = self._read(*self._colour, row, active)
         if self.textured:
             slot = self._read(*self._slot, row, active)
             for k, s in enumerate(self.textured, start=1):
