@@ -1,4 +1,4 @@
-"""The article's shading model (shared/scene-format.md, "Shading"), for one level of the ray tree.
+"""The article's shading model (docs/scene-format.md, "Shading"), for one level of the ray tree.
 
 :meth:`Shader.shade` takes rays (one in the scalar variants, a wavefront in
 the JIT variants) with their path weights ``w`` and returns
