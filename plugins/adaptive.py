@@ -90,11 +90,10 @@ def brightest(scene, analysis, lighting: str, ambient: float):
     lets KR + KT exceed 1. None when a texture or an environment is of a kind
     whose largest value is not known here.
     """
-    base = [max(s.colour) if s.texture is None else _largest_texel(s.texture) for s in analysis.surfaces]
+    base, gain = _material_bounds(analysis.surfaces)
     background = 0.0 if analysis.environment is None else _largest_emission(analysis.environment)
-    if None in base or background is None:
+    if base is None or background is None:
         return None
-    base = max(base, default=0.0)
     if lighting == "physical":
         lit = 0.0
         for light in analysis.lights:
@@ -105,8 +104,15 @@ def brightest(scene, analysis, lighting: str, ambient: float):
         point = base * lit / math.pi
     else:
         point = base * (ambient + (1 - ambient) * sum(max(light.colour) for light in analysis.lights))
-    gain = max([1.0] + [s.reflect + s.refract for s in analysis.surfaces]) ** (analysis.depth - 1)
-    return max(point, background) * gain
+    return max(point, background) * max(1.0, gain) ** (analysis.depth - 1)
+
+
+def _material_bounds(surfaces):
+    """``(largest B, largest KR + KT)`` over a scene's materials (B: None when a texture's
+    largest value is not known)."""
+    base = [max(s.colour) if s.texture is None else _largest_texel(s.texture) for s in surfaces]
+    return (None if None in base else max(base, default=0.0),
+            max((s.reflect + s.refract for s in surfaces), default=0.0))
 
 
 def _largest_texel(texture):
