@@ -6,7 +6,7 @@ thousands of spheres. Instead the materials' numbers sit in a table indexed by
 the BSDF's instance ID (a ``BSDFPtr`` reinterpreted as an integer), so a lookup
 is a handful of gathers whatever the number of materials. Textures are the
 exception: each textured material evaluates its own texture, only on the lanes
-that hit it. In the scalar variant a hit asks its BSDF directly.
+that hit it. The scalar variant reads the same table, by the hit BSDF's row.
 """
 
 from __future__ import annotations
@@ -16,6 +16,8 @@ from dataclasses import dataclass
 import drjit as dr
 import mitsuba as mi
 import numpy as np
+
+from .masks import off
 
 
 @dataclass
@@ -37,51 +39,52 @@ class SurfaceTable:
         self.need_ior = need_ior
         self.textured = [s for s in surfaces if s.texture is not None]
         if dr.is_jit_v(mi.Float):
-            self._build_table(surfaces)
+            # A hit names its BSDF by instance ID: the tables are indexed by it, read by gathers.
+            rows = np.array(dr.reinterpret_array(mi.UInt32, mi.BSDFPtr([s.bsdf for s in surfaces])),
+                            dtype=np.int64).reshape(-1)
+            self._row = lambda bsdf: bsdf
+            self._read = lambda tp, table, row, active: dr.gather(tp, table, row, active)
+            store = self._opaque
         else:
-            self._by_bsdf = {id(s.bsdf): s for s in surfaces}
-
-    def _build_table(self, surfaces):
-        ptrs = mi.BSDFPtr([s.bsdf for s in surfaces])
-        ids = np.array(dr.reinterpret_array(mi.UInt32, ptrs), dtype=np.int64).reshape(-1)
-        size = int(ids.max()) + 1 if len(ids) else 1     # row 0: the null BSDF of a miss
-        colour = np.zeros((3, size), np.float32)
-        coefficients = np.zeros((3, size), np.float32)   # KR, KT, IOR
+            # A hit hands over the BSDF itself; dr.gather takes no plain numbers: numpy indexing.
+            rows = np.arange(1, len(surfaces) + 1)
+            row_of = {id(s.bsdf): row for row, s in zip(rows, surfaces)}
+            self._row = lambda bsdf: row_of[id(bsdf)]
+            self._read = lambda tp, table, row, active: tp(table[..., row].tolist())
+            store = lambda tp, values: values
+        size = int(rows.max()) + 1 if len(rows) else 1   # row 0: no material (a miss)
+        colour = np.zeros((3, size))
+        coefficients = np.zeros((3, size))               # KR, KT, IOR
         coefficients[2] = 1.0
         texture_slot = np.zeros(size, np.uint32)         # 0: untextured, k: self.textured[k-1]
         slots = {id(s): k for k, s in enumerate(self.textured, start=1)}
-        for row, s in zip(ids, surfaces):
+        for row, s in zip(rows, surfaces):
             colour[:, row] = s.colour
             coefficients[:, row] = (s.reflect, s.refract, s.ior)
             texture_slot[row] = slots.get(id(s), 0)
-        self._colour = mi.Color3f(colour)
-        self._reflect = mi.Float(coefficients[0])
-        self._refract = mi.Float(coefficients[1])
-        self._ior = mi.Float(coefficients[2])
-        self._slot = mi.UInt32(texture_slot)
-        dr.make_opaque(self._colour, self._reflect, self._refract, self._ior, self._slot)
+        self._colour = (mi.Color3f, store(mi.Color3f, colour))
+        self._reflect, self._refract, self._ior = ((mi.Float, store(mi.Float, c)) for c in coefficients)
+        self._slot = (mi.UInt32, store(mi.UInt32, texture_slot))
+
+    @staticmethod
+    def _opaque(tp, values):
+        table = tp(values)
+        dr.make_opaque(table)
+        return table
 
     def lookup(self, si, bsdf, active) -> SurfaceSample:
         """The material at ``si`` on the lanes ``active`` (hits only).
 
         ``bsdf`` is the hit BSDF's instance ID (JIT variants) or the BSDF itself (scalar).
         """
-        if not dr.is_jit_v(mi.Float):
-            return self._lookup_scalar(si, bsdf)
-        row = bsdf   # the table is indexed by instance ID; row 0 (a miss) is never read
-        base = dr.gather(mi.Color3f, self._colour, row, active)
+        row = self._row(bsdf)
+        base = self._read(*self._colour, row, active)
         if self.textured:
-            slot = dr.gather(mi.UInt32, self._slot, row, active)
+            slot = self._read(*self._slot, row, active)
             for k, s in enumerate(self.textured, start=1):
                 on_texture = active & (slot == k)
-                base = dr.select(on_texture, s.texture.eval(si, on_texture), base)
-        ior = dr.gather(mi.Float, self._ior, row, active) if self.need_ior else mi.Float(1)
-        return SurfaceSample(base,
-                             dr.gather(mi.Float, self._reflect, row, active),
-                             dr.gather(mi.Float, self._refract, row, active),
-                             ior)
-
-    def _lookup_scalar(self, si, bsdf) -> SurfaceSample:
-        s = self._by_bsdf[id(bsdf)]
-        base = s.texture.eval(si) if s.texture is not None else mi.Color3f(s.colour)
-        return SurfaceSample(mi.Color3f(base), mi.Float(s.reflect), mi.Float(s.refract), mi.Float(s.ior))
+                if not off(on_texture):
+                    base = dr.select(on_texture, mi.Color3f(s.texture.eval(si, on_texture)), base)
+        ior = self._read(*self._ior, row, active) if self.need_ior else mi.Float(1)
+        return SurfaceSample(base, self._read(*self._reflect, row, active),
+                             self._read(*self._refract, row, active), ior)

@@ -63,9 +63,12 @@ LIGHTING = "article"
 #: the article's model, or Mitsuba's stock path tracer
 INTEGRATORS = ("whitted", "path")
 INTEGRATOR = "whitted"
-#: Hall and Greenberg's adaptive depth control: branches whose path weight is below
-#: this are not traced (0 traces the exact tree)
-MIN_WEIGHT = 0.0
+#: The adaptive depth control (Hall and Greenberg; POV-Ray's adc_bailout): branches of the
+#: ray tree are left untraced as long as together they cannot change a pixel by more than
+#: this, one step of an 8-bit image (plugins/adaptive.py); 0 traces the exact tree
+MIN_WEIGHT = 1 / 255
+#: camera samples per pass of the whitted integrator (0: as its tracer prefers; see plugins/wavefront.py)
+WAVEFRONT_SIZE = 0
 #: the most samples per pixel a render accepts (API and CLI; Mitsuba's samplers count in 32 bits)
 MAX_SPP = 2 ** 31
 #: Mitsuba variants whitted runs in: the default when a libLLVM >= 16 exists, else the fallback

@@ -15,15 +15,23 @@ In ``scalar_rgb`` nothing is compiled.
 
 Statistics (``result.stats``, written by ``--stats FILE.json``)::
 
-    {"rays": {"camera", "shadow", "reflection", "refraction"},
+    {"rays": {"camera", "shadow", "reflection", "refraction"}, "merged_rays",
      "seconds", "compile_seconds", "effects": [...], "max_depth_reached",
-     "peak_memory_bytes", "min_weight", "culled_rays", "culled_weight"}
+     "peak_memory_bytes", "min_weight", "culled_rays", "culled_weight", "error_bound"}
 
-``min_weight`` is the adaptive depth control's threshold (0: off; see the
-integrator's ``_traced``), ``culled_rays`` the reflected and refracted rays it
-left untraced and ``culled_weight`` the sum of their path weights: the image's
-error, summed over its pixels, is at most ``culled_weight / spp`` times the
-brightest colour in the scene.
+``merged_rays`` counts the rays that carried both a reflected and a
+refracted share (total internal reflection sends the refracted share along
+the mirror direction: one ray, traced once, counted in both ``reflection``
+and ``refraction``); the rays traced are the sum of ``rays`` minus it.
+
+``min_weight`` is the adaptive depth control's setting (1/255 by default, 0:
+off; see plugins/adaptive.py): the most the branches it leaves untraced may
+change a pixel. ``culled_rays`` counts the reflected and refracted rays it left
+untraced and ``culled_weight`` sums their path weights; ``error_bound`` is the
+most it can have changed any pixel, in any channel (linear radiance): the
+largest weight culled from one camera sample's tree times the brightest color
+a ray can have in the scene. It is at most ``min_weight``, and 0 when nothing
+was culled.
 
 ``peak_memory_bytes`` is, in the JIT variants, the high-water mark of Dr.Jit's
 memory allocator during the render (every array Dr.Jit holds: the scene's
@@ -186,8 +194,8 @@ def render(scene, integrator: str = "whitted", spp: int | None = None, max_depth
             image = np.array(rendering.image, dtype=np.float32)
         rays = rendering.rays
         stats_rays, effects, reached = rays.rays(), list(rendering.effects), rays.max_depth_reached
-        adaptive = {"min_weight": min_weight, "culled_rays": rays.culled,
-                    "culled_weight": rays.culled_weight}
+        adaptive = {"merged_rays": rays.merged, "min_weight": min_weight, "culled_rays": rays.culled,
+                    "culled_weight": rays.culled_weight, "error_bound": rendering.error_bound}
     else:
         path = mi.load_dict({"type": "path", "max_depth": depth + 1})
         with progress_bar(progress, width * height * spp, "path tracing") as bar, _Clock() as clock:
@@ -195,7 +203,8 @@ def render(scene, integrator: str = "whitted", spp: int | None = None, max_depth
         stats_rays = {"camera": width * height * spp, "shadow": None, "reflection": None,
                       "refraction": None}
         effects, reached = _effects_or_none(scene, depth), None
-        adaptive = {"min_weight": None, "culled_rays": None, "culled_weight": None}
+        adaptive = {"merged_rays": None, "min_weight": None, "culled_rays": None, "culled_weight": None,
+                    "error_bound": None}
 
     image = image[..., :3]
     stats = {"rays": stats_rays, "seconds": clock.seconds, "compile_seconds": clock.compile,
