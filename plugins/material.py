@@ -44,9 +44,11 @@ as for every Mitsuba BSDF with delta components; the probability of choosing
 the diffuse lobe is part of its pdf.
 
 The Whitted integrator reads the parameters directly: ``color`` (a texture),
-``reflect``, ``refract`` and ``ior`` (Python floats), or through
-:meth:`eval_diffuse_reflectance` (B, without the weight 1 − KR − KT) and
-:meth:`eval_attribute_1`.
+``uniform_colour`` (B as three floats, None when textured), ``reflect``,
+``refract`` and ``ior`` (Python floats), ``material_row`` (all of them as one
+row of the integrator's material table, see :mod:`.surfaces`, kept up to date
+when ``color`` changes), or through :meth:`eval_diffuse_reflectance` (B,
+without the weight 1 − KR − KT) and :meth:`eval_attribute_1`.
 """
 
 from __future__ import annotations
@@ -55,6 +57,8 @@ import drjit as dr
 import mitsuba as mi
 
 from . import optics
+from .scene_state import forget as forget_scenes
+from .surfaces import material_row, uniform_colour
 
 DIFFUSE, REFLECTION, TRANSMISSION = 0, 1, 2
 
@@ -99,6 +103,7 @@ class ArticleBSDF(mi.BSDF):
                              f"{self.reflect} + {self.refract}")
         if not self.ior > 0.0:
             raise ValueError(f"article BSDF: ior must be > 0, got {self.ior}")
+        self._read_colour()
         # Component indices are fixed (0 diffuse, 1 mirror, 2 refraction); the
         # material's flags name only the lobes it can actually use, so that
         # integrators skip light sampling on pure mirrors and glass.
@@ -111,6 +116,16 @@ class ArticleBSDF(mi.BSDF):
         if self.refract > 0:
             flags |= COMPONENT_FLAGS[TRANSMISSION]
         self.m_flags = flags
+
+    def _read_colour(self):
+        """Note the base colour (None when it varies over the surface) and the numbers
+        the Whitted integrator reads (:func:`.surfaces.material_row`)."""
+        self.uniform_colour = None if self.color.is_spatially_varying() else uniform_colour(self.color)
+        self.material_row = material_row(self)
+
+    def parameters_changed(self, keys=[]):  # noqa: B006  (Mitsuba's own default)
+        self._read_colour()   # ``color`` was written (mi.SceneParameters.update)
+        forget_scenes()       # even through mi.traverse(bsdf), which no scene hears of
 
     @property
     def diffuse_weight(self) -> float:
