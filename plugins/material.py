@@ -56,6 +56,8 @@ from __future__ import annotations
 import drjit as dr
 import mitsuba as mi
 
+from whitted import defaults as D
+
 from . import optics
 from .scene_state import forget as forget_scenes
 from .surfaces import material_row, uniform_colour
@@ -89,12 +91,71 @@ def delta_directions(wi, ior):
 
 
 class ArticleBSDF(mi.BSDF):
+    r"""
+    .. _bsdf-article:
+
+    The article's material (:monosp:`article`)
+    ------------------------------------------
+
+    .. pluginparameters::
+
+     * - color
+       - |spectrum| or |texture|
+       - The base color B: an RGB color, or a texture (a ``bitmap`` mapped by
+         the sphere's UV) for a textured sphere. (Default: 1, 1, 1)
+       - |exposed|, |differentiable|
+
+     * - reflect
+       - |float|
+       - KR, the share of the color that comes from the mirror direction, in
+         [0, 1]. (Default: 0)
+
+     * - refract
+       - |float|
+       - KT, the share that comes from the refracted direction, in [0, 1];
+         KR + KT <= 1. (Default: 0)
+
+     * - ior
+       - |float|
+       - The sphere's index of refraction n2 (> 0; the outside's is 1). Below 1
+         it reads as a bubble: rays from outside are totally reflected beyond
+         the critical angle. (Default: 1)
+
+    A mixture of a Lambertian lobe (weight 1 − KR − KT, albedo B), a perfect
+    mirror (KR) and a perfect refraction (KT), two-sided as the article shades
+    both sides of a sphere; under total internal reflection the refraction's
+    weight moves to the mirror. The module docstring has the details. The
+    ``whitted`` integrator reads the parameters directly; Mitsuba's own
+    integrators (``path``) sample the lobes.
+
+    .. tabs::
+
+        .. code-tab:: xml
+            :name: article-bsdf
+
+            <bsdf type="article">
+                <rgb name="color" value="1, 1, 1"/>
+                <float name="reflect" value="0.05"/>
+                <float name="refract" value="0.9"/>
+                <float name="ior" value="1.5"/>
+            </bsdf>
+
+        .. code-tab:: python
+
+            'type': 'article',
+            'color': {'type': 'rgb', 'value': [1, 1, 1]},
+            'reflect': 0.05,
+            'refract': 0.9,
+            'ior': 1.5
+    """
+
     def __init__(self, props: mi.Properties):
         super().__init__(props)
-        self.color = props.get_texture("color", 1.0)
-        self.reflect = float(props.get("reflect", 0.0))
-        self.refract = float(props.get("refract", 0.0))
-        self.ior = float(props.get("ior", 1.0))
+        self.color = (props.get_texture("color") if "color" in props
+                      else mi.load_dict({"type": "rgb", "value": D.COLOR}))
+        self.reflect = float(props.get("reflect", D.REFLECT))
+        self.refract = float(props.get("refract", D.REFRACT))
+        self.ior = float(props.get("ior", D.IOR))
         if not (0.0 <= self.reflect <= 1.0 and 0.0 <= self.refract <= 1.0):
             raise ValueError(f"article BSDF: reflect and refract must lie in [0, 1], got "
                              f"{self.reflect} and {self.refract}")

@@ -6,7 +6,7 @@ thousands of spheres. Instead the materials' numbers sit in a table indexed by
 the BSDF's instance ID (a ``BSDFPtr`` reinterpreted as an integer), so a lookup
 is a handful of gathers whatever the number of materials. Textures are the
 exception: each textured material evaluates its own texture, only on the lanes
-that hit it. In the scalar variant a hit asks its BSDF directly.
+that hit it. The scalar variant reads the same table, by the hit BSDF's row.
 
 Reading a scene's materials costs one pass over its shapes, and no more:
 every ``article`` BSDF keeps its numbers as one :func:`material_row`, written
@@ -28,6 +28,7 @@ import numpy as np
 
 from whitted.errors import WhittedError
 
+from .masks import off
 from .scene_state import memo
 
 #: columns of a :func:`material_row`
@@ -121,21 +122,33 @@ class Materials:
     def textured(self) -> bool:
         return bool(self.textures)
 
-    def jit_table(self):
-        """``(colour, reflect, refract, ior, slot)``: opaque tables indexed by instance ID,
-        built once; ``slot[row]`` is 0 for an untextured material, k for the k-th texture."""
-        if "jit" not in self._tables:
-            size = int(self.key.max()) + 1 if len(self.key) else 1   # row 0: the null BSDF of a miss
-            rows = np.zeros((size, 8), np.float32)
-            rows[:, _IOR] = 1.0
-            rows[self.key] = self.rows
+    def table(self):
+        """``(row_of, columns)``, built once: the materials' numbers by row, and each
+        material's row by key. ``columns`` are ``(type, table)`` pairs of colour, KR, KT,
+        IOR and texture slot (0 untextured, k: the k-th of ``textures``).
+
+        A hit names its BSDF by instance ID in the JIT variants: the rows are the
+        instance IDs and the tables opaque Dr.Jit arrays, read by gathers. In the
+        scalar variant a hit hands over the BSDF itself, and ``dr.gather`` takes no
+        plain numbers: the rows are 1, 2, ... and the tables numpy arrays. Row 0 is no
+        material (a miss).
+        """
+        if "table" not in self._tables:
+            jit = dr.is_jit_v(mi.Float)
+            rows = self.key if jit else np.arange(1, len(self.key) + 1)
+            size = int(rows.max()) + 1 if len(rows) else 1
+            numbers = np.zeros((size, 8))
+            numbers[:, _IOR] = 1.0
+            numbers[rows] = self.rows
             slot = np.zeros(size, np.uint32)
-            slot[list(self.textures)] = np.arange(1, len(self.textures) + 1)
-            table = (mi.Color3f(rows[:, _COLOUR].T), mi.Float(rows[:, _REFLECT]),
-                     mi.Float(rows[:, _REFRACT]), mi.Float(rows[:, _IOR]), mi.UInt32(slot))
-            dr.make_opaque(*table)
-            self._tables["jit"] = table
-        return self._tables["jit"]
+            slot[rows[np.isin(self.key, list(self.textures))]] = np.arange(1, len(self.textures) + 1)
+            columns = ((mi.Color3f, numbers[:, _COLOUR].T), (mi.Float, numbers[:, _REFLECT]),
+                       (mi.Float, numbers[:, _REFRACT]), (mi.Float, numbers[:, _IOR]), (mi.UInt32, slot))
+            if jit:
+                columns = tuple((tp, tp(values)) for tp, values in columns)
+                dr.make_opaque(*(table for _, table in columns))
+            self._tables["table"] = (dict(zip(self.key.tolist(), rows.tolist())), columns)
+        return self._tables["table"]
 
 
 def scene_materials(scene) -> Materials:
@@ -167,34 +180,28 @@ class SurfaceTable:
     def __init__(self, materials: Materials, need_ior: bool):
         self.need_ior = need_ior
         self.textured = list(materials.textures.values())   # slot k is textured[k - 1]
+        row_of, columns = materials.table()
         if dr.is_jit_v(mi.Float):
-            self._colour, self._reflect, self._refract, self._ior, self._slot = materials.jit_table()
+            self._row = lambda bsdf: bsdf
+            self._read = lambda tp, table, row, active: dr.gather(tp, table, row, active)
         else:
-            self._by_bsdf = {k: (row, materials.textures.get(k))
-                             for k, row in zip(materials.key.tolist(), materials.rows.tolist())}
+            self._row = lambda bsdf: row_of[id(bsdf)]
+            self._read = lambda tp, table, row, active: tp(table[..., row].tolist())
+        self._colour, self._reflect, self._refract, self._ior, self._slot = columns
 
     def lookup(self, si, bsdf, active) -> SurfaceSample:
         """The material at ``si`` on the lanes ``active`` (hits only).
 
         ``bsdf`` is the hit BSDF's instance ID (JIT variants) or the BSDF itself (scalar).
         """
-        if not dr.is_jit_v(mi.Float):
-            return self._lookup_scalar(si, bsdf)
-        row = bsdf   # the table is indexed by instance ID; row 0 (a miss) is never read
-        base = dr.gather(mi.Color3f, self._colour, row, active)
+        row = self._row(bsdf)
+        base = self._read(*self._colour, row, active)
         if self.textured:
-            slot = dr.gather(mi.UInt32, self._slot, row, active)
+            slot = self._read(*self._slot, row, active)
             for k, texture in enumerate(self.textured, start=1):
                 on_texture = active & (slot == k)
-                base = dr.select(on_texture, texture.eval(si, on_texture), base)
-        ior = dr.gather(mi.Float, self._ior, row, active) if self.need_ior else mi.Float(1)
-        return SurfaceSample(base,
-                             dr.gather(mi.Float, self._reflect, row, active),
-                             dr.gather(mi.Float, self._refract, row, active),
-                             ior)
-
-    def _lookup_scalar(self, si, bsdf) -> SurfaceSample:
-        numbers, texture = self._by_bsdf[id(bsdf)]
-        base = texture.eval(si) if texture is not None else mi.Color3f(*numbers[_COLOUR])
-        return SurfaceSample(mi.Color3f(base), mi.Float(numbers[_REFLECT]), mi.Float(numbers[_REFRACT]),
-                             mi.Float(numbers[_IOR]))
+                if not off(on_texture):
+                    base = dr.select(on_texture, mi.Color3f(texture.eval(si, on_texture)), base)
+        ior = self._read(*self._ior, row, active) if self.need_ior else mi.Float(1)
+        return SurfaceSample(base, self._read(*self._reflect, row, active),
+                             self._read(*self._refract, row, active), ior)
