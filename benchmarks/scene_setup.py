@@ -26,7 +26,8 @@ import mitsuba as mi  # noqa: E402
 import whitted  # noqa: E402,F401  (selects the variant, registers the plugins)
 import scenes  # noqa: E402
 from whitted.plugins.effects import analyse  # noqa: E402
-from whitted.plugins.shading import RayCounter, Shader  # noqa: E402
+from whitted.plugins.counts import Tally  # noqa: E402
+from whitted.plugins.shading import Shader  # noqa: E402
 
 
 def main(count: int) -> None:
@@ -38,7 +39,7 @@ def main(count: int) -> None:
 
     def setup() -> float:
         start = time.perf_counter()
-        Shader(scene, analyse(scene, model.depth, reference), model.ambient, "article", RayCounter())
+        Shader(scene, analyse(scene, model.depth, reference), model.ambient, "article", Tally())
         dr.eval()
         return time.perf_counter() - start
 
