@@ -9,13 +9,13 @@ exception: each textured material evaluates its own texture, only on the lanes
 that hit it. The scalar variant reads the same table, by the hit BSDF's row.
 
 Reading a scene's materials costs one pass over its shapes, and no more:
-every ``article`` BSDF keeps its numbers as one :func:`material_row`, written
-when it is created and when its colour changes (``parameters_changed``), so
+every ``article`` BSDF keeps its numbers as one :func:`material_row`, read
+at the first render (about 10 µs: the colour is read back from Dr.Jit) and
+again only when its colour changes (``parameters_changed``), so
 :func:`shape_materials` only collects each shape's row (the rows of 66 000
-spheres in about 0.1 s, where asking each BSDF took most of a second, and
-Mitsuba's vectorized ``shapes_dr().bsdf()`` became slower still after a
-``params.update()``). The integrator asks once per scene state (see
-:mod:`.scene_state`).
+spheres in about 0.1 s; Mitsuba's vectorized ``shapes_dr().bsdf()`` took as
+long, and 2 s after a ``params.update()``). The integrator asks once per
+scene state (see :mod:`.scene_state`).
 """
 
 from __future__ import annotations
@@ -51,13 +51,13 @@ def material_row(bsdf) -> tuple:
 
     ``key`` is the BSDF's instance ID in the JIT variants (what a hit reports)
     and ``id(bsdf)`` in the scalar one (an address: exact in a float64); B is
-    ``bsdf.uniform_colour``, zero when textured.
+    the constant base colour, zero when textured.
     """
     if dr.is_jit_v(mi.Float):
         key = int(dr.reinterpret_array(mi.UInt32, mi.BSDFPtr(bsdf))[0])
     else:
         key = id(bsdf)
-    colour = bsdf.uniform_colour
+    colour = None if bsdf.color.is_spatially_varying() else uniform_colour(bsdf.color)
     return (key, float(colour is None), *(colour or (0.0, 0.0, 0.0)), bsdf.reflect, bsdf.refract, bsdf.ior)
 
 
@@ -179,6 +179,8 @@ class SurfaceTable:
 
     def __init__(self, materials: Materials, need_ior: bool):
         self.need_ior = need_ior
+        # KR and KT that are 0 on every material are constants, not lookups
+        self.reflective, self.refractive = materials.reflective, materials.refractive
         self.textured = list(materials.textures.values())   # slot k is textured[k - 1]
         row_of, columns = materials.table()
         if dr.is_jit_v(mi.Float):
@@ -203,5 +205,6 @@ class SurfaceTable:
                 if not off(on_texture):
                     base = dr.select(on_texture, mi.Color3f(texture.eval(si, on_texture)), base)
         ior = self._read(*self._ior, row, active) if self.need_ior else mi.Float(1)
-        return SurfaceSample(base, self._read(*self._reflect, row, active),
-                             self._read(*self._refract, row, active), ior)
+        reflect = self._read(*self._reflect, row, active) if self.reflective else mi.Float(0)
+        refract = self._read(*self._refract, row, active) if self.refractive else mi.Float(0)
+        return SurfaceSample(base, reflect, refract, ior)
