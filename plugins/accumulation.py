@@ -12,7 +12,7 @@ three images take 44 bytes a pixel.
 With a box filter (what converted scenes use, and Mitsuba's integrators put
 a box-filtered sample at its pixel alone), every sample lands in one pixel
 with weight 1, and every pixel gets ``spp`` of them, so the developed pixel
-is simply the mean of its samples. :class:`PixelMeans` adds ``colour / spp``
+is simply the mean of its samples. :class:`PixelMeans` adds ``color / spp``
 of each sample into that pixel of one RGB array, which *is* the developed
 image: three adds per sample (pre-reduced within a SIMD packet, where a
 pixel's samples sit side by side), nothing else to develop, 12 bytes a pixel.
@@ -50,9 +50,9 @@ class FilmSplats:
         self.block.set_coalesce(self.block.coalesce() and spp >= 4)
         self.alpha = mi.has_flag(film.flags(), mi.FilmFlags.Alpha)
 
-    def put(self, pixel, position, colour) -> None:
-        """Add the sample ``colour`` at film ``position`` (``pixel``: its linear index in the crop)."""
-        values = [colour.x, colour.y, colour.z]
+    def put(self, pixel, position, color) -> None:
+        """Add the sample ``color`` at film ``position`` (``pixel``: its linear index in the crop)."""
+        values = [color.x, color.y, color.z]
         if self.alpha:
             values.append(mi.Float(1))
         values.append(mi.Float(1))   # the sample's weight: the film develops the mean
@@ -83,28 +83,28 @@ class PixelMeans:
         self.scale = dr.opaque(mi.Float, 1.0 / spp)
         self.image = dr.zeros(mi.Float, 3 * self.width * self.height)
 
-    def put(self, pixel, position, colour) -> None:
-        """Add ``colour / spp`` to ``pixel`` (its linear index in the crop; ``position`` unused)."""
+    def put(self, pixel, position, color) -> None:
+        """Add ``color / spp`` to ``pixel`` (its linear index in the crop; ``position`` unused)."""
         index = pixel * 3
         for channel in range(3):
-            value = colour[channel] * self.scale
+            value = color[channel] * self.scale
             if self.spp == 1:    # one sample per pixel: nothing to add up
                 dr.scatter(self.image, value, index + channel)
             else:
                 dr.scatter_reduce(dr.ReduceOp.Add, self.image, value, index + channel,
                                   mode=dr.ReduceMode.Local)
 
-    def put_pixels(self, pixel, colour_of_sample) -> None:
-        """Set the pixels ``pixel`` (one lane each) to the mean of ``colour_of_sample(sample)``
+    def put_pixels(self, pixel, color_of_sample) -> None:
+        """Set the pixels ``pixel`` (one lane each) to the mean of ``color_of_sample(sample)``
         over their samples 0 … spp - 1, added up in a loop inside the kernel: no atomic adds,
         one store per pixel (what a single-level ray tree allows: see the integrator)."""
         if self.spp == 1:
-            total = colour_of_sample(mi.UInt32(0))
+            total = color_of_sample(mi.UInt32(0))
         else:
             spp = dr.opaque(mi.UInt32, self.spp)
             _, total = dr.while_loop(
                 (mi.UInt32(0), mi.Color3f(0)), lambda sample, total: sample < spp,
-                lambda sample, total: (sample + 1, total + colour_of_sample(sample)))
+                lambda sample, total: (sample + 1, total + color_of_sample(sample)))
         dr.scatter(self.image, total / dr.opaque(mi.Float, self.spp), pixel)   # as the film divides
 
     def develop(self):

@@ -87,9 +87,11 @@ class ShapeNumbers:
     Centre and radius come from the bounding boxes (exact to a float32 ulp of
     |C| + r for a sphere: within the error bound); a frame (rows: the local x,
     y and z axes) is the ``to_world`` rotation of a sphere whose colour varies
-    over it, which also gives that sphere's centre and radius.
+    over it, which also gives that sphere's center and radius.
     """
-    centre: np.ndarray       # 3×N
+    low: np.ndarray          # 3×N, bounding box
+    high: np.ndarray         # 3×N
+    center: np.ndarray       # 3×N
     radius: np.ndarray       # N
     error: np.ndarray        # N, :func:`hit_error`
     sphere: np.ndarray       # N, whether the shape is a sphere
@@ -121,7 +123,7 @@ def _shape_numbers(scene, need_uv: bool) -> ShapeNumbers:
                                                         (shape.bbox() for shape in shapes)),
                           np.float64, 6 * len(shapes)).reshape(-1, 2, 3)
     low, high = corners[:, 0].T, corners[:, 1].T
-    centre, radius = (low + high) / 2, (high - low).max(axis=0, initial=0.0) / 2
+    center, radius = (low + high) / 2, (high - low).max(axis=0, initial=0.0) / 2
     sphere = _shape_types(scene) == int(mi.ShapeType.Sphere)
     materials = shape_materials(scene)
     rows = bsdf = None
@@ -132,10 +134,10 @@ def _shape_numbers(scene, need_uv: bool) -> ShapeNumbers:
     if need_uv:
         for index in np.flatnonzero(materials.textured & sphere).tolist():
             matrix = np.array(mi.traverse(shapes[index])["to_world"].matrix, np.float64).reshape(4, 4)
-            centre[:, index], radius[index] = matrix[:3, 3], np.linalg.norm(matrix[:3, 0])
+            center[:, index], radius[index] = matrix[:3, 3], np.linalg.norm(matrix[:3, 0])
             frames[index] = (matrix[:3, :3] / radius[index]).T
-    error = hit_error(radius, np.abs(centre).max(axis=0, initial=0.0))
-    return ShapeNumbers(centre, radius, error, sphere, frames, rows, bsdf)
+    error = hit_error(radius, np.abs(center).max(axis=0, initial=0.0))
+    return ShapeNumbers(low, high, center, radius, error, sphere, frames, rows, bsdf)
 
 
 class _SurfacesNear:
@@ -221,7 +223,7 @@ class MitsubaHits:
 
     def _tables(self, scene, need_uv):
         numbers = shape_numbers(scene, need_uv)
-        tables = {"surface_at": _SurfacesNear(numbers.centre, numbers.radius, numbers.error,
+        tables = {"surface_at": _SurfacesNear(numbers.center, numbers.radius, numbers.error,
                                               numbers.sphere).surface_at}
         if not self.vectorized:   # the scalar variant hands out the same shape objects each time
             frames = numbers.frames
@@ -272,21 +274,21 @@ class SphereHits:
         self.need_uv = need_uv
         tables = memo(scene, ("sphere tables", need_uv), lambda: self._tables(scene, need_uv))
         self.surface_at = tables["surface_at"]
-        self._centre, self._radius, self._error, self._bsdf, self._frame = tables["spheres"]
+        self._center, self._radius, self._error, self._bsdf, self._frame = tables["spheres"]
 
     @staticmethod
     def _tables(scene, need_uv):
         numbers = shape_numbers(scene, need_uv)
         rows = numbers.rows
         size = int(rows.max()) + 1
-        centre, radius, error = np.zeros((3, size)), np.ones(size), np.zeros(size)
+        center, radius, error = np.zeros((3, size)), np.ones(size), np.zeros(size)
         bsdf = np.zeros(size, np.uint32)
-        centre[:, rows], radius[rows], error[rows], bsdf[rows] = \
-            numbers.centre, numbers.radius, numbers.error, numbers.bsdf
-        table = (mi.Point3f(centre), mi.Float(radius), mi.Float(error), mi.UInt32(bsdf))
+        center[:, rows], radius[rows], error[rows], bsdf[rows] = \
+            numbers.center, numbers.radius, numbers.error, numbers.bsdf
+        table = (mi.Point3f(center), mi.Float(radius), mi.Float(error), mi.UInt32(bsdf))
         dr.make_opaque(*table)
         _, frame = _frame_table(rows, numbers.frames, size)
-        return {"surface_at": _SurfacesNear(numbers.centre, numbers.radius, numbers.error,
+        return {"surface_at": _SurfacesNear(numbers.center, numbers.radius, numbers.error,
                                             numbers.sphere).surface_at,
                 "spheres": (*table, frame)}
 
@@ -295,12 +297,12 @@ class SphereHits:
         pi = self.scene.ray_intersect_preliminary(ray, coherent=coherent)
         hit = pi.is_valid()
         row = dr.reinterpret_array(mi.UInt32, pi.shape)
-        centre = dr.gather(mi.Point3f, self._centre, row, hit)
+        center = dr.gather(mi.Point3f, self._center, row, hit)
         radius = dr.gather(mi.Float, self._radius, row, hit)
         si = dr.zeros(mi.SurfaceInteraction3f)
         si.t = dr.select(hit, pi.t, dr.inf)
-        si.n = dr.normalize(ray(pi.t) - centre)
-        si.p = dr.fma(si.n, radius, centre)
+        si.n = dr.normalize(ray(pi.t) - center)
+        si.p = dr.fma(si.n, radius, center)
         si.time = ray.time
         si.wavelengths = ray.wavelengths
         if self.need_uv:

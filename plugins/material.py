@@ -180,7 +180,7 @@ class ArticleBSDF(mi.BSDF):
     @property
     def material_row(self) -> tuple:
         """The numbers the Whitted integrator reads (:func:`.surfaces.material_row`), kept
-        until ``color`` changes. Read on first use, not in the constructor: reading a colour
+        until ``color`` changes. Read on first use, not in the constructor: reading a color
         evaluates it, and Mitsuba's loader, which builds a scene's objects in parallel, would
         then build more of them inside this constructor, one inside another."""
         if self._material_row is None:

@@ -62,7 +62,7 @@ def test_per_pixel_means_are_the_films_image(llvm, monkeypatch, depth, spp, wave
 
 
 def test_other_films_still_develop_through_mitsuba(llvm):
-    """An RGBA film (no per-pixel means) gives the same colours plus an alpha of 1."""
+    """An RGBA film (no per-pixel means) gives the same colors plus an alpha of 1."""
     xml = scene_to_xml(model(1), base_dir=None)
     rgb = np.array(mi.render(mi.load_string(xml)))
     rgba = np.array(mi.render(mi.load_string(xml.replace('value="rgb"', 'value="rgba"'))))

@@ -174,11 +174,14 @@ def test_cache_key_follows_scene_content_and_settings(mirror_scene, tmp_path):
     settings = {"spp": 64, "width": 32, "height": 24}
     copy = tmp_path / "copy.scn"
     copy.write_text(MIRROR_SCENE)
-    key = cmp.ReferenceCache.key(mirror_scene, settings)
-    assert cmp.ReferenceCache.key(copy, settings) == key  # content, not location
-    assert cmp.ReferenceCache.key(mirror_scene, {**settings, "spp": 128}) != key
+
+    def key(path, settings):
+        return cmp.ReferenceCache.key(cmp.SceneFile.read(path), settings)
+
+    assert key(copy, settings) == key(mirror_scene, settings)  # content, not location
+    assert key(mirror_scene, {**settings, "spp": 128}) != key(mirror_scene, settings)
     copy.write_text(MIRROR_SCENE.replace("light 4 5 6", "light 4 5 7"))
-    assert cmp.ReferenceCache.key(copy, settings) != key
+    assert key(copy, settings) != key(mirror_scene, settings)
 
 
 def test_damaged_cache_entry_is_rendered_again(tmp_path):
@@ -235,6 +238,54 @@ def test_interrupted_sweep_writes_what_was_done(sweep, mirror_scene, tmp_path, m
     for name in ("error_vs_time.png", "contact_sheet.png"):
         assert (tmp_path / name).read_bytes()[:8] == PNG_SIGNATURE
     assert not [p for p in tmp_path.iterdir() if p.name.startswith(".")]
+
+
+def test_each_scene_file_is_read_once_per_run(sweep, mirror_scene, tmp_path, monkeypatch):
+    """Planning, loading, the cache key and the sweep share one reading of the scene."""
+    import builtins
+    import io
+
+    out, _ = sweep
+    opened = []
+    real_open, real_io_open = builtins.open, io.open
+
+    def counting(open_function):
+        def counted(file, *args, **kwargs):
+            if isinstance(file, (str, Path)) and Path(file).resolve() == mirror_scene.resolve():
+                opened.append(file)
+            return open_function(file, *args, **kwargs)
+        return counted
+
+    monkeypatch.setattr(builtins, "open", counting(real_open))
+    monkeypatch.setattr(io, "open", counting(real_io_open))  # pathlib reads through io.open
+    options = cmp.Options(out=tmp_path, reference_spp=REFERENCE_SPP, depths=(1,), whitted_spp=(1,),
+                          path_spp=(1,), repeats=1, cache=out / "references", quiet=True)
+    entries = cmp.compare([mirror_scene], options)
+    assert entries[0].reference_cached and len(entries[0].measurements) == 3
+    assert len(opened) == 1
+
+
+def test_one_scene_sweeps_from_plain_data_alone(sweep, mirror_scene, tmp_path):
+    """What a worker process gets: everything pickles, no mi.Scene is handed over, and the
+    result comes back as plain data, measured as the whole command measures it."""
+    import pickle
+
+    out, _ = sweep
+    options = cmp.Options(out=tmp_path, reference_spp=REFERENCE_SPP, depths=(1, 2), whitted_spp=(1,),
+                          path_spp=(1, 4), repeats=1, cache=out / "references", quiet=True)
+    scene = cmp.SceneFile.read(mirror_scene, "mirror")
+    import mitsuba as mi
+    entry, settings = cmp.plan_scene(scene, scene.load(), options, mi.variant())
+    work = pickle.dumps((scene, entry, settings, options))
+    result = cmp.sweep_scene(*pickle.loads(work))
+    result = pickle.loads(pickle.dumps(result))
+    assert result.reference_cached and not result.skipped
+    assert [m.setting for m in result.measurements] == settings
+    whole = cmp.compare([mirror_scene], options)[0]
+    for alone, together in zip(result.measurements, whole.measurements):
+        assert alone.setting == together.setting
+        assert alone.rel_mse == pytest.approx(together.rel_mse, rel=1e-6)  # same seed, same image
+        assert alone.thumbnail.shape == together.thumbnail.shape
 
 
 # --------------------------------------------------------------------------- budget
@@ -421,6 +472,6 @@ def test_plan_puts_cheap_renders_of_every_method_first():
 
 
 def test_pareto_front_keeps_only_unbeaten_points():
-    from whitted.report import pareto_front
+    from whitted.compare.report import pareto_front
     points = [(1.0, 0.5), (2.0, 0.6), (3.0, 0.2), (0.5, 0.9), (4.0, 0.2)]
     assert pareto_front(points) == [(0.5, 0.9), (1.0, 0.5), (3.0, 0.2)]

@@ -53,6 +53,8 @@ MAX_MAGNITUDE = "1e12"
 MIN_POSITIVE = "1e-6"
 #: Two directions count as parallel when the sine of their angle is below this.
 PARALLEL_SINE = 1e-9
+#: A scene file's errors are all found; the message lists this many, then counts the rest.
+MAX_REPORTED_ERRORS = 20
 
 # --- Rendering -----------------------------------------------------------------------------------
 #: how the Whitted integrator lights a scene: the article's model, or physically
@@ -61,9 +63,10 @@ LIGHTING = "article"
 #: the article's model, or Mitsuba's stock path tracer
 INTEGRATORS = ("whitted", "path")
 INTEGRATOR = "whitted"
-#: Hall and Greenberg's adaptive depth control: branches whose path weight is below
-#: this are not traced (0 traces the exact tree)
-MIN_WEIGHT = 0.0
+#: The adaptive depth control (Hall and Greenberg; POV-Ray's adc_bailout): branches of the
+#: ray tree are left untraced as long as together they cannot change a pixel by more than
+#: this, one step of an 8-bit image (plugins/adaptive.py); 0 traces the exact tree
+MIN_WEIGHT = 1 / 255
 #: camera samples per pass of the whitted integrator (0: as its tracer prefers; see plugins/wavefront.py)
 WAVEFRONT_SIZE = 0
 #: the most samples per pixel a render accepts (API and CLI; Mitsuba's samplers count in 32 bits)
@@ -72,6 +75,16 @@ MAX_SPP = 2 ** 31
 VARIANTS = ("scalar_rgb", "llvm_ad_rgb", "cuda_ad_rgb")
 DEFAULT_VARIANT = "llvm_ad_rgb"
 FALLBACK_VARIANT = "scalar_rgb"
+
+
+# --- whitted compare ------------------------------------------------------------------------------
+COMPARE_REFERENCE_SPP = 4096              #: the path-traced reference's samples per pixel
+COMPARE_WHITTED_SPP = (1, 4, 16)          #: the Whitted sweep's spp ladder
+COMPARE_PATH_SPP = (1, 4, 16, 64, 256, 1024)   #: the path tracer's spp ladder
+COMPARE_REPEATS = 3                       #: timed repeats of each render (the median is reported)
+COMPARE_LEVELS = (0.1, 0.03, 0.01)        #: relative-MSE levels of the equal-quality table
+#: The default Whitted sweep is 1…min(scene depth, this): deeper trees rarely change a pixel.
+COMPARE_MAX_DEFAULT_DEPTH = 8
 
 
 # --- Validation, written once ----------------------------------------------------------------------

@@ -20,15 +20,11 @@ import io
 import math
 import os
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .atomic import atomic_path, write_text
-from .compare import METHODS, WHITTED_METHODS
-
-if TYPE_CHECKING:
-    from .compare import Measurement, SceneResult
+from ..atomic import atomic_path, write_text
+from .results import METHODS, WHITTED_METHODS, Measurement, SceneResult
 
 CSV_COLUMNS = ("scene", "method", "integrator", "lighting", "spp", "max_depth", "seconds",
                "compile_seconds", "rel_mse", "flip", "repeats", "width", "height", "variant",
@@ -63,7 +59,7 @@ def thumbnail(image: np.ndarray, width: int = THUMBNAIL_WIDTH) -> np.ndarray:
 # --------------------------------------------------------------------------- CSV
 
 
-def _row(entry: "SceneResult", m: "Measurement") -> dict:
+def _row(entry: SceneResult, m: Measurement) -> dict:
     s = m.setting
     return {"scene": entry.name, "method": s.method, "integrator": s.integrator,
             "lighting": s.lighting, "spp": s.spp, "max_depth": s.max_depth,
@@ -73,7 +69,7 @@ def _row(entry: "SceneResult", m: "Measurement") -> dict:
             "reference_spp": entry.reference_spp}
 
 
-def write_csv(path: str | os.PathLike, entries: list["SceneResult"]) -> None:
+def write_csv(path: str | os.PathLike, entries: list[SceneResult]) -> None:
     """One row per render that was done (skipped ones are absent)."""
     buffer = io.StringIO()
     writer = csv.DictWriter(buffer, fieldnames=CSV_COLUMNS, lineterminator="\n")
@@ -107,7 +103,7 @@ def _usable(value: float) -> bool:
     return math.isfinite(value) and value > 0
 
 
-def plot_error_vs_time(path: str | os.PathLike, entries: list["SceneResult"]) -> None:
+def plot_error_vs_time(path: str | os.PathLike, entries: list[SceneResult]) -> None:
     """Error against time, log–log; one row of two panels (rel. MSE, FLIP) per scene."""
     from matplotlib.figure import Figure
 
@@ -165,13 +161,13 @@ def _save(fig, path: str | os.PathLike, dpi: int) -> None:
 # --------------------------------------------------------------------------- contact sheet
 
 
-def _sheet_rows(entry: "SceneResult") -> list[list[tuple[str, np.ndarray | None, str]]]:
+def _sheet_rows(entry: SceneResult) -> list[list[tuple[str, np.ndarray | None, str]]]:
     """The cells (title, thumbnail or None, caption) of one scene's block, row by row:
     the reference and the path tracer's ladder first, then one row per depth with the
     Whitted integrator's spp ladder in article lighting, then in physical lighting."""
     done = {(m.setting.method, m.setting.max_depth, m.setting.spp): m for m in entry.measurements}
 
-    def cell(title: str, m: "Measurement | None") -> tuple[str, np.ndarray | None, str]:
+    def cell(title: str, m: Measurement | None) -> tuple[str, np.ndarray | None, str]:
         if m is None:
             return title, None, "not rendered"
         return title, m.thumbnail, f"rel {m.rel_mse:.3g} · FLIP {m.flip:.3f}\n{_seconds(m.seconds)}"
@@ -187,7 +183,7 @@ def _sheet_rows(entry: "SceneResult") -> list[list[tuple[str, np.ndarray | None,
     return rows
 
 
-def contact_sheet(path: str | os.PathLike, entries: list["SceneResult"]) -> None:
+def contact_sheet(path: str | os.PathLike, entries: list[SceneResult]) -> None:
     """Thumbnails of every render beside the reference, each with its error and time.
 
     One block per scene: the reference and the path tracer's spp ladder on top,
@@ -234,7 +230,7 @@ def _seconds(value: float) -> str:
 # --------------------------------------------------------------------------- summary
 
 
-def fastest_table(entries: list["SceneResult"], levels: tuple[float, ...]) -> str:
+def fastest_table(entries: list[SceneResult], levels: tuple[float, ...]) -> str:
     """For each scene and error level (relative MSE), each method's fastest render
     reaching it; the last column names the fastest method."""
     methods = list(METHODS)
@@ -271,7 +267,7 @@ def fastest_table(entries: list["SceneResult"], levels: tuple[float, ...]) -> st
 # --------------------------------------------------------------------------- all
 
 
-def write_all(out: str | os.PathLike, entries: list["SceneResult"]) -> None:
+def write_all(out: str | os.PathLike, entries: list[SceneResult]) -> None:
     out = Path(out)
     write_csv(out / CSV_NAME, entries)
     plot_error_vs_time(out / PLOT_NAME, entries)
