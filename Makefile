@@ -10,7 +10,7 @@ STAMP   := $(VENV)/.installed
 SCENES  := $(wildcard scenes/*.scn)
 OUT     := out
 
-.PHONY: all demo test bench scenes setup llvm clean
+.PHONY: all demo test bench scenes setup llvm povray chromium clean
 
 all: demo
 
@@ -30,34 +30,55 @@ $(STAMP): pyproject.toml | $(PY)
 llvm: $(STAMP)
 	@WHITTED_VARIANT=scalar_rgb $(PY) -c 'from whitted.variant import ensure_llvm; ensure_llvm()'
 
+# scenes_xml/ is regenerated from scenes/ (every .scn, new ones too) by one convert call.
 scenes: setup
 	@if [ -f scenes/make_textures.py ]; then $(PY) scenes/make_textures.py; fi
 	@mkdir -p scenes_xml
-	@for scn in $(SCENES); do \
-		$(VENV)/bin/whitted convert $$scn -o scenes_xml/$$(basename $${scn%.scn}).xml || exit 1; \
-	done
+	@$(VENV)/bin/whitted convert scenes/ -o scenes_xml/
 	@echo "scenes_xml/ regenerated from scenes/"
 
-demo: setup
+# Renders what scenes/ holds now: the .scn files themselves (an edit shows at once),
+# after converting them, so that scenes_xml/ matches what was rendered.
+demo: scenes
 	@mkdir -p $(OUT)/demo
 	@for scn in $(SCENES); do \
 		name=$$(basename $${scn%.scn}); \
 		echo "rendering $$scn"; \
-		$(VENV)/bin/whitted render scenes_xml/$$name.xml -o $(OUT)/demo/$$name.png || exit 1; \
-		$(VENV)/bin/whitted render scenes_xml/$$name.xml -o $(OUT)/demo/$$name.exr -q || exit 1; \
-		$(VENV)/bin/whitted render scenes_xml/$$name.xml -o $(OUT)/demo/$$name-path.png \
+		$(VENV)/bin/whitted render $$scn -o $(OUT)/demo/$$name.png || exit 1; \
+		$(VENV)/bin/whitted render $$scn -o $(OUT)/demo/$$name.exr -q || exit 1; \
+		$(VENV)/bin/whitted render $$scn -o $(OUT)/demo/$$name-path.png \
 			--integrator path --spp 64 -q || exit 1; \
 	done
 	@echo "demo images in $(OUT)/demo/: NAME.png and NAME.exr (the article's model), NAME-path.png (Mitsuba's path tracer, 64 spp)"
 
-test: setup
+# Debian's Chromium, for the browser test of `whitted compare`'s report page
+# (tests/test_compare_page.py skips it without one): installed when missing and
+# allowed (root, apt-get, no $WHITTED_NO_APT), as the llvm step installs libllvm19.
+chromium:
+	@if [ -x /usr/bin/chromium ]; then :; \
+	elif [ "$$(id -u)" = 0 ] && [ -z "$$WHITTED_NO_APT" ] && command -v apt-get >/dev/null; then \
+		echo "installing Debian's chromium (for the report page's browser test)"; \
+		( export DEBIAN_FRONTEND=noninteractive; apt-get -qq update && apt-get -qq install -y chromium >/dev/null ) \
+			|| echo "warning: chromium could not be installed; the browser test will be skipped"; \
+	else \
+		echo "note: no /usr/bin/chromium (as root: apt-get install chromium); the browser test will be skipped"; \
+	fi
+
+test: setup chromium
 	$(PY) -m pytest -q
 
-# Speed against Mitsuba's own integrators and the ray-casting floor (benchmarks/RESULTS.md);
-# `make bench BENCHFLAGS=--quick` for a short run.
+# POV-Ray 3.7 for the side-by-side benchmark: Debian's povray, installed when missing and
+# allowed (root, or sudo without a password), like the llvm step; otherwise its rows say why.
+povray: $(STAMP)
+	@$(PY) benchmarks/povray.py --install
+
+# Speed against Mitsuba's own integrators and the ray-casting floor, then against POV-Ray 3.7
+# on the sphereflake, levels 1-5 (benchmarks/RESULTS.md); `make bench BENCHFLAGS=--quick` for
+# a short run.
 BENCHFLAGS ?=
-bench: setup
+bench: setup povray
 	$(PY) benchmarks/run.py $(BENCHFLAGS)
+	$(PY) benchmarks/vs_povray.py $(BENCHFLAGS)
 
 clean:
 	rm -rf $(OUT) .pytest_cache .hypothesis

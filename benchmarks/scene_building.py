@@ -8,7 +8,8 @@ spheres by ``center``/``radius`` vs a ``to_world`` matrix, materials shared by
 reference vs one per sphere, Mitsuba's ``optimize`` pass on or off), from the
 same scene model, and checks that each builds the same scene (a render equal to
 the XML path's, bit for bit). whitted.loading uses the fastest; the numbers are
-in benchmarks/RESULTS.md, "Scene building".
+in benchmarks/RESULTS.md, "Scene building" (this script rewrites its marked section
+``scene-building``; the choice drawn from it, ``scene-building-choice``, is written by hand).
 
 The scenes are random non-overlapping spheres (one per cell of a cubic grid,
 jittered inside its cell) in a few shared materials, under one light, written
@@ -35,7 +36,6 @@ import gc
 import os
 import platform
 import random
-import re
 import statistics
 import subprocess
 import sys
@@ -46,6 +46,7 @@ from pathlib import Path
 import mitsuba as mi
 import numpy as np
 
+import sections
 import whitted
 import whitted.rendering
 from whitted.converter import Light, Material, Scene, Sphere
@@ -54,6 +55,8 @@ from whitted.converter.xml_writer import description_to_xml
 from whitted.loading import mitsuba_dict
 
 SECTION = "## Scene building"
+#: this script's marked section of RESULTS.md (benchmarks/sections.py; run.py keeps it)
+SECTION_NAME = "scene-building"
 
 
 def random_spheres(count: int, materials: int = 8, seed: int = 1) -> Scene:
@@ -244,15 +247,6 @@ def markdown(seconds: dict, cpu: dict, mitsuba_cpu: dict, exact: dict, parts: di
     return "\n".join(lines) + "\n"
 
 
-def write_section(path: Path, text: str) -> None:
-    """Replace this script's section of ``path`` (or append it), leaving the rest alone."""
-    old = path.read_text(encoding="utf-8") if path.exists() else ""
-    pattern = re.compile(rf"^{re.escape(SECTION)}\n.*?(?=^## |\Z)", re.S | re.M)
-    new = pattern.sub(lambda _: text + "\n", old, count=1) if pattern.search(old) else \
-        old.rstrip("\n") + "\n\n" + text
-    path.write_text(new, encoding="utf-8")
-
-
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--counts", type=int, nargs="+", default=[1000, 10_000, 66_000])
@@ -274,7 +268,7 @@ def main() -> None:
                     (load_before, os.getloadavg()[0]), time.perf_counter() - start)
     print(text)
     if args.markdown:
-        write_section(Path(args.markdown), text)
+        sections.replace(args.markdown, SECTION_NAME, text)
 
 
 if __name__ == "__main__":

@@ -74,14 +74,6 @@ def plan(inputs: list[str | os.PathLike], output: str | os.PathLike | None = Non
     return pairs
 
 
-def check_writable(folder: Path) -> None:
-    """A clean error, before any work, when ``folder`` cannot receive files."""
-    if not folder.is_dir():
-        raise WhittedError(f"{folder}: output folder does not exist")
-    if not os.access(folder, os.W_OK | os.X_OK):
-        raise WhittedError(f"{folder}: output folder is not writable")
-
-
 def convert_file(source: Path, target: Path) -> None:
     """Parse ``source`` and write its XML to ``target`` atomically (nothing for an invalid scene);
     warn on stderr when float32 cannot hold the scene's detail (:mod:`.frame`)."""

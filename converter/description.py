@@ -187,10 +187,14 @@ def describe(scene: Scene, base_dir: str | os.PathLike | None) -> Description:
     near, far = clip_range(scene)
     defaults = {"spp": int(scene.samples), "max_depth": int(scene.depth),
                 "ambient": float(scene.ambient), "lighting": D.LIGHTING}
-    objects: dict = {"type": "scene"}
-    objects["integrator"] = {
-        "type": "whitted", "max_depth": Param("max_depth"), "ambient": Param("ambient"),
-        "lighting": Param("lighting"), "light_reference": to_frame(scene.lookat, origin)}
+    integrator = {"type": "whitted", "max_depth": Param("max_depth"), "ambient": Param("ambient"),
+                  "lighting": Param("lighting")}
+    if scene.min_weight is not None:
+        # Only when the scene sets it: otherwise the integrator's own default applies.
+        defaults["min_weight"] = float(scene.min_weight)
+        integrator["min_weight"] = Param("min_weight")
+    integrator["light_reference"] = to_frame(scene.lookat, origin)
+    objects: dict = {"type": "scene", "integrator": integrator}
     objects["sensor"] = {
         "type": "perspective", "fov_axis": "x", "fov": float(scene.fov),
         "near_clip": near, "far_clip": far,

@@ -1,6 +1,6 @@
 """The article's optics: the facing normal, mirror reflection and Snell refraction.
 
-Each formula of shared/scene-format.md ("Shading", steps 2, 5 and 6) is written
+Each formula of docs/scene-format.md ("Shading", steps 2, 5 and 6) is written
 here once, with Dr.Jit operations, so the same code runs on one ray (scalar
 variants) or on a wavefront of rays (JIT variants). Directions are unit vectors
 and ``v`` is the incoming ray's direction (pointing *into* the surface).

@@ -1,4 +1,4 @@
-"""A float64 reference renderer of the article's model, written from shared/scene-format.md.
+"""A float64 reference renderer of the article's model, written from docs/scene-format.md.
 
 It shares no code with the integrator: its own camera formula, sphere
 intersection, shading recursion and texture mapping, in plain Python floats

@@ -174,11 +174,14 @@ def test_cache_key_follows_scene_content_and_settings(mirror_scene, tmp_path):
     settings = {"spp": 64, "width": 32, "height": 24}
     copy = tmp_path / "copy.scn"
     copy.write_text(MIRROR_SCENE)
-    key = cmp.ReferenceCache.key(mirror_scene, settings)
-    assert cmp.ReferenceCache.key(copy, settings) == key  # content, not location
-    assert cmp.ReferenceCache.key(mirror_scene, {**settings, "spp": 128}) != key
+
+    def key(path, settings):
+        return cmp.ReferenceCache.key(cmp.SceneFile.read(path), settings)
+
+    assert key(copy, settings) == key(mirror_scene, settings)  # content, not location
+    assert key(mirror_scene, {**settings, "spp": 128}) != key(mirror_scene, settings)
     copy.write_text(MIRROR_SCENE.replace("light 4 5 6", "light 4 5 7"))
-    assert cmp.ReferenceCache.key(copy, settings) != key
+    assert key(copy, settings) != key(mirror_scene, settings)
 
 
 def test_damaged_cache_entry_is_rendered_again(tmp_path):
@@ -237,6 +240,54 @@ def test_interrupted_sweep_writes_what_was_done(sweep, mirror_scene, tmp_path, m
     assert not [p for p in tmp_path.iterdir() if p.name.startswith(".")]
 
 
+def test_each_scene_file_is_read_once_per_run(sweep, mirror_scene, tmp_path, monkeypatch):
+    """Planning, loading, the cache key and the sweep share one reading of the scene."""
+    import builtins
+    import io
+
+    out, _ = sweep
+    opened = []
+    real_open, real_io_open = builtins.open, io.open
+
+    def counting(open_function):
+        def counted(file, *args, **kwargs):
+            if isinstance(file, (str, Path)) and Path(file).resolve() == mirror_scene.resolve():
+                opened.append(file)
+            return open_function(file, *args, **kwargs)
+        return counted
+
+    monkeypatch.setattr(builtins, "open", counting(real_open))
+    monkeypatch.setattr(io, "open", counting(real_io_open))  # pathlib reads through io.open
+    options = cmp.Options(out=tmp_path, reference_spp=REFERENCE_SPP, depths=(1,), whitted_spp=(1,),
+                          path_spp=(1,), repeats=1, cache=out / "references", quiet=True)
+    entries = cmp.compare([mirror_scene], options)
+    assert entries[0].reference_cached and len(entries[0].measurements) == 3
+    assert len(opened) == 1
+
+
+def test_one_scene_sweeps_from_plain_data_alone(sweep, mirror_scene, tmp_path):
+    """What a worker process gets: everything pickles, no mi.Scene is handed over, and the
+    result comes back as plain data, measured as the whole command measures it."""
+    import pickle
+
+    out, _ = sweep
+    options = cmp.Options(out=tmp_path, reference_spp=REFERENCE_SPP, depths=(1, 2), whitted_spp=(1,),
+                          path_spp=(1, 4), repeats=1, cache=out / "references", quiet=True)
+    scene = cmp.SceneFile.read(mirror_scene, "mirror")
+    import mitsuba as mi
+    entry, settings = cmp.plan_scene(scene, scene.load(), options, mi.variant())
+    work = pickle.dumps((scene, entry, settings, options))
+    result = cmp.sweep_scene(*pickle.loads(work))
+    result = pickle.loads(pickle.dumps(result))
+    assert result.reference_cached and not result.skipped
+    assert [m.setting for m in result.measurements] == settings
+    whole = cmp.compare([mirror_scene], options)[0]
+    for alone, together in zip(result.measurements, whole.measurements):
+        assert alone.setting == together.setting
+        assert alone.rel_mse == pytest.approx(together.rel_mse, rel=1e-6)  # same seed, same image
+        assert alone.thumbnail.shape == together.thumbnail.shape
+
+
 # --------------------------------------------------------------------------- budget
 
 
@@ -289,6 +340,43 @@ def test_no_reference_is_rendered_once_the_budget_is_spent(tmp_path, monkeypatch
     assert not references.exists() or not any(references.iterdir())
     captured = capsys.readouterr()
     assert "no time was left" in captured.err and "skipped 3 of 3 renders" in captured.out
+
+
+def test_budget_scales_an_unaffordable_reference_down_and_says_so(mirror_scene, tmp_path, capsys):
+    """A reference asked at 4M spp (an hour or more even at 32×24) under a 6 s budget: a probe
+    measures its cost, a power of two that fits is rendered, and the run ends on time with
+    renders done; the summary, stderr and the page say what happened."""
+    budget, asked = 6.0, 1 << 22
+    start = time.monotonic()
+    status = main(["compare", str(mirror_scene), "--out", str(tmp_path), "--budget", str(budget),
+                   "--reference-spp", str(asked), "--depths", "1,2", "--spp", "1", "--path-spp",
+                   "1,4,16", "--repeats", "1", "-q"])
+    elapsed = time.monotonic() - start
+    assert status == 0
+    assert elapsed < budget + 4.0  # loading Mitsuba and one misjudged render
+    (info,) = [line for line in capsys.readouterr().err.splitlines() if "scaled down" in line]
+    assert f"from {asked} to " in info and "--budget 6 s" in info
+    rows = read_rows(tmp_path / "results.csv")
+    assert rows  # the sweep got the time the reference left
+    spp = int(rows[0]["reference_spp"])
+    assert 8 <= spp < asked and spp & (spp - 1) == 0  # a power of two
+    assert f"scaled down from {asked} to {spp} spp" in (tmp_path / "report.html").read_text(encoding="utf-8")
+
+
+def test_budget_refuses_a_reference_it_cannot_afford_and_says_why(mirror_scene, tmp_path,
+                                                                    monkeypatch, capsys):
+    """When not even the fewest spp of a usable reference fit (here: probes that find a
+    sample costs 100 s), the scene is skipped with the reason, not left to overrun."""
+    import whitted.compare.reference as reference_module
+    monkeypatch.setattr(reference_module, "fit_cost", lambda points: (0.0, 100.0))
+    status = main(["compare", str(mirror_scene), "--out", str(tmp_path), "--budget", "10",
+                   "--depths", "1", "--spp", "1", "--path-spp", "1", "--repeats", "1", "-q"])
+    assert status == 0
+    err = capsys.readouterr().err
+    assert "raise --budget or lower --reference-spp" in err and "no render was done" in err
+    assert read_rows(tmp_path / "results.csv") == []
+    page = (tmp_path / "report.html").read_text(encoding="utf-8")
+    assert "raise --budget or lower --reference-spp" in page
 
 
 # --------------------------------------------------------------------------- several scenes, CLI
@@ -421,6 +509,6 @@ def test_plan_puts_cheap_renders_of_every_method_first():
 
 
 def test_pareto_front_keeps_only_unbeaten_points():
-    from whitted.report import pareto_front
+    from whitted.compare.curves import pareto_front
     points = [(1.0, 0.5), (2.0, 0.6), (3.0, 0.2), (0.5, 0.9), (4.0, 0.2)]
     assert pareto_front(points) == [(0.5, 0.9), (1.0, 0.5), (3.0, 0.2)]

@@ -1,6 +1,6 @@
 """The ``article`` BSDF against the scene format's formulas and Mitsuba's chi-square test.
 
-Expected values come from the spec (shared/scene-format.md, "Shading"), written
+Expected values come from the spec (docs/scene-format.md, "Shading"), written
 here again in float64 numpy in world-style terms (V, N, N', c1, n, k), not from
 the plugin's code.
 """

@@ -11,6 +11,8 @@ import os
 import tempfile
 from pathlib import Path
 
+from .errors import WhittedError
+
 
 @contextlib.contextmanager
 def atomic_path(target: str | os.PathLike):
@@ -18,18 +20,83 @@ def atomic_path(target: str | os.PathLike):
     target = Path(target)
     folder = target.parent if str(target.parent) else Path(".")
     if not folder.is_dir():
-        from .errors import WhittedError
         raise WhittedError(f"{target}: output folder {folder} does not exist")
-    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=target.suffix or ".tmp", dir=folder)
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=target.suffix or ".tmp", dir=folder)
+    except OSError as error:
+        raise WhittedError(f"{target}: cannot write: {error.strerror or error}") from None
     os.close(fd)
     try:
         yield Path(tmp)
         os.chmod(tmp, 0o644)
         os.replace(tmp, target)
+    except OSError as error:
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+        raise WhittedError(f"{target}: cannot write: {error.strerror or error}") from None
     except BaseException:
-        with contextlib.suppress(FileNotFoundError):
+        with contextlib.suppress(OSError):
             os.unlink(tmp)
         raise
+
+
+def check_writable(target: str | os.PathLike, inputs: tuple = ()) -> Path:
+    """Fail now, with one clear line, if ``target`` could not be written later.
+
+    Called before any long work (a render, a sweep), so that an unwritable
+    output is not found after minutes of rendering. The folder must exist and
+    accept a new file: a temporary file is created and removed there, which also
+    catches what permission bits cannot show (``/proc``, ``/sys``, read-only
+    mounts, and root, for whom ``os.access`` says yes to everything).
+    ``inputs`` are files the output must not overwrite.
+    """
+    target = Path(target)
+    folder = target.parent if str(target.parent) else Path(".")
+    if target.is_dir():
+        raise WhittedError(f"{target}: is a folder; give a file name")
+    if not folder.is_dir():
+        raise WhittedError(f"{target}: output folder {folder} does not exist")
+    for source in inputs:
+        if target.exists() and Path(source).exists() and target.resolve() == Path(source).resolve():
+            raise WhittedError(f"{target}: output would overwrite the input {source}")
+    _probe(folder, target)
+    return target
+
+
+def _probe(folder: Path, named: Path) -> None:
+    """Create and remove a file in ``folder``; a clean error naming ``named`` when that fails."""
+    try:
+        fd, probe = tempfile.mkstemp(prefix=".whitted-", suffix=".probe", dir=folder)
+    except OSError as error:
+        raise WhittedError(f"{named}: cannot write in {folder}: {error.strerror or error}") from None
+    os.close(fd)
+    os.unlink(probe)
+
+
+def check_folder_creatable(folder: str | os.PathLike) -> Path:
+    """Check, without creating anything, that ``folder`` exists and accepts files or can
+    be made: its nearest existing ancestor must be a folder that accepts files."""
+    folder = Path(folder)
+    existing = folder
+    while not existing.exists() and existing != existing.parent:
+        existing = existing.parent
+    if not existing.is_dir():
+        raise WhittedError(f"{folder}: cannot create a folder under the file {existing}")
+    _probe(existing, folder)
+    return folder
+
+
+def writable_folder(folder: str | os.PathLike) -> Path:
+    """Create ``folder`` if needed and check it accepts files (see :func:`check_writable`)."""
+    folder = Path(folder)
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as error:
+        raise WhittedError(f"{folder}: cannot create the output folder: {error.strerror or error}") from None
+    if not folder.is_dir():
+        raise WhittedError(f"{folder}: is not a folder")
+    check_writable(folder / "probe")
+    return folder
 
 
 def write_text(target: str | os.PathLike, text: str) -> None:

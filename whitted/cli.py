@@ -14,58 +14,29 @@ from __future__ import annotations
 
 import argparse
 import os
-import signal
 import sys
-from pathlib import Path
 
 from .defaults import INTEGRATORS, LIGHTING_MODES, VERSION
 from .defaults import VARIANTS as SUPPORTED_VARIANTS
-from .errors import WhittedError
+from . import interrupt
+from .errors import WhittedError, report
 
 EXIT_USER_ERROR = 2
 EXIT_INTERRUPTED = 130
 
 
-def _report(error: BaseException) -> None:
-    """Each line of a user error as ``whitted: error: LINE`` on stderr."""
-    for line in (str(error).splitlines() or [type(error).__name__]):
-        print(f"whitted: error: {line}", file=sys.stderr)
-
-
 def _convert(args: argparse.Namespace) -> int:
-    from .converter.batch import check_writable, convert_file, plan
-
-    pairs = plan(args.scenes, args.output)
-    out = Path(args.output) if args.output else None
-    if out is not None and len(pairs) > 1 and not out.exists():
-        try:
-            out.mkdir(parents=True)
-        except OSError as error:
-            raise WhittedError(f"{out}: cannot create the output folder: {error.strerror or error}") from None
-    for folder in sorted({target.parent for _, target in pairs}):
-        check_writable(folder)
-    failed = 0
-    for source, target in pairs:
-        try:
-            convert_file(source, target)
-        except WhittedError as error:
-            _report(error)
-            failed += 1
-        else:
-            if args.verbose:
-                print(f"wrote {target}", file=sys.stderr)
-    if failed and len(pairs) > 1:
-        print(f"whitted: {failed} of {len(pairs)} scene files not converted", file=sys.stderr)
-    return EXIT_USER_ERROR if failed else 0
+    from .commands import convert_command
+    return convert_command(args)
 
 
 def _render(args: argparse.Namespace) -> None:
-    from .rendering import render_command
+    from .commands import render_command
     render_command(args)
 
 
 def _compare(args: argparse.Namespace) -> None:
-    from .compare import compare_command
+    from .compare.cli import compare_command
     compare_command(args)
 
 
@@ -114,15 +85,16 @@ def build_parser() -> argparse.ArgumentParser:
     render.add_argument("--ambient", type=float, metavar="A",
                         help="the article's ambient coefficient (default: the scene's)")
     render.add_argument("--min-weight", type=float, metavar="W",
-                        help="adaptive depth control (Hall and Greenberg): leave untraced the "
-                             "reflected and refracted rays whose path weight, the product of the "
-                             "KR and KT factors above them, is below W (default: the scene's; 0, off)")
+                        help="adaptive depth control (Hall and Greenberg): leave reflected and "
+                             "refracted rays untraced as long as together they cannot change a pixel "
+                             "by more than W; --stats reports the bound reached (default: the "
+                             "scene's, 1/255 unless it says; 0 traces the exact tree)")
     render.add_argument("--stats", metavar="FILE.json", help="write ray counts and timings as JSON")
     render.add_argument("-v", "--verbose", action="store_true", help="print a one-line summary")
     render.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     render.set_defaults(run=_render)
 
-    from .compare import add_arguments as add_compare_arguments
+    from .compare.cli import add_arguments as add_compare_arguments
     compare = sub.add_parser(
         "compare", help="what accuracy costs in time: sweep the methods against a path-traced reference",
         description="Render a converged path-traced reference (cached), then sweep the Whitted "
@@ -134,47 +106,28 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-class _Interrupted:
-    """SIGINT and SIGTERM as a ``KeyboardInterrupt``, remembered: code that catches
-    and wraps the exception (Dr.Jit's ``custom`` turns it into a RuntimeError)
-    cannot hide that the user asked to stop."""
-
-    signal_number: int | None = None
-
-    @classmethod
-    def handler(cls, number, frame):
-        cls.signal_number = number
-        raise KeyboardInterrupt
-
-    @classmethod
-    def install(cls) -> None:
-        cls.signal_number = None
-        for number in (signal.SIGINT, signal.SIGTERM):
-            signal.signal(number, cls.handler)
-
-
 def main(argv: list[str] | None = None) -> int:
+    interrupt.install()
     parser = build_parser()
     args = parser.parse_args(argv)
-    _Interrupted.install()
     try:
         from .variant import check_environment
         check_environment()
         status = args.run(args) or 0
     except WhittedError as error:
-        if _Interrupted.signal_number is None:
-            _report(error)
+        if not interrupt.requested():
+            report(error)
             return EXIT_USER_ERROR
     except BrokenPipeError:
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 1
-    except BaseException:
-        if _Interrupted.signal_number is None:
+    except BaseException as error:
+        if not interrupt.requested(error):
             raise
-    if _Interrupted.signal_number is not None:
-        print("whitted: interrupted", file=sys.stderr)
-        return 128 + _Interrupted.signal_number
-    return status
+    else:
+        return status
+    print("whitted: interrupted", file=sys.stderr)
+    return interrupt.exit_status()
 
 
 if __name__ == "__main__":

@@ -1,8 +1,15 @@
-"""The errors a user sees: one line, no traceback (the CLI prints them)."""
+"""The errors a user sees: one line each, no traceback (the CLI prints them)."""
 
 from __future__ import annotations
 
 import os
+import sys
+
+
+def report(error: BaseException) -> None:
+    """Each line of a user error as ``whitted: error: LINE`` on stderr (the CLI's one format)."""
+    for line in (str(error).splitlines() or [type(error).__name__]):
+        print(f"whitted: error: {line}", file=sys.stderr)
 
 
 class WhittedError(Exception):
@@ -10,11 +17,44 @@ class WhittedError(Exception):
 
 
 class SceneError(WhittedError):
-    """A problem in a scene file, located as ``FILE:LINE: message`` (or ``FILE: message``)."""
+    """The problems of a scene file, each located as ``FILE:LINE: message`` (or ``FILE: message``).
 
-    def __init__(self, path: str | os.PathLike, line: int | None, message: str):
+    .. list-table::
+       :header-rows: 1
+
+       * - Attribute
+         - Meaning
+       * - ``path``, ``line``, ``message``
+         - the first problem (``line`` is None for a problem of the whole file)
+       * - ``errors``
+         - every problem as (path, line, message), in file order; the first is the above
+
+    ``str(error)`` is one line per problem, at most ``shown`` of them (the parser
+    passes :data:`whitted.defaults.MAX_REPORTED_ERRORS`), then a line that counts
+    the rest. The CLI prints each line as ``whitted: error: LINE``.
+    """
+
+    def __init__(self, path: str | os.PathLike, line: int | None, message: str, more=(),
+                 shown: int | None = None):
         self.path = os.fspath(path)
         self.line = line
         self.message = message
-        where = self.path if line is None else f"{self.path}:{line}"
-        super().__init__(f"{where}: {message}")
+        self.errors: list[tuple[str, int | None, str]] = \
+            [(self.path, line, message), *((os.fspath(p), n, m) for p, n, m in more)]
+        self.shown = len(self.errors) if shown is None else shown
+        super().__init__(self._text())
+
+    @classmethod
+    def collected(cls, errors, shown: int | None = None) -> "SceneError":
+        """One error for all of ``errors``, (path, line, message) in file order; ``str()``
+        lists the first ``shown`` (default: all)."""
+        (path, line, message), *more = errors
+        return cls(path, line, message, more, shown)
+
+    def _text(self) -> str:
+        lines = [f"{path}: {message}" if line is None else f"{path}:{line}: {message}"
+                 for path, line, message in self.errors[:self.shown]]
+        more = len(self.errors) - self.shown
+        if more > 0:
+            lines.append(f"... and {more} more error{'s' if more > 1 else ''}")
+        return "\n".join(lines)

@@ -61,10 +61,12 @@ def _checked(overrides: dict) -> dict:
     return {k: OVERRIDES[k](v) for k, v in overrides.items() if v is not None}
 
 
-def load_scene(path: str | os.PathLike, variant: str | None = None, **overrides):
+def load_scene(path: str | os.PathLike, variant: str | None = None, *, model=None, **overrides):
     """Load a ``.scn`` or ``.xml`` scene as a ``mi.Scene``.
 
     ``variant`` selects a Mitsuba variant first (default: keep the current one).
+    ``model`` is the already parsed scene model of a ``.scn`` ``path``
+    (``whitted.converter.Scene``): the file is then not read again.
     ``overrides`` replace the scene's ``spp``, ``max_depth``, ``ambient`` or
     ``lighting`` ("article" or "physical").
     """
@@ -84,8 +86,9 @@ def load_scene(path: str | os.PathLike, variant: str | None = None, **overrides)
         from .converter import parse_file
         from .converter.description import describe
         from .converter.frame import warn_precision
-        model = parse_file(path)
-        warn_precision(model)
+        if model is None:
+            model = parse_file(path)
+            warn_precision(model)
         return mi.load_dict(mitsuba_dict(describe(model, base_dir=None), params), parallel=PARALLEL)
     except RuntimeError as error:
         first = str(error).strip().splitlines()[0] if str(error).strip() else type(error).__name__

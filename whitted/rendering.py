@@ -1,4 +1,5 @@
-"""The rendering API and ``whitted render``.
+"""The rendering API: ``whitted.render`` (the ``whitted render`` command is in
+:mod:`whitted.commands`).
 
 :func:`render` renders a loaded ``mi.Scene`` with the article's model (the
 ``whitted`` integrator) or with Mitsuba's stock ``path`` integrator, and
@@ -14,23 +15,35 @@ In ``scalar_rgb`` nothing is compiled.
 
 Statistics (``result.stats``, written by ``--stats FILE.json``)::
 
-    {"rays": {"camera", "shadow", "reflection", "refraction"},
+    {"rays": {"camera", "shadow", "reflection", "refraction"}, "merged_rays",
      "seconds", "compile_seconds", "effects": [...], "max_depth_reached",
-     "peak_memory_bytes", "min_weight", "culled_rays", "culled_weight"}
+     "peak_memory_bytes", "peak_resident_bytes", "min_weight", "culled_rays", "culled_weight",
+     "error_bound"}
 
-``min_weight`` is the adaptive depth control's threshold (0: off; see the
-integrator's ``_traced``), ``culled_rays`` the reflected and refracted rays it
-left untraced and ``culled_weight`` the sum of their path weights: the image's
-error, summed over its pixels, is at most ``culled_weight / spp`` times the
-brightest colour in the scene.
+``merged_rays`` counts the rays that carried both a reflected and a
+refracted share (total internal reflection sends the refracted share along
+the mirror direction: one ray, traced once, counted in both ``reflection``
+and ``refraction``); the rays traced are the sum of ``rays`` minus it.
+
+``min_weight`` is the adaptive depth control's setting (1/255 by default, 0:
+off; see plugins/adaptive.py): the most the branches it leaves untraced may
+change a pixel. ``culled_rays`` counts the reflected and refracted rays it left
+untraced and ``culled_weight`` sums their path weights; ``error_bound`` is the
+most it can have changed any pixel, in any channel (linear radiance): the
+largest weight culled from one camera sample's tree times the brightest color
+a ray can have in the scene. It is at most ``min_weight``, and 0 when nothing
+was culled.
 
 ``peak_memory_bytes`` is, in the JIT variants, the high-water mark of Dr.Jit's
 memory allocator during the render (every array Dr.Jit holds: the scene's
 own arrays, the wavefronts and the image; not Embree's or OptiX's
 acceleration structures, nor Python's heap); its cache is flushed before the
 render so that the mark starts from what is really in use. In
-``scalar_rgb``, where Dr.Jit allocates nothing, it is the peak resident set
-size of the whole process. Mitsuba's ``path`` integrator does not count its
+``scalar_rgb``, where Dr.Jit allocates nothing, it is ``peak_resident_bytes``.
+``peak_resident_bytes`` is what the operating system counts: the process's
+peak resident set size during the render (on Linux; elsewhere over the
+process's life; see :mod:`whitted.memory`), everything included. ``whitted
+render`` extends it to the end of writing the image. Mitsuba's ``path`` integrator does not count its
 rays: for it only ``camera`` is given and the others are null, as are
 ``max_depth_reached`` and the adaptive depth control's entries.
 """
@@ -38,18 +51,15 @@ rays: for it only ``camera`` is given and the others are null, as are
 from __future__ import annotations
 
 import contextlib
-import json
-import math
-import sys
 import time
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 
 from . import defaults as D
-from .defaults import INTEGRATORS  # noqa: F401  (re-export)
 from .errors import WhittedError
+from .memory import peak_resident_bytes, reset_peak
+from .progress import progress_bar
 
 #: the Whitted settings of a scene whose integrator is not the ``whitted`` plugin
 DEFAULTS = {"max_depth": D.DEPTH, "ambient": D.AMBIENT, "lighting": D.LIGHTING, "min_weight": D.MIN_WEIGHT}
@@ -102,7 +112,8 @@ def quiet_mitsuba():
         logger.set_log_level(level)
 
 
-def _check(spp, max_depth, lighting, integrator, min_weight=None):
+def check_settings(spp, max_depth, lighting, integrator, min_weight=None) -> None:
+    """Every rendering option validated once (the API and the CLI call this)."""
     D.check_integrator(integrator)
     if spp is not None:
         D.check_spp(spp)
@@ -136,6 +147,7 @@ class _Clock:
             dr.kernel_history_clear()
             dr.flush_malloc_cache()
             dr.detail.malloc_clear_statistics()
+        reset_peak()
         self.start = time.perf_counter()
         return self
 
@@ -143,26 +155,19 @@ class _Clock:
         import drjit as dr
         self.wall = time.perf_counter() - self.start
         self.compile = 0.0
+        self.peak_resident = peak_resident_bytes()
         if self.jit:
             history = dr.kernel_history()
             self._flag.__exit__(*exc)
             self.compile = sum(k.get("backend_time", 0.0) for k in history) / 1000.0
             self.peak_memory = int(dr.detail.malloc_watermark(self.backend))
         else:
-            import resource
-            self.peak_memory = int(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss) * 1024
+            self.peak_memory = self.peak_resident
         return False
 
     @property
     def seconds(self) -> float:
         return max(0.0, self.wall - self.compile)
-
-
-def _progress_bar(enabled: bool, total: int, what: str):
-    from tqdm import tqdm
-    # 'delay': short renders finish before a bar would appear.
-    return tqdm(total=total, desc=f"whitted: {what}", unit="sample", unit_scale=True,
-                file=sys.stderr, disable=not enabled, delay=0.5, leave=False)
 
 
 def render(scene, integrator: str = "whitted", spp: int | None = None, max_depth: int | None = None,
@@ -178,7 +183,7 @@ def render(scene, integrator: str = "whitted", spp: int | None = None, max_depth
     """
     import mitsuba as mi
 
-    _check(spp, max_depth, lighting, integrator, min_weight)
+    check_settings(spp, max_depth, lighting, integrator, min_weight)
     if not scene.sensors():
         raise WhittedError("the scene has no sensor (camera) to render from")
     settings = _whitted_settings(scene)
@@ -190,40 +195,63 @@ def render(scene, integrator: str = "whitted", spp: int | None = None, max_depth
     if integrator == "whitted":
         min_weight = float(min_weight) if min_weight is not None else settings["min_weight"]
         whitted = _whitted_integrator(scene, settings, depth, lighting or settings["lighting"], min_weight)
-        with _progress_bar(progress, width * height * spp, "render") as bar, _Clock() as clock:
+        with progress_bar(progress, width * height * spp, "render") as bar, _Clock() as clock:
             rendering = whitted.render_detailed(scene, sensor, seed=seed, spp=spp, progress=bar.update)
-            image = np.array(rendering.image, dtype=np.float32)
+            # The developed image's own memory, not a copy (a 16384² image is 3 GiB).
+            image = np.asarray(rendering.image, dtype=np.float32)
         rays = rendering.rays
         stats_rays, effects, reached = rays.rays(), list(rendering.effects), rays.max_depth_reached
-        adaptive = {"min_weight": min_weight, "culled_rays": rays.culled,
-                    "culled_weight": rays.culled_weight}
+        adaptive = {"merged_rays": rays.merged, "min_weight": min_weight, "culled_rays": rays.culled,
+                    "culled_weight": rays.culled_weight, "error_bound": rendering.error_bound}
     else:
         path = mi.load_dict({"type": "path", "max_depth": depth + 1})
-        with _progress_bar(progress, width * height * spp, "path tracing") as bar, _Clock() as clock:
+        with progress_bar(progress, width * height * spp, "path tracing") as bar, _Clock() as clock:
             image = _render_path(scene, path, sensor, spp, seed, bar.update)
         stats_rays = {"camera": width * height * spp, "shadow": None, "reflection": None,
                       "refraction": None}
         effects, reached = _effects_or_none(scene, depth), None
-        adaptive = {"min_weight": None, "culled_rays": None, "culled_weight": None}
+        adaptive = {"merged_rays": None, "min_weight": None, "culled_rays": None, "culled_weight": None,
+                    "error_bound": None}
 
     image = image[..., :3]
     stats = {"rays": stats_rays, "seconds": clock.seconds, "compile_seconds": clock.compile,
              "effects": effects, "max_depth_reached": reached, "peak_memory_bytes": clock.peak_memory,
-             **adaptive}
+             "peak_resident_bytes": clock.peak_resident, **adaptive}
     return RenderResult(np.ascontiguousarray(image), clock.seconds, clock.compile, stats)
 
 
+def path_passes(spp: int, pixels: int) -> list[int]:
+    """The samples per pixel of each pass of the path tracer: powers of two, each pass
+    at most :data:`PATH_SAMPLES_PER_PASS` camera samples (but at least 1 spp).
+
+    Why powers of two: the LLVM backend runs a kernel in blocks of a power of two of
+    lanes spread over its threads, and a pixel's samples are consecutive lanes. When
+    a pass's spp is a power of two, every pixel's samples lie in one block and are
+    added into the film by one thread in a fixed order, so the image depends only on
+    the seed: bit-identical from run to run, process to process, and for any thread
+    count. With 10 spp a pixel can straddle two blocks, and its sum then depends on
+    which thread finishes first (a difference in the last bit), which would make two
+    runs of ``whitted compare`` differ.
+    """
+    most = max(1, min(spp, PATH_SAMPLES_PER_PASS // pixels))
+    most = 1 << (most.bit_length() - 1)
+    passes = [most] * (spp // most)
+    rest = spp % most
+    while rest:
+        passes.append(1 << (rest.bit_length() - 1))
+        rest -= passes[-1]
+    return passes
+
+
 def _render_path(scene, integrator, sensor, spp, seed, progress) -> np.ndarray:
-    """Mitsuba's path tracer in passes of whole samples per pixel, averaged."""
+    """Mitsuba's path tracer in passes of whole samples per pixel (:func:`path_passes`),
+    averaged."""
     import mitsuba as mi
     width, height = (int(c) for c in sensor.film().crop_size())
-    spp_per_pass = max(1, min(spp, PATH_SAMPLES_PER_PASS // (width * height)))
-    passes = math.ceil(spp / spp_per_pass)
     total = None
     own_spp = sensor.sampler().sample_count()   # mi.render changes it: put it back after
     try:
-        for k in range(passes):
-            n = min(spp_per_pass, spp - k * spp_per_pass)
+        for k, n in enumerate(path_passes(spp, width * height)):
             # Distinct seeds per pass: passes are independent estimates (a single
             # pass is exactly mi.render with the caller's seed).
             pass_seed = seed if k == 0 else (seed * 0x9E3779B1 + k) & 0xFFFFFFFF
@@ -243,63 +271,3 @@ def _effects_or_none(scene, depth: int) -> list:
         return list(analyse(scene, depth, _whitted_settings(scene)["light_reference"]).effects)
     except WhittedError:
         return []
-
-
-# --------------------------------------------------------------------------- the command
-
-
-def _summary(args, result: RenderResult, width: int, height: int, spp: int) -> str:
-    import mitsuba as mi
-    s = result.stats
-    rays = ", ".join(f"{v} {k}" for k, v in s["rays"].items() if v is not None)
-    depth = "" if s["max_depth_reached"] is None else f"depth reached {s['max_depth_reached']}; "
-    if s["min_weight"]:
-        depth += f"{s['culled_rays']} rays culled below weight {s['min_weight']:g}; "
-    return (f"whitted: {width}x{height} at {spp} spp with {args.integrator} ({mi.variant()}): "
-            f"{s['seconds']:.3f} s (+{s['compile_seconds']:.3f} s compiling); rays: {rays}; {depth}"
-            f"effects: {' '.join(s['effects']) or 'none'}; "
-            f"peak memory {s['peak_memory_bytes'] / 2**20:.1f} MiB")
-
-
-def _check_output(path: Path, scene_path: Path) -> None:
-    folder = path.parent if str(path.parent) else Path(".")
-    if not folder.is_dir():
-        raise WhittedError(f"{path}: output folder {folder} does not exist")
-    if path.exists() and path.resolve() == scene_path.resolve():
-        raise WhittedError(f"{path}: output would overwrite the input scene")
-
-
-def _load_quietly(args):
-    from .loading import load_scene
-    with quiet_mitsuba():
-        return load_scene(args.scene, variant=args.variant, spp=args.spp, max_depth=args.max_depth,
-                          ambient=args.ambient, lighting=args.lighting)
-
-
-def render_command(args) -> None:
-    """``whitted render SCENE -o OUT``: everything is checked before anything is written."""
-    from .atomic import write_text
-    from .imageio import image_format, write_image
-
-    output = Path(args.output)
-    image_format(output)
-    _check_output(output, Path(args.scene))
-    if args.stats:
-        _check_output(Path(args.stats), Path(args.scene))
-    _check(args.spp, args.max_depth, args.lighting, args.integrator, args.min_weight)
-    if args.ambient is not None and not 0.0 <= args.ambient <= 1.0:
-        raise WhittedError(f"ambient must be in [0, 1], got {args.ambient}")
-
-    scene = _load_quietly(args)
-    if not scene.sensors():
-        raise WhittedError(f"{args.scene}: the scene has no sensor (camera) to render from")
-    sensor = scene.sensors()[0]
-    width, height = (int(c) for c in sensor.film().crop_size())
-    spp = sensor.sampler().sample_count()
-    result = render(scene, integrator=args.integrator, progress=not args.quiet,
-                    min_weight=args.min_weight)
-    write_image(output, result.image)
-    if args.stats:
-        write_text(args.stats, json.dumps(result.stats, indent=2) + "\n")
-    if args.verbose:
-        print(_summary(args, result, width, height, spp), file=sys.stderr)

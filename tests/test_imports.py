@@ -1,0 +1,134 @@
+"""The package's import graph: no module imports itself back, and every package
+folder is installed.
+
+The graph is read from the source with :mod:`ast` (no module is executed), over
+the ``whitted.*`` modules as pyproject.toml maps them (``converter/`` is
+``whitted.converter``, ``plugins/`` is ``whitted.plugins``). Every import
+statement counts, also those inside functions and under ``TYPE_CHECKING``: a lazy
+import hides a cycle from Python, not from the design. Imports by name
+(``importlib.import_module("...")``) are not seen.
+"""
+
+from __future__ import annotations
+
+import ast
+import tomllib
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def _setuptools() -> dict:
+    with open(ROOT / "pyproject.toml", "rb") as f:
+        return tomllib.load(f)["tool"]["setuptools"]
+
+
+def package_modules() -> dict[str, Path]:
+    """Every module of the installed namespace -> its source file."""
+    package_dir = _setuptools()["package-dir"]
+    folders = {ROOT / folder: name for name, folder in package_dir.items()}
+    modules: dict[str, Path] = {}
+    for folder, package in folders.items():
+        for file in sorted(folder.rglob("*.py")):
+            # a folder mapped on its own (whitted.converter) is not also a part of its parent
+            if any(other != folder and other in file.parents and folder in other.parents
+                   for other in folders):
+                continue
+            parts = list(file.relative_to(folder).with_suffix("").parts)
+            if parts[-1] == "__init__":
+                parts.pop()
+            modules[".".join([package, *parts])] = file
+    return modules
+
+
+def _imported(module: str, file: Path, node: ast.AST, known: set[str]) -> set[str]:
+    """The package modules one import statement depends on."""
+    if isinstance(node, ast.Import):
+        targets = [alias.name for alias in node.names]
+    else:
+        if node.level:
+            base = module.split(".") if file.name == "__init__.py" else module.split(".")[:-1]
+            base = base[:len(base) - node.level + 1]
+            source = ".".join(base + ([node.module] if node.module else []))
+        else:
+            source = node.module or ""
+        # `from package import submodule` depends on the submodule; other names on the package
+        targets = [f"{source}.{alias.name}" if f"{source}.{alias.name}" in known else source
+                   for alias in node.names]
+    found = set()
+    for target in targets:
+        parts = target.split(".")
+        while parts and ".".join(parts) not in known:  # `import a.b.c` of a name inside a.b
+            parts.pop()
+        if parts:
+            found.add(".".join(parts))
+    return found
+
+
+def import_graph() -> dict[str, set[str]]:
+    modules = package_modules()
+    known = set(modules)
+    graph = {}
+    for module, file in modules.items():
+        tree = ast.parse(file.read_text(encoding="utf-8"), filename=str(file))
+        edges = set()
+        for node in ast.walk(tree):
+            if isinstance(node, (ast.Import, ast.ImportFrom)):
+                edges |= _imported(module, file, node, known)
+        graph[module] = edges - {module}
+    return graph
+
+
+def find_cycle(graph: dict[str, set[str]]) -> list[str] | None:
+    """One cycle of the graph as [a, b, ..., a], or None (depth-first search)."""
+    state: dict[str, int] = {}  # 1: on the current path, 2: done
+    path: list[str] = []
+
+    def visit(node: str) -> list[str] | None:
+        state[node] = 1
+        path.append(node)
+        for other in sorted(graph[node]):
+            if state.get(other) == 1:
+                return path[path.index(other):] + [other]
+            if other not in state:
+                cycle = visit(other)
+                if cycle:
+                    return cycle
+        path.pop()
+        state[node] = 2
+        return None
+
+    for node in sorted(graph):
+        if node not in state:
+            cycle = visit(node)
+            if cycle:
+                return cycle
+    return None
+
+
+def test_find_cycle_finds_cycles_and_only_cycles():
+    assert find_cycle({"a": {"b"}, "b": {"c"}, "c": set()}) is None
+    assert find_cycle({"a": {"b", "c"}, "b": {"c"}, "c": set()}) is None  # a diamond
+    assert find_cycle({"a": {"b"}, "b": {"c"}, "c": {"a"}}) == ["a", "b", "c", "a"]
+    assert find_cycle({"x": {"a"}, "a": {"b"}, "b": {"a"}}) == ["a", "b", "a"]
+
+
+def test_the_graph_sees_relative_lazy_and_type_checking_imports():
+    graph = import_graph()
+    assert "whitted.converter.parser" in graph and "whitted.plugins.integrator" in graph
+    assert "whitted.errors" in graph["whitted.converter.parser"]       # from ..errors import
+    assert "whitted.plugins.optics" in graph["whitted.plugins.shading"]  # from . import optics
+    assert "whitted.plugins.effects" in graph["whitted.rendering"]         # inside a function
+    assert "whitted.defaults" in graph["whitted.plugins.integrator"]    # absolute
+
+
+def test_package_has_no_import_cycle():
+    cycle = find_cycle(import_graph())
+    assert cycle is None, "import cycle: " + " -> ".join(cycle)
+
+
+def test_every_package_folder_is_installed():
+    """A subpackage missing from pyproject's list works in an editable install only."""
+    listed = set(_setuptools()["packages"])
+    packages = {name for name, file in package_modules().items() if file.name == "__init__.py"}
+    assert packages == listed

@@ -1,0 +1,104 @@
+"""The bodies of ``whitted convert`` and ``whitted render`` (``whitted/cli.py`` parses
+their arguments; ``compare`` has its own package).
+
+Both check everything a user can get wrong — options, environment, the scene,
+every output path — before any long work, and write outputs atomically, so
+that a failure or an interruption leaves no partial file.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+from .errors import WhittedError, report
+
+EXIT_USER_ERROR = 2
+
+
+def convert_command(args) -> int:
+    """``whitted convert SCENE... [-o OUT]``: every file converted that can be; 2 if any failed."""
+    from .atomic import check_writable
+    from .converter.batch import convert_file, plan
+
+    pairs = plan(args.scenes, args.output)
+    out = Path(args.output) if args.output else None
+    if out is not None and len(pairs) > 1 and not out.exists():
+        from .atomic import writable_folder
+        writable_folder(out)
+    for folder in sorted({target.parent for _, target in pairs}):
+        check_writable(folder / ".whitted-convert")
+    failed = 0
+    for source, target in pairs:
+        try:
+            convert_file(source, target)
+        except WhittedError as error:
+            report(error)
+            failed += 1
+        else:
+            if args.verbose:
+                print(f"wrote {target}", file=sys.stderr)
+    if failed and len(pairs) > 1:
+        print(f"whitted: {failed} of {len(pairs)} scene files not converted", file=sys.stderr)
+    return EXIT_USER_ERROR if failed else 0
+
+
+
+
+def _summary(args, result, width: int, height: int, spp: int) -> str:
+    import mitsuba as mi
+    s = result.stats
+    rays = ", ".join(f"{v} {k}" for k, v in s["rays"].items() if v is not None)
+    depth = "" if s["max_depth_reached"] is None else f"depth reached {s['max_depth_reached']}; "
+    if s["min_weight"]:
+        depth += (f"{s['culled_rays']} rays culled, error at most {s['error_bound']:.2g} "
+                  f"(min weight {s['min_weight']:.3g}); ")
+    return (f"whitted: {width}x{height} at {spp} spp with {args.integrator} ({mi.variant()}): "
+            f"{s['seconds']:.3f} s (+{s['compile_seconds']:.3f} s compiling); rays: {rays}; {depth}"
+            f"effects: {' '.join(s['effects']) or 'none'}; "
+            f"peak memory {s['peak_memory_bytes'] / 2**20:.1f} MiB (Dr.Jit), "
+            f"{s['peak_resident_bytes'] / 2**20:.1f} MiB resident")
+
+
+def _load_quietly(args):
+    from .loading import load_scene
+    from .rendering import quiet_mitsuba
+    with quiet_mitsuba():
+        return load_scene(args.scene, variant=args.variant, spp=args.spp, max_depth=args.max_depth,
+                          ambient=args.ambient, lighting=args.lighting)
+
+
+def render_command(args) -> None:
+    """``whitted render SCENE -o OUT``: everything is checked before anything is written."""
+    from .atomic import check_writable, write_text
+    from .defaults import check_ambient
+    from .imageio import image_format, write_image
+    from .memory import peak_resident_bytes
+    from .rendering import check_settings, render
+
+    output = Path(args.output)
+    image_format(output)
+    check_settings(args.spp, args.max_depth, args.lighting, args.integrator, args.min_weight)
+    if args.ambient is not None:
+        check_ambient(args.ambient)
+    if args.stats and Path(args.stats).resolve() == output.resolve():
+        raise WhittedError(f"{args.stats}: the statistics would overwrite the image")
+    check_writable(output, inputs=(args.scene,))
+    if args.stats:
+        check_writable(args.stats, inputs=(args.scene,))
+
+    scene = _load_quietly(args)
+    if not scene.sensors():
+        raise WhittedError(f"{args.scene}: the scene has no sensor (camera) to render from")
+    sensor = scene.sensors()[0]
+    width, height = (int(c) for c in sensor.film().crop_size())
+    spp = sensor.sampler().sample_count()
+    result = render(scene, integrator=args.integrator, progress=not args.quiet,
+                    min_weight=args.min_weight)
+    write_image(output, result.image, progress=not args.quiet)
+    result.stats["peak_resident_bytes"] = peak_resident_bytes()   # the writing included
+    if args.stats:
+        write_text(args.stats, json.dumps(result.stats, indent=2) + "\n")
+    if args.verbose:
+        print(_summary(args, result, width, height, spp), file=sys.stderr)

@@ -1,0 +1,128 @@
+"""The ``compare`` subcommand of the ``whitted`` CLI: its options, and what it prints.
+
+``whitted.cli`` builds the subparser and calls :func:`add_arguments` and
+:func:`compare_command`; the comparison itself is :func:`whitted.compare.compare`,
+which a script can call with an :class:`~whitted.compare.results.Options`.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import time
+from pathlib import Path
+
+from ..defaults import VARIANTS as SUPPORTED_VARIANTS
+from .results import (DEFAULT_LEVELS, DEFAULT_PATH_SPP, DEFAULT_REFERENCE_CHUNK_SPP,
+                      DEFAULT_REFERENCE_SPP, DEFAULT_REPEATS, DEFAULT_WHITTED_SPP, MAX_DEFAULT_DEPTH,
+                      Options)
+
+
+def int_list(text: str) -> tuple[int, ...]:
+    """'1,4,16' or '1-5' or '1-3,8' -> a sorted tuple of distinct positive integers (argparse type)."""
+    values: set[int] = set()
+    try:
+        for item in text.split(","):
+            item = item.strip()
+            if "-" in item[1:]:
+                low, high = item.split("-", 1)
+                low, high = int(low), int(high)
+                if high < low:
+                    raise ValueError
+                values.update(range(low, high + 1))
+            else:
+                values.add(int(item))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"'{text}' is not a list of integers like 1,4,16 or 1-5") from None
+    if not values or min(values) < 1:
+        raise argparse.ArgumentTypeError(f"'{text}': every value must be an integer >= 1")
+    return tuple(sorted(values))
+
+
+def float_list(text: str) -> tuple[float, ...]:
+    """'0.1,0.03' -> a tuple of positive finite numbers, largest first (argparse type)."""
+    try:
+        values = {float(item) for item in text.split(",")}
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"'{text}' is not a list of numbers like 0.1,0.03,0.01") from None
+    if not values or not all(math.isfinite(v) and v > 0 for v in values):
+        raise argparse.ArgumentTypeError(f"'{text}': every value must be a positive number")
+    return tuple(sorted(values, reverse=True))
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """The ``compare`` subcommand's options (the CLI builds the subparser)."""
+    parser.add_argument("scenes", nargs="+", metavar="SCENE",
+                        help="scenes (.scn or .xml), or folders of them")
+    parser.add_argument("-o", "--out", required=True, metavar="DIR", help="output folder")
+    parser.add_argument("--reference-spp", type=int, default=DEFAULT_REFERENCE_SPP, metavar="N",
+                        help=f"the reference's samples per pixel (default {DEFAULT_REFERENCE_SPP})")
+    parser.add_argument("--depths", type=int_list, metavar="LIST",
+                        help="Whitted max depths, e.g. 1-5 or 1,2,4 (default: 1 to the scene's depth, "
+                             f"at most {MAX_DEFAULT_DEPTH})")
+    parser.add_argument("--spp", type=int_list, default=DEFAULT_WHITTED_SPP, metavar="LIST",
+                        help="the Whitted integrator's spp ladder (default "
+                             f"{','.join(map(str, DEFAULT_WHITTED_SPP))})")
+    parser.add_argument("--path-spp", type=int_list, default=DEFAULT_PATH_SPP, metavar="LIST",
+                        help="the path tracer's spp ladder (default "
+                             f"{','.join(map(str, DEFAULT_PATH_SPP))})")
+    parser.add_argument("--path-depth", type=int, metavar="N",
+                        help="the path tracer's max depth, for the reference too (default: the scene's)")
+    parser.add_argument("--repeats", type=int, default=DEFAULT_REPEATS, metavar="N",
+                        help=f"renders per setting; the median time is kept (default {DEFAULT_REPEATS})")
+    parser.add_argument("--budget", type=float, metavar="SECONDS",
+                        help="bound the whole command's time: renders that would overrun are skipped")
+    parser.add_argument("--levels", type=float_list, default=DEFAULT_LEVELS, metavar="LIST",
+                        help="relative MSE levels of the summary table (default "
+                             f"{','.join(map(str, DEFAULT_LEVELS))})")
+    parser.add_argument("--cache", metavar="DIR", help="where references are cached (default DIR/references)")
+    parser.add_argument("--variant", choices=SUPPORTED_VARIANTS,
+                        help="Mitsuba variant (default as for render)")
+    parser.add_argument("--reference-chunk-spp", type=int, default=DEFAULT_REFERENCE_CHUNK_SPP,
+                        metavar="N", help="render the reference in chunks of N spp, each with its "
+                                          "own seed, averaged; a cluster spreads them over its "
+                                          f"workers (default {DEFAULT_REFERENCE_CHUNK_SPP})")
+    where = parser.add_mutually_exclusive_group()
+    where.add_argument("--workers", type=int, metavar="N",
+                       help="sweep on a local Dask cluster of N worker processes (each scene's "
+                            "settings on one worker; the cores shared among them)")
+    where.add_argument("--scheduler", metavar="ADDRESS",
+                       help="sweep on the Dask cluster of this scheduler, e.g. tcp://host:8786 "
+                            "(workers started with whitted installed; see docs/cluster.md)")
+    parser.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
+
+
+def compare_command(args: argparse.Namespace) -> None:
+    """The CLI's ``compare`` subcommand."""
+    from . import report
+    from .analysis import analyse
+    from .run import compare
+
+    options = Options(out=Path(args.out), reference_spp=args.reference_spp, depths=args.depths,
+                      whitted_spp=args.spp, path_spp=args.path_spp, path_depth=args.path_depth,
+                      repeats=args.repeats, budget=args.budget, levels=args.levels,
+                      cache=Path(args.cache) if args.cache else None, variant=args.variant,
+                      quiet=args.quiet, reference_chunk_spp=args.reference_chunk_spp,
+                      workers=args.workers, scheduler=args.scheduler)
+    start = time.monotonic()
+    entries = compare(args.scenes, options)
+    skipped = sum(len(e.skipped) for e in entries)
+    done = sum(len(e.measurements) for e in entries)
+    print(report.summary([analyse(e, options.levels) for e in entries if e.reference_file],
+                         equal_time=False))
+    if skipped:
+        print(f"\nbudget of {options.budget:g} s: skipped {skipped} of {skipped + done} renders; "
+              f"the outputs hold the renders that were done")
+    for e in entries:
+        for note in e.notes:  # what the budget did, and why (also in the report)
+            print(f"{e.name}: {note}", file=sys.stderr)
+        if e.reference_file is None:
+            continue
+        how = "read from the cache" if e.reference_cached else f"rendered in {e.reference_seconds:.1f} s"
+        print(f"{e.name}: reference (path tracer, {e.reference_spp} spp) {how}: {e.reference_file}",
+              file=sys.stderr)
+    if done == 0:
+        print("whitted compare: no render was done (see the lines above for why)", file=sys.stderr)
+    print(f"\n{done} renders in {time.monotonic() - start:.1f} s; wrote {report.output_files(options.out)}",
+          file=sys.stderr)

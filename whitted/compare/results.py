@@ -1,0 +1,245 @@
+"""What a comparison is asked to do and what it measured: plain data only.
+
+Every other part of ``whitted compare`` speaks in these types: the planner makes
+:class:`Setting` lists, the sweep fills :class:`SceneResult` with
+:class:`Measurement` s, and the reports (CSV, plot, contact sheet, table, and
+any later one) read them. They import nothing of the rest of the command, so a
+report never imports the sweep, and they hold no Mitsuba object, so they pickle:
+a worker process can receive the settings and :class:`Options` and send a
+:class:`SceneResult` back. The defaults of the command live here, once.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from ..defaults import (COMPARE_LEVELS as DEFAULT_LEVELS, COMPARE_MAX_DEFAULT_DEPTH as MAX_DEFAULT_DEPTH,
+                        COMPARE_PATH_SPP as DEFAULT_PATH_SPP,
+                        COMPARE_REFERENCE_CHUNK_SPP as DEFAULT_REFERENCE_CHUNK_SPP,
+                        COMPARE_REFERENCE_SPP as DEFAULT_REFERENCE_SPP,
+                        COMPARE_REPEATS as DEFAULT_REPEATS, COMPARE_WHITTED_SPP as DEFAULT_WHITTED_SPP,
+                        MAX_DEPTH)
+
+if TYPE_CHECKING:
+    import numpy as np
+
+#: The Whitted integrator in its two lighting modes, then the path tracer.
+WHITTED_METHODS = ("whitted-article", "whitted-physical")
+METHODS = WHITTED_METHODS + ("path",)
+#: Who rendered a scene's sweep when no cluster did (``SceneResult.worker``).
+IN_PROCESS = "in-process"
+
+__all__ = ["DEFAULT_LEVELS", "DEFAULT_PATH_SPP", "DEFAULT_REFERENCE_CHUNK_SPP", "DEFAULT_REFERENCE_SPP",
+           "DEFAULT_REPEATS", "DEFAULT_WHITTED_SPP", "IN_PROCESS", "MAX_DEFAULT_DEPTH", "MAX_DEPTH",
+           "METHODS", "WHITTED_METHODS", "Measurement", "Options", "SceneResult", "Setting",
+           "seconds_text"]
+
+
+@dataclass(frozen=True)
+class Setting:
+    """One point of the sweep: one render's parameters.
+
+    ============== ===================================================================
+    ``integrator`` ``"whitted"`` or ``"path"``
+    ``lighting``   ``"article"`` or ``"physical"`` (the path tracer is always physical)
+    ``spp``        samples per pixel
+    ``max_depth``  the ray tree's depth, primary rays have depth 1 (both integrators)
+    ============== ===================================================================
+    """
+    integrator: str
+    lighting: str
+    spp: int
+    max_depth: int
+
+    @property
+    def method(self) -> str:
+        """One of :data:`METHODS`."""
+        return "path" if self.integrator == "path" else f"whitted-{self.lighting}"
+
+    @property
+    def label(self) -> str:
+        """A short caption: ``d3 · 4 spp``, or ``64 spp`` for the path tracer."""
+        if self.integrator == "path":
+            return f"{self.spp} spp"
+        return f"d{self.max_depth} · {self.spp} spp"
+
+    @property
+    def short_label(self) -> str:
+        """The plot's label: ``d3·4`` (depth · spp) for Whitted, ``64`` (spp) for the path tracer."""
+        return f"{self.spp}" if self.integrator == "path" else f"d{self.max_depth}·{self.spp}"
+
+    @property
+    def slug(self) -> str:
+        """A file name stem: ``whitted-article-d3-4spp``, ``path-64spp``."""
+        if self.integrator == "path":
+            return f"path-{self.spp}spp"
+        return f"{self.method}-d{self.max_depth}-{self.spp}spp"
+
+
+@dataclass
+class Measurement:
+    """One setting, rendered and scored against the reference.
+
+    =================== ===============================================================
+    ``setting``         what was rendered
+    ``seconds``         median render time over the repeats, compilation excluded
+    ``compile_seconds`` kernel compilation (the largest over the repeats)
+    ``rel_mse``         relative MSE against the reference (:mod:`whitted.metrics`)
+    ``flip``            LDR-FLIP against the reference
+    ``repeats``         how many times it was rendered
+    ``thumbnail``       a small sRGB uint8 copy of the image (for the contact sheet)
+    ``times``           every repeat's render time (``seconds`` is their median)
+    ``image``           the render, linear EXR, relative to the output folder (None:
+                        not kept)
+    ``image_png``       the same as an sRGB PNG (for the report page)
+    ``error_map``       FLIP's per-pixel error against the reference, colored (PNG)
+    =================== ===============================================================
+    """
+    setting: Setting
+    seconds: float
+    compile_seconds: float
+    rel_mse: float
+    flip: float
+    repeats: int
+    thumbnail: np.ndarray | None = field(default=None, repr=False)
+    times: tuple[float, ...] = ()
+    image: str | None = None
+    image_png: str | None = None
+    error_map: str | None = None
+
+    @property
+    def seconds_min(self) -> float:
+        return min(self.times, default=self.seconds)
+
+    @property
+    def seconds_max(self) -> float:
+        return max(self.times, default=self.seconds)
+
+
+@dataclass
+class SceneResult:
+    """What the sweep measured on one scene, and what it was asked to sweep there.
+
+    ======================= ===========================================================
+    ``name``                the scene's short, distinct name (its file stem)
+    ``path``                the scene file
+    ``width``, ``height``   the image size
+    ``variant``             the Mitsuba variant of every render
+    ``reference_spp``       the reference's samples per pixel
+    ``path_depth``          the path tracer's (and the reference's) max depth
+    ``reference_file``      the cached reference image (None: no time was left for it)
+    ``reference_seconds``   its render time (NaN when unknown)
+    ``reference_cached``    whether it was read from the cache
+    ``reference_thumbnail`` a small sRGB copy (None: the scene got no reference)
+    ``measurements``        the renders that were done, in the order done
+    ``skipped``             the settings the budget left out
+    ``whitted_spp``, ``path_spp``, ``depths``: the ladders that were planned
+    ``reference_requested`` the reference spp asked for (``reference_spp`` is less when
+                            ``--budget`` scaled it down)
+    ``reference_noise``     the reference's own relative MSE against the converged
+                            image, estimated from its two independent halves (NaN:
+                            unknown); no render can score much below it
+    ``reference_png``       the reference as an sRGB PNG, relative to the output folder
+    ``notes``               one line each on what the budget did to this scene and why
+    ``worker``              who rendered the sweep: a Dask worker's address, or
+                            :data:`IN_PROCESS` (every setting of a scene is rendered
+                            by one worker, so its times compare)
+    ======================= ===========================================================
+    """
+    name: str
+    path: Path
+    width: int
+    height: int
+    variant: str
+    reference_spp: int
+    path_depth: int
+    reference_file: Path | None = None
+    reference_seconds: float = math.nan
+    reference_cached: bool = False
+    reference_thumbnail: np.ndarray | None = field(default=None, repr=False)
+    measurements: list[Measurement] = field(default_factory=list)
+    skipped: list[Setting] = field(default_factory=list)
+    whitted_spp: tuple[int, ...] = ()
+    path_spp: tuple[int, ...] = ()
+    depths: tuple[int, ...] = ()
+    reference_requested: int = 0
+    reference_noise: float = math.nan
+    reference_png: str | None = None
+    notes: list[str] = field(default_factory=list)
+    worker: str = IN_PROCESS
+
+    def __post_init__(self):
+        if not self.reference_requested:
+            self.reference_requested = self.reference_spp
+
+    @property
+    def folder(self) -> str:
+        """Where this scene's renders lie, relative to the output folder."""
+        return f"renders/{self.name.replace('/', '_')}"
+
+
+@dataclass
+class Options:
+    """The command's options (``whitted compare --help`` describes each).
+
+    ======================= ==========================================================
+    ``out``                 the output folder
+    ``reference_spp``       the reference's samples per pixel
+    ``depths``              Whitted max depths (None: 1…the scene's depth, at most
+                            :data:`MAX_DEFAULT_DEPTH`)
+    ``whitted_spp``         the Whitted integrator's spp ladder
+    ``path_spp``            the path tracer's spp ladder
+    ``path_depth``          the path tracer's and reference's max depth (None: the
+                            scene's)
+    ``repeats``             renders per setting; the median time is kept
+    ``budget``              seconds for the whole command (None: unbounded)
+    ``levels``              relative MSE levels of the summary table
+    ``cache``               the reference cache's folder (None: ``out/references``)
+    ``variant``             the Mitsuba variant (None: as for ``whitted render``)
+    ``quiet``               no progress bar or messages
+    ``reference_chunk_spp`` the reference is rendered in chunks of at most this many
+                            spp, each with its own seed, and averaged: the same chunks
+                            in this process and on a cluster
+    ``workers``             sweep on a local Dask cluster of this many worker
+                            processes (None: in this process)
+    ``scheduler``           sweep on the Dask cluster of this scheduler
+                            (``tcp://host:port``; None: in this process)
+    ======================= ==========================================================
+    """
+    out: Path
+    reference_spp: int = DEFAULT_REFERENCE_SPP
+    depths: tuple[int, ...] | None = None
+    whitted_spp: tuple[int, ...] = DEFAULT_WHITTED_SPP
+    path_spp: tuple[int, ...] = DEFAULT_PATH_SPP
+    path_depth: int | None = None
+    repeats: int = DEFAULT_REPEATS
+    budget: float | None = None
+    levels: tuple[float, ...] = DEFAULT_LEVELS
+    cache: Path | None = None
+    variant: str | None = None
+    quiet: bool = False
+    reference_chunk_spp: int = DEFAULT_REFERENCE_CHUNK_SPP
+    workers: int | None = None
+    scheduler: str | None = None
+
+    @property
+    def cache_folder(self) -> Path:
+        """Where references are cached."""
+        return Path(self.cache) if self.cache is not None else Path(self.out) / "references"
+
+
+def seconds_text(value: float) -> str:
+    """A duration for people, three significant digits: ``0.104 ms``, ``12.3 ms``,
+    ``1.25 s``, ``4 min 10 s``, ``3 h 21 min``."""
+    if not math.isfinite(value):
+        return "time unknown"
+    if value < 1:
+        return f"{value * 1000:.3g} ms"
+    if value < 60:
+        return f"{value:.3g} s"
+    if value < 3600:
+        return f"{int(value // 60)} min {int(value % 60)} s"
+    return f"{int(value // 3600)} h {int(value % 3600 // 60)} min"

@@ -1,0 +1,130 @@
+"""The whole ``whitted compare`` run: check the options, read and plan every scene,
+sweep them one after the other within the budget, write the outputs.
+
+This is the one place that knows the order of the work and holds Mitsuba
+objects across it. Every scene is read and loaded before the first render, so a
+bad scene fails at once, not after minutes of rendering; each scene's
+``mi.Scene`` is then handed to its sweep and let go once that scene is done. A
+scene's sweep (:func:`whitted.compare.sweep.sweep_scene`) needs only plain data,
+so with ``--workers`` or ``--scheduler`` the scenes go to the workers of a Dask
+cluster instead of this loop (:mod:`whitted.compare.cluster`).
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+from pathlib import Path
+
+from .. import interrupt
+from ..atomic import check_folder_creatable
+from ..errors import WhittedError
+from ..progress import progress_bar
+from . import report
+from .budget import Budget
+from .planning import plan_scene
+from .results import MAX_DEPTH, Options, SceneResult
+from .scenes import SceneFile, scene_files, scene_names
+from .sweep import sweep_scene
+
+
+def check_options(options: Options) -> None:
+    """One clean error for options that cannot work, before anything is read or written."""
+    out = Path(options.out)
+    if out.exists() and not out.is_dir():
+        raise WhittedError(f"{out}: exists and is not a folder")
+    check_folder_creatable(out)
+    if options.repeats < 1 or options.reference_spp < 1:
+        raise WhittedError("--repeats and --reference-spp must be >= 1")
+    if options.budget is not None and not options.budget > 0:
+        raise WhittedError(f"--budget must be a positive number of seconds, got {options.budget}")
+    if options.depths and max(options.depths) > MAX_DEPTH:
+        raise WhittedError(f"--depths: the scene format allows depths up to {MAX_DEPTH}")
+    if options.path_depth is not None and not 1 <= options.path_depth <= MAX_DEPTH:
+        raise WhittedError(f"--path-depth must be in 1…{MAX_DEPTH}, got {options.path_depth}")
+    cache_folder = options.cache_folder
+    if cache_folder.exists() and not cache_folder.is_dir():
+        raise WhittedError(f"{cache_folder}: the reference cache exists and is not a folder")
+    check_folder_creatable(cache_folder)
+    if options.reference_chunk_spp < 1:
+        raise WhittedError("--reference-chunk-spp must be >= 1")
+    if options.workers is not None and options.scheduler is not None:
+        raise WhittedError("--workers starts a local cluster, --scheduler uses a running one: "
+                           "give one of them")
+    if options.workers is not None and options.workers < 1:
+        raise WhittedError(f"--workers must be >= 1, got {options.workers}")
+
+
+def compare(scenes: list[str | os.PathLike], options: Options) -> list[SceneResult]:
+    """Run the whole comparison and write its outputs under ``options.out``."""
+    from ..variant import set_variant
+
+    budget = Budget(options.budget)
+    check_options(options)
+    out = Path(options.out)
+    variant = set_variant(options.variant)
+    files = scene_files(scenes)
+
+    on_cluster = options.workers is not None or options.scheduler is not None
+
+    # Read, load and plan every scene first: a bad scene fails now, not after minutes of rendering.
+    read, loaded, entries, plans = [], [], [], []
+    for path, name in zip(files, scene_names(files)):
+        scene = SceneFile.read(path, name)
+        mitsuba_scene = scene.load()
+        entry, settings = plan_scene(scene, mitsuba_scene, options, variant)
+        read.append(scene)
+        loaded.append(None if on_cluster else mitsuba_scene)  # workers load their own
+        entries.append(entry)
+        plans.append(settings)
+    if max(options.path_spp) >= options.reference_spp and not options.quiet:
+        print(f"whitted compare: warning: the path tracer's ladder reaches the reference's "
+              f"{options.reference_spp} spp; its error will stop falling there", file=sys.stderr)
+    if on_cluster:
+        return _compare_on_cluster(read, entries, plans, options, budget)
+
+    out.mkdir(parents=True, exist_ok=True)
+    bar = progress_bar(not options.quiet, sum(map(len, plans)), "compare", unit="render",
+                       unit_scale=False)
+    try:
+        for index, (scene, entry, settings) in enumerate(zip(read, entries, plans)):
+            sweep_scene(scene, entry, settings, options, budget.share(len(entries) - index),
+                        loaded=loaded[index], progress=bar)
+            report.write_csv(out / report.CSV_NAME, entries[:index + 1])
+            loaded[index] = None  # free the scene's memory
+    except BaseException as error:   # Ctrl-C may arrive wrapped (see whitted.interrupt)
+        if not interrupt.requested(error):
+            raise
+        bar.close()
+        _write_what_was_done(out, entries, options)
+        raise
+    bar.close()
+    report.write_all(out, entries, options.levels)
+    return entries
+
+
+def _compare_on_cluster(scenes: list[SceneFile], entries: list[SceneResult], plans: list,
+                        options: Options, budget: Budget) -> list[SceneResult]:
+    """The sweep on a Dask cluster: connected (or started) before anything is written."""
+    from .cluster import connect, sweep_on_cluster
+
+    out = Path(options.out)
+    try:
+        with connect(options) as client:
+            out.mkdir(parents=True, exist_ok=True)
+            sweep_on_cluster(client, scenes, entries, plans, options, budget)
+    except BaseException as error:  # the cluster is stopped by now: its cores are free to write
+        if not interrupt.requested(error):
+            raise
+        _write_what_was_done(out, entries, options)
+        raise
+    report.write_all(out, entries, options.levels)
+    return entries
+
+
+def _write_what_was_done(out: Path, entries: list[SceneResult], options: Options) -> None:
+    """The outputs of an interrupted run, when a scene got as far as its reference."""
+    if any(e.reference_thumbnail is not None for e in entries):
+        report.write_all(out, entries, options.levels)
+        print(f"whitted compare: interrupted; the outputs in {out} hold what was done",
+              file=sys.stderr)

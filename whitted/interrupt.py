@@ -1,0 +1,40 @@
+"""Ctrl-C and SIGTERM: one clean stop, whatever was running.
+
+Python delivers SIGINT as a ``KeyboardInterrupt`` wherever the interpreter is,
+and some of the places it lands wrap it: an exception raised inside a Dr.Jit
+``custom`` operation (the ``article`` BSDF in Mitsuba's path tracer) comes back
+as a ``RuntimeError``. So the handler also *remembers* that a stop was asked
+for; code that must react to a stop (the CLI's exit status, ``compare``
+writing what finished) asks :func:`requested` instead of trusting the
+exception's type. SIGTERM is treated the same way.
+"""
+
+from __future__ import annotations
+
+import signal
+
+_received: int | None = None
+
+
+def _handler(number, frame):
+    global _received
+    _received = number
+    raise KeyboardInterrupt
+
+
+def install() -> None:
+    """Route SIGINT and SIGTERM through :func:`requested` (the CLI calls this first)."""
+    global _received
+    _received = None
+    for number in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(number, _handler)
+
+
+def requested(error: BaseException | None = None) -> bool:
+    """Whether the user asked to stop (``error``: the exception being handled, if any)."""
+    return _received is not None or isinstance(error, KeyboardInterrupt)
+
+
+def exit_status() -> int:
+    """The shell's convention: 128 + the signal's number (130 for Ctrl-C, 143 for SIGTERM)."""
+    return 128 + (_received if _received is not None else signal.SIGINT)
