@@ -21,7 +21,7 @@ def model(texture) -> Scene:
     distinct materials, glass, a mirror and a textured globe, away from the origin."""
     glass = Material(color=(1.0, 1.0, 1.0), reflect=0.1, refract=0.85, ior=1.5)
     return Scene(width=24, height=16, eye=(3.0, 2.5, 9.0), lookat=(0.5, 0.7, 0.1), up=(0.1, 1.0, 0.0),
-                 fov=50.0, background=(0.2, 0.3, 0.5), ambient=0.3, depth=4, samples=2,
+                 fov=50.0, background=(0.2, 0.3, 0.5), ambient=0.3, depth=4, samples=2, min_weight=0.05,
                  lights=[Light((4.0, 6.0, 5.0)), Light((-5.0, 3.0, 4.0), (0.4, 0.5, 0.6))],
                  spheres=[Sphere((0.0, -100.0, 0.0), 100.0, Material(color=(0.8, 0.8, 0.7), reflect=0.2)),
                           Sphere((-1.2, 1.0, 0.0), 1.0, Material(color=(0.9, 0.9, 0.9), reflect=0.8)),
@@ -51,6 +51,10 @@ def assert_same_scene(a: mi.Scene, b: mi.Scene) -> None:
         np.testing.assert_array_equal(pa[key], pb[key], err_msg=key)
     for getter in (lambda s: s.shapes(), lambda s: s.emitters(), lambda s: s.sensors()):
         assert [o.id() for o in getter(a)] == [o.id() for o in getter(b)]
+    ia, ib = a.integrator(), b.integrator()
+    for name in ("max_depth", "ambient", "lighting", "min_weight"):
+        assert getattr(ia, name) == getattr(ib, name), name
+    assert list(ia.light_reference) == list(ib.light_reference)
     sa, sb = a.sensors()[0], b.sensors()[0]
     assert sa.sampler().sample_count() == sb.sampler().sample_count()
     assert str(sa.world_transform()) == str(sb.world_transform())
@@ -73,7 +77,7 @@ def test_load_scene_of_a_scn_file_equals_its_converted_xml(variant, tmp_path, te
     texture_png("globe.png")
     source = tmp_path / "scene.scn"
     source.write_text("size 24 16\neye 1e6 2 9\nlookat 1e6 0.5 0\nbackground 0.2 0.3 0.5\n"
-                      "depth 3\nsamples 2\nlight 1e6 6 5\nlight 999996 3 4 0.4 0.5 0.6\n"
+                      "depth 3\nsamples 2\nminweight 0.05\nlight 1e6 6 5\nlight 999996 3 4 0.4 0.5 0.6\n"
                       "sphere 1e6 -100 0 100 color 0.8 0.8 0.7 reflect 0.3\n"
                       "sphere 999998.8 1 0 1 reflect 0.8\n"
                       "sphere 1000001.3 0.8 0.8 0.8 refract 0.85 1.5 reflect 0.1\n"
