@@ -1,22 +1,64 @@
-"""``load_scene``: a ``mi.Scene`` from a legacy ``.scn`` or a converted ``.xml`` file."""
+"""``load_scene``: a ``mi.Scene`` from a legacy ``.scn`` or a converted ``.xml`` file.
+
+A ``.scn`` file goes from the scene model to Mitsuba without XML text: the
+converter's description (:mod:`whitted.converter.description`, the very one
+the XML writer writes out) is handed to ``mi.load_dict`` once its markers are
+made Mitsuba objects, so both routes build the same scene
+(tests/test_scene_building.py). Writing and re-parsing the text would add
+time and nothing else. Both are loaded serially: Mitsuba's per-sphere cost
+(~50-75 µs in llvm_ad_rgb) is the same from text or dict, and its parallel
+loading only adds to it (benchmarks/RESULTS.md, "Scene building").
+"""
 
 from __future__ import annotations
 
 import os
 from pathlib import Path
 
-from .defaults import check_depth, check_lighting
+from . import defaults as D
+from .defaults import LIGHTING_MODES, check_lighting  # noqa: F401  (LIGHTING_MODES: re-export)
 from .errors import WhittedError
 
-#: Scene parameters that can be overridden at load time (``<default>`` entries of the XML).
-OVERRIDES = ("spp", "max_depth", "ambient", "lighting")
+#: Scene parameters that can be overridden at load time (``<default>`` entries of the XML),
+#: with the check each override goes through.
+OVERRIDES = {"spp": D.check_spp, "max_depth": D.check_depth, "ambient": D.check_ambient,
+             "lighting": check_lighting}
+
+#: Mitsuba's parallel loading (``parallel=`` of ``mi.load_file``/``load_dict``): off. It
+#: cost 35-40 % more CPU time and more wall time on 2 cores at every size measured
+#: (benchmarks/scene_building.py; benchmarks/RESULTS.md, "Scene building").
+PARALLEL = False
 
 
-def scene_xml(path: str | os.PathLike, model=None) -> str:
-    """The Mitsuba XML of a legacy scene, with absolute texture paths (loadable from memory).
-    ``model``: the scene model of ``path`` when already parsed (the file is not read again)."""
-    from .converter import parse_file, scene_to_xml
-    return scene_to_xml(model if model is not None else parse_file(path), base_dir=None)
+def mitsuba_dict(description, overrides: dict | None = None) -> dict:
+    """The description's scene as ``mi.load_dict`` takes it: markers made Mitsuba values.
+
+    ``overrides`` (name -> value) replace the defaults of the scene's parameters.
+    """
+    import mitsuba as mi
+
+    from .converter.description import LookAt, Matrix, Param
+    values = {**description.defaults, **(overrides or {})}
+
+    def convert(value):
+        if isinstance(value, dict):
+            return {key: convert(v) for key, v in value.items()}
+        if isinstance(value, Param):
+            return values[value.name]
+        if isinstance(value, LookAt):
+            return mi.ScalarTransform4d().look_at(origin=value.origin, target=value.target, up=value.up)
+        if isinstance(value, Matrix):
+            return mi.ScalarTransform4d([list(row) for row in value.rows])
+        return value
+    return convert(description.scene)
+
+
+def _checked(overrides: dict) -> dict:
+    unknown = sorted(set(overrides) - set(OVERRIDES))
+    if unknown:
+        raise WhittedError(f"unknown scene override(s) {', '.join(unknown)}; "
+                           f"choose from {', '.join(OVERRIDES)}")
+    return {k: OVERRIDES[k](v) for k, v in overrides.items() if v is not None}
 
 
 def load_scene(path: str | os.PathLike, variant: str | None = None, *, model=None, **overrides):
@@ -32,15 +74,7 @@ def load_scene(path: str | os.PathLike, variant: str | None = None, *, model=Non
 
     from .variant import set_variant
     set_variant(variant)
-    unknown = sorted(set(overrides) - set(OVERRIDES))
-    if unknown:
-        raise WhittedError(f"unknown scene override(s) {', '.join(unknown)}; "
-                           f"choose from {', '.join(OVERRIDES)}")
-    params = {k: str(v) for k, v in overrides.items() if v is not None}
-    if "lighting" in params:
-        check_lighting(params["lighting"])
-    if overrides.get("max_depth") is not None:
-        check_depth(overrides["max_depth"])
+    params = _checked(overrides)
     path = Path(path)
     if not path.exists():
         raise WhittedError(f"{path}: no such file")
@@ -48,8 +82,14 @@ def load_scene(path: str | os.PathLike, variant: str | None = None, *, model=Non
         raise WhittedError(f"{path}: is a folder, not a scene file")
     try:
         if path.suffix.lower() == ".xml":
-            return mi.load_file(str(path), **params)
-        return mi.load_string(scene_xml(path, model), **params)
+            return mi.load_file(str(path), parallel=PARALLEL, **{k: str(v) for k, v in params.items()})
+        from .converter import parse_file
+        from .converter.description import describe
+        from .converter.frame import warn_precision
+        if model is None:
+            model = parse_file(path)
+            warn_precision(model)
+        return mi.load_dict(mitsuba_dict(describe(model, base_dir=None), params), parallel=PARALLEL)
     except RuntimeError as error:
         first = str(error).strip().splitlines()[0] if str(error).strip() else type(error).__name__
         raise WhittedError(f"{path}: Mitsuba could not load the scene: {first}") from None
