@@ -10,7 +10,7 @@ STAMP   := $(VENV)/.installed
 SCENES  := $(wildcard scenes/*.scn)
 OUT     := out
 
-.PHONY: all demo test bench scenes setup llvm clean
+.PHONY: all demo test bench scenes setup llvm povray clean
 
 all: demo
 
@@ -54,11 +54,18 @@ demo: scenes
 test: setup
 	$(PY) -m pytest -q
 
-# Speed against Mitsuba's own integrators and the ray-casting floor (benchmarks/RESULTS.md);
-# `make bench BENCHFLAGS=--quick` for a short run.
+# POV-Ray 3.7 for the side-by-side benchmark: Debian's povray, installed when missing and
+# allowed (root, or sudo without a password), like the llvm step; otherwise its rows say why.
+povray: $(STAMP)
+	@$(PY) benchmarks/povray.py --install
+
+# Speed against Mitsuba's own integrators and the ray-casting floor, then against POV-Ray 3.7
+# on the sphereflake, levels 1-5 (benchmarks/RESULTS.md); `make bench BENCHFLAGS=--quick` for
+# a short run.
 BENCHFLAGS ?=
-bench: setup
+bench: setup povray
 	$(PY) benchmarks/run.py $(BENCHFLAGS)
+	$(PY) benchmarks/vs_povray.py $(BENCHFLAGS)
 
 clean:
 	rm -rf $(OUT) .pytest_cache .hypothesis

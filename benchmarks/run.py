@@ -42,6 +42,7 @@ import numpy as np  # noqa: E402
 import whitted  # noqa: E402  (selects the variant, registers the plugins)
 import floor  # noqa: E402
 import scenes  # noqa: E402
+import sections  # noqa: E402
 from timing import NOISY, measure, peak_memory  # noqa: E402
 
 #: acceptance targets of issue 6 (ratios of median times)
@@ -417,7 +418,11 @@ def main(argv=None) -> int:
               f"on a quiet machine")
 
     if args.markdown:
-        Path(args.markdown).write_text(markdown(bench, info, "quick" if args.quick else "full", seconds))
+        # Keep the sections other benchmarks own in the same file (sections.py).
+        path = Path(args.markdown)
+        others = sections.marked(path.read_text()) if path.exists() else []
+        path.write_text("\n".join([markdown(bench, info, "quick" if args.quick else "full", seconds),
+                                   *others]))
     if args.json:
         Path(args.json).write_text(json.dumps({"machine": info, "summary": bench.summary, **bench.data},
                                               indent=2, default=float))

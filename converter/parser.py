@@ -1,15 +1,27 @@
 """The legacy ``.scn`` text -> :class:`Scene`, checking every rule of the scene format
 (``docs/scene-format.md``, "Syntax" and "Errors").
 
-A file is accepted as a whole or rejected with one :class:`SceneError` that names
-the file and the first line of the offending statement, so that nothing invalid
-ever reaches Mitsuba. Reading happens in three layers, each small:
+A file is accepted as a whole or rejected with one :class:`SceneError` that lists
+every problem in it, each with the file and the first line of its statement, so
+that nothing invalid ever reaches Mitsuba and a user fixes a file in one go:
+after a statement fails, reading goes on with the next. Reading happens in three
+layers, each small:
 
 * :func:`parse_file` turns bytes into text (missing, unreadable, binary and
   non-UTF-8 files are rejected here);
 * :func:`_statements` turns text into statements: comments, blank lines, ``\\``
   continuations and ``"quoted paths"``;
 * :class:`_Parser` gives each statement its meaning, defaults and constraints.
+
+Scenes of tens of thousands of spheres (the sphereflake of ``make bench``) are
+read on a fast path: a text without quotes, continuations or odd separators is
+split line by line with ``str.split``, and a plain ``light`` or ``sphere`` line
+is converted with ``float`` and accepted when every number lies clearly inside
+its range (a float compared strictly with a bound decides as the exact decimal
+would; at a bound the text itself is checked). Every other line, and every
+doubt, goes to the careful path above, so both paths accept, reject and word
+their messages alike (tests/test_parser.py checks it), and only valid input
+needs to be fast.
 
 Beyond the format's own constraints, numbers are kept where Mitsuba's 32-bit
 floats stay finite and meaningful (see :data:`MAX_MAGNITUDE` and
@@ -38,7 +50,7 @@ from .scene import Light, Material, Scene, Sphere, Vec3
 MAX_MAGNITUDE = Decimal(defaults.MAX_MAGNITUDE)
 MIN_POSITIVE = Decimal(defaults.MIN_POSITIVE)
 
-GLOBALS = ("size", "eye", "lookat", "up", "fov", "background", "ambient", "depth", "samples")
+GLOBALS = ("size", "eye", "lookat", "up", "fov", "background", "ambient", "depth", "samples", "minweight")
 STATEMENTS = GLOBALS + ("light", "sphere")
 #: Sphere attribute -> names of its values (their count is the attribute's arity).
 ATTRIBUTES = {
@@ -55,6 +67,20 @@ _INTEGER = re.compile(r"[+-]?[0-9]+")
 _NON_FINITE = re.compile(r"[+-]?(?:nan|inf|infinity)", re.IGNORECASE)
 _LINE_BREAK = re.compile(r"\r\n|\r|\n")
 _BLANKS = " \t\f\v"
+
+# The fast path (_Parser.parse_plain). A text holding none of these characters splits into
+# the careful tokenizer's tokens with str.split(): no quotes, no continuations, no NUL, and
+# none of the ASCII separators that str.split() takes for blanks but the format does not.
+_NOT_PLAIN = re.compile(r'["\\\x00\x1c-\x1f]')
+_PLAIN_ATTRIBUTES = ("color", "reflect", "refract")
+_MAX = float(defaults.MAX_MAGNITUDE)        # |x| < this: inside the magnitude limit
+_MIN = float(defaults.MIN_POSITIVE)         # x > this: at least MIN_POSITIVE
+_BELOW_ONE = 1.0 - 1e-12                    # reflect + refract clearly <= 1
+_WHITE = (1.0, 1.0, 1.0)
+_PLAIN = Material(_WHITE, 0.0, 0.0, 1.0, None)   # a sphere without attributes
+_UNKNOWN = object()
+_NORTH = tuple(float(c) for c in defaults.NORTH)
+_EQUATOR = tuple(float(c) for c in defaults.EQUATOR)
 
 
 # --------------------------------------------------------------------------- text
@@ -113,28 +139,40 @@ def _clip(text: str) -> str:
     return text if len(text) <= 40 else text[:37] + "..."
 
 
-def _statements(text: str, path) -> list[tuple[int, list[Token]]]:
+def _statements(text: str, path, errors: list) -> list[tuple[int, list[Token]]]:
     """Split ``text`` into statements: (first line number, tokens).
 
     ``#`` outside quotes starts a comment. A line whose text (without its
     comment and trailing blanks) ends in ``\\`` continues on the next line; the
     backslash separates tokens like a blank. A token that starts with ``"``
     runs to the next ``"`` on the same line and may hold blanks and ``#``.
+    A statement that cannot be split is left out and its problem appended to
+    ``errors`` as (line, message); the statements after it are still read.
     """
     statements = []
     tokens: list[Token] = []
     first = 0
+    skipping = False  # the continuation lines of a statement that could not be split
     lines = _LINE_BREAK.split(text)
     if len(lines) > 1 and lines[-1] == "":
         lines.pop()  # the final line break ends the last line; no empty line follows it
     for number, line in enumerate(lines, start=1):
+        if skipping:
+            skipping = line.rstrip(_BLANKS).endswith("\\")
+            continue
         if not tokens:
             first = number
-        line_tokens, continued = _split_line(line, path, first)
+        try:
+            line_tokens, continued = _split_line(line, path, first)
+        except SceneError as error:
+            errors.append((error.line, error.message))
+            tokens = []
+            skipping = line.rstrip(_BLANKS).endswith("\\")
+            continue
         tokens += line_tokens
         if continued:
             if number == len(lines):
-                raise SceneError(path, first, "the last line ends with '\\' but no line follows")
+                errors.append((first, "the last line ends with '\\' but no line follows"))
             continue
         if tokens:
             statements.append((first, tokens))
@@ -181,10 +219,20 @@ def _split_line(line: str, path, first: int) -> tuple[list[Token], bool]:
 
 def parse_text(text: str, source: str | os.PathLike) -> Scene:
     """Parse scene text; ``source`` names the file in messages and anchors relative textures."""
+    return _parse(text, source, fast=True)
+
+
+def _parse(text: str, source: str | os.PathLike, *, fast: bool) -> Scene:
+    """:func:`parse_text`; ``fast=False`` takes the careful path for every statement (for tests)."""
     source = Path(source)
     if text.startswith("\ufeff"):
         text = text[1:]
-    return _Parser(source).parse(_statements(text, source))
+    parser = _Parser(source)
+    if fast and not _NOT_PLAIN.search(text):
+        parser.parse_plain(text)
+    else:
+        parser.parse(_statements(text, source, parser.errors))
+    return parser.finish()
 
 
 # ---------------------------------------------------------------------- statements
@@ -205,8 +253,12 @@ class _Parser:
         self.source = source
         self.scene = Scene(source=source)
         self.seen: dict[str, int] = {}        # global statement -> its line
+        self.errors: list[tuple[int | None, str]] = []   # (line, message) of every problem
+        self.failed: set[str] = set()         # the statements (names) that had a problem
         self.line = 0
         self._images: dict[Path, str | None] = {}
+        self.exact: set[str] = set()                          # fast path: tokens exactly 0 or 1
+        self._materials: dict[str, Material | None] = {}     # fast path: attribute text -> material
 
     def fail(self, message: str):
         raise SceneError(self.source, self.line, message)
@@ -262,22 +314,184 @@ class _Parser:
 
     # ---- the file
 
-    def parse(self, statements) -> Scene:
+    def parse(self, statements) -> None:
+        """Give each statement, (first line, tokens), its meaning."""
         for line, tokens in statements:
-            self.line = line
-            keyword, args = tokens[0], tokens[1:]
-            name = keyword.text.lower()
-            if keyword.quoted:
-                self.fail(f"expected a statement name, got the quoted text {keyword.show()}")
-            if name not in STATEMENTS:
-                self.fail(f"unknown statement {keyword.show()}{suggest(keyword.text, STATEMENTS)}")
-            if name in GLOBALS:
-                if name in self.seen:
-                    self.fail(f"{name} given twice (first on line {self.seen[name]})")
-                self.seen[name] = line
-            getattr(self, f"statement_{name}")(args)
-        self.check_camera()
+            self.statement(line, tokens)
+
+    def finish(self) -> Scene:
+        """The scene, once every statement is read: the checks across statements, then
+        every problem found, in file order, as one :class:`SceneError`."""
+        if not self.failed & {"eye", "lookat", "up"}:  # else the camera is not what the file says
+            try:
+                self.check_camera()
+            except SceneError as error:
+                self.errors.append((error.line, error.message))
+        if self.errors:
+            self.errors.sort(key=lambda error: error[0] or 0)
+            raise SceneError.collected([(self.source, line, message) for line, message in self.errors])
         return self.scene
+
+    def statement(self, line: int, tokens: list[Token]) -> None:
+        """Give one statement its meaning, or note its problem and go on."""
+        try:
+            self._statement(line, tokens)
+        except SceneError as error:
+            self.errors.append((error.line, error.message))
+            self.failed.add(tokens[0].text.lower())
+
+    def _statement(self, line: int, tokens: list[Token]) -> None:
+        self.line = line
+        keyword, args = tokens[0], tokens[1:]
+        name = keyword.text.lower()
+        if keyword.quoted:
+            self.fail(f"expected a statement name, got the quoted text {keyword.show()}")
+        if name not in STATEMENTS:
+            self.fail(f"unknown statement {keyword.show()}{suggest(keyword.text, STATEMENTS)}")
+        if name in GLOBALS:
+            if name in self.seen:
+                self.fail(f"{name} given twice (first on line {self.seen[name]})")
+            self.seen[name] = line
+        getattr(self, f"statement_{name}")(args)
+
+    # ---- the fast path: plain lights and spheres
+
+    def parse_plain(self, text: str) -> None:
+        """Parse a text free of quotes, continuations and odd separators (see :data:`_NOT_PLAIN`).
+
+        Every line is split on blanks; a plain ``light`` or ``sphere`` statement
+        whose numbers all lie clearly inside their ranges is taken as it is
+        (:meth:`plain_light`, :meth:`plain_sphere`). Any other line, or any doubt,
+        goes to :meth:`statement` with the careful tokenizer's tokens, which
+        decides exactly as if the whole file had gone the careful way.
+        """
+        lines = _LINE_BREAK.split(text) if "\r" in text else text.split("\n")
+        if len(lines) > 1 and lines[-1] == "":
+            lines.pop()  # the final line break ends the last line; no empty line follows it
+        plain_sphere, plain_light = self.plain_sphere, self.plain_light
+        for number, line in enumerate(lines, start=1):
+            hash_ = line.find("#")
+            code = line if hash_ < 0 else line[:hash_]
+            tokens = code.split(None, 5)
+            if not tokens:
+                if not code.isascii():  # blanks the format does not know may be tokens
+                    self.careful_line(number, line)
+                continue
+            # Python's float() reads exactly the format's numbers in ASCII text without '_'
+            # (and nan/inf, which fail every range check).
+            if code.isascii() and "_" not in code:
+                keyword = tokens[0]
+                if keyword == "sphere" or keyword.lower() == "sphere":
+                    if plain_sphere(number, tokens):
+                        continue
+                elif keyword == "light" or keyword.lower() == "light":
+                    if plain_light(number, code.split()):
+                        continue
+            self.careful_line(number, line)
+
+    def careful_line(self, number: int, line: str) -> None:
+        tokens, _ = _split_line(line, self.source, number)
+        if tokens:
+            self.statement(number, tokens)
+
+    def bound(self, token: str, value: float) -> bool:
+        """Whether ``token``, which reads as the float ``value``, is exactly ``value``.
+
+        For a float equal to a bound (0, 1): the text may lie a little beyond it
+        ("1.00000000000000001"). Exact tokens are remembered in :attr:`exact`.
+        """
+        if Decimal(token) == Decimal(value):
+            self.exact.add(token)
+            return True
+        return False
+
+    def plain_light(self, line: int, tokens: list[str]) -> bool:
+        """Add ``light X Y Z [R G B]`` and return True, or False to leave it to :meth:`statement`."""
+        n = len(tokens)
+        if n != 4 and n != 7:
+            return False
+        try:
+            x, y, z = position = tuple(map(float, tokens[1:4]))
+            r, g, b = color = _WHITE if n == 4 else tuple(map(float, tokens[4:7]))
+        except ValueError:
+            return False
+        if not (-_MAX < x < _MAX and -_MAX < y < _MAX and -_MAX < z < _MAX):
+            return False
+        if not (0.0 < r < _MAX and 0.0 < g < _MAX and 0.0 < b < _MAX):
+            for c, token in zip(color, tokens[4:]):
+                if not (0.0 < c < _MAX or token in self.exact or c == 0.0 and self.bound(token, c)):
+                    return False
+        self.scene.lights.append(Light(position, color, line=line))
+        return True
+
+    def plain_sphere(self, line: int, tokens: list[str]) -> bool:
+        """Add ``sphere CX CY CZ R [attributes]`` and return True, or False to leave it to
+        :meth:`statement`. ``tokens`` are the line split at its first five blanks: the
+        attributes come as one text, :meth:`plain_material` reads them (once per text).
+
+        A float compared strictly with a bound decides as the exact decimal would
+        (correctly rounded conversion is monotonic); a float equal to a bound is
+        accepted only when its text is exactly that bound (:meth:`bound`).
+        """
+        if len(tokens) < 5:
+            return False
+        try:
+            x, y, z, radius = map(float, tokens[1:5])
+        except ValueError:
+            return False
+        if not (-_MAX < x < _MAX and -_MAX < y < _MAX and -_MAX < z < _MAX and _MIN < radius < _MAX):
+            return False
+        if len(tokens) == 5:
+            material = _PLAIN
+        else:
+            material = self._materials.get(tokens[5], _UNKNOWN)
+            if material is _UNKNOWN:
+                material = self._materials[tokens[5]] = self.plain_material(tokens[5].split())
+            if material is None:
+                return False
+        self.scene.spheres.append(Sphere((x, y, z), radius, material, _NORTH, _EQUATOR, line=line))
+        return True
+
+    def plain_material(self, tokens: list[str]) -> Material | None:
+        """The material of the attributes ``[color R G B] [reflect KR] [refract KT IOR]``
+        in any order, or None when they are anything else or not clearly valid."""
+        exact = self.exact
+        color = kr = kt = None
+        ior = 1.0
+        i, n = 0, len(tokens)
+        try:
+            while i < n:
+                name = tokens[i].lower()
+                if name == "color" and color is None and i + 3 < n:
+                    r, g, b = color = tuple(map(float, tokens[i + 1:i + 4]))
+                    if not (0.0 < r < 1.0 and 0.0 < g < 1.0 and 0.0 < b < 1.0):
+                        for c, token in zip(color, tokens[i + 1:i + 4]):
+                            if not (0.0 < c < 1.0 or token in exact
+                                    or (c == 0.0 or c == 1.0) and self.bound(token, c)):
+                                return None
+                    i += 4
+                elif name == "reflect" and kr is None and i + 1 < n:
+                    kr = float(tokens[i + 1])
+                    if not (0.0 < kr < 1.0 or tokens[i + 1] in exact
+                            or (kr == 0.0 or kr == 1.0) and self.bound(tokens[i + 1], kr)):
+                        return None
+                    i += 2
+                elif name == "refract" and kt is None and i + 2 < n:
+                    kt, ior = float(tokens[i + 1]), float(tokens[i + 2])
+                    if not (0.0 < kt < 1.0 or tokens[i + 1] in exact
+                            or (kt == 0.0 or kt == 1.0) and self.bound(tokens[i + 1], kt)):
+                        return None
+                    if not _MIN < ior < _MAX:
+                        return None
+                    i += 3
+                else:
+                    return None
+        except ValueError:
+            return None
+        if kr and kt and not kr + kt <= _BELOW_ONE:  # the float sum's error is far below this margin
+            return None
+        return Material(_WHITE if color is None else color, 0.0 if kr is None else kr,
+                        0.0 if kt is None else kt, ior, None)
 
     def statement_size(self, args):
         self.count("size", args, "W H", 2)
@@ -334,6 +548,12 @@ class _Parser:
         samples = self.number(args[0], "samples", integer=True)
         self.in_range(samples, args[0].text, "samples", 1, MAX_SAMPLES)
         self.scene.samples = int(samples)
+
+    def statement_minweight(self, args):
+        self.count("minweight", args, "W", 1)
+        weight = self.number(args[0], "minweight")
+        self.in_range(weight, args[0].text, "minweight", 0, 1)
+        self.scene.min_weight = float(weight)
 
     def statement_light(self, args):
         self.count("light", args, "X Y Z [R G B]", 3, 6)

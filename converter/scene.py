@@ -61,5 +61,7 @@ class Scene:
     ambient: float = D.AMBIENT
     depth: int = D.DEPTH
     samples: int = D.SAMPLES
+    #: the adaptive depth control's threshold (``minweight``); None: the integrator's default
+    min_weight: float | None = None
     lights: list[Light] = field(default_factory=list)
     spheres: list[Sphere] = field(default_factory=list)

@@ -179,11 +179,15 @@ def scene_to_xml(scene: Scene, base_dir: str | os.PathLike | None) -> str:
         f'    <default name="max_depth" value="{scene.depth}"/>',
         f'    <default name="ambient" value="{num(scene.ambient)}"/>',
         '    <default name="lighting" value="article"/>',
+        # Written only when the scene sets it: otherwise the integrator's own default applies.
+        *([f'    <default name="min_weight" value="{num(scene.min_weight)}"/>']
+          if scene.min_weight is not None else []),
         '',
         '    <integrator type="whitted">',
         '        <integer name="max_depth" value="$max_depth"/>',
         '        <float name="ambient" value="$ambient"/>',
         '        <string name="lighting" value="$lighting"/>',
+        *(['        <float name="min_weight" value="$min_weight"/>'] if scene.min_weight is not None else []),
         f'        <point name="light_reference" value="{vec(scene.lookat, ", ")}"/>',
         '    </integrator>',
         '',

@@ -497,3 +497,248 @@ def test_nul_character_in_text():
 def test_parse_text_names_the_source_given():
     error = error_of("fov 0\n", "relative/dir/x.scn")
     assert str(error).startswith("relative/dir/x.scn:1: ")
+
+
+# ------------------------------------------------- the fast path = the careful path
+#
+# parse_text reads plain lights and spheres on a fast path (converter/parser.py,
+# _Parser.parse_plain) and leaves every other statement, and every doubt, to the
+# careful path. Both must give the same scene, or the same errors, for any text.
+
+from hypothesis import HealthCheck, given, settings  # noqa: E402
+from hypothesis import strategies as st  # noqa: E402
+
+from whitted.converter import parser as parser_module  # noqa: E402
+
+#: numbers at and around every bound the format checks, and numbers it rejects
+BOUNDARY_NUMBERS = [
+    "0", "-0", "+0", "0.0", "0.", ".0", "0e5", "00", "1", "1.0", "1.", "+1", "01", "1e0", "10e-1",
+    "1.00000000000000001", "0.99999999999999999", "1.0000000000000002", "0.9999999999999999",
+    "1e-400", "-1e-400", "-0.00000000000000000001", "0.00000000000000000001",
+    "1e-6", "0.000001", "0.0000010", "1.0e-6", "0.00000099999999999999999", "0.00000100000000000000001",
+    "9.999999999999999e-7", "1.0000000000000001e-6", "1e12", "1000000000000", "-1e12",
+    "1000000000000.00000000001", "999999999999.99999999999", "-1000000000000.00000000001",
+    "1e13", "1e999", "-1e999", "0.5", "0.25", "0.75", "0.6", "0.4", "0.7", "0.3", "0.41", "0.59",
+    "0.3333333333333333", "0.6666666666666667", "2", "-2", "-0.5", "1.5", "179", "180", "1e-7",
+    "nan", "inf", "-Infinity", "1_0", "0x1", "1e", ".", "-", "\u0661", "1,5", "½", "+-1", "e1",
+]
+KEYWORDS = ["sphere", "SPHERE", "Sphere", "light", "LIGHT", "size", "fov", "eye", "lookat", "up",
+            "ambient", "depth", "samples", "background", "sphre", "lite"]
+ATTRIBUTE_NAMES = ["color", "COLOR", "reflect", "Reflect", "refract", "north", "equator", "colour", "texture"]
+SEPARATORS = [" ", "  ", "\t", " \t ", "\x0b", "\x0c"]
+
+
+def _number():
+    return st.one_of(st.sampled_from(BOUNDARY_NUMBERS),
+                     st.floats(-3, 3, allow_nan=False).map(repr),
+                     st.floats(0, 1).map(lambda x: f"{x:.3g}"),
+                     st.integers(-5, 5).map(str))
+
+
+@st.composite
+def _sphere_line(draw):
+    """Mostly well-formed spheres, with a random attribute list (sometimes broken)."""
+    words = [draw(st.sampled_from(["sphere", "sphere", "sphere", "SPHERE", "Sphere"]))]
+    words += [draw(_number()) for _ in range(draw(st.sampled_from([4, 4, 4, 3, 5])))]
+    for _ in range(draw(st.integers(0, 3))):
+        name = draw(st.sampled_from(ATTRIBUTE_NAMES))
+        arity = {"color": 3, "reflect": 1, "refract": 2, "north": 3, "equator": 3,
+                 "colour": 3, "texture": 1}[name.lower()]
+        words += [name] + [draw(_number()) for _ in range(draw(st.sampled_from([arity, arity, arity - 1])))]
+    return words
+
+
+@st.composite
+def _any_line(draw):
+    kind = draw(st.sampled_from(["sphere", "sphere", "light", "other", "blank"]))
+    if kind == "sphere":
+        words = draw(_sphere_line())
+    elif kind == "light":
+        words = [draw(st.sampled_from(["light", "Light"]))] + \
+                [draw(_number()) for _ in range(draw(st.sampled_from([3, 6, 6, 2, 5])))]
+    elif kind == "other":
+        words = [draw(st.sampled_from(KEYWORDS))] + [draw(_number()) for _ in range(draw(st.integers(0, 4)))]
+    else:
+        words = []
+    separator = draw(st.sampled_from(SEPARATORS))
+    line = draw(st.sampled_from(["", "", " ", "\t"])) + separator.join(words)
+    line += draw(st.sampled_from(["", "", " # a comment", "#x", "  ", " # é \u00a0"]))
+    if draw(st.integers(0, 20)) == 0:
+        line += draw(st.sampled_from(["\u00a0", " é", " \u2003 1"]))  # blanks the format does not know
+    return line
+
+
+def _outcome(text: str, fast: bool):
+    """The parsed scene's full repr (floats and -0.0 included), or the error's text and line."""
+    try:
+        return "scene", repr(parser_module._parse(text, "scene.scn", fast=fast))
+    except SceneError as error:
+        return "error", str(error), error.line
+
+
+@settings(max_examples=400, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(st.lists(_any_line(), min_size=1, max_size=8), st.sampled_from(["\n", "\r\n", "\r"]),
+       st.booleans())
+def test_fast_path_and_careful_path_agree(lines, ending, final_break):
+    text = ending.join(lines) + (ending if final_break else "")
+    assert _outcome(text, fast=True) == _outcome(text, fast=False)
+
+
+@pytest.mark.parametrize("template", [
+    "sphere 0 0 0 1 color {v} 0.5 0.5", "sphere 0 0 0 1 color 1 1 {v}", "sphere 0 0 0 1 reflect {v}",
+    "sphere 0 0 0 1 refract {v} 1.5", "sphere 0 0 0 1 refract 0.5 {v}", "sphere 0 0 0 {v}",
+    "sphere {v} 0 0 1", "sphere 0 0 0 1 reflect 0.5 refract {v} 1", "light 0 {v} 0", "light 0 0 0 1 {v} 1",
+])
+def test_fast_path_at_every_bound(template):
+    for value in BOUNDARY_NUMBERS:
+        text = f"size 8 8\n{template.format(v=value)}\nsphere 1 2 3 0.5 color 1 0 0.5\n"
+        assert _outcome(text, fast=True) == _outcome(text, fast=False), text
+
+
+def test_fast_path_reads_plain_spheres_itself(monkeypatch):
+    """A plain file never reaches the careful sphere and light statements."""
+    def careful(*args):
+        raise AssertionError("the careful path was taken")
+    monkeypatch.setattr(parser_module._Parser, "statement_sphere", careful)
+    monkeypatch.setattr(parser_module._Parser, "statement_light", careful)
+    scene = parse("size 8 8\nlight 1 2 3\nlight 0 0 1 0.5 0 1\n"
+                  "sphere 0 0 0 1 color 1 0.9 0.7 reflect 0.5\nSPHERE 1 1 1 0.5 REFRACT 0.9 1.5 Color 0 0 0\n"
+                  "sphere 1e-3 -2.5e2 3 2e-6\nsphere 2 2 2 1 # a comment\n")
+    assert [s.line for s in scene.spheres] == [4, 5, 6, 7] and len(scene.lights) == 2
+    assert scene.spheres[1].material == Material((0, 0, 0), 0.0, 0.9, 1.5)
+    assert scene.spheres[2].center == (1e-3, -250.0, 3.0) and scene.spheres[2].radius == 2e-6
+
+
+def test_spheres_that_share_attributes_share_nothing_else():
+    scene = parse("sphere 0 0 0 1 color 1 0.9 0.7 reflect 0.5\nsphere 1 0 0 2 color 1 0.9 0.7 reflect 0.5\n")
+    a, b = scene.spheres
+    assert a.material == b.material == Material((1, 0.9, 0.7), 0.5, 0.0, 1.0)
+    assert (a.center, a.radius, a.line, b.center, b.radius, b.line) == ((0, 0, 0), 1, 1, (1, 0, 0), 2, 2)
+
+
+@settings(max_examples=500, deadline=None)
+@given(st.text(alphabet="0123456789+-.eEinfatyIN ", min_size=1, max_size=8))
+def test_float_reads_exactly_the_formats_numbers(token):
+    """The fast path's premise: in ASCII without '_', Python's float() accepts a token
+    exactly when the format's number syntax does, or it is a nan/inf word."""
+    try:
+        float(token)
+        accepted = token.strip() == token and token.lower().lstrip("+-") not in ("nan", "inf", "infinity")
+    except ValueError:
+        accepted = False
+    assert accepted == bool(parser_module._NUMBER.fullmatch(token))
+
+
+# ------------------------------------------------------------ every error of a file
+
+
+SEVERAL_ERRORS = """\
+size 10 10
+sphre 0 0 0 1
+sphere 0 0 0 -1
+light 1 2 3
+fov 30
+sphere 0 0 0 1 texture "a.png
+FOV 40
+sphere 0 0 0 1 color 1 1 2 \\
+   reflect 0.5
+sphere 1 1 1 1 reflect 0.2
+ambient 2
+"""
+
+
+@pytest.mark.parametrize("fast", [True, False])
+def test_every_error_of_a_file_in_file_order(fast):
+    with pytest.raises(SceneError) as info:
+        parser_module._parse(SEVERAL_ERRORS, "s.scn", fast=fast)
+    error = info.value
+    expected = [
+        ("s.scn", 2, "unknown statement 'sphre'; did you mean 'sphere'?"),
+        ("s.scn", 3, "sphere radius must be > 0, got -1"),
+        ("s.scn", 6, "unterminated quote: '\"a.png'"),
+        ("s.scn", 7, "fov given twice (first on line 5)"),
+        ("s.scn", 8, "sphere color must be >= 0 and <= 1, got 2"),
+        ("s.scn", 11, "ambient must be >= 0 and <= 1, got 2"),
+    ]
+    assert error.errors == expected
+    assert (error.path, error.line, error.message) == expected[0]
+    assert str(error) == "\n".join(f"{p}:{n}: {m}" for p, n, m in expected)
+
+
+def test_a_failed_global_still_counts_as_given():
+    error = error_of("fov 0\nfov 30\n")
+    assert [(line, message) for _, line, message in error.errors] == \
+        [(1, "fov must be > 0 and < 180, got 0"), (2, "fov given twice (first on line 1)")]
+
+
+def test_the_line_after_a_broken_continued_line_is_not_a_statement():
+    error = error_of('sphere 0 0 0 1 texture "a.png"x \\\n  reflect 0.5\nlight 1 2\n')
+    assert [line for _, line, _ in error.errors] == [1, 3]
+
+
+def test_camera_errors_come_in_file_order_and_do_not_follow_from_others():
+    error = error_of("eye 0 0 0\nfov 0\n")
+    assert [(line, message.split(",")[0]) for _, line, message in error.errors] == \
+        [(1, "eye and lookat must differ"), (2, "fov must be > 0 and < 180")]
+    # an up that failed its own check is not checked again against the view
+    assert [line for _, line, _ in error_of("up 0 0 0\n").errors] == [1]
+    assert [line for _, line, _ in error_of("eye 0 0\nlookat 0 0 10\n").errors] == [1]
+
+
+def test_at_most_twenty_errors_are_listed_then_counted():
+    text = "".join(f"sphere 0 0 0 -{i}\n" for i in range(1, 26))
+    for fast in (True, False):
+        with pytest.raises(SceneError) as info:
+            parser_module._parse(text, "many.scn", fast=fast)
+        lines = str(info.value).split("\n")
+        assert len(info.value.errors) == 25 and len(lines) == 21
+        assert lines[0] == "many.scn:1: sphere radius must be > 0, got -1"
+        assert lines[19] == "many.scn:20: sphere radius must be > 0, got -20"
+        assert lines[20] == "... and 5 more errors"
+    assert str(error_of("sphere 0 0 0 -1\n" * 21)).endswith("\n... and 1 more error")
+
+
+def test_the_command_line_prints_every_error(write_scene, tmp_path, capsys):
+    from whitted.cli import main
+    scene = write_scene(SEVERAL_ERRORS)
+    assert main(["convert", str(scene), "-o", str(tmp_path / "out.xml")]) == 2
+    err = capsys.readouterr().err.splitlines()
+    assert len(err) == 6 and all(line.startswith(f"whitted: error: {scene}:") for line in err)
+    assert err[1] == f"whitted: error: {scene}:3: sphere radius must be > 0, got -1"
+    assert not (tmp_path / "out.xml").exists()
+
+
+# ------------------------------------------------------------------ minweight
+
+
+def test_minweight_statement():
+    assert parse("").min_weight is None  # absent: the integrator's default applies
+    assert parse("minweight 0.004\n").min_weight == 0.004
+    assert parse("MinWeight 0\n").min_weight == 0.0 and parse("minweight 1\n").min_weight == 1.0
+
+
+@pytest.mark.parametrize("text, message", [
+    ("minweight 1.5", "minweight must be >= 0 and <= 1, got 1.5"),
+    ("minweight -0.001", "minweight must be >= 0 and <= 1, got -0.001"),
+    ("minweight 1.00000000000000001", "minweight must be >= 0 and <= 1, got 1.00000000000000001"),
+    ("minweight", "minweight takes 1 value (W), got 0"),
+    ("minweight 0.1 0.2", "minweight takes 1 value (W), got 2"),
+    ("minweight nan", "minweight must be a finite number, got nan"),
+    ("minweight x", "minweight must be a number, got 'x'"),
+    ("minweight 0.1\nminweight 0.1", "minweight given twice (first on line 3)"),
+    ("min_weight 0.1", "unknown statement 'min_weight'; did you mean 'minweight'?"),
+])
+def test_minweight_errors(text, message):
+    error = error_of(f"# header\n\n{text}\n")
+    assert message in error.message and error.line == text.count("\n") + 3, str(error)
+
+
+def test_minweight_reaches_the_integrator_through_the_xml():
+    import mitsuba as mi
+    from whitted import defaults
+    from whitted.converter import scene_to_xml
+    scene = mi.load_string(scene_to_xml(parse("size 4 4\nminweight 0.125\n"), base_dir=None))
+    assert scene.integrator().min_weight == 0.125
+    plain = mi.load_string(scene_to_xml(parse("size 4 4\n"), base_dir=None))
+    assert plain.integrator().min_weight == defaults.MIN_WEIGHT
+    assert 'name="min_weight"' not in scene_to_xml(parse("size 4 4\n"), base_dir=None)

@@ -389,7 +389,11 @@ def test_mutated_files_parse_or_fail_cleanly(folder, data):
         assert error.path == str(source)
         assert error.line is not None and 1 <= error.line <= line_count, str(error)
         assert str(error).startswith(f"{source}:{error.line}: ")
-        assert error.message and "\n" not in str(error) and "\r" not in str(error)
+        # every error of the file, in file order, each one clean line
+        lines = [line for _, line, _ in error.errors]
+        assert all(1 <= line <= line_count for line in lines) and lines == sorted(lines), str(error)
+        assert all(m and "\n" not in m and "\r" not in m for _, _, m in error.errors)
+        assert str(error).split("\n")[:20] == [f"{source}:{line}: {m}" for _, line, m in error.errors][:20]
         return
     # Accepted: then Mitsuba must load it, with nothing non-finite in it.
     event("accepted")

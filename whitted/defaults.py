@@ -53,6 +53,8 @@ MAX_MAGNITUDE = "1e12"
 MIN_POSITIVE = "1e-6"
 #: Two directions count as parallel when the sine of their angle is below this.
 PARALLEL_SINE = 1e-9
+#: A scene file's errors are all found; the message lists this many, then counts the rest.
+MAX_REPORTED_ERRORS = 20
 
 # --- Rendering -----------------------------------------------------------------------------------
 #: how the Whitted integrator lights a scene: the article's model, or physically

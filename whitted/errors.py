@@ -1,4 +1,4 @@
-"""The errors a user sees: one line, no traceback (the CLI prints them)."""
+"""The errors a user sees: one line each, no traceback (the CLI prints them)."""
 
 from __future__ import annotations
 
@@ -17,11 +17,42 @@ class WhittedError(Exception):
 
 
 class SceneError(WhittedError):
-    """A problem in a scene file, located as ``FILE:LINE: message`` (or ``FILE: message``)."""
+    """The problems of a scene file, each located as ``FILE:LINE: message`` (or ``FILE: message``).
 
-    def __init__(self, path: str | os.PathLike, line: int | None, message: str):
+    .. list-table::
+       :header-rows: 1
+
+       * - Attribute
+         - Meaning
+       * - ``path``, ``line``, ``message``
+         - the first problem (``line`` is None for a problem of the whole file)
+       * - ``errors``
+         - every problem as (path, line, message), in file order; the first is the above
+
+    ``str(error)`` is one line per problem, at most
+    :data:`whitted.defaults.MAX_REPORTED_ERRORS` of them, then a line that counts
+    the rest. The CLI prints each line as ``whitted: error: LINE``.
+    """
+
+    def __init__(self, path: str | os.PathLike, line: int | None, message: str, more=()):
         self.path = os.fspath(path)
         self.line = line
         self.message = message
-        where = self.path if line is None else f"{self.path}:{line}"
-        super().__init__(f"{where}: {message}")
+        self.errors: list[tuple[str, int | None, str]] = \
+            [(self.path, line, message), *((os.fspath(p), n, m) for p, n, m in more)]
+        super().__init__(self._text())
+
+    @classmethod
+    def collected(cls, errors) -> "SceneError":
+        """One error for all of ``errors``, (path, line, message) in file order."""
+        (path, line, message), *more = errors
+        return cls(path, line, message, more)
+
+    def _text(self) -> str:
+        from .defaults import MAX_REPORTED_ERRORS  # (whitted.defaults imports this module)
+        lines = [f"{path}: {message}" if line is None else f"{path}:{line}: {message}"
+                 for path, line, message in self.errors[:MAX_REPORTED_ERRORS]]
+        more = len(self.errors) - MAX_REPORTED_ERRORS
+        if more > 0:
+            lines.append(f"... and {more} more error{'s' if more > 1 else ''}")
+        return "\n".join(lines)

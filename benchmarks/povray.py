@@ -1,0 +1,209 @@
+"""POV-Ray 3.7 as a yardstick: the same scene model written as a POV-Ray scene, and run.
+
+Why POV-Ray: it is the long-lived, widely installed classic ray tracer of the
+article's kind (point lights, hard shadows, recursive mirrors and glass), written
+in C++ with its own bounding hierarchy; ``make bench`` times whitted against it
+on the sphereflake (spd.py).
+
+The scene is written to make POV-Ray trace the tree whitted traces and shade it
+with the article's model:
+
+* point lights with no distance fall-off (POV-Ray's default ``fade_power 0``),
+  hard shadows; the light's color is the article's;
+* per sphere, with KR, KT its reflection and transparency and A the ambient
+  coefficient: ``finish { ambient (1-KR-KT)·A  diffuse (1-KR-KT)·(1-A)
+  reflection KR  specular 0  phong 0 }``, so that the local color is
+  (1 - KR - KT) · B · (A + (1 - A) Σ s·light) as in the article (POV-Ray adds
+  the reflected color on top of the local one, so the local terms carry the
+  article's weight 1 - KR - KT). ``global_settings { ambient_light 1 }`` leaves
+  the ambient term as it is;
+* refraction: ``filter``-free ``transmit KT`` with ``interior { ior IOR }``
+  (the sphereflake has none; the benchmark does not compare images, only time);
+* ``max_trace_level N`` for the article's depth N (primary rays are level 1)
+  and ``adc_bailout 0``: no adaptive depth control, as whitted's
+  ``--min-weight 0``; no anti-aliasing: one ray per pixel;
+* the camera: ``location`` eye, ``look_at``, ``sky`` up and ``angle`` the
+  horizontal field of view; ``right -x·W/H`` makes POV-Ray's left-handed frame
+  the scene format's right-handed one (the image is not mirrored).
+
+POV-Ray 3.7 refuses every option unless ``~/.povray/3.7/povray.conf`` exists;
+:func:`run` gives it a private home with an empty one, so nothing of the user's
+is touched.
+
+Usage::
+
+    python benchmarks/povray.py --install          # install Debian's povray when root
+    python benchmarks/povray.py SCENE.scn -o SCENE.pov
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import re
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+
+from whitted.converter import parse_file  # noqa: E402
+from whitted.converter.scene import Scene  # noqa: E402
+
+
+def _v(v) -> str:
+    return "<" + ", ".join(repr(float(c)) for c in v) + ">"
+
+
+def _f(x: float) -> str:
+    return repr(float(x))
+
+
+def scene_to_pov(scene: Scene) -> str:
+    """The POV-Ray 3.7 scene of ``scene`` (see the module docstring for the mapping)."""
+    if any(s.material.texture is not None for s in scene.spheres):
+        raise ValueError("the POV-Ray writer handles untextured spheres only")
+    a = scene.ambient
+    out = [
+        "// written by whitted's benchmarks/povray.py: the article's model in POV-Ray 3.7",
+        "#version 3.7;",
+        f"global_settings {{ assumed_gamma 1.0 ambient_light rgb 1 max_trace_level {scene.depth} "
+        f"adc_bailout 0 }}",
+        f"background {{ rgb {_v(scene.background)} }}",
+        "camera {",
+        "  perspective",
+        f"  location {_v(scene.eye)}",
+        f"  sky {_v(scene.up)}",
+        "  up y",
+        f"  right -x*{scene.width}/{scene.height}",
+        f"  angle {_f(scene.fov)}",
+        f"  look_at {_v(scene.lookat)}",
+        "}",
+    ]
+    out += [f"light_source {{ {_v(light.position)} color rgb {_v(light.color)} }}" for light in scene.lights]
+    # One texture per distinct material, declared once (as the XML shares its BSDFs).
+    materials: dict = {}
+    for sphere in scene.spheres:
+        materials.setdefault(sphere.material, f"M{len(materials)}")
+    for m, name in materials.items():
+        local = 1.0 - m.reflect - m.refract
+        out += [f"#declare {name} = texture {{",
+                f"  pigment {{ rgb {_v(m.color)}" + (f" transmit {_f(m.refract)}" if m.refract else "") + " }",
+                f"  finish {{ ambient {_f(local * a)} diffuse {_f(local * (1 - a))} "
+                f"reflection {{ {_f(m.reflect)} }} specular 0 phong 0 }}",
+                "}"]
+        if m.refract:
+            out.append(f"#declare {name}_interior = interior {{ ior {_f(m.ior)} }}")
+    for s in scene.spheres:
+        name = materials[s.material]
+        interior = f" interior {{ {name}_interior }}" if s.material.refract else ""
+        out.append(f"sphere {{ {_v(s.center)}, {_f(s.radius)} texture {{ {name} }}{interior} }}")
+    return "\n".join(out) + "\n"
+
+
+# --------------------------------------------------------------------------- running
+
+
+def find() -> tuple[str | None, str]:
+    """POV-Ray 3.7's executable, or None and why it is missing."""
+    exe = shutil.which("povray")
+    if exe is None:
+        return None, "POV-Ray is not installed (Debian: apt-get install povray, or make bench as root)"
+    with tempfile.TemporaryDirectory() as home:
+        result = subprocess.run([exe, "--version"], capture_output=True, text=True, env=_env(Path(home)))
+    match = re.search(r"POV-Ray (\d+\.\d+)", result.stdout + result.stderr)
+    if not match:
+        return None, f"{exe} --version does not name a POV-Ray version"
+    if match.group(1) != "3.7":
+        return None, f"{exe} is POV-Ray {match.group(1)}, not 3.7"
+    return exe, ""
+
+
+def ensure_povray() -> None:
+    """Install Debian's ``povray`` when it is missing and this user may (root, or sudo without
+    a password; not with ``$WHITTED_NO_APT``), like ``make llvm``; else say why not."""
+    if shutil.which("povray"):
+        return
+    apt = shutil.which("apt-get")
+    prefix: list[str] | None = []
+    if os.geteuid() != 0:
+        sudo = shutil.which("sudo")
+        ok = sudo and subprocess.run([sudo, "-n", "true"], capture_output=True).returncode == 0
+        prefix = [sudo, "-n"] if ok else None
+    if apt and prefix is not None and not os.environ.get("WHITTED_NO_APT"):
+        env = {**os.environ, "DEBIAN_FRONTEND": "noninteractive"}
+        print("make bench: installing POV-Ray (apt-get install povray)", file=sys.stderr)
+        subprocess.run(prefix + [apt, "-qq", "update"], env=env, check=False, capture_output=True)
+        subprocess.run(prefix + [apt, "-qq", "install", "-y", "povray"], env=env, check=False,
+                       capture_output=True)
+    if not shutil.which("povray"):
+        print("make bench: POV-Ray is not installed and cannot be installed here (needs apt-get "
+              "and root); the benchmark's POV-Ray rows will say so", file=sys.stderr)
+
+
+def _env(home: Path) -> dict:
+    """A private home whose ``.povray/3.7/povray.conf`` exists (empty), without which
+    POV-Ray 3.7 rejects every option."""
+    (home / ".povray" / "3.7").mkdir(parents=True, exist_ok=True)
+    (home / ".povray" / "3.7" / "povray.conf").touch()
+    return {**os.environ, "HOME": str(home)}
+
+
+@dataclass
+class PovRun:
+    wall_seconds: float      # the whole process
+    trace_seconds: float     # POV-Ray's own "Trace Time"
+    parse_seconds: float     # POV-Ray's own "Parse Time"
+    shadow_rays: int         # POV-Ray's "Shadow Ray Tests"
+    reflected_rays: int      # POV-Ray's "Reflected Rays"
+
+
+_TIME = r"{}:\s+\d+ hours?\s+\d+ minutes?\s+\d+ seconds? \(([\d.]+) seconds?\)"
+
+
+def run(exe: str, pov: Path, image: Path, width: int, height: int, threads: int = 2) -> PovRun:
+    """Render ``pov`` to the PNG ``image`` with ``threads`` threads; times from POV-Ray's report."""
+    pov, image = Path(pov).resolve(), Path(image).resolve()
+    with tempfile.TemporaryDirectory() as home:
+        # PNG, no display, no anti-aliasing, no progress; statistics on (they hold the times)
+        command = [exe, f"+I{pov}", f"+O{image}", f"+W{width}", f"+H{height}", "+FN", "-D", "-A",
+                   "-V", "+GS", f"+WT{threads}"]
+        start = time.perf_counter()
+        result = subprocess.run(command, capture_output=True, text=True, cwd=image.parent,
+                                env=_env(Path(home)))
+        wall = time.perf_counter() - start
+    report = result.stdout + result.stderr
+    trace = re.search(_TIME.format("Trace Time"), report)
+    parse = re.search(_TIME.format("Parse Time"), report)
+    if result.returncode != 0 or trace is None or not image.exists():
+        tail = " ".join(report.strip().splitlines()[-3:])
+        raise RuntimeError(f"POV-Ray failed (exit status {result.returncode}): {tail[:300]}")
+    def count(name: str) -> int:
+        found = re.search(rf"{name}:\s+(\d+)", report)
+        return int(found.group(1)) if found else 0
+    return PovRun(wall, float(trace.group(1)), float(parse.group(1)) if parse else float("nan"),
+                  count("Shadow Ray Tests"), count("Reflected Rays"))
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description="Write a .scn scene for POV-Ray 3.7, or install POV-Ray.")
+    parser.add_argument("scene", nargs="?", help="the .scn scene")
+    parser.add_argument("-o", "--output", metavar="FILE.pov", help="the POV-Ray scene to write")
+    parser.add_argument("--install", action="store_true",
+                        help="install Debian's povray when missing and allowed (make bench)")
+    args = parser.parse_args(argv)
+    if args.install:
+        ensure_povray()
+        return 0
+    if not (args.scene and args.output):
+        parser.error("give SCENE.scn -o FILE.pov, or --install")
+    Path(args.output).write_text(scene_to_pov(parse_file(args.scene)))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,32 @@
+"""Sections of benchmarks/RESULTS.md that belong to one benchmark each.
+
+Several benchmarks record their results in the one file RESULTS.md; each owns
+the text between ``<!-- begin NAME -->`` and ``<!-- end NAME -->`` and rewrites
+only that, so that re-running one benchmark keeps the others' results
+(run.py keeps every marked section when it rewrites its own part).
+"""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+_SECTION = re.compile(r"<!-- begin ([\w-]+) -->\n.*?<!-- end \1 -->\n?", re.S)
+
+
+def marked(text: str) -> list[str]:
+    """Every marked section of ``text``, markers included, in order."""
+    return [m.group(0).rstrip("\n") + "\n" for m in _SECTION.finditer(text)]
+
+
+def replace(path: str | Path, name: str, body: str) -> None:
+    """Make ``body`` the section ``name`` of the Markdown file ``path`` (appended when new)."""
+    path = Path(path)
+    text = path.read_text() if path.exists() else ""
+    section = f"<!-- begin {name} -->\n{body.rstrip()}\n<!-- end {name} -->\n"
+    pattern = re.compile(rf"<!-- begin {re.escape(name)} -->\n.*?<!-- end {re.escape(name)} -->\n?", re.S)
+    if pattern.search(text):
+        text = pattern.sub(lambda _: section, text, count=1)
+    else:
+        text = text.rstrip("\n") + "\n\n" + section if text else section
+    path.write_text(text)

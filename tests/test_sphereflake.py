@@ -1,0 +1,111 @@
+"""The sphereflake benchmark scene (benchmarks/sphereflake.py) against its definition.
+
+Expectations come from the SPD's description of "balls": 9^n spheres at level n,
+each of a third of its parent's radius and touching it, six on the parent's
+equator and three above it, no two siblings overlapping; the scene written as
+``.scn`` text parses back to the same model.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import itertools
+import math
+import sys
+
+import pytest
+
+from conftest import REPO
+from whitted.converter import parse_text
+
+_spec = importlib.util.spec_from_file_location("sphereflake", REPO / "benchmarks" / "sphereflake.py")
+sphereflake = sys.modules["sphereflake"] = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(sphereflake)
+
+
+def _sub(a, b):
+    return tuple(x - y for x, y in zip(a, b))
+
+
+def _norm(a):
+    return math.sqrt(sum(x * x for x in a))
+
+
+def _unit(a):
+    n = _norm(a)
+    return tuple(x / n for x in a)
+
+
+def _dot(a, b):
+    return sum(x * y for x, y in zip(a, b))
+
+
+@pytest.mark.parametrize("level, total", [(0, 1), (1, 10), (2, 91), (3, 820), (4, 7381)])
+def test_sphere_counts_per_level(level, total):
+    spheres = sphereflake.flake(level)
+    assert len(spheres) == total == sphereflake.count(level)
+    for n in range(level + 1):
+        at_n = [s for s in spheres if s.level == n]
+        assert len(at_n) == 9 ** n
+        assert all(math.isclose(s.radius, 0.5 / 3 ** n, rel_tol=1e-12) for s in at_n)
+
+
+def test_level_5_count_without_building_it():
+    assert sphereflake.count(5) == 66430
+
+
+def test_children_touch_their_parent_on_its_equator_and_above():
+    spheres = sphereflake.flake(3)
+    children = {i: [] for i in range(len(spheres))}
+    for s in spheres[1:]:
+        children[s.parent].append(s)
+    for i, parent in enumerate(spheres):
+        kids = children[i]
+        assert len(kids) == (9 if parent.level < 3 else 0)
+        if not kids:
+            continue
+        # the parent's axis: from its own parent to it (+Z for the first sphere)
+        axis = (0.0, 0.0, 1.0) if parent.parent < 0 else _unit(_sub(parent.center, spheres[parent.parent].center))
+        elevations = []
+        for kid in kids:
+            assert math.isclose(kid.radius, parent.radius / 3, rel_tol=1e-12)
+            gap = _norm(_sub(kid.center, parent.center))
+            assert math.isclose(gap, parent.radius + kid.radius, rel_tol=1e-12)
+            elevations.append(math.degrees(math.asin(_dot(_unit(_sub(kid.center, parent.center)), axis))))
+        equator = [e for e in elevations if abs(e) < 1e-9]
+        above = [e for e in elevations if abs(e - math.degrees(math.asin(math.sqrt(2 / 3)))) < 1e-9]
+        assert (len(equator), len(above)) == (6, 3)
+
+
+def test_siblings_do_not_overlap():
+    spheres = sphereflake.flake(2)
+    for parent in range(len(spheres)):
+        kids = [s for s in spheres if s.parent == parent]
+        for a, b in itertools.combinations(kids, 2):
+            assert _norm(_sub(a.center, b.center)) > a.radius + b.radius
+
+
+def test_scene_is_the_spd_view_and_parses_back(tmp_path):
+    model = sphereflake.scene(2)
+    assert (model.width, model.height, model.depth, model.samples, model.fov) == (512, 512, 5, 1, 45)
+    assert model.eye == (2.1, 1.3, 1.7) and model.up == (0, 0, 1) and len(model.lights) == 3
+    floor = model.spheres[-1]
+    assert math.isclose(floor.center[2] + floor.radius, -0.5) and floor.material.reflect == 0
+    assert all(s.material.reflect == 0.5 for s in model.spheres[:-1])
+
+    path = sphereflake.write(2, tmp_path / "flake.scn")
+    parsed = parse_text(path.read_text(), path)
+    assert len(parsed.spheres) == 92
+    assert [(s.center, s.radius, s.material) for s in parsed.spheres] == \
+        [(s.center, s.radius, s.material) for s in model.spheres]
+    assert [(l.position, l.color) for l in parsed.lights] == [(l.position, l.color) for l in model.lights]
+    assert (parsed.eye, parsed.lookat, parsed.up, parsed.background, parsed.ambient) == \
+        (model.eye, model.lookat, model.up, model.background, model.ambient)
+
+
+def test_command_line(tmp_path):
+    out = tmp_path / "f1.scn"
+    assert sphereflake.main(["1", "-o", str(out)]) == 0
+    assert len(parse_text(out.read_text(), out).spheres) == 11
+    with pytest.raises(SystemExit):
+        sphereflake.main(["6", "-o", str(out)])
