@@ -24,6 +24,8 @@ def register() -> None:
     variant = mi.variant()
     if variant in _registered:
         return
+    from .scene_state import watch
+    watch(mi.Scene)   # scene changes drop what the integrator derived from the scene
     for module_name, function, plugin_name, class_name in _PLUGINS:
         module = importlib.import_module(module_name)
         if _registered:  # built for another variant before: rebuild the classes

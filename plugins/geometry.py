@@ -28,9 +28,15 @@ docs/numerics.md catalogues the hazards.
 
 from __future__ import annotations
 
+import itertools
+from dataclasses import dataclass
+
 import drjit as dr
 import mitsuba as mi
 import numpy as np
+
+from .scene_state import memo
+from .surfaces import shape_materials
 
 
 #: float32's unit round-off, 2^-24
@@ -74,27 +80,62 @@ def lat_long_uv(n, x_axis, y_axis, z_axis):
     return mi.Point2f(dr.select(pole, 0.0, u), dr.safe_acos(z) * dr.inv_pi)
 
 
-def _shape_numbers(scene, need_uv: bool):
-    """``(centre, radius, error, frames)`` of ``scene.shapes()``: 3×N, N, N arrays and
-    {shape index: frame}.
+@dataclass
+class ShapeNumbers:
+    """Per shape of ``scene.shapes()`` (in that order): bounding sphere and error bound.
 
     Centre and radius come from the bounding boxes (exact to a float32 ulp of
     |C| + r for a sphere: within the error bound); a frame (rows: the local x,
     y and z axes) is the ``to_world`` rotation of a sphere whose colour varies
     over it, which also gives that sphere's centre and radius.
     """
-    boxes = [shape.bbox() for shape in scene.shapes()]
-    low = np.array([box.min for box in boxes], np.float64).reshape(-1, 3).T
-    high = np.array([box.max for box in boxes], np.float64).reshape(-1, 3).T
+    centre: np.ndarray       # 3×N
+    radius: np.ndarray       # N
+    error: np.ndarray        # N, :func:`hit_error`
+    sphere: np.ndarray       # N, whether the shape is a sphere
+    frames: dict             # {shape index: 3×3 frame}
+    rows: np.ndarray | None  # N, each shape's instance ID (JIT variants)
+    bsdf: np.ndarray | None  # N, the instance ID of each shape's BSDF (JIT variants)
+
+
+def _shape_types(scene) -> np.ndarray:
+    """Each shape's ``mi.ShapeType`` as an integer (one gather in the JIT variants)."""
+    def build():
+        if dr.is_jit_v(mi.Float):
+            return np.asarray(scene.shapes_dr().shape_type(), np.uint32).reshape(-1)
+        return np.array([int(shape.shape_type()) for shape in scene.shapes()], np.uint32)
+    return memo(scene, "shape types", build)
+
+
+def shape_numbers(scene, need_uv: bool) -> ShapeNumbers:
+    """The :class:`ShapeNumbers` of ``scene``, computed once per scene state."""
+    return memo(scene, ("shape numbers", need_uv), lambda: _shape_numbers(scene, need_uv))
+
+
+def _shape_numbers(scene, need_uv: bool) -> ShapeNumbers:
+    # Mitsuba hands over the shapes' types and instance IDs as arrays; a bounding box
+    # takes a call per shape (a vectorized call on the shapes would trace each of them,
+    # several µs apiece), read into numpy without converting each box on its own.
+    shapes = scene.shapes()
+    corners = np.fromiter(itertools.chain.from_iterable((*box.min, *box.max) for box in
+                                                        (shape.bbox() for shape in shapes)),
+                          np.float64, 6 * len(shapes)).reshape(-1, 2, 3)
+    low, high = corners[:, 0].T, corners[:, 1].T
     centre, radius = (low + high) / 2, (high - low).max(axis=0, initial=0.0) / 2
+    sphere = _shape_types(scene) == int(mi.ShapeType.Sphere)
+    materials = shape_materials(scene)
+    rows = bsdf = None
+    if dr.is_jit_v(mi.Float) and shapes:
+        rows = np.asarray(dr.reinterpret_array(mi.UInt32, scene.shapes_dr()), np.int64).reshape(-1)
+        bsdf = materials.key
     frames = {}
-    for index, shape in enumerate(scene.shapes() if need_uv else []):
-        colour = getattr(shape.bsdf(), "color", None)   # the article BSDF's base colour
-        if shape.class_name() == "Sphere" and colour is not None and colour.is_spatially_varying():
-            matrix = np.array(mi.traverse(shape)["to_world"].matrix, np.float64).reshape(4, 4)
+    if need_uv:
+        for index in np.flatnonzero(materials.textured & sphere).tolist():
+            matrix = np.array(mi.traverse(shapes[index])["to_world"].matrix, np.float64).reshape(4, 4)
             centre[:, index], radius[index] = matrix[:3, 3], np.linalg.norm(matrix[:3, 0])
             frames[index] = (matrix[:3, :3] / radius[index]).T
-    return centre, radius, hit_error(radius, np.abs(centre).max(axis=0, initial=0.0)), frames
+    error = hit_error(radius, np.abs(centre).max(axis=0, initial=0.0))
+    return ShapeNumbers(centre, radius, error, sphere, frames, rows, bsdf)
 
 
 class _SurfacesNear:
@@ -102,10 +143,17 @@ class _SurfacesNear:
 
     def __init__(self, centre, radius, error, sphere):
         self.centre, self.radius, self.error = centre[:, sphere], radius[sphere], error[sphere]
+        self._answers = {}   # a light's position -> its answer: the lights ask at every render
 
     def surface_at(self, point):
         """``(error, normal)`` of the sphere that ``point`` lies on (within twice its error
         bound; the one with the largest bound if several do), ``(0, 0)`` if none."""
+        key = tuple(float(x) for x in np.asarray(point, np.float64).reshape(-1))
+        if key not in self._answers:
+            self._answers[key] = self._surface_at(key)
+        return self._answers[key]
+
+    def _surface_at(self, point):
         point = np.asarray(point, np.float64).reshape(3, 1)
         offset = point - self.centre
         distance = np.linalg.norm(offset, axis=0)
@@ -138,11 +186,6 @@ def blocked(scene, ray, active):
     return scene.ray_test(ray, active)
 
 
-def _shape_rows(scene) -> np.ndarray:
-    """Each shape's instance ID (JIT variants), the row of per-shape tables."""
-    return np.array(dr.reinterpret_array(mi.UInt32, scene.shapes_dr()), np.int64).reshape(-1)
-
-
 def _frame_table(rows, frames, size: int):
     """``(mapped, axes)``: per row, whether the shape has a texture frame, and the frame's
     x, y and z axes as three opaque ``Vector3f`` tables (the identity where it has none)."""
@@ -169,21 +212,31 @@ class MitsubaHits:
         self.need_uv = need_uv
         self.flags = mi.RayFlags.Minimal | (mi.RayFlags.UV if need_uv else mi.RayFlags.Empty)
         self.vectorized = dr.is_jit_v(mi.Float)
-        centre, radius, error, frames = _shape_numbers(scene, need_uv)
-        sphere = np.array([shape.class_name() == "Sphere" for shape in scene.shapes()], bool)
-        self.surface_at = _SurfacesNear(centre, radius, error, sphere).surface_at
+        tables = memo(scene, ("interaction tables", need_uv), lambda: self._tables(scene, need_uv))
+        self.surface_at = tables["surface_at"]
+        if self.vectorized:
+            self._error, self._mapped, self._frame = tables["error"], tables["mapped"], tables["frame"]
+        else:
+            self._shapes = tables["shapes"]
+
+    def _tables(self, scene, need_uv):
+        numbers = shape_numbers(scene, need_uv)
+        tables = {"surface_at": _SurfacesNear(numbers.centre, numbers.radius, numbers.error,
+                                              numbers.sphere).surface_at}
         if not self.vectorized:   # the scalar variant hands out the same shape objects each time
-            self._shapes = {id(shape): (float(error[k]), [mi.Vector3f(axis) for axis in frames[k]]
-                                        if k in frames else None)
-                            for k, shape in enumerate(scene.shapes())}
-            return
-        rows = _shape_rows(scene) if scene.shapes() else np.zeros(0, np.int64)
+            frames = numbers.frames
+            tables["shapes"] = {id(shape): (float(numbers.error[k]), [mi.Vector3f(axis) for axis in frames[k]]
+                                            if k in frames else None)
+                                for k, shape in enumerate(scene.shapes())}
+            return tables
+        rows = numbers.rows if numbers.rows is not None else np.zeros(0, np.int64)
         size = int(rows.max(initial=0)) + 1
-        table = np.zeros(size)
-        table[rows] = error
-        self._error = mi.Float(table)
-        dr.make_opaque(self._error)
-        self._mapped, self._frame = _frame_table(rows, frames, size)
+        error = np.zeros(size)
+        error[rows] = numbers.error
+        tables["error"] = mi.Float(error)
+        dr.make_opaque(tables["error"])
+        tables["mapped"], tables["frame"] = _frame_table(rows, numbers.frames, size)
+        return tables
 
     def intersect(self, ray, coherent: bool):
         """``(hit, si, bsdf, error)``; ``bsdf`` is the BSDF's instance ID (JIT) or the BSDF
@@ -211,27 +264,31 @@ class SphereHits:
 
     @staticmethod
     def applies(scene) -> bool:
-        shapes = scene.shapes()
-        return bool(shapes) and all(s.class_name() == "Sphere" for s in shapes)
+        types = _shape_types(scene)
+        return bool(len(types)) and bool((types == int(mi.ShapeType.Sphere)).all())
 
     def __init__(self, scene, need_uv: bool):
         self.scene = scene
         self.need_uv = need_uv
-        rows = _shape_rows(scene)
-        bsdf_ids = np.array(dr.reinterpret_array(mi.UInt32, scene.shapes_dr().bsdf()), np.uint32).reshape(-1)
+        tables = memo(scene, ("sphere tables", need_uv), lambda: self._tables(scene, need_uv))
+        self.surface_at = tables["surface_at"]
+        self._centre, self._radius, self._error, self._bsdf, self._frame = tables["spheres"]
+
+    @staticmethod
+    def _tables(scene, need_uv):
+        numbers = shape_numbers(scene, need_uv)
+        rows = numbers.rows
         size = int(rows.max()) + 1
         centre, radius, error = np.zeros((3, size)), np.ones(size), np.zeros(size)
         bsdf = np.zeros(size, np.uint32)
-        numbers = _shape_numbers(scene, need_uv)
-        self.surface_at = _SurfacesNear(*numbers[:3], sphere=np.ones(len(rows), bool)).surface_at
-        centre[:, rows], radius[rows], error[rows], frames = numbers
-        bsdf[rows] = bsdf_ids
-        self._centre = mi.Point3f(centre)
-        self._radius = mi.Float(radius)
-        self._error = mi.Float(error)
-        self._bsdf = mi.UInt32(bsdf)
-        dr.make_opaque(self._centre, self._radius, self._error, self._bsdf)
-        _, self._frame = _frame_table(rows, frames, size)
+        centre[:, rows], radius[rows], error[rows], bsdf[rows] = \
+            numbers.centre, numbers.radius, numbers.error, numbers.bsdf
+        table = (mi.Point3f(centre), mi.Float(radius), mi.Float(error), mi.UInt32(bsdf))
+        dr.make_opaque(*table)
+        _, frame = _frame_table(rows, numbers.frames, size)
+        return {"surface_at": _SurfacesNear(numbers.centre, numbers.radius, numbers.error,
+                                            numbers.sphere).surface_at,
+                "spheres": (*table, frame)}
 
     def intersect(self, ray, coherent: bool):
         """``(hit, si, bsdf, error)`` as :meth:`MitsubaHits.intersect`, ``bsdf`` an instance ID."""

@@ -1,36 +1,27 @@
 """``whitted``: the article's recursive ray tracer as a Mitsuba integrator.
 
-Properties: ``max_depth`` (the article's depth N, primary rays have depth 1),
-``ambient`` (A), ``lighting`` ("article" or "physical") and
-``light_reference`` (the point where an article light's colour was measured,
-the scene's ``lookat``; see :mod:`.effects`), ``wavefront_size``
-(camera samples per pass, 0 = automatic), which bounds memory, and
-``min_weight`` (Hall and Greenberg's adaptive depth control, 0 = off: see
-:meth:`WhittedIntegrator._traced`).
+Why a Python integrator: the article's model is not a light transport
+algorithm Mitsuba has (a point's color is ``B·(A + (1 - A)·Σ s·light)``, a
+ray tree of fixed depth, no sampling), and written with Dr.Jit it runs as
+compiled kernels in the JIT variants, as fast as Mitsuba's own C++ ``direct``
+integrator on the same rays. What it is: see the class docstring.
 
-How the ray tree is evaluated. The article's ``trace`` is recursive, but its
-result is linear in the children's colours, so the colour of a camera ray is
-a sum over the tree's rays of ``w·contribution``, where ``w`` is the product of
-the KR and KT factors along the way (see :mod:`.shading`). The integrator
-keeps a stack of *wavefronts*: rays of one level with their weights and the
-camera sample each belongs to. Shading a wavefront adds its contributions to
-its camera samples and pushes one wavefront of children, holding only the
-lanes that really spawn a ray (``dr.compress``). In the JIT variants a
-wavefront is a Dr.Jit array of up to ``wavefront_size`` lanes (wider ones
-are split, so trees that double at each level still run in bounded memory);
-in the scalar variant it is a single ray and the same loop is an ordinary
-depth-first traversal. No Python runs per ray in the JIT variants.
+How the ray tree is walked: see :mod:`.tracer`. The shading model is written
+once (:mod:`.shading`); the walk is a :class:`~.wavefront.WavefrontTracer` in
+the JIT variants and a :class:`~.depth_first.DepthFirstTracer` in the scalar
+ones, chosen in :func:`tracer_for_variant`.
 
 The image is rendered in passes of at most ``wavefront_size`` camera
-samples (2^20 by default; 2^24 when the tree has a single level, which stores
-nothing per lane), accumulated in Mitsuba's image block and developed by the
-film. Camera rays come from the sensor's ``sample_ray`` (Mitsuba's perspective
+samples, accumulated in Mitsuba's image block and developed by the film.
+Camera rays come from the sensor's ``sample_ray`` (Mitsuba's perspective
 camera), placed in their pixels by :mod:`.pixel_samples`.
 
 The modules behind it: :mod:`.effects` (what the scene calls for),
-:mod:`.geometry` (hit points, normals, UV), :mod:`.surfaces` (material
-lookups), :mod:`.shading` (the article's model), :mod:`.optics` (reflection
-and refraction) and :mod:`.pixel_samples`.
+:mod:`.tracer`, :mod:`.wavefront` and :mod:`.depth_first` (walking the ray
+tree), :mod:`.shading` (the article's model), :mod:`.geometry` (hit points,
+normals, UV), :mod:`.surfaces` (material lookups), :mod:`.optics` (reflection
+and refraction), :mod:`.counts` (what ``--stats`` reports), :mod:`.masks`
+(masks for one ray and for a wavefront) and :mod:`.pixel_samples`.
 """
 
 from __future__ import annotations
@@ -42,43 +33,22 @@ import mitsuba as mi
 
 from whitted import defaults as D
 
+from .counts import RayCounts, Tally
+from .depth_first import DepthFirstTracer
 from .effects import analyse
 from .pixel_samples import pixel_offset
-from .shading import RayCounter, Shader
-
-#: default camera samples per pass (and widest wavefront) in the JIT variants:
-#: a level holds about 100 bytes per lane, so a pass stays around 100 MiB
-JIT_SAMPLES_PER_PASS = 1 << 20
-#: the same when the tree has a single level: then one kernel traces, shades
-#: and splats each sample, storing nothing per lane, and larger passes are free
-JIT_SAMPLES_PER_FLAT_PASS = 1 << 24
-#: the scalar variant traces one ray at a time; passes only pace the progress bar
-SCALAR_SAMPLES_PER_PASS = 1 << 10
+from .shading import Shader
+from .tracer import Tracer
+from .wavefront import SAMPLES_PER_PASS, WavefrontTracer
 
 
-@dataclass
-class RayCounts:
-    """Rays traced by one render (``whitted render --stats``).
-
-    A refracted share sent along the mirror direction by total internal
-    reflection still counts as a refraction ray: it is the ray the refraction
-    term spawns. ``max_depth_reached`` is the deepest level that traced a ray.
-    ``culled`` counts the reflected and refracted rays left untraced because
-    their path weight was below ``min_weight``, and ``culled_weight`` sums
-    their weights: each would have added at most its weight times the
-    brightest colour in the scene, so ``culled_weight / spp`` times that
-    colour bounds the total error of an image (summed over its pixels).
-    """
-    camera: int = 0
-    shadow: int = 0
-    reflection: int = 0
-    refraction: int = 0
-    max_depth_reached: int = 0
-    culled: int = 0
-    culled_weight: float = 0.0
-
-    def rays(self) -> dict:
-        return {kind: getattr(self, kind) for kind in ("camera", "shadow", "reflection", "refraction")}
+def tracer_for_variant(shader, min_weight: float, tally, lanes: int) -> Tracer:
+    """The walk the current variant can do. The one place that tells the variants apart:
+    wavefronts need Dr.Jit arrays to gather a level's rays into (JIT variants), and the
+    scalar variants' values are one ray's plain numbers."""
+    if dr.is_jit_v(mi.Float):
+        return WavefrontTracer(shader, min_weight, tally, lanes)
+    return DepthFirstTracer(shader, min_weight, tally)
 
 
 @dataclass
@@ -91,32 +61,101 @@ class Rendering:
     passes: int
 
 
-@dataclass
-class Wavefront:
-    """Rays of one level of the tree, with their path weights.
-
-    ``owner`` holds each lane's camera sample within the pass; None for the
-    camera rays themselves (lane i is sample i) and in the scalar variant.
-    """
-    ray: object
-    weight: object
-    owner: object
-    level: int
-
-
 class WhittedIntegrator(mi.SamplingIntegrator):
+    r"""
+    .. _integrator-whitted:
+
+    Whitted ray tracer (:monosp:`whitted`)
+    --------------------------------------
+
+    .. pluginparameters::
+
+     * - max_depth
+       - |int|
+       - The article's depth N: the deepest level of the ray tree, primary rays
+         having depth 1, from 1 to 64. Depth 1 shows no reflections or
+         refractions. (Default: 5)
+
+     * - ambient
+       - |float|
+       - The article's ambient coefficient A in [0, 1]: a lit point's color is
+         ``B·(A + (1 - A)·Σ s·light)``. Article lighting only. (Default: 0.2)
+
+     * - lighting
+       - |string|
+       - ``article``: the article's model, light colors without fall-off;
+         ``physical``: radiometric point lights, ``(B/π)·Σ I·cos/r²``, no
+         ambient term (what Mitsuba's ``path`` integrator computes).
+         (Default: article)
+
+     * - light_reference
+       - |point|
+       - Where an article light's color was measured: the scene's ``lookat``.
+         The converter writes a light of color c at distance d from it as a
+         point emitter of intensity ``c·π·d²``, and article lighting reads the
+         color back from the intensity. (Default: 0, 0, 0)
+
+     * - min_weight
+       - |float|
+       - Hall and Greenberg's adaptive depth control: a reflected or refracted
+         ray whose path weight (the product of the KR and KT factors above it)
+         is below this is not traced; 0 traces the exact tree. (Default: 0)
+
+     * - wavefront_size
+       - |int|
+       - Camera samples per pass, and the widest wavefront the JIT variants
+         trace at once: it bounds memory. 0 lets the tracer choose (2^20, or
+         2^24 when the tree has a single level). (Default: 0)
+
+    The article's ray tracer (shared/scene-format.md, "Shading"): a camera ray
+    that hits a sphere gets ``(1 - KR - KT)·point + KR·reflected +
+    KT·refracted``, where ``point`` is the sphere's base color B lit by the
+    point lights it sees (every sphere casts shadows, transparent ones too)
+    and the reflected and refracted colors are traced the same way, to
+    ``max_depth``; under total internal reflection the refracted share
+    follows the mirror direction. A ray that escapes gets the background (a
+    ``constant`` environment emitter), black without one. Every surface must
+    carry the :ref:`article <bsdf-article>` BSDF, every emitter be a point
+    light or the environment. No sampling: one sample per pixel passes
+    through the pixel's center, so a render is deterministic; more samples
+    are stratified in the pixel.
+
+    Code for an effect the scene lacks is left out of the kernels: a scene
+    without mirrors or glass is traced to depth 1 whatever ``max_depth``.
+    :meth:`render_detailed` also returns the rays traced
+    (``whitted render --stats``).
+
+    .. tabs::
+
+        .. code-tab:: xml
+            :name: whitted-integrator
+
+            <integrator type="whitted">
+                <integer name="max_depth" value="10"/>
+                <float name="ambient" value="0.3"/>
+                <string name="lighting" value="article"/>
+                <point name="light_reference" value="0, 0.2, 0"/>
+            </integrator>
+
+        .. code-tab:: python
+
+            'type': 'whitted',
+            'max_depth': 10,
+            'ambient': 0.3,
+            'lighting': 'article',
+            'light_reference': [0, 0.2, 0]
+    """
+
     def __init__(self, props: mi.Properties):
         super().__init__(props)
         self.max_depth = D.check_depth(props.get("max_depth", D.DEPTH), "whitted: max_depth")
         self.ambient = D.check_ambient(props.get("ambient", D.AMBIENT), "whitted: ambient")
         self.lighting = D.check_lighting(str(props.get("lighting", D.LIGHTING)), "whitted: lighting")
-        self.light_reference = mi.ScalarPoint3f(props.get("light_reference", mi.ScalarPoint3f(0, 0, 0)))
-        self.wavefront_size = int(props.get("wavefront_size", 0))
+        self.light_reference = mi.ScalarPoint3f(props.get("light_reference", mi.ScalarPoint3f(D.LOOKAT)))
+        self.wavefront_size = int(props.get("wavefront_size", D.WAVEFRONT_SIZE))
         self.min_weight = D.check_min_weight(props.get("min_weight", D.MIN_WEIGHT), "whitted: min_weight")
         if self.wavefront_size < 0:
             raise ValueError(f"whitted: wavefront_size must be >= 0, got {self.wavefront_size}")
-        self.vectorized = dr.is_jit_v(mi.Float)
-        self._lanes = self.wavefront_size or JIT_SAMPLES_PER_PASS
 
     # -- Mitsuba's entry points ------------------------------------------------------------------
 
@@ -127,12 +166,18 @@ class WhittedIntegrator(mi.SamplingIntegrator):
 
     def sample(self, scene, sampler, ray, medium=None, active=True):
         """The colour of ``ray``'s whole tree (for callers that drive the integrator per ray)."""
-        shader = Shader(scene, analyse(scene, self.max_depth, self.light_reference),
-                        self.ambient, self.lighting, RayCounter())
-        colour = self._trace(shader, mi.Ray3f(ray), RayCounts())
-        return colour, mi.Bool(True), []
+        tracer, _ = self._tracer(scene)
+        return tracer.trace(mi.Ray3f(ray)), mi.Bool(True), []
 
     # -- Rendering ------------------------------------------------------------------------------
+
+    def _tracer(self, scene):
+        """A tracer for ``scene`` (see :mod:`.tracer`), and the scene's analysis."""
+        analysis = analyse(scene, self.max_depth, self.light_reference)
+        tally = Tally()
+        shader = Shader(scene, analysis, self.ambient, self.lighting, tally)
+        return tracer_for_variant(shader, self.min_weight, tally,
+                                  self.wavefront_size or SAMPLES_PER_PASS), analysis
 
     def render_detailed(self, scene, sensor=0, seed=0, spp=0, progress=None) -> Rendering:
         """Render ``scene`` and report what was traced.
@@ -142,71 +187,44 @@ class WhittedIntegrator(mi.SamplingIntegrator):
         """
         if isinstance(sensor, int):
             sensor = scene.sensors()[sensor]
-        seed = int(dr.ravel(mi.UInt32(seed))[0]) if self.vectorized else int(seed)
+        seed = int(seed[0]) if dr.is_array_v(seed) else int(seed)   # mi.render may pass a UInt32
         spp = int(spp) or sensor.sampler().sample_count()
         film = sensor.film()
         width, height = (int(c) for c in film.crop_size())
-        total = width * height * spp
 
-        analysis = analyse(scene, self.max_depth, self.light_reference)
-        counter = RayCounter()
-        shader = Shader(scene, analysis, self.ambient, self.lighting, counter)
-        rays = RayCounts()
-
+        tracer, analysis = self._tracer(scene)
         film.prepare([])
         block = film.create_block()
         block.set_coalesce(block.coalesce() and spp >= 4)
-        if self.wavefront_size:
-            per_pass = self.wavefront_size
-        elif not self.vectorized:
-            per_pass = SCALAR_SAMPLES_PER_PASS
-        else:
-            per_pass = JIT_SAMPLES_PER_PASS if analysis.depth > 1 else JIT_SAMPLES_PER_FLAT_PASS
-        passes = 0
-        for first in range(0, total, per_pass):
-            count = min(per_pass, total - first)
-            render_pass = self._render_pass_jit if self.vectorized else self._render_pass_scalar
-            render_pass(shader, sensor, block, first, count, width, spp, seed, rays)
-            passes += 1
+        passes = tracer.passes(width * height * spp, self.wavefront_size)
+        for first, count in passes:
+            self._render_pass(tracer, sensor, block, first, count, width, spp, seed)
             if progress is not None:
                 progress(count)
         film.put_block(block)
-        image = film.develop()
-        rays.shadow = counter.shadow
-        return Rendering(image, rays, analysis.effects, analysis.depth, passes)
+        rays = tracer.tally.read(camera=width * height * spp, max_depth_reached=tracer.deepest)
+        return Rendering(film.develop(), rays, analysis.effects, analysis.depth, len(passes))
 
-    def _render_pass_jit(self, shader, sensor, block, first, count, width, spp, seed, rays):
-        # Samples first .. first + count - 1 (of every pixel's spp, pixel after pixel);
-        # counted from the pass's first pixel, so that 32-bit indices never overflow.
+    def _render_pass(self, tracer, sensor, block, first, count, width, spp, seed):
+        """Samples first … first + count - 1 (of every pixel's spp, pixel after pixel), as
+        ``tracer`` takes them: one wavefront, or one sample at a time."""
+        # Counted from the pass's first pixel, so that 32-bit indices never overflow.
         first_pixel, first_sample = divmod(first, spp)
-        index = dr.arange(mi.UInt32, count)
-        if spp == 1:
-            pixel, sample = index, mi.UInt32(0)
-        else:
-            spp_ = dr.opaque(mi.UInt32, spp)
-            index += dr.opaque(mi.UInt32, first_sample)
-            pixel = index // spp_
-            sample = index - pixel * spp_
-        pixel += dr.opaque(mi.UInt32, first_pixel)
-        width_ = dr.opaque(mi.UInt32, width)
-        y = pixel // width_
-        x = pixel - y * width_
-        ray, ray_weight, position = self._camera_ray(sensor, x, y, pixel, sample, spp, seed)
-        rays.camera += count
-        colour = self._trace(shader, ray, rays) * ray_weight
-        self._splat(sensor.film(), block, position, colour)
-        dr.eval()          # this pass's kernels and side effects (the block's accumulation)
-        dr.sync_thread()   # so that progress reports finished work
-
-    def _render_pass_scalar(self, shader, sensor, block, first, count, width, spp, seed, rays):
-        film = sensor.film()
-        for index in range(first, first + count):
-            pixel, sample = divmod(index, spp)
-            y, x = divmod(pixel, width)
+        for index in tracer.samples(count):
+            if spp == 1:
+                pixel, sample = index, mi.UInt32(0)
+            else:
+                spp_ = dr.opaque(mi.UInt32, spp)
+                index = index + dr.opaque(mi.UInt32, first_sample)
+                pixel = index // spp_
+                sample = index - pixel * spp_
+            pixel = pixel + dr.opaque(mi.UInt32, first_pixel)
+            width_ = dr.opaque(mi.UInt32, width)
+            y = pixel // width_
+            x = pixel - y * width_
             ray, ray_weight, position = self._camera_ray(sensor, x, y, pixel, sample, spp, seed)
-            rays.camera += 1
-            colour = self._trace(shader, ray, rays) * ray_weight
-            self._splat(film, block, position, colour)
+            self._splat(sensor.film(), block, position, tracer.trace(ray) * ray_weight)
+        tracer.finish_pass()
 
     @staticmethod
     def _camera_ray(sensor, x, y, pixel, sample, spp, seed):
@@ -229,118 +247,6 @@ class WhittedIntegrator(mi.SamplingIntegrator):
             values.append(mi.Float(1))
         values.append(mi.Float(1))   # the sample's weight: the film develops the mean
         block.put(position, values)
-
-    # -- The ray tree -----------------------------------------------------------------------------
-
-    def _trace(self, shader, ray, rays: RayCounts):
-        """Sum of ``w·contribution`` over the trees of the camera rays ``ray``."""
-        total, scattered = None, False
-        stack = [Wavefront(ray, mi.Float(1), None, 1)]
-        while stack:
-            front = stack.pop()
-            if self.vectorized and front.owner is not None and dr.width(front.weight) > self._lanes:
-                stack.extend(reversed(self._split(front)))
-                continue
-            rays.max_depth_reached = max(rays.max_depth_reached, front.level)
-            shaded = shader.shade(front.ray, front.weight, spawn=front.level < shader.depth,
-                                  coherent=front.level == 1)
-            if total is None:
-                total = shaded.colour
-            elif self.vectorized:
-                dr.scatter_reduce(dr.ReduceOp.Add, total, shaded.colour, front.owner)
-                scattered = True
-            else:
-                total += shaded.colour
-            if shaded.children:
-                stack.extend(self._spawn(front, shaded.children, total, rays))
-        if scattered:
-            dr.eval(total)   # finish the last scatter before anything reads the total
-        return total
-
-    def _traced(self, weight):
-        """Whether a child ray is traced: any ray that can still add colour, or,
-        with ``min_weight`` > 0, enough of it.
-
-        This is Hall and Greenberg's adaptive depth control (1983): a ray's
-        colour reaches the pixel multiplied by its path weight, the product of
-        the KR and KT factors above it, so a subtree below weight W can change
-        the pixel by at most W times the brightest colour in the scene, and is
-        not worth tracing when W is below what the image can show.
-        """
-        if self.min_weight > 0:
-            return weight >= (dr.opaque(mi.Float, self.min_weight) if self.vectorized else self.min_weight)
-        return weight > 0
-
-    def _count_culled(self, weight, rays):
-        """Count the children of weight ``weight`` that had some, but too little for :meth:`_traced`."""
-        if self.min_weight == 0:
-            return
-        if self.vectorized:
-            culled = (weight > 0) & ~self._traced(weight)
-            rays.culled += int(dr.count(culled)[0])
-            rays.culled_weight += float(dr.sum(dr.select(culled, weight, 0))[0])
-        elif 0 < weight and not self._traced(weight):
-            rays.culled += 1
-            rays.culled_weight += float(weight)
-
-    def _spawn(self, front, children, total, rays):
-        """The wavefronts of ``children``: only the lanes that :meth:`_traced` accepts."""
-        if not self.vectorized:
-            live = [c for c in children if self._traced(c.weight)]
-            for c in live:
-                setattr(rays, c.kind, getattr(rays, c.kind) + 1)
-            for c in children:
-                self._count_culled(c.weight, rays)
-            return [Wavefront(c.ray, c.weight, None, front.level + 1) for c in live]
-
-        # One kernel shades this level, adds its colour, and stores the children ...
-        dr.eval(total, front.owner, [(c.ray.o, c.ray.d, c.weight) for c in children])
-        # ... then the live children of every kind are packed into one wavefront,
-        # interleaved so that siblings stay next to each other.
-        kinds = len(children)
-        if kinds == 1:
-            weight = children[0].weight
-        else:
-            slot = dr.arange(mi.UInt32, kinds * dr.width(children[0].weight))
-            weight = dr.select((slot & 1) == 1,
-                               dr.gather(mi.Float, children[1].weight, slot >> 1),
-                               dr.gather(mi.Float, children[0].weight, slot >> 1))
-        lane = dr.compress(self._traced(weight))
-        self._count_culled(weight, rays)
-        live = dr.width(lane)
-        if live == 0:
-            return []
-        if kinds == 1:
-            parent, kind = lane, None
-            n_second = 0
-        else:
-            parent, kind = lane >> 1, (lane & 1) == 1
-            n_second = int(dr.count(kind)[0])
-        setattr(rays, children[0].kind, getattr(rays, children[0].kind) + live - n_second)
-        if kinds == 2:
-            setattr(rays, children[1].kind, getattr(rays, children[1].kind) + n_second)
-
-        def pick(tp, field):
-            first = dr.gather(tp, field(children[0]), parent, True if kind is None else ~kind)
-            return first if kind is None else dr.select(
-                kind, dr.gather(tp, field(children[1]), parent, kind), first)
-
-        ray = mi.Ray3f(pick(mi.Point3f, lambda c: c.ray.o), pick(mi.Vector3f, lambda c: c.ray.d))
-        weight = pick(mi.Float, lambda c: c.weight)
-        owner = parent if front.owner is None else dr.gather(mi.UInt32, front.owner, parent)
-        return [Wavefront(ray, weight, owner, front.level + 1)]
-
-    def _split(self, front):
-        """``front`` cut into wavefronts of at most ``wavefront_size`` lanes."""
-        dr.eval(front.ray, front.weight, front.owner)
-        n = dr.width(front.weight)
-        pieces = []
-        for start in range(0, n, self._lanes):
-            lane = dr.arange(mi.UInt32, min(self._lanes, n - start)) + dr.opaque(mi.UInt32, start)
-            pieces.append(Wavefront(
-                mi.Ray3f(dr.gather(mi.Point3f, front.ray.o, lane), dr.gather(mi.Vector3f, front.ray.d, lane)),
-                dr.gather(mi.Float, front.weight, lane), dr.gather(mi.UInt32, front.owner, lane), front.level))
-        return pieces
 
     def to_string(self):
         return (f"WhittedIntegrator[max_depth={self.max_depth}, ambient={self.ambient}, "

@@ -44,9 +44,11 @@ as for every Mitsuba BSDF with delta components; the probability of choosing
 the diffuse lobe is part of its pdf.
 
 The Whitted integrator reads the parameters directly: ``color`` (a texture),
-``reflect``, ``refract`` and ``ior`` (Python floats), or through
-:meth:`eval_diffuse_reflectance` (B, without the weight 1 − KR − KT) and
-:meth:`eval_attribute_1`.
+``uniform_colour`` (B as three floats, None when textured), ``reflect``,
+``refract`` and ``ior`` (Python floats), ``material_row`` (all of them as one
+row of the integrator's material table, see :mod:`.surfaces`, kept up to date
+when ``color`` changes), or through :meth:`eval_diffuse_reflectance` (B,
+without the weight 1 − KR − KT) and :meth:`eval_attribute_1`.
 """
 
 from __future__ import annotations
@@ -54,7 +56,11 @@ from __future__ import annotations
 import drjit as dr
 import mitsuba as mi
 
+from whitted import defaults as D
+
 from . import optics
+from .scene_state import forget as forget_scenes
+from .surfaces import material_row, uniform_colour
 
 DIFFUSE, REFLECTION, TRANSMISSION = 0, 1, 2
 
@@ -85,12 +91,71 @@ def delta_directions(wi, ior):
 
 
 class ArticleBSDF(mi.BSDF):
+    r"""
+    .. _bsdf-article:
+
+    The article's material (:monosp:`article`)
+    ------------------------------------------
+
+    .. pluginparameters::
+
+     * - color
+       - |spectrum| or |texture|
+       - The base color B: an RGB color, or a texture (a ``bitmap`` mapped by
+         the sphere's UV) for a textured sphere. (Default: 1, 1, 1)
+       - |exposed|, |differentiable|
+
+     * - reflect
+       - |float|
+       - KR, the share of the color that comes from the mirror direction, in
+         [0, 1]. (Default: 0)
+
+     * - refract
+       - |float|
+       - KT, the share that comes from the refracted direction, in [0, 1];
+         KR + KT <= 1. (Default: 0)
+
+     * - ior
+       - |float|
+       - The sphere's index of refraction n2 (> 0; the outside's is 1). Below 1
+         it reads as a bubble: rays from outside are totally reflected beyond
+         the critical angle. (Default: 1)
+
+    A mixture of a Lambertian lobe (weight 1 − KR − KT, albedo B), a perfect
+    mirror (KR) and a perfect refraction (KT), two-sided as the article shades
+    both sides of a sphere; under total internal reflection the refraction's
+    weight moves to the mirror. The module docstring has the details. The
+    ``whitted`` integrator reads the parameters directly; Mitsuba's own
+    integrators (``path``) sample the lobes.
+
+    .. tabs::
+
+        .. code-tab:: xml
+            :name: article-bsdf
+
+            <bsdf type="article">
+                <rgb name="color" value="1, 1, 1"/>
+                <float name="reflect" value="0.05"/>
+                <float name="refract" value="0.9"/>
+                <float name="ior" value="1.5"/>
+            </bsdf>
+
+        .. code-tab:: python
+
+            'type': 'article',
+            'color': {'type': 'rgb', 'value': [1, 1, 1]},
+            'reflect': 0.05,
+            'refract': 0.9,
+            'ior': 1.5
+    """
+
     def __init__(self, props: mi.Properties):
         super().__init__(props)
-        self.color = props.get_texture("color", 1.0)
-        self.reflect = float(props.get("reflect", 0.0))
-        self.refract = float(props.get("refract", 0.0))
-        self.ior = float(props.get("ior", 1.0))
+        self.color = (props.get_texture("color") if "color" in props
+                      else mi.load_dict({"type": "rgb", "value": D.COLOR}))
+        self.reflect = float(props.get("reflect", D.REFLECT))
+        self.refract = float(props.get("refract", D.REFRACT))
+        self.ior = float(props.get("ior", D.IOR))
         if not (0.0 <= self.reflect <= 1.0 and 0.0 <= self.refract <= 1.0):
             raise ValueError(f"article BSDF: reflect and refract must lie in [0, 1], got "
                              f"{self.reflect} and {self.refract}")
@@ -99,6 +164,7 @@ class ArticleBSDF(mi.BSDF):
                              f"{self.reflect} + {self.refract}")
         if not self.ior > 0.0:
             raise ValueError(f"article BSDF: ior must be > 0, got {self.ior}")
+        self._read_colour()
         # Component indices are fixed (0 diffuse, 1 mirror, 2 refraction); the
         # material's flags name only the lobes it can actually use, so that
         # integrators skip light sampling on pure mirrors and glass.
@@ -111,6 +177,16 @@ class ArticleBSDF(mi.BSDF):
         if self.refract > 0:
             flags |= COMPONENT_FLAGS[TRANSMISSION]
         self.m_flags = flags
+
+    def _read_colour(self):
+        """Note the base colour (None when it varies over the surface) and the numbers
+        the Whitted integrator reads (:func:`.surfaces.material_row`)."""
+        self.uniform_colour = None if self.color.is_spatially_varying() else uniform_colour(self.color)
+        self.material_row = material_row(self)
+
+    def parameters_changed(self, keys=[]):  # noqa: B006  (Mitsuba's own default)
+        self._read_colour()   # ``color`` was written (mi.SceneParameters.update)
+        forget_scenes()       # even through mi.traverse(bsdf), which no scene hears of
 
     @property
     def diffuse_weight(self) -> float:

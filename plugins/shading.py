@@ -8,10 +8,19 @@ the JIT variants) with their path weights ``w`` and returns
 - their children: the reflected ray with weight ``w·KR`` and the refracted ray
   (or, under total internal reflection, the mirror ray) with weight ``w·KT``.
 
+Under total internal reflection both children would be the very same ray, and
+inside a glass ball that traps light the tree would double at every bounce. So
+the mirror ray is traced once, with weight ``w·(KR + KT)``: exact, since the
+colour is linear in the weights. It still counts as a reflection ray and as a
+refraction ray (``Child.merged``), as the article's recursion traces both.
+
 Summing the contributions of every level gives exactly the article's recursion
 ``colour = (1 - KR - KT)·point + KR·reflected + KT·refracted`` (it is linear),
-which is how the integrator evaluates the tree without recursion. Code for an
+which lets the tracers (:mod:`.tracer`) walk the tree in any order. Code for an
 effect the scene lacks (see :mod:`.effects`) is left out of the kernels.
+
+The same code shades a single ray (scalar variants) and a wavefront (JIT
+variants); :mod:`.masks` says what differs and where it is handled.
 """
 
 from __future__ import annotations
@@ -23,6 +32,7 @@ import mitsuba as mi
 
 from . import optics
 from .geometry import blocked, hit_finder
+from .masks import off
 from .surfaces import SurfaceTable
 
 
@@ -32,6 +42,7 @@ class Child:
     kind: str
     ray: object      # mi.Ray3f
     weight: object   # mi.Float, 0 on lanes that spawn no such ray
+    merged: object = None   # mi.Bool: lanes where the ray also carries the refracted share
 
 
 @dataclass
@@ -42,16 +53,6 @@ class Shaded:
 
 #: a floor for squared distances: keeps 1/r and 1/r^2 finite when a light sits on the surface
 _TINY = 1e-30
-
-
-def _not(mask):
-    """Logical not for a Dr.Jit mask or a Python bool (where ``~True`` is -2)."""
-    return ~mask if dr.is_jit_v(mi.Float) else not mask
-
-
-def _constant(tp, value):
-    """A per-render constant: opaque in JIT variants, so kernels are reused across scenes."""
-    return dr.opaque(tp, value) if dr.is_jit_v(mi.Float) else tp(value)
 
 
 def offset_origin(p, n, error, d):
@@ -95,64 +96,44 @@ def spawn_ray_to(si, error, target, target_error=0.0, target_normal=None):
     return ray
 
 
-class RayCounter:
-    """Counts shadow rays where they are cast (on the device in JIT variants)."""
-
-    def __init__(self):
-        self.vectorized = dr.is_jit_v(mi.Float)
-        self._shadow = dr.zeros(mi.UInt32, 1) if self.vectorized else 0
-        if self.vectorized:
-            dr.make_opaque(self._shadow)
-
-    def add_shadow(self, cast):
-        if self.vectorized:
-            dr.scatter_reduce(dr.ReduceOp.Add, self._shadow, mi.UInt32(1), mi.UInt32(0), cast)
-        else:
-            self._shadow += int(bool(cast))
-
-    @property
-    def shadow(self) -> int:
-        return int(self._shadow[0]) if self.vectorized else self._shadow
-
-
 class Shader:
     """The article's model for one scene (see the module docstring)."""
 
-    def __init__(self, scene, analysis, ambient: float, lighting: str, counter: RayCounter):
+    def __init__(self, scene, analysis, ambient: float, lighting: str, tally):
         self.scene = scene
-        self.vectorized = dr.is_jit_v(mi.Float)
         self.physical = lighting == "physical"
-        self.ambient = _constant(mi.Float, ambient)
+        # Per-render constants are opaque: kernels are reused across scenes (plain numbers in scalar).
+        self.ambient = dr.opaque(mi.Float, ambient)
         # Article lighting uses the light's colour; physical lighting its intensity (divided by r^2).
         self.hits = hit_finder(scene, need_uv=analysis.has("textures"))
         # (position, strength, (error bound, normal) of a sphere the light sits on)
         self.lights = []
         for light in analysis.lights:
             error, normal = self.hits.surface_at(light.position)
-            self.lights.append((_constant(mi.Point3f, light.position),
-                                _constant(mi.Color3f, light.intensity if self.physical else light.colour),
-                                (_constant(mi.Float, error), _constant(mi.Vector3f, normal)) if error else None))
+            self.lights.append((dr.opaque(mi.Point3f, light.position),
+                                dr.opaque(mi.Color3f, light.intensity if self.physical else light.colour),
+                                (dr.opaque(mi.Float, error), dr.opaque(mi.Vector3f, normal)) if error else None))
         self.environment = analysis.environment
         self.reflection = analysis.has("reflection")
         self.refraction = analysis.has("refraction")
         self.surfaces = SurfaceTable(analysis.surfaces, need_ior=self.refraction)
-        self.counter = counter
+        self.tally = tally   # counts the shadow rays (see .counts)
         self.depth = analysis.depth
 
-    def background(self, ray, active):
-        """The colour of rays that escape: the environment emitter, black without one."""
+    def background(self, ray):
+        """The colour of rays that escape: the environment emitter's."""
         si = dr.zeros(mi.SurfaceInteraction3f)
         si.wi = -ray.d
-        return self.environment.eval(si, active)
+        return self.environment.eval(si)
 
     def shade(self, ray, weight, spawn: bool, coherent: bool = False) -> Shaded:
         """One level of the tree for ``ray``; ``spawn`` is False at the last level."""
         hit, si, bsdf, error = self.hits.intersect(ray, coherent)
         colour = mi.Color3f(0)
         if self.environment is not None:
-            colour = dr.select(hit, colour, weight * self.background(ray, _not(hit)))
-        if not self.vectorized and not hit:
-            return Shaded(colour, [])   # a scalar miss has no shape to ask for a material
+            colour = dr.select(hit, colour, weight * self.background(ray))
+        if off(hit):
+            return Shaded(colour, [])   # a single ray that missed: no shape to ask for a material
 
         v = ray.d
         n_facing, inside = optics.facing_normal(v, si.n)
@@ -165,15 +146,19 @@ class Shader:
         if spawn and (self.reflection or self.refraction):
             c1 = optics.cos_incidence(v, n_facing)
             mirror = optics.unit(optics.reflect(v, n_facing, c1))
-            if self.reflection:
-                children.append(Child("reflection", spawn_ray(si, error, mirror),
-                                      dr.select(hit, weight * surface.reflect, 0)))
+            kr, kt, merged = surface.reflect, surface.refract, None
             if self.refraction:
                 eta = optics.relative_ior(surface.ior, inside)
                 t, tir = optics.refract(v, n_facing, c1, eta)
-                t = dr.select(tir, mirror, optics.unit(t))
-                children.append(Child("refraction", spawn_ray(si, error, t),
-                                      dr.select(hit, weight * surface.refract, 0)))
+                refracted = spawn_ray(si, error, dr.select(tir, mirror, optics.unit(t)))
+                if self.reflection:   # the mirror ray carries both shares
+                    merged = tir & (kr > 0) & (kt > 0)
+                    kr, kt = kr + dr.select(merged, kt, 0), dr.select(merged, 0, kt)
+            if self.reflection:
+                children.append(Child("reflection", spawn_ray(si, error, mirror),
+                                      dr.select(hit, weight * kr, 0), merged))
+            if self.refraction:
+                children.append(Child("refraction", refracted, dr.select(hit, weight * kt, 0)))
         return Shaded(colour, children)
 
     def point_colour(self, si, error, n_facing, base, active):
@@ -198,10 +183,10 @@ class Shader:
         dist2 = dr.squared_norm(to_light)
         cos = dr.dot(n_facing, to_light) * dr.rsqrt(dr.maximum(dist2, _TINY))
         facing = active & (dist2 > 0) & (cos > 0)
-        if not self.vectorized and not facing:
+        if off(facing):
             return mi.Color3f(0)
-        self.counter.add_shadow(facing)
-        visible = facing & _not(blocked(self.scene, spawn_ray_to(si, error, position, *(on_surface or ())), facing))
+        self.tally.add("shadow", facing)
+        shadowed = blocked(self.scene, spawn_ray_to(si, error, position, *(on_surface or ())), facing)
         if self.physical:
             strength = strength * dr.rcp(dr.maximum(dist2, _TINY))
-        return dr.select(visible, cos * strength, 0)
+        return dr.select(shadowed, 0, dr.select(facing, cos * strength, 0))

@@ -95,7 +95,9 @@ def test_textures_are_an_effect(tmp_path):
 
 
 def kernels(scene, **options):
-    """Hashes of the JIT kernels that one ``mi.render`` of ``scene`` launches."""
+    """Hashes of the JIT kernels that one ``mi.render`` of ``scene`` launches, once the
+    tables the integrator reads from the scene exist (built by a first render, then kept)."""
+    mi.render(scene, **options)
     with dr.scoped_set_flag(dr.JitFlag.KernelHistory, True):
         dr.kernel_history_clear()
         mi.render(scene, **options)

@@ -66,6 +66,8 @@ INTEGRATOR = "whitted"
 #: Hall and Greenberg's adaptive depth control: branches whose path weight is below
 #: this are not traced (0 traces the exact tree)
 MIN_WEIGHT = 0.0
+#: camera samples per pass of the whitted integrator (0: as its tracer prefers; see plugins/wavefront.py)
+WAVEFRONT_SIZE = 0
 #: the most samples per pixel a render accepts (API and CLI; Mitsuba's samplers count in 32 bits)
 MAX_SPP = 2 ** 31
 #: Mitsuba variants whitted runs in: the default when a libLLVM >= 16 exists, else the fallback

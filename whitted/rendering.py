@@ -15,9 +15,14 @@ In ``scalar_rgb`` nothing is compiled.
 
 Statistics (``result.stats``, written by ``--stats FILE.json``)::
 
-    {"rays": {"camera", "shadow", "reflection", "refraction"},
+    {"rays": {"camera", "shadow", "reflection", "refraction"}, "merged_rays",
      "seconds", "compile_seconds", "effects": [...], "max_depth_reached",
      "peak_memory_bytes", "min_weight", "culled_rays", "culled_weight"}
+
+``merged_rays`` counts the rays that carried both a reflected and a
+refracted share (total internal reflection sends the refracted share along
+the mirror direction: one ray, traced once, counted in both ``reflection``
+and ``refraction``); the rays traced are the sum of ``rays`` minus it.
 
 ``min_weight`` is the adaptive depth control's threshold (0: off; see the
 integrator's ``_traced``), ``culled_rays`` the reflected and refracted rays it
@@ -187,7 +192,7 @@ def render(scene, integrator: str = "whitted", spp: int | None = None, max_depth
             image = np.array(rendering.image, dtype=np.float32)
         rays = rendering.rays
         stats_rays, effects, reached = rays.rays(), list(rendering.effects), rays.max_depth_reached
-        adaptive = {"min_weight": min_weight, "culled_rays": rays.culled,
+        adaptive = {"merged_rays": rays.merged, "min_weight": min_weight, "culled_rays": rays.culled,
                     "culled_weight": rays.culled_weight}
     else:
         path = mi.load_dict({"type": "path", "max_depth": depth + 1})
@@ -196,7 +201,7 @@ def render(scene, integrator: str = "whitted", spp: int | None = None, max_depth
         stats_rays = {"camera": width * height * spp, "shadow": None, "reflection": None,
                       "refraction": None}
         effects, reached = _effects_or_none(scene, depth), None
-        adaptive = {"min_weight": None, "culled_rays": None, "culled_weight": None}
+        adaptive = {"merged_rays": None, "min_weight": None, "culled_rays": None, "culled_weight": None}
 
     image = image[..., :3]
     stats = {"rays": stats_rays, "seconds": clock.seconds, "compile_seconds": clock.compile,
