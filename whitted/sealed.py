@@ -206,3 +206,16 @@ def groups(scene: Scene, grouping: Grouping, origin) -> list[tuple[Material, np.
         if pick.any():
             result.append((material, (spheres.centre[pick] - lookat) * scale + shift))
     return result
+
+
+def ellipsoids(centres: np.ndarray, bsdf) -> dict:
+    """The ``mi.load_dict`` entry of one ``ellipsoids`` shape of unit spheres at ``centres``
+    (M×3): equal scales of 1, no rotation, and ``extent`` 1 (Mitsuba's default, 3, would
+    triple them)."""
+    import mitsuba as mi
+    count = len(centres)
+    return {"type": "ellipsoids", "extent": 1.0,
+            "centers": mi.TensorXf(np.ascontiguousarray(centres, np.float32).reshape(count, 3)),
+            "scales": mi.TensorXf(np.ones((count, 3), np.float32)),
+            "quaternions": mi.TensorXf(np.tile(np.array([0.0, 0.0, 0.0, 1.0], np.float32), (count, 1))),
+            "bsdf": bsdf}
