@@ -10,25 +10,25 @@ neither matters.
 
 **Back faces.** The ellipsoids shape culls them: a ray that starts inside an
 ellipsoid passes through it. In the article's model that never matters for a
-*sealed* sphere: opaque (KT = 0), holding neither the eye nor a light.
-Every ray starts at the eye or at a hit point, and by induction none starts
-inside a sealed sphere: the eye is outside all of them; a ray that starts
-outside a sealed sphere can only get in by crossing its surface, where it
-hits it (from outside) and ends; from a hit on a sealed sphere the reflected
-ray and the shadow rays leave into the outside half-space of its tangent
-plane (V·N < 0 gives R·N > 0, and shadow rays are cast only where N·L > 0),
-so they stay outside that convex sphere, and it refracts nothing; a hit on
-any other sphere lies outside every sealed one (it was reached from
-outside). A light is outside every sealed sphere by definition, so no shadow
-segment ends inside one either; lights inside *other* spheres (glass, or an
-opaque shell) keep those spheres real ``sphere`` shapes, unchanged. Nesting
-is covered by the same induction: a sealed sphere inside a sealed one is never
-reached, one inside a glass sphere is reached from outside. The only
-exceptions are hit points on two surfaces at once (the contact point of
-touching spheres, the circle where two spheres cross): a set of measure zero,
-which in float32 widens to where the gap between two surfaces is below the
-integrator's ray offset (docs/numerics.md, hazard 10), as it already does
-for sphere shapes.
+*sealed* sphere: opaque (KT = 0) and not holding the eye. Every ray starts at
+the eye or at a hit point, and by induction none starts inside a sealed
+sphere: the eye is outside all of them; a ray that starts outside a sealed
+sphere can only get in by crossing its surface, where it hits it (from
+outside) and ends; from a hit on a sealed sphere the reflected ray and the
+shadow rays leave into the outside half-space of its tangent plane (V·N < 0
+gives R·N > 0, and shadow rays are cast only where N·L > 0), so they stay
+outside that convex sphere, and it refracts nothing; a hit on any other
+sphere lies outside every sealed one (it was reached from outside). Lights
+need no condition: a shadow segment to a light inside a sealed sphere starts
+outside it and meets its front face, which blocks it as the sphere shape's
+would (and a segment to a light on its surface ends moved off it, to the
+outside, as for a sphere shape). Nesting is covered by the same induction: a
+sealed sphere inside a sealed one is never reached, one inside a glass sphere
+is reached from outside. The only exceptions are hit points on two surfaces
+at once (the contact point of touching spheres, the circle where two spheres
+cross): a set of measure zero, which in float32 widens to where the gap
+between two surfaces is below the integrator's ray offset (docs/numerics.md,
+hazard 10), as it already does for sphere shapes.
 
 **Accuracy.** Mitsuba 3.9's ellipsoid intersection moves the ray origin to
 "the plane through the centre" before solving its quadratic, but computes
@@ -41,10 +41,16 @@ hits; radius 10² spheres get hit distances wrong by 10⁻² r
 the sphere's (same plane step, same quadratic). So the ellipsoids hold the
 sealed spheres of one radius, and the scene is loaded in a frame scaled so
 that this radius is 1. The article's model is invariant under a similarity
-transform (the image depends on the scene relative to itself: angles, and
+transform: the image depends on the scene relative to itself (angles, and
 light colours measured at ``lookat``, which the loader recomputes from the
-scaled distances), and so is the path tracer's (its point lights'
-intensities ``I = c·π·d²`` scale with the distances they are divided by).
+scaled distances), and the Whitted integrator's ray offsets are relative
+(docs/numerics.md), so the image changes by rounding only. So is the
+physical model (point lights' intensities ``I = c·π·d²`` scale with the
+distances they are divided by), but Mitsuba's own path tracer is not quite:
+it moves rays off surfaces by an absolute ``(1 + max|p|)·9·10⁻⁵``, which the
+scale makes smaller or larger against the scene (a level-2 sphereflake
+path-traced in the scaled frame is 4 % darker, with or without ellipsoids:
+fewer rays leak between its touching spheres).
 
 This module works on the scene model (numpy, no Mitsuba): :func:`sealed`
 says which spheres are sealed, :func:`choose` picks the radius and the
@@ -61,9 +67,9 @@ import numpy as np
 
 from .converter.scene import Material, Scene, Sphere
 
-#: a sealed sphere keeps the eye and every light farther than this from its surface, relative
-#: to the size of the numbers involved (float32 rounds them by 6e-8 of that): a point closer
-#: than that might round inside, and the sphere stays a real ``sphere`` shape
+#: a sealed sphere keeps the eye farther than this from its surface, relative to the size of
+#: the numbers involved (float32 rounds them by 6e-8 of that): an eye closer than that might
+#: round inside, and the sphere stays a real ``sphere`` shape
 CLEARANCE = 1e-5
 #: the largest distance from ``lookat`` a scaled scene may reach: light intensities
 #: (colour·π·d²) then stay below 10¹² as for a scene file (whitted.defaults.MAX_MAGNITUDE)
@@ -103,8 +109,9 @@ class Spheres:
 
 
 def sealed(scene: Scene, spheres: Spheres | None = None) -> np.ndarray:
-    """Per sphere of ``scene``: whether it is opaque, untextured and holds neither the eye nor
-    a light (not within :data:`CLEARANCE` of its surface either)."""
+    """Per sphere of ``scene``: whether it is opaque, untextured and does not hold the eye
+    (nor has it within :data:`CLEARANCE` of its surface). Untextured: the loader's
+    ellipsoids carry no texture frame (nothing in the argument needs it)."""
     spheres = spheres or Spheres.of(scene)
     if not len(spheres.radius):
         return np.zeros(0, bool)
@@ -113,11 +120,9 @@ def sealed(scene: Scene, spheres: Spheres | None = None) -> np.ndarray:
     clear = opaque[spheres.material]
     origin = np.asarray(scene.lookat, np.float64)
     size = radius + np.linalg.norm(centre - origin, axis=1)
-    for point in [scene.eye, *(light.position for light in scene.lights)]:
-        point = np.asarray(point, np.float64)
-        distance = np.linalg.norm(point - centre, axis=1)
-        clear &= distance > radius + CLEARANCE * (size + np.linalg.norm(point - origin))
-    return clear
+    eye = np.asarray(scene.eye, np.float64)
+    distance = np.linalg.norm(eye - centre, axis=1)
+    return clear & (distance > radius + CLEARANCE * (size + np.linalg.norm(eye - origin)))
 
 
 @dataclass(frozen=True)
