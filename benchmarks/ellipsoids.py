@@ -25,14 +25,19 @@ Three measurements (``--only`` picks some):
     N random non-overlapping spheres (four materials) as N ``sphere`` shapes vs
     four ``ellipsoids`` shapes, ``mi.load_dict(parallel=False)``, wall and CPU
     seconds (including Embree's build).
-``raycast``
+``load`` (continued)
     The same 512² camera rays through both scenes:
     ``scene.ray_intersect_preliminary`` (what the integrator's sphere table
     uses) and ``scene.ray_intersect``.
+``scene``
+    End to end on a scene file (default: the level-5 sphereflake, 66 431
+    spheres, 59 049 of them leaves of one radius), each way in a fresh
+    process: parse, ``whitted.load_scene(ellipsoids=False|True)``, a first
+    render (kernels compiled) and a second one, and the two images' difference.
 
 Usage::
 
-    python benchmarks/ellipsoids.py [--only accuracy,load,raycast] [--counts 1000,10000,66000]
+    python benchmarks/ellipsoids.py [--only accuracy,load,scene] [--counts 1000,10000,66000] [--scene F.scn]
 
 Timings are wall-clock on whatever machine runs this; on a shared machine they
 are noisy (the CPU seconds column is less so).
@@ -347,12 +352,68 @@ def print_load(rows, size):
             f"{r['same hit']:.5f}", f"{r['max |dt|/t']:.1e}"]) + " |")
 
 
+# -- end to end on a scene file -----------------------------------------------------------------
+
+def one_process(path: str, grouped: bool, out: str) -> dict:
+    """Times of one way of loading and rendering ``path`` (run in its own process)."""
+    start = time.perf_counter()
+    from whitted.converter import parse_file
+    model = parse_file(path)
+    parsed = time.perf_counter()
+    scene = whitted.load_scene(path, model=model, ellipsoids=grouped)
+    loaded = time.perf_counter()
+    first = whitted.render(scene)
+    rendered = time.perf_counter()
+    second = whitted.render(scene)
+    again = time.perf_counter()
+    np.save(out, first.image)
+    kinds = [shape.class_name() for shape in scene.shapes()]
+    return {"parse s": parsed - start, "load s": loaded - parsed, "first render s": rendered - loaded,
+            "second render s": again - rendered, "total s": rendered - start,
+            "shapes": len(kinds), "ellipsoids": kinds.count("Ellipsoids"),
+            "same as second": bool(np.array_equal(first.image, second.image))}
+
+
+def end_to_end(path: str):
+    import json
+    import subprocess
+    import tempfile
+    rows = {}
+    with tempfile.TemporaryDirectory() as folder:
+        for grouped in (False, True):
+            out = str(Path(folder) / f"{grouped}.npy")
+            code = ("import json, sys; sys.path.insert(0, %r); import ellipsoids; "
+                    "print(json.dumps(ellipsoids.one_process(%r, %r, %r)))"
+                    % (str(Path(__file__).resolve().parent), path, grouped, out))
+            wall = time.perf_counter()
+            done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+            rows[grouped] = json.loads(done.stdout.strip().splitlines()[-1])
+            rows[grouped]["process s"] = time.perf_counter() - wall
+            rows[grouped]["image"] = np.load(out)
+    a, b = rows[False].pop("image"), rows[True].pop("image")
+    diff = np.abs(a.astype(np.float64) - b)
+    return rows, float(diff.mean()), float((diff.max(axis=2) > 0.02).mean())
+
+
+def print_end_to_end(path, rows, mean, off):
+    print(f"\n== end to end: {path}, each way in a fresh process (wall s)")
+    keys = ["shapes", "ellipsoids", "parse s", "load s", "first render s", "second render s",
+            "total s", "process s"]
+    print("| loaded as | " + " | ".join(keys) + " |\n|" + "---|" * (len(keys) + 1))
+    for grouped, row in rows.items():
+        cells = [str(row[k]) if isinstance(row[k], int) else f"{row[k]:.2f}" for k in keys]
+        print(f"| {'ellipsoids' if grouped else 'spheres'} | " + " | ".join(cells) + " |")
+    print(f"images: mean absolute difference {mean:.2e}, {off:.3%} of pixels off by more than 0.02")
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--only", default="accuracy,load", help="accuracy, load (includes ray casting)")
+    parser.add_argument("--only", default="accuracy,load,scene",
+                        help="accuracy, load (includes ray casting), scene")
     parser.add_argument("--counts", default="1000,10000,66000")
     parser.add_argument("--rays", type=int, default=20000)
     parser.add_argument("--size", type=int, default=512)
+    parser.add_argument("--scene", help="the .scn file of --only scene (default: the level-5 sphereflake)")
     args = parser.parse_args(argv)
     only = set(args.only.split(","))
     print(f"Mitsuba {mi.__version__}, Dr.Jit {dr.__version__}, variant {mi.variant()}")
@@ -360,6 +421,14 @@ def main(argv=None):
         print_accuracy(accuracy(args.rays), args.rays)
     if "load" in only:
         print_load(load_and_cast([int(c) for c in args.counts.split(",")], args.size), args.size)
+    if "scene" in only:
+        import tempfile
+        with tempfile.TemporaryDirectory() as folder:
+            path = args.scene
+            if path is None:
+                import sphereflake
+                path = str(sphereflake.write(5, Path(folder) / "sphereflake5.scn"))
+            print_end_to_end(args.scene or "sphereflake level 5", *end_to_end(path))
 
 
 if __name__ == "__main__":
