@@ -46,6 +46,7 @@ are noisy (the CPU seconds column is less so).
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 import time
 from pathlib import Path
@@ -216,8 +217,9 @@ def accuracy(n: int = 20000, seed: int = 3):
     return rows
 
 
-def print_accuracy(rows, n):
-    print(f"\n== accuracy: {n} rays per row, half aimed at impact parameters below 0.99 r, half at "
+def text_accuracy(rows, n):
+    lines = []
+    lines.append(f"\n== accuracy: {n} rays per row, half aimed at impact parameters below 0.99 r, half at "
           "1.01-1.5 r.\n   lost: hits missed; false: misses hit; dt/r: worst hit-distance error in radii; "
           "angle: worst error of Mitsuba's si.n (rad); p/e: worst distance of Mitsuba's si.p from the "
           "sphere over the integrator's error bound e = eps(8r + 4max|C|). 'fixed': the ellipsoid "
@@ -225,14 +227,15 @@ def print_accuracy(rows, n):
     head = ["r", "|C|", "view/r"]
     for kind in ("sphere", "ellipsoids", "fixed"):
         head += [f"{kind} lost", "false", "dt/r"] + (["angle", "p/e"] if kind != "fixed" else [])
-    print("| " + " | ".join(head) + " |\n|" + "---|" * len(head))
+    lines += ["", "| " + " | ".join(head) + " |\n|" + "---|" * len(head)]
     for row in rows:
         cells = [f"{row['r']:g}", row["|C|"], f"{row['view/r']:g}"]
         for kind in ("sphere", "ellipsoids", "fixed"):
             lost, false, dt, angle, p_err = row[kind]
             cells += [str(lost), str(false), f"{dt:.1e}"]
             cells += [f"{angle:.1e}", f"{p_err:.2g}"] if kind != "fixed" else []
-        print("| " + " | ".join(cells) + " |")
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines)
 
 
 # -- load and ray-cast time ---------------------------------------------------------------------
@@ -336,20 +339,22 @@ def load_and_cast(counts, size: int = 512, rounds: int = 5):
     return rows
 
 
-def print_load(rows, size):
-    print(f"\n== load (mi.load_dict, parallel=False; wall s, CPU s) and {size}x{size} camera rays "
+def text_load(rows, size):
+    lines = []
+    lines.append(f"\n== load (mi.load_dict, parallel=False; wall s, CPU s) and {size}x{size} camera rays "
           "(median wall ms, interleaved rounds)")
     head = ["N", "sphere load s", "(cpu)", "ellipsoids load s", "(cpu)", "dict s sph/ell",
             "prelim ms sph", "ell", "interaction ms sph", "ell", "same hit", "max |dt|/t"]
-    print("| " + " | ".join(head) + " |\n|" + "---|" * len(head))
+    lines += ["", "| " + " | ".join(head) + " |\n|" + "---|" * len(head)]
     for r in rows:
-        print("| " + " | ".join([
+        lines.append("| " + " | ".join([
             str(r["N"]), f"{r['sphere load s']:.2f}", f"{r['sphere load cpu s']:.2f}",
             f"{r['ellipsoids load s']:.3f}", f"{r['ellipsoids load cpu s']:.3f}",
             f"{r['sphere dict s']:.2f}/{r['ellipsoids dict s']:.3f}",
             f"{1e3 * r['sphere preliminary']:.1f}", f"{1e3 * r['ellipsoids preliminary']:.1f}",
             f"{1e3 * r['sphere interaction']:.1f}", f"{1e3 * r['ellipsoids interaction']:.1f}",
             f"{r['same hit']:.5f}", f"{r['max |dt|/t']:.1e}"]) + " |")
+    return "\n".join(lines)
 
 
 # -- end to end on a scene file -----------------------------------------------------------------
@@ -395,15 +400,17 @@ def end_to_end(path: str):
     return rows, float(diff.mean()), float((diff.max(axis=2) > 0.02).mean())
 
 
-def print_end_to_end(path, rows, mean, off):
-    print(f"\n== end to end: {path}, each way in a fresh process (wall s)")
+def text_end_to_end(path, rows, mean, off):
+    lines = []
+    lines.append(f"\n== end to end: {path}, each way in a fresh process (wall s)")
     keys = ["shapes", "ellipsoids", "parse s", "load s", "first render s", "second render s",
             "total s", "process s"]
-    print("| loaded as | " + " | ".join(keys) + " |\n|" + "---|" * (len(keys) + 1))
+    lines += ["", "| loaded as | " + " | ".join(keys) + " |\n|" + "---|" * (len(keys) + 1)]
     for grouped, row in rows.items():
         cells = [str(row[k]) if isinstance(row[k], int) else f"{row[k]:.2f}" for k in keys]
-        print(f"| {'ellipsoids' if grouped else 'spheres'} | " + " | ".join(cells) + " |")
-    print(f"images: mean absolute difference {mean:.2e}, {off:.3%} of pixels off by more than 0.02")
+        lines.append(f"| {'ellipsoids' if grouped else 'spheres'} | " + " | ".join(cells) + " |")
+    lines.append(f"\nimages: mean absolute difference {mean:.2e}, {off:.3%} of pixels off by more than 0.02")
+    return "\n".join(lines)
 
 
 def main(argv=None):
@@ -414,13 +421,19 @@ def main(argv=None):
     parser.add_argument("--rays", type=int, default=20000)
     parser.add_argument("--size", type=int, default=512)
     parser.add_argument("--scene", help="the .scn file of --only scene (default: the level-5 sphereflake)")
+    parser.add_argument("--markdown", metavar="FILE", help="record the run in FILE's 'ellipsoids' section")
     args = parser.parse_args(argv)
     only = set(args.only.split(","))
-    print(f"Mitsuba {mi.__version__}, Dr.Jit {dr.__version__}, variant {mi.variant()}")
+    texts = [f"Mitsuba {mi.__version__}, Dr.Jit {dr.__version__}, variant {mi.variant()}, "
+             f"{os.cpu_count()} CPUs; {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}; load average "
+             f"{os.getloadavg()[0]:.1f} at the start (times are wall-clock: a busy machine inflates them)"]
+    print(texts[-1])
     if "accuracy" in only:
-        print_accuracy(accuracy(args.rays), args.rays)
+        texts.append(text_accuracy(accuracy(args.rays), args.rays))
+        print(texts[-1])
     if "load" in only:
-        print_load(load_and_cast([int(c) for c in args.counts.split(",")], args.size), args.size)
+        texts.append(text_load(load_and_cast([int(c) for c in args.counts.split(",")], args.size), args.size))
+        print(texts[-1])
     if "scene" in only:
         import tempfile
         with tempfile.TemporaryDirectory() as folder:
@@ -428,7 +441,14 @@ def main(argv=None):
             if path is None:
                 import sphereflake
                 path = str(sphereflake.write(5, Path(folder) / "sphereflake5.scn"))
-            print_end_to_end(args.scene or "sphereflake level 5", *end_to_end(path))
+            texts.append(text_end_to_end(args.scene or "sphereflake level 5", *end_to_end(path)))
+            print(texts[-1])
+    if args.markdown:
+        import sections
+        body = "## Mitsuba's ellipsoids shape as a fast path for spheres (benchmarks/ellipsoids.py)\n\n" + \
+            "\n".join(texts).replace("\n== ", "\n### ") + \
+            "\n\nRun `.venv/bin/python benchmarks/ellipsoids.py --markdown benchmarks/RESULTS.md` to rewrite this section."
+        sections.replace(args.markdown, "ellipsoids", body)
 
 
 if __name__ == "__main__":
