@@ -329,7 +329,8 @@ class _Parser:
                 self.errors.append((error.line, error.message))
         if self.errors:
             self.errors.sort(key=lambda error: error[0] or 0)
-            raise SceneError.collected([(self.source, line, message) for line, message in self.errors])
+            raise SceneError.collected([(self.source, line, message) for line, message in self.errors],
+                                      defaults.MAX_REPORTED_ERRORS)
         return self.scene
 
     def statement(self, line: int, tokens: list[Token]) -> None:

@@ -29,30 +29,32 @@ class SceneError(WhittedError):
        * - ``errors``
          - every problem as (path, line, message), in file order; the first is the above
 
-    ``str(error)`` is one line per problem, at most
-    :data:`whitted.defaults.MAX_REPORTED_ERRORS` of them, then a line that counts
+    ``str(error)`` is one line per problem, at most ``shown`` of them (the parser
+    passes :data:`whitted.defaults.MAX_REPORTED_ERRORS`), then a line that counts
     the rest. The CLI prints each line as ``whitted: error: LINE``.
     """
 
-    def __init__(self, path: str | os.PathLike, line: int | None, message: str, more=()):
+    def __init__(self, path: str | os.PathLike, line: int | None, message: str, more=(),
+                 shown: int | None = None):
         self.path = os.fspath(path)
         self.line = line
         self.message = message
         self.errors: list[tuple[str, int | None, str]] = \
             [(self.path, line, message), *((os.fspath(p), n, m) for p, n, m in more)]
+        self.shown = len(self.errors) if shown is None else shown
         super().__init__(self._text())
 
     @classmethod
-    def collected(cls, errors) -> "SceneError":
-        """One error for all of ``errors``, (path, line, message) in file order."""
+    def collected(cls, errors, shown: int | None = None) -> "SceneError":
+        """One error for all of ``errors``, (path, line, message) in file order; ``str()``
+        lists the first ``shown`` (default: all)."""
         (path, line, message), *more = errors
-        return cls(path, line, message, more)
+        return cls(path, line, message, more, shown)
 
     def _text(self) -> str:
-        from .defaults import MAX_REPORTED_ERRORS  # (whitted.defaults imports this module)
         lines = [f"{path}: {message}" if line is None else f"{path}:{line}: {message}"
-                 for path, line, message in self.errors[:MAX_REPORTED_ERRORS]]
-        more = len(self.errors) - MAX_REPORTED_ERRORS
+                 for path, line, message in self.errors[:self.shown]]
+        more = len(self.errors) - self.shown
         if more > 0:
             lines.append(f"... and {more} more error{'s' if more > 1 else ''}")
         return "\n".join(lines)
