@@ -33,7 +33,10 @@ Three measurements (``--only`` picks some):
     End to end on a scene file (default: the level-5 sphereflake, 66 431
     spheres, 59 049 of them leaves of one radius), each way in a fresh
     process: parse, ``whitted.load_scene(ellipsoids=False|True)``, a first
-    render (kernels compiled) and a second one, and the two images' difference.
+    render (kernels compiled) and a second one. Three ways: sphere shapes as
+    written, sphere shapes in the scaled frame the ellipsoids need, and
+    ellipsoids; the images' differences, and with ``--reference`` the float64
+    reference at the pixels where they differ.
 
 Usage::
 
@@ -359,13 +362,24 @@ def text_load(rows, size):
 
 # -- end to end on a scene file -----------------------------------------------------------------
 
-def one_process(path: str, grouped: bool, out: str) -> dict:
+#: the ways ``--only scene`` loads a scene: as written, as written but in the scaled frame
+#: the ellipsoids need, and with the ellipsoids
+WAYS = ("spheres", "spheres, scaled frame", "ellipsoids")
+
+
+def one_process(path: str, way: str, out: str) -> dict:
     """Times of one way of loading and rendering ``path`` (run in its own process)."""
     start = time.perf_counter()
+    from dataclasses import replace
+
+    from whitted import sealed
     from whitted.converter import parse_file
     model = parse_file(path)
     parsed = time.perf_counter()
-    scene = whitted.load_scene(path, model=model, ellipsoids=grouped)
+    if way == "spheres, scaled frame":   # the grouping's frame, nothing grouped
+        grouping = sealed.choose(model, min_group=1)
+        model = sealed.remaining(model, replace(grouping, member=np.zeros_like(grouping.member)))
+    scene = whitted.load_scene(path, model=model, ellipsoids=way == "ellipsoids")
     loaded = time.perf_counter()
     first = whitted.render(scene)
     rendered = time.perf_counter()
@@ -375,41 +389,103 @@ def one_process(path: str, grouped: bool, out: str) -> dict:
     kinds = [shape.class_name() for shape in scene.shapes()]
     return {"parse s": parsed - start, "load s": loaded - parsed, "first render s": rendered - loaded,
             "second render s": again - rendered, "total s": rendered - start,
-            "shapes": len(kinds), "ellipsoids": kinds.count("Ellipsoids"),
-            "same as second": bool(np.array_equal(first.image, second.image))}
+            "shapes": len(kinds), "ellipsoids": kinds.count("Ellipsoids")}
 
 
-def end_to_end(path: str):
+def end_to_end(path: str, ways=WAYS):
+    """``{way: times}`` and ``{way: image}``, each way in a fresh process."""
     import json
     import subprocess
     import tempfile
-    rows = {}
+    rows, images = {}, {}
     with tempfile.TemporaryDirectory() as folder:
-        for grouped in (False, True):
-            out = str(Path(folder) / f"{grouped}.npy")
+        for k, way in enumerate(ways):
+            out = str(Path(folder) / f"{k}.npy")
             code = ("import json, sys; sys.path.insert(0, %r); import ellipsoids; "
                     "print(json.dumps(ellipsoids.one_process(%r, %r, %r)))"
-                    % (str(Path(__file__).resolve().parent), path, grouped, out))
+                    % (str(Path(__file__).resolve().parent), path, way, out))
             wall = time.perf_counter()
             done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
-            rows[grouped] = json.loads(done.stdout.strip().splitlines()[-1])
-            rows[grouped]["process s"] = time.perf_counter() - wall
-            rows[grouped]["image"] = np.load(out)
-    a, b = rows[False].pop("image"), rows[True].pop("image")
-    diff = np.abs(a.astype(np.float64) - b)
-    return rows, float(diff.mean()), float((diff.max(axis=2) > 0.02).mean())
+            rows[way] = json.loads(done.stdout.strip().splitlines()[-1])
+            rows[way]["process s"] = time.perf_counter() - wall
+            images[way] = np.load(out).astype(np.float64)
+    return rows, images
 
 
-def text_end_to_end(path, rows, mean, off):
-    lines = []
-    lines.append(f"\n== end to end: {path}, each way in a fresh process (wall s)")
+def off(a, b) -> np.ndarray:
+    """Per pixel, whether two images differ by more than 0.02 in a channel."""
+    return np.abs(a - b).max(axis=2) > 0.02
+
+
+def reference_at(path: str, pixels) -> dict:
+    """The float64 reference (tests/reference.py) of ``pixels`` ((row, column) pairs) of the
+    scene at ``path``: its own formulas, with the loop over the spheres of its nearest-hit
+    and shadow tests done by numpy (the same stable discriminant, the same skip rule)."""
+    sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests"))
+    import reference as R
+    from whitted.converter import parse_file
+    model = parse_file(path)
+    centre = np.array([s.center for s in model.spheres])
+    radius = np.array([s.radius for s in model.spheres])
+
+    def roots(origin, direction):
+        f = np.asarray(origin) - centre
+        b = f @ np.asarray(direction)
+        c = (f * f).sum(axis=1) - radius ** 2
+        perpendicular = f - b[:, None] * np.asarray(direction)
+        disc = radius ** 2 - (perpendicular * perpendicular).sum(axis=1)
+        root = np.sqrt(np.maximum(disc, 0))
+        q = np.where(b > 0, -b - root, -b + root)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            other = np.where(q != 0, c / q, 0.0)
+        return disc >= 0, np.minimum(q, other), np.maximum(q, other)
+
+    def nearest_hit(scene, origin, direction):
+        skip = R._skip(origin)
+        ok, near, far = roots(origin, direction)
+        t = np.where(ok & (near > skip), near, np.where(ok & (far > skip), far, np.inf))
+        k = int(np.argmin(t))
+        return (float(t[k]), scene.spheres[k]) if np.isfinite(t[k]) else None
+
+    def blocked(scene, point, light_position):
+        to_light = R.sub(light_position, point)
+        distance = R.norm(to_light)
+        skip = R._skip(point)
+        ok, near, far = roots(point, R.mul(to_light, 1 / distance))
+        inside = ((skip < near) & (near < distance - skip)) | ((skip < far) & (far < distance - skip))
+        return bool((ok & inside).any())
+
+    saved = R.nearest_hit, R.blocked
+    R.nearest_hit, R.blocked = nearest_hit, blocked
+    try:
+        tracer = R.Reference(model)
+        return {(j, i): np.array(tracer.trace(*R.camera_ray(model, i + 0.5, j + 0.5))) for j, i in pixels}
+    finally:
+        R.nearest_hit, R.blocked = saved
+
+
+def text_end_to_end(path, rows, images, reference=None):
+    lines = [f"\n== end to end: {path}, each way in a fresh process (wall s)"]
     keys = ["shapes", "ellipsoids", "parse s", "load s", "first render s", "second render s",
             "total s", "process s"]
     lines += ["", "| loaded as | " + " | ".join(keys) + " |\n|" + "---|" * (len(keys) + 1)]
-    for grouped, row in rows.items():
+    for way, row in rows.items():
         cells = [str(row[k]) if isinstance(row[k], int) else f"{row[k]:.2f}" for k in keys]
-        lines.append(f"| {'ellipsoids' if grouped else 'spheres'} | " + " | ".join(cells) + " |")
-    lines.append(f"\nimages: mean absolute difference {mean:.2e}, {off:.3%} of pixels off by more than 0.02")
+        lines.append(f"| {way} | " + " | ".join(cells) + " |")
+    lines += ["", "| images | mean abs. difference | pixels off by > 0.02 |", "|---|---|---|"]
+    ways = list(images)
+    for a, b in zip(ways, ways[1:] + ways[:1]):
+        lines.append(f"| {b} vs {a} | {np.abs(images[a] - images[b]).mean():.2e} | "
+                     f"{off(images[a], images[b]).mean():.3%} |")
+    if reference is not None:
+        pixels, values = reference
+        lines += ["", f"Against the float64 reference (tests/reference.py) at the {len(pixels)} pixels where "
+                  "the images differ by more than 0.02 (elsewhere they agree):", "",
+                  "| loaded as | pixels off the reference by > 0.02 | mean abs. difference there |",
+                  "|---|---|---|"]
+        for way, image in images.items():
+            error = np.array([np.abs(image[j, i] - values[(j, i)]).max() for j, i in pixels])
+            lines.append(f"| {way} | {int((error > 0.02).sum())} | {error.mean():.4f} |")
     return "\n".join(lines)
 
 
@@ -421,6 +497,9 @@ def main(argv=None):
     parser.add_argument("--rays", type=int, default=20000)
     parser.add_argument("--size", type=int, default=512)
     parser.add_argument("--scene", help="the .scn file of --only scene (default: the level-5 sphereflake)")
+    parser.add_argument("--reference", action="store_true",
+                        help="with --only scene: the float64 reference at the pixels where the ways differ "
+                             "(minutes for 66 000 spheres)")
     parser.add_argument("--markdown", metavar="FILE", help="record the run in FILE's 'ellipsoids' section")
     args = parser.parse_args(argv)
     only = set(args.only.split(","))
@@ -441,7 +520,13 @@ def main(argv=None):
             if path is None:
                 import sphereflake
                 path = str(sphereflake.write(5, Path(folder) / "sphereflake5.scn"))
-            texts.append(text_end_to_end(args.scene or "sphereflake level 5", *end_to_end(path)))
+            rows, images = end_to_end(path)
+            reference = None
+            if args.reference:
+                masks = [off(a, b) for a in images.values() for b in images.values()]
+                pixels = [tuple(p) for p in np.argwhere(np.logical_or.reduce(masks)).tolist()]
+                reference = pixels, reference_at(path, pixels)
+            texts.append(text_end_to_end(args.scene or "sphereflake level 5", rows, images, reference))
             print(texts[-1])
     if args.markdown:
         import sections
