@@ -197,7 +197,7 @@ def accuracy(n: int = 20000, seed: int = 3):
     for radius in ACCURACY_RADII:
         for place, centre in ACCURACY_PLACES.items():
             for view in (3, 100, 1e4):
-                if view * radius > 1e5 or (view == 1e4 and radius > 1):
+                if view > 3 and (view * radius > 1e5 or (view == 1e4 and radius > 1)):
                     continue
                 half = n // 2
                 o1, d1 = aimed_rays(centre, radius, view * radius, half, rng, lambda k: 0.99 * np.sqrt(rng.uniform(0, 1, k)))

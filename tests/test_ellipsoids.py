@@ -236,3 +236,20 @@ def test_grouping_the_ball_around_the_eye_would_let_the_eye_see_out(llvm, write_
     forced = whitted.load_scene(path, model=model, ellipsoids=True)
     with pytest.raises(AssertionError):
         assert_matches(whitted.render(forced).image, expected)
+
+
+@pytest.mark.parametrize("centre", [(0.0, 0.0, 0.0), (1.0, -0.7, 0.3), (283.5, 99.7, -98.6), (1e4, -7e3, 3e3)])
+def test_no_ray_meets_the_unit_ellipsoid_it_leaves(llvm, centre):
+    """tests/hard_cases/test_acne.py's experiment on a unit sphere held by an ellipsoids
+    shape (the only radius the loader gives them): outward rays and shadow segments leave it
+    for good. (Inward rays do not exist for a sealed sphere; the shape culls them.)"""
+    from hard_cases.test_acne import RAYS, failures_jit
+    from whitted.plugins import geometry
+    centre = np.array(centre)
+    scene = mi.load_dict({"type": "scene", "ball": sealed.ellipsoids(centre[None], RED_BSDF)})
+    hits = geometry.hit_finder(scene, need_uv=False)
+    assert isinstance(hits, geometry.SphereHits)
+    n, outward, _, shadowed = failures_jit(scene, hits, centre, 1.0, np.pi, RAYS["llvm_ad_rgb"],
+                                           np.random.default_rng(5))
+    assert n > 0.9 * RAYS["llvm_ad_rgb"]
+    assert (outward, shadowed) == (0, 0)
