@@ -10,7 +10,7 @@ STAMP   := $(VENV)/.installed
 SCENES  := $(wildcard scenes/*.scn)
 OUT     := out
 
-.PHONY: all demo test bench scenes setup llvm povray clean
+.PHONY: all demo test bench scenes setup llvm povray chromium clean
 
 all: demo
 
@@ -51,7 +51,20 @@ demo: scenes
 	done
 	@echo "demo images in $(OUT)/demo/: NAME.png and NAME.exr (the article's model), NAME-path.png (Mitsuba's path tracer, 64 spp)"
 
-test: setup
+# Debian's Chromium, for the browser test of `whitted compare`'s report page
+# (tests/test_compare_page.py skips it without one): installed when missing and
+# allowed (root, apt-get, no $WHITTED_NO_APT), as the llvm step installs libllvm19.
+chromium:
+	@if [ -x /usr/bin/chromium ]; then :; \
+	elif [ "$$(id -u)" = 0 ] && [ -z "$$WHITTED_NO_APT" ] && command -v apt-get >/dev/null; then \
+		echo "installing Debian's chromium (for the report page's browser test)"; \
+		( export DEBIAN_FRONTEND=noninteractive; apt-get -qq update && apt-get -qq install -y chromium >/dev/null ) \
+			|| echo "warning: chromium could not be installed; the browser test will be skipped"; \
+	else \
+		echo "note: no /usr/bin/chromium (as root: apt-get install chromium); the browser test will be skipped"; \
+	fi
+
+test: setup chromium
 	$(PY) -m pytest -q
 
 # POV-Ray 3.7 for the side-by-side benchmark: Debian's povray, installed when missing and

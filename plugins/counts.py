@@ -24,11 +24,12 @@ class RayCounts:
     of each kind, and ``merged`` counts such rays, so that the rays traced are
     ``camera + shadow + reflection + refraction - merged``.
     ``max_depth_reached`` is the deepest level that traced a ray.
-    ``culled`` counts the reflected and refracted rays left untraced because
-    their path weight was below ``min_weight``, and ``culled_weight`` sums
-    their weights: each would have added at most its weight times the
-    brightest colour in the scene, so ``culled_weight / spp`` times that
-    colour bounds the total error of an image (summed over its pixels).
+
+    ``culled`` counts the reflected and refracted rays that the adaptive depth
+    control left untraced (:mod:`.adaptive`; a ray that would have carried
+    both shares counts twice), ``culled_weight`` sums their path weights, and
+    ``sample_culled_weight`` is the largest sum of them in one camera sample's
+    tree, which bounds the error (see :mod:`.adaptive`).
     """
     camera: int = 0
     shadow: int = 0
@@ -38,6 +39,7 @@ class RayCounts:
     max_depth_reached: int = 0
     culled: int = 0
     culled_weight: float = 0.0
+    sample_culled_weight: float = 0.0
 
     def rays(self) -> dict:
         return {kind: getattr(self, kind) for kind in ("camera", "shadow", "reflection", "refraction")}
@@ -66,15 +68,20 @@ class Tally:
         small terms are added one after the other)."""
         self._add(name, mi.Float64, mi.Float64(value), mask)
 
-    def _add(self, name, tp, value, mask):
+    def note_max(self, name: str, value) -> None:
+        """Keep the largest of ``value``'s lanes (and of those noted before)."""
+        self._add(name, mi.Float, value, True, dr.ReduceOp.Max)
+
+    def _add(self, name, tp, value, mask, op=dr.ReduceOp.Add):
         if not self._jit:
             if mask:
-                self._sums[name] = self._sums.get(name, 0) + value
+                old = self._sums.get(name, 0)
+                self._sums[name] = old + value if op == dr.ReduceOp.Add else max(old, value)
             return
         if name not in self._sums:
             self._sums[name] = dr.zeros(tp, 1)
             dr.make_opaque(self._sums[name])
-        dr.scatter_reduce(dr.ReduceOp.Add, self._sums[name], value, mi.UInt32(0), mask)
+        dr.scatter_reduce(op, self._sums[name], value, mi.UInt32(0), mask)
 
     def read(self, **known) -> RayCounts:
         """The counts as Python numbers, with ``known`` ones (e.g. ``camera``) added."""

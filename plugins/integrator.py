@@ -33,6 +33,7 @@ import mitsuba as mi
 
 from whitted import defaults as D
 
+from .adaptive import allowance, brightest
 from .counts import RayCounts, Tally
 from .depth_first import DepthFirstTracer
 from .effects import analyse
@@ -42,13 +43,13 @@ from .tracer import Tracer
 from .wavefront import SAMPLES_PER_PASS, WavefrontTracer
 
 
-def tracer_for_variant(shader, min_weight: float, tally, lanes: int) -> Tracer:
+def tracer_for_variant(shader, epsilon: float, tally, lanes: int) -> Tracer:
     """The walk the current variant can do. The one place that tells the variants apart:
     wavefronts need Dr.Jit arrays to gather a level's rays into (JIT variants), and the
     scalar variants' values are one ray's plain numbers."""
     if dr.is_jit_v(mi.Float):
-        return WavefrontTracer(shader, min_weight, tally, lanes)
-    return DepthFirstTracer(shader, min_weight, tally)
+        return WavefrontTracer(shader, epsilon, tally, lanes)
+    return DepthFirstTracer(shader, epsilon, tally)
 
 
 @dataclass
@@ -59,6 +60,7 @@ class Rendering:
     effects: tuple         # see plugins/effects.py
     depth: int             # the tree depth the scene needed (<= max_depth)
     passes: int
+    error_bound: float     # the most the adaptive depth control can have changed a pixel
 
 
 class WhittedIntegrator(mi.SamplingIntegrator):
@@ -97,15 +99,18 @@ class WhittedIntegrator(mi.SamplingIntegrator):
 
      * - min_weight
        - |float|
-       - Hall and Greenberg's adaptive depth control: a reflected or refracted
-         ray whose path weight (the product of the KR and KT factors above it)
-         is below this is not traced; 0 traces the exact tree. (Default: 0)
+       - The adaptive depth control (Hall and Greenberg's; POV-Ray's
+         ``adc_bailout``): reflected and refracted rays are left untraced as
+         long as together they cannot change any pixel by more than this, in
+         [0, 1]; their path weights (products of the KR and KT factors above
+         them) times the brightest color a ray can have bound the change.
+         0 traces the exact tree. (Default: 1/255)
 
      * - wavefront_size
        - |int|
        - Camera samples per pass, and the widest wavefront the JIT variants
          trace at once: it bounds memory. 0 lets the tracer choose (2^20, or
-         2^24 when the tree has a single level). (Default: 0)
+         2^21 when the tree has a single level). (Default: 0)
 
     The article's ray tracer (shared/scene-format.md, "Shading"): a camera ray
     that hits a sphere gets ``(1 - KR - KT)·point + KR·reflected +
@@ -122,7 +127,25 @@ class WhittedIntegrator(mi.SamplingIntegrator):
 
     Code for an effect the scene lacks is left out of the kernels: a scene
     without mirrors or glass is traced to depth 1 whatever ``max_depth``.
-    :meth:`render_detailed` also returns the rays traced
+    Under total internal reflection the reflected and the refracted ray are
+    the same ray, which is traced once with both weights.
+
+    The adaptive depth control bounds the tree: a branch is not traced while
+    the branches left out of its camera sample's tree could, all together, add
+    at most ``min_weight`` to the sample's color in any channel. Each branch's
+    share is its path weight ``w`` times ``L``, the brightest color any ray
+    can have (in article lighting ``max B·(A + (1 - A)·Σ max light)``, in
+    physical lighting ``(max B/π)·Σ max I/d²`` with d the distance from the
+    light to the nearest surface; the background if brighter): a ray's color
+    mixes point colors and the background with weights summing to at most 1,
+    so it never exceeds ``L``. Culling only removes such terms, so no pixel
+    changes by more than ``min_weight``; the render reports the bound it
+    reached (``error_bound``: the largest weight culled from one sample times
+    ``L``). Where ``L`` is not known (a light on a surface in physical
+    lighting, an environment other than a constant one, a texture other than a
+    bitmap) the tree is traced exactly. :mod:`.adaptive` has the rule.
+
+    :meth:`render_detailed` also returns the rays traced and the bound
     (``whitted render --stats``).
 
     .. tabs::
@@ -165,25 +188,32 @@ class WhittedIntegrator(mi.SamplingIntegrator):
         return self.render_detailed(scene, sensor, seed, spp).image
 
     def sample(self, scene, sampler, ray, medium=None, active=True):
-        """The colour of ``ray``'s whole tree (for callers that drive the integrator per ray)."""
-        tracer, _ = self._tracer(scene)
+        """The color of ``ray``'s whole tree (for callers that drive the integrator per ray)."""
+        tracer, _, _ = self._tracer(scene)
         return tracer.trace(mi.Ray3f(ray)), mi.Bool(True), []
 
     # -- Rendering ------------------------------------------------------------------------------
 
     def _tracer(self, scene):
-        """A tracer for ``scene`` (see :mod:`.tracer`), and the scene's analysis."""
+        """A tracer for ``scene`` (see :mod:`.tracer`), the scene's analysis, and the
+        brightest color a ray can have in it (:func:`.adaptive.brightest`; None: unknown)."""
         analysis = analyse(scene, self.max_depth, self.light_reference)
+        bright = brightest(scene, analysis, self.lighting, self.ambient) if self.min_weight > 0 else None
         tally = Tally()
         shader = Shader(scene, analysis, self.ambient, self.lighting, tally)
-        return tracer_for_variant(shader, self.min_weight, tally,
-                                  self.wavefront_size or SAMPLES_PER_PASS), analysis
+        tracer = tracer_for_variant(shader, allowance(self.min_weight, bright), tally,
+                                    self.wavefront_size or SAMPLES_PER_PASS)
+        return tracer, analysis, bright
 
     def render_detailed(self, scene, sensor=0, seed=0, spp=0, progress=None) -> Rendering:
         """Render ``scene`` and report what was traced.
 
         ``progress``, when given, is called with the number of camera samples
-        finished after each pass.
+        finished since its last call, as the trees are traced: after each level
+        of each pass in the JIT variants (a sample counts as finished in the
+        proportion of its path weight already shaded or culled), after each
+        sample in the scalar ones. Between levels Python has control, so a
+        ``KeyboardInterrupt`` (Ctrl-C) stops the render there.
         """
         if isinstance(sensor, int):
             sensor = scene.sensors()[sensor]
@@ -192,20 +222,19 @@ class WhittedIntegrator(mi.SamplingIntegrator):
         film = sensor.film()
         width, height = (int(c) for c in film.crop_size())
 
-        tracer, analysis = self._tracer(scene)
+        tracer, analysis, bright = self._tracer(scene)
         film.prepare([])
         block = film.create_block()
         block.set_coalesce(block.coalesce() and spp >= 4)
         passes = tracer.passes(width * height * spp, self.wavefront_size)
         for first, count in passes:
-            self._render_pass(tracer, sensor, block, first, count, width, spp, seed)
-            if progress is not None:
-                progress(count)
+            self._render_pass(tracer, sensor, block, first, count, width, spp, seed, progress)
         film.put_block(block)
         rays = tracer.tally.read(camera=width * height * spp, max_depth_reached=tracer.deepest)
-        return Rendering(film.develop(), rays, analysis.effects, analysis.depth, len(passes))
+        error_bound = rays.sample_culled_weight * bright if rays.culled else 0.0
+        return Rendering(film.develop(), rays, analysis.effects, analysis.depth, len(passes), error_bound)
 
-    def _render_pass(self, tracer, sensor, block, first, count, width, spp, seed):
+    def _render_pass(self, tracer, sensor, block, first, count, width, spp, seed, progress):
         """Samples first … first + count - 1 (of every pixel's spp, pixel after pixel), as
         ``tracer`` takes them: one wavefront, or one sample at a time."""
         # Counted from the pass's first pixel, so that 32-bit indices never overflow.
@@ -223,7 +252,7 @@ class WhittedIntegrator(mi.SamplingIntegrator):
             y = pixel // width_
             x = pixel - y * width_
             ray, ray_weight, position = self._camera_ray(sensor, x, y, pixel, sample, spp, seed)
-            self._splat(sensor.film(), block, position, tracer.trace(ray) * ray_weight)
+            self._splat(sensor.film(), block, position, tracer.trace(ray, progress) * ray_weight)
         tracer.finish_pass()
 
     @staticmethod
@@ -241,8 +270,8 @@ class WhittedIntegrator(mi.SamplingIntegrator):
         return ray, weight, position + mi.ScalarVector2f(film.crop_offset())
 
     @staticmethod
-    def _splat(film, block, position, colour):
-        values = [colour.x, colour.y, colour.z]
+    def _splat(film, block, position, color):
+        values = [color.x, color.y, color.z]
         if mi.has_flag(film.flags(), mi.FilmFlags.Alpha):
             values.append(mi.Float(1))
         values.append(mi.Float(1))   # the sample's weight: the film develops the mean

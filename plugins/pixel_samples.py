@@ -42,10 +42,8 @@ def pixel_offset(pixel, sample, spp: int, seed: int):
     row = sample // nx
     # The seed is opaque: a new seed must not compile new kernels.
     seed_offset = (seed * _SEED_STRIDE) & 0xFFFFFFFF
-    if dr.is_jit_v(mi.Float):
-        salt = mi.UInt32(sample) + dr.opaque(mi.UInt32, seed_offset)   # wraps like UInt32
-    else:
-        salt = mi.UInt32((sample + seed_offset) & 0xFFFFFFFF)
+    # (the mask wraps the sum to 32 bits where UInt32 is a Python int: scalar variants)
+    salt = (mi.UInt32(sample) + dr.opaque(mi.UInt32, seed_offset)) & 0xFFFFFFFF
     bits_x, bits_y = mi.sample_tea_32(mi.UInt32(pixel), salt)
     jitter = mi.Point2f(mi.Float(bits_x >> 8), mi.Float(bits_y >> 8)) * (1.0 / (1 << 24))
     return mi.Point2f((mi.Float(column) + jitter.x) / nx, (mi.Float(row) + jitter.y) / ny)

@@ -3,7 +3,7 @@
 :meth:`Shader.shade` takes rays (one in the scalar variants, a wavefront in
 the JIT variants) with their path weights ``w`` and returns
 
-- the colour they contribute: ``w·(1 - KR - KT)·point`` on a hit, ``w·background``
+- the color they contribute: ``w·(1 - KR - KT)·point`` on a hit, ``w·background``
   on a miss;
 - their children: the reflected ray with weight ``w·KR`` and the refracted ray
   (or, under total internal reflection, the mirror ray) with weight ``w·KT``.
@@ -11,11 +11,11 @@ the JIT variants) with their path weights ``w`` and returns
 Under total internal reflection both children would be the very same ray, and
 inside a glass ball that traps light the tree would double at every bounce. So
 the mirror ray is traced once, with weight ``w·(KR + KT)``: exact, since the
-colour is linear in the weights. It still counts as a reflection ray and as a
+color is linear in the weights. It still counts as a reflection ray and as a
 refraction ray (``Child.merged``), as the article's recursion traces both.
 
 Summing the contributions of every level gives exactly the article's recursion
-``colour = (1 - KR - KT)·point + KR·reflected + KT·refracted`` (it is linear),
+``color = (1 - KR - KT)·point + KR·reflected + KT·refracted`` (it is linear),
 which lets the tracers (:mod:`.tracer`) walk the tree in any order. Code for an
 effect the scene lacks (see :mod:`.effects`) is left out of the kernels.
 
@@ -47,7 +47,7 @@ class Child:
 
 @dataclass
 class Shaded:
-    colour: object   # mi.Color3f, already multiplied by the path weight
+    color: object   # mi.Color3f, already multiplied by the path weight
     children: list   # [Child], empty when the tree ends at this level
 
 
@@ -104,7 +104,7 @@ class Shader:
         self.physical = lighting == "physical"
         # Per-render constants are opaque: kernels are reused across scenes (plain numbers in scalar).
         self.ambient = dr.opaque(mi.Float, ambient)
-        # Article lighting uses the light's colour; physical lighting its intensity (divided by r^2).
+        # Article lighting uses the light's color; physical lighting its intensity (divided by r^2).
         self.hits = hit_finder(scene, need_uv=analysis.has("textures"))
         # (position, strength, (error bound, normal) of a sphere the light sits on)
         self.lights = []
@@ -121,7 +121,7 @@ class Shader:
         self.depth = analysis.depth
 
     def background(self, ray):
-        """The colour of rays that escape: the environment emitter's."""
+        """The color of rays that escape: the environment emitter's."""
         si = dr.zeros(mi.SurfaceInteraction3f)
         si.wi = -ray.d
         return self.environment.eval(si)
@@ -129,18 +129,18 @@ class Shader:
     def shade(self, ray, weight, spawn: bool, coherent: bool = False) -> Shaded:
         """One level of the tree for ``ray``; ``spawn`` is False at the last level."""
         hit, si, bsdf, error = self.hits.intersect(ray, coherent)
-        colour = mi.Color3f(0)
+        color = mi.Color3f(0)
         if self.environment is not None:
-            colour = dr.select(hit, colour, weight * self.background(ray))
+            color = dr.select(hit, color, weight * self.background(ray))
         if off(hit):
-            return Shaded(colour, [])   # a single ray that missed: no shape to ask for a material
+            return Shaded(color, [])   # a single ray that missed: no shape to ask for a material
 
         v = ray.d
         n_facing, inside = optics.facing_normal(v, si.n)
         surface = self.surfaces.lookup(si, bsdf, hit)
-        point = self.point_colour(si, error, n_facing, surface.base, hit)
+        point = self.point_color(si, error, n_facing, surface.base, hit)
         diffuse = 1 - surface.reflect - surface.refract
-        colour = dr.select(hit, weight * diffuse * point, colour)
+        color = dr.select(hit, weight * diffuse * point, color)
 
         children = []
         if spawn and (self.reflection or self.refraction):
@@ -159,9 +159,9 @@ class Shader:
                                       dr.select(hit, weight * kr, 0), merged))
             if self.refraction:
                 children.append(Child("refraction", refracted, dr.select(hit, weight * kt, 0)))
-        return Shaded(colour, children)
+        return Shaded(color, children)
 
-    def point_colour(self, si, error, n_facing, base, active):
+    def point_color(self, si, error, n_facing, base, active):
         """``B·(A + (1 - A)·Σ s·light)`` (article) or ``(B/π)·Σ I·max(0, N'·L)/r²`` (physical)."""
         direct = mi.Color3f(0)
         for position, strength, on_surface in self.lights:
@@ -171,7 +171,7 @@ class Shader:
         return base * (self.ambient + (1 - self.ambient) * direct)
 
     def light(self, si, error, n_facing, position, strength, on_surface, active):
-        """One light's ``s·light_colour`` (article) or ``I·cos/r²`` (physical), 0 in shadow.
+        """One light's ``s·light_color`` (article) or ``I·cos/r²`` (physical), 0 in shadow.
 
         Every sphere blocks the segment to the light, transparent ones too. The
         shadow ray leaves from a point moved off the surface by the hit's error

@@ -1,7 +1,7 @@
 """How the ray tree is walked, behind one interface.
 
 The article's ``trace`` is recursive, but its result is linear in the
-children's colours, so the colour of a camera ray is a sum over its tree's
+children's colors, so the color of a camera ray is a sum over its tree's
 rays of ``w·contribution``, ``w`` being the product of the KR and KT factors
 on the way down (see :mod:`.shading`). Which rays make up the tree, how they
 are shaded and counted, is the same however the tree is walked, and is written
@@ -22,16 +22,22 @@ from dataclasses import dataclass
 import drjit as dr
 import mitsuba as mi
 
+from .adaptive import split
+
 
 @dataclass
 class Branch:
     """Rays of one level of the tree, with their path weights: a wavefront (JIT variants)
-    or a single ray (scalar). ``owner`` is each lane's camera sample within its pass (the
-    wavefront tracer's business; None for camera rays, lane i being sample i)."""
+    or a single ray (scalar). ``allowance`` is the path weight that may still be left
+    untraced below each ray (:mod:`.adaptive`; None when the tree is traced exactly).
+    ``owner`` is each lane's camera sample within its pass and ``total`` the sum of the
+    weights, for progress reports (the wavefront tracer's business)."""
     ray: object      # mi.Ray3f
     weight: object   # mi.Float
     level: int       # primary rays have level 1
-    owner: object = None
+    allowance: object = None   # mi.Float
+    owner: object = None       # mi.UInt32; None for camera rays, lane i being sample i
+    total: float = 0.0
 
 
 @dataclass
@@ -45,18 +51,19 @@ class Child:
 class Tracer:
     """Walks the trees of camera rays through one scene's :class:`~.shading.Shader`.
 
-    ``min_weight`` is Hall and Greenberg's adaptive depth control (see
-    :meth:`traced`); ``tally`` receives the ray counts (:class:`~.counts.Tally`).
-    Subclasses say how a pass's camera samples are taken (:meth:`samples`) and
-    how a tree is walked (:meth:`trace`).
+    ``epsilon`` is each camera ray's allowance, the path weight that the
+    adaptive depth control may leave untraced in its tree (:mod:`.adaptive`;
+    0: the exact tree); ``tally`` receives the ray counts
+    (:class:`~.counts.Tally`). Subclasses say how a pass's camera samples are
+    taken (:meth:`samples`) and how a tree is walked (:meth:`trace`).
     """
 
     #: camera samples per pass when the integrator's ``wavefront_size`` is 0 (automatic)
     samples_per_pass = 1
 
-    def __init__(self, shader, min_weight: float, tally):
+    def __init__(self, shader, epsilon: float, tally):
         self.shader = shader
-        self.min_weight = min_weight
+        self.epsilon = epsilon
         self.tally = tally
         self.deepest = 0   # the deepest level that traced a ray
 
@@ -69,45 +76,50 @@ class Tracer:
         """The sample indices 0 … count - 1 of a pass, as the tracer takes them."""
         raise NotImplementedError
 
-    def trace(self, ray):
-        """The colour of the camera rays ``ray``: the sum of ``w·contribution`` over their trees."""
+    def trace(self, ray, progress=None):
+        """The color of the camera rays ``ray``: the sum of ``w·contribution`` over their trees.
+
+        ``progress``, when given, is called as the trees are traced with the number of camera
+        samples finished since its last call: a sample counts as finished in the proportion
+        of its path weight whose rays have been shaded or culled.
+        """
         raise NotImplementedError
 
     def finish_pass(self) -> None:
-        """Make a pass's work (its image block's accumulation) done before its progress is told."""
+        """Make a pass's work (its image block's accumulation) done before the next one."""
+
+    def camera_branch(self, ray) -> Branch:
+        return Branch(ray, mi.Float(1), 1, dr.opaque(mi.Float, self.epsilon) if self.epsilon > 0 else None)
 
     # -- one level, for both walks ------------------------------------------------------------------
 
     def step(self, branch: Branch):
-        """Shade ``branch``; return its colour (already weighted) and its children."""
+        """Shade ``branch``: its color (already weighted), the weight culled below each ray
+        (None when the tree is traced exactly) and its children."""
         self.deepest = max(self.deepest, branch.level)
         shaded = self.shader.shade(branch.ray, branch.weight, spawn=branch.level < self.shader.depth,
                                    coherent=branch.level == 1)
+        if not shaded.children:
+            return shaded.color, None, []
+        weights = [child.weight for child in shaded.children]
+        if branch.allowance is None:
+            traced, allowance, culled = [w > 0 for w in weights], None, None
+        else:
+            first, second, allowance, culled = split(weights[0], weights[1] if len(weights) > 1 else 0.0,
+                                                     branch.allowance)
+            traced = [first, second][:len(weights)]
         children = []
-        for child in shaded.children:
-            traced = self.traced(child.weight)
-            self.tally.add(child.kind, traced)
+        for child, is_traced in zip(shaded.children, traced):
+            self.tally.add(child.kind, is_traced)
             if child.merged is not None:   # one ray, counted as both kinds (see .shading)
-                self.tally.add("refraction", traced & child.merged)
-                self.tally.add("merged", traced & child.merged)
-            if self.min_weight > 0:
-                culled = dr.select(traced, False, child.weight > 0)
-                self.tally.add("culled", culled)
-                self.tally.add_total("culled_weight", child.weight, culled)
-            children.append(Child(child.kind, Branch(child.ray, child.weight, branch.level + 1), traced))
-        return shaded.colour, children
-
-    def traced(self, weight):
-        """Whether a child ray is traced: any ray that can still add colour, or,
-        with ``min_weight`` > 0, enough of it.
-
-        This is Hall and Greenberg's adaptive depth control (1983): a ray's
-        colour reaches the pixel multiplied by its path weight, the product of
-        the KR and KT factors above it, so a subtree below weight W can change
-        the pixel by at most W times the brightest colour in the scene, and is
-        not worth tracing when W is below what the image can show.
-        """
-        if self.min_weight > 0:
-            return weight >= dr.opaque(mi.Float, self.min_weight)
-        return weight > 0
-
+                self.tally.add("refraction", is_traced & child.merged)
+                self.tally.add("merged", is_traced & child.merged)
+            if culled is not None:
+                lost = dr.select(is_traced, False, child.weight > 0)
+                self.tally.add("culled", lost)
+                if child.merged is not None:
+                    self.tally.add("culled", lost & child.merged)
+                self.tally.add_total("culled_weight", child.weight, lost)
+            children.append(Child(child.kind, Branch(child.ray, child.weight, branch.level + 1, allowance),
+                                  is_traced))
+        return shaded.color, culled, children

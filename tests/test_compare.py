@@ -342,6 +342,43 @@ def test_no_reference_is_rendered_once_the_budget_is_spent(tmp_path, monkeypatch
     assert "no time was left" in captured.err and "skipped 3 of 3 renders" in captured.out
 
 
+def test_budget_scales_an_unaffordable_reference_down_and_says_so(mirror_scene, tmp_path, capsys):
+    """A reference asked at 4M spp (an hour or more even at 32×24) under a 6 s budget: a probe
+    measures its cost, a power of two that fits is rendered, and the run ends on time with
+    renders done; the summary, stderr and the page say what happened."""
+    budget, asked = 6.0, 1 << 22
+    start = time.monotonic()
+    status = main(["compare", str(mirror_scene), "--out", str(tmp_path), "--budget", str(budget),
+                   "--reference-spp", str(asked), "--depths", "1,2", "--spp", "1", "--path-spp",
+                   "1,4,16", "--repeats", "1", "-q"])
+    elapsed = time.monotonic() - start
+    assert status == 0
+    assert elapsed < budget + 4.0  # loading Mitsuba and one misjudged render
+    (info,) = [line for line in capsys.readouterr().err.splitlines() if "scaled down" in line]
+    assert f"from {asked} to " in info and "--budget 6 s" in info
+    rows = read_rows(tmp_path / "results.csv")
+    assert rows  # the sweep got the time the reference left
+    spp = int(rows[0]["reference_spp"])
+    assert 8 <= spp < asked and spp & (spp - 1) == 0  # a power of two
+    assert f"scaled down from {asked} to {spp} spp" in (tmp_path / "report.html").read_text(encoding="utf-8")
+
+
+def test_budget_refuses_a_reference_it_cannot_afford_and_says_why(mirror_scene, tmp_path,
+                                                                    monkeypatch, capsys):
+    """When not even the fewest spp of a usable reference fit (here: probes that find a
+    sample costs 100 s), the scene is skipped with the reason, not left to overrun."""
+    import whitted.compare.reference as reference_module
+    monkeypatch.setattr(reference_module, "fit_cost", lambda points: (0.0, 100.0))
+    status = main(["compare", str(mirror_scene), "--out", str(tmp_path), "--budget", "10",
+                   "--depths", "1", "--spp", "1", "--path-spp", "1", "--repeats", "1", "-q"])
+    assert status == 0
+    err = capsys.readouterr().err
+    assert "raise --budget or lower --reference-spp" in err and "no render was done" in err
+    assert read_rows(tmp_path / "results.csv") == []
+    page = (tmp_path / "report.html").read_text(encoding="utf-8")
+    assert "raise --budget or lower --reference-spp" in page
+
+
 # --------------------------------------------------------------------------- several scenes, CLI
 
 
@@ -472,6 +509,6 @@ def test_plan_puts_cheap_renders_of_every_method_first():
 
 
 def test_pareto_front_keeps_only_unbeaten_points():
-    from whitted.compare.report import pareto_front
+    from whitted.compare.curves import pareto_front
     points = [(1.0, 0.5), (2.0, 0.6), (3.0, 0.2), (0.5, 0.9), (4.0, 0.2)]
     assert pareto_front(points) == [(0.5, 0.9), (1.0, 0.5), (3.0, 0.2)]

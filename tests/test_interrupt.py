@@ -60,7 +60,7 @@ def slow_scene(tmp_path):
     ("whitted", signal.SIGINT, 4.0),
     ("whitted", signal.SIGTERM, 4.0),
     ("path", signal.SIGINT, 4.0),
-    ("whitted", signal.SIGINT, 0.3),      # while importing and loading
+    ("whitted", signal.SIGINT, 1.0),      # while importing and loading the scene
 ])
 def test_render_stops_cleanly(slow_scene, tmp_path, integrator, number, delay):
     args = ["render", str(slow_scene), "-o", "out.png", "--integrator", integrator]

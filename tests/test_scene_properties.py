@@ -216,13 +216,20 @@ def sphere_to_world(e) -> np.ndarray:
     if e["texture"] is None:
         m[:3, :3] *= e["radius"]
     else:
-        vn = np.array(e["north"]) / np.linalg.norm(e["north"])
+        vn = unit(e["north"])
         eq = np.array(e["equator"])
-        ve = eq - eq.dot(vn) * vn
-        ve /= np.linalg.norm(ve)
+        ve = unit(eq - eq.dot(vn) * vn)
         m[:3, :3] = np.column_stack([ve, np.cross(vn, ve), vn]) * e["radius"]
     m[:3, 3] = e["center"]
     return m
+
+
+def unit(v) -> np.ndarray:
+    """``v`` normalized; scaled first, since |v|² of a vector like (0, 3e-161, 0) is subnormal
+    and np.linalg.norm then loses digits (hypothesis found one)."""
+    v = np.asarray(v, dtype=float)
+    v = v / np.abs(v).max()
+    return v / np.linalg.norm(v)
 
 
 def arr(x) -> np.ndarray:

@@ -85,9 +85,10 @@ def build_parser() -> argparse.ArgumentParser:
     render.add_argument("--ambient", type=float, metavar="A",
                         help="the article's ambient coefficient (default: the scene's)")
     render.add_argument("--min-weight", type=float, metavar="W",
-                        help="adaptive depth control (Hall and Greenberg): leave untraced the "
-                             "reflected and refracted rays whose path weight, the product of the "
-                             "KR and KT factors above them, is below W (default: the scene's; 0, off)")
+                        help="adaptive depth control (Hall and Greenberg): leave reflected and "
+                             "refracted rays untraced as long as together they cannot change a pixel "
+                             "by more than W; --stats reports the bound reached (default: the "
+                             "scene's, 1/255 unless it says; 0 traces the exact tree)")
     render.add_argument("--stats", metavar="FILE.json", help="write ray counts and timings as JSON")
     render.add_argument("-v", "--verbose", action="store_true", help="print a one-line summary")
     render.add_argument("-q", "--quiet", action="store_true", help="no progress bar")

@@ -52,7 +52,8 @@ def _summary(args, result, width: int, height: int, spp: int) -> str:
     rays = ", ".join(f"{v} {k}" for k, v in s["rays"].items() if v is not None)
     depth = "" if s["max_depth_reached"] is None else f"depth reached {s['max_depth_reached']}; "
     if s["min_weight"]:
-        depth += f"{s['culled_rays']} rays culled below weight {s['min_weight']:g}; "
+        depth += (f"{s['culled_rays']} rays culled, error at most {s['error_bound']:.2g} "
+                  f"(min weight {s['min_weight']:.3g}); ")
     return (f"whitted: {width}x{height} at {spp} spp with {args.integrator} ({mi.variant()}): "
             f"{s['seconds']:.3f} s (+{s['compile_seconds']:.3f} s compiling); rays: {rays}; {depth}"
             f"effects: {' '.join(s['effects']) or 'none'}; "

@@ -63,9 +63,10 @@ LIGHTING = "article"
 #: the article's model, or Mitsuba's stock path tracer
 INTEGRATORS = ("whitted", "path")
 INTEGRATOR = "whitted"
-#: Hall and Greenberg's adaptive depth control: branches whose path weight is below
-#: this are not traced (0 traces the exact tree)
-MIN_WEIGHT = 0.0
+#: The adaptive depth control (Hall and Greenberg; POV-Ray's adc_bailout): branches of the
+#: ray tree are left untraced as long as together they cannot change a pixel by more than
+#: this, one step of an 8-bit image (plugins/adaptive.py); 0 traces the exact tree
+MIN_WEIGHT = 1 / 255
 #: camera samples per pass of the whitted integrator (0: as its tracer prefers; see plugins/wavefront.py)
 WAVEFRONT_SIZE = 0
 #: the most samples per pixel a render accepts (API and CLI; Mitsuba's samplers count in 32 bits)
@@ -84,6 +85,25 @@ COMPARE_REPEATS = 3                       #: timed repeats of each render (the m
 COMPARE_LEVELS = (0.1, 0.03, 0.01)        #: relative-MSE levels of the equal-quality table
 #: The default Whitted sweep is 1…min(scene depth, this): deeper trees rarely change a pixel.
 COMPARE_MAX_DEFAULT_DEPTH = 8
+#: The reference is rendered in independent chunks of at most this many spp, each with its
+#: own seed, and averaged: a cluster renders the chunks on different workers, and a run
+#: in one process renders the same chunks, so both make the same reference.
+COMPARE_REFERENCE_CHUNK_SPP = 1024
+#: Seconds to wait for a Dask scheduler to answer (and for its first worker) before
+#: ``whitted compare --scheduler`` gives up.
+COMPARE_CONNECT_TIMEOUT = 5.0
+#: A Whitted method has reached its error floor at the shallowest depth whose best error is
+#: within this fraction of the best error of any depth (deeper trees improve it by less).
+COMPARE_FLOOR_TOLERANCE = 0.05
+#: Under --budget, the most of a scene's share its reference may take (the sweep gets the rest).
+COMPARE_REFERENCE_SHARE = 0.5
+#: Under --budget, a reference is scaled down to fit its share but not below this many spp
+#: (below it, its own noise would swamp the errors it is meant to measure): the scene is refused.
+COMPARE_MIN_REFERENCE_SPP = 8
+#: The probe that estimates a reference's cost doubles its spp until one render takes this long.
+COMPARE_PROBE_SECONDS = 0.1
+#: Seconds of --budget kept back per scene for writing its outputs (plots, report page).
+COMPARE_REPORT_SECONDS = 3.0
 
 
 # --- Validation, written once ----------------------------------------------------------------------

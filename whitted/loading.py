@@ -5,7 +5,7 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-from .defaults import check_lighting
+from .defaults import check_depth, check_lighting
 from .errors import WhittedError
 
 #: Scene parameters that can be overridden at load time (``<default>`` entries of the XML).
@@ -47,6 +47,8 @@ def load_scene(path: str | os.PathLike, variant: str | None = None, *, model=Non
     params = {k: str(v) for k, v in overrides.items() if v is not None}
     if "lighting" in params:
         check_lighting(params["lighting"])
+    if overrides.get("max_depth") is not None:
+        check_depth(overrides["max_depth"])
     path = Path(path)
     if not path.exists():
         raise WhittedError(f"{path}: no such file")

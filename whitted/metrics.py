@@ -34,12 +34,18 @@ def relative_mse(image: np.ndarray, reference: np.ndarray) -> float:
 
 def flip(image: np.ndarray, reference: np.ndarray) -> float:
     """Mean LDR-FLIP error of ``image`` against ``reference`` (both linear RGB)."""
+    return flip_map(image, reference)[1]
+
+
+def flip_map(image: np.ndarray, reference: np.ndarray) -> tuple[np.ndarray, float]:
+    """LDR-FLIP's per-pixel error map (H, W) in [0, 1] and its mean (what :func:`flip`
+    returns), from one evaluation: where the image differs from the reference, as seen."""
     import flip_evaluator
 
     a, b = (np.ascontiguousarray(np.clip(np.nan_to_num(x, nan=0.0), 0.0, 1.0), np.float32)
             for x in _pair(image, reference))
-    _, mean, _ = flip_evaluator.evaluate(b, a, "LDR", inputsRGB=False, applyMagma=False)
-    return float(mean)
+    error_map, mean, _ = flip_evaluator.evaluate(b, a, "LDR", inputsRGB=False, applyMagma=False)
+    return np.asarray(error_map, dtype=np.float32).reshape(a.shape[:2]), float(mean)
 
 
 def _pair(image: np.ndarray, reference: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

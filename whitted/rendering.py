@@ -17,18 +17,21 @@ Statistics (``result.stats``, written by ``--stats FILE.json``)::
 
     {"rays": {"camera", "shadow", "reflection", "refraction"}, "merged_rays",
      "seconds", "compile_seconds", "effects": [...], "max_depth_reached",
-     "peak_memory_bytes", "min_weight", "culled_rays", "culled_weight"}
+     "peak_memory_bytes", "min_weight", "culled_rays", "culled_weight", "error_bound"}
 
 ``merged_rays`` counts the rays that carried both a reflected and a
 refracted share (total internal reflection sends the refracted share along
 the mirror direction: one ray, traced once, counted in both ``reflection``
 and ``refraction``); the rays traced are the sum of ``rays`` minus it.
 
-``min_weight`` is the adaptive depth control's threshold (0: off; see the
-integrator's ``_traced``), ``culled_rays`` the reflected and refracted rays it
-left untraced and ``culled_weight`` the sum of their path weights: the image's
-error, summed over its pixels, is at most ``culled_weight / spp`` times the
-brightest colour in the scene.
+``min_weight`` is the adaptive depth control's setting (1/255 by default, 0:
+off; see plugins/adaptive.py): the most the branches it leaves untraced may
+change a pixel. ``culled_rays`` counts the reflected and refracted rays it left
+untraced and ``culled_weight`` sums their path weights; ``error_bound`` is the
+most it can have changed any pixel, in any channel (linear radiance): the
+largest weight culled from one camera sample's tree times the brightest color
+a ray can have in the scene. It is at most ``min_weight``, and 0 when nothing
+was culled.
 
 ``peak_memory_bytes`` is, in the JIT variants, the high-water mark of Dr.Jit's
 memory allocator during the render (every array Dr.Jit holds: the scene's
@@ -44,7 +47,6 @@ rays: for it only ``camera`` is given and the others are null, as are
 from __future__ import annotations
 
 import contextlib
-import math
 import time
 from dataclasses import dataclass
 
@@ -193,7 +195,7 @@ def render(scene, integrator: str = "whitted", spp: int | None = None, max_depth
         rays = rendering.rays
         stats_rays, effects, reached = rays.rays(), list(rendering.effects), rays.max_depth_reached
         adaptive = {"merged_rays": rays.merged, "min_weight": min_weight, "culled_rays": rays.culled,
-                    "culled_weight": rays.culled_weight}
+                    "culled_weight": rays.culled_weight, "error_bound": rendering.error_bound}
     else:
         path = mi.load_dict({"type": "path", "max_depth": depth + 1})
         with progress_bar(progress, width * height * spp, "path tracing") as bar, _Clock() as clock:
@@ -201,7 +203,8 @@ def render(scene, integrator: str = "whitted", spp: int | None = None, max_depth
         stats_rays = {"camera": width * height * spp, "shadow": None, "reflection": None,
                       "refraction": None}
         effects, reached = _effects_or_none(scene, depth), None
-        adaptive = {"merged_rays": None, "min_weight": None, "culled_rays": None, "culled_weight": None}
+        adaptive = {"merged_rays": None, "min_weight": None, "culled_rays": None, "culled_weight": None,
+                    "error_bound": None}
 
     image = image[..., :3]
     stats = {"rays": stats_rays, "seconds": clock.seconds, "compile_seconds": clock.compile,
@@ -210,17 +213,38 @@ def render(scene, integrator: str = "whitted", spp: int | None = None, max_depth
     return RenderResult(np.ascontiguousarray(image), clock.seconds, clock.compile, stats)
 
 
+def path_passes(spp: int, pixels: int) -> list[int]:
+    """The samples per pixel of each pass of the path tracer: powers of two, each pass
+    at most :data:`PATH_SAMPLES_PER_PASS` camera samples (but at least 1 spp).
+
+    Why powers of two: the LLVM backend runs a kernel in blocks of a power of two of
+    lanes spread over its threads, and a pixel's samples are consecutive lanes. When
+    a pass's spp is a power of two, every pixel's samples lie in one block and are
+    added into the film by one thread in a fixed order, so the image depends only on
+    the seed: bit-identical from run to run, process to process, and for any thread
+    count. With 10 spp a pixel can straddle two blocks, and its sum then depends on
+    which thread finishes first (a difference in the last bit), which would make two
+    runs of ``whitted compare`` differ.
+    """
+    most = max(1, min(spp, PATH_SAMPLES_PER_PASS // pixels))
+    most = 1 << (most.bit_length() - 1)
+    passes = [most] * (spp // most)
+    rest = spp % most
+    while rest:
+        passes.append(1 << (rest.bit_length() - 1))
+        rest -= passes[-1]
+    return passes
+
+
 def _render_path(scene, integrator, sensor, spp, seed, progress) -> np.ndarray:
-    """Mitsuba's path tracer in passes of whole samples per pixel, averaged."""
+    """Mitsuba's path tracer in passes of whole samples per pixel (:func:`path_passes`),
+    averaged."""
     import mitsuba as mi
     width, height = (int(c) for c in sensor.film().crop_size())
-    spp_per_pass = max(1, min(spp, PATH_SAMPLES_PER_PASS // (width * height)))
-    passes = math.ceil(spp / spp_per_pass)
     total = None
     own_spp = sensor.sampler().sample_count()   # mi.render changes it: put it back after
     try:
-        for k in range(passes):
-            n = min(spp_per_pass, spp - k * spp_per_pass)
+        for k, n in enumerate(path_passes(spp, width * height)):
             # Distinct seeds per pass: passes are independent estimates (a single
             # pass is exactly mi.render with the caller's seed).
             pass_seed = seed if k == 0 else (seed * 0x9E3779B1 + k) & 0xFFFFFFFF

@@ -18,10 +18,19 @@ The modules, in the order the work flows (each imports only those above it;
 ``results``     the plain data: settings, measurements, per-scene results, options
 ``scenes``      the scene files of the command line, each read and parsed once
 ``planning``    which renders each scene gets, cheapest first
-``budget``      ``--budget``: each scene's share of the time, each render's cost
-``reference``   the path-traced reference and its on-disk cache
-``report``      results.csv, the error-against-time plot, contact sheet, table
+``curves``      the formulas: a method's curve read on log–log axes, the error
+                floor, the reference's noise from its two halves
+``budget``      ``--budget``: each scene's share of the time, the reference's
+                affordable spp (from a probe), each render's predicted cost
+``reference``   the path-traced reference (two halves) and its on-disk cache
+``errormaps``   the images kept of each render: EXR, PNG, FLIP's error map
+``analysis``    equal time, equal quality, the error floors in words
+``page``        report.html, from its Jinja2 template (``templates/``)
+``report``      every output: results.csv, the plots, contact sheet, summary.txt,
+                and the page
 ``sweep``       one scene's work: reference, renders, scores (plain data in/out)
+``cluster``     ``--workers``/``--scheduler``: the scenes' sweeps and the reference's
+                chunks as tasks on a Dask cluster (docs/cluster.md)
 ``run``         the whole run: read, plan, sweep every scene, write the outputs
 ``cli``         the ``compare`` subcommand's options and printed summary
 =============== ==================================================================
@@ -39,6 +48,7 @@ _EXPORTS = {
     "METHODS": "results", "WHITTED_METHODS": "results", "Measurement": "results",
     "Options": "results", "SceneResult": "results", "Setting": "results", "compare": "run",
     "SceneFile": "scenes", "scene_files": "scenes", "scene_names": "scenes", "sweep_scene": "sweep",
+    "analyse": "analysis", "Analysis": "analysis", "write_all": "report",
 }
 __all__ = sorted(_EXPORTS)
 

@@ -1,17 +1,33 @@
 """``--budget``: the whole command's wall-clock time, and how renders are fitted in it.
 
-Two decisions, kept apart from the sweep that acts on them: how much of the time
-left a scene may use (an even share among the scenes still to do), and whether
-a render fits in what the scene has left (predicted from what the same method
-already cost there). A share is a duration, not a clock reading, so it means the
-same in another process or on another machine.
+Three decisions, kept apart from the sweep that acts on them: how much of the time
+left a scene may use (an even share among the scenes still to do, after a few
+seconds kept back for writing the outputs), how many samples its reference can
+afford (from probe renders: a cost per render call and per sample,
+:func:`fit_cost`, :func:`render_cost`), and whether a render fits in what the
+scene has left (predicted from what the same method already cost there). A share is a duration, not a clock reading, so it means the same in
+another process or on another machine.
+
+The reference comes first and is the costliest render of a scene, so it is the
+one that used to sink a budget (a 20-second budget met a reference of three
+hours). Its cost is now measured on short probe renders before the rest is
+started, and it may take at most :data:`~whitted.defaults.COMPARE_REFERENCE_SHARE`
+of the scene's share: when the requested spp does not fit, the largest power of
+two that does is used, and below :data:`~whitted.defaults.COMPARE_MIN_REFERENCE_SPP`
+the scene is refused. The cost has two parts because a render call has a fixed
+cost of its own: on a scene of 3000 spheres, Mitsuba's path tracer took about 4 s
+per call before its first sample (tracing a kernel that dispatches to 3000 BSDFs)
+and 0.8 s per spp at 640×400, so spp alone would misjudge it.
 """
 
 from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable
 
+from ..defaults import (COMPARE_MIN_REFERENCE_SPP, COMPARE_REFERENCE_SHARE,
+                        COMPARE_REPORT_SECONDS)
 from .results import Setting
 
 
@@ -32,13 +48,43 @@ class Budget:
         self.seconds = seconds
         self.start = time.monotonic()
 
+    def reserve(self, scenes_left: int) -> float:
+        """Seconds kept back for writing the outputs of ``scenes_left`` scenes (plots,
+        contact sheet, page): :data:`COMPARE_REPORT_SECONDS` each, at most a quarter of
+        the budget."""
+        if self.seconds is None:
+            return 0.0
+        return min(COMPARE_REPORT_SECONDS * max(1, scenes_left), 0.25 * self.seconds)
+
     def share(self, scenes_left: int) -> float:
-        """Seconds the next scene may take: the time left over the scenes left
-        (``math.inf`` without a budget, 0 when it is spent)."""
+        """Seconds the next scene may take: the time left, less the outputs' reserve,
+        over the scenes left (``math.inf`` without a budget, 0 when it is spent)."""
         if self.seconds is None:
             return math.inf
-        remaining = max(0.0, self.start + self.seconds - time.monotonic())
-        return remaining / max(1, scenes_left)
+        remaining = self.start + self.seconds - self.reserve(scenes_left) - time.monotonic()
+        return max(0.0, remaining) / max(1, scenes_left)
+
+    #: the fewest spp :meth:`reference_spp` scales a reference down to
+    minimum_reference_spp = COMPARE_MIN_REFERENCE_SPP
+
+    @staticmethod
+    def reference_spp(requested: int, cost: Callable[[int], float], seconds: float,
+                      spent: float = 0.0) -> int | None:
+        """The reference's spp within a scene's share of ``seconds``, of which it may take
+        :data:`COMPARE_REFERENCE_SHARE`, less ``spent`` (the probe): ``requested`` when
+        its ``cost(spp)`` (seconds) fits, else the largest power of two below it that
+        fits; None when not even :data:`COMPARE_MIN_REFERENCE_SPP` fit."""
+        if not math.isfinite(seconds):
+            return requested
+        allowed = COMPARE_REFERENCE_SHARE * seconds - spent
+        candidates = [requested] + [1 << k for k in range(requested.bit_length() - 1, -1, -1)
+                                    if 1 << k < requested]
+        for spp in candidates:
+            if spp < COMPARE_MIN_REFERENCE_SPP:
+                break
+            if cost(spp) <= allowed:
+                return spp
+        return None
 
     @staticmethod
     def predict(setting: Setting, done: list[tuple[Setting, float, float]], repeats: int) -> float:
@@ -52,3 +98,26 @@ class Budget:
             overhead = max(0.0, wall - repeats * seconds)  # compilation, scoring
             estimates.append(repeats * seconds * scale + overhead)
         return max(estimates, default=0.0)
+
+
+def fit_cost(points: list[tuple[int, float]]) -> tuple[float, float]:
+    """A render's cost as t(n) = a + b·n seconds for n spp, from probe renders [(n, t)]:
+    a (the cost of a render call: kernel launch, scene setup) and b (per spp) from the
+    line through the last two points; with one point, or two that do not rise (timing
+    noise), a = 0 and b = t / n of the last, which overestimates larger renders a little
+    (it counts a in every sample) but never underestimates them."""
+    n1, t1 = points[-1]
+    if len(points) >= 2:
+        n0, t0 = points[-2]
+        if n1 > n0 and t1 > t0:
+            per_spp = (t1 - t0) / (n1 - n0)
+            return max(0.0, t1 - per_spp * n1), per_spp
+    return 0.0, t1 / n1
+
+
+def render_cost(spp: int, passes: int, overhead: float, per_spp: float) -> float:
+    """Seconds to render ``spp`` samples per pixel in ``passes`` render passes (the rendering
+    API's :func:`~whitted.rendering.path_passes`), at ``overhead`` a pass and ``per_spp``."""
+    if spp <= 0:
+        return 0.0
+    return passes * overhead + spp * per_spp

@@ -14,8 +14,9 @@ import time
 from pathlib import Path
 
 from ..defaults import VARIANTS as SUPPORTED_VARIANTS
-from .results import (DEFAULT_LEVELS, DEFAULT_PATH_SPP, DEFAULT_REFERENCE_SPP, DEFAULT_REPEATS,
-                      DEFAULT_WHITTED_SPP, MAX_DEFAULT_DEPTH, Options)
+from .results import (DEFAULT_LEVELS, DEFAULT_PATH_SPP, DEFAULT_REFERENCE_CHUNK_SPP,
+                      DEFAULT_REFERENCE_SPP, DEFAULT_REPEATS, DEFAULT_WHITTED_SPP, MAX_DEFAULT_DEPTH,
+                      Options)
 
 
 def int_list(text: str) -> tuple[int, ...]:
@@ -78,35 +79,50 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--cache", metavar="DIR", help="where references are cached (default DIR/references)")
     parser.add_argument("--variant", choices=SUPPORTED_VARIANTS,
                         help="Mitsuba variant (default as for render)")
+    parser.add_argument("--reference-chunk-spp", type=int, default=DEFAULT_REFERENCE_CHUNK_SPP,
+                        metavar="N", help="render the reference in chunks of N spp, each with its "
+                                          "own seed, averaged; a cluster spreads them over its "
+                                          f"workers (default {DEFAULT_REFERENCE_CHUNK_SPP})")
+    where = parser.add_mutually_exclusive_group()
+    where.add_argument("--workers", type=int, metavar="N",
+                       help="sweep on a local Dask cluster of N worker processes (each scene's "
+                            "settings on one worker; the cores shared among them)")
+    where.add_argument("--scheduler", metavar="ADDRESS",
+                       help="sweep on the Dask cluster of this scheduler, e.g. tcp://host:8786 "
+                            "(workers started with whitted installed; see docs/cluster.md)")
     parser.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
 
 
 def compare_command(args: argparse.Namespace) -> None:
     """The CLI's ``compare`` subcommand."""
     from . import report
+    from .analysis import analyse
     from .run import compare
 
     options = Options(out=Path(args.out), reference_spp=args.reference_spp, depths=args.depths,
                       whitted_spp=args.spp, path_spp=args.path_spp, path_depth=args.path_depth,
                       repeats=args.repeats, budget=args.budget, levels=args.levels,
                       cache=Path(args.cache) if args.cache else None, variant=args.variant,
-                      quiet=args.quiet)
+                      quiet=args.quiet, reference_chunk_spp=args.reference_chunk_spp,
+                      workers=args.workers, scheduler=args.scheduler)
     start = time.monotonic()
     entries = compare(args.scenes, options)
     skipped = sum(len(e.skipped) for e in entries)
-    print(report.fastest_table(entries, options.levels))
+    done = sum(len(e.measurements) for e in entries)
+    print(report.summary([analyse(e, options.levels) for e in entries if e.reference_file],
+                         equal_time=False))
     if skipped:
-        print(f"\nbudget of {options.budget:g} s reached: skipped {skipped} of "
-              f"{skipped + sum(len(e.measurements) for e in entries)} renders; "
+        print(f"\nbudget of {options.budget:g} s: skipped {skipped} of {skipped + done} renders; "
               f"the outputs hold the renders that were done")
     for e in entries:
+        for note in e.notes:  # what the budget did, and why (also in the report)
+            print(f"{e.name}: {note}", file=sys.stderr)
         if e.reference_file is None:
-            print(f"{e.name}: skipped whole: no time was left to render its reference",
-                  file=sys.stderr)
             continue
         how = "read from the cache" if e.reference_cached else f"rendered in {e.reference_seconds:.1f} s"
         print(f"{e.name}: reference (path tracer, {e.reference_spp} spp) {how}: {e.reference_file}",
               file=sys.stderr)
-    print(f"\n{sum(len(e.measurements) for e in entries)} renders in "
-          f"{time.monotonic() - start:.1f} s; wrote {report.output_files(options.out)}",
+    if done == 0:
+        print("whitted compare: no render was done (see the lines above for why)", file=sys.stderr)
+    print(f"\n{done} renders in {time.monotonic() - start:.1f} s; wrote {report.output_files(options.out)}",
           file=sys.stderr)

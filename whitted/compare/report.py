@@ -1,16 +1,22 @@
-"""The outputs of ``whitted compare``: results CSV, error-against-time plot, contact
-sheet and the summary table of which method reaches an error level fastest.
+"""The outputs of ``whitted compare``: results CSV, error-against-time plots, contact
+sheet, the text summary (equal quality, equal time, error floors) and, through
+:mod:`.page`, the HTML report that shows them all.
 
 Every file is written atomically (whitted.atomic). Figures use matplotlib's
 object API with the Agg canvas, never pyplot's global state.
 
 How to read ``error_vs_time.png``: one row per scene, relative MSE on the left
-and FLIP on the right, against the median render time (compilation excluded),
-both axes logarithmic. Each method has one colour; its faint dots are every
-setting that was rendered, and its line joins the settings that no faster
-setting of the same method beats (its Pareto front): the best error that method
-buys for a given time. A curve that flattens is a bias showing: more samples or
-depth no longer bring the image closer to the reference.
+and FLIP on the right, against the median render time (compilation excluded;
+the bars span the fastest and slowest repeat), both axes logarithmic. Each method
+has one color; its faint dots are every setting that was rendered, and its line
+joins the settings that no faster setting of the same method beats (its Pareto
+front): the best error that method buys for a given time. Only the front's points
+are labelled (``d3·4``: depth 3 at 4 spp; ``64``: the path tracer at 64 spp), each
+label placed where it overlaps no other and dropped when no place is free. A curve
+that flattens is a bias showing: more samples or depth no longer bring the image
+closer to the reference. The dashed line is the reference's own noise (estimated
+from its two independent halves, :func:`~whitted.compare.curves.reference_noise`):
+no render can measurably score below it.
 """
 
 from __future__ import annotations
@@ -19,21 +25,30 @@ import csv
 import io
 import math
 import os
+import shutil
 from pathlib import Path
 
 import numpy as np
 
 from ..atomic import atomic_path, write_text
-from .results import METHODS, WHITTED_METHODS, Measurement, SceneResult
+from .analysis import METHOD_NAMES, Analysis, analyse, reach_text, reading_how, speedup_text
+from .curves import pareto_front
+from .results import METHODS, WHITTED_METHODS, Measurement, SceneResult, seconds_text
 
+#: The CSV's columns; new ones are added at the end, so that readers of the old keep working.
 CSV_COLUMNS = ("scene", "method", "integrator", "lighting", "spp", "max_depth", "seconds",
                "compile_seconds", "rel_mse", "flip", "repeats", "width", "height", "variant",
-               "reference_spp")
+               "reference_spp", "seconds_min", "seconds_max", "seconds_each", "image", "image_png",
+               "error_map", "reference_noise", "worker")
 CSV_NAME = "results.csv"
 PLOT_NAME = "error_vs_time.png"
 SHEET_NAME = "contact_sheet.png"
+SUMMARY_NAME = "summary.txt"
+PAGE_NAME = "report.html"
+#: each scene's own plot, for the page, relative to the output folder
+SCENE_PLOT = "{folder}/error_vs_time.png"
 
-COLOURS = {"whitted-article": "#1f77b4", "whitted-physical": "#ff7f0e", "path": "#2ca02c"}
+COLORS = {"whitted-article": "#1f77b4", "whitted-physical": "#ff7f0e", "path": "#2ca02c"}
 MARKERS = {"whitted-article": "o", "whitted-physical": "s", "path": "^"}
 THUMBNAIL_WIDTH = 160
 
@@ -66,7 +81,11 @@ def _row(entry: SceneResult, m: Measurement) -> dict:
             "seconds": f"{m.seconds:.6g}", "compile_seconds": f"{m.compile_seconds:.6g}",
             "rel_mse": f"{m.rel_mse:.6g}", "flip": f"{m.flip:.6g}", "repeats": m.repeats,
             "width": entry.width, "height": entry.height, "variant": entry.variant,
-            "reference_spp": entry.reference_spp}
+            "reference_spp": entry.reference_spp, "seconds_min": f"{m.seconds_min:.6g}",
+            "seconds_max": f"{m.seconds_max:.6g}",
+            "seconds_each": ";".join(f"{t:.6g}" for t in m.times),
+            "image": m.image or "", "image_png": m.image_png or "", "error_map": m.error_map or "",
+            "reference_noise": f"{entry.reference_noise:.6g}", "worker": entry.worker}
 
 
 def write_csv(path: str | os.PathLike, entries: list[SceneResult]) -> None:
@@ -83,74 +102,119 @@ def write_csv(path: str | os.PathLike, entries: list[SceneResult]) -> None:
 # --------------------------------------------------------------------------- plot
 
 
-def pareto_front(points: list[tuple[float, float]]) -> list[tuple[float, float]]:
-    """The (time, error) points that no faster point beats, by increasing time."""
-    front, best = [], math.inf
-    for seconds, error in sorted(points):
-        if error < best:
-            front.append((seconds, error))
-            best = error
-    return front
-
-
-def _crowded(point: tuple[float, float], labelled: list[tuple[float, float]]) -> bool:
-    """Whether a label at ``point`` would overlap one already placed (log–log axes)."""
-    x, y = math.log10(point[0]), math.log10(point[1])
-    return any(abs(x - math.log10(a)) < 0.2 and abs(y - math.log10(b)) < 0.08 for a, b in labelled)
-
-
 def _usable(value: float) -> bool:
     return math.isfinite(value) and value > 0
 
 
+#: Where a label may go around its point (offset in points, alignment), tried in order.
+LABEL_PLACES = ((4, 3, "left", "bottom"), (4, -3, "left", "top"), (-4, 3, "right", "bottom"),
+                (-4, -3, "right", "top"), (0, 7, "center", "bottom"), (0, -7, "center", "top"),
+                (10, 0, "left", "center"), (-10, 0, "right", "center"))
+
+
+def place_labels(fig, ax, labels: list[tuple[float, float, str, str]], taken: list) -> int:
+    """Annotate ``labels`` = [(x, y, text, color)] in ``ax`` where each overlaps neither
+    a label placed before, a data point nor anything in ``taken`` (display-space boxes,
+    extended in place); a label with no free place is left out. Needs a drawn figure
+    (its layout final). Returns how many were placed."""
+    from matplotlib.transforms import Bbox
+
+    renderer = fig.canvas.get_renderer()
+    frame = ax.get_window_extent(renderer)
+    placed = 0
+    for x, y, text, color in labels:
+        for dx, dy, ha, va in LABEL_PLACES:
+            label = ax.annotate(text, (x, y), xytext=(dx, dy), textcoords="offset points",
+                                ha=ha, va=va, fontsize=6.5, color=color)
+            label.set_in_layout(False)
+            box = label.get_window_extent(renderer)
+            box = Bbox.from_extents(box.x0 - 1, box.y0 - 1, box.x1 + 1, box.y1 + 1)
+            inside = frame.contains(box.x0, box.y0) and frame.contains(box.x1, box.y1)
+            if inside and not any(box.overlaps(other) for other in taken):
+                taken.append(box)
+                placed += 1
+                break
+            label.remove()
+    return placed
+
+
 def plot_error_vs_time(path: str | os.PathLike, entries: list[SceneResult]) -> None:
     """Error against time, log–log; one row of two panels (rel. MSE, FLIP) per scene."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
+    from matplotlib.transforms import Bbox
 
     rows = max(1, len(entries))
-    fig = Figure(figsize=(9.0, 3.4 * rows), layout="constrained")
-    axes = fig.subplots(rows, 2, squeeze=False)
+    fig = Figure(figsize=(10.0, 4.4 * rows), layout="constrained")
+    FigureCanvasAgg(fig)
     if not entries:
         fig.suptitle("nothing rendered within the budget")
-    for entry, (ax_mse, ax_flip) in zip(entries, axes):
+    pending = []  # (axes, labels, points): labels are placed once the layout is final
+    for entry, subfig in zip(entries, fig.subfigures(rows, 1, squeeze=False)[:, 0]):
+        ax_mse, ax_flip = subfig.subplots(1, 2)
         for ax, metric, name in ((ax_mse, "rel_mse", "relative MSE"), (ax_flip, "flip", "FLIP")):
-            labelled: list[tuple[float, float]] = []
+            labels, points = [], []
             for method in METHODS:
                 ms = [m for m in entry.measurements if m.setting.method == method
                       and _usable(m.seconds) and _usable(getattr(m, metric))]
                 if not ms:
                     continue
-                colour = COLOURS[method]
-                ax.scatter([m.seconds for m in ms], [getattr(m, metric) for m in ms], s=12,
-                           color=colour, alpha=0.3, marker=MARKERS[method], linewidths=0)
-                front = pareto_front([(m.seconds, getattr(m, metric)) for m in ms])
-                ax.plot(*zip(*front), color=colour, marker=MARKERS[method], markersize=4,
-                        label=method)
+                color = COLORS[method]
+                xs, ys = [m.seconds for m in ms], [getattr(m, metric) for m in ms]
+                spread = [[m.seconds - m.seconds_min for m in ms], [m.seconds_max - m.seconds for m in ms]]
+                ax.errorbar(xs, ys, xerr=spread, fmt="none", ecolor=color, alpha=0.25, linewidth=0.8)
+                ax.scatter(xs, ys, s=12, color=color, alpha=0.3, marker=MARKERS[method], linewidths=0)
+                front = pareto_front(list(zip(xs, ys)))
+                ax.plot(*zip(*front), color=color, marker=MARKERS[method], markersize=4,
+                        label=METHOD_NAMES[method] + f" ({method})")
                 by_point = {(m.seconds, getattr(m, metric)): m.setting for m in ms}
-                for point in front:
-                    if _crowded(point, labelled):
-                        continue
-                    labelled.append(point)
-                    setting = by_point[point]
-                    text = (f"{setting.spp}" if setting.integrator == "path"
-                            else f"d{setting.max_depth}" + (f"×{setting.spp}" if setting.spp > 1 else ""))
-                    ax.annotate(text, point, textcoords="offset points", xytext=(3, 3),
-                                fontsize=6, color=colour)
+                labels += [(x, y, by_point[(x, y)].short_label, color) for x, y in front]
+                points += list(zip(xs, ys))
+            if metric == "rel_mse" and _usable(entry.reference_noise):
+                ax.axhline(entry.reference_noise, color="0.35", linestyle="--", linewidth=0.9,
+                           label=f"reference noise ({entry.reference_spp} spp, est. from two halves)")
             ax.set_xscale("log")
             ax.set_yscale("log")
-            ax.set_xlabel("render time (s, median, compilation excluded)")
+            _time_axis(ax, [x for x, _ in points])
+            ax.set_xlabel("render time (median of repeats; bars: fastest–slowest)")
             ax.set_ylabel(f"{name} vs reference")
             ax.grid(True, which="both", alpha=0.2)
+            pending.append((ax, labels, points))
         ax_mse.set_title(f"{entry.name} ({entry.width}×{entry.height}): relative MSE", fontsize=9)
         ax_flip.set_title(f"{entry.name}: FLIP (as displayed, [0, 1] sRGB)", fontsize=9)
         if entry.measurements:
-            ax_mse.legend(loc="lower left", fontsize=7,
-                          title=f"reference: path, {entry.reference_spp} spp",
-                          title_fontsize=7)
+            subfig.legend(*ax_mse.get_legend_handles_labels(), loc="outside lower center", ncols=2,
+                          fontsize=7, title="labels: dDEPTH·SPP (Whitted), SPP (path tracer); "
+                          f"reference: path tracer, {entry.reference_spp} spp", title_fontsize=7)
         else:
             ax_mse.text(0.5, 0.5, "no render within the budget", transform=ax_mse.transAxes,
                         ha="center")
+    fig.draw_without_rendering()  # the layout is final now: labels can be measured
+    fig.set_layout_engine("none")  # and stays so (labels are not part of it): saving is faster
+    for ax, labels, points in pending:
+        taken = [Bbox.from_extents(px - 3, py - 3, px + 3, py + 3)
+                 for px, py in (ax.transData.transform(p) for p in points)]
+        place_labels(fig, ax, labels, taken)
     _save(fig, path, dpi=100)
+
+
+def _time_axis(ax, seconds: list[float]) -> None:
+    """Label a log time axis in words (``2 ms``, ``1.5 s``); minor ticks are labelled
+    only when the data span less than a decade (else their labels would collide)."""
+    from matplotlib.ticker import FuncFormatter, NullFormatter
+
+    def label(value, _position=None):
+        return seconds_text(value) if value > 0 else ""
+
+    ax.xaxis.set_major_formatter(FuncFormatter(label))
+    narrow = seconds and math.log10(max(seconds) / min(seconds)) < 1.0
+    ax.xaxis.set_minor_formatter(FuncFormatter(lambda v, p=None: label(v) if _leading(v) in (2, 5) else "")
+                                 if narrow else NullFormatter())
+
+
+def _leading(value: float) -> int:
+    """The leading digit of a positive number (2 for 0.0021)."""
+    return int(round(value / 10 ** math.floor(math.log10(value) + 1e-9)))
 
 
 def _save(fig, path: str | os.PathLike, dpi: int) -> None:
@@ -170,10 +234,10 @@ def _sheet_rows(entry: SceneResult) -> list[list[tuple[str, np.ndarray | None, s
     def cell(title: str, m: Measurement | None) -> tuple[str, np.ndarray | None, str]:
         if m is None:
             return title, None, "not rendered"
-        return title, m.thumbnail, f"rel {m.rel_mse:.3g} · FLIP {m.flip:.3f}\n{_seconds(m.seconds)}"
+        return title, m.thumbnail, f"rel {m.rel_mse:.3g} · FLIP {m.flip:.3f}\n{seconds_text(m.seconds)}"
 
     rows = [[(f"reference: path · {entry.reference_spp} spp", entry.reference_thumbnail,
-              "cached" if entry.reference_cached else _seconds(entry.reference_seconds))]
+              "cached" if entry.reference_cached else seconds_text(entry.reference_seconds))]
             + [cell(f"path · {spp} spp", done.get(("path", entry.path_depth, spp)))
                for spp in entry.path_spp]]
     for depth in entry.depths:
@@ -221,59 +285,95 @@ def contact_sheet(path: str | os.PathLike, entries: list[SceneResult]) -> None:
     _save(fig, path, dpi=110)
 
 
-def _seconds(value: float) -> str:
-    if not math.isfinite(value):
-        return "time unknown"
-    return f"{value * 1000:.1f} ms" if value < 1 else f"{value:.2f} s"
-
-
 # --------------------------------------------------------------------------- summary
 
 
-def fastest_table(entries: list[SceneResult], levels: tuple[float, ...]) -> str:
-    """For each scene and error level (relative MSE), each method's fastest render
-    reaching it; the last column names the fastest method."""
-    methods = list(METHODS)
-    lines = ["Fastest render reaching each error level (relative MSE against the path-traced "
-             "reference; median time, compilation excluded):"]
-    for entry in entries:
-        lines.append("")
-        lines.append(f"{entry.name} ({entry.width}×{entry.height}, reference {entry.reference_spp} spp)")
-        header = ["rel_mse ≤"] + methods + ["fastest"]
-        table = [header]
-        for level in levels:
-            row, best = [f"{level:g}"], None
-            for method in methods:
-                hits = [m for m in entry.measurements
-                        if m.setting.method == method and m.rel_mse <= level]
-                if not hits:
-                    row.append("—")
-                    continue
-                fastest = min(hits, key=lambda m: m.seconds)
-                row.append(f"{_seconds(fastest.seconds)} ({fastest.setting.label})")
-                if best is None or fastest.seconds < best.seconds:
-                    best = fastest
-            row.append(best.setting.method if best else "none")
-            table.append(row)
-        widths = [max(len(r[i]) for r in table) for i in range(len(header))]
-        for r in table:
-            lines.append("  " + "   ".join(cell.ljust(w) for cell, w in zip(r, widths)).rstrip())
-        if entry.skipped:
-            why = "budget" if entry.reference_file else "budget; no time was left for its reference"
-            lines.append(f"  ({len(entry.skipped)} renders skipped: {why})")
+def _table(rows: list[list[str]], indent: str = "  ") -> list[str]:
+    widths = [max(len(r[i]) for r in rows) for i in range(len(rows[0]))]
+    return [indent + "   ".join(cell.ljust(w) for cell, w in zip(r, widths)).rstrip() for r in rows]
+
+
+def equal_quality_lines(analysis: Analysis) -> list[str]:
+    methods = [m for m in METHODS if any(m in row.reach for row in analysis.equal_quality)]
+    whitted = [m for m in WHITTED_METHODS if m in methods]
+    header = (["rel_mse ≤"] + methods + ["fastest"]
+              + [f"{m.split('-')[1]} vs path" for m in whitted])
+    rows = [header]
+    for row in analysis.equal_quality:
+        rows.append([f"{row.level:g}"] + [reach_text(row.reach.get(m)) for m in methods]
+                    + [row.fastest_method or "none"] + [speedup_text(row, m) for m in whitted])
+    return _table(rows)
+
+
+def equal_time_lines(analysis: Analysis) -> list[str]:
+    rows = [["method", "setting", "time", "rel_mse", "path rel_mse then", "ratio", "flip",
+             "path flip then", "path read"]]
+    for row in analysis.equal_time:
+        m = row.whitted
+        rows.append([m.setting.method, m.setting.label, seconds_text(m.seconds), f"{m.rel_mse:.3g}",
+                     f"{row.rel_mse.value:.3g}" if row.rel_mse else "—",
+                     f"{row.ratio:.3g}" if math.isfinite(row.ratio) else "—", f"{m.flip:.3g}",
+                     f"{row.flip.value:.3g}" if row.flip else "—", reading_how(row.rel_mse)])
+    return _table(rows)
+
+
+def summary(analyses: list[Analysis], equal_time: bool = True) -> str:
+    """The summary in text: per scene, what the budget did, the error floors in words, the
+    equal-quality table and (with ``equal_time``) the equal-time table."""
+    lines = ["Relative MSE and FLIP against the path-traced reference; median render time of "
+             "the repeats, compilation excluded."]
+    for analysis in analyses:
+        entry = analysis.entry
+        noise = (f", its noise ≈ {entry.reference_noise:.3g}" if _usable(entry.reference_noise)
+                 else "")
+        lines += ["", f"{entry.name} ({entry.width}×{entry.height}; reference: path tracer, "
+                      f"{entry.reference_spp} spp{noise})"]
+        lines += [f"  note: {note}" for note in entry.notes]
+        lines += [f"  {floor.text}" for floor in analysis.floors]
+        if analysis.equal_quality and entry.measurements:
+            lines += ["", "  Equal quality: the cheapest render reaching each error level (a method "
+                          "that never does shows its floor):"]
+            lines += equal_quality_lines(analysis)
+        if equal_time and analysis.equal_time:
+            lines += ["", "  Equal time: each Whitted render beside the path tracer given its time "
+                          "(read on the path tracer's log–log curve):"]
+            lines += equal_time_lines(analysis)
     return "\n".join(lines)
 
 
 # --------------------------------------------------------------------------- all
 
 
-def write_all(out: str | os.PathLike, entries: list[SceneResult]) -> None:
+def write_all(out: str | os.PathLike, entries: list[SceneResult], levels: tuple[float, ...]) -> list[Analysis]:
+    """Every output for ``entries``: the CSV, the plots, the contact sheet, ``summary.txt``
+    and ``report.html``, of the scenes that got a reference (the page also lists the
+    others, with the reason); returns the analyses."""
+    from .page import write_page
+
     out = Path(out)
+    left_out = [e for e in entries if e.reference_thumbnail is None]
+    entries = [e for e in entries if e.reference_thumbnail is not None]
+    analyses = [analyse(entry, levels) for entry in entries]
     write_csv(out / CSV_NAME, entries)
-    plot_error_vs_time(out / PLOT_NAME, entries)
+    plots = {}
+    for entry in entries:
+        plots[entry.name] = SCENE_PLOT.format(folder=entry.folder)
+        (out / plots[entry.name]).parent.mkdir(parents=True, exist_ok=True)
+        plot_error_vs_time(out / plots[entry.name], [entry])
+    if len(entries) == 1:  # the whole run's plot is the scene's
+        with atomic_path(out / PLOT_NAME) as tmp:
+            shutil.copyfile(out / plots[entries[0].name], tmp)
+    else:
+        plot_error_vs_time(out / PLOT_NAME, entries)
     contact_sheet(out / SHEET_NAME, entries)
+    write_text(out / SUMMARY_NAME, summary(analyses) + "\n")
+    write_page(out / PAGE_NAME, analyses, plots, {"csv": CSV_NAME, "plot": PLOT_NAME,
+                                                   "sheet": SHEET_NAME, "summary": SUMMARY_NAME},
+               left_out)
+    return analyses
 
 
 def output_files(out: str | os.PathLike) -> str:
     out = Path(out)
-    return ", ".join(str(out / name) for name in (CSV_NAME, PLOT_NAME, SHEET_NAME))
+    return ", ".join(str(out / name) for name in (PAGE_NAME, CSV_NAME, PLOT_NAME, SHEET_NAME,
+                                                  SUMMARY_NAME))

@@ -17,7 +17,9 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from ..defaults import (COMPARE_LEVELS as DEFAULT_LEVELS, COMPARE_MAX_DEFAULT_DEPTH as MAX_DEFAULT_DEPTH,
-                        COMPARE_PATH_SPP as DEFAULT_PATH_SPP, COMPARE_REFERENCE_SPP as DEFAULT_REFERENCE_SPP,
+                        COMPARE_PATH_SPP as DEFAULT_PATH_SPP,
+                        COMPARE_REFERENCE_CHUNK_SPP as DEFAULT_REFERENCE_CHUNK_SPP,
+                        COMPARE_REFERENCE_SPP as DEFAULT_REFERENCE_SPP,
                         COMPARE_REPEATS as DEFAULT_REPEATS, COMPARE_WHITTED_SPP as DEFAULT_WHITTED_SPP,
                         MAX_DEPTH)
 
@@ -27,10 +29,13 @@ if TYPE_CHECKING:
 #: The Whitted integrator in its two lighting modes, then the path tracer.
 WHITTED_METHODS = ("whitted-article", "whitted-physical")
 METHODS = WHITTED_METHODS + ("path",)
+#: Who rendered a scene's sweep when no cluster did (``SceneResult.worker``).
+IN_PROCESS = "in-process"
 
-__all__ = ["DEFAULT_LEVELS", "DEFAULT_PATH_SPP", "DEFAULT_REFERENCE_SPP", "DEFAULT_REPEATS",
-           "DEFAULT_WHITTED_SPP", "MAX_DEFAULT_DEPTH", "MAX_DEPTH", "METHODS", "WHITTED_METHODS",
-           "Measurement", "Options", "SceneResult", "Setting"]
+__all__ = ["DEFAULT_LEVELS", "DEFAULT_PATH_SPP", "DEFAULT_REFERENCE_CHUNK_SPP", "DEFAULT_REFERENCE_SPP",
+           "DEFAULT_REPEATS", "DEFAULT_WHITTED_SPP", "IN_PROCESS", "MAX_DEFAULT_DEPTH", "MAX_DEPTH",
+           "METHODS", "WHITTED_METHODS", "Measurement", "Options", "SceneResult", "Setting",
+           "seconds_text"]
 
 
 @dataclass(frozen=True)
@@ -61,6 +66,18 @@ class Setting:
             return f"{self.spp} spp"
         return f"d{self.max_depth} · {self.spp} spp"
 
+    @property
+    def short_label(self) -> str:
+        """The plot's label: ``d3·4`` (depth · spp) for Whitted, ``64`` (spp) for the path tracer."""
+        return f"{self.spp}" if self.integrator == "path" else f"d{self.max_depth}·{self.spp}"
+
+    @property
+    def slug(self) -> str:
+        """A file name stem: ``whitted-article-d3-4spp``, ``path-64spp``."""
+        if self.integrator == "path":
+            return f"path-{self.spp}spp"
+        return f"{self.method}-d{self.max_depth}-{self.spp}spp"
+
 
 @dataclass
 class Measurement:
@@ -74,6 +91,11 @@ class Measurement:
     ``flip``            LDR-FLIP against the reference
     ``repeats``         how many times it was rendered
     ``thumbnail``       a small sRGB uint8 copy of the image (for the contact sheet)
+    ``times``           every repeat's render time (``seconds`` is their median)
+    ``image``           the render, linear EXR, relative to the output folder (None:
+                        not kept)
+    ``image_png``       the same as an sRGB PNG (for the report page)
+    ``error_map``       FLIP's per-pixel error against the reference, colored (PNG)
     =================== ===============================================================
     """
     setting: Setting
@@ -83,6 +105,18 @@ class Measurement:
     flip: float
     repeats: int
     thumbnail: np.ndarray | None = field(default=None, repr=False)
+    times: tuple[float, ...] = ()
+    image: str | None = None
+    image_png: str | None = None
+    error_map: str | None = None
+
+    @property
+    def seconds_min(self) -> float:
+        return min(self.times, default=self.seconds)
+
+    @property
+    def seconds_max(self) -> float:
+        return max(self.times, default=self.seconds)
 
 
 @dataclass
@@ -103,6 +137,16 @@ class SceneResult:
     ``measurements``        the renders that were done, in the order done
     ``skipped``             the settings the budget left out
     ``whitted_spp``, ``path_spp``, ``depths``: the ladders that were planned
+    ``reference_requested`` the reference spp asked for (``reference_spp`` is less when
+                            ``--budget`` scaled it down)
+    ``reference_noise``     the reference's own relative MSE against the converged
+                            image, estimated from its two independent halves (NaN:
+                            unknown); no render can score much below it
+    ``reference_png``       the reference as an sRGB PNG, relative to the output folder
+    ``notes``               one line each on what the budget did to this scene and why
+    ``worker``              who rendered the sweep: a Dask worker's address, or
+                            :data:`IN_PROCESS` (every setting of a scene is rendered
+                            by one worker, so its times compare)
     ======================= ===========================================================
     """
     name: str
@@ -121,27 +165,49 @@ class SceneResult:
     whitted_spp: tuple[int, ...] = ()
     path_spp: tuple[int, ...] = ()
     depths: tuple[int, ...] = ()
+    reference_requested: int = 0
+    reference_noise: float = math.nan
+    reference_png: str | None = None
+    notes: list[str] = field(default_factory=list)
+    worker: str = IN_PROCESS
+
+    def __post_init__(self):
+        if not self.reference_requested:
+            self.reference_requested = self.reference_spp
+
+    @property
+    def folder(self) -> str:
+        """Where this scene's renders lie, relative to the output folder."""
+        return f"renders/{self.name.replace('/', '_')}"
 
 
 @dataclass
 class Options:
     """The command's options (``whitted compare --help`` describes each).
 
-    ================= ================================================================
-    ``out``           the output folder
-    ``reference_spp`` the reference's samples per pixel
-    ``depths``        Whitted max depths (None: 1…the scene's depth, at most
-                      :data:`MAX_DEFAULT_DEPTH`)
-    ``whitted_spp``   the Whitted integrator's spp ladder
-    ``path_spp``      the path tracer's spp ladder
-    ``path_depth``    the path tracer's and reference's max depth (None: the scene's)
-    ``repeats``       renders per setting; the median time is kept
-    ``budget``        seconds for the whole command (None: unbounded)
-    ``levels``        relative MSE levels of the summary table
-    ``cache``         the reference cache's folder (None: ``out/references``)
-    ``variant``       the Mitsuba variant (None: as for ``whitted render``)
-    ``quiet``         no progress bar or messages
-    ================= ================================================================
+    ======================= ==========================================================
+    ``out``                 the output folder
+    ``reference_spp``       the reference's samples per pixel
+    ``depths``              Whitted max depths (None: 1…the scene's depth, at most
+                            :data:`MAX_DEFAULT_DEPTH`)
+    ``whitted_spp``         the Whitted integrator's spp ladder
+    ``path_spp``            the path tracer's spp ladder
+    ``path_depth``          the path tracer's and reference's max depth (None: the
+                            scene's)
+    ``repeats``             renders per setting; the median time is kept
+    ``budget``              seconds for the whole command (None: unbounded)
+    ``levels``              relative MSE levels of the summary table
+    ``cache``               the reference cache's folder (None: ``out/references``)
+    ``variant``             the Mitsuba variant (None: as for ``whitted render``)
+    ``quiet``               no progress bar or messages
+    ``reference_chunk_spp`` the reference is rendered in chunks of at most this many
+                            spp, each with its own seed, and averaged: the same chunks
+                            in this process and on a cluster
+    ``workers``             sweep on a local Dask cluster of this many worker
+                            processes (None: in this process)
+    ``scheduler``           sweep on the Dask cluster of this scheduler
+                            (``tcp://host:port``; None: in this process)
+    ======================= ==========================================================
     """
     out: Path
     reference_spp: int = DEFAULT_REFERENCE_SPP
@@ -155,8 +221,25 @@ class Options:
     cache: Path | None = None
     variant: str | None = None
     quiet: bool = False
+    reference_chunk_spp: int = DEFAULT_REFERENCE_CHUNK_SPP
+    workers: int | None = None
+    scheduler: str | None = None
 
     @property
     def cache_folder(self) -> Path:
         """Where references are cached."""
         return Path(self.cache) if self.cache is not None else Path(self.out) / "references"
+
+
+def seconds_text(value: float) -> str:
+    """A duration for people, three significant digits: ``0.104 ms``, ``12.3 ms``,
+    ``1.25 s``, ``4 min 10 s``, ``3 h 21 min``."""
+    if not math.isfinite(value):
+        return "time unknown"
+    if value < 1:
+        return f"{value * 1000:.3g} ms"
+    if value < 60:
+        return f"{value:.3g} s"
+    if value < 3600:
+        return f"{int(value // 60)} min {int(value % 60)} s"
+    return f"{int(value // 3600)} h {int(value % 3600 // 60)} min"

@@ -6,7 +6,8 @@ objects across it. Every scene is read and loaded before the first render, so a
 bad scene fails at once, not after minutes of rendering; each scene's
 ``mi.Scene`` is then handed to its sweep and let go once that scene is done. A
 scene's sweep (:func:`whitted.compare.sweep.sweep_scene`) needs only plain data,
-so another driver can hand the scenes to worker processes instead of this loop.
+so with ``--workers`` or ``--scheduler`` the scenes go to the workers of a Dask
+cluster instead of this loop (:mod:`whitted.compare.cluster`).
 """
 
 from __future__ import annotations
@@ -45,6 +46,13 @@ def check_options(options: Options) -> None:
     if cache_folder.exists() and not cache_folder.is_dir():
         raise WhittedError(f"{cache_folder}: the reference cache exists and is not a folder")
     check_folder_creatable(cache_folder)
+    if options.reference_chunk_spp < 1:
+        raise WhittedError("--reference-chunk-spp must be >= 1")
+    if options.workers is not None and options.scheduler is not None:
+        raise WhittedError("--workers starts a local cluster, --scheduler uses a running one: "
+                           "give one of them")
+    if options.workers is not None and options.workers < 1:
+        raise WhittedError(f"--workers must be >= 1, got {options.workers}")
 
 
 def compare(scenes: list[str | os.PathLike], options: Options) -> list[SceneResult]:
@@ -57,6 +65,8 @@ def compare(scenes: list[str | os.PathLike], options: Options) -> list[SceneResu
     variant = set_variant(options.variant)
     files = scene_files(scenes)
 
+    on_cluster = options.workers is not None or options.scheduler is not None
+
     # Read, load and plan every scene first: a bad scene fails now, not after minutes of rendering.
     read, loaded, entries, plans = [], [], [], []
     for path, name in zip(files, scene_names(files)):
@@ -64,12 +74,14 @@ def compare(scenes: list[str | os.PathLike], options: Options) -> list[SceneResu
         mitsuba_scene = scene.load()
         entry, settings = plan_scene(scene, mitsuba_scene, options, variant)
         read.append(scene)
-        loaded.append(mitsuba_scene)
+        loaded.append(None if on_cluster else mitsuba_scene)  # workers load their own
         entries.append(entry)
         plans.append(settings)
     if max(options.path_spp) >= options.reference_spp and not options.quiet:
         print(f"whitted compare: warning: the path tracer's ladder reaches the reference's "
               f"{options.reference_spp} spp; its error will stop falling there", file=sys.stderr)
+    if on_cluster:
+        return _compare_on_cluster(read, entries, plans, options, budget)
 
     out.mkdir(parents=True, exist_ok=True)
     bar = progress_bar(not options.quiet, sum(map(len, plans)), "compare", unit="render",
@@ -84,16 +96,35 @@ def compare(scenes: list[str | os.PathLike], options: Options) -> list[SceneResu
         if not interrupt.requested(error):
             raise
         bar.close()
-        if any(e.reference_thumbnail is not None for e in entries):
-            report.write_all(out, _with_reference(entries))
-            print(f"whitted compare: interrupted; the outputs in {out} hold what was done",
-                  file=sys.stderr)
+        _write_what_was_done(out, entries, options)
         raise
     bar.close()
-    report.write_all(out, _with_reference(entries))
+    report.write_all(out, entries, options.levels)
     return entries
 
 
-def _with_reference(entries: list[SceneResult]) -> list[SceneResult]:
-    """The scenes that got as far as their reference (the others have nothing to show)."""
-    return [e for e in entries if e.reference_thumbnail is not None]
+def _compare_on_cluster(scenes: list[SceneFile], entries: list[SceneResult], plans: list,
+                        options: Options, budget: Budget) -> list[SceneResult]:
+    """The sweep on a Dask cluster: connected (or started) before anything is written."""
+    from .cluster import connect, sweep_on_cluster
+
+    out = Path(options.out)
+    try:
+        with connect(options) as client:
+            out.mkdir(parents=True, exist_ok=True)
+            sweep_on_cluster(client, scenes, entries, plans, options, budget)
+    except BaseException as error:  # the cluster is stopped by now: its cores are free to write
+        if not interrupt.requested(error):
+            raise
+        _write_what_was_done(out, entries, options)
+        raise
+    report.write_all(out, entries, options.levels)
+    return entries
+
+
+def _write_what_was_done(out: Path, entries: list[SceneResult], options: Options) -> None:
+    """The outputs of an interrupted run, when a scene got as far as its reference."""
+    if any(e.reference_thumbnail is not None for e in entries):
+        report.write_all(out, entries, options.levels)
+        print(f"whitted compare: interrupted; the outputs in {out} hold what was done",
+              file=sys.stderr)

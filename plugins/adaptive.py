@@ -1,0 +1,155 @@
+"""Adaptive depth control: the branches of the ray tree that cannot change the image are not traced.
+
+Why. A ray's color reaches its pixel multiplied by its path weight, the
+product of the KR and KT factors above it (Hall and Greenberg 1983; POV-Ray's
+``adc_bailout``). Inside a glass ball that traps light by total internal
+reflection the weights fall by a few percent a bounce, and the tree goes on to
+whatever depth is allowed; at depth 64 that is most of the render's work for
+a change the 8-bit image cannot show. So by default (``min_weight`` = 1/255,
+whitted.defaults.MIN_WEIGHT) branches are left untraced as long as together
+they cannot change any pixel by more than ``min_weight``; 0 traces the exact
+tree.
+
+The rule. Every ray carries an *allowance* ``a``: how much path weight may
+still be left untraced in its subtree. A camera ray starts with
+``ε = min_weight / L``, where ``L`` is the brightest color any ray can bring
+back (:func:`brightest`). Where a ray spawns children of weights ``w1 <= w2``
+(a missing child has weight 0), :func:`split`:
+
+* culls the lighter child if ``w1 <= a``, then culls the heavier one too if
+  ``w2 <= a - w1``, and otherwise traces it with allowance ``a - w1``;
+* otherwise (``w1 > a``) traces both, each with allowance ``a/2``.
+
+The error bound. In each case the weights culled at a ray plus its traced
+children's allowances add up to at most its own allowance, so, by induction
+down the tree, the weights culled from one camera ray's tree add up to at
+most ``ε``. A culled ray of weight ``w`` would have added at most ``w·L`` to
+its sample's color: a ray's color is a mix of point colors and the
+background, with weights ``1 - KR - KT``, ``KR`` and ``KT`` that add up to
+at most 1, so it is at most ``L`` in every channel. Culling only removes
+such non-negative terms, so it darkens a sample, and each pixel (the mean of
+its samples), by at most ``ε·L = min_weight`` in every channel. The render
+reports the bound it reached, the largest weight culled from one sample
+times ``L`` (``error_bound`` in ``whitted render --stats``); it is 0 when
+nothing was culled. (The bound is in linear radiance; an 8-bit sRGB pixel
+of a dark color has finer steps than 1/255.)
+
+The rule looks at one ray and its children only, so the tree it gives does
+not depend on how the tree is walked (wavefronts or depth first) or how the
+wavefronts are split.
+"""
+
+from __future__ import annotations
+
+import math
+
+import drjit as dr
+import mitsuba as mi
+import numpy as np
+
+from .geometry import hit_error
+
+#: ε is taken this much smaller than ``min_weight / L``: float32 round-off in the
+#: allowances of up to 64 levels (a few ulps each) cannot then push the bound past ``min_weight``
+ROUND_OFF_MARGIN = 1e-5
+
+
+def allowance(min_weight: float, bright) -> float:
+    """The camera rays' allowance ε for a ``min_weight`` and a brightest color ``bright``
+    (:func:`brightest`): 0 (the exact tree) when either is 0 or no bound is known."""
+    if min_weight <= 0 or bright is None:
+        return 0.0
+    return min_weight / max(bright, 1e-30) * (1 - ROUND_OFF_MARGIN)
+
+
+def split(w1, w2, a):
+    """The rule of the module docstring for children of weights ``w1`` and ``w2`` under
+    allowance ``a``: ``(traced1, traced2, allowance, culled)``, ``allowance`` being that of
+    either traced child and ``culled`` the weight left untraced."""
+    first_is_lighter = w1 <= w2
+    light, heavy = dr.minimum(w1, w2), dr.maximum(w1, w2)
+    light_traced = light > a
+    rest = dr.select(light_traced, 0.5 * a, a - light)
+    heavy_traced = heavy > rest
+    culled = dr.select(light_traced, 0, light) + dr.select(heavy_traced, 0, heavy)
+    return (dr.select(first_is_lighter, light_traced, heavy_traced),
+            dr.select(first_is_lighter, heavy_traced, light_traced), rest, culled)
+
+
+# -- the brightest color ----------------------------------------------------------------------------
+
+def brightest(scene, analysis, lighting: str, ambient: float):
+    """An upper bound on every channel of every ray's color in ``scene``, or None.
+
+    Article lighting: a point's color is ``B·(A + (1 - A)·Σ s·light)`` with
+    ``s <= 1``, so at most ``max B · (A + (1 - A)·Σ max light)``. Physical
+    lighting: ``(B/π)·Σ I·cos/r²``, at most ``(max B/π)·Σ max I/d²``, d the
+    distance from the light to the nearest surface (None, no bound, when a
+    light sits on one). A ray that escapes gets the background. The bound is
+    the largest of these, times ``(max KR + KT)^(depth-1)`` when round-off
+    lets KR + KT exceed 1. None when a texture or an environment is of a kind
+    whose largest value is not known here.
+    """
+    base, gain = _material_bounds(analysis.surfaces)
+    background = 0.0 if analysis.environment is None else _largest_emission(analysis.environment)
+    if base is None or background is None:
+        return None
+    if lighting == "physical":
+        lit = 0.0
+        for light in analysis.lights:
+            distance = _distance_to_surfaces(scene, light.position)
+            if distance <= 0:
+                return None
+            lit += max(light.intensity) / distance ** 2
+        point = base * lit / math.pi
+    else:
+        point = base * (ambient + (1 - ambient) * sum(max(light.colour) for light in analysis.lights))
+    return max(point, background) * max(1.0, gain) ** (analysis.depth - 1)
+
+
+def _material_bounds(surfaces):
+    """``(largest B, largest KR + KT)`` over a scene's materials (B: None when a texture's
+    largest value is not known)."""
+    base = [max(s.colour) if s.texture is None else _largest_texel(s.texture) for s in surfaces]
+    return (None if None in base else max(base, default=0.0),
+            max((s.reflect + s.refract for s in surfaces), default=0.0))
+
+
+def _largest_texel(texture):
+    """The largest value a bitmap texture can return: its largest stored value (8- and 16-bit
+    ones read as v/255 and v/65535, which is at least their sRGB-decoded value)."""
+    params = mi.traverse(texture)
+    if "data" not in params:
+        return None
+    data = np.array(params["data"])
+    scale = {np.dtype(np.uint8): 255.0, np.dtype(np.uint16): 65535.0}.get(data.dtype, 1.0)
+    return float(data.max(initial=0.0)) / scale
+
+
+def _largest_emission(emitter):
+    """The largest channel of a constant environment's radiance (None for other emitters)."""
+    params = mi.traverse(emitter)
+    if emitter.class_name() != "ConstantBackgroundEmitter" or "radiance.value" not in params:
+        return None
+    return float(np.array(params["radiance.value"], np.float64).max())
+
+
+def _distance_to_surfaces(scene, point) -> float:
+    """A lower bound on the distance from ``point`` to every surface of ``scene`` (inf without one).
+
+    A sphere's is ``| |point - C| - r |`` less its float32 error bound (center and radius
+    from its bounding box, as :mod:`.geometry` takes them); any other shape's, the distance
+    to its bounding box (0 inside it).
+    """
+    shapes = scene.shapes()
+    if not shapes:
+        return math.inf
+    boxes = [shape.bbox() for shape in shapes]
+    low = np.array([box.min for box in boxes], np.float64).reshape(-1, 3)
+    high = np.array([box.max for box in boxes], np.float64).reshape(-1, 3)
+    point = np.asarray(point, np.float64).reshape(1, 3)
+    center, radius = (low + high) / 2, (high - low).max(axis=1) / 2
+    to_sphere = np.abs(np.linalg.norm(point - center, axis=1) - radius) - hit_error(radius, np.abs(center).max(axis=1))
+    to_box = np.linalg.norm(np.maximum(0.0, np.maximum(low - point, point - high)), axis=1)
+    sphere = np.array([shape.class_name() == "Sphere" for shape in shapes])
+    return float(np.maximum(np.where(sphere, to_sphere, to_box), 0.0).min())

@@ -1,0 +1,327 @@
+"""``whitted compare`` on a Dask cluster: the same results as in one process, whatever
+happens to the workers.
+
+The expectation is independent of the cluster code: the results.csv of the plain,
+in-process run. A run on a local cluster (``--workers``), and one on a cluster of
+``dask scheduler`` and ``dask worker`` processes started here, one of them killed
+with SIGKILL mid-run, must write the same rows, the time columns and ``worker``
+aside. That holds because every render's image depends on its seed alone, which
+the first tests check on their own. Every server listens on 127.0.0.1 only and is
+stopped by the test that started it; the scenes are tiny.
+"""
+
+from __future__ import annotations
+
+import csv
+import os
+import signal
+import socket
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from whitted import compare as cmp
+from whitted.cli import main
+
+pytest.importorskip("distributed")
+psutil = pytest.importorskip("psutil")  # a dependency of distributed
+
+DASK = Path(sys.executable).parent / "dask"
+
+SCENES = {
+    "mirror": """\
+size 32 24
+eye 0 0 6
+fov 50
+light 4 5 6
+light -5 3 4 0.5 0.5 0.5
+depth 3
+sphere -0.9 0 0 0.8  color 0.9 0.9 0.9  reflect 0.8
+sphere 0.9 0 0 0.8   color 0.9 0.2 0.2  reflect 0.3
+""",
+    "diffuse": """\
+size 32 24
+eye 0 0 6
+light 3 4 5
+background 0.1 0.1 0.2
+sphere 0 0 0 1.2 color 0.3 0.8 0.3
+""",
+    "glass": """\
+size 32 24
+eye 0 0.5 6
+light 2 6 4
+background 0.2 0.2 0.3
+depth 4
+sphere 0 0 0 1 color 1 1 1 refract 0.9 1.5
+sphere 0 -101 0 100 color 0.8 0.8 0.8
+""",
+}
+#: One reference is 4 chunks of 64 spp: on a cluster they run on several workers.
+OPTIONS = ["--reference-spp", "256", "--reference-chunk-spp", "64", "--depths", "1,2",
+           "--spp", "1", "--path-spp", "1,16", "--repeats", "1", "-q"]
+#: the columns that may differ between runs: times, and who rendered
+VARYING = {"seconds", "seconds_min", "seconds_max", "seconds_each", "compile_seconds", "worker"}
+
+
+def read_rows(path: Path) -> list[dict]:
+    with open(path, newline="", encoding="utf-8") as f:
+        return list(csv.DictReader(f))
+
+
+def comparable(rows: list[dict]) -> list[dict]:
+    return [{k: v for k, v in r.items() if k not in VARYING} for r in rows]
+
+
+def children() -> set[int]:
+    """This process's descendants, but multiprocessing's resource tracker (which
+    lives as long as this process once a process has been spawned)."""
+    return {p.pid for p in psutil.Process().children(recursive=True)
+            if "resource_tracker" not in " ".join(p.cmdline())}
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+@pytest.fixture(scope="module")
+def scenes(tmp_path_factory) -> Path:
+    folder = tmp_path_factory.mktemp("scenes")
+    for name, text in SCENES.items():
+        (folder / f"{name}.scn").write_text(text)
+    return folder
+
+
+@pytest.fixture(scope="module")
+def in_process(scenes, tmp_path_factory) -> Path:
+    """The expectation: the comparison run in this process, as without a cluster."""
+    out = tmp_path_factory.mktemp("in-process")
+    assert main(["compare", str(scenes), "--out", str(out), *OPTIONS]) == 0
+    return out
+
+
+def reference_images(out: Path) -> dict[str, np.ndarray]:
+    from whitted import imageio
+    return {p.stem.rsplit("-", 1)[0]: imageio.read_image(p) for p in (out / "references").glob("*.exr")}
+
+
+# --------------------------------------------------------------------------- the premise
+
+
+def test_a_path_traced_image_depends_on_its_seed_alone(llvm, write_scene):
+    """The same seed, another thread count: the same bits. With 10 spp over 400×250
+    pixels in one pass, some pixels' samples straddle the blocks of lanes that threads
+    take, and Mitsuba's own render differed in the last bit from run to run (see
+    rendering.path_passes)."""
+    import drjit as dr
+
+    from whitted import load_scene, render
+    scene = load_scene(write_scene(SCENES["mirror"].replace("size 32 24", "size 400 250")))
+    threads = dr.thread_count()
+    try:
+        images = []
+        for count in (threads, 1, threads):
+            dr.set_thread_count(count)
+            images.append(render(scene, integrator="path", spp=10, seed=5).image)
+    finally:
+        dr.set_thread_count(threads)
+    assert all(np.array_equal(images[0], other) for other in images[1:])
+
+
+def test_path_passes_are_powers_of_two_that_add_up():
+    from whitted.rendering import PATH_SAMPLES_PER_PASS, path_passes
+    for spp, pixels in [(10, 100_000), (1024, 768), (5, PATH_SAMPLES_PER_PASS // 2),
+                        (7, PATH_SAMPLES_PER_PASS), (3, 4 * PATH_SAMPLES_PER_PASS), (4096, 256_000)]:
+        passes = path_passes(spp, pixels)
+        assert sum(passes) == spp
+        assert all(n & (n - 1) == 0 for n in passes)                      # powers of two
+        assert all(n * pixels <= PATH_SAMPLES_PER_PASS or n == 1 for n in passes)
+
+
+def test_reference_chunks_follow_the_options_alone():
+    """Two halves of chunks of at most the chunk's spp, each chunk its own seed, far from
+    the sweep's seed 0 and the small seeds of its passes."""
+    from whitted.compare.reference import REFERENCE_SEED, reference_chunks
+    chunks = reference_chunks(4096, 1024)
+    assert [(spp, half) for spp, _, half in chunks] == [(1024, 0)] * 2 + [(1024, 1)] * 2
+    seeds = [seed for _, seed, _ in chunks]
+    assert len(set(seeds)) == 4 and min(seeds) >= REFERENCE_SEED > 1 << 20
+    assert [spp for spp, _, _ in reference_chunks(300, 128)] == [128, 22, 128, 22]
+    assert set(reference_chunks(256, 128)) < set(reference_chunks(512, 128))  # more extends
+
+
+def test_threads_are_the_host_cores_shared_among_its_workers():
+    from whitted.compare.cluster import MIN_THREADS, worker_threads
+    cores = {"tcp://10.0.0.1:1": 32, "tcp://10.0.0.1:2": 32, "tcp://10.0.0.1:3": 32,
+             "tcp://10.0.0.2:1": 8, "tcp://10.0.0.3:7": 2, "tcp://10.0.0.3:8": 2}
+    assert worker_threads(cores) == {"10.0.0.1": 10, "10.0.0.2": 8, "10.0.0.3": MIN_THREADS}
+
+
+# --------------------------------------------------------------------------- a local cluster
+
+
+def test_local_cluster_writes_the_in_process_results(scenes, in_process, tmp_path):
+    out = tmp_path / "out"
+    before = children()
+    assert main(["compare", str(scenes), "--out", str(out), "--workers", "2", *OPTIONS]) == 0
+    rows, expected = read_rows(out / "results.csv"), read_rows(in_process / "results.csv")
+    assert comparable(rows) == comparable(expected)
+    assert {r["worker"] for r in expected} == {"in-process"}
+    for name in SCENES:  # all of a scene's settings on one worker
+        workers = {r["worker"] for r in rows if r["scene"] == name}
+        assert len(workers) == 1 and workers.pop().startswith("tcp://127.0.0.1:")
+    ours, theirs = reference_images(out), reference_images(in_process)
+    assert ours.keys() == theirs.keys() == set(SCENES)
+    assert all(np.array_equal(ours[k], theirs[k]) for k in ours)   # bit for bit
+    # the cluster is stopped: none of its processes is left
+    assert children() <= before
+
+
+# --------------------------------------------------------------------------- dask CLI cluster
+
+
+def _stop(processes: list[subprocess.Popen]) -> None:
+    """Kill: the processes hold nothing that needs a clean exit."""
+    for process in processes:
+        if process.poll() is None:
+            process.kill()
+        process.wait()
+
+
+@pytest.fixture
+def dask_cluster(tmp_path):
+    """A scheduler and three workers (``dask`` CLI, no nanny: a worker is one process),
+    all on 127.0.0.1 and free ports, without dashboards; stopped at the end.
+    Yields (scheduler address, {worker address: its process})."""
+    from distributed import Client
+
+    port = free_port()
+    address = f"tcp://127.0.0.1:{port}"
+    logs = open(tmp_path / "dask.log", "wb")
+    processes = [subprocess.Popen(
+        [DASK, "scheduler", "--host", "127.0.0.1", "--port", str(port), "--no-dashboard",
+         "--dashboard-address", f"127.0.0.1:{free_port()}"], stdout=logs, stderr=logs)]
+    workers = {}
+    try:
+        for _ in range(3):
+            worker_port = free_port()
+            process = subprocess.Popen(
+                [DASK, "worker", address, "--host", "127.0.0.1", "--worker-port", str(worker_port),
+                 "--nthreads", "1", "--no-nanny", "--no-dashboard", "--dashboard-address",
+                 "127.0.0.1:0", "--death-timeout", "60"], stdout=logs, stderr=logs)
+            processes.append(process)
+            workers[f"tcp://127.0.0.1:{worker_port}"] = process
+        with Client(address, timeout=60, set_as_default=False) as client:
+            client.wait_for_workers(3, timeout=60)
+        yield address, workers
+    finally:
+        _stop(processes)
+        logs.close()
+
+
+def test_cluster_with_a_worker_killed_mid_run_writes_the_in_process_results(
+        scenes, in_process, dask_cluster, tmp_path):
+    from distributed import Client
+
+    address, workers = dask_cluster
+    out = tmp_path / "out"
+    run = subprocess.Popen([sys.executable, "-m", "whitted", "compare", str(scenes), "--out", str(out),
+                            "--scheduler", address, *OPTIONS],
+                           stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    killed = sweep = None
+    try:
+        with Client(address, timeout=30, set_as_default=False) as client:
+            deadline = time.monotonic() + 60
+            while killed is None and time.monotonic() < deadline and run.poll() is None:
+                for worker, keys in client.processing().items():
+                    sweeps = [k for k in keys if str(k).startswith("whitted-sweep-")]
+                    if sweeps:
+                        workers[worker].send_signal(signal.SIGKILL)
+                        killed, sweep = worker, str(sweeps[0])
+                        break
+                time.sleep(0.02)
+        stdout, stderr = run.communicate(timeout=120)
+    finally:
+        if run.poll() is None:
+            run.kill()
+            run.wait()
+    assert killed is not None, "no worker was seen sweeping a scene"
+    assert workers[killed].wait(timeout=10) == -signal.SIGKILL
+    assert run.returncode == 0, stderr
+    rows = read_rows(out / "results.csv")
+    assert comparable(rows) == comparable(read_rows(in_process / "results.csv"))
+    # the scene the dead worker was sweeping was swept again, whole, by another
+    name = sweep[len("whitted-sweep-"):].rsplit("-", 1)[0]
+    assert {r["worker"] for r in rows if r["scene"] == name} <= set(workers) - {killed}
+    assert reference_images(out).keys() == set(SCENES)
+
+
+# --------------------------------------------------------------------------- failures
+
+
+def test_ctrl_c_stops_the_local_cluster_and_keeps_what_finished(scenes, tmp_path):
+    """SIGINT to the command's process group, as a terminal's Ctrl-C: exit status 130, the
+    scenes that finished are in results.csv, and no process of the run is left."""
+    out = tmp_path / "out"
+    run = subprocess.Popen([sys.executable, "-m", "whitted", "compare", str(scenes), "--out", str(out),
+                            "--workers", "2", *OPTIONS[:-1], "--repeats", "3"],
+                           stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                           start_new_session=True)
+    try:
+        deadline = time.monotonic() + 90
+        while time.monotonic() < deadline and run.poll() is None:
+            if (out / "results.csv").exists() and read_rows(out / "results.csv"):
+                break
+            time.sleep(0.05)
+        os.killpg(run.pid, signal.SIGINT)
+        _, stderr = run.communicate(timeout=60)
+    finally:
+        if run.poll() is None:
+            os.killpg(run.pid, signal.SIGKILL)
+            run.wait()
+    assert run.returncode == 130, stderr
+    assert "Traceback" not in stderr
+    rows = read_rows(out / "results.csv")
+    assert rows and {r["scene"] for r in rows} < set(SCENES)
+    deadline = time.monotonic() + 10
+    while time.monotonic() < deadline and _session(run.pid):
+        time.sleep(0.1)
+    assert not _session(run.pid)
+
+
+def _session(sid: int) -> list[int]:
+    """The processes still in session ``sid``."""
+    left = []
+    for process in psutil.process_iter():
+        try:
+            if os.getsid(process.pid) == sid:
+                left.append(process.pid)
+        except (ProcessLookupError, PermissionError):
+            pass
+    return left
+
+
+def test_unreachable_scheduler_is_one_line_before_any_work(scenes, tmp_path, capsys, monkeypatch):
+    import whitted.compare.cluster as cluster
+    monkeypatch.setattr(cluster, "COMPARE_CONNECT_TIMEOUT", 0.5)
+    for address, message in [(f"tcp://127.0.0.1:{free_port()}", "cannot reach the Dask scheduler"),
+                             ("127.0.0.1", "not a Dask scheduler address")]:
+        out = tmp_path / "out"
+        assert main(["compare", str(scenes), "--out", str(out), "--scheduler", address, "-q"]) == 2
+        err = capsys.readouterr().err
+        assert err.startswith(f"whitted: error: {address}: {message}") and err.count("\n") == 1
+        assert not out.exists()
+
+
+def test_workers_and_scheduler_exclude_each_other(scenes, tmp_path):
+    with pytest.raises(SystemExit) as exit_info:
+        main(["compare", str(scenes), "--out", str(tmp_path / "out"), "--workers", "2",
+              "--scheduler", "tcp://127.0.0.1:1"])
+    assert exit_info.value.code == 2
+    assert main(["compare", str(scenes), "--out", str(tmp_path / "out"), "--workers", "0"]) == 2
+    assert not (tmp_path / "out").exists()

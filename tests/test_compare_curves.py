@@ -1,0 +1,205 @@
+"""The report's formulas against values computed by hand: reading a method's curve on
+log–log axes, the error floor, the reference's noise estimate, the budget's reference
+spp, and the tables built from them (on made-up measurements: nothing is rendered)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from whitted.compare.analysis import analyse
+from whitted.compare.budget import Budget, fit_cost, render_cost
+from whitted.compare.curves import (error_at_time, error_floor, loglog_between, pareto_front,
+                                    reference_noise, time_to_reach)
+from whitted.compare.results import Measurement, SceneResult, Setting
+from whitted.defaults import (COMPARE_MIN_REFERENCE_SPP, COMPARE_REFERENCE_SHARE,
+                              COMPARE_REPORT_SECONDS)
+
+# A path tracer whose error is exactly 0.64/spp and whose time is 0.01 s per spp: on
+# log–log axes a straight line of slope −1 (error = 0.0064 / seconds).
+PATH = [(0.01 * n, 0.64 / n, f"{n} spp") for n in (1, 4, 16, 64)]
+
+
+def test_loglog_line_through_two_points():
+    # y = 0.5 · (x / 1) ** s with s = ln(0.125 / 0.5) / ln(4 / 1) = −1: at x = 2, y = 0.25
+    assert loglog_between(2.0, (1.0, 0.5), (4.0, 0.125)) == pytest.approx(0.25)
+    # slope ln(100/1) / ln(10/1) = 2: at x = sqrt(10), y = 10
+    assert loglog_between(math.sqrt(10), (1.0, 1.0), (10.0, 100.0)) == pytest.approx(10.0)
+    assert loglog_between(3.0, (3.0, 0.2), (3.0, 0.1)) == 0.1  # two renders at one time
+
+
+def test_error_at_time_interpolates_on_the_front_and_says_how():
+    reading = error_at_time(PATH, 0.08)  # between 4 spp (0.04 s) and 16 spp (0.16 s)
+    assert reading.how == "interpolated" and reading.between == ("4 spp", "16 spp")
+    assert reading.value == pytest.approx(0.0064 / 0.08)  # = 0.08, on the 1/spp line
+    exact = error_at_time(PATH, 0.16)
+    assert exact.value == pytest.approx(0.04) and exact.how == "interpolated"
+    faster = error_at_time(PATH, 0.001)  # faster than any path render: its nearest, not a guess
+    assert (faster.value, faster.how, faster.between) == (0.64, "nearest", ("1 spp",))
+    slower = error_at_time(PATH, 10.0)
+    assert (slower.value, slower.how, slower.between) == (0.01, "nearest", ("64 spp",))
+    assert error_at_time(PATH, 0.01).how == "rendered"
+    assert error_at_time([], 1.0) is None
+
+
+def test_a_beaten_render_is_not_on_the_curve():
+    # 0.1 s at error 0.5 is beaten by the faster 0.04 s at 0.16: read between 0.04 and 0.16 s
+    curve = PATH + [(0.1, 0.5, "slow and bad")]
+    assert error_at_time(curve, 0.08).between == ("4 spp", "16 spp")
+    assert pareto_front([(1.0, 0.5), (2.0, 0.6), (3.0, 0.2), (0.5, 0.9), (4.0, 0.2)]) == [
+        (0.5, 0.9), (1.0, 0.5), (3.0, 0.2)]
+    assert pareto_front([(1.0, 0.0), (2.0, math.nan), (3.0, 0.1)]) == [(3.0, 0.1)]  # log axes
+
+
+def test_time_to_reach_solves_the_loglog_line_for_time():
+    reading = time_to_reach(PATH, 0.02)  # between 16 spp (0.04) and 64 spp (0.01)
+    assert reading.how == "interpolated" and reading.between == ("16 spp", "64 spp")
+    assert reading.value == pytest.approx(0.0064 / 0.02)  # = 0.32 s
+    # an uneven line: from (1, 1) to (4, 0.25·0.5) the slope is ln(0.125)/ln(4) = −1.5;
+    # error 0.25 is reached at x = 1 · 0.25 ** (1 / −1.5) = 2.5198...
+    uneven = [(1.0, 1.0, "a"), (4.0, 0.125, "b")]
+    assert time_to_reach(uneven, 0.25).value == pytest.approx(0.25 ** (-1 / 1.5))
+    first = time_to_reach(PATH, 1.0)  # its fastest render is already better
+    assert (first.value, first.how) == (0.01, "nearest")
+    assert time_to_reach(PATH, 0.001) is None  # never reached
+    assert time_to_reach(PATH, 0.04).how == "rendered"
+
+
+def test_error_floor_is_the_shallowest_depth_within_the_tolerance():
+    best = {1: 0.5, 2: 0.2, 3: 0.104, 4: 0.1, 5: 0.1}
+    floor = error_floor(best, 0.05)  # 0.104 <= 0.1 · 1.05
+    assert (floor.depth, floor.error, floor.best, floor.settled) == (3, 0.104, 0.1, True)
+    floor = error_floor(best, 0.01)  # 0.104 > 0.101: depth 4
+    assert (floor.depth, floor.error, floor.settled) == (4, 0.1, True)
+    still = error_floor({1: 0.5, 2: 0.3, 3: 0.2}, 0.05)  # the deepest is still the best
+    assert (still.depth, still.error, still.settled) == (3, 0.2, False)
+    assert error_floor({}, 0.05) is None and error_floor({1: math.nan}, 0.05) is None
+
+
+def test_reference_noise_by_hand():
+    # One pixel, one channel... three channels alike: A = 1.1, B = 0.9, equal halves.
+    # R = 1.0; mean((A − B)² / (R² + 0.01)) · ¼ = 0.04 / 1.01 / 4
+    a = np.full((1, 1, 3), 1.1)
+    b = np.full((1, 1, 3), 0.9)
+    assert reference_noise(a, b, 8, 8) == pytest.approx(0.04 / 1.01 / 4)
+    # unequal halves 1 and 3 spp: R = (1.1 + 3 · 0.9) / 4 = 0.95; weight 1·3/16
+    assert reference_noise(a, b, 1, 3) == pytest.approx(0.04 / (0.95 ** 2 + 0.01) * 3 / 16)
+    assert reference_noise(a, a, 4, 4) == 0
+
+
+def test_reference_noise_estimates_the_error_of_the_average():
+    """Monte Carlo: halves of N/2 noisy samples each. The estimate matches the average's
+    true relative MSE against the noiseless image, and is the floor a perfect render
+    scores against the average; a render of n spp scores about its own error plus it."""
+    from whitted import metrics
+
+    rng = np.random.default_rng(7)
+    truth = rng.uniform(0.2, 1.0, (64, 64, 3))
+    n, sigma = 64, 0.2  # a reference's noise is small beside its values: a few percent here
+
+    def render(spp):
+        return truth + rng.normal(0, sigma, truth.shape) / math.sqrt(spp)
+
+    halves = [render(n // 2), render(n // 2)]
+    reference = (halves[0] + halves[1]) / 2
+    estimate = reference_noise(*halves, n // 2, n // 2)
+    assert estimate == pytest.approx(np.mean((reference - truth) ** 2 / (truth ** 2 + 0.01)), rel=0.1)
+    assert estimate == pytest.approx(metrics.relative_mse(truth, reference), rel=0.1)
+    four = render(4)
+    own = np.mean((four - truth) ** 2 / (truth ** 2 + 0.01))
+    assert metrics.relative_mse(four, reference) == pytest.approx(own + estimate, rel=0.1)
+
+
+def test_budget_scales_the_reference_down_to_a_power_of_two_or_refuses():
+    share = COMPARE_REFERENCE_SHARE
+
+    def cost(spp):  # 1 ms per spp
+        return 0.001 * spp
+
+    # a 10 s share: the reference may take share · 10 s = 5 s: 5000 spp fit
+    assert Budget.reference_spp(4096, cost, 10.0) == 4096
+    assert Budget.reference_spp(8192, cost, 10.0) == 4096  # 5000 -> the power of two below
+    assert Budget.reference_spp(6000, cost, 10.0) == 4096
+    assert Budget.reference_spp(8192, cost, 10.0, spent=share * 10.0 - 1.0) == 512  # 1 s: 1000
+    assert Budget.reference_spp(4096, cost, math.inf) == 4096
+    minimum = COMPARE_MIN_REFERENCE_SPP
+    assert Budget.reference_spp(4096, lambda spp: spp * share * 10.0 / minimum, 10.0) == minimum
+    assert Budget.reference_spp(4096, lambda spp: spp * share * 10.0 / (minimum - 0.5), 10.0) is None
+    assert Budget.reference_spp(4096, cost, 0.0) is None
+
+
+def test_render_cost_fits_a_cost_per_call_and_per_spp():
+    # probes: 1 spp took 5.1 s, 2 spp 5.9 s: 0.8 s per spp and 4.3 s per render call
+    overhead, per_spp = fit_cost([(1, 5.1), (2, 5.9)])
+    assert (overhead, per_spp) == (pytest.approx(4.3), pytest.approx(0.8))
+    # 10 spp in 3 passes (4 + 4 + 2): 3 · 4.3 s + 10 · 0.8 s
+    assert render_cost(10, 3, overhead, per_spp) == pytest.approx(3 * 4.3 + 8.0)
+    assert render_cost(0, 0, overhead, per_spp) == 0
+    # one probe, or timings that fall (noise): all of the time per spp, an upper bound
+    assert fit_cost([(4, 2.0)]) == (0.0, 0.5)
+    assert fit_cost([(1, 3.0), (2, 2.5)]) == (0.0, 1.25)
+
+
+def test_budget_share_keeps_time_for_the_outputs():
+    budget = Budget(40.0)
+    assert budget.reserve(1) == COMPARE_REPORT_SECONDS
+    assert budget.reserve(2) == 2 * COMPARE_REPORT_SECONDS
+    assert budget.reserve(100) == pytest.approx(10.0)  # at most a quarter of the budget
+    assert budget.share(2) == pytest.approx((40.0 - budget.reserve(2)) / 2, abs=0.05)
+    assert Budget(None).share(3) == math.inf and Budget(None).reserve(3) == 0
+
+
+def _measurement(method: str, depth: int, spp: int, seconds: float, rel_mse: float) -> Measurement:
+    integrator, lighting = ("path", "physical") if method == "path" else ("whitted", method.split("-")[1])
+    return Measurement(Setting(integrator, lighting, spp, depth), seconds, 0.0, rel_mse,
+                       rel_mse / 10, 3, times=(seconds * 0.9, seconds, seconds * 1.2))
+
+
+@pytest.fixture
+def scene_result() -> SceneResult:
+    """The article's model: error 0.3, 0.12, 0.1, 0.1 by depth at 1 spp (0.002 s per depth),
+    0.098 at depth 3 and 4 spp; the path tracer as in PATH."""
+    entry = SceneResult("made-up", None, 32, 24, "test", 1024, 3)
+    errors = {1: 0.3, 2: 0.12, 3: 0.1, 4: 0.1}
+    entry.measurements = [_measurement("whitted-article", d, 1, 0.002 * d, e) for d, e in errors.items()]
+    entry.measurements.append(_measurement("whitted-article", 3, 4, 0.024, 0.098))
+    entry.measurements += [_measurement("path", 3, int(n.split()[0]), t, e) for t, e, n in PATH]
+    return entry
+
+
+def test_equal_time_reads_the_path_tracer_at_each_whitted_time(scene_result):
+    analysis = analyse(scene_result, (0.2, 0.05))
+    rows = {(r.whitted.setting.max_depth, r.whitted.setting.spp): r for r in analysis.equal_time}
+    assert len(rows) == 5
+    # depth 2 at 1 spp took 0.004 s: faster than the path tracer's 1 spp (0.01 s) -> nearest
+    assert rows[(2, 1)].rel_mse.how == "nearest" and rows[(2, 1)].rel_mse.value == 0.64
+    assert rows[(2, 1)].ratio == pytest.approx(0.12 / 0.64)
+    # depth 3 at 4 spp took 0.024 s: the path tracer's 0.0064 / 0.024 there
+    assert rows[(3, 4)].rel_mse.value == pytest.approx(0.0064 / 0.024)
+    assert rows[(3, 4)].flip.value == pytest.approx(0.00064 / 0.024)
+
+
+def test_equal_quality_shows_floors_and_speedups(scene_result):
+    analysis = analyse(scene_result, (0.2, 0.05))
+    at_02, at_005 = analysis.equal_quality
+    article, path = at_02.reach["whitted-article"], at_02.reach["path"]
+    assert article.fastest.setting == Setting("whitted", "article", 1, 2)  # 0.12 at 0.004 s
+    assert path.fastest.setting.spp == 4  # 0.16 at 0.04 s
+    assert at_02.speedups["whitted-article"] == pytest.approx(0.04 / 0.004)
+    assert at_02.fastest_method == "whitted-article"
+    # 0.05: the article's model never gets there; its floor (best render) is shown instead
+    assert at_005.reach["whitted-article"].fastest is None
+    assert at_005.reach["whitted-article"].best.rel_mse == 0.098
+    assert "whitted-article" not in at_005.speedups and at_005.fastest_method == "path"
+
+
+def test_floor_is_stated_with_the_path_tracers_time_to_reach_it(scene_result):
+    analysis = analyse(scene_result, (0.2,))
+    (floor,) = analysis.floors
+    # best by depth 0.3, 0.12, 0.098, 0.1: within 5% of 0.098 first at depth 3 (0.098)
+    assert (floor.floor.depth, floor.floor.error, floor.floor.settled) == (3, 0.098, True)
+    assert floor.path.value == pytest.approx(0.0064 / 0.098)
+    assert floor.text.startswith("The article's model stops improving at depth 3")
+    assert "0.098" in floor.text and f"{0.0064 / 0.098 * 1000:.3g} ms" in floor.text

@@ -1,0 +1,159 @@
+"""The formulas of the report, written once: a method's error-against-time curve, reading
+it at a given time or error, a Whitted method's error floor, and the reference's noise.
+
+Why these and not a fit: a method's curve is known only at the settings rendered, and
+between two of them the honest guess is the straight line on log–log axes, since error
+and time follow power laws (an unbiased renderer's relative MSE falls as 1/spp, its time
+grows as spp). Outside the rendered range nothing is guessed: the nearest render is
+used, and the caller says so. Everything here is plain Python on (time, error) pairs, so
+each formula has a unit test against values computed by hand (tests/test_compare_curves.py).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Generic, TypeVar
+
+import numpy as np
+
+T = TypeVar("T")
+
+
+def pareto_front(points: list[tuple[float, float]]) -> list[tuple[float, float]]:
+    """The (time, error) points that no faster point beats, by increasing time: the best
+    error a method buys for a given time (points with a non-positive or infinite value,
+    which log–log axes cannot show, are left out)."""
+    return [(seconds, error) for seconds, error, _ in _front([(x, y, None) for x, y in points])]
+
+
+def loglog_between(x: float, p0: tuple[float, float], p1: tuple[float, float]) -> float:
+    """y at ``x`` on the straight line through ``p0`` and ``p1`` on log–log axes:
+    y = y0 · (x / x0) ** s, with the slope s = ln(y1 / y0) / ln(x1 / x0)."""
+    (x0, y0), (x1, y1) = p0, p1
+    if x1 == x0:
+        return min(y0, y1)
+    slope = math.log(y1 / y0) / math.log(x1 / x0)
+    return y0 * (x / x0) ** slope
+
+
+@dataclass(frozen=True)
+class Reading(Generic[T]):
+    """A curve read at one point.
+
+    ============ =====================================================================
+    ``value``    the value read (an error at a time, or a time at an error)
+    ``how``      ``"interpolated"`` (on the log–log line between two renders),
+                 ``"rendered"`` (a render lies exactly there), or ``"nearest"`` (outside
+                 the rendered range: the nearest render's value, not an extrapolation)
+    ``between``  the payloads of the render(s) read: one, or the two interpolated
+    ============ =====================================================================
+    """
+    value: float
+    how: str
+    between: tuple[T, ...]
+
+
+def _front(curve: list[tuple[float, float, T]]) -> list[tuple[float, float, T]]:
+    """The Pareto front of (time, error, payload) triples, payloads kept."""
+    front, best = [], math.inf
+    for seconds, error, payload in sorted(curve, key=lambda p: (p[0], p[1])):
+        if 0 < seconds < math.inf and 0 < error < best:
+            front.append((seconds, error, payload))
+            best = error
+    return front
+
+
+def error_at_time(curve: list[tuple[float, float, T]], seconds: float) -> Reading[T] | None:
+    """A method's error if given ``seconds``: its curve (time, error, payload), reduced to
+    its Pareto front, read on the log–log line between the two renders around ``seconds``;
+    outside them, the nearest render's error (``how="nearest"``). None for an empty curve."""
+    front = _front(curve)
+    if not front:
+        return None
+    if seconds <= front[0][0]:
+        first = front[0]
+        return Reading(first[1], "rendered" if seconds == first[0] else "nearest", (first[2],))
+    if seconds >= front[-1][0]:
+        last = front[-1]
+        return Reading(last[1], "rendered" if seconds == last[0] else "nearest", (last[2],))
+    for (x0, y0, a), (x1, y1, b) in zip(front, front[1:]):
+        if x0 <= seconds <= x1:
+            return Reading(loglog_between(seconds, (x0, y0), (x1, y1)), "interpolated", (a, b))
+    raise AssertionError("unreachable: the front covers the interval")
+
+
+def time_to_reach(curve: list[tuple[float, float, T]], error: float) -> Reading[T] | None:
+    """The time a method needs to reach ``error``: on its Pareto front, the log–log line
+    between the last render above ``error`` and the first at or below it, solved for time
+    (x = x0 · (error / y0) ** (1 / s)). When its fastest render is already at or below
+    ``error``, that render's time (``how="nearest"``: it may need less). None when no
+    render reaches ``error``."""
+    front = _front(curve)
+    for index, (x1, y1, b) in enumerate(front):
+        if y1 <= error:
+            if index == 0:
+                return Reading(x1, "rendered" if y1 == error else "nearest", (b,))
+            if y1 == error:
+                return Reading(x1, "rendered", (b,))
+            x0, y0, a = front[index - 1]
+            slope = math.log(y1 / y0) / math.log(x1 / x0)
+            return Reading(x0 * (error / y0) ** (1.0 / slope), "interpolated", (a, b))
+    return None
+
+
+@dataclass(frozen=True)
+class Floor:
+    """Where more depth stops helping a Whitted method.
+
+    =========== =======================================================================
+    ``depth``   the shallowest depth whose best error is within the tolerance of the
+                best error of every depth
+    ``error``   the best error at that depth: the method's floor
+    ``best``    the best error of any depth (at most ``error``, within the tolerance)
+    ``settled`` whether a deeper depth was rendered and confirmed it (False: the
+                deepest depth rendered is still the best, so the floor may lie deeper)
+    =========== =======================================================================
+    """
+    depth: int
+    error: float
+    best: float
+    settled: bool
+
+
+def error_floor(best_by_depth: dict[int, float], tolerance: float) -> Floor | None:
+    """The error floor of a method from its best error at each depth (over its spp ladder):
+    with e* the least error of all depths, the floor is reached at the shallowest depth d
+    whose error is at most e* · (1 + ``tolerance``), and is that depth's error. None when
+    no depth has a finite error."""
+    usable = {d: e for d, e in best_by_depth.items() if math.isfinite(e)}
+    if not usable:
+        return None
+    best = min(usable.values())
+    depth = min(d for d, e in usable.items() if e <= best * (1.0 + tolerance))
+    return Floor(depth, usable[depth], best, depth < max(usable))
+
+
+def reference_noise(half_a: np.ndarray, half_b: np.ndarray, count_a: int, count_b: int) -> float:
+    """The relative MSE of a reference against the converged image, estimated from its two
+    independent halves A and B, of ``count_a`` and ``count_b`` spp (the reference is
+    R = (n_a·A + n_b·B) / N, N = n_a + n_b).
+
+    With σ² a pixel's variance per sample, A − B has variance σ²(1/n_a + 1/n_b) and R
+    has σ²/N, so R's variance is E[(A − B)²] · n_a·n_b / N² (a quarter of it for equal
+    halves). Weighed as :func:`whitted.metrics.relative_mse` weighs errors (by R² + ε):
+    mean((A − B)² / (R² + ε)) · n_a·n_b / N². A render of n spp scored against R then
+    has an expected relative MSE of about σ²/n (its own noise) plus this (the
+    reference's): the floor of the plot. Dividing by the noisy R² + ε rather than the
+    converged image's is the weighting every measured error gets too; for a reference
+    whose noise is small beside its values (what a reference is) the two agree
+    (tests/test_compare_curves.py checks it within 10% at a few percent of noise).
+    """
+    from .. import metrics
+
+    a = np.asarray(half_a, dtype=np.float64)
+    b = np.asarray(half_b, dtype=np.float64)
+    total = count_a + count_b
+    combined = (count_a * a + count_b * b) / total
+    # relative_mse(x, R) = mean((x − R)² / (R² + ε)); with x = R + (A − B) that is the mean above
+    return metrics.relative_mse(combined + (a - b), combined) * count_a * count_b / total ** 2

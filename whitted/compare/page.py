@@ -1,0 +1,125 @@
+"""``report.html``: the comparison as one static page, the way a rendering paper shows it.
+
+Why a page and not more PNGs: the question "where is Whitted wrong?" is answered by
+looking at the images themselves, flipping between a render, the reference and the
+render's error map in place (as one does in the tev viewer), and a page is the one
+format that does that and opens anywhere. It is static: no server, no network (no CDN:
+the script and style are in the page), and every image is a file under the output
+folder referenced by a relative path, so the folder can be moved or zipped whole.
+
+The page is a Jinja2 template (``templates/report.html.j2``, shipped as package data);
+this module only turns the :class:`~whitted.compare.analysis.Analysis` of each scene
+into plain strings for it. Nothing is computed here that the text summary does not
+also say: both read the same analysis.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import time
+from pathlib import Path
+
+from ..atomic import write_text
+from ..defaults import VERSION
+from .analysis import METHOD_NAMES, Analysis, reach_text, reading_how, speedup_text, spread_text
+from .errormaps import colorbar
+from .results import METHODS, Measurement, SceneResult, seconds_text
+
+TEMPLATE = "report.html.j2"
+#: The viewer enlarges small images by a whole factor (pixels stay square) to at least this width.
+VIEWER_WIDTH = 640
+
+
+def _environment():
+    import jinja2
+
+    return jinja2.Environment(loader=jinja2.PackageLoader("whitted.compare", "templates"),
+                              autoescape=jinja2.select_autoescape(["html", "j2"]),
+                              undefined=jinja2.StrictUndefined, trim_blocks=True,
+                              lstrip_blocks=True)
+
+
+def _number(value: float) -> str:
+    return f"{value:.3g}" if math.isfinite(value) else "—"
+
+
+def _slug(name: str) -> str:
+    return "".join(c if c.isalnum() else "-" for c in name)
+
+
+def _render(m: Measurement, index: str) -> dict:
+    s = m.setting
+    return {"id": index, "method": s.method, "method_name": METHOD_NAMES[s.method],
+            "label": s.label, "depth": s.max_depth, "spp": s.spp, "time": spread_text(m),
+            "rel_mse": _number(m.rel_mse), "flip": _number(m.flip), "repeats": m.repeats,
+            "png": m.image_png, "exr": m.image or "", "map": m.error_map or m.image_png,
+            "title": f"{s.method} {s.label}"}
+
+
+def scene_context(analysis: Analysis, plot: str, out: Path) -> dict:
+    """The template's view of one scene: plain strings and numbers only."""
+    entry = analysis.entry
+    key = _slug(entry.name)
+    order = {m: i for i, m in enumerate(METHODS)}
+    measurements = sorted(entry.measurements, key=lambda m: (order[m.setting.method],
+                                                             m.setting.max_depth, m.setting.spp))
+    renders = [_render(m, f"{key}-{i}") for i, m in enumerate(measurements)]
+    groups = [{"method": method, "name": METHOD_NAMES[method],
+               "renders": [r for r in renders if r["method"] == method]}
+              for method in METHODS if any(r["method"] == method for r in renders)]
+    # the viewer opens on the article's model at its floor: where it stops improving
+    floor_render = analysis.floors[0].render if analysis.floors else None
+    first = next((r for r, m in zip(renders, measurements) if m is floor_render),
+                 renders[0] if renders else None)
+    whitted = [m for m in ("whitted-article", "whitted-physical")
+               if any(m in row.reach for row in analysis.equal_quality)]
+    methods = [m for m in METHODS if any(m in row.reach for row in analysis.equal_quality)]
+    equal_quality = [{"level": f"{row.level:g}",
+                      "cells": [{"text": reach_text(row.reach.get(m)),
+                                 "reached": m in row.reach and row.reach[m].fastest is not None}
+                                for m in methods],
+                      "fastest": row.fastest_method or "none",
+                      "speedups": [speedup_text(row, m) for m in whitted]}
+                     for row in analysis.equal_quality]
+    equal_time = [{"method": row.whitted.setting.method, "label": row.whitted.setting.label,
+                   "time": spread_text(row.whitted), "rel_mse": _number(row.whitted.rel_mse),
+                   "path_rel_mse": _number(row.rel_mse.value) if row.rel_mse else "—",
+                   "ratio": _number(row.ratio),
+                   "winner": ("whitted" if row.ratio < 1 else "path") if math.isfinite(row.ratio) else "",
+                   "flip": _number(row.whitted.flip),
+                   "path_flip": _number(row.flip.value) if row.flip else "—",
+                   "how": reading_how(row.rel_mse)}
+                  for row in analysis.equal_time]
+    reference_exr = (os.path.relpath(entry.reference_file, out) if entry.reference_file else None)
+    return {
+        "key": key, "name": entry.name, "width": entry.width, "height": entry.height,
+        "display_width": entry.width * max(1, math.ceil(VIEWER_WIDTH / entry.width)),
+        "variant": entry.variant, "path_depth": entry.path_depth,
+        "reference": {"png": entry.reference_png, "exr": reference_exr, "spp": entry.reference_spp,
+                      "requested": entry.reference_requested,
+                      "noise": _number(entry.reference_noise),
+                      "how": ("read from the cache" if entry.reference_cached
+                              else f"rendered in {seconds_text(entry.reference_seconds)}")},
+        "notes": list(entry.notes), "floors": [f.text for f in analysis.floors],
+        "plot": plot, "groups": groups, "renders": renders, "first": first,
+        "methods": methods, "whitted": [m.split("-")[1] for m in whitted],
+        "equal_quality": equal_quality, "equal_time": equal_time,
+        "skipped": len(entry.skipped),
+    }
+
+
+def write_page(path: str | os.PathLike, analyses: list[Analysis], plots: dict[str, str],
+               files: dict[str, str], left_out: list[SceneResult] = ()) -> None:
+    """Write the report page at ``path`` (atomically); ``plots`` maps a scene's name to its
+    plot, ``files`` names the other outputs (csv, plot, sheet, summary), all relative to
+    the page's folder; ``left_out`` are the scenes that got no reference (their notes say
+    why)."""
+    path = Path(path)
+    template = _environment().get_template(TEMPLATE)
+    text = template.render(
+        scenes=[scene_context(a, plots[a.entry.name], path.parent) for a in analyses],
+        left_out=[{"name": e.name, "notes": list(e.notes) or ["no reference"]} for e in left_out],
+        files=files, colorbar=colorbar(), version=VERSION,
+        created=time.strftime("%Y-%m-%d %H:%M"))
+    write_text(path, text)
