@@ -47,7 +47,7 @@ import drjit as dr
 import mitsuba as mi
 import numpy as np
 
-from .geometry import hit_error
+from .geometry import shape_numbers
 
 #: ε is taken this much smaller than ``min_weight / L``: float32 round-off in the
 #: allowances of up to 64 levels (a few ulps each) cannot then push the bound past ``min_weight``
@@ -107,12 +107,14 @@ def brightest(scene, analysis, lighting: str, ambient: float):
     return max(point, background) * max(1.0, gain) ** (analysis.depth - 1)
 
 
-def _material_bounds(surfaces):
+def _material_bounds(materials):
     """``(largest B, largest KR + KT)`` over a scene's materials (B: None when a texture's
-    largest value is not known)."""
-    base = [max(s.colour) if s.texture is None else _largest_texel(s.texture) for s in surfaces]
-    return (None if None in base else max(base, default=0.0),
-            max((s.reflect + s.refract for s in surfaces), default=0.0))
+    largest value is not known); computed once per scene state (the materials are)."""
+    def bounds():
+        textured = [_largest_texel(texture) for texture in materials.textures.values()]
+        base = None if None in textured else max([materials.largest_color(), *textured])
+        return base, materials.largest_gain()
+    return materials.memo("bounds", bounds)
 
 
 def _largest_texel(texture):
@@ -141,15 +143,10 @@ def _distance_to_surfaces(scene, point) -> float:
     from its bounding box, as :mod:`.geometry` takes them); any other shape's, the distance
     to its bounding box (0 inside it).
     """
-    shapes = scene.shapes()
-    if not shapes:
+    numbers = shape_numbers(scene, need_uv=False)
+    if not len(numbers.radius):
         return math.inf
-    boxes = [shape.bbox() for shape in shapes]
-    low = np.array([box.min for box in boxes], np.float64).reshape(-1, 3)
-    high = np.array([box.max for box in boxes], np.float64).reshape(-1, 3)
-    point = np.asarray(point, np.float64).reshape(1, 3)
-    center, radius = (low + high) / 2, (high - low).max(axis=1) / 2
-    to_sphere = np.abs(np.linalg.norm(point - center, axis=1) - radius) - hit_error(radius, np.abs(center).max(axis=1))
-    to_box = np.linalg.norm(np.maximum(0.0, np.maximum(low - point, point - high)), axis=1)
-    sphere = np.array([shape.class_name() == "Sphere" for shape in shapes])
-    return float(np.maximum(np.where(sphere, to_sphere, to_box), 0.0).min())
+    point = np.asarray(point, np.float64).reshape(3, 1)
+    to_sphere = np.abs(np.linalg.norm(point - numbers.center, axis=0) - numbers.radius) - numbers.error
+    to_box = np.linalg.norm(np.maximum(0.0, np.maximum(numbers.low - point, point - numbers.high)), axis=0)
+    return float(np.maximum(np.where(numbers.sphere, to_sphere, to_box), 0.0).min())

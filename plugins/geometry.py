@@ -91,13 +91,15 @@ class ShapeNumbers:
     which is a sphere when its three scales are equal and it is not rotated
     (the loader writes sealed spheres that way: whitted/sealed.py).
 
-    Centre and radius come from the bounding boxes (exact to a float32 ulp of
+    Center and radius come from the bounding boxes (exact to a float32 ulp of
     |C| + r for a sphere: within the error bound), and an ellipsoid's from its
-    own centre and largest scale; a frame (rows: the local x, y and z axes) is
+    own center and largest scale (its box: the center ± that radius); a frame (rows: the local x, y and z axes) is
     the ``to_world`` rotation of a sphere whose colour varies over it, which
-    also gives that sphere's centre and radius.
+    also gives that sphere's center and radius.
     """
-    centre: np.ndarray       # 3×P
+    low: np.ndarray          # 3×P, bounding box
+    high: np.ndarray         # 3×P
+    center: np.ndarray       # 3×P
     radius: np.ndarray       # P
     error: np.ndarray        # P, :func:`hit_error`
     sphere: np.ndarray       # P, whether the primitive is a sphere
@@ -146,7 +148,7 @@ def shape_numbers(scene, need_uv: bool) -> ShapeNumbers:
 
 
 def ellipsoid_numbers(shape):
-    """``(centre, radius, sphere)`` of an ``ellipsoids`` shape's primitives: 3×M centres, M
+    """``(center, radius, sphere)`` of an ``ellipsoids`` shape's primitives: 3×M centers, M
     radii (the largest scale times the extent) and whether each is a sphere (equal scales,
     no rotation, no per-ellipsoid extent)."""
     params = mi.traverse(shape)
@@ -167,7 +169,7 @@ def _shape_numbers(scene, need_uv: bool) -> ShapeNumbers:
                                                         (shape.bbox() for shape in shapes)),
                           np.float64, 6 * len(shapes)).reshape(-1, 2, 3)
     low, high = corners[:, 0].T, corners[:, 1].T
-    centre, radius = (low + high) / 2, (high - low).max(axis=0, initial=0.0) / 2
+    center, radius = (low + high) / 2, (high - low).max(axis=0, initial=0.0) / 2
     types = _shape_types(scene)
     sphere = types == int(mi.ShapeType.Sphere)
     materials = shape_materials(scene)
@@ -179,21 +181,23 @@ def _shape_numbers(scene, need_uv: bool) -> ShapeNumbers:
     if need_uv:
         for index in np.flatnonzero(materials.textured & sphere).tolist():
             matrix = np.array(mi.traverse(shapes[index])["to_world"].matrix, np.float64).reshape(4, 4)
-            centre[:, index], radius[index] = matrix[:3, 3], np.linalg.norm(matrix[:3, 0])
+            center[:, index], radius[index] = matrix[:3, 3], np.linalg.norm(matrix[:3, 0])
             frames[index] = (matrix[:3, :3] / radius[index]).T
     first = np.arange(len(shapes))
     groups = np.flatnonzero(types == int(mi.ShapeType.Ellipsoids))
     if len(groups):   # each ellipsoid shape's one entry becomes one per primitive
         parts, counts, start = [], np.ones(len(shapes), np.int64), 0
         for k in groups.tolist():
-            parts += [(centre[:, start:k], radius[start:k], sphere[start:k]), ellipsoid_numbers(shapes[k])]
-            counts[k], start = len(parts[-1][1]), k + 1
-        parts.append((centre[:, start:], radius[start:], sphere[start:]))
-        centre, radius, sphere = (np.concatenate(column, axis=-1) for column in zip(*parts))
+            c, r, s = ellipsoid_numbers(shapes[k])
+            parts += [(low[:, start:k], high[:, start:k], center[:, start:k], radius[start:k], sphere[start:k]),
+                      (c - r, c + r, c, r, s)]
+            counts[k], start = len(r), k + 1
+        parts.append((low[:, start:], high[:, start:], center[:, start:], radius[start:], sphere[start:]))
+        low, high, center, radius, sphere = (np.concatenate(column, axis=-1) for column in zip(*parts))
         first = np.concatenate([[0], np.cumsum(counts)[:-1]])
         frames = {int(first[k]): frame for k, frame in frames.items()}
-    error = hit_error(radius, np.abs(centre).max(axis=0, initial=0.0))
-    return ShapeNumbers(centre, radius, error, sphere, frames, first, rows, bsdf)
+    error = hit_error(radius, np.abs(center).max(axis=0, initial=0.0))
+    return ShapeNumbers(low, high, center, radius, error, sphere, frames, first, rows, bsdf)
 
 
 class _SurfacesNear:
@@ -302,7 +306,7 @@ class MitsubaHits:
 
     def _tables(self, scene, need_uv):
         numbers = shape_numbers(scene, need_uv)
-        tables = {"surface_at": _SurfacesNear(numbers.centre, numbers.radius, numbers.error,
+        tables = {"surface_at": _SurfacesNear(numbers.center, numbers.radius, numbers.error,
                                               numbers.sphere).surface_at}
         if not self.vectorized:   # the scalar variant hands out the same shape objects each time
             frames, first, many = numbers.frames, numbers.first.tolist(), (numbers.counts != 1).tolist()
@@ -362,21 +366,21 @@ class SphereHits:
         self.need_uv = need_uv
         tables = memo(scene, ("sphere tables", need_uv), lambda: self._tables(scene, need_uv))
         self.surface_at = tables["surface_at"]
-        self._centre, self._radius, self._error, self._bsdf, self._frame, self._base = tables["spheres"]
+        self._center, self._radius, self._error, self._bsdf, self._frame, self._base = tables["spheres"]
 
     @staticmethod
     def _tables(scene, need_uv):
         numbers = shape_numbers(scene, need_uv)
         slots, base, size = numbers.slots()
         counts = numbers.counts
-        centre, radius, error = np.zeros((3, size)), np.ones(size), np.zeros(size)
+        center, radius, error = np.zeros((3, size)), np.ones(size), np.zeros(size)
         bsdf = np.zeros(size, np.uint32)
-        centre[:, slots], radius[slots], error[slots], bsdf[slots] = \
-            numbers.centre, numbers.radius, numbers.error, np.repeat(numbers.bsdf, counts)
-        table = (mi.Point3f(centre), mi.Float(radius), mi.Float(error), mi.UInt32(bsdf))
+        center[:, slots], radius[slots], error[slots], bsdf[slots] = \
+            numbers.center, numbers.radius, numbers.error, np.repeat(numbers.bsdf, counts)
+        table = (mi.Point3f(center), mi.Float(radius), mi.Float(error), mi.UInt32(bsdf))
         dr.make_opaque(*table)
         _, frame = _frame_table(slots, numbers.frames, size)
-        return {"surface_at": _SurfacesNear(numbers.centre, numbers.radius, numbers.error,
+        return {"surface_at": _SurfacesNear(numbers.center, numbers.radius, numbers.error,
                                             numbers.sphere).surface_at,
                 "spheres": (*table, frame, _base_table(base))}
 
@@ -385,12 +389,12 @@ class SphereHits:
         pi = self.scene.ray_intersect_preliminary(ray, coherent=coherent)
         hit = pi.is_valid()
         slot = _slot(self._base, dr.reinterpret_array(mi.UInt32, pi.shape), pi.prim_index, hit)
-        centre = dr.gather(mi.Point3f, self._centre, slot, hit)
+        center = dr.gather(mi.Point3f, self._center, slot, hit)
         radius = dr.gather(mi.Float, self._radius, slot, hit)
         si = dr.zeros(mi.SurfaceInteraction3f)
         si.t = dr.select(hit, pi.t, dr.inf)
-        si.n = dr.normalize(ray(pi.t) - centre)
-        si.p = dr.fma(si.n, radius, centre)
+        si.n = dr.normalize(ray(pi.t) - center)
+        si.p = dr.fma(si.n, radius, center)
         si.time = ray.time
         si.wavelengths = ray.wavelengths
         if self.need_uv:

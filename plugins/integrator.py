@@ -12,7 +12,9 @@ the JIT variants and a :class:`~.depth_first.DepthFirstTracer` in the scalar
 ones, chosen in :func:`tracer_for_variant`.
 
 The image is rendered in passes of at most ``wavefront_size`` camera
-samples, accumulated in Mitsuba's image block and developed by the film.
+samples, accumulated as :mod:`.accumulation` says: straight into the
+developed image for a box-filtered RGB film, else in Mitsuba's image block,
+developed by the film.
 Camera rays come from the sensor's ``sample_ray`` (Mitsuba's perspective
 camera), placed in their pixels by :mod:`.pixel_samples`.
 
@@ -33,6 +35,7 @@ import mitsuba as mi
 
 from whitted import defaults as D
 
+from .accumulation import image_for
 from .adaptive import allowance, brightest
 from .counts import RayCounts, Tally
 from .depth_first import DepthFirstTracer
@@ -223,18 +226,24 @@ class WhittedIntegrator(mi.SamplingIntegrator):
         width, height = (int(c) for c in film.crop_size())
 
         tracer, analysis, bright = self._tracer(scene)
-        film.prepare([])
-        block = film.create_block()
-        block.set_coalesce(block.coalesce() and spp >= 4)
-        passes = tracer.passes(width * height * spp, self.wavefront_size)
+        image = image_for(film, spp)
+        # A single-level tree stores nothing between levels: then, where the image takes
+        # whole pixels, each lane renders one pixel, looping over its samples in the kernel.
+        by_pixel = analysis.depth == 1 and image.takes_pixels
+        per_pass = self.wavefront_size or tracer.samples_per_pass
+        passes = tracer.passes(width * height * spp, max(spp, per_pass // spp * spp) if by_pixel else per_pass)
         for first, count in passes:
-            self._render_pass(tracer, sensor, block, first, count, width, spp, seed, progress)
-        film.put_block(block)
+            if by_pixel:
+                self._render_pixels(tracer, sensor, image, first // spp, count // spp, width, spp, seed)
+                if progress is not None:
+                    progress(count)
+            else:
+                self._render_pass(tracer, sensor, image, first, count, width, spp, seed, progress)
         rays = tracer.tally.read(camera=width * height * spp, max_depth_reached=tracer.deepest)
         error_bound = rays.sample_culled_weight * bright if rays.culled else 0.0
-        return Rendering(film.develop(), rays, analysis.effects, analysis.depth, len(passes), error_bound)
+        return Rendering(image.develop(), rays, analysis.effects, analysis.depth, len(passes), error_bound)
 
-    def _render_pass(self, tracer, sensor, block, first, count, width, spp, seed, progress):
+    def _render_pass(self, tracer, sensor, image, first, count, width, spp, seed, progress):
         """Samples first … first + count - 1 (of every pixel's spp, pixel after pixel), as
         ``tracer`` takes them: one wavefront, or one sample at a time."""
         # Counted from the pass's first pixel, so that 32-bit indices never overflow.
@@ -252,7 +261,21 @@ class WhittedIntegrator(mi.SamplingIntegrator):
             y = pixel // width_
             x = pixel - y * width_
             ray, ray_weight, position = self._camera_ray(sensor, x, y, pixel, sample, spp, seed)
-            self._splat(sensor.film(), block, position, tracer.trace(ray, progress) * ray_weight)
+            image.put(pixel, position, tracer.trace(ray, progress) * ray_weight)
+        tracer.finish_pass()
+
+    def _render_pixels(self, tracer, sensor, image, first_pixel, pixels, width, spp, seed):
+        """Pixels first_pixel … first_pixel + pixels - 1, one lane each, every sample of a
+        pixel traced in a loop inside the kernel (single-level trees, :class:`.PixelMeans`)."""
+        pixel = dr.arange(mi.UInt32, pixels) + dr.opaque(mi.UInt32, first_pixel)
+        width_ = dr.opaque(mi.UInt32, width)
+        y = pixel // width_
+        x = pixel - y * width_
+
+        def color(sample):
+            ray, ray_weight, _ = self._camera_ray(sensor, x, y, pixel, sample, spp, seed)
+            return tracer.trace(ray) * ray_weight
+        image.put_pixels(pixel, color)
         tracer.finish_pass()
 
     @staticmethod
@@ -268,14 +291,6 @@ class WhittedIntegrator(mi.SamplingIntegrator):
         # Box filter: a sample belongs to its pixel alone (as Mitsuba's own integrators do).
         position = corner if film.rfilter().is_box_filter() else corner + offset
         return ray, weight, position + mi.ScalarVector2f(film.crop_offset())
-
-    @staticmethod
-    def _splat(film, block, position, color):
-        values = [color.x, color.y, color.z]
-        if mi.has_flag(film.flags(), mi.FilmFlags.Alpha):
-            values.append(mi.Float(1))
-        values.append(mi.Float(1))   # the sample's weight: the film develops the mean
-        block.put(position, values)
 
     def to_string(self):
         return (f"WhittedIntegrator[max_depth={self.max_depth}, ambient={self.ambient}, "

@@ -44,10 +44,9 @@ as for every Mitsuba BSDF with delta components; the probability of choosing
 the diffuse lobe is part of its pdf.
 
 The Whitted integrator reads the parameters directly: ``color`` (a texture),
-``uniform_colour`` (B as three floats, None when textured), ``reflect``,
-``refract`` and ``ior`` (Python floats), ``material_row`` (all of them as one
-row of the integrator's material table, see :mod:`.surfaces`, kept up to date
-when ``color`` changes), or through :meth:`eval_diffuse_reflectance` (B,
+``reflect``, ``refract`` and ``ior`` (Python floats), ``material_row`` (all
+of them and a constant B as one row of the integrator's material table, see
+:mod:`.surfaces`), or through :meth:`eval_diffuse_reflectance` (B,
 without the weight 1 − KR − KT) and :meth:`eval_attribute_1`.
 """
 
@@ -60,7 +59,7 @@ from whitted import defaults as D
 
 from . import optics
 from .scene_state import forget as forget_scenes
-from .surfaces import material_row, uniform_colour
+from .surfaces import material_row
 
 DIFFUSE, REFLECTION, TRANSMISSION = 0, 1, 2
 
@@ -164,7 +163,7 @@ class ArticleBSDF(mi.BSDF):
                              f"{self.reflect} + {self.refract}")
         if not self.ior > 0.0:
             raise ValueError(f"article BSDF: ior must be > 0, got {self.ior}")
-        self._read_colour()
+        self._material_row = None
         # Component indices are fixed (0 diffuse, 1 mirror, 2 refraction); the
         # material's flags name only the lobes it can actually use, so that
         # integrators skip light sampling on pure mirrors and glass.
@@ -178,15 +177,19 @@ class ArticleBSDF(mi.BSDF):
             flags |= COMPONENT_FLAGS[TRANSMISSION]
         self.m_flags = flags
 
-    def _read_colour(self):
-        """Note the base colour (None when it varies over the surface) and the numbers
-        the Whitted integrator reads (:func:`.surfaces.material_row`)."""
-        self.uniform_colour = None if self.color.is_spatially_varying() else uniform_colour(self.color)
-        self.material_row = material_row(self)
+    @property
+    def material_row(self) -> tuple:
+        """The numbers the Whitted integrator reads (:func:`.surfaces.material_row`), kept
+        until ``color`` changes. Read on first use, not in the constructor: reading a color
+        evaluates it, and Mitsuba's loader, which builds a scene's objects in parallel, would
+        then build more of them inside this constructor, one inside another."""
+        if self._material_row is None:
+            self._material_row = material_row(self)
+        return self._material_row
 
     def parameters_changed(self, keys=[]):  # noqa: B006  (Mitsuba's own default)
-        self._read_colour()   # ``color`` was written (mi.SceneParameters.update)
-        forget_scenes()       # even through mi.traverse(bsdf), which no scene hears of
+        self._material_row = None   # ``color`` was written (mi.SceneParameters.update)
+        forget_scenes()             # even through mi.traverse(bsdf), which no scene hears of
 
     @property
     def diffuse_weight(self) -> float:

@@ -1,4 +1,4 @@
-"""Looking up a hit's material: base colour B, KR, KT and IOR.
+"""Looking up a hit's material: base color B, KR, KT and IOR.
 
 In the JIT variants a per-instance method call for every material would make
 Dr.Jit trace one Python function per BSDF, which does not scale to scenes of
@@ -9,13 +9,13 @@ exception: each textured material evaluates its own texture, only on the lanes
 that hit it. The scalar variant reads the same table, by the hit BSDF's row.
 
 Reading a scene's materials costs one pass over its shapes, and no more:
-every ``article`` BSDF keeps its numbers as one :func:`material_row`, written
-when it is created and when its colour changes (``parameters_changed``), so
+every ``article`` BSDF keeps its numbers as one :func:`material_row`, read
+at the first render (about 10 µs: the color is read back from Dr.Jit) and
+again only when its color changes (``parameters_changed``), so
 :func:`shape_materials` only collects each shape's row (the rows of 66 000
-spheres in about 0.1 s, where asking each BSDF took most of a second, and
-Mitsuba's vectorized ``shapes_dr().bsdf()`` became slower still after a
-``params.update()``). The integrator asks once per scene state (see
-:mod:`.scene_state`).
+spheres in about 0.1 s; Mitsuba's vectorized ``shapes_dr().bsdf()`` took as
+long, and 2 s after a ``params.update()``). The integrator asks once per
+scene state (see :mod:`.scene_state`).
 """
 
 from __future__ import annotations
@@ -32,18 +32,18 @@ from .masks import off
 from .scene_state import memo
 
 #: columns of a :func:`material_row`
-_KEY, _TEXTURED, _COLOUR, _REFLECT, _REFRACT, _IOR = 0, 1, slice(2, 5), 5, 6, 7
+_KEY, _TEXTURED, _COLOR, _REFLECT, _REFRACT, _IOR = 0, 1, slice(2, 5), 5, 6, 7
 
 
-def uniform_colour(texture) -> tuple[float, float, float]:
-    """The colour of a texture that does not vary over the surface, as three floats.
+def uniform_color(texture) -> tuple[float, float, float]:
+    """The color of a texture that does not vary over the surface, as three floats.
 
     Read by indexing rather than through numpy: numpy's conversion, at 8 µs a
     call, was most of the time spent on a scene of 10 000 materials.
     """
     value = texture.eval(dr.zeros(mi.SurfaceInteraction3f))
-    colour = tuple(float(c[0]) if dr.is_jit_v(c) else float(c) for c in value)
-    return colour * 3 if len(colour) == 1 else colour
+    color = tuple(float(c[0]) if dr.is_jit_v(c) else float(c) for c in value)
+    return color * 3 if len(color) == 1 else color
 
 
 def material_row(bsdf) -> tuple:
@@ -51,21 +51,21 @@ def material_row(bsdf) -> tuple:
 
     ``key`` is the BSDF's instance ID in the JIT variants (what a hit reports)
     and ``id(bsdf)`` in the scalar one (an address: exact in a float64); B is
-    ``bsdf.uniform_colour``, zero when textured.
+    the constant base color, zero when textured.
     """
     if dr.is_jit_v(mi.Float):
         key = int(dr.reinterpret_array(mi.UInt32, mi.BSDFPtr(bsdf))[0])
     else:
         key = id(bsdf)
-    colour = bsdf.uniform_colour
-    return (key, float(colour is None), *(colour or (0.0, 0.0, 0.0)), bsdf.reflect, bsdf.refract, bsdf.ior)
+    color = None if bsdf.color.is_spatially_varying() else uniform_color(bsdf.color)
+    return (key, float(color is None), *(color or (0.0, 0.0, 0.0)), bsdf.reflect, bsdf.refract, bsdf.ior)
 
 
 @dataclass
 class ShapeMaterials:
     """The material of every shape of ``scene.shapes()``, in that order."""
     rows: np.ndarray    # (N, 8) float64: each shape's :func:`material_row`
-    textures: dict      # key -> the colour texture of a textured material
+    textures: dict      # key -> the color texture of a textured material
 
     @property
     def key(self) -> np.ndarray:
@@ -103,12 +103,12 @@ class Materials:
 
     ``key`` is a row's BSDF instance ID (JIT variants) or ``id()`` of the BSDF
     object (scalar); ``textures`` maps the keys of textured materials to their
-    colour textures, in order.
+    color textures, in order.
     """
     key: np.ndarray
     rows: np.ndarray                     # (n, 8): their :func:`material_row`
     textures: dict
-    _tables: dict = field(default_factory=dict, repr=False)
+    _memos: dict = field(default_factory=dict, repr=False)
 
     @property
     def reflective(self) -> bool:
@@ -122,9 +122,23 @@ class Materials:
     def textured(self) -> bool:
         return bool(self.textures)
 
+    def largest_color(self) -> float:
+        """The largest channel of the constant base colors (textures not included)."""
+        return float(self.rows[self.rows[:, _TEXTURED] == 0, _COLOR].max(initial=0.0))
+
+    def largest_gain(self) -> float:
+        """The largest KR + KT."""
+        return float((self.rows[:, _REFLECT] + self.rows[:, _REFRACT]).max(initial=0.0))
+
+    def memo(self, key, build):
+        """``build()``, computed once for these materials (they last one scene state)."""
+        if key not in self._memos:
+            self._memos[key] = build()
+        return self._memos[key]
+
     def table(self):
         """``(row_of, columns)``, built once: the materials' numbers by row, and each
-        material's row by key. ``columns`` are ``(type, table)`` pairs of colour, KR, KT,
+        material's row by key. ``columns`` are ``(type, table)`` pairs of color, KR, KT,
         IOR and texture slot (0 untextured, k: the k-th of ``textures``).
 
         A hit names its BSDF by instance ID in the JIT variants: the rows are the
@@ -133,22 +147,23 @@ class Materials:
         plain numbers: the rows are 1, 2, ... and the tables numpy arrays. Row 0 is no
         material (a miss).
         """
-        if "table" not in self._tables:
-            jit = dr.is_jit_v(mi.Float)
-            rows = self.key if jit else np.arange(1, len(self.key) + 1)
-            size = int(rows.max()) + 1 if len(rows) else 1
-            numbers = np.zeros((size, 8))
-            numbers[:, _IOR] = 1.0
-            numbers[rows] = self.rows
-            slot = np.zeros(size, np.uint32)
-            slot[rows[np.isin(self.key, list(self.textures))]] = np.arange(1, len(self.textures) + 1)
-            columns = ((mi.Color3f, numbers[:, _COLOUR].T), (mi.Float, numbers[:, _REFLECT]),
-                       (mi.Float, numbers[:, _REFRACT]), (mi.Float, numbers[:, _IOR]), (mi.UInt32, slot))
-            if jit:
-                columns = tuple((tp, tp(values)) for tp, values in columns)
-                dr.make_opaque(*(table for _, table in columns))
-            self._tables["table"] = (dict(zip(self.key.tolist(), rows.tolist())), columns)
-        return self._tables["table"]
+        return self.memo("table", self._table)
+
+    def _table(self):
+        jit = dr.is_jit_v(mi.Float)
+        rows = self.key if jit else np.arange(1, len(self.key) + 1)
+        size = int(rows.max()) + 1 if len(rows) else 1
+        numbers = np.zeros((size, 8))
+        numbers[:, _IOR] = 1.0
+        numbers[rows] = self.rows
+        slot = np.zeros(size, np.uint32)
+        slot[rows[np.isin(self.key, list(self.textures))]] = np.arange(1, len(self.textures) + 1)
+        columns = ((mi.Color3f, numbers[:, _COLOR].T), (mi.Float, numbers[:, _REFLECT]),
+                   (mi.Float, numbers[:, _REFRACT]), (mi.Float, numbers[:, _IOR]), (mi.UInt32, slot))
+        if jit:
+            columns = tuple((tp, tp(values)) for tp, values in columns)
+            dr.make_opaque(*(table for _, table in columns))
+        return (dict(zip(self.key.tolist(), rows.tolist())), columns)
 
 
 def scene_materials(scene) -> Materials:
@@ -165,7 +180,7 @@ def scene_materials(scene) -> Materials:
 @dataclass
 class SurfaceSample:
     """The material at a hit point."""
-    base: object      # mi.Color3f, B (texel or colour)
+    base: object      # mi.Color3f, B (texel or color)
     reflect: object   # mi.Float, KR
     refract: object   # mi.Float, KT
     ior: object       # mi.Float
@@ -179,6 +194,8 @@ class SurfaceTable:
 
     def __init__(self, materials: Materials, need_ior: bool):
         self.need_ior = need_ior
+        # KR and KT that are 0 on every material are constants, not lookups
+        self.reflective, self.refractive = materials.reflective, materials.refractive
         self.textured = list(materials.textures.values())   # slot k is textured[k - 1]
         row_of, columns = materials.table()
         if dr.is_jit_v(mi.Float):
@@ -187,7 +204,7 @@ class SurfaceTable:
         else:
             self._row = lambda bsdf: row_of[id(bsdf)]
             self._read = lambda tp, table, row, active: tp(table[..., row].tolist())
-        self._colour, self._reflect, self._refract, self._ior, self._slot = columns
+        self._color, self._reflect, self._refract, self._ior, self._slot = columns
 
     def lookup(self, si, bsdf, active) -> SurfaceSample:
         """The material at ``si`` on the lanes ``active`` (hits only).
@@ -195,7 +212,7 @@ class SurfaceTable:
         ``bsdf`` is the hit BSDF's instance ID (JIT variants) or the BSDF itself (scalar).
         """
         row = self._row(bsdf)
-        base = self._read(*self._colour, row, active)
+        base = self._read(*self._color, row, active)
         if self.textured:
             slot = self._read(*self._slot, row, active)
             for k, texture in enumerate(self.textured, start=1):
@@ -203,5 +220,6 @@ class SurfaceTable:
                 if not off(on_texture):
                     base = dr.select(on_texture, mi.Color3f(texture.eval(si, on_texture)), base)
         ior = self._read(*self._ior, row, active) if self.need_ior else mi.Float(1)
-        return SurfaceSample(base, self._read(*self._reflect, row, active),
-                             self._read(*self._refract, row, active), ior)
+        reflect = self._read(*self._reflect, row, active) if self.reflective else mi.Float(0)
+        refract = self._read(*self._refract, row, active) if self.refractive else mi.Float(0)
+        return SurfaceSample(base, reflect, refract, ior)

@@ -71,7 +71,7 @@ def test_a_new_scene_is_read_afresh(llvm, builds):
 
 
 def test_changes_through_mitsuba_parameters_show_in_the_next_render(variant, builds):
-    """A sphere moved and resized, a material's colour and a light's position changed with
+    """A sphere moved and resized, a material's color and a light's position changed with
     ``mi.traverse`` + ``update()``: the next render is the reference of the changed scene."""
     original = model()
     scene = load(original)
@@ -79,17 +79,17 @@ def test_changes_through_mitsuba_parameters_show_in_the_next_render(variant, bui
     assert_matches(before, render_reference(original))
 
     params = mi.traverse(scene)
-    center, radius, colour, light = (-0.7, 0.8, 0.4), 1.2, (0.3, 0.9, 0.4), (-2.0, 5.0, 5.0)
+    center, radius, color, light = (-0.7, 0.8, 0.4), 1.2, (0.3, 0.9, 0.4), (-2.0, 5.0, 5.0)
     params["sphere_1.to_world"] = mi.ScalarTransform4f().translate(center).scale(radius)
-    params["material_2.color.value"] = mi.Color3f(colour)
+    params["material_2.color.value"] = mi.Color3f(color)
     params["light_0.position"] = mi.Point3f(light)
-    # the converter's encoding of the article's light colour (plugins/effects.py): I = colour·π·d²
+    # the converter's encoding of the article's light color (plugins/effects.py): I = color·π·d²
     params["light_0.intensity.value"] = mi.Color3f(math.pi * sum((a - b) ** 2 for a, b in zip(light, original.lookat)))
     params.update()
     changed = replace(original, lights=[replace(original.lights[0], position=light)], spheres=[
         original.spheres[0],
         replace(original.spheres[1], center=center, radius=radius),
-        replace(original.spheres[2], material=replace(original.spheres[2].material, color=colour))])
+        replace(original.spheres[2], material=replace(original.spheres[2].material, color=color))])
 
     after = whitted.render(scene).image
     assert builds() == (2, 2, 2)

@@ -57,7 +57,8 @@ def _summary(args, result, width: int, height: int, spp: int) -> str:
     return (f"whitted: {width}x{height} at {spp} spp with {args.integrator} ({mi.variant()}): "
             f"{s['seconds']:.3f} s (+{s['compile_seconds']:.3f} s compiling); rays: {rays}; {depth}"
             f"effects: {' '.join(s['effects']) or 'none'}; "
-            f"peak memory {s['peak_memory_bytes'] / 2**20:.1f} MiB")
+            f"peak memory {s['peak_memory_bytes'] / 2**20:.1f} MiB (Dr.Jit), "
+            f"{s['peak_resident_bytes'] / 2**20:.1f} MiB resident")
 
 
 def _load_quietly(args):
@@ -73,6 +74,7 @@ def render_command(args) -> None:
     from .atomic import check_writable, write_text
     from .defaults import check_ambient
     from .imageio import image_format, write_image
+    from .memory import peak_resident_bytes
     from .rendering import check_settings, render
 
     output = Path(args.output)
@@ -94,7 +96,8 @@ def render_command(args) -> None:
     spp = sensor.sampler().sample_count()
     result = render(scene, integrator=args.integrator, progress=not args.quiet,
                     min_weight=args.min_weight)
-    write_image(output, result.image)
+    write_image(output, result.image, progress=not args.quiet)
+    result.stats["peak_resident_bytes"] = peak_resident_bytes()   # the writing included
     if args.stats:
         write_text(args.stats, json.dumps(result.stats, indent=2) + "\n")
     if args.verbose:

@@ -8,7 +8,9 @@ stderr is not a terminal the same tqdm bar writes a whole line every
 
 from __future__ import annotations
 
+import contextlib
 import sys
+import threading
 
 #: seconds between two progress lines when stderr is not a terminal
 LOG_INTERVAL = 10.0
@@ -29,7 +31,8 @@ class _Lines:
         self.stream.flush()
 
 
-def progress_bar(enabled: bool, total: int, what: str, unit: str = "sample", unit_scale: bool = True):
+def progress_bar(enabled: bool, total: int | None, what: str, unit: str = "sample", unit_scale: bool = True,
+                 **options):
     """A tqdm bar on stderr (``enabled=False``: a silent one that still counts)."""
     from tqdm import tqdm
     terminal = sys.stderr.isatty()
@@ -37,4 +40,27 @@ def progress_bar(enabled: bool, total: int, what: str, unit: str = "sample", uni
     return tqdm(total=total, desc=f"whitted: {what}", unit=unit, unit_scale=unit_scale,
                 file=sys.stderr if terminal else _Lines(sys.stderr), disable=not enabled,
                 delay=0.5 if terminal else 2.0, mininterval=0.1 if terminal else LOG_INTERVAL,
-                leave=not terminal, ascii=not terminal, dynamic_ncols=terminal)
+                leave=not terminal, ascii=not terminal, dynamic_ncols=terminal, **options)
+
+
+@contextlib.contextmanager
+def elapsed(enabled: bool, what: str):
+    """Show how long ``what`` has been running, for work that tells no progress of its own
+    (a library call writing a file, which releases the GIL): a line whose clock a
+    thread redraws while the block runs."""
+    terminal = sys.stderr.isatty()
+    with progress_bar(enabled, None, what, bar_format="{desc}: {elapsed}") as bar:
+        stop = threading.Event()
+
+        def tick():
+            while not stop.wait(0.5 if terminal else LOG_INTERVAL):
+                bar.refresh()
+        ticker = threading.Thread(target=tick, daemon=True)
+        if enabled:
+            ticker.start()
+        try:
+            yield
+        finally:
+            stop.set()
+            if enabled:
+                ticker.join()

@@ -17,7 +17,8 @@ Statistics (``result.stats``, written by ``--stats FILE.json``)::
 
     {"rays": {"camera", "shadow", "reflection", "refraction"}, "merged_rays",
      "seconds", "compile_seconds", "effects": [...], "max_depth_reached",
-     "peak_memory_bytes", "min_weight", "culled_rays", "culled_weight", "error_bound"}
+     "peak_memory_bytes", "peak_resident_bytes", "min_weight", "culled_rays", "culled_weight",
+     "error_bound"}
 
 ``merged_rays`` counts the rays that carried both a reflected and a
 refracted share (total internal reflection sends the refracted share along
@@ -38,8 +39,11 @@ memory allocator during the render (every array Dr.Jit holds: the scene's
 own arrays, the wavefronts and the image; not Embree's or OptiX's
 acceleration structures, nor Python's heap); its cache is flushed before the
 render so that the mark starts from what is really in use. In
-``scalar_rgb``, where Dr.Jit allocates nothing, it is the peak resident set
-size of the whole process. Mitsuba's ``path`` integrator does not count its
+``scalar_rgb``, where Dr.Jit allocates nothing, it is ``peak_resident_bytes``.
+``peak_resident_bytes`` is what the operating system counts: the process's
+peak resident set size during the render (on Linux; elsewhere over the
+process's life; see :mod:`whitted.memory`), everything included. ``whitted
+render`` extends it to the end of writing the image. Mitsuba's ``path`` integrator does not count its
 rays: for it only ``camera`` is given and the others are null, as are
 ``max_depth_reached`` and the adaptive depth control's entries.
 """
@@ -54,6 +58,7 @@ import numpy as np
 
 from . import defaults as D
 from .errors import WhittedError
+from .memory import peak_resident_bytes, reset_peak
 from .progress import progress_bar
 
 #: the Whitted settings of a scene whose integrator is not the ``whitted`` plugin
@@ -142,6 +147,7 @@ class _Clock:
             dr.kernel_history_clear()
             dr.flush_malloc_cache()
             dr.detail.malloc_clear_statistics()
+        reset_peak()
         self.start = time.perf_counter()
         return self
 
@@ -149,14 +155,14 @@ class _Clock:
         import drjit as dr
         self.wall = time.perf_counter() - self.start
         self.compile = 0.0
+        self.peak_resident = peak_resident_bytes()
         if self.jit:
             history = dr.kernel_history()
             self._flag.__exit__(*exc)
             self.compile = sum(k.get("backend_time", 0.0) for k in history) / 1000.0
             self.peak_memory = int(dr.detail.malloc_watermark(self.backend))
         else:
-            import resource
-            self.peak_memory = int(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss) * 1024
+            self.peak_memory = self.peak_resident
         return False
 
     @property
@@ -191,7 +197,8 @@ def render(scene, integrator: str = "whitted", spp: int | None = None, max_depth
         whitted = _whitted_integrator(scene, settings, depth, lighting or settings["lighting"], min_weight)
         with progress_bar(progress, width * height * spp, "render") as bar, _Clock() as clock:
             rendering = whitted.render_detailed(scene, sensor, seed=seed, spp=spp, progress=bar.update)
-            image = np.array(rendering.image, dtype=np.float32)
+            # The developed image's own memory, not a copy (a 16384² image is 3 GiB).
+            image = np.asarray(rendering.image, dtype=np.float32)
         rays = rendering.rays
         stats_rays, effects, reached = rays.rays(), list(rendering.effects), rays.max_depth_reached
         adaptive = {"merged_rays": rays.merged, "min_weight": min_weight, "culled_rays": rays.culled,
@@ -209,7 +216,7 @@ def render(scene, integrator: str = "whitted", spp: int | None = None, max_depth
     image = image[..., :3]
     stats = {"rays": stats_rays, "seconds": clock.seconds, "compile_seconds": clock.compile,
              "effects": effects, "max_depth_reached": reached, "peak_memory_bytes": clock.peak_memory,
-             **adaptive}
+             "peak_resident_bytes": clock.peak_resident, **adaptive}
     return RenderResult(np.ascontiguousarray(image), clock.seconds, clock.compile, stats)
 
 

@@ -1,0 +1,112 @@
+"""Where a render's samples go: straight into the developed image, or through Mitsuba's film.
+
+Why two ways. Mitsuba's film accepts samples anywhere on the image plane and
+spreads each over the pixels its reconstruction filter covers:
+``ImageBlock.put`` evaluates the filter and adds, per sample, red, green,
+blue and a weight into a block of four floats per pixel; the film then adds
+the block into its own storage (four more) and develops a third image, each
+pixel's weighted sum divided by its summed weights. On the benchmark scene
+that costs about 0.45 times the ray-casting floor, and at 16384² pixels the
+three images take 44 bytes a pixel.
+
+With a box filter (what converted scenes use, and Mitsuba's integrators put
+a box-filtered sample at its pixel alone), every sample lands in one pixel
+with weight 1, and every pixel gets ``spp`` of them, so the developed pixel
+is simply the mean of its samples. :class:`PixelMeans` adds ``color / spp``
+of each sample into that pixel of one RGB array, which *is* the developed
+image: three adds per sample (pre-reduced within a SIMD packet, where a
+pixel's samples sit side by side), nothing else to develop, 12 bytes a pixel.
+It is the film's image up to the order of the additions (an ulp or so; none
+with one sample per pixel). It serves Mitsuba's ``hdrfilm`` with a box
+filter and RGB pixels in the JIT variants; :class:`FilmSplats` serves every
+other film, filter and pixel format, and the scalar variant, through the film
+as before. Unlike the film path, :class:`PixelMeans` leaves the film's own
+storage alone: read the image the render returns, not ``film.bitmap()``.
+"""
+
+from __future__ import annotations
+
+import drjit as dr
+import mitsuba as mi
+
+
+def image_for(film, spp: int):
+    """How a render of ``spp`` samples per pixel accumulates on ``film``."""
+    if dr.is_jit_v(mi.Float) and PixelMeans.applies(film):
+        return PixelMeans(film, spp)
+    return FilmSplats(film, spp)
+
+
+class FilmSplats:
+    """Samples splatted into Mitsuba's film through an image block (any film, any filter)."""
+
+    #: whether :meth:`PixelMeans.put_pixels` is available
+    takes_pixels = False
+
+    def __init__(self, film, spp: int):
+        self.film = film
+        film.prepare([])
+        self.block = film.create_block()
+        self.block.set_coalesce(self.block.coalesce() and spp >= 4)
+        self.alpha = mi.has_flag(film.flags(), mi.FilmFlags.Alpha)
+
+    def put(self, pixel, position, color) -> None:
+        """Add the sample ``color`` at film ``position`` (``pixel``: its linear index in the crop)."""
+        values = [color.x, color.y, color.z]
+        if self.alpha:
+            values.append(mi.Float(1))
+        values.append(mi.Float(1))   # the sample's weight: the film develops the mean
+        self.block.put(position, values)
+
+    def develop(self):
+        """The developed image, an ``mi.TensorXf`` (H, W, channels)."""
+        self.film.put_block(self.block)
+        self.block = None
+        return self.film.develop()
+
+
+class PixelMeans:
+    """Each pixel's mean of its samples, accumulated in place (box filter, RGB; JIT variants)."""
+
+    @staticmethod
+    def applies(film) -> bool:
+        """Whether ``film`` develops each pixel as the plain mean RGB of its samples."""
+        return (film.class_name() == "HDRFilm" and film.rfilter().is_box_filter()
+                and not film.sample_border() and film.base_channels_count() == 3
+                and "pixel_format = rgb," in str(film))   # not xyz, which has three channels too
+
+    takes_pixels = True
+
+    def __init__(self, film, spp: int):
+        self.width, self.height = (int(c) for c in film.crop_size())
+        self.spp = spp
+        self.scale = dr.opaque(mi.Float, 1.0 / spp)
+        self.image = dr.zeros(mi.Float, 3 * self.width * self.height)
+
+    def put(self, pixel, position, color) -> None:
+        """Add ``color / spp`` to ``pixel`` (its linear index in the crop; ``position`` unused)."""
+        index = pixel * 3
+        for channel in range(3):
+            value = color[channel] * self.scale
+            if self.spp == 1:    # one sample per pixel: nothing to add up
+                dr.scatter(self.image, value, index + channel)
+            else:
+                dr.scatter_reduce(dr.ReduceOp.Add, self.image, value, index + channel,
+                                  mode=dr.ReduceMode.Local)
+
+    def put_pixels(self, pixel, color_of_sample) -> None:
+        """Set the pixels ``pixel`` (one lane each) to the mean of ``color_of_sample(sample)``
+        over their samples 0 … spp - 1, added up in a loop inside the kernel: no atomic adds,
+        one store per pixel (what a single-level ray tree allows: see the integrator)."""
+        if self.spp == 1:
+            total = color_of_sample(mi.UInt32(0))
+        else:
+            spp = dr.opaque(mi.UInt32, self.spp)
+            _, total = dr.while_loop(
+                (mi.UInt32(0), mi.Color3f(0)), lambda sample, total: sample < spp,
+                lambda sample, total: (sample + 1, total + color_of_sample(sample)))
+        dr.scatter(self.image, total / dr.opaque(mi.Float, self.spp), pixel)   # as the film divides
+
+    def develop(self):
+        """The image as an ``mi.TensorXf`` (H, W, 3): the same array, no copy."""
+        return mi.TensorXf(self.image, (self.height, self.width, 3))
