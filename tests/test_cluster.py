@@ -30,19 +30,12 @@ from whitted.cli import main
 pytest.importorskip("distributed")
 psutil = pytest.importorskip("psutil")  # a dependency of distributed
 
+from test_compare import MIRROR_SCENE  # noqa: E402  (the same small scene as the in-process tests)
+
 DASK = Path(sys.executable).parent / "dask"
 
 SCENES = {
-    "mirror": """\
-size 32 24
-eye 0 0 6
-fov 50
-light 4 5 6
-light -5 3 4 0.5 0.5 0.5
-depth 3
-sphere -0.9 0 0 0.8  color 0.9 0.9 0.9  reflect 0.8
-sphere 0.9 0 0 0.8   color 0.9 0.2 0.2  reflect 0.3
-""",
+    "mirror": MIRROR_SCENE,
     "diffuse": """\
 size 32 24
 eye 0 0 6
