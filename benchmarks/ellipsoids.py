@@ -68,9 +68,9 @@ F32 = np.float32
 EPS = 2.0 ** -24
 
 
-def error_bound(radius, centre):
+def error_bound(radius, center):
     from whitted.plugins.geometry import hit_error
-    return hit_error(radius, np.abs(np.asarray(centre, float)).max())
+    return hit_error(radius, np.abs(np.asarray(center, float)).max())
 
 
 # -- the ellipsoid routine, emulated ---------------------------------------------------------
@@ -85,17 +85,17 @@ def _dot(a, b):
     return _fma(a[2], b[2], _fma(a[1], b[1], (a[0] * b[0]).astype(F32)))
 
 
-def ellipsoid_t(origin, direction, centre, radius, fixed: bool):
+def ellipsoid_t(origin, direction, center, radius, fixed: bool):
     """Mitsuba's ``ray_ellipsoid_intersection`` for a sphere (scales r, identity rotation),
     in float32 and its operation order: the nearest front-facing hit distance, inf if none.
 
     Mitsuba 3.9 (src/shapes/ellipsoids.cpp) moves the origin to "the plane through the
-    centre" as ``plane_t = dot(-o, d) / norm(d)``, in the unit sphere's coordinates where
+    center" as ``plane_t = dot(-o, d) / norm(d)``, in the unit sphere's coordinates where
     ``|d| = 1/r``: that point lies ``t·|1/r - 1|`` from the plane instead of on it, and
     the quadratic then cancels catastrophically for r far from 1. ``fixed`` divides by
     ``squared_norm(d)`` instead, which puts it on the plane.
     """
-    o_world = origin.astype(F32) - np.asarray(centre, F32)[:, None]
+    o_world = origin.astype(F32) - np.asarray(center, F32)[:, None]
     inverse = F32(1) / F32(radius)
     o, d = (o_world * inverse).astype(F32), (direction.astype(F32) * inverse).astype(F32)
     dd = _dot(d, d)
@@ -114,37 +114,37 @@ def ellipsoid_t(origin, direction, centre, radius, fixed: bool):
 
 # -- accuracy -------------------------------------------------------------------------------
 
-def one_sphere(kind: str, centre, radius):
+def one_sphere(kind: str, center, radius):
     if kind == "sphere":
-        shape = {"type": "sphere", "center": [float(x) for x in centre], "radius": float(radius)}
+        shape = {"type": "sphere", "center": [float(x) for x in center], "radius": float(radius)}
     else:
         shape = {"type": "ellipsoids", "extent": 1.0,
-                 "centers": mi.TensorXf(np.asarray(centre, F32).reshape(1, 3)),
+                 "centers": mi.TensorXf(np.asarray(center, F32).reshape(1, 3)),
                  "scales": mi.TensorXf(np.full((1, 3), radius, F32)),
                  "quaternions": mi.TensorXf(np.array([[0, 0, 0, 1]], F32))}
     return mi.load_dict({"type": "scene", "ball": shape})
 
 
-def aimed_rays(centre, radius, view, n, rng, impact):
-    """Rays from random points ``view`` from the centre, aimed at impact parameters drawn from
+def aimed_rays(center, radius, view, n, rng, impact):
+    """Rays from random points ``view`` from the center, aimed at impact parameters drawn from
     ``impact`` (in radii). Returns float32 origins and unit directions (3×n)."""
-    centre = np.asarray(centre, float)[:, None]
+    center = np.asarray(center, float)[:, None]
     towards = rng.normal(size=(3, n))
     towards /= np.linalg.norm(towards, axis=0)
-    origin = centre + view * towards
+    origin = center + view * towards
     side = rng.normal(size=(3, n))
     side -= (side * towards).sum(axis=0) * towards
     side /= np.linalg.norm(side, axis=0)
-    target = centre + radius * impact(n) * side
+    target = center + radius * impact(n) * side
     direction = target - origin
     direction /= np.linalg.norm(direction, axis=0)
     return origin.astype(F32), direction.astype(F32)
 
 
-def exact_t(origin, direction, centre, radius):
+def exact_t(origin, direction, center, radius):
     """The float64 nearest hit of the float32 rays (stable form), inf on a miss."""
     o, d = origin.astype(float), direction.astype(float)
-    f = o - np.asarray(centre, float)[:, None]
+    f = o - np.asarray(center, float)[:, None]
     a, b = (d * d).sum(axis=0), (f * d).sum(axis=0)
     q = f - (b / a) * d
     disc = a * (radius * radius - (q * q).sum(axis=0))
@@ -154,14 +154,14 @@ def exact_t(origin, direction, centre, radius):
     return np.where(disc >= 0, t, np.inf)
 
 
-def miss_distance(origin, direction, centre):
-    """How far the (float32) rays pass from ``centre``, in float64."""
+def miss_distance(origin, direction, center):
+    """How far the (float32) rays pass from ``center``, in float64."""
     d = direction.astype(float) / np.linalg.norm(direction.astype(float), axis=0)
-    f = origin.astype(float) - np.asarray(centre, float)[:, None]
+    f = origin.astype(float) - np.asarray(center, float)[:, None]
     return np.linalg.norm(f - (f * d).sum(axis=0) * d, axis=0)
 
 
-def judge(t, si, origin, direction, centre, radius, should_hit, judged):
+def judge(t, si, origin, direction, center, radius, should_hit, judged):
     """``(lost, false, dt, angle, p_err)`` of the hit distances ``t``: hits lost, false hits
     (rays passing within 0.5 % of the silhouette are not ``judged``), the worst error of the
     hit distance in radii, and, given Mitsuba's interaction ``si``, the worst angle of its
@@ -171,11 +171,11 @@ def judge(t, si, origin, direction, centre, radius, should_hit, judged):
     lost = int((should_hit & ~hit).sum())
     false = int((judged & ~should_hit & hit).sum())
     ok = hit & should_hit
-    true = exact_t(origin, direction, centre, radius)[ok]
+    true = exact_t(origin, direction, center, radius)[ok]
     dt = float(np.abs(t[ok] - true).max(initial=0.0)) / radius
     if si is None:
         return lost, false, dt, np.nan, np.nan
-    c = np.asarray(centre, float)[:, None]
+    c = np.asarray(center, float)[:, None]
     truth = origin[:, ok].astype(float) + true * direction[:, ok].astype(float) - c
     truth /= np.linalg.norm(truth, axis=0)
     normal = np.array(si.n, float)[:, ok]
@@ -183,7 +183,7 @@ def judge(t, si, origin, direction, centre, radius, should_hit, judged):
     angle = float(np.arccos(np.clip(cos, -1, 1)).max(initial=0.0))
     point = np.array(si.p, float)[:, ok]
     p_err = float(np.abs(np.linalg.norm(point - c, axis=0) - radius).max(initial=0.0))
-    return lost, false, dt, angle, p_err / error_bound(radius, centre)
+    return lost, false, dt, angle, p_err / error_bound(radius, center)
 
 
 ACCURACY_RADII = (1e-3, 1e-2, 0.1, 1.0, 10.0, 1e2, 1e4, 1e6)
@@ -195,27 +195,27 @@ def accuracy(n: int = 20000, seed: int = 3):
     rng = np.random.default_rng(seed)
     rows = []
     for radius in ACCURACY_RADII:
-        for place, centre in ACCURACY_PLACES.items():
+        for place, center in ACCURACY_PLACES.items():
             for view in (3, 100, 1e4):
                 if view > 3 and (view * radius > 1e5 or (view == 1e4 and radius > 1)):
                     continue
                 half = n // 2
-                o1, d1 = aimed_rays(centre, radius, view * radius, half, rng, lambda k: 0.99 * np.sqrt(rng.uniform(0, 1, k)))
-                o2, d2 = aimed_rays(centre, radius, view * radius, n - half, rng, lambda k: rng.uniform(1.01, 1.5, k))
+                o1, d1 = aimed_rays(center, radius, view * radius, half, rng, lambda k: 0.99 * np.sqrt(rng.uniform(0, 1, k)))
+                o2, d2 = aimed_rays(center, radius, view * radius, n - half, rng, lambda k: rng.uniform(1.01, 1.5, k))
                 origin, direction = np.concatenate([o1, o2], axis=1), np.concatenate([d1, d2], axis=1)
                 # judged by the float32 rays' own impact parameters (rounding moves them)
-                impact = miss_distance(origin, direction, centre) / radius
+                impact = miss_distance(origin, direction, center) / radius
                 should = impact <= 0.995
                 judged = should | (impact >= 1.005)
                 ray = mi.Ray3f(mi.Point3f(origin), mi.Vector3f(direction))
                 row = {"r": radius, "|C|": place, "view/r": view}
                 for kind in ("sphere", "ellipsoids"):
-                    scene = one_sphere(kind, centre, radius)   # alive until the lazy result is read
+                    scene = one_sphere(kind, center, radius)   # alive until the lazy result is read
                     si = scene.ray_intersect(ray)
                     t = np.where(np.array(si.is_valid()), np.array(si.t, float), np.inf)
-                    row[kind] = judge(t, si, origin, direction, centre, radius, should, judged)
-                t = ellipsoid_t(origin, direction, centre, radius, fixed=True).astype(float)
-                row["fixed"] = judge(t, None, origin, direction, centre, radius, should, judged)
+                    row[kind] = judge(t, si, origin, direction, center, radius, should, judged)
+                t = ellipsoid_t(origin, direction, center, radius, fixed=True).astype(float)
+                row["fixed"] = judge(t, None, origin, direction, center, radius, should, judged)
                 rows.append(row)
     return rows
 
@@ -247,15 +247,15 @@ MATERIALS = 4
 
 
 def random_spheres(count: int, seed: int = 1):
-    """``count`` non-overlapping spheres in a cube (centres 3×N, radii N, material index N):
+    """``count`` non-overlapping spheres in a cube (centers 3×N, radii N, material index N):
     a jittered grid, radii up to 0.4 of the cell."""
     rng = np.random.default_rng(seed)
     side = int(np.ceil(count ** (1 / 3)))
     cells = np.stack(np.meshgrid(*[np.arange(side)] * 3, indexing="ij")).reshape(3, -1)[:, :count]
     radius = rng.uniform(0.1, 0.4, count)
     jitter = rng.uniform(-1, 1, (3, count)) * (0.5 - radius)
-    centre = (cells + 0.5 + jitter) * (10.0 / side) - 5.0
-    return centre, radius * (10.0 / side), rng.integers(0, MATERIALS, count)
+    center = (cells + 0.5 + jitter) * (10.0 / side) - 5.0
+    return center, radius * (10.0 / side), rng.integers(0, MATERIALS, count)
 
 
 def bsdfs():
@@ -263,21 +263,21 @@ def bsdfs():
             for k in range(MATERIALS)}
 
 
-def sphere_dict(centre, radius, material):
+def sphere_dict(center, radius, material):
     scene = {"type": "scene", **bsdfs()}
     for k in range(len(radius)):
-        scene[f"s{k}"] = {"type": "sphere", "center": centre[:, k].tolist(), "radius": float(radius[k]),
+        scene[f"s{k}"] = {"type": "sphere", "center": center[:, k].tolist(), "radius": float(radius[k]),
                           "bsdf": {"type": "ref", "id": f"m{material[k]}"}}
     return scene
 
 
-def ellipsoids_dict(centre, radius, material):
+def ellipsoids_dict(center, radius, material):
     scene = {"type": "scene", **bsdfs()}
     for m in range(MATERIALS):
         pick = material == m
         count = int(pick.sum())
         scene[f"e{m}"] = {"type": "ellipsoids", "extent": 1.0,
-                          "centers": mi.TensorXf(np.ascontiguousarray(centre[:, pick].T, F32)),
+                          "centers": mi.TensorXf(np.ascontiguousarray(center[:, pick].T, F32)),
                           "scales": mi.TensorXf(np.repeat(radius[pick].astype(F32)[:, None], 3, axis=1)),
                           "quaternions": mi.TensorXf(np.tile(np.array([0, 0, 0, 1], F32), (count, 1))),
                           "bsdf": {"type": "ref", "id": f"m{m}"}}
@@ -321,10 +321,10 @@ def load_and_cast(counts, size: int = 512, rounds: int = 5):
     rows = []
     ray = camera_rays(size)
     for count in counts:
-        centre, radius, material = random_spheres(count)
+        center, radius, material = random_spheres(count)
         row, hits = {"N": count}, {}
         for kind, build in (("sphere", sphere_dict), ("ellipsoids", ellipsoids_dict)):
-            description, row[f"{kind} dict s"], _ = timed(lambda: build(centre, radius, material))
+            description, row[f"{kind} dict s"], _ = timed(lambda: build(center, radius, material))
             scene, row[f"{kind} load s"], row[f"{kind} load cpu s"] = \
                 timed(lambda: mi.load_dict(description, parallel=False))
             contenders = {how: cast(scene, ray, how == "preliminary") for how in ("preliminary", "interaction")}
@@ -425,11 +425,11 @@ def reference_at(path: str, pixels) -> dict:
     import reference as R
     from whitted.converter import parse_file
     model = parse_file(path)
-    centre = np.array([s.center for s in model.spheres])
+    center = np.array([s.center for s in model.spheres])
     radius = np.array([s.radius for s in model.spheres])
 
     def roots(origin, direction):
-        f = np.asarray(origin) - centre
+        f = np.asarray(origin) - center
         b = f @ np.asarray(direction)
         c = (f * f).sum(axis=1) - radius ** 2
         perpendicular = f - b[:, None] * np.asarray(direction)

@@ -1,5 +1,5 @@
 """Unit spheres held by one Mitsuba ``ellipsoids`` shape are spheres to the Whitted integrator
-(plugins/geometry.py reads their centres per primitive; whitted/sealed.py builds them)."""
+(plugins/geometry.py reads their centers per primitive; whitted/sealed.py builds them)."""
 
 from __future__ import annotations
 
@@ -36,17 +36,17 @@ def balls(seed=2, count=24):
     """Unit balls on a grid (jittered, apart), a floor sphere under them; alternate materials."""
     rng = np.random.default_rng(seed)
     grid = np.stack(np.meshgrid(np.arange(6), np.arange(4), indexing="ij")).reshape(2, -1).T[:count]
-    centre = np.c_[grid[:, 0] * 3.0 - 7.5, np.zeros(count), grid[:, 1] * -3.0 - 2.0] + rng.uniform(-0.4, 0.4, (count, 3))
-    return centre, (np.arange(count) % 2 == 0)
+    center = np.c_[grid[:, 0] * 3.0 - 7.5, np.zeros(count), grid[:, 1] * -3.0 - 2.0] + rng.uniform(-0.4, 0.4, (count, 3))
+    return center, (np.arange(count) % 2 == 0)
 
 
-def scene_dict(centre, red, grouped):
+def scene_dict(center, red, grouped):
     scene = {"type": "scene", "floor": {"type": "sphere", "center": [0.0, -1001.0, 0.0], "radius": 1000.0, "bsdf": FLOOR_BSDF}}
     if grouped:
-        scene["red"] = sealed.ellipsoids(centre[red], RED_BSDF)
-        scene["mirror"] = sealed.ellipsoids(centre[~red], MIRROR_BSDF)
+        scene["red"] = sealed.ellipsoids(center[red], RED_BSDF)
+        scene["mirror"] = sealed.ellipsoids(center[~red], MIRROR_BSDF)
     else:
-        for k, c in enumerate(centre):
+        for k, c in enumerate(center):
             scene[f"ball_{k}"] = {"type": "sphere", "center": c.tolist(), "radius": 1.0, "bsdf": RED_BSDF if red[k] else MIRROR_BSDF}
     return scene
 
@@ -59,8 +59,8 @@ def rays(n=4000, seed=3):
     return mi.Ray3f(mi.Point3f(origin.T.astype(np.float32)), mi.Vector3f((d / np.linalg.norm(d, axis=1)[:, None]).T.astype(np.float32)))
 
 
-def colours(scene, bsdf_ids):
-    """Each hit's base colour, looked up from its BSDF's instance ID."""
+def colors(scene, bsdf_ids):
+    """Each hit's base color, looked up from its BSDF's instance ID."""
     by_id = {int(dr.reinterpret_array(mi.UInt32, mi.BSDFPtr(s.bsdf()))[0]): tuple(float(c[0]) for c in s.bsdf().color.eval(dr.zeros(mi.SurfaceInteraction3f)))
              for s in scene.shapes()}
     return [by_id.get(int(k)) for k in np.asarray(bsdf_ids)]
@@ -68,16 +68,16 @@ def colours(scene, bsdf_ids):
 
 def test_the_sphere_table_serves_ellipsoid_primitives_as_their_spheres(llvm):
     from whitted.plugins import geometry
-    centre, red = balls()
+    center, red = balls()
     ray = rays()
     found = {}
     for grouped in (False, True):
-        scene = mi.load_dict(scene_dict(centre, red, grouped))
+        scene = mi.load_dict(scene_dict(center, red, grouped))
         assert geometry.SphereHits.applies(scene)
         hits = geometry.hit_finder(scene, need_uv=False)
         hit, si, bsdf, error = hits.intersect(ray, coherent=False)
         found[grouped] = (np.array(hit), np.array(si.t), np.array(si.n), np.array(si.p), np.array(error),
-                          colours(scene, bsdf))
+                          colors(scene, bsdf))
     plain, packed = found[False], found[True]
     assert plain[0].mean() > 0.5 and (plain[0] == packed[0]).all()
     h = plain[0]
@@ -94,15 +94,15 @@ def test_mitsuba_interactions_get_each_primitive_s_error_bound(variant):
     """Beside a shape of other primitives (a rectangle: two triangles), which keeps one bound."""
     whitted.set_variant(variant)
     from whitted.plugins import geometry
-    centre, red = balls(count=6)
-    description = scene_dict(centre, red, grouped=True)
+    center, red = balls(count=6)
+    description = scene_dict(center, red, grouped=True)
     description["wall"] = {"type": "rectangle", "bsdf": FLOOR_BSDF,
                            "to_world": mi.ScalarTransform4f().translate([0.0, 0.0, -30.0]).scale(50.0)}
     scene = mi.load_dict(description)
     assert not geometry.SphereHits.applies(scene)
     hits = geometry.MitsubaHits(scene, need_uv=False)
-    expected = geometry.hit_error(1.0, np.abs(np.float32(centre)).max(axis=1))
-    for k, c in enumerate(centre):   # straight down onto each ball
+    expected = geometry.hit_error(1.0, np.abs(np.float32(center)).max(axis=1))
+    for k, c in enumerate(center):   # straight down onto each ball
         ray = mi.Ray3f(mi.Point3f(*(float(x) for x in c + [0, 5, 0])), mi.Vector3f(0, -1, 0))
         hit, si, _, error = hits.intersect(ray, coherent=False)
         assert bool(np.array(hit).reshape(-1)[0])
@@ -116,11 +116,11 @@ def test_mitsuba_interactions_get_each_primitive_s_error_bound(variant):
 
 def test_a_light_on_a_grouped_sphere_is_found_on_it(llvm):
     from whitted.plugins import geometry
-    centre, red = balls(count=4)
-    scene = mi.load_dict(scene_dict(centre, red, grouped=True))
+    center, red = balls(count=4)
+    scene = mi.load_dict(scene_dict(center, red, grouped=True))
     hits = geometry.hit_finder(scene, need_uv=False)
-    error, normal = hits.surface_at(centre[3] + [0.0, 1.0, 0.0])
-    assert error == pytest.approx(geometry.hit_error(1.0, np.abs(np.float32(centre[3])).max()), rel=1e-6)
+    error, normal = hits.surface_at(center[3] + [0.0, 1.0, 0.0])
+    assert error == pytest.approx(geometry.hit_error(1.0, np.abs(np.float32(center[3])).max()), rel=1e-6)
     assert normal == pytest.approx((0.0, 1.0, 0.0), abs=1e-6)
 
 
@@ -238,18 +238,18 @@ def test_grouping_the_ball_around_the_eye_would_let_the_eye_see_out(llvm, write_
         assert_matches(whitted.render(forced).image, expected)
 
 
-@pytest.mark.parametrize("centre", [(0.0, 0.0, 0.0), (1.0, -0.7, 0.3), (283.5, 99.7, -98.6), (1e4, -7e3, 3e3)])
-def test_no_ray_meets_the_unit_ellipsoid_it_leaves(llvm, centre):
+@pytest.mark.parametrize("center", [(0.0, 0.0, 0.0), (1.0, -0.7, 0.3), (283.5, 99.7, -98.6), (1e4, -7e3, 3e3)])
+def test_no_ray_meets_the_unit_ellipsoid_it_leaves(llvm, center):
     """tests/hard_cases/test_acne.py's experiment on a unit sphere held by an ellipsoids
     shape (the only radius the loader gives them): outward rays and shadow segments leave it
     for good. (Inward rays do not exist for a sealed sphere; the shape culls them.)"""
     from hard_cases.test_acne import RAYS, failures_jit
     from whitted.plugins import geometry
-    centre = np.array(centre)
-    scene = mi.load_dict({"type": "scene", "ball": sealed.ellipsoids(centre[None], RED_BSDF)})
+    center = np.array(center)
+    scene = mi.load_dict({"type": "scene", "ball": sealed.ellipsoids(center[None], RED_BSDF)})
     hits = geometry.hit_finder(scene, need_uv=False)
     assert isinstance(hits, geometry.SphereHits)
-    n, outward, _, shadowed = failures_jit(scene, hits, centre, 1.0, np.pi, RAYS["llvm_ad_rgb"],
+    n, outward, _, shadowed = failures_jit(scene, hits, center, 1.0, np.pi, RAYS["llvm_ad_rgb"],
                                            np.random.default_rng(5))
     assert n > 0.9 * RAYS["llvm_ad_rgb"]
     assert (outward, shadowed) == (0, 0)

@@ -85,9 +85,9 @@ def test_remaining_scales_every_length_about_lookat_and_drops_the_group():
     rest = S.remaining(s, g)
     assert rest.lookat == lookat and rest.eye == (1, 2, 23) and rest.lights[0].position == (1, 22, 3)
     assert [(sp.center, sp.radius, sp.material) for sp in rest.spheres] == [((1, 10, 3), 4.0, GLASS)]
-    (material, centres), = S.groups(s, g, origin=lookat)
+    (material, centers), = S.groups(s, g, origin=lookat)
     assert material == MATTE
-    np.testing.assert_array_equal(centres, [[0, 0, -8], [6, 0, -8]])
+    np.testing.assert_array_equal(centers, [[0, 0, -8], [6, 0, -8]])
     # the same in another frame origin (a point of the scaled scene)
     (_, moved), = S.groups(s, g, origin=(0.0, 0.0, 0.0))
     np.testing.assert_array_equal(moved, [[1, 2, -5], [7, 2, -5]])

@@ -83,7 +83,7 @@ def _load_sealed(model, grouping, params: dict):
     scene = {"type": "scene", "integrator": rest.integrator(), "sensor": rest.sensors()[0]}
     scene.update((f"emitter_{k}", emitter) for k, emitter in enumerate(rest.emitters()))
     scene.update((f"shape_{k}", shape) for k, shape in enumerate(rest.shapes()))
-    for k, (material, centres) in enumerate(sealed.groups(model, grouping, origin=(0.0, 0.0, 0.0))):
+    for k, (material, centers) in enumerate(sealed.groups(model, grouping, origin=(0.0, 0.0, 0.0))):
         bsdf = "\n".join(_material_xml(material, f"sealed_{k}", None)).replace("<bsdf ", '<bsdf version="3.0.0" ', 1)
-        scene[f"sealed_{k}"] = sealed.ellipsoids(centres, mi.load_string(bsdf))
+        scene[f"sealed_{k}"] = sealed.ellipsoids(centers, mi.load_string(bsdf))
     return mi.load_dict(scene)

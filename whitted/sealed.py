@@ -31,7 +31,7 @@ between two surfaces is below the integrator's ray offset (docs/numerics.md,
 hazard 10), as it already does for sphere shapes.
 
 **Accuracy.** Mitsuba 3.9's ellipsoid intersection moves the ray origin to
-"the plane through the centre" before solving its quadratic, but computes
+"the plane through the center" before solving its quadratic, but computes
 that plane's distance in the unit sphere's coordinates as
 ``dot(-o, d) / norm(d)`` where ``|d| = 1/r``: for r ≠ 1 the point lands
 ``t·|1/r - 1|`` away from the plane and the quadratic cancels
@@ -42,7 +42,7 @@ the sphere's (same plane step, same quadratic). So the ellipsoids hold the
 sealed spheres of one radius, and the scene is loaded in a frame scaled so
 that this radius is 1. The article's model is invariant under a similarity
 transform: the image depends on the scene relative to itself (angles, and
-light colours measured at ``lookat``, which the loader recomputes from the
+light colors measured at ``lookat``, which the loader recomputes from the
 scaled distances), and the Whitted integrator's ray offsets are relative
 (docs/numerics.md), so the image changes by rounding only. So is the
 physical model (point lights' intensities ``I = c·π·d²`` scale with the
@@ -55,7 +55,7 @@ fewer rays leak between its touching spheres).
 This module works on the scene model (numpy, no Mitsuba): :func:`sealed`
 says which spheres are sealed, :func:`choose` picks the radius and the
 scale, :func:`remaining` gives the rest of the scene in that frame and
-:func:`groups` the grouped spheres' centres, by material.
+:func:`groups` the grouped spheres' centers, by material.
 """
 
 from __future__ import annotations
@@ -72,7 +72,7 @@ from .converter.scene import Material, Scene, Sphere
 #: round inside, and the sphere stays a real ``sphere`` shape
 CLEARANCE = 1e-5
 #: the largest distance from ``lookat`` a scaled scene may reach: light intensities
-#: (colour·π·d²) then stay below 10¹² as for a scene file (whitted.defaults.MAX_MAGNITUDE)
+#: (color·π·d²) then stay below 10¹² as for a scene file (whitted.defaults.MAX_MAGNITUDE)
 MAX_REACH = 1e6
 #: the fewest spheres of one radius worth an ``ellipsoids`` shape by default: below this the
 #: load time saved (~0.1 ms a sphere) is below a render's noise, and the scene is left as written
@@ -81,9 +81,9 @@ MIN_GROUP = 1000
 
 @dataclass(frozen=True)
 class Spheres:
-    """A scene's spheres as arrays: centres (N×3), radii (N), and each one's index into
+    """A scene's spheres as arrays: centers (N×3), radii (N), and each one's index into
     ``materials`` (the distinct materials, in order of first use)."""
-    centre: np.ndarray
+    center: np.ndarray
     radius: np.ndarray
     material: np.ndarray
     materials: list
@@ -92,7 +92,7 @@ class Spheres:
     def of(scene: Scene) -> "Spheres":
         spheres = scene.spheres
         n = len(spheres)
-        centre = np.fromiter(itertools.chain.from_iterable(s.center for s in spheres), np.float64, 3 * n)
+        center = np.fromiter(itertools.chain.from_iterable(s.center for s in spheres), np.float64, 3 * n)
         radius = np.fromiter((s.radius for s in spheres), np.float64, n)
         by_id, by_value, materials = {}, {}, []
 
@@ -105,7 +105,7 @@ class Spheres:
             return k
 
         material = np.fromiter((index(s.material) for s in spheres), np.int64, n)
-        return Spheres(centre.reshape(n, 3), radius, material, materials)
+        return Spheres(center.reshape(n, 3), radius, material, materials)
 
 
 def sealed(scene: Scene, spheres: Spheres | None = None) -> np.ndarray:
@@ -115,13 +115,13 @@ def sealed(scene: Scene, spheres: Spheres | None = None) -> np.ndarray:
     spheres = spheres or Spheres.of(scene)
     if not len(spheres.radius):
         return np.zeros(0, bool)
-    centre, radius = spheres.centre, spheres.radius
+    center, radius = spheres.center, spheres.radius
     opaque = np.array([m.refract == 0 and m.texture is None for m in spheres.materials], bool)
     clear = opaque[spheres.material]
     origin = np.asarray(scene.lookat, np.float64)
-    size = radius + np.linalg.norm(centre - origin, axis=1)
+    size = radius + np.linalg.norm(center - origin, axis=1)
     eye = np.asarray(scene.eye, np.float64)
-    distance = np.linalg.norm(eye - centre, axis=1)
+    distance = np.linalg.norm(eye - center, axis=1)
     return clear & (distance > radius + CLEARANCE * (size + np.linalg.norm(eye - origin)))
 
 
@@ -176,7 +176,7 @@ def reach(scene: Scene, spheres: Spheres) -> float:
     points = np.array([scene.eye, *(light.position for light in scene.lights)], np.float64)
     far = float(np.linalg.norm(points - origin, axis=1).max())
     if len(spheres.radius):
-        far = max(far, float((np.linalg.norm(spheres.centre - origin, axis=1) + spheres.radius).max()))
+        far = max(far, float((np.linalg.norm(spheres.center - origin, axis=1) + spheres.radius).max()))
     return far
 
 
@@ -186,7 +186,7 @@ def _about(point, origin, scale):
 
 def remaining(scene: Scene, grouping: Grouping) -> Scene:
     """``scene`` without the grouped spheres, every length multiplied by ``grouping.scale``
-    about its ``lookat`` (which stays put): eye, lights, sphere centres and radii. Colours,
+    about its ``lookat`` (which stays put): eye, lights, sphere centers and radii. Colours,
     angles and texture orientations are unchanged."""
     scale, origin = grouping.scale, scene.lookat
     keep = np.flatnonzero(~grouping.member).tolist()
@@ -199,7 +199,7 @@ def remaining(scene: Scene, grouping: Grouping) -> Scene:
 
 
 def groups(scene: Scene, grouping: Grouping, origin) -> list[tuple[Material, np.ndarray]]:
-    """The grouped spheres by material: ``(material, centres)``, the centres (M×3, float64)
+    """The grouped spheres by material: ``(material, centers)``, the centers (M×3, float64)
     in the scaled scene's coordinates minus ``origin`` (the loader's frame origin, a point
     of the scaled scene). Their radius there is 1."""
     spheres, scale = grouping.spheres, grouping.scale
@@ -209,18 +209,18 @@ def groups(scene: Scene, grouping: Grouping, origin) -> list[tuple[Material, np.
     for k, material in enumerate(spheres.materials):
         pick = grouping.member & (spheres.material == k)
         if pick.any():
-            result.append((material, (spheres.centre[pick] - lookat) * scale + shift))
+            result.append((material, (spheres.center[pick] - lookat) * scale + shift))
     return result
 
 
-def ellipsoids(centres: np.ndarray, bsdf) -> dict:
-    """The ``mi.load_dict`` entry of one ``ellipsoids`` shape of unit spheres at ``centres``
+def ellipsoids(centers: np.ndarray, bsdf) -> dict:
+    """The ``mi.load_dict`` entry of one ``ellipsoids`` shape of unit spheres at ``centers``
     (M×3): equal scales of 1, no rotation, and ``extent`` 1 (Mitsuba's default, 3, would
     triple them)."""
     import mitsuba as mi
-    count = len(centres)
+    count = len(centers)
     return {"type": "ellipsoids", "extent": 1.0,
-            "centers": mi.TensorXf(np.ascontiguousarray(centres, np.float32).reshape(count, 3)),
+            "centers": mi.TensorXf(np.ascontiguousarray(centers, np.float32).reshape(count, 3)),
             "scales": mi.TensorXf(np.ones((count, 3), np.float32)),
             "quaternions": mi.TensorXf(np.tile(np.array([0.0, 0.0, 0.0, 1.0], np.float32), (count, 1))),
             "bsdf": bsdf}
