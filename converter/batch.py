@@ -15,6 +15,7 @@ from pathlib import Path
 
 from ..atomic import write_text
 from ..errors import WhittedError
+from .frame import warn_precision
 from .parser import parse_file
 from .xml_writer import scene_to_xml
 
@@ -74,11 +75,13 @@ def plan(inputs: list[str | os.PathLike], output: str | os.PathLike | None = Non
 
 
 def convert_file(source: Path, target: Path) -> None:
-    """Parse ``source`` and write its XML to ``target`` atomically (nothing for an invalid scene)."""
+    """Parse ``source`` and write its XML to ``target`` atomically (nothing for an invalid scene);
+    warn on stderr when float32 cannot hold the scene's detail (:mod:`.frame`)."""
     scene = parse_file(source)
     if target.is_dir():
         raise WhittedError(f"{target}: is a folder; give the output file's name")
     xml = scene_to_xml(scene, base_dir=target.parent)
+    warn_precision(scene)
     try:
         write_text(target, xml)
     except OSError as error:

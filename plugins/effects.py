@@ -39,8 +39,11 @@ class PointLight:
     ``intensity`` is Mitsuba's radiant intensity I (physical lighting divides
     it by r^2); ``colour`` is the article's light colour ``I / (pi d^2)``, d
     the distance from the light to the integrator's ``light_reference`` point
-    (1 when zero): the converter wrote ``I = colour·pi·d^2``, so this recovers
-    the scene file's colour exactly.
+    (1 when zero): the converter wrote ``I = colour·pi·d^2`` with d measured to
+    the scene's ``lookat``, which is the origin of the frame it writes
+    positions in and the ``light_reference`` it writes, (0, 0, 0); so this
+    recovers the scene file's colour to float32 rounding, wherever the file
+    put the scene (docs/numerics.md, hazard 6b, also for hand-edited XML).
     """
     position: tuple[float, float, float]
     intensity: tuple[float, float, float]

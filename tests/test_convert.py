@@ -255,13 +255,14 @@ def xml_of(text: str, tmp_path=None) -> ET.Element:
 def test_xml_contract_defaults_integrator_sensor():
     root = xml_of("size 32 24\nfov 60\nlookat 1 2 3\nambient 0.4\ndepth 7\nsamples 9\n")
     defaults = {d.get("name"): d.get("value") for d in root.findall("default")}
-    assert defaults == {"spp": "9", "max_depth": "7", "ambient": "0.4", "lighting": "article"}
+    assert defaults == {"spp": "9", "max_depth": "7", "ambient": "0.4", "lighting": "article",
+                        "world_origin": "1.0, 2.0, 3.0"}   # positions are relative to lookat
     (integrator,) = root.findall("integrator")
     assert integrator.get("type") == "whitted"
     props = {e.get("name"): (e.tag, e.get("value")) for e in integrator}
     assert props == {"max_depth": ("integer", "$max_depth"), "ambient": ("float", "$ambient"),
                      "lighting": ("string", "$lighting"),
-                     "light_reference": ("point", "1.0, 2.0, 3.0")}
+                     "light_reference": ("point", "0.0, 0.0, 0.0")}   # lookat, in the frame
     (sensor,) = root.findall("sensor")
     assert sensor.get("type") == "perspective"
     values = {e.get("name"): e.get("value") for e in sensor if e.get("name")}

@@ -236,7 +236,8 @@ def test_camera_is_the_spec_camera():
     got = np.array(ray.d).T
     expected = np.array([camera_ray(model, i + 0.5, j + 0.5)[1] for i, j in zip(x.ravel(), y.ravel())])
     np.testing.assert_allclose(got, expected, atol=2e-6)
-    np.testing.assert_allclose(np.array(ray.o).T, np.tile(model.eye, (x.size, 1)), atol=1e-5)
+    eye = np.subtract(model.eye, model.lookat)   # the converter's frame is centered on lookat
+    np.testing.assert_allclose(np.array(ray.o).T, np.tile(eye, (x.size, 1)), atol=1e-5)
     np.testing.assert_array_equal(np.array(position).T, np.stack([x.ravel(), y.ravel()], axis=1))
 
 
@@ -319,6 +320,7 @@ def test_sample_traces_a_whole_tree(suite, variant):
     expected = suite("glass", "reference")
     for i, j in ((W // 2, H // 2 - 3), (5, 5), (30, 20)):
         o, d = camera_ray(model, i + 0.5, j + 0.5)
+        o = np.subtract(o, model.lookat)    # world -> the converter's frame (centered on lookat)
         colour, valid, aovs = integrator.sample(scene_, None, mi.Ray3f(mi.Point3f(o), mi.Vector3f(d)))
         assert np.abs(np.array(colour).ravel() - expected[j, i]).max() < 0.02
 

@@ -209,9 +209,10 @@ def spec_ray(g, i, j):
     return d / np.linalg.norm(d)
 
 
-def sphere_to_world(e) -> np.ndarray:
+def sphere_to_world(e, origin) -> np.ndarray:
     """Object-to-world of a sphere: plain scale + translation, or the texture frame
-    (Ve, Vn x Ve, Vn) of the format's lat/long mapping, times the radius."""
+    (Ve, Vn x Ve, Vn) of the format's lat/long mapping, times the radius; the
+    translation relative to the scene's ``origin``."""
     m = np.eye(4)
     if e["texture"] is None:
         m[:3, :3] *= e["radius"]
@@ -220,7 +221,7 @@ def sphere_to_world(e) -> np.ndarray:
         eq = np.array(e["equator"])
         ve = unit(eq - eq.dot(vn) * vn)
         m[:3, :3] = np.column_stack([ve, np.cross(vn, ve), vn]) * e["radius"]
-    m[:3, 3] = e["center"]
+    m[:3, 3] = np.subtract(e["center"], origin)
     return m
 
 
@@ -279,6 +280,12 @@ def test_random_valid_scenes_survive_parse_xml_and_load(folder, data):
     root = ET.parse(target).getroot()
     defaults = {d.get("name"): d.get("value") for d in root.iter("default")}
     assert (int(defaults["max_depth"]), float(defaults["ambient"])) == (g["depth"], g["ambient"])
+    # Positions are written relative to the scene origin, the lookat point (docs/CONTRACTS.md).
+    origin = np.array([float(c) for c in defaults["world_origin"].split(",")])
+    assert list(origin) == list(g["lookat"])
+
+    def frame(p):
+        return np.subtract(p, origin)
     loaded = mi.load_file(str(target))
     params = mi.traverse(loaded)
 
@@ -287,16 +294,16 @@ def test_random_valid_scenes_survive_parse_xml_and_load(folder, data):
     assert sensor.sampler().sample_count() == g["samples"]
     close(params[_key(params, "x_fov")], g["fov"])
     w, h = g["size"]
-    scale = max(1.0, *map(abs, g["eye"]))
+    scale = max(1.0, *map(abs, frame(g["eye"])))
     for i, j in {(0, 0), (w - 1, 0), (0, h - 1), (w - 1, h - 1), (w // 2, h // 2)}:
         ray, _ = sensor.sample_ray(0.0, 0.5, mi.Point2f((i + 0.5) / w, (j + 0.5) / h), mi.Point2f(0.5))
         close(ray.d, spec_ray(g, i, j), rel=2e-5)
-        close(ray.o, g["eye"], scale=scale, rel=1e-5)
+        close(ray.o, frame(g["eye"]), scale=scale, rel=1e-5)
 
     reference = np.array(g["lookat"])
     for k, s in enumerate(lights):
         d2 = float(np.sum((np.array(s.expect["position"]) - reference) ** 2)) or 1.0
-        close(params[f"light_{k}.position"], s.expect["position"], scale=100)
+        close(params[f"light_{k}.position"], frame(s.expect["position"]), scale=100)
         close(params[f"light_{k}.intensity.value"], np.array(s.expect["color"]) * math.pi * d2,
               scale=1e-3, rel=1e-5)
     if any(g["background"]):
@@ -308,7 +315,7 @@ def test_random_valid_scenes_survive_parse_xml_and_load(folder, data):
     si = dr.zeros(mi.SurfaceInteraction3f)
     for k, s in enumerate(spheres):
         e, shape = s.expect, shapes[f"sphere_{k}"]
-        close(matrix(params[f"sphere_{k}.to_world"]), sphere_to_world(e), scale=100, rel=2e-6)
+        close(matrix(params[f"sphere_{k}.to_world"]), sphere_to_world(e, origin), scale=100, rel=2e-6)
         bsdf = shape.bsdf()
         for name in ("reflect", "refract", "ior"):
             close(scalar(bsdf.eval_attribute_1(name, si)), e[name])

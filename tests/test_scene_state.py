@@ -80,9 +80,11 @@ def test_changes_through_mitsuba_parameters_show_in_the_next_render(variant, bui
 
     params = mi.traverse(scene)
     center, radius, color, light = (-0.7, 0.8, 0.4), 1.2, (0.3, 0.9, 0.4), (-2.0, 5.0, 5.0)
-    params["sphere_1.to_world"] = mi.ScalarTransform4f().translate(center).scale(radius)
+    # Mitsuba holds the converter's frame: world coordinates minus the scene's lookat.
+    frame = [tuple(a - b for a, b in zip(p, original.lookat)) for p in (center, light)]
+    params["sphere_1.to_world"] = mi.ScalarTransform4f().translate(frame[0]).scale(radius)
     params["material_2.color.value"] = mi.Color3f(color)
-    params["light_0.position"] = mi.Point3f(light)
+    params["light_0.position"] = mi.Point3f(frame[1])
     # the converter's encoding of the article's light color (plugins/effects.py): I = color·π·d²
     params["light_0.intensity.value"] = mi.Color3f(math.pi * sum((a - b) ** 2 for a, b in zip(light, original.lookat)))
     params.update()

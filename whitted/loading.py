@@ -1,22 +1,64 @@
-"""``load_scene``: a ``mi.Scene`` from a legacy ``.scn`` or a converted ``.xml`` file."""
+"""``load_scene``: a ``mi.Scene`` from a legacy ``.scn`` or a converted ``.xml`` file.
+
+A ``.scn`` file goes from the scene model to Mitsuba without XML text: the
+converter's description (:mod:`whitted.converter.description`, the very one
+the XML writer writes out) is handed to ``mi.load_dict`` once its markers are
+made Mitsuba objects, so both routes build the same scene
+(tests/test_scene_building.py). Writing and re-parsing the text would add
+time and nothing else. Both are loaded serially: Mitsuba's per-sphere cost
+(~50-75 µs in llvm_ad_rgb) is the same from text or dict, and its parallel
+loading only adds to it (benchmarks/RESULTS.md, "Scene building").
+"""
 
 from __future__ import annotations
 
 import os
 from pathlib import Path
 
-from .defaults import check_depth, check_lighting
+from . import defaults as D
+from .defaults import LIGHTING_MODES, check_lighting  # noqa: F401  (LIGHTING_MODES: re-export)
 from .errors import WhittedError
 
-#: Scene parameters that can be overridden at load time (``<default>`` entries of the XML).
-OVERRIDES = ("spp", "max_depth", "ambient", "lighting")
+#: Scene parameters that can be overridden at load time (``<default>`` entries of the XML),
+#: with the check each override goes through.
+OVERRIDES = {"spp": D.check_spp, "max_depth": D.check_depth, "ambient": D.check_ambient,
+             "lighting": check_lighting}
+
+#: Mitsuba's parallel loading (``parallel=`` of ``mi.load_file``/``load_dict``): off. It
+#: cost 35-40 % more CPU time and more wall time on 2 cores at every size measured
+#: (benchmarks/scene_building.py; benchmarks/RESULTS.md, "Scene building").
+PARALLEL = False
 
 
-def scene_xml(path: str | os.PathLike, model=None) -> str:
-    """The Mitsuba XML of a legacy scene, with absolute texture paths (loadable from memory).
-    ``model``: the scene model of ``path`` when already parsed (the file is not read again)."""
-    from .converter import parse_file, scene_to_xml
-    return scene_to_xml(model if model is not None else parse_file(path), base_dir=None)
+def mitsuba_dict(description, overrides: dict | None = None) -> dict:
+    """The description's scene as ``mi.load_dict`` takes it: markers made Mitsuba values.
+
+    ``overrides`` (name -> value) replace the defaults of the scene's parameters.
+    """
+    import mitsuba as mi
+
+    from .converter.description import LookAt, Matrix, Param
+    values = {**description.defaults, **(overrides or {})}
+
+    def convert(value):
+        if isinstance(value, dict):
+            return {key: convert(v) for key, v in value.items()}
+        if isinstance(value, Param):
+            return values[value.name]
+        if isinstance(value, LookAt):
+            return mi.ScalarTransform4d().look_at(origin=value.origin, target=value.target, up=value.up)
+        if isinstance(value, Matrix):
+            return mi.ScalarTransform4d([list(row) for row in value.rows])
+        return value
+    return convert(description.scene)
+
+
+def _checked(overrides: dict) -> dict:
+    unknown = sorted(set(overrides) - set(OVERRIDES))
+    if unknown:
+        raise WhittedError(f"unknown scene override(s) {', '.join(unknown)}; "
+                           f"choose from {', '.join(OVERRIDES)}")
+    return {k: OVERRIDES[k](v) for k, v in overrides.items() if v is not None}
 
 
 def load_scene(path: str | os.PathLike, variant: str | None = None, *, model=None,
@@ -27,8 +69,8 @@ def load_scene(path: str | os.PathLike, variant: str | None = None, *, model=Non
     ``model`` is the already parsed scene model of a ``.scn`` ``path``
     (``whitted.converter.Scene``): the file is then not read again.
     ``ellipsoids``: load the *sealed* spheres of a ``.scn`` scene (opaque,
-    untextured, holding neither the eye nor a light) of its commonest radius as
-    Mitsuba ``ellipsoids`` shapes, in a frame scaled to make that radius 1
+    untextured, not holding the eye) of its commonest radius as Mitsuba
+    ``ellipsoids`` shapes, in a frame scaled to make that radius 1
     (:mod:`whitted.sealed`: the same image, a hundred times faster to load than
     as ``sphere`` shapes). None (the default) does so when at least
     ``sealed.MIN_GROUP`` spheres share that radius, True whenever one does,
@@ -40,15 +82,7 @@ def load_scene(path: str | os.PathLike, variant: str | None = None, *, model=Non
 
     from .variant import set_variant
     set_variant(variant)
-    unknown = sorted(set(overrides) - set(OVERRIDES))
-    if unknown:
-        raise WhittedError(f"unknown scene override(s) {', '.join(unknown)}; "
-                           f"choose from {', '.join(OVERRIDES)}")
-    params = {k: str(v) for k, v in overrides.items() if v is not None}
-    if "lighting" in params:
-        check_lighting(params["lighting"])
-    if overrides.get("max_depth") is not None:
-        check_depth(overrides["max_depth"])
+    params = _checked(overrides)
     path = Path(path)
     if not path.exists():
         raise WhittedError(f"{path}: no such file")
@@ -56,34 +90,32 @@ def load_scene(path: str | os.PathLike, variant: str | None = None, *, model=Non
         raise WhittedError(f"{path}: is a folder, not a scene file")
     try:
         if path.suffix.lower() == ".xml":
-            return mi.load_file(str(path), **params)
-        from . import sealed
+            return mi.load_file(str(path), parallel=PARALLEL, **{k: str(v) for k, v in params.items()})
         from .converter import parse_file
-        model = model if model is not None else parse_file(path)
+        from .converter.description import describe
+        from .converter.frame import warn_precision
+        if model is None:
+            model = parse_file(path)
+            warn_precision(model)
+        from . import sealed
         grouping = None if ellipsoids is False else \
             sealed.choose(model, min_group=1 if ellipsoids else sealed.MIN_GROUP)
         if grouping is None:
-            return mi.load_string(scene_xml(path, model), **params)
-        return _load_sealed(model, grouping, params)
+            return mi.load_dict(mitsuba_dict(describe(model, base_dir=None), params), parallel=PARALLEL)
+        return mi.load_dict(_sealed_dict(model, grouping, params), parallel=PARALLEL)
     except RuntimeError as error:
         first = str(error).strip().splitlines()[0] if str(error).strip() else type(error).__name__
         raise WhittedError(f"{path}: Mitsuba could not load the scene: {first}") from None
 
 
-def _load_sealed(model, grouping, params: dict):
-    """The scene with its grouped spheres (:func:`whitted.sealed.choose`) in ``ellipsoids``
-    shapes: the rest is loaded from its XML, in the scaled frame, and its objects are put
-    in one scene with the ellipsoids (one shape per material)."""
-    import mitsuba as mi
-
+def _sealed_dict(model, grouping, params: dict) -> dict:
+    """The ``mi.load_dict`` form of ``model`` with its grouped spheres
+    (:func:`whitted.sealed.choose`) in ``ellipsoids`` shapes, one per material: the
+    description of the rest of the scene in the scaled frame, plus those shapes."""
     from . import sealed
-    from .converter import scene_to_xml
-    from .converter.xml_writer import _material_xml
-    rest = mi.load_string(scene_to_xml(sealed.remaining(model, grouping), base_dir=None), **params)
-    scene = {"type": "scene", "integrator": rest.integrator(), "sensor": rest.sensors()[0]}
-    scene.update((f"emitter_{k}", emitter) for k, emitter in enumerate(rest.emitters()))
-    scene.update((f"shape_{k}", shape) for k, shape in enumerate(rest.shapes()))
-    for k, (material, centers) in enumerate(sealed.groups(model, grouping, origin=(0.0, 0.0, 0.0))):
-        bsdf = "\n".join(_material_xml(material, f"sealed_{k}", None)).replace("<bsdf ", '<bsdf version="3.0.0" ', 1)
-        scene[f"sealed_{k}"] = sealed.ellipsoids(centers, mi.load_string(bsdf))
-    return mi.load_dict(scene)
+    from .converter.description import describe, material_dict
+    description = describe(sealed.remaining(model, grouping), base_dir=None)
+    scene = mitsuba_dict(description, params)
+    for k, (material, centers) in enumerate(sealed.groups(model, grouping, description.origin)):
+        scene[f"sealed_{k}"] = sealed.ellipsoids(centers, material_dict(material, base_dir=None))
+    return scene

@@ -1,10 +1,14 @@
 """Translation and scale invariance: the article's model has no length scale and no
-preferred origin, so the same scene moved by 10^4 or scaled by 10^-3 (eye, lights,
-centres and radii alike) must give the same image, in both variants.
+preferred origin, so the same scene moved (up to 10^7) or scaled (eye, lights, centers
+and radii alike) must give the same image, in both variants.
 
 "The same" is the hazard suite's threshold (mean absolute difference <= 0.004, at most
 1% of pixels off by more than 0.02) against the untransformed render of the same
-variant, and against the float64 reference of the transformed scene.
+variant, and against the float64 reference of the transformed scene. Mitsuba stores
+the scene in float32: translations beyond 10^4 hold only because the converter writes
+positions relative to the scene's lookat (converter/frame.py; docs/numerics.md,
+"Scenes far from the origin"). Every hazard scene stays meaningful under every
+transform here (the smallest radius, 0.02·10^-4, is above the format's 10^-6).
 """
 
 from __future__ import annotations
@@ -14,61 +18,77 @@ import numpy as np
 import pytest
 
 import hazard_scenes as hs
-from reference import assert_matches
 import whitted
 import whitted.rendering
 from conftest import VARIANTS
-from reference import render_reference
+from reference import assert_matches, render_reference
 from whitted.converter import scene_to_xml
 
-SCENES = ["mirror_and_glass", "camera_inside", "touching_and_nested", "light_on_surface", "light_on_floor",
-          "texture_poles", "facing_mirrors"]
-TRANSFORMS = {"moved by 1e4": dict(offset=(1e4, -1e4, 1e4)), "scaled by 1e-3": dict(scale=1e-3)}
+SCENES = list(hs.HAZARDS) + ["mirror_and_glass"]
+TRANSFORMS = {
+    "moved by 1e4": dict(offset=(1e4, -1e4, 1e4)),
+    "moved by 1e5": dict(offset=(1e5, -1e5, 1e5)),
+    "moved by 1e6": dict(offset=(1e6, -1e6, 1e6)),
+    "moved by 1e7": dict(offset=(1e7, -1e7, 1e7)),
+    "scaled by 1e-3": dict(scale=1e-3),
+    "scaled by 1e-4, moved by 1e2": dict(scale=1e-4, offset=(1e2, -1e2, 1e2)),
+}
 
 
 def model(name: str, tmp_dir):
-    builder = getattr(hs, name)
-    return builder(tmp_dir) if name == "texture_poles" else builder()
+    return hs.build(name, tmp_dir) if name in hs.HAZARDS else getattr(hs, name)()
 
 
-def render(scene, variant: str) -> np.ndarray:
+def load(scene) -> mi.Scene:
+    return mi.load_string(scene_to_xml(scene, base_dir=None))
+
+
+def render(scene, variant: str, **options) -> np.ndarray:
     previous = mi.variant()
     whitted.set_variant(variant)
     try:
-        return whitted.render(mi.load_string(scene_to_xml(scene, base_dir=None))).image
+        return whitted.render(load(scene), **options).image
     finally:
         whitted.set_variant(previous)
 
 
 @pytest.fixture(scope="module")
-def originals(tmp_path_factory):
+def cached(tmp_path_factory):
+    """``cached(name, transform, what)``: the (transformed) model, its float64 reference
+    ("reference") or its render in a variant, each computed once for the module."""
     tmp_dir = tmp_path_factory.mktemp("invariance")
     cache = {}
 
-    def get(name: str, variant: str):
-        if (name, variant) not in cache:
-            cache[(name, variant)] = render(model(name, tmp_dir), variant)
-        return cache[(name, variant)]
-    get.tmp_dir = tmp_dir
+    def get(name: str, transform: str | None, what: str = "model"):
+        key = (name, transform, what)
+        if key not in cache:
+            if what == "model":
+                base = model(name, tmp_dir)
+                cache[key] = base if transform is None else hs.transformed(base, **TRANSFORMS[transform])
+            elif what == "reference":
+                cache[key] = render_reference(get(name, transform))
+            else:
+                cache[key] = render(get(name, transform), what)
+        return cache[key]
     return get
 
 
 @pytest.mark.parametrize("variant", VARIANTS)
 @pytest.mark.parametrize("transform", list(TRANSFORMS))
 @pytest.mark.parametrize("name", SCENES)
-def test_same_image_after_moving_or_scaling(originals, name, transform, variant):
-    scene = hs.transformed(model(name, originals.tmp_dir), **TRANSFORMS[transform])
-    image = render(scene, variant)
-    assert_matches(image, originals(name, variant).astype(np.float64))
-    assert_matches(image, render_reference(scene))
+def test_same_image_after_moving_or_scaling(cached, name, transform, variant):
+    image = cached(name, transform, variant)
+    assert_matches(image, cached(name, None, variant).astype(np.float64))
+    assert_matches(image, cached(name, transform, "reference"))
 
 
 @pytest.mark.parametrize("variant", VARIANTS)
-def test_beyond_1e4_the_image_stays_finite_and_close(variant):
-    """At 10^5 a float32 coordinate steps by 0.008 and the ray offsets grow to ~0.02 (a
-    unit sphere's surface is only known that well): edges move, so single pixels may
-    differ, but nothing becomes NaN, acne or noise (docs/numerics.md, "Scenes far from the
-    origin")."""
-    scene = hs.transformed(hs.mirror_and_glass(), offset=(1e5, 1e5, 1e5))
-    image = render(scene, variant)
-    assert_matches(image, render_reference(scene), outliers=0.05)
+def test_path_tracer_far_from_the_origin_is_the_same_render(cached, variant):
+    """Mitsuba's own ``path`` integrator, same seed, at the origin and moved by 10^6: in the
+    converter's frame both are the same float32 scene, so the two renders agree to float
+    round-off, not merely within noise (without the frame: 18 % of the Whitted pixels
+    are off at 10^6, and the paths diverge)."""
+    options = dict(integrator="path", spp=4, seed=7)
+    here = render(cached("mirror_and_glass", None), variant, **options)
+    far = render(cached("mirror_and_glass", "moved by 1e6"), variant, **options)
+    assert np.abs(here.astype(np.float64) - far).max() <= 1e-5

@@ -1,0 +1,222 @@
+"""Scene model -> one plain-Python description of the Mitsuba scene, in ``mi.load_dict`` form.
+
+Why one description. A converted scene reaches Mitsuba two ways: as XML text
+(``whitted convert``, :mod:`.xml_writer`) and, for ``whitted render x.scn``,
+straight from the model through ``mi.load_dict`` (:mod:`whitted.loading`),
+which skips writing and parsing text. Both are built from this description,
+so every formula (the frame, the light intensities, the texture frames, the
+clip range) is written once and the two paths give the same scene by
+construction (tests/test_scene_building.py checks it, parameter by
+parameter and render by render).
+
+The description is Mitsuba's dict form without Mitsuba: this module imports
+neither Mitsuba nor Dr.Jit (the converter runs without them). Values the
+dict form can only hold as Mitsuba objects, and the XML's ``$name``
+parameters, are small marker classes: :class:`LookAt` and :class:`Matrix`
+(a ``to_world`` transform), :class:`Param` (a scene parameter with a
+default, overridable when the scene is loaded). Points are 3-tuples, colors
+``{"type": "rgb", "value": (r, g, b)}``. Keys at the top level are the
+objects' ids; nested keys are property names.
+
+Radiometry (README, "Lights"): a point light of article color ``c`` becomes
+a Mitsuba ``point`` emitter of intensity ``I = c·π·d²``, ``d`` the light's
+distance to ``lookat`` (1 when zero). A physically lit white diffuse surface
+at ``lookat`` facing the light then receives, after the BSDF's 1/π, exactly
+the article's ``c``; the Whitted integrator divides the factor out again for
+article lighting (it gets ``lookat`` as ``light_reference``).
+
+Positions are written in the scene's frame (:mod:`.frame`): world
+coordinates minus the scene origin (``lookat``), which :attr:`Description.origin`
+keeps so that a reader can recover world coordinates.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+
+from .. import defaults as D
+from .frame import scene_origin, to_frame
+from .scene import Material, Scene, Sphere, Vec3
+
+
+# -- markers for what the dict form cannot hold without Mitsuba ----------------------------------
+
+@dataclass(frozen=True)
+class Param:
+    """A scene parameter: ``$name`` in the XML (with a ``<default>``), the default value or
+    the caller's override when loaded from the dict."""
+    name: str
+
+
+@dataclass(frozen=True)
+class LookAt:
+    """A ``to_world`` transform given as Mitsuba's ``lookat`` (computed by Mitsuba, in float64)."""
+    origin: Vec3
+    target: Vec3
+    up: Vec3
+
+
+@dataclass(frozen=True)
+class Matrix:
+    """A ``to_world`` transform given as a 4×4 matrix, row by row."""
+    rows: tuple[tuple[float, float, float, float], ...]
+
+
+@dataclass
+class Description:
+    """A Mitsuba scene as plain Python.
+
+    ============ ==============================================================
+    ``scene``    the scene in ``mi.load_dict`` form, with the markers above
+    ``defaults`` parameter name -> default value, in the order the XML lists
+                 them (the values :class:`Param` markers stand for)
+    ``origin``   the world coordinates of the frame's origin: world = frame + origin
+    ``source``   the name of the scene file it came from
+    ============ ==============================================================
+    """
+    scene: dict
+    defaults: dict = field(default_factory=dict)
+    origin: Vec3 = (0.0, 0.0, 0.0)
+    source: str = ""
+
+
+# -- vector helpers (float64) --------------------------------------------------------------------
+
+def _sub(a: Vec3, b: Vec3) -> Vec3:
+    return (a[0] - b[0], a[1] - b[1], a[2] - b[2])
+
+
+def _dot(a: Vec3, b: Vec3) -> float:
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+
+
+def _cross(a: Vec3, b: Vec3) -> Vec3:
+    return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
+
+
+def normalize(a: Vec3) -> Vec3:
+    """``a`` / |a|, scaled first so that tiny or huge components neither underflow nor overflow."""
+    scale = max(abs(c) for c in a)
+    a = (a[0] / scale, a[1] / scale, a[2] / scale)
+    n = math.sqrt(_dot(a, a))
+    return (a[0] / n, a[1] / n, a[2] / n)
+
+
+# -- the formulas --------------------------------------------------------------------------------
+
+def texture_frame(north: Vec3, equator: Vec3) -> tuple[Vec3, Vec3, Vec3]:
+    """The sphere's local axes (x, y, z) = (Ve, Vn x Ve, Vn).
+
+    With these, Mitsuba's sphere UV (u = atan2(y, x) / 2pi, v = acos(z) / pi)
+    equals the article's lat/long mapping with v flipped: Mitsuba's v = 0 is the
+    north pole and a bitmap's top row, as the article's row floor((1 - v) H).
+    """
+    vn = normalize(north)
+    d = _dot(equator, vn)
+    ve = normalize((equator[0] - d * vn[0], equator[1] - d * vn[1], equator[2] - d * vn[2]))
+    return ve, _cross(vn, ve), vn
+
+
+def light_intensity(scene: Scene, position: Vec3, color: Vec3) -> Vec3:
+    """Point-light intensity that matches the article's brightness at ``lookat``."""
+    d2 = _dot(_sub(position, scene.lookat), _sub(position, scene.lookat))
+    if d2 == 0.0:
+        d2 = 1.0
+    return tuple(c * math.pi * d2 for c in color)
+
+
+def clip_range(scene: Scene) -> tuple[float, float]:
+    """Near and far clip distances that contain every sphere seen from the eye."""
+    extent = math.sqrt(_dot(_sub(scene.lookat, scene.eye), _sub(scene.lookat, scene.eye)))
+    for s in scene.spheres:
+        extent = max(extent, math.sqrt(_dot(_sub(s.center, scene.eye), _sub(s.center, scene.eye))) + s.radius)
+    far = 4.0 * extent
+    # Mitsuba starts primary rays on the near plane, not at the eye. A near/far
+    # ratio of 1e-12 keeps them at the eye for any fov and aspect ratio while the
+    # directions stay as float32-exact as with Mitsuba's defaults (measured: the
+    # directions degrade only below a ratio of about 1e-16).
+    return far * 1e-12, far
+
+
+# -- the description -----------------------------------------------------------------------------
+
+def _rgb(value: Vec3) -> dict:
+    return {"type": "rgb", "value": tuple(float(c) for c in value)}
+
+
+def _shared(material: Material) -> Material:
+    """The material as written: a texture replaces the color, which then plays no part."""
+    return material if material.texture is None else replace(material, color=Material.color)
+
+
+def material_dict(material: Material, base_dir: Path | None) -> dict:
+    """The ``article`` BSDF of ``material`` (the loader's ellipsoids take it too)."""
+    if material.texture is None:
+        color = _rgb(material.color)
+    else:
+        # Real paths: the OS resolves '..' after following a symlinked output folder.
+        path = str(material.texture) if base_dir is None else \
+            Path(os.path.relpath(os.path.realpath(material.texture), os.path.realpath(base_dir))).as_posix()
+        color = {"type": "bitmap", "filename": path, "filter_type": "nearest", "wrap_mode": "clamp"}
+    return {"type": "article", "color": color, "reflect": float(material.reflect),
+            "refract": float(material.refract), "ior": float(material.ior)}
+
+
+def _sphere(sphere: Sphere, origin: Vec3, material_id: str) -> dict:
+    center = to_frame(sphere.center, origin)
+    shape = {"type": "sphere"}
+    if sphere.material.texture is None:
+        shape.update(center=center, radius=float(sphere.radius))
+    else:
+        # Oriented so that Mitsuba's own UV is the article's mapping.
+        x, y, z = texture_frame(sphere.north, sphere.equator)
+        r = sphere.radius
+        rows = tuple((x[i] * r, y[i] * r, z[i] * r, center[i]) for i in range(3)) + ((0.0, 0.0, 0.0, 1.0),)
+        shape["to_world"] = Matrix(rows)
+    shape["bsdf"] = {"type": "ref", "id": material_id}
+    return shape
+
+
+def describe(scene: Scene, base_dir: str | os.PathLike | None) -> Description:
+    """The description of ``scene``. Texture paths are relative to ``base_dir`` (the folder
+    the XML will live in: Mitsuba resolves paths against it), or absolute when it is None."""
+    base_dir = None if base_dir is None else Path(os.path.abspath(base_dir))
+    origin = scene_origin(scene)
+    near, far = clip_range(scene)
+    defaults = {"spp": int(scene.samples), "max_depth": int(scene.depth),
+                "ambient": float(scene.ambient), "lighting": D.LIGHTING}
+    integrator = {"type": "whitted", "max_depth": Param("max_depth"), "ambient": Param("ambient"),
+                  "lighting": Param("lighting")}
+    if scene.min_weight is not None:
+        # Only when the scene sets it: otherwise the integrator's own default applies.
+        defaults["min_weight"] = float(scene.min_weight)
+        integrator["min_weight"] = Param("min_weight")
+    integrator["light_reference"] = to_frame(scene.lookat, origin)
+    objects: dict = {"type": "scene", "integrator": integrator}
+    objects["sensor"] = {
+        "type": "perspective", "fov_axis": "x", "fov": float(scene.fov),
+        "near_clip": near, "far_clip": far,
+        "to_world": LookAt(to_frame(scene.eye, origin), to_frame(scene.lookat, origin), normalize(scene.up)),
+        "sampler": {"type": "independent", "sample_count": Param("spp")},
+        "film": {"type": "hdrfilm", "width": int(scene.width), "height": int(scene.height),
+                 "pixel_format": "rgb", "rfilter": {"type": "box"}},
+    }
+    if any(c > 0 for c in scene.background):
+        objects["background"] = {"type": "constant", "radiance": _rgb(scene.background)}
+    for i, light in enumerate(scene.lights):
+        objects[f"light_{i}"] = {"type": "point", "position": to_frame(light.position, origin),
+                                 "intensity": _rgb(light_intensity(scene, light.position, light.color))}
+    # Identical materials are described once and shared by reference, which keeps
+    # Mitsuba's per-material dispatch small for scenes of many spheres.
+    materials: dict[Material, str] = {}
+    for sphere in scene.spheres:
+        material = _shared(sphere.material)
+        if material not in materials:
+            materials[material] = f"material_{len(materials)}"
+            objects[materials[material]] = material_dict(material, base_dir)
+    for i, sphere in enumerate(scene.spheres):
+        objects[f"sphere_{i}"] = _sphere(sphere, origin, materials[_shared(sphere.material)])
+    return Description(objects, defaults, origin, scene.source.name)
