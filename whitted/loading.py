@@ -71,8 +71,8 @@ def load_scene(path: str | os.PathLike, variant: str | None = None, *, model=Non
     ``ellipsoids``: load the *sealed* spheres of a ``.scn`` scene (opaque,
     untextured, not holding the eye) of its commonest radius as Mitsuba
     ``ellipsoids`` shapes, in a frame scaled to make that radius 1
-    (:mod:`whitted.sealed`: the same image, a hundred times faster to load than
-    as ``sphere`` shapes). None (the default) does so when at least
+    (:mod:`whitted.sealed`: the same image; those spheres load a hundred times
+    faster than as ``sphere`` shapes). None (the default) does so when at least
     ``sealed.MIN_GROUP`` spheres share that radius, True whenever one does,
     False never. ``.xml`` files are loaded as written.
     ``overrides`` replace the scene's ``spp``, ``max_depth``, ``ambient`` or
