@@ -187,7 +187,8 @@ def judge(t, si, origin, direction, center, radius, should_hit, judged):
 
 
 ACCURACY_RADII = (1e-3, 1e-2, 0.1, 1.0, 10.0, 1e2, 1e4, 1e6)
-ACCURACY_PLACES = {"0": (0.0, 0.0, 0.0), "1e4": tuple(1e4 * np.array([1.0, -0.7, 0.3]) / np.linalg.norm([1.0, -0.7, 0.3]))}
+ACCURACY_PLACES = {"0": (0.0, 0.0, 0.0),
+                   "1e4": tuple(1e4 * np.array([1.0, -0.7, 0.3]) / np.linalg.norm([1.0, -0.7, 0.3]))}
 
 
 def accuracy(n: int = 20000, seed: int = 3):
@@ -200,8 +201,10 @@ def accuracy(n: int = 20000, seed: int = 3):
                 if view > 3 and (view * radius > 1e5 or (view == 1e4 and radius > 1)):
                     continue
                 half = n // 2
-                o1, d1 = aimed_rays(center, radius, view * radius, half, rng, lambda k: 0.99 * np.sqrt(rng.uniform(0, 1, k)))
-                o2, d2 = aimed_rays(center, radius, view * radius, n - half, rng, lambda k: rng.uniform(1.01, 1.5, k))
+                o1, d1 = aimed_rays(center, radius, view * radius, half, rng,
+                                    lambda k: 0.99 * np.sqrt(rng.uniform(0, 1, k)))
+                o2, d2 = aimed_rays(center, radius, view * radius, n - half, rng,
+                                    lambda k: rng.uniform(1.01, 1.5, k))
                 origin, direction = np.concatenate([o1, o2], axis=1), np.concatenate([d1, d2], axis=1)
                 # judged by the float32 rays' own impact parameters (rounding moves them)
                 impact = miss_distance(origin, direction, center) / radius
@@ -532,7 +535,8 @@ def main(argv=None):
         import sections
         body = "## Mitsuba's ellipsoids shape as a fast path for spheres (benchmarks/ellipsoids.py)\n\n" + \
             "\n".join(texts).replace("\n== ", "\n### ") + \
-            "\n\nRun `.venv/bin/python benchmarks/ellipsoids.py --markdown benchmarks/RESULTS.md` to rewrite this section."
+            "\n\nRun `.venv/bin/python benchmarks/ellipsoids.py --reference --markdown benchmarks/RESULTS.md` " \
+            "to rewrite this section."
         sections.replace(args.markdown, "ellipsoids", body)
 
 

@@ -93,9 +93,9 @@ class ShapeNumbers:
 
     Center and radius come from the bounding boxes (exact to a float32 ulp of
     |C| + r for a sphere: within the error bound), and an ellipsoid's from its
-    own center and largest scale (its box: the center ± that radius); a frame (rows: the local x, y and z axes) is
-    the ``to_world`` rotation of a sphere whose colour varies over it, which
-    also gives that sphere's center and radius.
+    own center and largest scale (its box: the center ± that radius); a frame
+    (rows: the local x, y and z axes) is the ``to_world`` rotation of a sphere
+    whose color varies over it, which also gives that sphere's center and radius.
     """
     low: np.ndarray          # 3×P, bounding box
     high: np.ndarray         # 3×P

@@ -29,25 +29,30 @@ def article(color, reflect=0.0):
     return {"type": "article", "color": {"type": "rgb", "value": list(color)}, "reflect": reflect}
 
 
-RED_BSDF, MIRROR_BSDF, FLOOR_BSDF = article((0.9, 0.2, 0.2)), article((0.9, 0.9, 0.9), 0.8), article((0.7, 0.7, 0.6))
+RED_BSDF = article((0.9, 0.2, 0.2))
+MIRROR_BSDF = article((0.9, 0.9, 0.9), 0.8)
+FLOOR_BSDF = article((0.7, 0.7, 0.6))
 
 
 def balls(seed=2, count=24):
     """Unit balls on a grid (jittered, apart), a floor sphere under them; alternate materials."""
     rng = np.random.default_rng(seed)
     grid = np.stack(np.meshgrid(np.arange(6), np.arange(4), indexing="ij")).reshape(2, -1).T[:count]
-    center = np.c_[grid[:, 0] * 3.0 - 7.5, np.zeros(count), grid[:, 1] * -3.0 - 2.0] + rng.uniform(-0.4, 0.4, (count, 3))
+    center = np.c_[grid[:, 0] * 3.0 - 7.5, np.zeros(count), grid[:, 1] * -3.0 - 2.0]
+    center += rng.uniform(-0.4, 0.4, (count, 3))
     return center, (np.arange(count) % 2 == 0)
 
 
 def scene_dict(center, red, grouped):
-    scene = {"type": "scene", "floor": {"type": "sphere", "center": [0.0, -1001.0, 0.0], "radius": 1000.0, "bsdf": FLOOR_BSDF}}
+    floor = {"type": "sphere", "center": [0.0, -1001.0, 0.0], "radius": 1000.0, "bsdf": FLOOR_BSDF}
+    scene = {"type": "scene", "floor": floor}
     if grouped:
         scene["red"] = sealed.ellipsoids(center[red], RED_BSDF)
         scene["mirror"] = sealed.ellipsoids(center[~red], MIRROR_BSDF)
     else:
         for k, c in enumerate(center):
-            scene[f"ball_{k}"] = {"type": "sphere", "center": c.tolist(), "radius": 1.0, "bsdf": RED_BSDF if red[k] else MIRROR_BSDF}
+            scene[f"ball_{k}"] = {"type": "sphere", "center": c.tolist(), "radius": 1.0,
+                                  "bsdf": RED_BSDF if red[k] else MIRROR_BSDF}
     return scene
 
 
@@ -56,13 +61,15 @@ def rays(n=4000, seed=3):
     target = np.c_[rng.uniform(-9, 9, n), rng.uniform(-1.5, 1.5, n), rng.uniform(-13, 0, n)]
     origin = np.tile([0.0, 6.0, 12.0], (n, 1))
     d = target - origin
-    return mi.Ray3f(mi.Point3f(origin.T.astype(np.float32)), mi.Vector3f((d / np.linalg.norm(d, axis=1)[:, None]).T.astype(np.float32)))
+    d /= np.linalg.norm(d, axis=1)[:, None]
+    return mi.Ray3f(mi.Point3f(origin.T.astype(np.float32)), mi.Vector3f(d.T.astype(np.float32)))
 
 
 def colors(scene, bsdf_ids):
     """Each hit's base color, looked up from its BSDF's instance ID."""
-    by_id = {int(dr.reinterpret_array(mi.UInt32, mi.BSDFPtr(s.bsdf()))[0]): tuple(float(c[0]) for c in s.bsdf().color.eval(dr.zeros(mi.SurfaceInteraction3f)))
-             for s in scene.shapes()}
+    def color(bsdf):
+        return tuple(float(c[0]) for c in bsdf.color.eval(dr.zeros(mi.SurfaceInteraction3f)))
+    by_id = {int(dr.reinterpret_array(mi.UInt32, mi.BSDFPtr(s.bsdf()))[0]): color(s.bsdf()) for s in scene.shapes()}
     return [by_id.get(int(k)) for k in np.asarray(bsdf_ids)]
 
 
@@ -132,7 +139,8 @@ def test_ellipsoids_that_are_not_spheres_leave_the_sphere_table_out(llvm):
     shape = sealed.ellipsoids(np.zeros((2, 3)), RED_BSDF)
     shape["quaternions"] = mi.TensorXf(np.array([[0, 0, 0, 1], [0, 0.6, 0, 0.8]], np.float32))
     assert not geometry.SphereHits.applies(mi.load_dict({"type": "scene", "e": shape}))
-    assert geometry.SphereHits.applies(mi.load_dict({"type": "scene", "e": sealed.ellipsoids(np.zeros((2, 3)), RED_BSDF)}))
+    spheres = sealed.ellipsoids(np.zeros((2, 3)), RED_BSDF)
+    assert geometry.SphereHits.applies(mi.load_dict({"type": "scene", "e": spheres}))
 
 
 # -- whole images: the loader's fast path against sphere shapes and the float64 reference ----------
