@@ -22,8 +22,7 @@ import os
 import re
 from xml.sax.saxutils import escape
 
-from .description import (Description, LookAt, Matrix, Param, clip_range, describe,  # noqa: F401
-                          light_intensity, texture_frame)
+from .description import Description, LookAt, Matrix, Param, describe
 from .scene import Scene, Vec3
 
 FORMAT_VERSION = "3.0.0"

@@ -17,9 +17,9 @@ from pathlib import Path
 
 import pytest
 
-#: glass and mirrors at a size that takes tens of seconds to render on 2 cores
-SLOW_SCENE = """size 1600 1200
-samples 16
+#: glass and mirrors at a size that takes minutes to render on 2 cores
+SLOW_SCENE = """size 4096 3072
+samples 64
 depth 12
 light 5 5 10
 light -5 3 8 0.5 0.5 0.5
@@ -65,7 +65,7 @@ def slow_scene(tmp_path):
 def test_render_stops_cleanly(slow_scene, tmp_path, integrator, number, delay):
     args = ["render", str(slow_scene), "-o", "out.png", "--integrator", integrator]
     if integrator == "path":
-        args += ["--spp", "256"]
+        args += ["--spp", "1024"]
     status, out, err, took = interrupt_after(start(args, tmp_path), delay, number)
     assert status == 128 + number
     assert err.strip().splitlines()[-1] == "whitted: interrupted"
@@ -76,7 +76,7 @@ def test_render_stops_cleanly(slow_scene, tmp_path, integrator, number, delay):
 
 def test_compare_keeps_what_finished(slow_scene, tmp_path):
     scene = tmp_path / "small.scn"
-    scene.write_text(SLOW_SCENE.replace("size 1600 1200", "size 32 24").replace("samples 16", "samples 1"))
+    scene.write_text(SLOW_SCENE.replace("size 4096 3072", "size 32 24").replace("samples 64", "samples 1"))
     out = tmp_path / "cmp"
     process = start(["compare", str(scene), "--out", str(out), "--reference-spp", "16",
                      "--repeats", "30", "--depths", "1-8", "--spp", "1,4,16", "--path-spp", "1"], tmp_path)

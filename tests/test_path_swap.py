@@ -22,7 +22,7 @@ import pytest
 
 import whitted
 from whitted.converter import Light, Material, Scene, Sphere, scene_to_xml
-from whitted.converter.xml_writer import light_intensity
+from whitted.converter.description import light_intensity
 from whitted.metrics import relative_mse
 
 from conftest import VARIANTS

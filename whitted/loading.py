@@ -16,7 +16,7 @@ import os
 from pathlib import Path
 
 from . import defaults as D
-from .defaults import LIGHTING_MODES, check_lighting  # noqa: F401  (LIGHTING_MODES: re-export)
+from .defaults import check_lighting
 from .errors import WhittedError
 
 #: Scene parameters that can be overridden at load time (``<default>`` entries of the XML),
