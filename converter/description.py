@@ -152,7 +152,8 @@ def _shared(material: Material) -> Material:
     return material if material.texture is None else replace(material, color=Material.color)
 
 
-def _material(material: Material, base_dir: Path | None) -> dict:
+def material_dict(material: Material, base_dir: Path | None) -> dict:
+    """The ``article`` BSDF of ``material`` (the loader's ellipsoids take it too)."""
     if material.texture is None:
         color = _rgb(material.color)
     else:
@@ -215,7 +216,7 @@ def describe(scene: Scene, base_dir: str | os.PathLike | None) -> Description:
         material = _shared(sphere.material)
         if material not in materials:
             materials[material] = f"material_{len(materials)}"
-            objects[materials[material]] = _material(material, base_dir)
+            objects[materials[material]] = material_dict(material, base_dir)
     for i, sphere in enumerate(scene.spheres):
         objects[f"sphere_{i}"] = _sphere(sphere, origin, materials[_shared(sphere.material)])
     return Description(objects, defaults, origin, scene.source.name)

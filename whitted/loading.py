@@ -61,12 +61,20 @@ def _checked(overrides: dict) -> dict:
     return {k: OVERRIDES[k](v) for k, v in overrides.items() if v is not None}
 
 
-def load_scene(path: str | os.PathLike, variant: str | None = None, *, model=None, **overrides):
+def load_scene(path: str | os.PathLike, variant: str | None = None, *, model=None,
+               ellipsoids: bool | None = None, **overrides):
     """Load a ``.scn`` or ``.xml`` scene as a ``mi.Scene``.
 
     ``variant`` selects a Mitsuba variant first (default: keep the current one).
     ``model`` is the already parsed scene model of a ``.scn`` ``path``
     (``whitted.converter.Scene``): the file is then not read again.
+    ``ellipsoids``: load the *sealed* spheres of a ``.scn`` scene (opaque,
+    untextured, not holding the eye) of its commonest radius as Mitsuba
+    ``ellipsoids`` shapes, in a frame scaled to make that radius 1
+    (:mod:`whitted.sealed`: the same image; those spheres load a hundred times
+    faster than as ``sphere`` shapes). None (the default) does so when at least
+    ``sealed.MIN_GROUP`` spheres share that radius, True whenever one does,
+    False never. ``.xml`` files are loaded as written.
     ``overrides`` replace the scene's ``spp``, ``max_depth``, ``ambient`` or
     ``lighting`` ("article" or "physical").
     """
@@ -89,7 +97,25 @@ def load_scene(path: str | os.PathLike, variant: str | None = None, *, model=Non
         if model is None:
             model = parse_file(path)
             warn_precision(model)
-        return mi.load_dict(mitsuba_dict(describe(model, base_dir=None), params), parallel=PARALLEL)
+        from . import sealed
+        grouping = None if ellipsoids is False else \
+            sealed.choose(model, min_group=1 if ellipsoids else sealed.MIN_GROUP)
+        if grouping is None:
+            return mi.load_dict(mitsuba_dict(describe(model, base_dir=None), params), parallel=PARALLEL)
+        return mi.load_dict(_sealed_dict(model, grouping, params), parallel=PARALLEL)
     except RuntimeError as error:
         first = str(error).strip().splitlines()[0] if str(error).strip() else type(error).__name__
         raise WhittedError(f"{path}: Mitsuba could not load the scene: {first}") from None
+
+
+def _sealed_dict(model, grouping, params: dict) -> dict:
+    """The ``mi.load_dict`` form of ``model`` with its grouped spheres
+    (:func:`whitted.sealed.choose`) in ``ellipsoids`` shapes, one per material: the
+    description of the rest of the scene in the scaled frame, plus those shapes."""
+    from . import sealed
+    from .converter.description import describe, material_dict
+    description = describe(sealed.remaining(model, grouping), base_dir=None)
+    scene = mitsuba_dict(description, params)
+    for k, (material, centers) in enumerate(sealed.groups(model, grouping, description.origin)):
+        scene[f"sealed_{k}"] = sealed.ellipsoids(centers, material_dict(material, base_dir=None))
+    return scene
