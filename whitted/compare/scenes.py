@@ -91,9 +91,14 @@ class SceneFile:
         return cls(path, name, data, None, *_xml_textures_and_depth(path, data))
 
     def load(self, variant: str | None = None):
-        """The ``mi.Scene`` (``variant`` as for :func:`whitted.load_scene`)."""
+        """The ``mi.Scene`` (``variant`` as for :func:`whitted.load_scene`).
+
+        Always as sphere shapes, never regrouped as ellipsoids: that regrouping
+        rescales the scene, and Mitsuba's path tracer (whose ray offsets are
+        absolute) is not scale-invariant, so the reference would change with it.
+        """
         from ..loading import load_scene
-        return load_scene(self.path, variant, model=self.model)
+        return load_scene(self.path, variant, model=self.model, ellipsoids=False)
 
 
 def _xml_textures_and_depth(path: Path, data: bytes) -> tuple[tuple[Path, ...], int | None]:
