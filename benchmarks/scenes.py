@@ -34,9 +34,9 @@ def diffuse_spheres(count: int, width: int, height: int, spp: int, depth: int = 
     spheres = [Sphere((0.0, -1000.0, 0.0), 1000.0, Material(color=(0.8, 0.8, 0.75)))]
     for _ in range(balls):
         radius = float(rng.uniform(0.4, 0.8) * scale)
-        centre = (float(rng.uniform(-5, 5)), float(radius + rng.uniform(0, 2.5)), float(rng.uniform(-6, 3)))
-        colour = tuple(float(c) for c in rng.uniform(0.2, 0.9, 3))
-        spheres.append(Sphere(centre, radius, Material(color=colour)))
+        center = (float(rng.uniform(-5, 5)), float(radius + rng.uniform(0, 2.5)), float(rng.uniform(-6, 3)))
+        color = tuple(float(c) for c in rng.uniform(0.2, 0.9, 3))
+        spheres.append(Sphere(center, radius, Material(color=color)))
     return Scene(width=width, height=height, eye=(0.0, 3.0, 12.0), lookat=(0.0, 0.8, 0.0), fov=50.0,
                  samples=spp, depth=depth, lights=[Light((6.0, 10.0, 8.0))], spheres=spheres)
 
@@ -66,7 +66,7 @@ def without(model: Scene, effect: str) -> Scene:
 
 
 def write_texture(path: Path) -> Path:
-    """A 64×32 checker of two colours (8-bit sRGB)."""
+    """A 64×32 checker of two colors (8-bit sRGB)."""
     rows, cols = np.mgrid[0:32, 0:64]
     checker = ((rows // 4 + cols // 4) % 2).astype(bool)
     pixels = np.where(checker[..., None], [230, 200, 60], [40, 90, 160]).astype(np.uint8)
@@ -83,7 +83,7 @@ _ARTICLE = re.compile(r'<bsdf type="article" id="(\w+)">\s*<rgb name="color" val
 
 
 def load_for_direct(model: Scene):
-    """The same scene with Mitsuba's C++ ``diffuse`` BSDF (reflectance = the sphere's colour)."""
+    """The same scene with Mitsuba's C++ ``diffuse`` BSDF (reflectance = the sphere's color)."""
     if any(s.material.reflect or s.material.refract or s.material.texture for s in model.spheres):
         raise ValueError("Mitsuba's direct integrator is compared on diffuse, untextured spheres only")
     xml = scene_to_xml(model, base_dir=None)

@@ -12,11 +12,11 @@ coordinates), and Mitsuba stores the small differences.
 
 Why ``lookat``. It is where the camera looks, so the geometry that fills the
 image lies around it and gets float32's finest spacing; it is the point the
-article's light colours are measured at already (the integrator's
+article's light colors are measured at already (the integrator's
 ``light_reference``), which in this frame is the origin. Measured on the
 hazard scenes (docs/numerics.md) it does as well as the eye everywhere and
 better where the eye is far from what it sees (a telephoto view from 10^4
-away), where an eye-centred frame would put the whole scene 10^4 out.
+away), where an eye-centered frame would put the whole scene 10^4 out.
 
 What a frame cannot fix: a scene whose own extent is large against its
 smallest detail (a floor sphere of radius 10^7 under balls of radius 0.1: in
@@ -59,7 +59,7 @@ def _length(v: Vec3) -> float:
 
 def extent(scene: Scene, origin: Vec3) -> float:
     """The largest distance from ``origin`` that Mitsuba stores: the eye, and each sphere's
-    centre plus its radius (the size of the numbers that describe its surface)."""
+    center plus its radius (the size of the numbers that describe its surface)."""
     reach = _length(to_frame(scene.eye, origin))
     for sphere in scene.spheres:
         reach = max(reach, _length(to_frame(sphere.center, origin)) + sphere.radius)

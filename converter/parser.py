@@ -527,9 +527,9 @@ class _Parser:
 
     def statement_background(self, args):
         self.count("background", args, "R G B", 3)
-        color = self.vector(args, "background colour")
+        color = self.vector(args, "background color")
         for value, token in zip(color, args):
-            self.in_range(value, token.text, "background colour", 0, None)
+            self.in_range(value, token.text, "background color", 0, None)
         self.scene.background = _floats(color)
 
     def statement_ambient(self, args):
@@ -559,9 +559,9 @@ class _Parser:
     def statement_light(self, args):
         self.count("light", args, "X Y Z [R G B]", 3, 6)
         position = self.vector(args[:3], "light position")
-        color = self.vector(args[3:], "light colour") if len(args) == 6 else (1, 1, 1)
+        color = self.vector(args[3:], "light color") if len(args) == 6 else (1, 1, 1)
         for value, token in zip(color, args[3:]):
-            self.in_range(value, token.text, "light colour", 0, None)
+            self.in_range(value, token.text, "light color", 0, None)
         self.scene.lights.append(Light(_floats(position), _floats(color), line=self.line))
 
     def statement_sphere(self, args):
@@ -570,11 +570,11 @@ class _Parser:
             numbers += 1
         if numbers < 4:
             if numbers < len(args) and not _looks_like_name(args[numbers]):
-                self.number(args[numbers], "sphere " + ("centre" if numbers < 3 else "radius"))
+                self.number(args[numbers], "sphere " + ("center" if numbers < 3 else "radius"))
             self.fail(f"sphere takes 4 numbers (CX CY CZ RADIUS), got {numbers}")
         if numbers > 4:
             self.fail(f"sphere takes 4 numbers (CX CY CZ RADIUS) before its attributes, got {numbers}")
-        center = self.vector(args[:3], "sphere centre")
+        center = self.vector(args[:3], "sphere center")
         radius = self.number(args[3], "sphere radius")
         self.positive(radius, args[3].text, "sphere radius")
         values = self.attributes(args[4:])

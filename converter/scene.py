@@ -17,7 +17,7 @@ Vec3 = tuple[float, float, float]
 
 @dataclass(frozen=True)
 class Light:
-    """A point light; ``color`` is the article's light colour (no distance fall-off)."""
+    """A point light; ``color`` is the article's light color (no distance fall-off)."""
     position: Vec3
     color: Vec3 = D.LIGHT_COLOR
     line: int = 0
@@ -28,7 +28,7 @@ class Material:
     """A sphere's surface: the article's coefficients.
 
     The diffuse weight is 1 - reflect - refract; ``texture`` (an absolute path)
-    replaces ``color`` as the base colour when given.
+    replaces ``color`` as the base color when given.
     """
     color: Vec3 = D.COLOR
     reflect: float = D.REFLECT

@@ -103,7 +103,7 @@ def brightest(scene, analysis, lighting: str, ambient: float):
             lit += max(light.intensity) / distance ** 2
         point = base * lit / math.pi
     else:
-        point = base * (ambient + (1 - ambient) * sum(max(light.colour) for light in analysis.lights))
+        point = base * (ambient + (1 - ambient) * sum(max(light.color) for light in analysis.lights))
     return max(point, background) * max(1.0, gain) ** (analysis.depth - 1)
 
 

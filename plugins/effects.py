@@ -12,7 +12,7 @@ Effect names (also reported by ``whitted render --stats``):
 ``lights``      point lights: the direct term and its shadow rays
 ``reflection``  a surface with KR > 0, and a max depth above 1
 ``refraction``  a surface with KT > 0, and a max depth above 1
-``textures``    a surface whose base colour varies over it (a bitmap)
+``textures``    a surface whose base color varies over it (a bitmap)
 ``background``  an environment emitter (the scene's non-black background)
 """
 
@@ -37,17 +37,17 @@ class PointLight:
     """A point emitter, with both readings of its strength.
 
     ``intensity`` is Mitsuba's radiant intensity I (physical lighting divides
-    it by r^2); ``colour`` is the article's light colour ``I / (pi d^2)``, d
+    it by r^2); ``color`` is the article's light color ``I / (pi d^2)``, d
     the distance from the light to the integrator's ``light_reference`` point
-    (1 when zero): the converter wrote ``I = colour·pi·d^2`` with d measured to
+    (1 when zero): the converter wrote ``I = color·pi·d^2`` with d measured to
     the scene's ``lookat``, which is the origin of the frame it writes
     positions in and the ``light_reference`` it writes, (0, 0, 0); so this
-    recovers the scene file's colour to float32 rounding, wherever the file
+    recovers the scene file's color to float32 rounding, wherever the file
     put the scene (docs/numerics.md, hazard 6b, also for hand-edited XML).
     """
     position: tuple[float, float, float]
     intensity: tuple[float, float, float]
-    colour: tuple[float, float, float]
+    color: tuple[float, float, float]
 
 
 @dataclass
@@ -78,12 +78,12 @@ class SceneAnalysis:
 
 
 def _floats(value) -> tuple[float, ...]:
-    """A Mitsuba vector or colour (scalar or width-1 JIT array) as Python floats."""
+    """A Mitsuba vector or color (scalar or width-1 JIT array) as Python floats."""
     return tuple(float(x) for x in np.array(value, dtype=np.float64).reshape(-1))
 
 
-def article_colour(intensity, position, reference) -> tuple[float, float, float]:
-    """The article's light colour ``I / (pi d^2)`` (d = |position - reference|, 1 when 0)."""
+def article_color(intensity, position, reference) -> tuple[float, float, float]:
+    """The article's light color ``I / (pi d^2)`` (d = |position - reference|, 1 when 0)."""
     d2 = sum((p - r) ** 2 for p, r in zip(position, reference))
     if d2 == 0.0:
         d2 = 1.0
@@ -122,7 +122,7 @@ def analyse(scene, max_depth: int, light_reference) -> SceneAnalysis:
     What is read from the scene is computed once per scene state (:mod:`.scene_state`).
     """
     reference = _floats(light_reference)
-    lights = [PointLight(position, intensity, article_colour(intensity, position, reference))
+    lights = [PointLight(position, intensity, article_color(intensity, position, reference))
               for position, intensity in memo(scene, "lights", lambda: _lights(scene))]
     materials = memo(scene, "materials", lambda: scene_materials(scene))
     return SceneAnalysis(lights, scene.environment(), materials, max_depth)

@@ -17,7 +17,7 @@ as Mitsuba's sphere computes it: the hit is re-projected onto the sphere
 (``N = normalize(o + t·d - C)``, ``P = C + r·N``) and the UV is the direction's
 longitude and colatitude in the sphere's own frame (``u = atan2(y, x)/2π``,
 ``v = acos(z)/π``), which the converter orients so that UV is the article's
-mapping. Centre and radius come from the sphere's bounding box (exact to a
+mapping. Center and radius come from the sphere's bounding box (exact to a
 float32 ulp of |C| + r, the precision Mitsuba's own float32 hit has), and
 textured spheres' frames from their ``to_world`` transform.
 
@@ -43,25 +43,25 @@ from .surfaces import shape_materials
 
 #: float32's unit round-off, 2^-24
 UNIT_ROUNDOFF = 2.0 ** -24
-#: the error bound of a hit point, in round-offs of its shape's radius and of its centre's
+#: the error bound of a hit point, in round-offs of its shape's radius and of its center's
 #: largest coordinate (docs/numerics.md, "The error bound behind the ray offsets")
 RADIUS_ULPS = 8
-CENTRE_ULPS = 4
+CENTER_ULPS = 4
 
 
-def hit_error(radius, centre):
+def hit_error(radius, center):
     """How far a float32 hit point on a shape may lie off its surface, and how far off
     a float32 ray-shape test near it may place the surface.
 
     ``radius`` is the shape's radius (half its bounding box's widest side) and
-    ``centre`` its centre's largest coordinate magnitude. Both terms come from
-    rounding: re-projecting the point (``C + r·N``), subtracting the centre,
+    ``center`` its center's largest coordinate magnitude. Both terms come from
+    rounding: re-projecting the point (``C + r·N``), subtracting the center,
     and Mitsuba's float32 quadratic, whose self-intersection root is off by
     up to about two ulps of r (head-on rays) and an ulp of |C|. A floor sphere of
     radius 10^4 under the origin gets 7e-3, a unit sphere at 10^4 2.4e-3, a
     unit sphere at the origin 5e-7.
     """
-    return (RADIUS_ULPS * UNIT_ROUNDOFF) * radius + (CENTRE_ULPS * UNIT_ROUNDOFF) * centre
+    return (RADIUS_ULPS * UNIT_ROUNDOFF) * radius + (CENTER_ULPS * UNIT_ROUNDOFF) * center
 
 
 def lat_long_uv(n, x_axis, y_axis, z_axis):
@@ -203,8 +203,8 @@ def _shape_numbers(scene, need_uv: bool) -> ShapeNumbers:
 class _SurfacesNear:
     """Which sphere passes through a point, to within its error bound."""
 
-    def __init__(self, centre, radius, error, sphere):
-        self.centre, self.radius, self.error = centre[:, sphere], radius[sphere], error[sphere]
+    def __init__(self, center, radius, error, sphere):
+        self.center, self.radius, self.error = center[:, sphere], radius[sphere], error[sphere]
         self._answers = {}   # a light's position -> its answer: the lights ask at every render
 
     def surface_at(self, point):
@@ -217,7 +217,7 @@ class _SurfacesNear:
 
     def _surface_at(self, point):
         point = np.asarray(point, np.float64).reshape(3, 1)
-        offset = point - self.centre
+        offset = point - self.center
         distance = np.linalg.norm(offset, axis=0)
         near = np.flatnonzero(np.abs(distance - self.radius) <= 2 * self.error)
         if not len(near):
@@ -240,7 +240,7 @@ def blocked(scene, ray, active):
     quadratic in float32, whose discriminant ``B² - 4AC`` loses every digit
     when the ray starts a few thousand radii from the sphere (a small ball
     near a distant light casts a shadow of noise). Its ``ray_intersect_preliminary``
-    first moves the origin to the plane through the sphere's centre and stays
+    first moves the origin to the plane through the sphere's center and stays
     exact, so shadow rays use it. The scalar variants solve in float64 already.
     """
     if dr.is_jit_v(mi.Float):

@@ -2,7 +2,7 @@
 
 The article shades a sphere point as the linear combination
 
-    colour = (1 − KR − KT)·point + KR·reflected + KT·refracted
+    color = (1 − KR − KT)·point + KR·reflected + KT·refracted
 
 Read as a BSDF this is a mixture of three lobes, which is what this plugin
 gives Mitsuba's stock integrators (``path`` in particular):
@@ -275,7 +275,7 @@ class ArticleBSDF(mi.BSDF):
         return dr.select(active, value, 0.0), dr.select(active, pdf, 0.0)
 
     def eval_diffuse_reflectance(self, si, active=True):
-        """The base colour B (the diffuse lobe's albedo before its weight 1 − KR − KT)."""
+        """The base color B (the diffuse lobe's albedo before its weight 1 − KR − KT)."""
         return self.color.eval(si, active)
 
     def eval_attribute_1(self, name, si, active=True):

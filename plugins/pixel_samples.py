@@ -1,6 +1,6 @@
 """Where in its pixel each camera ray starts.
 
-With one sample per pixel the ray passes exactly through the pixel centre, so
+With one sample per pixel the ray passes exactly through the pixel center, so
 a render is deterministic (the scene format's rule). With N samples the pixel
 is cut into an ``nx × ny = N`` grid of equal cells (the most nearly square
 factorisation of N; a prime N gives N columns) and each sample is jittered

@@ -111,7 +111,7 @@ class Shader:
         for light in analysis.lights:
             error, normal = self.hits.surface_at(light.position)
             self.lights.append((dr.opaque(mi.Point3f, light.position),
-                                dr.opaque(mi.Color3f, light.intensity if self.physical else light.colour),
+                                dr.opaque(mi.Color3f, light.intensity if self.physical else light.color),
                                 (dr.opaque(mi.Float, error), dr.opaque(mi.Vector3f, normal)) if error else None))
         self.environment = analysis.environment
         self.reflection = analysis.has("reflection")

@@ -5,7 +5,7 @@ to the right from the seam) drawn from formulas, so it needs no download and is
 the same on every machine. It is deliberately easy to read on a sphere: blobby
 continents, a 30-degree grid, a yellow equator, a white north cap unlike the grey
 south one, red letters "N" in the northern band and a red arrow pointing north
-at the centre column, which faces the camera with the default ``north 0 1 0``
+at the center column, which faces the camera with the default ``north 0 1 0``
 and ``equator 0 0 -1``. A map drawn upside down or mirrored is obvious at once.
 
 Run: ``python scenes/make_textures.py`` (``make scenes`` does). The file is only
@@ -61,14 +61,14 @@ ARROW = [
 
 
 def lat_long() -> tuple[np.ndarray, np.ndarray]:
-    """Latitude and longitude (degrees) of each texel centre; row 0 is the north."""
+    """Latitude and longitude (degrees) of each texel center; row 0 is the north."""
     lat = 90.0 - (np.arange(HEIGHT) + 0.5) * 180.0 / HEIGHT
     lon = (np.arange(WIDTH) + 0.5) * 360.0 / WIDTH
     return np.meshgrid(lat, lon, indexing="ij")
 
 
 def land_mask(lat: np.ndarray, lon: np.ndarray) -> np.ndarray:
-    """Blobs around the continent centres, by great-circle distance, with wavy coasts."""
+    """Blobs around the continent centers, by great-circle distance, with wavy coasts."""
     phi, lam = np.radians(lat), np.radians(lon)
     height = np.zeros_like(lat)
     for c_lat, c_lon, radius in CONTINENTS:
@@ -107,7 +107,7 @@ def earth() -> np.ndarray:
     image[on_meridian | on_parallel] = GRID
     image[np.abs(lat) < 180.0 / HEIGHT] = EQUATOR
     # Markers that show which way is north: letters N in the northern band,
-    # an arrow pointing north on the centre column (u = 0.5).
+    # an arrow pointing north on the center column (u = 0.5).
     for u in (0.125, 0.375, 0.625, 0.875):
         stamp(image, LETTER_N, row=12, col=int(u * WIDTH) - 5, scale=2, color=MARK)
     stamp(image, ARROW, row=HEIGHT // 2 - 24, col=WIDTH // 2 - 9, scale=2, color=MARK)

@@ -4,7 +4,7 @@ It shares no code with the integrator: its own camera formula, sphere
 intersection, shading recursion and texture mapping, in plain Python floats
 (float64) on the scene *model* (``whitted.converter.Scene``), not on Mitsuba's
 scene. Only reading an image file's raw texels goes through ``mi.Bitmap`` (no
-colour conversion: 8-bit sRGB is decoded here with the sRGB formula).
+color conversion: 8-bit sRGB is decoded here with the sRGB formula).
 
 Secondary and shadow rays start exactly at the hit point; in float64 the
 surface they leave is re-found at |t| ~ 1e-15, far below the ``EPSILON``
@@ -60,7 +60,7 @@ def hadamard(a, b):
 # -- camera --------------------------------------------------------------------------------------
 
 def camera_ray(scene, i: float, j: float):
-    """The ray through image position (i, j) (column, row; pixel centres at +0.5): the spec's formula."""
+    """The ray through image position (i, j) (column, row; pixel centers at +0.5): the spec's formula."""
     f = normalize(sub(scene.lookat, scene.eye))
     right = normalize(cross(f, scene.up))
     true_up = cross(right, f)
@@ -190,7 +190,7 @@ class Reference:
     scene: object                      # whitted.converter.Scene
     max_depth: int | None = None       # None: the scene's depth
     ambient: float | None = None
-    lighting: str = "article"          # or "physical": (B/π)·I·cos/r², I = colour·π·d_ref²
+    lighting: str = "article"          # or "physical": (B/π)·I·cos/r², I = color·π·d_ref²
 
     def __post_init__(self):
         self.depth = self.scene.depth if self.max_depth is None else self.max_depth
@@ -202,7 +202,7 @@ class Reference:
         self.rays = {"camera": 0, "shadow": 0, "reflection": 0, "refraction": 0}
         self.deepest = 0               # the deepest level that traced a ray
 
-    def base_colour(self, sphere, point):
+    def base_color(self, sphere, point):
         material = sphere.material
         if material.texture is None:
             return tuple(material.color)
@@ -212,7 +212,7 @@ class Reference:
         return texel(self._textures[path], *lat_long(sphere, point))
 
     def light_strength(self, light, point, normal):
-        """The article's s·light_colour, or physically I·cos/r²; 0 when shadowed."""
+        """The article's s·light_color, or physically I·cos/r²; 0 when shadowed."""
         to_light = sub(light.position, point)
         r = norm(to_light)
         if r == 0:
@@ -239,7 +239,7 @@ class Reference:
         n = normalize(sub(p, sphere.center))
         inside = dot(direction, n) > 0
         n_facing = mul(n, -1) if inside else n
-        base = self.base_colour(sphere, p)
+        base = self.base_color(sphere, p)
 
         direct = (0.0, 0.0, 0.0)
         for light in self.scene.lights:
@@ -250,12 +250,12 @@ class Reference:
             point = hadamard(mul(base, 1 / math.pi), direct)
 
         m = sphere.material
-        colour = mul(point, 1 - m.reflect - m.refract)
+        color = mul(point, 1 - m.reflect - m.refract)
         c1 = -dot(n_facing, direction)
         r = add(direction, mul(n_facing, 2 * c1))
         if m.reflect > 0 and depth < self.depth:
             self.rays["reflection"] += 1
-            colour = add(colour, mul(self.trace(p, normalize(r), depth + 1), m.reflect))
+            color = add(color, mul(self.trace(p, normalize(r), depth + 1), m.reflect))
         if m.refract > 0 and depth < self.depth:
             self.rays["refraction"] += 1
             eta = m.ior if inside else 1 / m.ior
@@ -265,8 +265,8 @@ class Reference:
                 refracted_direction = r
             else:
                 refracted_direction = add(mul(direction, eta), mul(n_facing, eta * c1 - math.sqrt(k)))
-            colour = add(colour, mul(self.trace(p, normalize(refracted_direction), depth + 1), m.refract))
-        return colour
+            color = add(color, mul(self.trace(p, normalize(refracted_direction), depth + 1), m.refract))
+        return color
 
     def render(self, subsamples: int = 1) -> np.ndarray:
         """The image, (H, W, 3) float64; ``subsamples``² rays per pixel on a regular grid, averaged."""

@@ -281,7 +281,7 @@ def test_background_is_an_emitter_only_when_not_black():
     assert emitter.find("rgb").get("value") == "0.0 0.5 0.0"
 
 
-def test_materials_are_shared_and_textures_ignore_colour(texture_png, tmp_path):
+def test_materials_are_shared_and_textures_ignore_color(texture_png, tmp_path):
     texture_png("t.png")
     scene = parse_text("sphere 0 0 0 1 color 0.5 0.5 0.5\nsphere 1 0 0 1 color 0.5 0.5 0.5\n"
                        "sphere 2 0 0 1 color 0.5 0.5 0.6\nsphere 3 0 0 1 texture t.png\n"
@@ -337,7 +337,7 @@ def test_globe_texture_is_north_up():
     white = (pixels > 240).all(axis=-1)
     assert white[:3].mean() > 0.8 and white[-3:].mean() < 0.1  # grid lines cross the cap
     red = (pixels[..., 0] > 200) & (pixels[..., 1] < 60)
-    column = red[:, 120:136]  # the arrow at the centre column: narrow tip above a wide head
+    column = red[:, 120:136]  # the arrow at the center column: narrow tip above a wide head
     rows = np.nonzero(column.any(axis=1))[0]
     widths = column[rows].sum(axis=1)
     assert widths[0] < widths[8]

@@ -66,7 +66,7 @@ def scene(name: str, tmp_dir) -> Scene:
         ambient = float(name.split("_")[1])
         return Scene(**base, ambient=ambient, lights=[Light((-3.0, 5.0, 5.0), (0.9, 0.9, 0.7))],
                      spheres=[floor(), Sphere((0.0, 0.5, 0.0), 1.0, blue)])
-    if name == "coloured_lights":
+    if name == "colored_lights":
         return Scene(**base, ambient=0.1,
                      lights=[Light((-5.0, 4.0, 4.0), (1.0, 0.2, 0.2)), Light((5.0, 4.0, 4.0), (0.2, 1.0, 0.2)),
                              Light((0.0, 8.0, -3.0), (0.3, 0.3, 1.0))],
@@ -128,7 +128,7 @@ def scene(name: str, tmp_dir) -> Scene:
     raise KeyError(name)
 
 
-SUITE = ("diffuse_shadow", "ambient_0", "ambient_0.5", "ambient_1", "coloured_lights", "mirror",
+SUITE = ("diffuse_shadow", "ambient_0", "ambient_0.5", "ambient_1", "colored_lights", "mirror",
          "mirror_1", "glass", "tir", "low_ior", "texture", "background", "no_lights", "everything",
          "many_materials")
 
@@ -187,10 +187,10 @@ def test_depth_changes_the_image(suite):
     assert (deep >= shallow - 1e-6).all()  # deeper trees only add light
 
 
-def test_ambient_one_without_lights_shows_base_colours(suite):
+def test_ambient_one_without_lights_shows_base_colors(suite):
     model = scene("ambient_1", None)
     image = suite("ambient_1", "llvm_ad_rgb")
-    # With A = 1 the point colour is B whatever the lights: the sphere's pixels are its colour.
+    # With A = 1 the point color is B whatever the lights: the sphere's pixels are its color.
     sphere_pixel = image[H // 2 - 2, W // 2]
     np.testing.assert_allclose(sphere_pixel, model.spheres[1].material.color, atol=1e-6)
 
@@ -198,7 +198,7 @@ def test_ambient_one_without_lights_shows_base_colours(suite):
 # -- lighting ----------------------------------------------------------------------------------------
 
 @pytest.mark.parametrize("variant", VARIANTS)
-@pytest.mark.parametrize("name", ("diffuse_shadow", "mirror", "coloured_lights"))
+@pytest.mark.parametrize("name", ("diffuse_shadow", "mirror", "colored_lights"))
 def test_physical_lighting_matches_the_reference(tmp_path, name, variant):
     model = scene(name, tmp_path)
     expected = render_reference(model, lighting="physical")
@@ -211,7 +211,7 @@ def test_physical_lighting_has_inverse_square_falloff(tmp_path):
         model = Scene(width=9, height=9, eye=(0, 0, 10), lookat=(0, 0, 0), fov=5,
                       lights=[Light((0.0, 0.0, 1.0 + distance))],
                       spheres=[Sphere((0.0, 0.0, 0.0), 1.0, Material())])
-        # the light's colour is measured at lookat: keep its intensity fixed instead
+        # the light's color is measured at lookat: keep its intensity fixed instead
         scene_ = load(model, "llvm_ad_rgb")
         integrator = mi.load_dict({"type": "whitted", "lighting": "physical",
                                    "light_reference": mi.ScalarPoint3f(0, 0, 0)})
@@ -265,11 +265,11 @@ def test_pixel_samples_are_stratified(spp):
     cells = np.floor(offset[:, 0] * nx) + nx * np.floor(offset[:, 1] * ny)
     for p in range(50):
         assert sorted(cells[pixels == p]) == list(range(spp))
-    assert np.std(offset[:, 0] * nx % 1) > 0.2  # jittered, not centred
+    assert np.std(offset[:, 0] * nx % 1) > 0.2  # jittered, not centered
 
 
 def test_many_samples_average_over_the_pixel(tmp_path):
-    """16 spp approaches the pixel's mean colour (reference: an 8 × 8 grid of rays per pixel)."""
+    """16 spp approaches the pixel's mean color (reference: an 8 × 8 grid of rays per pixel)."""
     model = scene("everything", tmp_path)
     expected = render_reference(model, subsamples=8)
     image = render(model, "llvm_ad_rgb", spp=16)
@@ -313,7 +313,7 @@ def test_mi_render_uses_the_integrator(suite):
 
 @pytest.mark.parametrize("variant", VARIANTS)
 def test_sample_traces_a_whole_tree(suite, variant):
-    """``sample()`` (Mitsuba's per-ray entry point) gives a ray's full colour."""
+    """``sample()`` (Mitsuba's per-ray entry point) gives a ray's full color."""
     model = suite("glass", "model")
     scene_ = load(model, variant)
     integrator = scene_.integrator()
@@ -321,8 +321,8 @@ def test_sample_traces_a_whole_tree(suite, variant):
     for i, j in ((W // 2, H // 2 - 3), (5, 5), (30, 20)):
         o, d = camera_ray(model, i + 0.5, j + 0.5)
         o = np.subtract(o, model.lookat)    # world -> the converter's frame (centered on lookat)
-        colour, valid, aovs = integrator.sample(scene_, None, mi.Ray3f(mi.Point3f(o), mi.Vector3f(d)))
-        assert np.abs(np.array(colour).ravel() - expected[j, i]).max() < 0.02
+        color, valid, aovs = integrator.sample(scene_, None, mi.Ray3f(mi.Point3f(o), mi.Vector3f(d)))
+        assert np.abs(np.array(color).ravel() - expected[j, i]).max() < 0.02
 
 
 @pytest.mark.parametrize("props,message", [({"max_depth": 0}, "max_depth"), ({"ambient": 1.5}, "ambient"),

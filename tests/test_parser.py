@@ -107,7 +107,7 @@ def test_lower_bounds_of_globals():
         (1, 1, 0, 1, 1, 0.001)
 
 
-def test_lights_any_number_and_colours():
+def test_lights_any_number_and_colors():
     scene = parse("light 0 0 0\nlight 1 2 3 0 0.5 7\n" + "light 9 9 9\n" * 10)
     assert len(scene.lights) == 12
     assert scene.lights[1] == Light((1, 2, 3), (0, 0.5, 7), line=2)
@@ -157,7 +157,7 @@ def test_line_continuation_joins_a_statement():
 
 
 def test_comment_after_continuation_and_backslash_in_comment():
-    scene = parse("sphere 0 0 0 1 \\  # the colour follows\n color 0 0 0\n"
+    scene = parse("sphere 0 0 0 1 \\  # the color follows\n color 0 0 0\n"
                   "# a comment ending in \\\nlight 1 2 3\n")
     assert scene.spheres[0].material.color == (0, 0, 0)
     assert scene.lights[0].line == 4
@@ -274,7 +274,7 @@ def test_bad_texture_paths(text, message):
     ("fov 1e-9", "fov must be at least 1e-6"),
     ("fov", "fov takes 1 value (DEG), got 0"),
     # background, ambient, depth, samples
-    ("background 0 -0.1 0", "background colour must be >= 0, got -0.1"),
+    ("background 0 -0.1 0", "background color must be >= 0, got -0.1"),
     ("background 1 1", "background takes 3 values (R G B), got 2"),
     ("ambient -0.01", "ambient must be >= 0 and <= 1, got -0.01"),
     ("ambient 1.0000000000000000001", "ambient must be >= 0 and <= 1"),
@@ -287,7 +287,7 @@ def test_bad_texture_paths(text, message):
     # lights
     ("light 1 2", "light takes 3 or 6 values (X Y Z [R G B]), got 2"),
     ("light 1 2 3 1 1", "light takes 3 or 6 values (X Y Z [R G B]), got 5"),
-    ("light 1 2 3 1 1 -1", "light colour must be >= 0, got -1"),
+    ("light 1 2 3 1 1 -1", "light color must be >= 0, got -1"),
     # spheres
     ("sphere 0 0 0 -1", "sphere radius must be > 0, got -1"),
     ("sphere 0 0 0 0", "sphere radius must be > 0, got 0"),
@@ -328,7 +328,7 @@ def test_constraints(text, message):
 @pytest.mark.parametrize("token", ["nan", "NaN", "inf", "-inf", "+Infinity", "INF"])
 def test_nan_and_inf_are_errors(token):
     assert_error(f"sphere 0 0 0 1 color 1 1 1\nfov {token}\n", 2, f"fov must be a finite number, got {token}")
-    assert_error(f"sphere 0 {token} 0 1\n", 1, "sphere centre must be a finite number")
+    assert_error(f"sphere 0 {token} 0 1\n", 1, "sphere center must be a finite number")
 
 
 @pytest.mark.parametrize("token", ["1_000", "0x10", "1e", "e5", "1.2.3", "--1", "1e+", "½", "١",
@@ -339,7 +339,7 @@ def test_python_isms_and_other_non_numbers_are_errors(token):
 
 def test_out_of_range_magnitudes():
     assert_error("eye 0 0 1e13\n", 1, "eye must lie within -1e12 and 1e12, got 1e13")
-    assert_error("light 0 0 0 1 1 1e999\n", 1, "light colour must lie within -1e12 and 1e12")
+    assert_error("light 0 0 0 1 1 1e999\n", 1, "light color must lie within -1e12 and 1e12")
     assert parse("eye 0 0 1e12\n").eye == (0, 0, 1e12)
 
 
@@ -378,7 +378,7 @@ def test_lights_and_spheres_may_repeat():
     ("Backround 0 0 0", "did you mean 'background'?"),
     ("sample 4", "did you mean 'samples'?"),
     ("zzzz", "unknown statement 'zzzz'; known names: size, eye, lookat, up, fov, background"),
-    ("sphere 0 0 0 1 colour 1 1 1", "unknown sphere attribute 'colour'; did you mean 'color'?"),
+    ("sphere 0 0 0 1 colour 1 1 1", "unknown sphere attribute 'colour'; did you mean 'color'?"),  # British spelling
     ("sphere 0 0 0 1 refrct 0.5 1.5", "did you mean 'refract'?"),
     ("sphere 0 0 0 1 texure a.png", "did you mean 'texture'?"),
     ("sphere 0 0 0 1 nort 0 1 0", "did you mean 'north'?"),
@@ -524,7 +524,7 @@ BOUNDARY_NUMBERS = [
 ]
 KEYWORDS = ["sphere", "SPHERE", "Sphere", "light", "LIGHT", "size", "fov", "eye", "lookat", "up",
             "ambient", "depth", "samples", "background", "sphre", "lite"]
-ATTRIBUTE_NAMES = ["color", "COLOR", "reflect", "Reflect", "refract", "north", "equator", "colour", "texture"]
+ATTRIBUTE_NAMES = ["color", "COLOR", "reflect", "Reflect", "refract", "north", "equator", "color", "texture"]
 SEPARATORS = [" ", "  ", "\t", " \t ", "\x0b", "\x0c"]
 
 
@@ -543,7 +543,7 @@ def _sphere_line(draw):
     for _ in range(draw(st.integers(0, 3))):
         name = draw(st.sampled_from(ATTRIBUTE_NAMES))
         arity = {"color": 3, "reflect": 1, "refract": 2, "north": 3, "equator": 3,
-                 "colour": 3, "texture": 1}[name.lower()]
+                 "color": 3, "texture": 1}[name.lower()]
         words += [name] + [draw(_number()) for _ in range(draw(st.sampled_from([arity, arity, arity - 1])))]
     return words
 

@@ -5,7 +5,7 @@ camera, same texels, and lights scaled so that brightness is comparable. The
 expectations here are independent of both renderers: a float64 numpy tracer
 written from the scene format (camera, sphere hits, lat/long texture mapping)
 and the physically based reading of the scene documented in docs/radiometry.md
-(a point light of intensity I = colour·π·d², a Lambertian lobe (1−KR−KT)·B/π,
+(a point light of intensity I = color·π·d², a Lambertian lobe (1−KR−KT)·B/π,
 a mirror lobe KR). Images are compared with the compare tool's relative MSE,
 mean over pixels and channels of (a − b)² / (b² + 10⁻²).
 """
@@ -113,7 +113,7 @@ def texel(image: np.ndarray, u, v):
 
 def physical_radiance(model: Scene, origin, direction, depth, textures=None):
     """Radiance along rays under the physical reading of the scene (docs/radiometry.md):
-    point lights of intensity I = colour·π·d² with inverse-square fall-off,
+    point lights of intensity I = color·π·d² with inverse-square fall-off,
     (1−KR−KT)·B/π diffuse, KR mirror, hard shadows; ``depth`` as the article's max depth.
     Only what the scenes here use: no refraction, black background."""
     t, index = nearest_hit(model.spheres, origin, direction)
@@ -132,7 +132,7 @@ def physical_radiance(model: Scene, origin, direction, depth, textures=None):
             base = texel(textures[m.texture], *article_uv(sphere, p))
         else:
             base = np.broadcast_to(np.array(m.color, dtype=np.float64), p.shape)
-        colour = np.zeros(p.shape)
+        color = np.zeros(p.shape)
         for light in model.lights:
             to_light = np.array(light.position) - p
             dist = np.linalg.norm(to_light, axis=-1)
@@ -141,13 +141,13 @@ def physical_radiance(model: Scene, origin, direction, depth, textures=None):
             t_block, _ = nearest_hit(model.spheres, p + 1e-7 * n, l_dir)
             lit = (t_block >= dist) & (cos > 0)
             intensity = np.array(light_intensity(model, light.position, light.color))
-            colour += np.where(lit, cos / dist ** 2, 0.0)[:, None] * intensity
-        colour *= (1 - m.reflect - m.refract) * base / math.pi
+            color += np.where(lit, cos / dist ** 2, 0.0)[:, None] * intensity
+        color *= (1 - m.reflect - m.refract) * base / math.pi
         if m.reflect > 0 and depth > 1:
             c1 = -np.sum(n * d, axis=-1)
             r = d + 2 * c1[:, None] * n
-            colour += m.reflect * physical_radiance(model, p + 1e-7 * n, r, depth - 1, textures)
-        result[hit] = colour
+            color += m.reflect * physical_radiance(model, p + 1e-7 * n, r, depth - 1, textures)
+        result[hit] = color
     return result
 
 
@@ -235,11 +235,11 @@ def test_path_sees_the_articles_texels(llvm, tmp_path):
     def expected(tex):
         eye, directions = camera_rays(model, 8)
         t, index = nearest_hit(model.spheres, eye, directions)
-        colour = np.ones(directions.shape)
+        color = np.ones(directions.shape)
         hit = index == 0
         points = eye + t[hit][:, None] * directions[hit]
-        colour[hit] = texel(tex, *article_uv(model.spheres[0], points))
-        return colour.mean(axis=2)
+        color[hit] = texel(tex, *article_uv(model.spheres[0], points))
+        return color.mean(axis=2)
 
     error = relative_mse(image, expected(texels))
     assert error < 5e-3
@@ -248,7 +248,7 @@ def test_path_sees_the_articles_texels(llvm, tmp_path):
 
 
 def test_light_intensity_gives_the_article_brightness_at_lookat(variant):
-    """A white diffuse surface at ``lookat`` facing a light of colour c is c under the
+    """A white diffuse surface at ``lookat`` facing a light of color c is c under the
     article's model with ambient 0; path-traced with I = c·π·d² it is c too."""
     c = (0.9, 0.6, 0.3)
     model = Scene(width=9, height=9, eye=(0, 0, 8), lookat=(0, 0, 0), fov=2, ambient=0.0,
@@ -328,7 +328,7 @@ def test_physical_whitted_agrees_with_the_path_tracer_in_scalar_variant():
 
 
 def test_path_sees_the_same_texels_as_the_whitted_integrator(llvm, tmp_path):
-    """With ambient 1 and no lights the article's colour is the texel itself; under
+    """With ambient 1 and no lights the article's color is the texel itself; under
     a white sky the path tracer's is too. The same texels, up to noise."""
     from whitted.rendering import render
 

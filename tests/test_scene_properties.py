@@ -196,7 +196,7 @@ def sine(a, b) -> float:
 
 
 def spec_ray(g, i, j):
-    """The scene format's primary ray direction through pixel (i, j)'s centre."""
+    """The scene format's primary ray direction through pixel (i, j)'s center."""
     (w, h), fov = g["size"], g["fov"]
     f = np.subtract(g["lookat"], g["eye"])
     f = f / np.linalg.norm(f)
@@ -319,12 +319,12 @@ def test_random_valid_scenes_survive_parse_xml_and_load(folder, data):
         bsdf = shape.bsdf()
         for name in ("reflect", "refract", "ior"):
             close(scalar(bsdf.eval_attribute_1(name, si)), e[name])
-        colour = mi.traverse(bsdf)  # (Mitsuba shares one bitmap between materials)
+        color = mi.traverse(bsdf)  # (Mitsuba shares one bitmap between materials)
         if e["texture"] is None:
-            close(colour["color.value"], e["color"])
+            close(color["color.value"], e["color"])
         else:
             _, width, height = e["texture"]
-            assert np.array(colour["color.data"]).shape == (height, width, 3)
+            assert np.array(color["color.data"]).shape == (height, width, 3)
 
 
 def _key(params, suffix: str) -> str:
@@ -332,7 +332,7 @@ def _key(params, suffix: str) -> str:
     return key
 
 
-def test_light_at_lookat_keeps_its_colour(folder):
+def test_light_at_lookat_keeps_its_color(folder):
     """d = 0 would give no intensity: the converter then uses d = 1 (docs/CONTRACTS.md)."""
     source = folder / "at_lookat.scn"
     source.write_text("lookat 1 2 3\nlight 1 2 3 0.5 1 2\n")

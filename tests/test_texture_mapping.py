@@ -2,7 +2,7 @@
 and the integrator shows the texel the row/column rule picks, on every face and at the poles.
 
 Expectations come from the spec's formulas as written in tests/reference.py (float64).
-Scenes use ambient 1 and no lights, so a pixel's colour is its texel B.
+Scenes use ambient 1 and no lights, so a pixel's color is its texel B.
 """
 
 from __future__ import annotations
@@ -21,7 +21,7 @@ from whitted.converter import Material, Scene, Sphere, scene_to_xml
 from conftest import VARIANTS
 CENTER, RADIUS = (0.3, -0.2, 0.5), 1.3
 NORTH, EQUATOR = (1.0, 1.0, 0.2), (0.0, 0.3, 1.0)
-TEX_W, TEX_H = 15, 7   # odd: the faces' centres do not fall on texel edges
+TEX_W, TEX_H = 15, 7   # odd: the faces' centers do not fall on texel edges
 
 
 def frame():
@@ -59,7 +59,7 @@ def load(model: Scene, variant: str):
 
 
 def face_camera(direction, size=17):
-    """A camera looking at the sphere's centre from ``direction``."""
+    """A camera looking at the sphere's center from ``direction``."""
     ve, vb, vn = frame()
     up = ve if abs(sum(a * b for a, b in zip(direction, vn))) > 0.9 else vn
     eye = tuple(c + 6.0 * d for c, d in zip(CENTER, direction))
@@ -69,7 +69,7 @@ def face_camera(direction, size=17):
 # -- Mitsuba's (u, v) ----------------------------------------------------------------------------
 
 def hit_uv(scene_, directions: np.ndarray) -> np.ndarray:
-    """Mitsuba's si.uv where rays aimed at the centre from ``directions`` hit the sphere."""
+    """Mitsuba's si.uv where rays aimed at the center from ``directions`` hit the sphere."""
     origins = np.array(CENTER) + directions * (RADIUS + 5.0)
     if dr_is_jit():
         ray = mi.Ray3f(mi.Point3f(origins.T.astype(np.float32)), mi.Vector3f((-directions).T.astype(np.float32)))
@@ -147,17 +147,17 @@ def test_texels_on_every_face(texture, variant, face):
 @pytest.mark.parametrize("variant", VARIANTS)
 @pytest.mark.parametrize("pole,row", [("north", 0), ("south", TEX_H - 1)])
 def test_poles_show_the_top_and_bottom_rows(texture, variant, pole, row):
-    """The ray through the centre pixel hits the pole: the north pole is the image's top
+    """The ray through the center pixel hits the pole: the north pole is the image's top
     row, the south pole its bottom row (any column: u is a convention there), finite."""
     model = globe(texture, **face_camera(faces()[pole]))
     image = whitted.render(load(model, variant)).image
     assert np.all(np.isfinite(image))
-    centre = image[model.height // 2, model.width // 2]
+    center = image[model.height // 2, model.width // 2]
     texels = load_texels(texture)
-    assert np.any(np.all(np.abs(texels[row] - centre) < 1e-5, axis=1)), centre
+    assert np.any(np.all(np.abs(texels[row] - center) < 1e-5, axis=1)), center
 
 
-# -- colour encoding ------------------------------------------------------------------------------
+# -- color encoding ------------------------------------------------------------------------------
 
 @pytest.mark.parametrize("variant", VARIANTS)
 def test_8bit_textures_are_decoded_from_srgb(tmp_path, variant):

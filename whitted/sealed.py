@@ -186,7 +186,7 @@ def _about(point, origin, scale):
 
 def remaining(scene: Scene, grouping: Grouping) -> Scene:
     """``scene`` without the grouped spheres, every length multiplied by ``grouping.scale``
-    about its ``lookat`` (which stays put): eye, lights, sphere centers and radii. Colours,
+    about its ``lookat`` (which stays put): eye, lights, sphere centers and radii. Colors,
     angles and texture orientations are unchanged."""
     scale, origin = grouping.scale, scene.lookat
     keep = np.flatnonzero(~grouping.member).tolist()

@@ -1,6 +1,6 @@
 """Self-intersection ("acne") at every scale, ray by ray.
 
-One sphere of centre C and radius r, over six orders of magnitude of each. Rays
+One sphere of center C and radius r, over six orders of magnitude of each. Rays
 from random points around it hit it at random places; from each hit, the
 integrator's own ray spawning (plugins/shading.py) and hit finding
 (plugins/geometry.py) must give:
@@ -22,7 +22,7 @@ import pytest
 
 import whitted
 
-#: (centre, radius, cap): hits are spread over the part of the sphere within ``cap`` radians
+#: (center, radius, cap): hits are spread over the part of the sphere within ``cap`` radians
 #: of its top. From a speck at the origin to balls at 10^4, and floors (spheres under the
 #: origin, seen near their top) of radius 10^2 to 10^6.
 SIZES = {
@@ -47,7 +47,7 @@ def unit(v):
     return v / np.linalg.norm(v, axis=0)
 
 
-def hits_and_directions(centre, radius, cap, n, rng):
+def hits_and_directions(center, radius, cap, n, rng):
     """Rays aimed at random points of the sphere's cap from random points around it, and for
     each hit an outward and an inward direction making angle acos(cosine) with the tangent
     plane."""
@@ -55,8 +55,8 @@ def hits_and_directions(centre, radius, cap, n, rng):
     azimuth = rng.uniform(0, 2 * np.pi, n)
     normal = np.stack([np.sin(polar) * np.cos(azimuth), np.cos(polar), np.sin(polar) * np.sin(azimuth)])
     reach = min(3.0, 1 + 10 * cap)   # origins about as far from the cap as the cap is wide
-    origin = centre[:, None] + radius * (normal + (reach - 1) * unit(normal + 0.5 * rng.normal(size=(3, n))))
-    direction = unit(centre[:, None] + radius * normal - origin)
+    origin = center[:, None] + radius * (normal + (reach - 1) * unit(normal + 0.5 * rng.normal(size=(3, n))))
+    direction = unit(center[:, None] + radius * normal - origin)
     tangent = rng.normal(size=(3, n))
     cosine = rng.uniform(0, 1, n) ** 3   # many grazing ones
     return origin, direction, tangent, cosine
@@ -69,10 +69,10 @@ def leaving(si_n, tangent, cosine):
     return unit(t * sine + si_n * cosine), unit(t * sine - si_n * cosine)
 
 
-def failures_jit(scene, hits, centre, radius, cap, n, rng):
+def failures_jit(scene, hits, center, radius, cap, n, rng):
     from whitted.plugins.geometry import blocked
     from whitted.plugins.shading import spawn_ray, spawn_ray_to
-    origin, direction, tangent, cosine = hits_and_directions(centre, radius, cap, n, rng)
+    origin, direction, tangent, cosine = hits_and_directions(center, radius, cap, n, rng)
     hit, si, _, error = hits.intersect(mi.Ray3f(mi.Point3f(origin), mi.Vector3f(direction)), False)
     hit = np.array(hit)
     normal = np.array(si.n)
@@ -87,10 +87,10 @@ def failures_jit(scene, hits, centre, radius, cap, n, rng):
     return int(hit.sum()), int((out_hit & judged).sum()), int((lost & judged).sum()), int((shadowed & hit).sum())
 
 
-def failures_scalar(scene, hits, centre, radius, cap, n, rng):
+def failures_scalar(scene, hits, center, radius, cap, n, rng):
     from whitted.plugins.geometry import blocked
     from whitted.plugins.shading import spawn_ray, spawn_ray_to
-    origin, direction, tangent, cosine = hits_and_directions(centre, radius, cap, n, rng)
+    origin, direction, tangent, cosine = hits_and_directions(center, radius, cap, n, rng)
     counts = np.zeros(4, int)
     for k in range(n):
         hit, si, _, error = hits.intersect(mi.Ray3f(mi.Point3f(origin[:, k]), mi.Vector3f(direction[:, k])), False)
@@ -114,14 +114,14 @@ def test_no_ray_meets_the_surface_it_leaves(variant, finder, size, monkeypatch):
     from whitted.plugins import geometry
     if finder == "mitsuba":
         monkeypatch.setattr(geometry.SphereHits, "applies", staticmethod(lambda scene: False))
-    centre, radius, cap = SIZES[size]
-    centre = np.array(centre)
-    scene = mi.load_dict({"type": "scene", "ball": {"type": "sphere", "center": centre.tolist(),
+    center, radius, cap = SIZES[size]
+    center = np.array(center)
+    scene = mi.load_dict({"type": "scene", "ball": {"type": "sphere", "center": center.tolist(),
                                                      "radius": radius, "bsdf": {"type": "article"}}})
     hits = geometry.hit_finder(scene, need_uv=False)
     assert isinstance(hits, geometry.SphereHits) == (finder == "sphere table")
     check = failures_jit if dr.is_jit_v(mi.Float) else failures_scalar
-    n, outward, inward, shadowed = check(scene, hits, centre, radius, cap, RAYS[variant], np.random.default_rng(5))
+    n, outward, inward, shadowed = check(scene, hits, center, radius, cap, RAYS[variant], np.random.default_rng(5))
     assert n > 0.9 * RAYS[variant]
     assert (outward, inward, shadowed) == (0, 0, 0), \
         f"{n} hits: {outward} outward rays met the sphere again, {inward} inward rays lost its far " \

@@ -65,7 +65,7 @@ def test_textured_spheres_are_moved_into_the_frame(tmp_path):
 
 def _light_colors(loaded) -> np.ndarray:
     integrator = loaded.integrator()
-    return np.array([light.colour for light in analyse(loaded, 1, integrator.light_reference).lights])
+    return np.array([light.color for light in analyse(loaded, 1, integrator.light_reference).lights])
 
 
 def test_far_from_the_origin_article_lights_keep_the_files_colors():
