@@ -82,7 +82,4 @@ def convert_file(source: Path, target: Path) -> None:
         raise WhittedError(f"{target}: is a folder; give the output file's name")
     xml = scene_to_xml(scene, base_dir=target.parent)
     warn_precision(scene)
-    try:
-        write_text(target, xml)
-    except OSError as error:
-        raise WhittedError(f"{target}: cannot write: {error.strerror or error}") from None
+    write_text(target, xml)   # atomic; an OS error comes back as a one-line WhittedError

@@ -212,11 +212,13 @@ def describe(scene: Scene, base_dir: str | os.PathLike | None) -> Description:
     # Identical materials are described once and shared by reference, which keeps
     # Mitsuba's per-material dispatch small for scenes of many spheres.
     materials: dict[Material, str] = {}
+    ids = []
     for sphere in scene.spheres:
         material = _shared(sphere.material)
         if material not in materials:
             materials[material] = f"material_{len(materials)}"
             objects[materials[material]] = material_dict(material, base_dir)
-    for i, sphere in enumerate(scene.spheres):
-        objects[f"sphere_{i}"] = _sphere(sphere, origin, materials[_shared(sphere.material)])
+        ids.append(materials[material])
+    for i, (sphere, material_id) in enumerate(zip(scene.spheres, ids)):
+        objects[f"sphere_{i}"] = _sphere(sphere, origin, material_id)
     return Description(objects, defaults, origin, scene.source.name)

@@ -124,5 +124,5 @@ def analyse(scene, max_depth: int, light_reference) -> SceneAnalysis:
     reference = _floats(light_reference)
     lights = [PointLight(position, intensity, article_color(intensity, position, reference))
               for position, intensity in memo(scene, "lights", lambda: _lights(scene))]
-    materials = memo(scene, "materials", lambda: scene_materials(scene))
+    materials = scene_materials(scene)
     return SceneAnalysis(lights, scene.environment(), materials, max_depth)

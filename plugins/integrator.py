@@ -248,16 +248,16 @@ class WhittedIntegrator(mi.SamplingIntegrator):
         ``tracer`` takes them: one wavefront, or one sample at a time."""
         # Counted from the pass's first pixel, so that 32-bit indices never overflow.
         first_pixel, first_sample = divmod(first, spp)
+        spp_, first_sample_ = dr.opaque(mi.UInt32, spp), dr.opaque(mi.UInt32, first_sample)
+        first_pixel_, width_ = dr.opaque(mi.UInt32, first_pixel), dr.opaque(mi.UInt32, width)
         for index in tracer.samples(count):
             if spp == 1:
                 pixel, sample = index, mi.UInt32(0)
             else:
-                spp_ = dr.opaque(mi.UInt32, spp)
-                index = index + dr.opaque(mi.UInt32, first_sample)
+                index = index + first_sample_
                 pixel = index // spp_
                 sample = index - pixel * spp_
-            pixel = pixel + dr.opaque(mi.UInt32, first_pixel)
-            width_ = dr.opaque(mi.UInt32, width)
+            pixel = pixel + first_pixel_
             y = pixel // width_
             x = pixel - y * width_
             ray, ray_weight, position = self._camera_ray(sensor, x, y, pixel, sample, spp, seed)

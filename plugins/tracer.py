@@ -67,9 +67,9 @@ class Tracer:
         self.tally = tally
         self.deepest = 0   # the deepest level that traced a ray
 
-    def passes(self, total: int, wavefront_size: int):
-        """``(first, count)`` of each pass over ``total`` camera samples."""
-        per_pass = wavefront_size or self.samples_per_pass
+    @staticmethod
+    def passes(total: int, per_pass: int):
+        """``(first, count)`` of each pass of ``per_pass`` samples over ``total`` camera samples."""
         return [(first, min(per_pass, total - first)) for first in range(0, total, per_pass)]
 
     def samples(self, count: int):

@@ -95,7 +95,7 @@ def writable_folder(folder: str | os.PathLike) -> Path:
         raise WhittedError(f"{folder}: cannot create the output folder: {error.strerror or error}") from None
     if not folder.is_dir():
         raise WhittedError(f"{folder}: is not a folder")
-    check_writable(folder / "probe")
+    _probe(folder, folder)
     return folder
 
 

@@ -16,13 +16,11 @@ import argparse
 import os
 import sys
 
-from .defaults import INTEGRATORS, LIGHTING_MODES, VERSION
+from .defaults import INTEGRATOR, INTEGRATORS, LIGHTING_MODES, VERSION
 from .defaults import VARIANTS as SUPPORTED_VARIANTS
 from . import interrupt
-from .errors import WhittedError, report
+from .errors import EXIT_USER_ERROR, WhittedError, report
 
-EXIT_USER_ERROR = 2
-EXIT_INTERRUPTED = 130
 
 
 def _convert(args: argparse.Namespace) -> int:
@@ -74,7 +72,7 @@ def build_parser() -> argparse.ArgumentParser:
     render.add_argument("--variant", choices=SUPPORTED_VARIANTS,
                         help="Mitsuba variant (default: llvm_ad_rgb when a libLLVM >= 16 exists, "
                              "else scalar_rgb; or $WHITTED_VARIANT)")
-    render.add_argument("--integrator", choices=INTEGRATORS, default="whitted",
+    render.add_argument("--integrator", choices=INTEGRATORS, default=INTEGRATOR,
                         help="the article's model (whitted, default) or Mitsuba's path tracer (path)")
     render.add_argument("--lighting", choices=LIGHTING_MODES, default=None,
                         help="how the whitted integrator lights the scene: the article's model "

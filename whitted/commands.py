@@ -12,9 +12,8 @@ import json
 import sys
 from pathlib import Path
 
-from .errors import WhittedError, report
+from .errors import EXIT_USER_ERROR, WhittedError, report
 
-EXIT_USER_ERROR = 2
 
 
 def convert_command(args) -> int:

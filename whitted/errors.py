@@ -12,6 +12,10 @@ def report(error: BaseException) -> None:
         print(f"whitted: error: {line}", file=sys.stderr)
 
 
+#: the exit status of a command that a user error stopped
+EXIT_USER_ERROR = 2
+
+
 class WhittedError(Exception):
     """An error caused by the user's input or machine, reported as one clean line."""
 

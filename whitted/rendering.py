@@ -170,7 +170,7 @@ class _Clock:
         return max(0.0, self.wall - self.compile)
 
 
-def render(scene, integrator: str = "whitted", spp: int | None = None, max_depth: int | None = None,
+def render(scene, integrator: str = D.INTEGRATOR, spp: int | None = None, max_depth: int | None = None,
            lighting: str | None = None, progress: bool = False, seed: int = 0,
            min_weight: float | None = None) -> RenderResult:
     """Render ``scene`` (a ``mi.Scene``); see the module docstring and docs/CONTRACTS.md.

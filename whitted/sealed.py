@@ -65,7 +65,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from .converter.scene import Material, Scene, Sphere
+from .converter.scene import Material, Scene
 
 #: a sealed sphere keeps the eye farther than this from its surface, relative to the size of
 #: the numbers involved (float32 rounds them by 6e-8 of that): an eye closer than that might
@@ -193,8 +193,7 @@ def remaining(scene: Scene, grouping: Grouping) -> Scene:
     return replace(scene, eye=_about(scene.eye, origin, scale),
                    lights=[replace(light, position=_about(light.position, origin, scale))
                            for light in scene.lights],
-                   spheres=[Sphere(_about(s.center, origin, scale), s.radius * scale, s.material,
-                                   s.north, s.equator, s.line)
+                   spheres=[replace(s, center=_about(s.center, origin, scale), radius=s.radius * scale)
                             for s in (scene.spheres[k] for k in keep)])
 
 

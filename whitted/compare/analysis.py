@@ -121,6 +121,11 @@ class Analysis:
     equal_quality: list[EqualQuality]
     floors: list[FloorStatement]
 
+    @property
+    def table_methods(self) -> list[str]:
+        """The methods the equal-quality table has a column for, in :data:`METHODS` order."""
+        return [m for m in METHODS if any(m in row.reach for row in self.equal_quality)]
+
 
 def _curve(measurements: list[Measurement], metric: str) -> list[tuple[float, float, Measurement]]:
     return [(m.seconds, getattr(m, metric), m) for m in measurements]
@@ -132,9 +137,9 @@ def analyse(entry: SceneResult, levels: tuple[float, ...],
     by_method = {method: [m for m in entry.measurements if m.setting.method == method]
                  for method in METHODS}
     path = by_method["path"]
+    path_mse, path_flip = _curve(path, "rel_mse"), _curve(path, "flip")
 
-    equal_time = [EqualTime(m, error_at_time(_curve(path, "rel_mse"), m.seconds),
-                            error_at_time(_curve(path, "flip"), m.seconds))
+    equal_time = [EqualTime(m, error_at_time(path_mse, m.seconds), error_at_time(path_flip, m.seconds))
                   for method in WHITTED_METHODS
                   for m in sorted(by_method[method], key=lambda m: (m.setting.max_depth, m.setting.spp))]
 
@@ -168,7 +173,7 @@ def analyse(entry: SceneResult, levels: tuple[float, ...],
             continue
         render = min((m for m in ms if m.setting.max_depth == floor.depth and m.rel_mse == floor.error),
                      key=lambda m: m.seconds)
-        reading = time_to_reach(_curve(path, "rel_mse"), floor.error) if path else None
+        reading = time_to_reach(path_mse, floor.error) if path else None
         floors.append(FloorStatement(method, floor, render, reading, path_best,
                                      floor_text(method, floor, render, reading, path_best,
                                                 entry.reference_noise, tolerance)))

@@ -64,9 +64,6 @@ class Budget:
         remaining = self.start + self.seconds - self.reserve(scenes_left) - time.monotonic()
         return max(0.0, remaining) / max(1, scenes_left)
 
-    #: the fewest spp :meth:`reference_spp` scales a reference down to
-    minimum_reference_spp = COMPARE_MIN_REFERENCE_SPP
-
     @staticmethod
     def reference_spp(requested: int, cost: Callable[[int], float], seconds: float,
                       spent: float = 0.0) -> int | None:

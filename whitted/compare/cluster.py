@@ -275,8 +275,9 @@ def sweep_on_cluster(client, scenes: list[SceneFile], entries: list[SceneResult]
     chunks_of = {}
     for index, (scene, entry, settings) in enumerate(zip(scenes, entries, plans)):
         chunks = None
-        key = ReferenceCache.key(scene, reference_settings(entry, options.reference_spp))
-        if budget.seconds is None and cache.load(entry.name, key, (entry.height, entry.width)) is None:
+        if budget.seconds is None and cache.load(
+                entry.name, ReferenceCache.key(scene, reference_settings(entry, options.reference_spp)),
+                (entry.height, entry.width)) is None:
             chunks = [client.submit(chunk_task, scene, entry.variant, entry.path_depth, *chunk, threads,
                                     key=f"whitted-reference-{entry.name}-{k}-{run}")
                       for k, chunk in enumerate(reference_chunks(options.reference_spp,

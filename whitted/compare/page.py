@@ -24,7 +24,7 @@ from ..atomic import write_text
 from ..defaults import VERSION
 from .analysis import METHOD_NAMES, Analysis, reach_text, reading_how, speedup_text, spread_text
 from .errormaps import colorbar
-from .results import METHODS, Measurement, SceneResult, seconds_text
+from .results import METHODS, WHITTED_METHODS, Measurement, SceneResult, seconds_text
 
 TEMPLATE = "report.html.j2"
 #: The viewer enlarges small images by a whole factor (pixels stay square) to at least this width.
@@ -72,9 +72,8 @@ def scene_context(analysis: Analysis, plot: str, out: Path) -> dict:
     floor_render = analysis.floors[0].render if analysis.floors else None
     first = next((r for r, m in zip(renders, measurements) if m is floor_render),
                  renders[0] if renders else None)
-    whitted = [m for m in ("whitted-article", "whitted-physical")
-               if any(m in row.reach for row in analysis.equal_quality)]
-    methods = [m for m in METHODS if any(m in row.reach for row in analysis.equal_quality)]
+    methods = analysis.table_methods
+    whitted = [m for m in WHITTED_METHODS if m in methods]
     equal_quality = [{"level": f"{row.level:g}",
                       "cells": [{"text": reach_text(row.reach.get(m)),
                                  "reached": m in row.reach and row.reach[m].fastest is not None}

@@ -8,7 +8,7 @@ depth; it renders nothing.
 
 from __future__ import annotations
 
-from ..defaults import LIGHTING_MODES
+from ..defaults import DEPTH, LIGHTING_MODES
 from .results import MAX_DEFAULT_DEPTH, METHODS, Options, SceneResult, Setting
 from .scenes import SceneFile
 
@@ -33,7 +33,7 @@ def plan_scene(scene: SceneFile, loaded, options: Options,
     integrator the depth when the file does not state one.
     """
     width, height = (int(v) for v in loaded.sensors()[0].film().crop_size())
-    depth = scene.depth if scene.depth is not None else int(getattr(loaded.integrator(), "max_depth", 5))
+    depth = scene.depth if scene.depth is not None else int(getattr(loaded.integrator(), "max_depth", DEPTH))
     depths = options.depths or tuple(range(1, min(depth, MAX_DEFAULT_DEPTH) + 1))
     path_depth = options.path_depth or depth
     result = SceneResult(scene.name, scene.path, width, height, variant, options.reference_spp,

@@ -39,7 +39,7 @@ from pathlib import Path
 import numpy as np
 
 from .. import rendering  # rendering.render looked up at call time: tests count calls
-from ..defaults import COMPARE_PROBE_SECONDS, COMPARE_REFERENCE_SHARE
+from ..defaults import COMPARE_MIN_REFERENCE_SPP, COMPARE_PROBE_SECONDS, COMPARE_REFERENCE_SHARE
 from .budget import Budget, fit_cost, render_cost
 from .curves import reference_noise
 from .results import IN_PROCESS, Options, SceneResult, seconds_text
@@ -293,7 +293,7 @@ def reference_image(scene: SceneFile, loaded, entry: SceneResult, cache: Referen
 
         def cost(spp: int) -> float:  # what the rest of an spp-sample reference costs
             rest = (max(0, spp // 2 - halves.counts[0]), spp - spp // 2)
-            return sum(render_cost(n, len(rendering.path_passes(n, pixels)) if n else 0,
+            return sum(render_cost(n, len(rendering.path_passes(n, pixels)),
                                    overhead, per_spp) for n in rest)
 
         fitted = Budget.reference_spp(requested, cost, seconds, spent=time.monotonic() - start)
@@ -305,7 +305,7 @@ def reference_image(scene: SceneFile, loaded, entry: SceneResult, cache: Referen
                 f"skipped whole: its reference would take about "
                 f"{seconds_text(cost(requested))} at {requested} spp ({estimate}); the scene's "
                 f"{seconds_text(seconds)} share of --budget {options.budget:g} s affords less than "
-                f"the {Budget.minimum_reference_spp} spp a usable reference needs: raise --budget "
+                f"the {COMPARE_MIN_REFERENCE_SPP} spp a usable reference needs: raise --budget "
                 f"or lower --reference-spp")
             return None
         if fitted < requested:
@@ -343,7 +343,6 @@ def reference_image(scene: SceneFile, loaded, entry: SceneResult, cache: Referen
         entry.reference_spp = halves.spp
         entry.reference_seconds = halves.seconds
         entry.reference_noise = halves.noise()
-        key = cache.key(scene, settings(halves.spp))
         cache.store(entry.name, key, image, {
             "scene": str(entry.path), "settings": settings(halves.spp), "seconds": halves.seconds,
             "compile_seconds": halves.compile_seconds, "noise_rel_mse": entry.reference_noise,

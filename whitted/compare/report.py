@@ -59,7 +59,7 @@ THUMBNAIL_WIDTH = 160
 def thumbnail(image: np.ndarray, width: int = THUMBNAIL_WIDTH) -> np.ndarray:
     """A small sRGB uint8 copy of a linear image: box-averaged by an integer factor so
     that noise shows as it would at full size on average, then encoded by Mitsuba."""
-    import mitsuba as mi
+    from ..imageio import srgb8
 
     image = np.nan_to_num(np.asarray(image, dtype=np.float32), nan=0.0, posinf=0.0, neginf=0.0)
     factor = max(1, math.ceil(image.shape[1] / width))
@@ -67,8 +67,7 @@ def thumbnail(image: np.ndarray, width: int = THUMBNAIL_WIDTH) -> np.ndarray:
         h, w = image.shape[0] // factor * factor, image.shape[1] // factor * factor
         h, w = max(h, factor), max(w, factor)
         image = image[:h, :w].reshape(h // factor, factor, w // factor, factor, 3).mean(axis=(1, 3))
-    bitmap = mi.Bitmap(np.ascontiguousarray(np.clip(image, 0.0, 1.0), dtype=np.float32))
-    return np.array(bitmap.convert(mi.Bitmap.PixelFormat.RGB, mi.Struct.Type.UInt8, srgb_gamma=True))
+    return srgb8(np.ascontiguousarray(image, dtype=np.float32))
 
 
 # --------------------------------------------------------------------------- CSV
@@ -294,7 +293,7 @@ def _table(rows: list[list[str]], indent: str = "  ") -> list[str]:
 
 
 def equal_quality_lines(analysis: Analysis) -> list[str]:
-    methods = [m for m in METHODS if any(m in row.reach for row in analysis.equal_quality)]
+    methods = analysis.table_methods
     whitted = [m for m in WHITTED_METHODS if m in methods]
     header = (["rel_mse ≤"] + methods + ["fastest"]
               + [f"{m.split('-')[1]} vs path" for m in whitted])
