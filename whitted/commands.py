@@ -56,9 +56,9 @@ def convert_command(args) -> int:
 def _summary(args, result, width: int, height: int, spp: int) -> str:
     import mitsuba as mi
     s = result.stats
-    rays = ", ".join(f"{v} {k}" for k, v in s["rays"].items() if v is not None)
-    depth = "" if s["max_depth_reached"] is None else f"depth reached {s['max_depth_reached']}; "
-    if s["min_weight"]:
+    rays = ", ".join(f"{v} {k}" for k, v in s["rays"].items())
+    depth = f"depth reached {s['max_depth_reached']}; " if "max_depth_reached" in s else ""
+    if s.get("min_weight"):
         depth += (f"{s['culled_rays']} rays culled, error at most {s['error_bound']:.2g} "
                   f"(min weight {s['min_weight']:.3g}); ")
     return (f"whitted: {width}x{height} at {spp} spp with {args.integrator} ({mi.variant()}): "
