@@ -25,9 +25,9 @@ What is not exact (docs/portable.md has the measurements): refraction by
 ``dielectric`` always applies Fresnel (a share F of KT goes to the mirror
 direction; the article refracts all of it, except under total internal
 reflection, where both send everything to the mirror); and Mitsuba 3.8 to at
-least 3.9.1's ``blendbsdf`` under-weights a delta lobe (mirror, glass) mixed
-with the diffuse one. Pure diffuse (textured or not) and pure mirror
-materials are exact.
+least 3.9.1's ``blendbsdf`` under-weights a mirror reflection mixed with a
+diffuse lobe whose color is not white. Pure diffuse (textured or not), pure
+mirror, white mirror-and-diffuse materials, and glass of IOR 1 are exact.
 
 This module imports neither Mitsuba nor Dr.Jit, like the rest of the converter.
 """
@@ -100,10 +100,16 @@ def inexact(article: dict) -> list[str]:
         reasons.append(f"Fresnel: dielectric sends a share F of KT = {kt:g} to the mirror direction "
                        f"(F = {fresnel_normal(ior):.3g} at normal incidence, 1 at grazing; the article "
                        f"refracts all of it)")
-    if diffuse > NEGLIGIBLE and (kr > NEGLIGIBLE or kt > NEGLIGIBLE):
-        reasons.append("blendbsdf of Mitsuba 3.8 to 3.9.1 at least weights the mirror/glass lobe "
-                       "mixed with the diffuse one too low (docs/portable.md)")
+    if diffuse > NEGLIGIBLE and (kr > NEGLIGIBLE or kt > NEGLIGIBLE) and not _white(article["color"]):
+        reasons.append("blendbsdf of Mitsuba 3.8 to 3.9.1 at least weights a mirror reflection "
+                       "mixed with a diffuse color B < 1 too low (docs/portable.md)")
     return reasons
+
+
+def _white(color: dict) -> bool:
+    """B = 1: ``blendbsdf``'s weighting of a mirror reflection against the diffuse lobe,
+    (w + (1 − w)·B·p) / (w + (1 − w)·p), is then exactly 1 (docs/portable.md)."""
+    return color.get("type") == "rgb" and all(c == 1.0 for c in color["value"])
 
 
 def portable(description: Description) -> tuple[Description, list[str]]:
