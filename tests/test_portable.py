@@ -253,6 +253,14 @@ def test_whitted_integrator_is_refused_in_one_line(mirrors_portable, tmp_path, c
         whitted.render(whitted.load_scene(mirrors_portable))
 
 
+def test_overrides_the_portable_file_lacks_are_one_line(mirrors_portable, tmp_path, capsys):
+    out = tmp_path / "out.png"
+    assert main(["render", str(mirrors_portable), "-o", str(out), "-q", "--integrator", "path",
+                 "--ambient", "0.3"]) == 2
+    assert capsys.readouterr().err.strip() == f"whitted: error: {mirrors_portable}: the scene has no ambient to override"
+    assert not out.exists()
+
+
 def test_path_integrator_renders_with_the_file_s_own_depth(mirrors_portable, tmp_path, llvm):
     out = tmp_path / "out.exr"
     assert main(["render", str(mirrors_portable), "-o", str(out), "-q", "--integrator", "path", "--spp", "4"]) == 0
