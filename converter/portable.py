@@ -45,7 +45,7 @@ NEGLIGIBLE = 1e-12
 #: what the header says of every portable file
 SUMMARY = (
     "Portable form: Mitsuba's stock plugins only (any Mitsuba 3 loads it, without whitted).",
-    "It is the scene read physically, as whitted's path-tracer rendering renders the default XML:",
+    "It is the scene read physically, as `whitted render` with the path integrator renders the default XML:",
     "the `path` integrator (max_depth = the article's depth + 1), point lights with inverse-square",
     "fall-off (intensities matched to the article's light colors at lookat), Lambertian diffuse",
     "surfaces, indirect and sky light, no ambient term. The article's own model is the default",
@@ -99,7 +99,7 @@ def inexact(article: dict) -> list[str]:
     if kt > NEGLIGIBLE and ior != 1.0:
         reasons.append(f"Fresnel: dielectric sends a share F of KT = {kt:g} to the mirror direction "
                        f"(F = {fresnel_normal(ior):.3g} at normal incidence, 1 at grazing; the article "
-                       f"refracts all of it)")
+                       f"refracts all of it, and both mirror it under total internal reflection)")
     if diffuse > NEGLIGIBLE and (kr > NEGLIGIBLE or kt > NEGLIGIBLE) and not _white(article["color"]):
         reasons.append("blendbsdf of Mitsuba 3.8 to 3.9.1 at least weights a mirror reflection "
                        "mixed with a diffuse color B < 1 too low (docs/portable.md)")
