@@ -333,17 +333,19 @@ def test_there_are_example_scenes():
     assert {p.stem for p in SCENES} >= {"spheres", "globe", "mirrors", "tir"}
 
 
+@pytest.mark.parametrize("portable", [False, True], ids=["default", "portable"])
 @pytest.mark.parametrize("scn", SCENES, ids=lambda p: p.stem)
-def test_scenes_xml_is_not_stale(scn):
+def test_scenes_xml_is_not_stale(scn, portable):
     """scenes_xml/ must be what `make scenes` writes now (run it after editing scenes/)."""
-    xml = REPO / "scenes_xml" / f"{scn.stem}.xml"
+    xml = REPO / "scenes_xml" / f"{scn.stem}{'.portable' if portable else ''}.xml"
     assert xml.is_file(), f"{xml} is missing: run `make scenes`"
-    assert scene_to_xml(parse_file(scn), xml.parent) == xml.read_text(encoding="utf-8"), \
+    assert scene_to_xml(parse_file(scn), xml.parent, portable=portable) == xml.read_text(encoding="utf-8"), \
         f"{xml} is stale: run `make scenes`"
 
 
 def test_no_xml_without_its_scene():
-    assert {p.stem for p in (REPO / "scenes_xml").glob("*.xml")} == {p.stem for p in SCENES}
+    names = {p.name for p in (REPO / "scenes_xml").glob("*.xml")}
+    assert names == {f"{p.stem}{suffix}" for p in SCENES for suffix in (".xml", ".portable.xml")}
 
 
 def test_texture_image_is_not_stale():

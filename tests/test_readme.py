@@ -2,7 +2,7 @@
 
 The README is what a new user tries first, so each of its blocks is executed
 here, in a fresh process, from a folder laid out like the repository
-(``scenes/`` and ``scenes_xml/``) whose scenes are the project's examples shrunk
+(``scenes/`` and ``scenes_xml/``, default and portable XML) whose scenes are the project's examples shrunk
 to a few pixels, so that the whole README runs in seconds:
 
 * ``sh`` blocks: every line is run by the shell as written (``make`` lines are
@@ -62,8 +62,9 @@ def workdir(tmp_path_factory):
         scene.write_text(text)
     (root / "scenes_xml").mkdir()
     env = environment()
-    subprocess.run([sys.executable, "-m", "whitted", "convert", "scenes", "-o", "scenes_xml"],
-                   cwd=root, env=env, check=True)
+    for portable in ([], ["--portable"]):
+        subprocess.run([sys.executable, "-m", "whitted", "convert", "scenes", "-o", "scenes_xml", *portable],
+                       cwd=root, env=env, check=True)
     (root / "out").mkdir()   # as `make demo`, the README's first command, leaves it
     # A checkout of its own, ignoring what the repository ignores: the README's commands
     # must leave `git status` clean (their outputs under out/ or ignored).

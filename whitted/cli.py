@@ -51,7 +51,9 @@ def build_parser() -> argparse.ArgumentParser:
         "convert", help="convert legacy .scn scenes to Mitsuba 3 XML",
         description="Convert legacy .scn scenes to Mitsuba 3 XML (format 3.0.0): each X.scn "
                     "becomes X.xml beside it, or in the folder given with -o. The XML loads in "
-                    "stock Mitsuba once 'import whitted' has registered the project's plugins. "
+                    "Mitsuba's Python once 'import whitted' has registered the project's plugins; "
+                    "with --portable, X.portable.xml names only Mitsuba's stock plugins and loads "
+                    "in any Mitsuba 3 (the mitsuba command too), as the path tracer renders it. "
                     "A bad file is reported as FILE:LINE: message and nothing is written for it; "
                     "the others are still converted, and the exit status is 2.")
     convert.add_argument("scenes", nargs="+", metavar="SCENE",
@@ -59,6 +61,10 @@ def build_parser() -> argparse.ArgumentParser:
     convert.add_argument("-o", "--output", metavar="OUT",
                          help="the XML file (one input file), or the folder that receives every "
                               "X.xml (default: beside each input)")
+    convert.add_argument("--portable", action="store_true",
+                         help="write X.portable.xml in Mitsuba's stock plugins only (path integrator, "
+                              "stock BSDFs): the scene read physically, for any Mitsuba 3 tool; a "
+                              "comment at its top says what differs from the article's model")
     convert.add_argument("-v", "--verbose", action="store_true", help="say what was written")
     convert.set_defaults(run=_convert, parser=convert)
 

@@ -17,11 +17,13 @@ from .errors import EXIT_USER_ERROR, WhittedError, report
 
 
 def convert_command(args) -> int:
-    """``whitted convert SCENE... [-o OUT]``: every file converted that can be; 2 if any failed."""
+    """``whitted convert SCENE... [-o OUT] [--portable]``: every file converted that can be;
+    2 if any failed."""
     from .atomic import check_folder, check_folder_creatable, writable_folder
-    from .converter.batch import convert_file, plan
+    from .converter.batch import PORTABLE_SUFFIX, XML_SUFFIX, convert_file, plan
 
-    pairs = plan(args.scenes, args.output)
+    portable = getattr(args, "portable", False)
+    pairs = plan(args.scenes, args.output, PORTABLE_SUFFIX if portable else XML_SUFFIX)
     # One rule: an -o that names a folder (several inputs, or a trailing /) is created
     # when missing; the folder of an -o that names a file must exist. Every folder
     # is checked before the first file is converted; errors name the user's paths.
@@ -39,7 +41,7 @@ def convert_command(args) -> int:
     failed = 0
     for source, target in pairs:
         try:
-            convert_file(source, target)
+            convert_file(source, target, portable)
         except WhittedError as error:
             report(error)
             failed += 1
@@ -82,7 +84,7 @@ def render_command(args) -> None:
     from .defaults import check_ambient
     from .imageio import image_format, write_image
     from .memory import peak_resident_bytes
-    from .rendering import check_settings, render
+    from .rendering import article_materials, check_settings, render
 
     output = Path(args.output)
     check_settings(args.spp, args.max_depth, args.lighting, args.integrator, args.min_weight)
@@ -98,6 +100,9 @@ def render_command(args) -> None:
     scene = _load_quietly(args)
     if not scene.sensors():
         raise WhittedError(f"{args.scene}: the scene has no sensor (camera) to render from")
+    if args.integrator == "whitted" and not article_materials(scene):
+        raise WhittedError(f"{args.scene}: Mitsuba's stock materials (a portable scene?): the whitted "
+                           f"integrator needs the article's; use --integrator path, or the default XML")
     sensor = scene.sensors()[0]
     width, height = (int(c) for c in sensor.film().crop_size())
     spp = sensor.sampler().sample_count()

@@ -184,7 +184,9 @@ def render(scene, integrator: str = D.INTEGRATOR, spp: int | None = None, max_de
     ``lighting`` and ``min_weight`` (the Whitted integrator's adaptive depth
     control, 0 = off) default to the scene's own settings. ``integrator="path"``
     uses Mitsuba's ``path`` integrator with ``max_depth + 1`` (one more
-    segment for the connection to a light).
+    segment for the connection to a light); a scene whose own integrator is
+    ``path`` (a portable scene) is rendered with it unless ``max_depth`` is given.
+    The whitted integrator refuses a scene without the ``article`` BSDF.
     """
     import mitsuba as mi
 
@@ -198,6 +200,10 @@ def render(scene, integrator: str = D.INTEGRATOR, spp: int | None = None, max_de
     width, height = (int(c) for c in sensor.film().crop_size())
 
     if integrator == "whitted":
+        if not article_materials(scene):
+            raise WhittedError("the whitted integrator renders the article's materials only, and this "
+                               "scene has Mitsuba's stock BSDFs (a portable scene?): render it with "
+                               "the path integrator, or render the default XML")
         min_weight = float(min_weight) if min_weight is not None else settings["min_weight"]
         whitted = _whitted_integrator(scene, settings, depth, lighting or settings["lighting"], min_weight)
         with progress_bar(progress, width * height * spp, "render") as bar, _Clock() as clock:
@@ -210,7 +216,7 @@ def render(scene, integrator: str = D.INTEGRATOR, spp: int | None = None, max_de
                     "culled_rays": rays.culled, "culled_weight": rays.culled_weight,
                     "error_bound": rendering.error_bound}
     else:
-        path = mi.load_dict({"type": "path", "max_depth": depth + 1})
+        path = _path_integrator(scene, max_depth, depth)
         with progress_bar(progress, width * height * spp, "path tracing") as bar, _Clock() as clock:
             image = _render_path(scene, path, sensor, spp, seed, bar.update)
         # Mitsuba's path tracer counts nothing: only what the caller knows is reported.
@@ -222,6 +228,23 @@ def render(scene, integrator: str = D.INTEGRATOR, spp: int | None = None, max_de
              "effects": effects, "peak_memory_bytes": clock.peak_memory,
              "peak_resident_bytes": clock.peak_resident, **adaptive}
     return RenderResult(np.ascontiguousarray(image), clock.seconds, clock.compile, stats)
+
+
+def article_materials(scene) -> bool:
+    """Whether every shape has the ``article`` BSDF, as the whitted integrator needs
+    (a portable scene's are Mitsuba's stock BSDFs)."""
+    return all(hasattr(shape.bsdf(), "material_row") for shape in scene.shapes())
+
+
+def _path_integrator(scene, max_depth: int | None, depth: int):
+    """The path tracer for the article's ``depth``: the scene's own stock ``path``
+    integrator when it has one and no depth is asked for (a portable scene's, whose
+    ``max_depth`` is already the article's depth + 1), else a new one."""
+    import mitsuba as mi
+    own = scene.integrator()
+    if max_depth is None and own is not None and own.class_name() == "PathIntegrator":
+        return own
+    return mi.load_dict({"type": "path", "max_depth": D.path_depth(depth)})
 
 
 def path_passes(spp: int, pixels: int) -> list[int]:
