@@ -166,8 +166,14 @@ def test_second_run_reuses_the_cached_reference(sweep, mirror_scene, tmp_path, m
     assert entries[0].reference_cached
     assert entries[0].reference_file == reference_file
     assert reference_file.stat().st_mtime_ns == stamp
-    assert not [c for c in calls if c.get("spp") == REFERENCE_SPP]
-    assert len(calls) == 3  # the sweep's renders only
+    assert not [c for c in calls if c.get("integrator") == "path" and c.get("spp") == REFERENCE_SPP]
+    sweep_calls = [c for c in calls if c.get("min_weight") is None]
+    limit_calls = [c for c in calls if c.get("min_weight") == 0]
+    assert len(sweep_calls) == 3  # the sweep's renders, and no reference
+    # each Whitted method's limit: two halves, at A = 0 and A = 1 in the article's lighting
+    assert sorted((c["lighting"], c["ambient"]) for c in limit_calls) == [
+        ("article", 0.0), ("article", 0.0), ("article", 1.0), ("article", 1.0),
+        ("physical", None), ("physical", None)]
 
 
 def test_cache_key_follows_scene_content_and_settings(mirror_scene, tmp_path):
