@@ -292,7 +292,8 @@ def analyse(entry: SceneResult, levels: tuple[float, ...] | None = None,
             gone = [m for m in ms if m.rel_mse_limit <= tolerance * limit.rel_mse]
             gone = min(gone, key=lambda m: m.seconds) if gone else None
             decompositions.append(Decomposition(method, floor, limit, gone,
-                                                decomposition_text(method, floor, limit, gone)))
+                                                decomposition_text(method, floor, limit, gone,
+                                                                   entry.reference_noise)))
     return Analysis(entry, tuple(levels), equal_time, equal_quality, floors, decompositions)
 
 
@@ -339,7 +340,7 @@ def _noise_caution(floor: Floor, reference_noise: float) -> str:
 
 
 def decomposition_text(method: str, floor: Floor[Measurement], limit: Limit,
-                       gone: Measurement | None) -> str:
+                       gone: Measurement | None, reference_noise: float = math.nan) -> str:
     """What the floor's error is made of, in words, e.g. "Of the article's model's 0.180
     (at d5 · 1 spp), 0.003 is its depth and sampling ...; the best ambient (0.41 instead
     of 0.2) brings it to 0.11; the remaining 0.11 is light the model does not transport"."""
@@ -355,17 +356,21 @@ def decomposition_text(method: str, floor: Floor[Measurement], limit: Limit,
     else:
         text = (f"Of {possessive} {floor.error:.3g} (at {floor.render.setting.label}), nothing "
                 f"measurable is its depth and sampling: its limit ({how}) scores {limit.rel_mse:.3g}")
-    if method == "whitted-article" and math.isfinite(limit.best_ambient):
-        rest = limit.rel_mse_at_best_ambient
+    article = method == "whitted-article"
+    rest = limit.rel_mse_at_best_ambient if article and math.isfinite(limit.best_ambient) else limit.rel_mse
+    if article and math.isfinite(limit.best_ambient):
         text += (f"; the best ambient ({limit.best_ambient:.2g} instead of {limit.ambient:.2g}) "
-                 f"brings it to {rest:.3g}; the remaining {rest:.2g} is light the model does "
-                 f"not transport (indirect light and sky light).")
-    elif method == "whitted-article":
-        text += ("; no pixel depends on the ambient, so all of it is light the model does not "
-                 "transport (indirect light and sky light).")
+                 f"brings it to {rest:.3g}; the remaining {rest:.2g}")
+    elif article:
+        text += f"; no pixel depends on the ambient, so all {rest:.2g} of it"
     else:
-        text += (f"; that {limit.rel_mse:.2g} is light a ray tree does not transport (indirect "
-                 f"light and sky light).")
+        text += f"; that {rest:.2g}"
+    if math.isfinite(reference_noise) and rest < 2 * reference_noise:
+        text += (f" is within a factor 2 of the reference's own noise ({reference_noise:.2g}): "
+                 f"no light the model leaves out shows.")
+    else:
+        text += (f" is light {'the model' if article else 'a ray tree'} does not transport "
+                 f"(indirect light and sky light).")
     if not limit.converged:
         text += (f" (The limit's own noise, {limit.noise:.2g}, is not yet a tenth of the smallest "
                  f"difference it measures: these parts are rough.)")
