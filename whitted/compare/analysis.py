@@ -87,7 +87,7 @@ class Reach:
     =========== =====================================================================
     ``method``  the method
     ``fastest`` its cheapest render at or below the level (None: none reaches it)
-    ``best``    its most accurate render: its floor, shown when none reaches the level
+    ``best``    its most accurate render, shown when none reaches the level
     =========== =====================================================================
     """
     method: str
@@ -293,7 +293,7 @@ def analyse(entry: SceneResult, levels: tuple[float, ...] | None = None,
             gone = min(gone, key=lambda m: m.seconds) if gone else None
             decompositions.append(Decomposition(method, floor, limit, gone,
                                                 decomposition_text(method, floor, limit, gone,
-                                                                   entry.reference_noise)))
+                                                                   entry.reference_noise, tolerance)))
     return Analysis(entry, tuple(levels), equal_time, equal_quality, floors, decompositions)
 
 
@@ -340,7 +340,8 @@ def _noise_caution(floor: Floor, reference_noise: float) -> str:
 
 
 def decomposition_text(method: str, floor: Floor[Measurement], limit: Limit,
-                       gone: Measurement | None, reference_noise: float = math.nan) -> str:
+                       gone: Measurement | None, reference_noise: float = math.nan,
+                       tolerance: float = COMPARE_FLOOR_TOLERANCE) -> str:
     """What the floor's error is made of, in words, e.g. "Of the article's model's 0.180
     (at d5 · 1 spp), 0.003 is its depth and sampling ...; the best ambient (0.41 instead
     of 0.2) brings it to 0.11; the remaining 0.11 is light the model does not transport"."""
@@ -350,7 +351,9 @@ def decomposition_text(method: str, floor: Floor[Measurement], limit: Limit,
     if sampling > 0:
         text = (f"Of {possessive} {floor.error:.3g} (at {floor.render.setting.label}), "
                 f"{sampling:.2g} is its depth and sampling")
-        if gone is not None:
+        if gone is floor.render:
+            text += f", under {tolerance:.0%} of its bias there"
+        elif gone is not None:
             text += f" (gone at {gone.setting.label}, {seconds_text(gone.seconds)})"
         text += f": its limit ({how}) scores {limit.rel_mse:.3g}"
     else:
@@ -389,12 +392,12 @@ def spread_text(m: Measurement) -> str:
 
 def reach_text(reach: Reach | None) -> str:
     """One cell of the equal-quality table: the cheapest render reaching the level, or
-    the method's floor when none does."""
+    the method's best render when none does."""
     if reach is None:
         return "not rendered"
     if reach.fastest is not None:
         return f"{seconds_text(reach.fastest.seconds)} ({reach.fastest.setting.label})"
-    return f"floor {reach.best.rel_mse:.3g} ({reach.best.setting.label})"
+    return f"best {reach.best.rel_mse:.3g} ({reach.best.setting.label})"
 
 
 def speedup_text(row: EqualQuality, method: str) -> str:

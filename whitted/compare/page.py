@@ -64,13 +64,12 @@ def _render(m: Measurement, index: str, card: bool) -> dict:
 
 def _on_curves(measurements: list[Measurement]) -> set[int]:
     """The renders worth a card (by ``id``): those on their method's curve (no faster render of
-    the method beats them, in relative MSE or FLIP); the others differ little from a card's."""
+    the method beats them in relative MSE); the others look much like a card's."""
     chosen = set()
     for method in METHODS:
         ms = [m for m in measurements if m.setting.method == method]
-        for metric in ("rel_mse", "flip"):
-            front = set(pareto_front([(m.seconds, getattr(m, metric)) for m in ms]))
-            chosen |= {id(m) for m in ms if (m.seconds, getattr(m, metric)) in front}
+        front = set(pareto_front([(m.seconds, m.rel_mse) for m in ms]))
+        chosen |= {id(m) for m in ms if (m.seconds, m.rel_mse) in front}
     return chosen
 
 

@@ -370,7 +370,7 @@ def summary(analyses: list[Analysis], equal_time: bool = True,
         lines += [f"  {decomposition.text}" for decomposition in analysis.decompositions]
         if analysis.equal_quality and entry.measurements:
             lines += ["", "  Equal quality: the cheapest render reaching each error level (a method "
-                          "that never does shows its floor):"]
+                          "that never does shows its best):"]
             lines += equal_quality_lines(analysis)
         if equal_time and analysis.equal_time:
             lines += ["", "  Equal time: each Whitted render beside the path tracer given its time "
