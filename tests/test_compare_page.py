@@ -295,3 +295,44 @@ def test_cli_names_the_page(tmp_path, capsys):
     assert status == 0
     assert str(tmp_path / "out" / "report.html") in capsys.readouterr().err
     assert (tmp_path / "out" / "report.html").read_text(encoding="utf-8").startswith("<!DOCTYPE html>")
+
+
+def test_plot_labels_keep_off_the_lines():
+    """A label placed with the lines' boxes as obstacles covers no part of a line."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    from whitted.compare.report import line_boxes, place_labels
+
+    fig = Figure(figsize=(4, 3), layout="constrained")
+    FigureCanvasAgg(fig)
+    ax = fig.subplots()
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    lines = [[(10 ** (-3 + k / 4), 10 ** (-1 - k / 6)) for k in range(9)],
+             [(10 ** (-3 + k / 4), 10 ** (-1.2 - k / 5)) for k in range(9)]]
+    for line in lines:
+        ax.plot(*zip(*line))
+    fig.draw_without_rendering()
+    taken = [box for line in lines for box in line_boxes(ax, line)]
+    placed = place_labels(fig, ax, [(x, y, f"d{i}·4", "k") for line in lines
+                                    for i, (x, y) in enumerate(line)], taken)
+    assert placed >= 4
+    renderer = fig.canvas.get_renderer()
+    for text in ax.texts:
+        box = text.get_window_extent(renderer)
+        for line in lines:
+            points = ax.transData.transform(line)
+            for (ax0, ay0), (ax1, ay1) in zip(points, points[1:]):
+                for k in range(101):  # every point of the segment, finely
+                    x, y = ax0 + (ax1 - ax0) * k / 100, ay0 + (ay1 - ay0) * k / 100
+                    assert not (box.x0 < x < box.x1 and box.y0 < y < box.y1), text.get_text()
+
+
+def test_help_names_every_output(capsys):
+    with pytest.raises(SystemExit):
+        main(["compare", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    for name in ("report.html", "summary.txt", "findings.json", "results.csv", "error_vs_time.png",
+                 "contact_sheet.png"):
+        assert f"DIR/{name}" in text

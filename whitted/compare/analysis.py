@@ -200,7 +200,7 @@ class Analysis:
                 limit = decomposition.limit
                 found["limit"] = {"max_depth": limit.max_depth, "spp": limit.spp,
                                   "rel_mse": limit.rel_mse, "noise": limit.noise,
-                                  "converged": limit.converged}
+                                  "converged": limit.converged, "seconds": limit.seconds}
                 found["depth_and_sampling_rel_mse"] = decomposition.sampling
                 if statement.method == "whitted-article":
                     found["scene_ambient"] = _json_number(limit.ambient)
