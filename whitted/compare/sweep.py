@@ -42,7 +42,7 @@ from .limits import render_limit
 from .planning import limit_methods
 from .reference import Chunk, ReferenceCache, reference_image
 from .report import thumbnail
-from .results import WHITTED_METHODS, Measurement, Options, SceneResult, Setting
+from .results import Measurement, Options, SceneResult, Setting
 from .scenes import SceneFile
 
 #: The seed of every render of the sweep (the reference has its own).
