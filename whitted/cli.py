@@ -60,7 +60,7 @@ def build_parser() -> argparse.ArgumentParser:
                          help="the XML file (one input file), or the folder that receives every "
                               "X.xml (default: beside each input)")
     convert.add_argument("-v", "--verbose", action="store_true", help="say what was written")
-    convert.set_defaults(run=_convert)
+    convert.set_defaults(run=_convert, parser=convert)
 
     render = sub.add_parser(
         "render", help="render a .scn or .xml scene to EXR or PNG",
@@ -90,7 +90,7 @@ def build_parser() -> argparse.ArgumentParser:
     render.add_argument("--stats", metavar="FILE.json", help="write ray counts and timings as JSON")
     render.add_argument("-v", "--verbose", action="store_true", help="print a one-line summary")
     render.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
-    render.set_defaults(run=_render)
+    render.set_defaults(run=_render, parser=render)
 
     from .compare.cli import add_arguments as add_compare_arguments
     compare = sub.add_parser(
@@ -103,14 +103,16 @@ def build_parser() -> argparse.ArgumentParser:
                     "DIR/results.csv (one row per render), DIR/error_vs_time.png, "
                     "DIR/contact_sheet.png and every render under DIR/renders/.")
     add_compare_arguments(compare)
-    compare.set_defaults(run=_compare)
+    compare.set_defaults(run=_compare, parser=compare)
     return parser
 
 
 def main(argv: list[str] | None = None) -> int:
     interrupt.install()
     parser = build_parser()
-    args = parser.parse_args(argv)
+    args, unknown = parser.parse_known_args(argv)
+    if unknown:   # the command's own usage, not the top-level one
+        args.parser.error(f"unrecognized arguments: {' '.join(unknown)}")
     try:
         from .variant import check_environment
         check_environment()
