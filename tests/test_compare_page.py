@@ -135,8 +135,8 @@ def test_template_ships_as_package_data():
     root = Path(__file__).resolve().parent.parent
     with open(root / "pyproject.toml", "rb") as f:
         package_data = tomllib.load(f)["tool"]["setuptools"]["package-data"]
-    pattern = package_data["whitted.compare"][0]
-    templates = list((root / "whitted" / "compare").glob(pattern))
+    pattern = package_data["whitted.compare.templates"][0]  # the templates folder: a data package
+    templates = list((root / "whitted" / "compare" / "templates").glob(pattern))
     assert templates and all(t.suffix == ".j2" for t in templates)
     assert resources.files("whitted.compare").joinpath("templates/report.html.j2").is_file()
 
