@@ -129,7 +129,7 @@ def main(argv: list[str] | None = None) -> int:
             raise
     else:
         return status
-    print("whitted: interrupted", file=sys.stderr)
+    print(interrupt.message(), file=sys.stderr)
     return interrupt.exit_status()
 
 

@@ -129,11 +129,11 @@ def _written(out: Path, entries: list[SceneResult], options: Options) -> Compari
 
 def _write_what_was_done(out: Path, entries: list[SceneResult], plans: list, options: Options) -> None:
     """The outputs of an interrupted run, marked as such at the top: what was done, or
-    (interrupted before a render was done) a page that says nothing was measured. The
-    caller says "interrupted" (one line, whitted.cli)."""
+    (interrupted before a render was done) a page that says nothing was measured. What
+    they hold goes into the CLI's one line (:func:`whitted.interrupt.tell`)."""
     if not out.is_dir():
         return
     done, planned = sum(len(e.measurements) for e in entries), sum(map(len, plans))
     report.write_all(out, entries, options.levels, interrupted=(done, planned))
-    print(f"whitted compare: {out} holds what was done ({done} of {planned} renders)",
-          file=sys.stderr)
+    interrupt.tell(f"the outputs in {out} hold what was done ({done} of {planned} renders)" if done
+                   else f"the outputs in {out} say nothing was measured")
