@@ -92,7 +92,7 @@ class Measurement:
     ``flip``            LDR-FLIP against the reference
     ``repeats``         how many times it was rendered
     ``thumbnail``       a small sRGB uint8 copy of the image (for the contact sheet)
-    ``times``           every repeat's render time (``seconds`` is their median)
+    ``times``           every repeat's render time (``seconds`` is the fastest)
     ``image``           the render, linear EXR, relative to the output folder (None:
                         not kept)
     ``image_png``       the same as an sRGB PNG (for the report page)
