@@ -140,6 +140,7 @@ def test_compare_keeps_what_finished_and_says_it_is_partial(small_scene, tmp_pat
     assert findings["interrupted"]["renders_planned"] == planned
     page = (out / "report.html").read_text(encoding="utf-8")
     assert marker in page and page.index(marker) < page.index('<section class="scene"')
+    assert "What the error is made of is not known here" in page  # stopped before the limits
     assert not [p for p in Path(out).rglob(".*") if p.is_file()]   # no temporary files left
     assert took < COMPARE_PATIENCE
 
