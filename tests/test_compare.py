@@ -166,8 +166,14 @@ def test_second_run_reuses_the_cached_reference(sweep, mirror_scene, tmp_path, m
     assert entries[0].reference_cached
     assert entries[0].reference_file == reference_file
     assert reference_file.stat().st_mtime_ns == stamp
-    assert not [c for c in calls if c.get("spp") == REFERENCE_SPP]
-    assert len(calls) == 3  # the sweep's renders only
+    assert not [c for c in calls if c.get("integrator") == "path" and c.get("spp") == REFERENCE_SPP]
+    sweep_calls = [c for c in calls if c.get("min_weight") is None]
+    limit_calls = [c for c in calls if c.get("min_weight") == 0]
+    assert len(sweep_calls) == 3  # the sweep's renders, and no reference
+    # each Whitted method's limit: two halves, at A = 0 and A = 1 in the article's lighting
+    assert sorted((c["lighting"], c["ambient"]) for c in limit_calls) == [
+        ("article", 0.0), ("article", 0.0), ("article", 1.0), ("article", 1.0),
+        ("physical", None), ("physical", None)]
 
 
 def test_cache_key_follows_scene_content_and_settings(mirror_scene, tmp_path):
@@ -512,3 +518,85 @@ def test_pareto_front_keeps_only_unbeaten_points():
     from whitted.compare.curves import pareto_front
     points = [(1.0, 0.5), (2.0, 0.6), (3.0, 0.2), (0.5, 0.9), (4.0, 0.2)]
     assert pareto_front(points) == [(0.5, 0.9), (1.0, 0.5), (3.0, 0.2)]
+
+
+# --------------------------------------------------------------------------- timing
+
+
+def _fake_render(times: list[float], calls: list):
+    """A stand-in for whitted.rendering.render whose renders take ``times`` in turn."""
+    from whitted.rendering import RenderResult
+
+    def render(scene, **kwargs):
+        calls.append(kwargs)
+        return RenderResult(np.zeros((24, 32, 3), np.float32), times[len(calls) - 1], 0.0, {})
+    return render
+
+
+@pytest.mark.parametrize("times, expected", [
+    # the two fastest agree within 20%: no rerun, the fastest kept
+    ([0.10, 0.11, 0.30], 3),
+    # 0.10 and 0.20 disagree: rerun until 0.105 confirms 0.10
+    ([0.10, 0.20, 0.30, 0.25, 0.105], 5),
+    # never confirmed: at most COMPARE_MAX_EXTRA_REPEATS more renders
+    ([0.10, 0.30, 0.50, 0.70, 0.90, 1.10, 1.30, 1.50], 7),
+])
+def test_a_render_is_timed_by_its_fastest_repeat_rerun_while_the_two_fastest_disagree(
+        monkeypatch, times, expected):
+    from whitted.compare.sweep import measure
+    from whitted.defaults import COMPARE_MAX_EXTRA_REPEATS
+    import whitted.rendering as render_module
+
+    calls = []
+    monkeypatch.setattr(render_module, "render", _fake_render(times, calls))
+    reference = np.full((24, 32, 3), 0.5, np.float32)
+    m = measure(None, cmp.Setting("whitted", "article", 1, 1), reference, 3)
+    assert len(calls) == m.repeats == len(m.times) == expected <= 3 + COMPARE_MAX_EXTRA_REPEATS
+    assert m.times == tuple(times[:expected]) and m.seconds == min(times[:expected]) == 0.10
+    calls.clear()
+    one = measure(None, cmp.Setting("whitted", "article", 1, 1), reference, 1)
+    assert one.repeats == 1  # one repeat has no spread to judge
+
+
+def test_progress_estimate_comes_from_the_renders_not_the_reference(sweep, mirror_scene, tmp_path,
+                                                                     monkeypatch):
+    """A reference that takes 100 s (on a fake clock) and renders of 1 s each: the bar's
+    elapsed time, and so its rate and estimate of the time left, counts the renders only."""
+    import io
+
+    import mitsuba as mi
+    import tqdm.std
+
+    import whitted.compare.sweep as sweep_module
+
+    class Clock:
+        now = 1000.0
+
+        def __call__(self):
+            return self.now
+
+    clock = Clock()
+    monkeypatch.setattr(tqdm.std, "time", clock)
+    real_reference, real_measure = sweep_module.reference_image, sweep_module.measure
+
+    def slow_reference(*args, **kwargs):
+        clock.now += 100.0
+        return real_reference(*args, **kwargs)
+
+    def timed_measure(*args, **kwargs):
+        clock.now += 1.0
+        return real_measure(*args, **kwargs)
+
+    monkeypatch.setattr(sweep_module, "reference_image", slow_reference)
+    monkeypatch.setattr(sweep_module, "measure", timed_measure)
+    out, _ = sweep
+    options = cmp.Options(out=tmp_path, reference_spp=REFERENCE_SPP, depths=(1,), whitted_spp=(1,),
+                          path_spp=(1, 4), repeats=1, cache=out / "references", quiet=True)
+    scene = cmp.SceneFile.read(mirror_scene, "mirror")
+    entry, settings = cmp.plan_scene(scene, scene.load(), options, mi.variant())
+    from whitted.compare.planning import progress_units
+    bar = tqdm.std.tqdm(total=progress_units(settings), file=io.StringIO(), mininterval=0, miniters=1)
+    cmp.sweep_scene(scene, entry, settings, options, progress=bar)
+    assert bar.n == bar.total == len(settings) + 2  # the renders and the two limits
+    assert bar.format_dict["elapsed"] == pytest.approx(len(settings) * 1.0)  # not 100 s more
+    bar.close()

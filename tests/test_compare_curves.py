@@ -9,10 +9,10 @@ import math
 import numpy as np
 import pytest
 
-from whitted.compare.analysis import analyse
+from whitted.compare.analysis import analyse, equal_time_how
 from whitted.compare.budget import Budget, fit_cost, render_cost
-from whitted.compare.curves import (error_at_time, error_floor, loglog_between, pareto_front,
-                                    reference_noise, time_to_reach)
+from whitted.compare.curves import (best_ambient, error_at_time, error_floor, error_levels,
+                                    loglog_between, pareto_front, reference_noise, time_to_reach)
 from whitted.compare.results import Measurement, SceneResult, Setting
 from whitted.defaults import (COMPARE_MIN_REFERENCE_SPP, COMPARE_REFERENCE_SHARE,
                               COMPARE_REPORT_SECONDS)
@@ -67,15 +67,54 @@ def test_time_to_reach_solves_the_loglog_line_for_time():
     assert time_to_reach(PATH, 0.04).how == "rendered"
 
 
-def test_error_floor_is_the_shallowest_depth_within_the_tolerance():
-    best = {1: 0.5, 2: 0.2, 3: 0.104, 4: 0.1, 5: 0.1}
-    floor = error_floor(best, 0.05)  # 0.104 <= 0.1 · 1.05
-    assert (floor.depth, floor.error, floor.best, floor.settled) == (3, 0.104, 0.1, True)
-    floor = error_floor(best, 0.01)  # 0.104 > 0.101: depth 4
-    assert (floor.depth, floor.error, floor.settled) == (4, 0.1, True)
-    still = error_floor({1: 0.5, 2: 0.3, 3: 0.2}, 0.05)  # the deepest is still the best
-    assert (still.depth, still.error, still.settled) == (3, 0.2, False)
-    assert error_floor({}, 0.05) is None and error_floor({1: math.nan}, 0.05) is None
+def test_error_floor_is_the_cheapest_render_within_the_tolerance_of_the_best():
+    # (seconds, error, name): the best is 0.1 (at 0.2 s); within 5% (<= 0.105) the cheapest is
+    # 0.104 at 0.03 s, not the 0.1 at 0.2 s nor the faster 0.2 at 0.01 s
+    curve = [(0.01, 0.2, "d1"), (0.03, 0.104, "d3"), (0.05, 0.1049, "d4"), (0.2, 0.1, "d5·16"),
+             (0.02, 0.5, "slow and bad")]
+    floor = error_floor(curve, 0.05)
+    assert (floor.render, floor.seconds, floor.error, floor.best, floor.settled) == (
+        "d3", 0.03, 0.104, 0.1, True)
+    floor = error_floor(curve, 0.01)  # within 1% (<= 0.101): only the best itself
+    assert (floor.render, floor.error, floor.settled) == ("d5·16", 0.1, False)  # nothing costlier
+    assert error_floor([(0.01, 0.3, "a"), (0.02, 0.2, "b")], 0.05).settled is False
+    assert error_floor([], 0.05) is None and error_floor([(1.0, math.nan, "x")], 0.05) is None
+    # two equally fast renders within the tolerance: the more accurate
+    assert error_floor([(0.1, 0.104, "a"), (0.1, 0.101, "b"), (0.5, 0.1, "c")], 0.05).render == "b"
+
+
+def test_error_levels_include_each_floor_and_levels_between():
+    # floors 0.16 and 0.0123: times 1.05 = 0.168 -> 0.17 and 0.012915 -> 0.013 (rounded up);
+    # between 0.001 and 1, two levels evenly on log axes: 0.01 and 0.1
+    levels = error_levels([0.16, 0.0123], 0.001, 1.0, 2, 0.05)
+    assert levels == (0.17, 0.1, 0.013, 0.01)
+    for floor in (0.16, 0.0123):  # each floor's method reaches a level
+        assert any(floor <= level for level in levels)
+    # a level within 10% of a larger one is left out: 0.105 -> 0.11 keeps 0.1 out
+    assert error_levels([0.1], 0.001, 1.0, 2, 0.05) == (0.11, 0.01)
+    assert error_levels([], 0.5, 0.5, 2, 0.05) == ()
+    assert error_levels([0.12], 0.5, 0.5, 2, 0.05) == (0.13,)  # 0.126, rounded up
+
+
+def test_best_ambient_minimises_the_relative_mse_of_the_affine_image():
+    """I(A) = I0 + A·(I1 − I0): the closed form agrees with a fine search over [0, 1]."""
+    from whitted import metrics
+
+    rng = np.random.default_rng(11)
+    dark = rng.uniform(0.0, 0.5, (8, 8, 3))
+    lit = dark + rng.uniform(0.1, 0.4, dark.shape)
+    reference = dark + 0.37 * (lit - dark) + rng.normal(0, 0.01, dark.shape)
+    ambient, error = best_ambient(dark, lit, reference)
+    search = min(np.linspace(0, 1, 10001),
+                 key=lambda a: metrics.relative_mse(dark + a * (lit - dark), reference))
+    assert ambient == pytest.approx(search, abs=2e-4) and ambient == pytest.approx(0.37, abs=0.02)
+    assert error == pytest.approx(metrics.relative_mse(dark + ambient * (lit - dark), reference))
+    assert error <= metrics.relative_mse(dark + 0.2 * (lit - dark), reference)
+    # a reference brighter than A = 1 can make: clipped to 1
+    assert best_ambient(dark, lit, lit * 2)[0] == 1.0
+    # nothing depends on A: no ambient to fit
+    ambient, error = best_ambient(dark, dark, reference)
+    assert math.isnan(ambient) and error == pytest.approx(metrics.relative_mse(dark, reference))
 
 
 def test_reference_noise_by_hand():
@@ -173,9 +212,11 @@ def test_equal_time_reads_the_path_tracer_at_each_whitted_time(scene_result):
     analysis = analyse(scene_result, (0.2, 0.05))
     rows = {(r.whitted.setting.max_depth, r.whitted.setting.spp): r for r in analysis.equal_time}
     assert len(rows) == 5
-    # depth 2 at 1 spp took 0.004 s: faster than the path tracer's 1 spp (0.01 s) -> nearest
-    assert rows[(2, 1)].rel_mse.how == "nearest" and rows[(2, 1)].rel_mse.value == 0.64
-    assert rows[(2, 1)].ratio == pytest.approx(0.12 / 0.64)
+    # depth 2 at 1 spp took 0.004 s: faster than the path tracer's 1 spp (0.01 s): the path
+    # tracer was not measured then, so nothing is compared
+    assert rows[(2, 1)].outside == "faster" and math.isnan(rows[(2, 1)].ratio)
+    assert equal_time_how(rows[(2, 1)]) == "faster than the path tracer's fastest render (1 spp, 10 ms)"
+    assert rows[(3, 4)].outside is None
     # depth 3 at 4 spp took 0.024 s: the path tracer's 0.0064 / 0.024 there
     assert rows[(3, 4)].rel_mse.value == pytest.approx(0.0064 / 0.024)
     assert rows[(3, 4)].flip.value == pytest.approx(0.00064 / 0.024)
@@ -198,8 +239,20 @@ def test_equal_quality_shows_floors_and_speedups(scene_result):
 def test_floor_is_stated_with_the_path_tracers_time_to_reach_it(scene_result):
     analysis = analyse(scene_result, (0.2,))
     (floor,) = analysis.floors
-    # best by depth 0.3, 0.12, 0.098, 0.1: within 5% of 0.098 first at depth 3 (0.098)
-    assert (floor.floor.depth, floor.floor.error, floor.floor.settled) == (3, 0.098, True)
-    assert floor.path.value == pytest.approx(0.0064 / 0.098)
-    assert floor.text.startswith("The article's model stops improving at depth 3")
-    assert "0.098" in floor.text and f"{0.0064 / 0.098 * 1000:.3g} ms" in floor.text
+    # best 0.098 (d3 · 4 spp, 0.024 s); within 5% (<= 0.1029) the cheapest is d3 · 1 spp:
+    # 0.1 in 0.006 s
+    assert floor.render.setting == Setting("whitted", "article", 1, 3)
+    assert (floor.floor.error, floor.floor.best, floor.floor.settled) == (0.1, 0.098, True)
+    assert floor.path.value == pytest.approx(0.0064 / 0.1)  # 64 ms on the 1/spp line
+    assert floor.text.startswith("The article's model stops improving at 0.098")
+    assert "d3 · 1 spp (6 ms) at 0.1" in floor.text and "64 ms" in floor.text
+    assert f"{0.064 / 0.006:.3g}× faster" in floor.text
+
+
+def test_levels_come_from_the_data_by_default(scene_result):
+    analysis = analyse(scene_result)
+    # the article's floor 0.1 -> 0.105 -> 0.11; the path tracer's best 0.01 -> 0.0105 -> 0.011;
+    # between 0.01 and 0.64 on log axes: 0.01 · 64^(1/3) = 0.04, 0.01 · 64^(2/3) = 0.16
+    assert analysis.levels == (0.16, 0.11, 0.04, 0.011)
+    for method in ("whitted-article", "path"):
+        assert any(row.reach[method].fastest is not None for row in analysis.equal_quality)

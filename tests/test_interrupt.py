@@ -74,23 +74,100 @@ def test_render_stops_cleanly(slow_scene, tmp_path, integrator, number, delay):
     assert took < PATIENCE
 
 
-def test_compare_keeps_what_finished(slow_scene, tmp_path):
+class Lines:
+    """A process's stderr read by a thread as it comes, so a test can wait for a line."""
+
+    def __init__(self, stream):
+        import threading
+        self.lines: list[str] = []
+        self.thread = threading.Thread(target=lambda: self.lines.extend(stream), daemon=True)
+        self.thread.start()
+
+    def text(self) -> str:
+        self.thread.join(timeout=60)
+        return "".join(self.lines)
+
+
+def wait_for(process, condition, what: str, seconds: float = 180.0) -> None:
+    """Poll ``condition`` (no fixed sleep: the machine may be busy) while the process runs."""
+    deadline = time.monotonic() + seconds
+    while not condition():
+        assert process.poll() is None, f"the command ended before {what}"
+        assert time.monotonic() < deadline, f"no {what} within {seconds:.0f} s"
+        time.sleep(0.05)
+
+
+def stop(process, err: Lines):
+    process.send_signal(signal.SIGINT)
+    sent = time.monotonic()
+    process.wait(timeout=60)
+    return process.returncode, err.text(), time.monotonic() - sent
+
+
+@pytest.fixture()
+def small_scene(tmp_path):
     scene = tmp_path / "small.scn"
     scene.write_text(SLOW_SCENE.replace("size 4096 3072", "size 32 24").replace("samples 64", "samples 1"))
+    return scene
+
+
+def test_compare_keeps_what_finished_and_says_it_is_partial(small_scene, tmp_path):
+    import json
+
     out = tmp_path / "cmp"
-    process = start(["compare", str(scene), "--out", str(out), "--reference-spp", "16",
+    process = start(["compare", str(small_scene), "--out", str(out), "--reference-spp", "16",
                      "--repeats", "30", "--depths", "1-8", "--spp", "1,4,16", "--path-spp", "1"], tmp_path)
-    deadline = time.monotonic() + 120
-    while not (out / "references").is_dir() or not any((out / "references").glob("*.exr")):
-        assert process.poll() is None, process.communicate()[1]
-        assert time.monotonic() < deadline
-        time.sleep(0.2)
-    status, _, err, took = interrupt_after(process, 4.0, signal.SIGINT)
-    assert status == 130 and "Traceback" not in err
-    # One line says it all: the stop, and what was kept (the progress bar aside).
-    assert [line for line in err.splitlines() if "interrupted" in line] == \
-        [f"whitted: interrupted; the outputs in {out} hold what was done"]
-    rows = (out / "results.csv").read_text().strip().splitlines()
-    assert len(rows) >= 2                      # the header and at least one finished render
+    err = Lines(process.stderr)
+    renders = out / "renders" / "small"
+    # a render's files are written before it is counted: a fourth render's files mean that
+    # three renders are counted, whenever the signal lands
+    wait_for(process, lambda: len(list(renders.glob("*-flip.png"))) >= 4, "four renders")
+    status, text, took = stop(process, err)
+    assert status == 130 and "Traceback" not in text
+    rows = (out / "results.csv").read_text().strip().splitlines()[1:]
+    planned = 2 * 8 * 3 + 1
+    assert 3 <= len(rows) < planned
+    # One line says it all: the stop, and what was kept (the progress bar aside; the test's
+    # own folder may say "interrupted").
+    said = text.replace(str(tmp_path), "TMP")
+    assert [line for line in said.splitlines() if "interrupted" in line] == [
+        f"whitted: interrupted; the outputs in TMP/cmp hold what was done ({len(rows)} of {planned} "
+        f"renders)"]
+    marker = f"Interrupted after {len(rows)} of {planned} renders"
+    assert (out / "summary.txt").read_text(encoding="utf-8").startswith(marker)
+    findings = json.loads((out / "findings.json").read_text(encoding="utf-8"))
+    assert findings["interrupted"]["renders_done"] == len(rows)
+    assert findings["interrupted"]["renders_planned"] == planned
+    page = (out / "report.html").read_text(encoding="utf-8")
+    assert marker in page and page.index(marker) < page.index('<section class="scene"')
+    assert "What the error is made of is not known here" in page  # stopped before the limits
     assert not [p for p in Path(out).rglob(".*") if p.is_file()]   # no temporary files left
+    assert took < COMPARE_PATIENCE
+
+
+def test_compare_interrupted_during_the_reference_says_nothing_was_measured(small_scene, tmp_path):
+    import json
+
+    out = tmp_path / "cmp"
+    # a reference of 4M spp in chunks of 1024: minutes of work, interrupted in its first chunks
+    process = start(["compare", str(small_scene), "--out", str(out), "--reference-spp", str(1 << 22),
+                     "--depths", "1", "--spp", "1", "--path-spp", "1"], tmp_path)
+    err = Lines(process.stderr)
+    wait_for(process, lambda: any("rendering the reference" in line for line in err.lines),
+             "reference")
+    status, text, took = stop(process, err)
+    assert status == 130 and "Traceback" not in text
+    said = text.replace(str(tmp_path), "TMP")  # the test's own folder may say "interrupted"
+    assert [line for line in said.splitlines() if "interrupted" in line] == [
+        "whitted: interrupted; the outputs in TMP/cmp say nothing was measured"]
+    nothing = "Interrupted before any render was done: nothing was measured."
+    assert (out / "summary.txt").read_text(encoding="utf-8").startswith(nothing)
+    assert json.loads((out / "findings.json").read_text(encoding="utf-8"))["interrupted"]["text"] == nothing
+    page = (out / "report.html").read_text(encoding="utf-8")
+    assert nothing in page and "nothing was measured" in page
+    assert (out / "results.csv").read_text().strip().splitlines() == [
+        (out / "results.csv").read_text().splitlines()[0]]   # the header only
+    references = out / "references"
+    assert not references.exists() or not list(references.glob("*.exr"))  # no reference cached
+    assert not [p for p in Path(out).rglob(".*") if p.is_file()]
     assert took < COMPARE_PATIENCE

@@ -104,7 +104,10 @@ def build_parser() -> argparse.ArgumentParser:
         description="Render a converged path-traced reference (cached), then sweep the Whitted "
                     "integrator (max depth x spp, article and physical lighting) and the path "
                     "tracer (spp) and score each render's relative MSE and FLIP against it. Writes "
-                    "DIR/results.csv, DIR/error_vs_time.png and DIR/contact_sheet.png.")
+                    "DIR/report.html (the comparison as a page: open it from disk), DIR/summary.txt "
+                    "(its conclusions in text), DIR/findings.json (the same for scripts), "
+                    "DIR/results.csv (one row per render), DIR/error_vs_time.png, "
+                    "DIR/contact_sheet.png and every render under DIR/renders/.")
     add_compare_arguments(compare)
     compare.set_defaults(run=_compare, parser=compare)
     return parser

@@ -88,8 +88,16 @@ FALLBACK_VARIANT = "scalar_rgb"
 COMPARE_REFERENCE_SPP = 4096              #: the path-traced reference's samples per pixel
 COMPARE_WHITTED_SPP = (1, 4, 16)          #: the Whitted sweep's spp ladder
 COMPARE_PATH_SPP = (1, 4, 16, 64, 256, 1024)   #: the path tracer's spp ladder
-COMPARE_REPEATS = 3                       #: timed repeats of each render (the median is reported)
-COMPARE_LEVELS = (0.1, 0.03, 0.01)        #: relative-MSE levels of the equal-quality table
+COMPARE_REPEATS = 3                       #: timed repeats of each render (the fastest is reported)
+#: Timing on a busy machine: other processes only ever add time, so a render's time is its
+#: fastest repeat; while the two fastest differ by more than this fraction, the fastest is
+#: not yet trusted and the render is timed again, at most COMPARE_MAX_EXTRA_REPEATS more times.
+COMPARE_SPREAD_LIMIT = 0.2
+COMPARE_MAX_EXTRA_REPEATS = 4
+#: The equal-quality table's levels, from the data: each method's floor times (1 + this
+#: tolerance), and this many levels spaced evenly on log axes between the best and worst
+#: errors measured (--levels replaces them all).
+COMPARE_DATA_LEVELS = 2
 #: The default Whitted sweep is 1…min(scene depth, this): deeper trees rarely change a pixel.
 COMPARE_MAX_DEFAULT_DEPTH = 8
 #: The reference is rendered in independent chunks of at most this many spp, each with its
@@ -99,9 +107,16 @@ COMPARE_REFERENCE_CHUNK_SPP = 1024
 #: Seconds to wait for a Dask scheduler to answer (and for its first worker) before
 #: ``whitted compare --scheduler`` gives up.
 COMPARE_CONNECT_TIMEOUT = 5.0
-#: A Whitted method has reached its error floor at the shallowest depth whose best error is
-#: within this fraction of the best error of any depth (deeper trees improve it by less).
+#: A Whitted method's floor is its cheapest render whose error is within this fraction of the
+#: method's best: more depth or samples past it buy less than that.
 COMPARE_FLOOR_TOLERANCE = 0.05
+#: The model's limit (a Whitted method at the sweep's deepest depth, exact tree) is rendered
+#: in two halves of at least this many times the sweep's densest spp, doubled (up to
+#: COMPARE_LIMIT_MAX_SPP) until its own noise, estimated from the halves, is below
+#: COMPARE_LIMIT_NOISE_SHARE of the smallest difference it measures to a sweep render.
+COMPARE_LIMIT_SPP_FACTOR = 16
+COMPARE_LIMIT_MAX_SPP = 4096
+COMPARE_LIMIT_NOISE_SHARE = 0.1
 #: Under --budget, the most of a scene's share its reference may take (the sweep gets the rest).
 COMPARE_REFERENCE_SHARE = 0.5
 #: Under --budget, a reference is scaled down to fit its share but not below this many spp

@@ -80,7 +80,7 @@ class RenderResult:
     stats: dict              # see the module docstring
 
 
-def _whitted_settings(scene) -> dict:
+def whitted_settings(scene) -> dict:
     """The scene's own Whitted settings (its integrator's properties), else the defaults."""
     import mitsuba as mi
     integrator = scene.integrator()
@@ -91,15 +91,17 @@ def _whitted_settings(scene) -> dict:
     return {**DEFAULTS, "light_reference": mi.ScalarPoint3f(0, 0, 0)}
 
 
-def _whitted_integrator(scene, settings: dict, depth: int, lighting: str, min_weight: float):
-    """The scene's own Whitted integrator, or a new one where depth, lighting or min weight differ."""
+def _whitted_integrator(scene, settings: dict, depth: int, lighting: str, min_weight: float,
+                        ambient: float):
+    """The scene's own Whitted integrator, or a new one where depth, lighting, min weight or
+    ambient differ."""
     import mitsuba as mi
     own = scene.integrator()
     if (hasattr(own, "light_reference") and own.max_depth == depth and own.lighting == lighting
-            and own.min_weight == min_weight):
+            and own.min_weight == min_weight and own.ambient == ambient):
         return own
     with quiet_mitsuba():
-        return mi.load_dict({"type": "whitted", "max_depth": depth, "ambient": settings["ambient"],
+        return mi.load_dict({"type": "whitted", "max_depth": depth, "ambient": ambient,
                              "lighting": lighting, "light_reference": settings["light_reference"],
                              "min_weight": min_weight})
 
@@ -177,12 +179,13 @@ class _Clock:
 
 def render(scene, integrator: str = D.INTEGRATOR, spp: int | None = None, max_depth: int | None = None,
            lighting: str | None = None, progress: bool = False, seed: int = 0,
-           min_weight: float | None = None) -> RenderResult:
+           min_weight: float | None = None, ambient: float | None = None) -> RenderResult:
     """Render ``scene`` (a ``mi.Scene``); see the module docstring and docs/CONTRACTS.md.
 
     ``spp``, ``max_depth`` (the article's depth, primary rays being depth 1),
-    ``lighting`` and ``min_weight`` (the Whitted integrator's adaptive depth
-    control, 0 = off) default to the scene's own settings. ``integrator="path"``
+    ``lighting``, ``min_weight`` (the Whitted integrator's adaptive depth
+    control, 0 = off) and ``ambient`` (the article's A, whitted only) default to
+    the scene's own settings. ``integrator="path"``
     uses Mitsuba's ``path`` integrator with ``max_depth + 1`` (one more
     segment for the connection to a light); a scene whose own integrator is
     ``path`` (a portable scene) is rendered with it unless ``max_depth`` is given.
@@ -193,7 +196,7 @@ def render(scene, integrator: str = D.INTEGRATOR, spp: int | None = None, max_de
     check_settings(spp, max_depth, lighting, integrator, min_weight)
     if not scene.sensors():
         raise WhittedError("the scene has no sensor (camera) to render from")
-    settings = _whitted_settings(scene)
+    settings = whitted_settings(scene)
     depth = int(max_depth) if max_depth is not None else settings["max_depth"]
     sensor = scene.sensors()[0]
     spp = int(spp) if spp is not None else sensor.sampler().sample_count()
@@ -205,7 +208,9 @@ def render(scene, integrator: str = D.INTEGRATOR, spp: int | None = None, max_de
                                "scene has Mitsuba's stock BSDFs (a portable scene?): render it with "
                                "the path integrator, or render the default XML")
         min_weight = float(min_weight) if min_weight is not None else settings["min_weight"]
-        whitted = _whitted_integrator(scene, settings, depth, lighting or settings["lighting"], min_weight)
+        ambient = D.check_ambient(ambient, "ambient") if ambient is not None else settings["ambient"]
+        whitted = _whitted_integrator(scene, settings, depth, lighting or settings["lighting"], min_weight,
+                                      ambient)
         with progress_bar(progress, width * height * spp, "render") as bar, _Clock() as clock:
             rendering = whitted.render_detailed(scene, sensor, seed=seed, spp=spp, progress=bar.update)
             # The developed image's own memory, not a copy (a 16384² image is 3 GiB).
@@ -295,6 +300,6 @@ def _effects_or_none(scene, depth: int) -> list:
     """The effects of an article scene (for the stats of a path-traced render), else []."""
     from .plugins.effects import analyse
     try:
-        return list(analyse(scene, depth, _whitted_settings(scene)["light_reference"]).effects)
+        return list(analyse(scene, depth, whitted_settings(scene)["light_reference"]).effects)
     except WhittedError:
         return []

@@ -23,8 +23,10 @@ The modules, in the order the work flows (each imports only those above it;
 ``budget``      ``--budget``: each scene's share of the time, the reference's
                 affordable spp (from a probe), each render's predicted cost
 ``reference``   the path-traced reference (two halves) and its on-disk cache
+``limits``      each Whitted method's limit (exact tree, converged anti-aliasing): what
+                a render's depth and spp cost, the model's bias, the best ambient
 ``errormaps``   the images kept of each render: EXR, PNG, FLIP's error map
-``analysis``    equal time, equal quality, the error floors in words
+``analysis``    the floors, equal quality, equal time, what the error is made of
 ``page``        report.html, from its Jinja2 template (``templates/``)
 ``report``      every output: results.csv, the plots, contact sheet, summary.txt,
                 and the page
@@ -46,6 +48,7 @@ _EXPORTS = {
     "Budget": "budget", "add_arguments": "cli", "compare_command": "cli", "float_list": "cli",
     "int_list": "cli", "plan": "planning", "plan_scene": "planning", "ReferenceCache": "reference",
     "METHODS": "results", "WHITTED_METHODS": "results", "Measurement": "results",
+    "Comparison": "results", "Limit": "results",
     "Options": "results", "SceneResult": "results", "Setting": "results", "compare": "run",
     "SceneFile": "scenes", "scene_files": "scenes", "scene_names": "scenes", "sweep_scene": "sweep",
     "analyse": "analysis", "Analysis": "analysis", "write_all": "report",

@@ -1,21 +1,30 @@
-"""What a scene's measurements say, as a rendering paper would put it: equal time, equal
-quality, and where the article's model stops improving.
+"""What a scene's measurements say, as a rendering paper would put it: what accuracy
+costs (the floor, equal quality, equal time) and what the Whitted model's error is made of.
 
-* **Equal time**: each Whitted setting beside the error the path tracer reaches in the
-  same time (read on its curve, :func:`~whitted.compare.curves.error_at_time`). This
-  answers "I have this many milliseconds: which method?"
+* **The floor**: a ray tree leaves light out (the article's ambient term stands for
+  all the indirect light), so past some depth and spp a Whitted method stops improving.
+  Its floor is its cheapest render within ``COMPARE_FLOOR_TOLERANCE`` of its best
+  (:func:`~whitted.compare.curves.error_floor`), stated with the path tracer's time to
+  the same error: the headline a reader quotes.
 * **Equal quality**: for each error level, the cheapest setting of each method that
   reaches it, and how many times faster the Whitted methods are than the path tracer
-  there; a method that never reaches the level shows its floor (its best error).
-* **Error floor**: a ray tree leaves light out (the article's ambient term stands for
-  all the indirect light), so past some depth more depth stops helping, and its error
-  stays at a floor that no spp removes (:func:`~whitted.compare.curves.error_floor`).
-  The floor is stated in words, with the time the path tracer needs to reach it.
+  there. By default the levels come from the data (each method's floor, and levels
+  between the best and worst errors measured), so that each method reaches one.
+* **Equal time**: each Whitted setting beside the error the path tracer reaches in the
+  same time, read on its curve (:func:`~whitted.compare.curves.error_at_time`), only
+  where the path tracer was measured: a Whitted render faster than its fastest render
+  (or slower than its slowest) says so and is not compared.
+* **What the error is made of**: each Whitted method's *limit* (its deepest depth, every
+  ray of the tree, converged anti-aliasing: :class:`~whitted.compare.results.Limit`)
+  splits a render's error into what its depth and spp cost (its distance to the limit)
+  and the model's bias (the limit's distance to the reference); for the article's
+  lighting, the ambient that fits best tells how much of the bias its constant explains,
+  and the rest is light the model does not transport.
 
 Everything is computed from :class:`~whitted.compare.results.SceneResult` alone (plain
 data), in relative MSE, the measure whose trends are known (1/spp for an unbiased
-method); FLIP is given alongside at equal time. Both reports, the text summary and the
-HTML page, read these tables; neither computes anything of its own.
+method); FLIP is given alongside at equal time. The reports (the text summary, the HTML
+page, ``findings.json``) read these; none computes anything of its own.
 """
 
 from __future__ import annotations
@@ -23,14 +32,23 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-from ..defaults import COMPARE_FLOOR_TOLERANCE
-from .curves import Floor, Reading, error_at_time, error_floor, time_to_reach
-from .results import METHODS, WHITTED_METHODS, Measurement, SceneResult, seconds_text
+from ..defaults import COMPARE_DATA_LEVELS, COMPARE_FLOOR_TOLERANCE
+from .curves import Floor, Reading, error_at_time, error_floor, error_levels, time_to_reach
+from .results import METHODS, WHITTED_METHODS, Limit, Measurement, SceneResult, seconds_text
 
 #: How the prose names each method.
 METHOD_NAMES = {"whitted-article": "the article's model",
                 "whitted-physical": "the physically lit ray tree",
                 "path": "the path tracer"}
+POSSESSIVES = {"whitted-article": "the article model's",
+               "whitted-physical": "the physically lit ray tree's"}
+#: What the equal-time tables say the renders' times are.
+TIMING = ("the fastest of the repeats (other processes only ever add time), kernel "
+          "compilation excluded")
+
+
+def _capital(text: str) -> str:
+    return text[0].upper() + text[1:]
 
 
 @dataclass(frozen=True)
@@ -42,16 +60,22 @@ class EqualTime:
     ``rel_mse``   the path tracer's relative MSE at ``whitted.seconds`` (None: no
                   path render was done)
     ``flip``      the same for FLIP
+    ``outside``   ``"faster"`` or ``"slower"`` when the Whitted render is faster than
+                  the path tracer's fastest render or slower than its slowest: the path
+                  tracer was not measured at that time, so nothing is compared (None:
+                  within its range)
     ============= ===================================================================
     """
     whitted: Measurement
     rel_mse: Reading[Measurement] | None
     flip: Reading[Measurement] | None
+    outside: str | None = None
 
     @property
     def ratio(self) -> float:
-        """The Whitted render's relative MSE over the path tracer's (< 1: Whitted wins)."""
-        if self.rel_mse is None or not self.rel_mse.value > 0:
+        """The Whitted render's relative MSE over the path tracer's (< 1: Whitted wins);
+        NaN where the path tracer was not measured at that time."""
+        if self.rel_mse is None or self.outside or not self.rel_mse.value > 0:
             return math.nan
         return self.whitted.rel_mse / self.rel_mse.value
 
@@ -63,7 +87,7 @@ class Reach:
     =========== =====================================================================
     ``method``  the method
     ``fastest`` its cheapest render at or below the level (None: none reaches it)
-    ``best``    its most accurate render: its floor, shown when none reaches the level
+    ``best``    its most accurate render, shown when none reaches the level
     =========== =====================================================================
     """
     method: str
@@ -94,54 +118,146 @@ class EqualQuality:
 
 @dataclass(frozen=True)
 class FloorStatement:
-    """A Whitted method's error floor and what it costs the path tracer to match it.
+    """A Whitted method's floor and what it costs the path tracer to match it.
 
     ============= ====================================================================
     ``method``    the Whitted method
-    ``floor``     its :class:`~whitted.compare.curves.Floor` (depth, error, settled)
-    ``render``    its most accurate render at the floor's depth (whose error is the floor)
-    ``path``      the path tracer's time to reach the floor (None: it never does)
+    ``floor``     its :class:`~whitted.compare.curves.Floor` (``floor.render``: its
+                  cheapest render within the tolerance of its best)
+    ``path``      the path tracer's time to reach the floor's error (None: it never does)
     ``path_best`` the path tracer's most accurate render (None: no path render)
     ``text``      the statement in words
     ============= ====================================================================
     """
     method: str
-    floor: Floor
-    render: Measurement
+    floor: Floor[Measurement]
     path: Reading[Measurement] | None
     path_best: Measurement | None
     text: str
+
+    @property
+    def render(self) -> Measurement:
+        return self.floor.render
+
+
+@dataclass(frozen=True)
+class Decomposition:
+    """What a Whitted method's error at its floor is made of.
+
+    ============ ====================================================================
+    ``method``   the Whitted method
+    ``floor``    its floor (its error against the reference)
+    ``limit``    its :class:`~whitted.compare.results.Limit` (the model's bias:
+                 ``limit.rel_mse``)
+    ``gone``     its cheapest render within the tolerance's share of the bias from the
+                 limit: where depth and sampling stop mattering (None: none is)
+    ``text``     the decomposition in words
+    ============ ====================================================================
+    """
+    method: str
+    floor: Floor[Measurement]
+    limit: Limit
+    gone: Measurement | None
+    text: str
+
+    @property
+    def sampling(self) -> float:
+        """The part of the floor's error its depth and spp account for: the floor's error
+        less the model's bias (relative MSEs of independent parts add; 0 when the floor
+        is no worse than the limit)."""
+        return max(0.0, self.floor.error - self.limit.rel_mse)
 
 
 @dataclass
 class Analysis:
     """Everything the reports say about one scene."""
     entry: SceneResult
+    levels: tuple[float, ...]
     equal_time: list[EqualTime]
     equal_quality: list[EqualQuality]
     floors: list[FloorStatement]
+    decompositions: list[Decomposition] = field(default_factory=list)
 
     @property
     def table_methods(self) -> list[str]:
         """The methods the equal-quality table has a column for, in :data:`METHODS` order."""
         return [m for m in METHODS if any(m in row.reach for row in self.equal_quality)]
 
+    def findings(self) -> dict:
+        """The scene's conclusions as plain JSON data (``findings.json``, docs/compare.md)."""
+        methods = {}
+        decompositions = {d.method: d for d in self.decompositions}
+        for statement in self.floors:
+            render = statement.render
+            found = {"floor": {"max_depth": render.setting.max_depth, "spp": render.setting.spp,
+                               "seconds": render.seconds, "rel_mse": render.rel_mse,
+                               "settled": statement.floor.settled},
+                     "best_rel_mse": statement.floor.best,
+                     "path_seconds_to_floor": statement.path.value if statement.path else None,
+                     "path_seconds_how": statement.path.how if statement.path else None}
+            decomposition = decompositions.get(statement.method)
+            if decomposition is not None:
+                limit = decomposition.limit
+                found["limit"] = {"max_depth": limit.max_depth, "spp": limit.spp,
+                                  "rel_mse": limit.rel_mse, "noise": limit.noise,
+                                  "converged": limit.converged, "seconds": limit.seconds}
+                found["depth_and_sampling_rel_mse"] = decomposition.sampling
+                if statement.method == "whitted-article":
+                    found["scene_ambient"] = _json_number(limit.ambient)
+                    found["best_ambient"] = _json_number(limit.best_ambient)
+                    found["rel_mse_at_best_ambient"] = _json_number(limit.rel_mse_at_best_ambient)
+                found["text"] = decomposition.text
+            methods[statement.method] = found
+        entry = self.entry
+        return {"levels": list(self.levels), "reference_spp": entry.reference_spp,
+                "reference_noise": _json_number(entry.reference_noise),
+                "renders": len(entry.measurements), "skipped": len(entry.skipped),
+                "methods": methods}
+
+
+def _json_number(value: float) -> float | None:
+    return value if math.isfinite(value) else None
+
 
 def _curve(measurements: list[Measurement], metric: str) -> list[tuple[float, float, Measurement]]:
     return [(m.seconds, getattr(m, metric), m) for m in measurements]
 
 
-def analyse(entry: SceneResult, levels: tuple[float, ...],
+def data_levels(entry: SceneResult, tolerance: float = COMPARE_FLOOR_TOLERANCE) -> tuple[float, ...]:
+    """The equal-quality levels the data suggest: each method's floor (the path tracer's:
+    its best error) times (1 + ``tolerance``), and levels between the best and worst
+    errors measured (:func:`~whitted.compare.curves.error_levels`), so that every method
+    reaches at least one."""
+    errors = [m.rel_mse for m in entry.measurements if math.isfinite(m.rel_mse) and m.rel_mse > 0]
+    if not errors:
+        return ()
+    floors = []
+    for method in METHODS:
+        floor = error_floor(_curve([m for m in entry.measurements if m.setting.method == method],
+                                   "rel_mse"), tolerance)
+        if floor is not None:
+            floors.append(floor.error)
+    return error_levels(floors, min(errors), max(errors), COMPARE_DATA_LEVELS, tolerance)
+
+
+def analyse(entry: SceneResult, levels: tuple[float, ...] | None = None,
             tolerance: float = COMPARE_FLOOR_TOLERANCE) -> Analysis:
-    """The equal-time and equal-quality tables and the floor statements of one scene."""
+    """The tables, floors and decompositions of one scene (``levels`` None: from the data)."""
+    if levels is None:
+        levels = data_levels(entry, tolerance)
     by_method = {method: [m for m in entry.measurements if m.setting.method == method]
                  for method in METHODS}
     path = by_method["path"]
     path_mse, path_flip = _curve(path, "rel_mse"), _curve(path, "flip")
 
-    equal_time = [EqualTime(m, error_at_time(path_mse, m.seconds), error_at_time(path_flip, m.seconds))
-                  for method in WHITTED_METHODS
-                  for m in sorted(by_method[method], key=lambda m: (m.setting.max_depth, m.setting.spp))]
+    equal_time = []
+    for method in WHITTED_METHODS:
+        for m in sorted(by_method[method], key=lambda m: (m.setting.max_depth, m.setting.spp)):
+            reading = error_at_time(path_mse, m.seconds)
+            outside = None
+            if reading is not None and reading.how == "nearest":
+                outside = "faster" if m.seconds < reading.between[0].seconds else "slower"
+            equal_time.append(EqualTime(m, reading, error_at_time(path_flip, m.seconds), outside))
 
     equal_quality = []
     for level in levels:
@@ -160,61 +276,113 @@ def analyse(entry: SceneResult, levels: tuple[float, ...],
                 speedups[method] = path_reach.fastest.seconds / own.fastest.seconds
         equal_quality.append(EqualQuality(level, reach, speedups))
 
-    floors = []
+    floors, decompositions = [], []
     path_best = min(path, key=lambda m: m.rel_mse) if path else None
     for method in WHITTED_METHODS:
         ms = by_method[method]
-        best_by_depth: dict[int, float] = {}
-        for m in ms:
-            depth = m.setting.max_depth
-            best_by_depth[depth] = min(best_by_depth.get(depth, math.inf), m.rel_mse)
-        floor = error_floor(best_by_depth, tolerance)
+        floor = error_floor(_curve(ms, "rel_mse"), tolerance)
         if floor is None:
             continue
-        render = min((m for m in ms if m.setting.max_depth == floor.depth and m.rel_mse == floor.error),
-                     key=lambda m: m.seconds)
         reading = time_to_reach(path_mse, floor.error) if path else None
-        floors.append(FloorStatement(method, floor, render, reading, path_best,
-                                     floor_text(method, floor, render, reading, path_best,
+        floors.append(FloorStatement(method, floor, reading, path_best,
+                                     floor_text(method, floor, reading, path_best,
                                                 entry.reference_noise, tolerance)))
-    return Analysis(entry, equal_time, equal_quality, floors)
+        limit = entry.limits.get(method)
+        if limit is not None:
+            gone = [m for m in ms if m.rel_mse_limit <= tolerance * limit.rel_mse]
+            gone = min(gone, key=lambda m: m.seconds) if gone else None
+            decompositions.append(Decomposition(method, floor, limit, gone,
+                                                decomposition_text(method, floor, limit, gone,
+                                                                   entry.reference_noise, tolerance)))
+    return Analysis(entry, tuple(levels), equal_time, equal_quality, floors, decompositions)
 
 
-def floor_text(method: str, floor: Floor, render: Measurement, path: Reading | None,
+def floor_text(method: str, floor: Floor[Measurement], path: Reading | None,
                path_best: Measurement | None, reference_noise: float, tolerance: float) -> str:
-    """The floor in words, e.g. "The article's model stops improving at depth 4: ..."."""
+    """The floor in words, e.g. "The article's model's best error is 0.175 ...: its
+    cheapest render within 5% of it is d5 · 1 spp (12.3 ms) at 0.180, which the path
+    tracer reaches in 18.6 ms ...; the article's model gets there 1.51× faster"."""
     name = METHOD_NAMES[method]
-    error = f"{floor.error:.3g} (relative MSE, at {render.setting.label}, {seconds_text(render.seconds)})"
+    render = floor.render
+    cheapest = (f"{render.setting.label} ({seconds_text(render.seconds)}) at {floor.error:.3g}")
     if floor.settled:
-        text = (f"{name[0].upper()}{name[1:]} stops improving at depth {floor.depth} (deeper trees "
-                f"lower its error by less than {tolerance:.0%}); its error then is {error}")
+        text = (f"{_capital(name)} stops improving at {floor.best:.3g} (relative MSE, its best): "
+                f"its cheapest render within {tolerance:.0%} of that is {cheapest}")
     else:
-        text = (f"{name[0].upper()}{name[1:]} is still improving at depth {floor.depth}, the deepest "
-                f"rendered; its best error there is {error}")
+        text = (f"{_capital(name)} is still improving at its costliest render, {cheapest} "
+                f"(relative MSE): no costlier render shows where it stops")
     if path is None and path_best is None:
-        text += "; the path tracer was not rendered."
-    elif path is None:
-        text += (f", which the path tracer does not reach: its best render ({path_best.setting.label}, "
+        return text + "; the path tracer was not rendered." + _noise_caution(floor, reference_noise)
+    if path is None:
+        text += (f". The path tracer never gets there: its best render ({path_best.setting.label}, "
                  f"{seconds_text(path_best.seconds)}) scores {path_best.rel_mse:.3g}.")
     elif path.how == "nearest":
         first = path.between[0]
-        text += (f", which even the path tracer's fastest render ({first.setting.label}, "
-                 f"{seconds_text(first.seconds)}) beats with {first.rel_mse:.3g}.")
-    elif path.how == "rendered":
-        text += (f", which the path tracer reaches in {seconds_text(path.value)} "
-                 f"({path.between[0].setting.label}).")
+        text += (f". Even the path tracer's fastest render ({first.setting.label}, "
+                 f"{seconds_text(first.seconds)}) does better, at {first.rel_mse:.3g}.")
     else:
-        a, b = path.between
-        text += (f", which the path tracer reaches in {seconds_text(path.value)} (interpolated "
-                 f"between its {a.setting.label} and {b.setting.label} renders).")
+        how = (f"its {path.between[0].setting.label} render" if path.how == "rendered" else
+               f"interpolated between its {path.between[0].setting.label} and "
+               f"{path.between[1].setting.label} renders")
+        ratio = path.value / render.seconds if render.seconds > 0 else math.nan
+        faster = (f"{name} gets there {ratio:.3g}× faster" if ratio >= 1 else
+                  f"the path tracer gets there {1 / ratio:.3g}× faster")
+        text += (f". The path tracer reaches that error in {seconds_text(path.value)} ({how}): "
+                 f"{faster}.")
+    return text + _noise_caution(floor, reference_noise)
+
+
+def _noise_caution(floor: Floor, reference_noise: float) -> str:
     if math.isfinite(reference_noise) and floor.error < 2 * reference_noise:
-        text += (f" Caution: that is within a factor 2 of the reference's own noise "
-                 f"({reference_noise:.3g}).")
+        return (f" Caution: that is within a factor 2 of the reference's own noise "
+                f"({reference_noise:.3g}).")
+    return ""
+
+
+def decomposition_text(method: str, floor: Floor[Measurement], limit: Limit,
+                       gone: Measurement | None, reference_noise: float = math.nan,
+                       tolerance: float = COMPARE_FLOOR_TOLERANCE) -> str:
+    """What the floor's error is made of, in words, e.g. "Of the article's model's 0.180
+    (at d5 · 1 spp), 0.003 is its depth and sampling ...; the best ambient (0.41 instead
+    of 0.2) brings it to 0.11; the remaining 0.11 is light the model does not transport"."""
+    possessive = POSSESSIVES[method]
+    sampling = max(0.0, floor.error - limit.rel_mse)
+    how = f"d{limit.max_depth}, every ray of the tree, {limit.spp} spp"
+    if sampling > 0:
+        text = (f"Of {possessive} {floor.error:.3g} (at {floor.render.setting.label}), "
+                f"{sampling:.2g} is its depth and sampling")
+        if gone is floor.render:
+            text += f", under {tolerance:.0%} of its bias there"
+        elif gone is not None:
+            text += f" (gone at {gone.setting.label}, {seconds_text(gone.seconds)})"
+        text += f": its limit ({how}) scores {limit.rel_mse:.3g}"
+    else:
+        text = (f"Of {possessive} {floor.error:.3g} (at {floor.render.setting.label}), nothing "
+                f"measurable is its depth and sampling: its limit ({how}) scores {limit.rel_mse:.3g}")
+    article = method == "whitted-article"
+    rest = limit.rel_mse_at_best_ambient if article and math.isfinite(limit.best_ambient) else limit.rel_mse
+    if article and math.isfinite(limit.best_ambient):
+        text += (f"; the best ambient ({limit.best_ambient:.2g} instead of {limit.ambient:.2g}) "
+                 f"brings it to {rest:.3g}; the remaining {rest:.2g}")
+    elif article:
+        text += f"; no pixel depends on the ambient, so all {rest:.2g} of it"
+    else:
+        text += f"; that {rest:.2g}"
+    if math.isfinite(reference_noise) and rest < 2 * reference_noise:
+        text += (f" is within a factor 2 of the reference's own noise ({reference_noise:.2g}): "
+                 f"no light the model leaves out shows.")
+    else:
+        text += (f" is light {'the model' if article else 'a ray tree'} does not transport "
+                 f"(indirect light and sky light).")
+    if not limit.converged:
+        text += (f" (The limit's own noise, {limit.noise:.2g}, is not yet a tenth of the smallest "
+                 f"difference it measures: these parts are rough.)")
     return text
 
 
 def spread_text(m: Measurement) -> str:
-    """A render's median time and the spread of its repeats: ``12.3 ms (11.9–13.0)``."""
+    """A render's time (its fastest repeat) and the spread of its repeats: ``11.9 ms
+    (11.9–13.0 ms)``."""
     if len(m.times) < 2:
         return seconds_text(m.seconds)
     low, high = m.seconds_min, m.seconds_max
@@ -224,12 +392,12 @@ def spread_text(m: Measurement) -> str:
 
 def reach_text(reach: Reach | None) -> str:
     """One cell of the equal-quality table: the cheapest render reaching the level, or
-    the method's floor when none does."""
+    the method's best render when none does."""
     if reach is None:
         return "not rendered"
     if reach.fastest is not None:
         return f"{seconds_text(reach.fastest.seconds)} ({reach.fastest.setting.label})"
-    return f"floor {reach.best.rel_mse:.3g} ({reach.best.setting.label})"
+    return f"best {reach.best.rel_mse:.3g} ({reach.best.setting.label})"
 
 
 def speedup_text(row: EqualQuality, method: str) -> str:
@@ -250,3 +418,13 @@ def reading_how(reading: Reading[Measurement] | None) -> str:
         a, b = reading.between
         return f"interpolated {a.setting.spp}–{b.setting.spp} spp"
     return f"{reading.how}: {reading.between[0].setting.spp} spp"
+
+
+def equal_time_how(row: EqualTime) -> str:
+    """How the path tracer's value at a Whitted render's time was read, or why there is none."""
+    if row.outside is not None:
+        first = row.rel_mse.between[0]
+        which = "fastest" if row.outside == "faster" else "slowest"
+        return (f"{row.outside} than the path tracer's {which} render ({first.setting.label}, "
+                f"{seconds_text(first.seconds)})")
+    return reading_how(row.rel_mse)

@@ -85,7 +85,7 @@ class Budget:
 
     @staticmethod
     def predict(setting: Setting, done: list[tuple[Setting, float, float]], repeats: int) -> float:
-        """Seconds the setting will take, from ``done`` = [(setting, median seconds, wall)];
+        """Seconds the setting will take, from ``done`` = [(setting, seconds, wall)];
         0 when this method has not run yet (its first render is always tried)."""
         estimates = []
         for other, seconds, wall in done:

@@ -14,7 +14,7 @@ import time
 from pathlib import Path
 
 from ..defaults import VARIANTS as SUPPORTED_VARIANTS
-from .results import (DEFAULT_LEVELS, DEFAULT_PATH_SPP, DEFAULT_REFERENCE_CHUNK_SPP,
+from .results import (DEFAULT_PATH_SPP, DEFAULT_REFERENCE_CHUNK_SPP,
                       DEFAULT_REFERENCE_SPP, DEFAULT_REPEATS, DEFAULT_WHITTED_SPP, MAX_DEFAULT_DEPTH,
                       Options)
 
@@ -70,12 +70,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--path-depth", type=int, metavar="N",
                         help="the path tracer's max depth, for the reference too (default: the scene's)")
     parser.add_argument("--repeats", type=int, default=DEFAULT_REPEATS, metavar="N",
-                        help=f"renders per setting; the median time is kept (default {DEFAULT_REPEATS})")
+                        help="timed renders per setting; the fastest is kept, and a setting whose "
+                             f"two fastest disagree is timed a few more times (default {DEFAULT_REPEATS})")
     parser.add_argument("--budget", type=float, metavar="SECONDS",
                         help="bound the whole command's time: renders that would overrun are skipped")
-    parser.add_argument("--levels", type=float_list, default=DEFAULT_LEVELS, metavar="LIST",
-                        help="relative MSE levels of the summary table (default "
-                             f"{','.join(map(str, DEFAULT_LEVELS))})")
+    parser.add_argument("--levels", type=float_list, metavar="LIST",
+                        help="relative MSE levels of the equal-quality table, e.g. 0.1,0.03 "
+                             "(default: from the data: each method's floor, and levels between "
+                             "the best and worst errors measured)")
     parser.add_argument("--cache", metavar="DIR", help="where references are cached (default DIR/references)")
     parser.add_argument("--variant", choices=SUPPORTED_VARIANTS,
                         help="Mitsuba variant (default as for render)")
@@ -96,7 +98,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def compare_command(args: argparse.Namespace) -> None:
     """The CLI's ``compare`` subcommand."""
     from . import report
-    from .analysis import analyse
     from .run import compare
 
     options = Options(out=Path(args.out), reference_spp=args.reference_spp, depths=args.depths,
@@ -109,8 +110,7 @@ def compare_command(args: argparse.Namespace) -> None:
     entries = compare(args.scenes, options)
     skipped = sum(len(e.skipped) for e in entries)
     done = sum(len(e.measurements) for e in entries)
-    print(report.summary([analyse(e, options.levels) for e in entries if e.reference_file],
-                         equal_time=False))
+    print(report.summary(entries.analyses, equal_time=False))
     if skipped:
         print(f"\nbudget of {options.budget:g} s: skipped {skipped} of {skipped + done} renders; "
               f"the outputs hold the renders that were done")

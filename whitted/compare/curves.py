@@ -1,5 +1,6 @@
 """The formulas of the report, written once: a method's error-against-time curve, reading
-it at a given time or error, a Whitted method's error floor, and the reference's noise.
+it at a given time or error, a Whitted method's error floor, the equal-quality levels
+drawn from the data, the ambient that fits the reference best, and the reference's noise.
 
 Why these and not a fit: a method's curve is known only at the settings rendered, and
 between two of them the honest guess is the straight line on log–log axes, since error
@@ -103,35 +104,88 @@ def time_to_reach(curve: list[tuple[float, float, T]], error: float) -> Reading[
 
 
 @dataclass(frozen=True)
-class Floor:
-    """Where more depth stops helping a Whitted method.
+class Floor(Generic[T]):
+    """Where more depth and samples stop paying for a Whitted method.
 
     =========== =======================================================================
-    ``depth``   the shallowest depth whose best error is within the tolerance of the
-                best error of every depth
-    ``error``   the best error at that depth: the method's floor
-    ``best``    the best error of any depth (at most ``error``, within the tolerance)
-    ``settled`` whether a deeper depth was rendered and confirmed it (False: the
-                deepest depth rendered is still the best, so the floor may lie deeper)
+    ``render``  the payload of its cheapest render whose error is within the tolerance
+                of its best: the render a reader would choose
+    ``seconds`` that render's time
+    ``error``   that render's error: the method's floor
+    ``best``    the best error of any of its renders (at most ``error``)
+    ``settled`` whether a costlier render was made and bought less than the tolerance
+                (False: the floor is its costliest render, so the error may fall further)
     =========== =======================================================================
     """
-    depth: int
+    render: T
+    seconds: float
     error: float
     best: float
     settled: bool
 
 
-def error_floor(best_by_depth: dict[int, float], tolerance: float) -> Floor | None:
-    """The error floor of a method from its best error at each depth (over its spp ladder):
-    with e* the least error of all depths, the floor is reached at the shallowest depth d
-    whose error is at most e* · (1 + ``tolerance``), and is that depth's error. None when
-    no depth has a finite error."""
-    usable = {d: e for d, e in best_by_depth.items() if math.isfinite(e)}
+def error_floor(curve: list[tuple[float, float, T]], tolerance: float) -> Floor[T] | None:
+    """The floor of a method's renders (time, error, payload): with e* the least error of
+    them all, the fastest render whose error is at most e* · (1 + ``tolerance``) (the
+    more accurate of two equally fast). None when no render has a finite error."""
+    usable = [p for p in curve if math.isfinite(p[1]) and math.isfinite(p[0])]
     if not usable:
         return None
-    best = min(usable.values())
-    depth = min(d for d, e in usable.items() if e <= best * (1.0 + tolerance))
-    return Floor(depth, usable[depth], best, depth < max(usable))
+    best = min(e for _, e, _ in usable)
+    seconds, error, render = min((p for p in usable if p[1] <= best * (1.0 + tolerance)),
+                                 key=lambda p: (p[0], p[1]))
+    return Floor(render, seconds, error, best, any(s > seconds for s, _, _ in usable))
+
+
+def error_levels(floors: list[float], lowest: float, highest: float, count: int,
+                 tolerance: float) -> tuple[float, ...]:
+    """Error levels for an equal-quality table, from the data: each of ``floors`` times
+    (1 + ``tolerance``), so that each method reaches at least the level of its own
+    floor, and ``count`` levels evenly spaced on log axes strictly between the
+    ``lowest`` and ``highest`` error measured; each rounded *up* to two significant
+    digits (reaching a level stays true), a level within 10% of a larger one left out
+    (whoever reaches it reaches the larger), largest first."""
+    candidates = [f * (1.0 + tolerance) for f in floors if math.isfinite(f) and f > 0]
+    if 0 < lowest < highest < math.inf:
+        ratio = highest / lowest
+        candidates += [lowest * ratio ** (k / (count + 1)) for k in range(1, count + 1)]
+    levels: list[float] = []
+    for value in sorted((_two_digits_up(v) for v in candidates), reverse=True):
+        if not levels or value < 0.9 * levels[-1]:
+            levels.append(value)
+    return tuple(levels)
+
+
+def _two_digits_up(value: float) -> float:
+    """``value`` rounded up to two significant digits (0.1234 -> 0.13, 0.12 -> 0.12)."""
+    exponent = math.floor(math.log10(value)) - 1
+    digits = math.ceil(value / 10.0 ** exponent - 1e-9)
+    return float(f"{digits}e{exponent}")
+
+
+def best_ambient(dark: np.ndarray, lit: np.ndarray, reference: np.ndarray) -> tuple[float, float]:
+    """The article's ambient A in [0, 1] that brings its image closest to ``reference`` in
+    relative MSE, and that error, from two renders of one tree at A = 0 (``dark``) and
+    A = 1 (``lit``).
+
+    A lit point's color is B·(A + (1 − A)·Σ s·light), and reflected, refracted and
+    background light add to it linearly, so the whole image is affine in A:
+    I(A) = I₀ + A·D with D = I₁ − I₀, exactly. Its relative MSE,
+    mean(w·(I₀ − R + A·D)²) with w = 1/(R² + ε), is a parabola in A whose least value
+    lies at A* = mean(w·D·(R − I₀)) / mean(w·D²), clipped to [0, 1] (the parabola is
+    convex, so the clipped A* is the best A there). When no pixel depends on A, A is NaN
+    and the error that of ``dark``."""
+    from .. import metrics
+
+    i0 = np.asarray(dark, dtype=np.float64)
+    d = np.asarray(lit, dtype=np.float64) - i0
+    r = np.asarray(reference, dtype=np.float64)
+    w = 1.0 / (r * r + metrics.EPSILON)
+    curvature = float(np.mean(w * d * d))
+    if not curvature > 0:
+        return math.nan, metrics.relative_mse(i0, r)
+    ambient = min(1.0, max(0.0, float(np.mean(w * d * (r - i0))) / curvature))
+    return ambient, metrics.relative_mse(i0 + ambient * d, r)
 
 
 def reference_noise(half_a: np.ndarray, half_b: np.ndarray, count_a: int, count_b: int) -> float:

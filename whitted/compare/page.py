@@ -22,7 +22,9 @@ from pathlib import Path
 
 from ..atomic import write_text
 from ..defaults import VERSION
-from .analysis import METHOD_NAMES, Analysis, reach_text, reading_how, speedup_text, spread_text
+from .analysis import (METHOD_NAMES, TIMING, Analysis, equal_time_how, reach_text, speedup_text,
+                       spread_text)
+from .curves import pareto_front
 from .errormaps import colorbar
 from .results import METHODS, WHITTED_METHODS, Measurement, SceneResult, seconds_text
 
@@ -48,13 +50,27 @@ def _slug(name: str) -> str:
     return "".join(c if c.isalnum() else "-" for c in name)
 
 
-def _render(m: Measurement, index: str) -> dict:
+def _render(m: Measurement, index: str, card: bool) -> dict:
     s = m.setting
+    limit = (f", {_number(m.rel_mse_limit)} from its limit" if math.isfinite(m.rel_mse_limit) else "")
     return {"id": index, "method": s.method, "method_name": METHOD_NAMES[s.method],
             "label": s.label, "depth": s.max_depth, "spp": s.spp, "time": spread_text(m),
             "rel_mse": _number(m.rel_mse), "flip": _number(m.flip), "repeats": m.repeats,
             "png": m.image_png, "exr": m.image or "", "map": m.error_map or m.image_png,
-            "title": f"{s.method} {s.label}"}
+            "title": f"{s.method} {s.label}", "card": card,
+            "caption": f"{METHOD_NAMES[s.method]} ({s.method}), {s.label}: {spread_text(m)}, "
+                       f"relative MSE {_number(m.rel_mse)}{limit}, FLIP {_number(m.flip)}"}
+
+
+def _on_curves(measurements: list[Measurement]) -> set[int]:
+    """The renders worth a card (by ``id``): those on their method's curve (no faster render of
+    the method beats them in relative MSE); the others look much like a card's."""
+    chosen = set()
+    for method in METHODS:
+        ms = [m for m in measurements if m.setting.method == method]
+        front = set(pareto_front([(m.seconds, m.rel_mse) for m in ms]))
+        chosen |= {id(m) for m in ms if (m.seconds, m.rel_mse) in front}
+    return chosen
 
 
 def scene_context(analysis: Analysis, plot: str, out: Path) -> dict:
@@ -64,7 +80,8 @@ def scene_context(analysis: Analysis, plot: str, out: Path) -> dict:
     order = {m: i for i, m in enumerate(METHODS)}
     measurements = sorted(entry.measurements, key=lambda m: (order[m.setting.method],
                                                              m.setting.max_depth, m.setting.spp))
-    renders = [_render(m, f"{key}-{i}") for i, m in enumerate(measurements)]
+    cards = _on_curves(measurements) | {id(f.render) for f in analysis.floors}
+    renders = [_render(m, f"{key}-{i}", id(m) in cards) for i, m in enumerate(measurements)]
     groups = [{"method": method, "name": METHOD_NAMES[method],
                "renders": [r for r in renders if r["method"] == method]}
               for method in METHODS if any(r["method"] == method for r in renders)]
@@ -81,15 +98,18 @@ def scene_context(analysis: Analysis, plot: str, out: Path) -> dict:
                       "fastest": row.fastest_method or "none",
                       "speedups": [speedup_text(row, m) for m in whitted]}
                      for row in analysis.equal_quality]
-    equal_time = [{"method": row.whitted.setting.method, "label": row.whitted.setting.label,
-                   "time": spread_text(row.whitted), "rel_mse": _number(row.whitted.rel_mse),
-                   "path_rel_mse": _number(row.rel_mse.value) if row.rel_mse else "—",
-                   "ratio": _number(row.ratio),
-                   "winner": ("whitted" if row.ratio < 1 else "path") if math.isfinite(row.ratio) else "",
-                   "flip": _number(row.whitted.flip),
-                   "path_flip": _number(row.flip.value) if row.flip else "—",
-                   "how": reading_how(row.rel_mse)}
-                  for row in analysis.equal_time]
+    equal_time = []
+    for row in analysis.equal_time:
+        compared = row.rel_mse is not None and row.outside is None
+        equal_time.append({
+            "method": row.whitted.setting.method, "label": row.whitted.setting.label,
+            "time": spread_text(row.whitted), "rel_mse": _number(row.whitted.rel_mse),
+            "path_rel_mse": _number(row.rel_mse.value) if compared else "—",
+            "ratio": _number(row.ratio),
+            "winner": ("whitted" if row.ratio < 1 else "path") if math.isfinite(row.ratio) else "",
+            "flip": _number(row.whitted.flip),
+            "path_flip": _number(row.flip.value) if compared and row.flip else "—",
+            "how": equal_time_how(row), "outside": row.outside is not None})
     reference_exr = (os.path.relpath(entry.reference_file, out) if entry.reference_file else None)
     return {
         "key": key, "name": entry.name, "width": entry.width, "height": entry.height,
@@ -101,7 +121,9 @@ def scene_context(analysis: Analysis, plot: str, out: Path) -> dict:
                       "how": ("read from the cache" if entry.reference_cached
                               else f"rendered in {seconds_text(entry.reference_seconds)}")},
         "notes": list(entry.notes), "floors": [f.text for f in analysis.floors],
+        "decompositions": [d.text for d in analysis.decompositions],
         "plot": plot, "groups": groups, "renders": renders, "first": first,
+        "cards": [r for r in renders if r["card"]],
         "methods": methods, "whitted": [m.split("-")[1] for m in whitted],
         "equal_quality": equal_quality, "equal_time": equal_time,
         "skipped": len(entry.skipped),
@@ -109,16 +131,17 @@ def scene_context(analysis: Analysis, plot: str, out: Path) -> dict:
 
 
 def write_page(path: str | os.PathLike, analyses: list[Analysis], plots: dict[str, str],
-               files: dict[str, str], left_out: list[SceneResult] = ()) -> None:
+               files: dict[str, str], left_out: list[SceneResult] = (),
+               interrupted: str | None = None) -> None:
     """Write the report page at ``path`` (atomically); ``plots`` maps a scene's name to its
-    plot, ``files`` names the other outputs (csv, plot, sheet, summary), all relative to
-    the page's folder; ``left_out`` are the scenes that got no reference (their notes say
-    why)."""
+    plot, ``files`` names the other outputs (csv, plot, sheet, summary, findings), all
+    relative to the page's folder; ``left_out`` are the scenes that got no reference
+    (their notes say why); ``interrupted`` says at the top that the run was stopped."""
     path = Path(path)
     template = _environment().get_template(TEMPLATE)
     text = template.render(
         scenes=[scene_context(a, plots[a.entry.name], path.parent) for a in analyses],
         left_out=[{"name": e.name, "notes": list(e.notes) or ["no reference"]} for e in left_out],
-        files=files, colorbar=colorbar(), version=VERSION,
+        files=files, colorbar=colorbar(), version=VERSION, interrupted=interrupted, timing=TIMING,
         created=time.strftime("%Y-%m-%d %H:%M"))
     write_text(path, text)

@@ -9,7 +9,7 @@ depth; it renders nothing.
 from __future__ import annotations
 
 from ..defaults import DEPTH, LIGHTING_MODES
-from .results import MAX_DEFAULT_DEPTH, METHODS, Options, SceneResult, Setting
+from .results import MAX_DEFAULT_DEPTH, METHODS, WHITTED_METHODS, Options, SceneResult, Setting
 from .scenes import SceneFile
 
 
@@ -40,3 +40,14 @@ def plan_scene(scene: SceneFile, loaded, options: Options,
                          path_depth, whitted_spp=options.whitted_spp, path_spp=options.path_spp,
                          depths=depths)
     return result, plan(depths, options.whitted_spp, options.path_spp, path_depth)
+
+
+def limit_methods(settings: list[Setting]) -> list[str]:
+    """The Whitted methods among ``settings``, each of which gets its limit rendered after
+    its renders (:mod:`whitted.compare.limits`)."""
+    return [m for m in WHITTED_METHODS if any(s.method == m for s in settings)]
+
+
+def progress_units(settings: list[Setting]) -> int:
+    """What a scene's sweep advances the progress bar by: one per render, one per limit."""
+    return len(settings) + len(limit_methods(settings))

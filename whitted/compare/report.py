@@ -1,18 +1,20 @@
 """The outputs of ``whitted compare``: results CSV, error-against-time plots, contact
-sheet, the text summary (equal quality, equal time, error floors) and, through
-:mod:`.page`, the HTML report that shows them all.
+sheet, the text summary (floors, what the error is made of, equal quality, equal time),
+``findings.json`` (the same conclusions for scripts) and, through :mod:`.page`, the HTML
+report that shows them all. An interrupted run's summary, findings and page say so first.
 
 Every file is written atomically (whitted.atomic). Figures use matplotlib's
 object API with the Agg canvas, never pyplot's global state.
 
 How to read ``error_vs_time.png``: one row per scene, relative MSE on the left
-and FLIP on the right, against the median render time (compilation excluded;
-the bars span the fastest and slowest repeat), both axes logarithmic. Each method
+and FLIP on the right, against the render time (the fastest repeat, compilation
+excluded; the bars reach to the slowest repeat), both axes logarithmic. Each method
 has one color; its faint dots are every setting that was rendered, and its line
 joins the settings that no faster setting of the same method beats (its Pareto
 front): the best error that method buys for a given time. Only the front's points
 are labelled (``d3·4``: depth 3 at 4 spp; ``64``: the path tracer at 64 spp), each
-label placed where it overlaps no other and dropped when no place is free. A curve
+label placed where it overlaps no other label, point or line, and dropped when no place
+is free. A curve
 that flattens is a bias showing: more samples or depth no longer bring the image
 closer to the reference. The dashed line is the reference's own noise (estimated
 from its two independent halves, :func:`~whitted.compare.curves.reference_noise`):
@@ -23,6 +25,7 @@ from __future__ import annotations
 
 import csv
 import io
+import json
 import math
 import os
 import shutil
@@ -31,7 +34,8 @@ from pathlib import Path
 import numpy as np
 
 from ..atomic import atomic_path, write_text
-from .analysis import METHOD_NAMES, Analysis, analyse, reach_text, reading_how, speedup_text
+from .analysis import (METHOD_NAMES, TIMING, Analysis, analyse, equal_time_how, reach_text,
+                       speedup_text)
 from .curves import pareto_front
 from .results import METHODS, WHITTED_METHODS, Measurement, SceneResult, seconds_text
 
@@ -39,8 +43,9 @@ from .results import METHODS, WHITTED_METHODS, Measurement, SceneResult, seconds
 CSV_COLUMNS = ("scene", "method", "integrator", "lighting", "spp", "max_depth", "seconds",
                "compile_seconds", "rel_mse", "flip", "repeats", "width", "height", "variant",
                "reference_spp", "seconds_min", "seconds_max", "seconds_each", "image", "image_png",
-               "error_map", "reference_noise", "worker")
+               "error_map", "reference_noise", "worker", "rel_mse_limit")
 CSV_NAME = "results.csv"
+FINDINGS_NAME = "findings.json"
 PLOT_NAME = "error_vs_time.png"
 SHEET_NAME = "contact_sheet.png"
 SUMMARY_NAME = "summary.txt"
@@ -84,7 +89,8 @@ def _row(entry: SceneResult, m: Measurement) -> dict:
             "seconds_max": f"{m.seconds_max:.6g}",
             "seconds_each": ";".join(f"{t:.6g}" for t in m.times),
             "image": m.image or "", "image_png": m.image_png or "", "error_map": m.error_map or "",
-            "reference_noise": f"{entry.reference_noise:.6g}", "worker": entry.worker}
+            "reference_noise": f"{entry.reference_noise:.6g}", "worker": entry.worker,
+            "rel_mse_limit": f"{m.rel_mse_limit:.6g}" if math.isfinite(m.rel_mse_limit) else ""}
 
 
 def write_csv(path: str | os.PathLike, entries: list[SceneResult]) -> None:
@@ -111,6 +117,25 @@ LABEL_PLACES = ((4, 3, "left", "bottom"), (4, -3, "left", "top"), (-4, 3, "right
                 (10, 0, "left", "center"), (-10, 0, "right", "center"))
 
 
+#: Display pixels kept free around a label, so that two labels never read as one.
+LABEL_GAP = 3
+
+
+def line_boxes(ax, line: list[tuple[float, float]], step: float = 3.0) -> list:
+    """Small display-space boxes along a polyline of data points (one every ``step``
+    pixels), so that labels keep off the lines drawn, not only off their points."""
+    from matplotlib.transforms import Bbox
+
+    points = [ax.transData.transform(p) for p in line]
+    boxes = []
+    for (x0, y0), (x1, y1) in zip(points, points[1:]):
+        count = max(1, int(math.hypot(x1 - x0, y1 - y0) / step))
+        for k in range(count + 1):
+            x, y = x0 + (x1 - x0) * k / count, y0 + (y1 - y0) * k / count
+            boxes.append(Bbox.from_extents(x - 1, y - 1, x + 1, y + 1))
+    return boxes
+
+
 def place_labels(fig, ax, labels: list[tuple[float, float, str, str]], taken: list) -> int:
     """Annotate ``labels`` = [(x, y, text, color)] in ``ax`` where each overlaps neither
     a label placed before, a data point nor anything in ``taken`` (display-space boxes,
@@ -127,7 +152,8 @@ def place_labels(fig, ax, labels: list[tuple[float, float, str, str]], taken: li
                                 ha=ha, va=va, fontsize=6.5, color=color)
             label.set_in_layout(False)
             box = label.get_window_extent(renderer)
-            box = Bbox.from_extents(box.x0 - 1, box.y0 - 1, box.x1 + 1, box.y1 + 1)
+            box = Bbox.from_extents(box.x0 - LABEL_GAP, box.y0 - LABEL_GAP, box.x1 + LABEL_GAP,
+                                    box.y1 + LABEL_GAP)
             inside = frame.contains(box.x0, box.y0) and frame.contains(box.x1, box.y1)
             if inside and not any(box.overlaps(other) for other in taken):
                 taken.append(box)
@@ -148,11 +174,11 @@ def plot_error_vs_time(path: str | os.PathLike, entries: list[SceneResult]) -> N
     FigureCanvasAgg(fig)
     if not entries:
         fig.suptitle("nothing rendered within the budget")
-    pending = []  # (axes, labels, points): labels are placed once the layout is final
+    pending = []  # (axes, labels, points, lines): labels are placed once the layout is final
     for entry, subfig in zip(entries, fig.subfigures(rows, 1, squeeze=False)[:, 0]):
         ax_mse, ax_flip = subfig.subplots(1, 2)
         for ax, metric, name in ((ax_mse, "rel_mse", "relative MSE"), (ax_flip, "flip", "FLIP")):
-            labels, points = [], []
+            labels, points, lines = [], [], []
             for method in METHODS:
                 ms = [m for m in entry.measurements if m.setting.method == method
                       and _usable(m.seconds) and _usable(getattr(m, metric))]
@@ -169,16 +195,17 @@ def plot_error_vs_time(path: str | os.PathLike, entries: list[SceneResult]) -> N
                 by_point = {(m.seconds, getattr(m, metric)): m.setting for m in ms}
                 labels += [(x, y, by_point[(x, y)].short_label, color) for x, y in front]
                 points += list(zip(xs, ys))
+                lines.append(front)
             if metric == "rel_mse" and _usable(entry.reference_noise):
                 ax.axhline(entry.reference_noise, color="0.35", linestyle="--", linewidth=0.9,
                            label=f"reference noise ({entry.reference_spp} spp, est. from two halves)")
             ax.set_xscale("log")
             ax.set_yscale("log")
             _time_axis(ax, [x for x, _ in points])
-            ax.set_xlabel("render time (median of repeats; bars: fastest–slowest)")
+            ax.set_xlabel("render time (fastest repeat; bars: to the slowest)")
             ax.set_ylabel(f"{name} vs reference")
             ax.grid(True, which="both", alpha=0.2)
-            pending.append((ax, labels, points))
+            pending.append((ax, labels, points, lines))
         ax_mse.set_title(f"{entry.name} ({entry.width}×{entry.height}): relative MSE", fontsize=9)
         ax_flip.set_title(f"{entry.name}: FLIP (as displayed, [0, 1] sRGB)", fontsize=9)
         if entry.measurements:
@@ -190,9 +217,10 @@ def plot_error_vs_time(path: str | os.PathLike, entries: list[SceneResult]) -> N
                         ha="center")
     fig.draw_without_rendering()  # the layout is final now: labels can be measured
     fig.set_layout_engine("none")  # and stays so (labels are not part of it): saving is faster
-    for ax, labels, points in pending:
+    for ax, labels, points, lines in pending:
         taken = [Bbox.from_extents(px - 3, py - 3, px + 3, py + 3)
                  for px, py in (ax.transData.transform(p) for p in points)]
+        taken += [box for line in lines for box in line_boxes(ax, line)]
         place_labels(fig, ax, labels, taken)
     _save(fig, path, dpi=100)
 
@@ -271,7 +299,7 @@ def contact_sheet(path: str | os.PathLike, entries: list[SceneResult]) -> None:
     subfigs = fig.subfigures(len(blocks), 1, squeeze=False, height_ratios=[b[2] for b in blocks])
     for (entry, rows, _), subfig in zip(blocks, subfigs[:, 0]):
         subfig.suptitle(f"{entry.name} ({entry.width}×{entry.height}): relative MSE · FLIP against "
-                        f"the reference, median render time", fontsize=8)
+                        f"the reference, render time (fastest repeat)", fontsize=8)
         axes = subfig.subplots(len(rows), columns, squeeze=False)
         for ax in axes.flat:
             ax.set_axis_off()
@@ -309,18 +337,28 @@ def equal_time_lines(analysis: Analysis) -> list[str]:
              "path flip then", "path read"]]
     for row in analysis.equal_time:
         m = row.whitted
+        compared = row.rel_mse is not None and row.outside is None
         rows.append([m.setting.method, m.setting.label, seconds_text(m.seconds), f"{m.rel_mse:.3g}",
-                     f"{row.rel_mse.value:.3g}" if row.rel_mse else "—",
+                     f"{row.rel_mse.value:.3g}" if compared else "—",
                      f"{row.ratio:.3g}" if math.isfinite(row.ratio) else "—", f"{m.flip:.3g}",
-                     f"{row.flip.value:.3g}" if row.flip else "—", reading_how(row.rel_mse)])
+                     f"{row.flip.value:.3g}" if compared and row.flip else "—", equal_time_how(row)])
     return _table(rows)
 
 
-def summary(analyses: list[Analysis], equal_time: bool = True) -> str:
-    """The summary in text: per scene, what the budget did, the error floors in words, the
-    equal-quality table and (with ``equal_time``) the equal-time table."""
-    lines = ["Relative MSE and FLIP against the path-traced reference; median render time of "
-             "the repeats, compilation excluded."]
+def interruption_text(done: int, planned: int) -> str:
+    """What an interrupted run's outputs say first."""
+    if done == 0:
+        return "Interrupted before any render was done: nothing was measured."
+    return f"Interrupted after {done} of {planned} renders; the conclusions are drawn from those."
+
+
+def summary(analyses: list[Analysis], equal_time: bool = True,
+            interrupted: tuple[int, int] | None = None) -> str:
+    """The summary in text: per scene, what the budget did, the floors and what the error is
+    made of in words, the equal-quality table and (with ``equal_time``) the equal-time
+    table; an interrupted run (``interrupted`` = (renders done, planned)) says so first."""
+    lines = [interruption_text(*interrupted), ""] if interrupted else []
+    lines += [f"Relative MSE and FLIP against the path-traced reference; render times are {TIMING}."]
     for analysis in analyses:
         entry = analysis.entry
         noise = (f", its noise ≈ {entry.reference_noise:.3g}" if _usable(entry.reference_noise)
@@ -329,24 +367,36 @@ def summary(analyses: list[Analysis], equal_time: bool = True) -> str:
                       f"{entry.reference_spp} spp{noise})"]
         lines += [f"  note: {note}" for note in entry.notes]
         lines += [f"  {floor.text}" for floor in analysis.floors]
+        lines += [f"  {decomposition.text}" for decomposition in analysis.decompositions]
         if analysis.equal_quality and entry.measurements:
             lines += ["", "  Equal quality: the cheapest render reaching each error level (a method "
-                          "that never does shows its floor):"]
+                          "that never does shows its best):"]
             lines += equal_quality_lines(analysis)
         if equal_time and analysis.equal_time:
             lines += ["", "  Equal time: each Whitted render beside the path tracer given its time "
-                          "(read on the path tracer's log–log curve):"]
+                          "(read on the path tracer's log–log curve, only within its rendered range):"]
             lines += equal_time_lines(analysis)
     return "\n".join(lines)
+
+
+def findings(analyses: list[Analysis], interrupted: tuple[int, int] | None = None) -> dict:
+    """The run's conclusions as plain JSON data: ``findings.json`` (docs/compare.md)."""
+    return {"interrupted": ({"renders_done": interrupted[0], "renders_planned": interrupted[1],
+                             "text": interruption_text(*interrupted)} if interrupted else None),
+            "timing": f"seconds are {TIMING}",
+            "scenes": {a.entry.name: a.findings() for a in analyses}}
 
 
 # --------------------------------------------------------------------------- all
 
 
-def write_all(out: str | os.PathLike, entries: list[SceneResult], levels: tuple[float, ...]) -> list[Analysis]:
-    """Every output for ``entries``: the CSV, the plots, the contact sheet, ``summary.txt``
-    and ``report.html``, of the scenes that got a reference (the page also lists the
-    others, with the reason); returns the analyses."""
+def write_all(out: str | os.PathLike, entries: list[SceneResult], levels: tuple[float, ...] | None,
+              interrupted: tuple[int, int] | None = None) -> list[Analysis]:
+    """Every output for ``entries``: the CSV, the plots, the contact sheet, ``summary.txt``,
+    ``findings.json`` and ``report.html``, of the scenes that got a reference (the page
+    also lists the others, with the reason); ``levels`` None: from each scene's data;
+    ``interrupted``: (renders done, renders planned) of a run that was stopped, said at
+    the top of the summary, the findings and the page. Returns the analyses."""
     from .page import write_page
 
     out = Path(out)
@@ -365,14 +415,28 @@ def write_all(out: str | os.PathLike, entries: list[SceneResult], levels: tuple[
     else:
         plot_error_vs_time(out / PLOT_NAME, entries)
     contact_sheet(out / SHEET_NAME, entries)
-    write_text(out / SUMMARY_NAME, summary(analyses) + "\n")
+    write_text(out / SUMMARY_NAME, summary(analyses, interrupted=interrupted) + "\n")
+    write_text(out / FINDINGS_NAME, json.dumps(_json_safe(findings(analyses, interrupted)), indent=2,
+                                               allow_nan=False) + "\n")
     write_page(out / PAGE_NAME, analyses, plots, {"csv": CSV_NAME, "plot": PLOT_NAME,
-                                                   "sheet": SHEET_NAME, "summary": SUMMARY_NAME},
-               left_out)
+                                                   "sheet": SHEET_NAME, "summary": SUMMARY_NAME,
+                                                   "findings": FINDINGS_NAME},
+               left_out, interruption_text(*interrupted) if interrupted else None)
     return analyses
+
+
+def _json_safe(value):
+    """``value`` with every non-finite number (NaN: not measured) as None: JSON has no NaN."""
+    if isinstance(value, dict):
+        return {k: _json_safe(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_json_safe(v) for v in value]
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return value
 
 
 def output_files(out: str | os.PathLike) -> str:
     out = Path(out)
-    return ", ".join(str(out / name) for name in (PAGE_NAME, CSV_NAME, PLOT_NAME, SHEET_NAME,
-                                                  SUMMARY_NAME))
+    return ", ".join(str(out / name) for name in (PAGE_NAME, SUMMARY_NAME, FINDINGS_NAME, CSV_NAME,
+                                                  PLOT_NAME, SHEET_NAME))

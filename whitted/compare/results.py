@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from ..defaults import (COMPARE_LEVELS as DEFAULT_LEVELS, COMPARE_MAX_DEFAULT_DEPTH as MAX_DEFAULT_DEPTH,
+from ..defaults import (COMPARE_MAX_DEFAULT_DEPTH as MAX_DEFAULT_DEPTH,
                         COMPARE_PATH_SPP as DEFAULT_PATH_SPP,
                         COMPARE_REFERENCE_CHUNK_SPP as DEFAULT_REFERENCE_CHUNK_SPP,
                         COMPARE_REFERENCE_SPP as DEFAULT_REFERENCE_SPP,
@@ -32,9 +32,9 @@ METHODS = WHITTED_METHODS + ("path",)
 #: Who rendered a scene's sweep when no cluster did (``SceneResult.worker``).
 IN_PROCESS = "in-process"
 
-__all__ = ["DEFAULT_LEVELS", "DEFAULT_PATH_SPP", "DEFAULT_REFERENCE_CHUNK_SPP", "DEFAULT_REFERENCE_SPP",
+__all__ = ["DEFAULT_PATH_SPP", "DEFAULT_REFERENCE_CHUNK_SPP", "DEFAULT_REFERENCE_SPP",
            "DEFAULT_REPEATS", "DEFAULT_WHITTED_SPP", "IN_PROCESS", "MAX_DEFAULT_DEPTH", "MAX_DEPTH",
-           "METHODS", "WHITTED_METHODS", "Measurement", "Options", "SceneResult", "Setting",
+           "METHODS", "WHITTED_METHODS", "Comparison", "Limit", "Measurement", "Options", "SceneResult", "Setting",
            "seconds_text"]
 
 
@@ -85,17 +85,20 @@ class Measurement:
 
     =================== ===============================================================
     ``setting``         what was rendered
-    ``seconds``         median render time over the repeats, compilation excluded
+    ``seconds``         the fastest repeat's render time, compilation excluded (other
+                        processes only ever add time, so the fastest is the estimate)
     ``compile_seconds`` kernel compilation (the largest over the repeats)
     ``rel_mse``         relative MSE against the reference (:mod:`whitted.metrics`)
     ``flip``            LDR-FLIP against the reference
     ``repeats``         how many times it was rendered
     ``thumbnail``       a small sRGB uint8 copy of the image (for the contact sheet)
-    ``times``           every repeat's render time (``seconds`` is their median)
+    ``times``           every repeat's render time (``seconds`` is the fastest)
     ``image``           the render, linear EXR, relative to the output folder (None:
                         not kept)
     ``image_png``       the same as an sRGB PNG (for the report page)
     ``error_map``       FLIP's per-pixel error against the reference, colored (PNG)
+    ``rel_mse_limit``   relative MSE against the method's limit (:class:`Limit`): what
+                        the render's depth and spp cost (NaN: no limit, or the path tracer)
     =================== ===============================================================
     """
     setting: Setting
@@ -109,6 +112,7 @@ class Measurement:
     image: str | None = None
     image_png: str | None = None
     error_map: str | None = None
+    rel_mse_limit: float = math.nan
 
     @property
     def seconds_min(self) -> float:
@@ -117,6 +121,42 @@ class Measurement:
     @property
     def seconds_max(self) -> float:
         return max(self.times, default=self.seconds)
+
+
+@dataclass
+class Limit:
+    """A Whitted method's limit on one scene: what it converges to with every ray of its
+    tree (``min_weight`` 0) at the sweep's deepest depth and enough samples per pixel that
+    anti-aliasing has converged. Against it, a render's error is what its depth and spp
+    cost; its own error against the reference is the model's bias.
+
+    =========================== =====================================================
+    ``method``                  the Whitted method
+    ``max_depth``, ``spp``      how it was rendered (``spp``: both halves together)
+    ``noise``                   its own relative MSE against the converged limit,
+                                estimated from its two halves (as for the reference)
+    ``converged``               whether ``noise`` is below the share of the smallest
+                                difference it measured (``COMPARE_LIMIT_NOISE_SHARE``)
+    ``rel_mse``                 its relative MSE against the reference: the bias
+    ``seconds``                 the render time of all its renders
+    ``ambient``                 the scene's ambient A (article lighting; NaN otherwise)
+    ``best_ambient``            the A in [0, 1] whose limit is closest to the reference
+                                (article lighting; NaN otherwise)
+    ``rel_mse_at_best_ambient`` that limit's relative MSE against the reference
+    ``image``                   the limit, linear EXR, relative to the output folder
+    =========================== =====================================================
+    """
+    method: str
+    max_depth: int
+    spp: int
+    noise: float
+    converged: bool
+    rel_mse: float
+    seconds: float
+    ambient: float = math.nan
+    best_ambient: float = math.nan
+    rel_mse_at_best_ambient: float = math.nan
+    image: str | None = None
 
 
 @dataclass
@@ -147,6 +187,7 @@ class SceneResult:
     ``worker``              who rendered the sweep: a Dask worker's address, or
                             :data:`IN_PROCESS` (every setting of a scene is rendered
                             by one worker, so its times compare)
+    ``limits``              Whitted method -> its :class:`Limit` (absent: not rendered)
     ======================= ===========================================================
     """
     name: str
@@ -170,6 +211,7 @@ class SceneResult:
     reference_png: str | None = None
     notes: list[str] = field(default_factory=list)
     worker: str = IN_PROCESS
+    limits: dict[str, Limit] = field(default_factory=dict)
 
     def __post_init__(self):
         if not self.reference_requested:
@@ -194,9 +236,11 @@ class Options:
     ``path_spp``            the path tracer's spp ladder
     ``path_depth``          the path tracer's and reference's max depth (None: the
                             scene's)
-    ``repeats``             renders per setting; the median time is kept
+    ``repeats``             renders per setting; the fastest time is kept (more
+                            repeats when the two fastest disagree)
     ``budget``              seconds for the whole command (None: unbounded)
-    ``levels``              relative MSE levels of the summary table
+    ``levels``              relative MSE levels of the equal-quality table (None: from
+                            the data, :func:`~whitted.compare.analysis.data_levels`)
     ``cache``               the reference cache's folder (None: ``out/references``)
     ``variant``             the Mitsuba variant (None: as for ``whitted render``)
     ``quiet``               no progress bar or messages
@@ -217,7 +261,7 @@ class Options:
     path_depth: int | None = None
     repeats: int = DEFAULT_REPEATS
     budget: float | None = None
-    levels: tuple[float, ...] = DEFAULT_LEVELS
+    levels: tuple[float, ...] | None = None
     cache: Path | None = None
     variant: str | None = None
     quiet: bool = False
@@ -229,6 +273,18 @@ class Options:
     def cache_folder(self) -> Path:
         """Where references are cached."""
         return Path(self.cache) if self.cache is not None else Path(self.out) / "references"
+
+
+class Comparison(list):
+    """What :func:`whitted.compare.compare` returns: the scenes' results (a list of
+    :class:`SceneResult`, in the order given), with ``analyses`` (one
+    :class:`~whitted.compare.analysis.Analysis` per scene that got a reference) and
+    ``findings`` (the run's conclusions, the content of ``findings.json``)."""
+
+    def __init__(self, entries: list[SceneResult], analyses: list, findings: dict):
+        super().__init__(entries)
+        self.analyses = analyses
+        self.findings = findings
 
 
 def seconds_text(value: float) -> str:

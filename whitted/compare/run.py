@@ -22,8 +22,8 @@ from ..errors import WhittedError
 from ..progress import progress_bar
 from . import report
 from .budget import Budget
-from .planning import plan_scene
-from .results import MAX_DEPTH, Options, SceneResult
+from .planning import plan_scene, progress_units
+from .results import MAX_DEPTH, Comparison, Options, SceneResult
 from .scenes import SceneFile, scene_files, scene_names
 from .sweep import sweep_scene
 
@@ -55,8 +55,10 @@ def check_options(options: Options) -> None:
         raise WhittedError(f"--workers must be >= 1, got {options.workers}")
 
 
-def compare(scenes: list[str | os.PathLike], options: Options) -> list[SceneResult]:
-    """Run the whole comparison and write its outputs under ``options.out``."""
+def compare(scenes: list[str | os.PathLike], options: Options) -> Comparison:
+    """Run the whole comparison and write its outputs under ``options.out``; returns the
+    scenes' results (a list of :class:`~whitted.compare.results.SceneResult`) with their
+    analyses and ``findings`` (the content of ``findings.json``)."""
     from ..variant import set_variant
 
     budget = Budget(options.budget)
@@ -84,7 +86,7 @@ def compare(scenes: list[str | os.PathLike], options: Options) -> list[SceneResu
         return _compare_on_cluster(read, entries, plans, options, budget)
 
     out.mkdir(parents=True, exist_ok=True)
-    bar = progress_bar(not options.quiet, sum(map(len, plans)), "compare", unit="render",
+    bar = progress_bar(not options.quiet, sum(map(progress_units, plans)), "compare", unit="render",
                        unit_scale=False)
     try:
         for index, (scene, entry, settings) in enumerate(zip(read, entries, plans)):
@@ -96,11 +98,10 @@ def compare(scenes: list[str | os.PathLike], options: Options) -> list[SceneResu
         if not interrupt.requested(error):
             raise
         bar.close()
-        _write_what_was_done(out, entries, options)
+        _write_what_was_done(out, entries, plans, options)
         raise
     bar.close()
-    report.write_all(out, entries, options.levels)
-    return entries
+    return _written(out, entries, options)
 
 
 def _compare_on_cluster(scenes: list[SceneFile], entries: list[SceneResult], plans: list,
@@ -116,14 +117,23 @@ def _compare_on_cluster(scenes: list[SceneFile], entries: list[SceneResult], pla
     except BaseException as error:  # the cluster is stopped by now: its cores are free to write
         if not interrupt.requested(error):
             raise
-        _write_what_was_done(out, entries, options)
+        _write_what_was_done(out, entries, plans, options)
         raise
-    report.write_all(out, entries, options.levels)
-    return entries
+    return _written(out, entries, options)
 
 
-def _write_what_was_done(out: Path, entries: list[SceneResult], options: Options) -> None:
-    """The outputs of an interrupted run, when a scene got as far as its reference."""
-    if any(e.reference_thumbnail is not None for e in entries):
-        report.write_all(out, entries, options.levels)
-        interrupt.tell(f"the outputs in {out} hold what was done")
+def _written(out: Path, entries: list[SceneResult], options: Options) -> Comparison:
+    analyses = report.write_all(out, entries, options.levels)
+    return Comparison(entries, analyses, report.findings(analyses))
+
+
+def _write_what_was_done(out: Path, entries: list[SceneResult], plans: list, options: Options) -> None:
+    """The outputs of an interrupted run, marked as such at the top: what was done, or
+    (interrupted before a render was done) a page that says nothing was measured. What
+    they hold goes into the CLI's one line (:func:`whitted.interrupt.tell`)."""
+    if not out.is_dir():
+        return
+    done, planned = sum(len(e.measurements) for e in entries), sum(map(len, plans))
+    report.write_all(out, entries, options.levels, interrupted=(done, planned))
+    interrupt.tell(f"the outputs in {out} hold what was done ({done} of {planned} renders)" if done
+                   else f"the outputs in {out} say nothing was measured")

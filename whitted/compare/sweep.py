@@ -9,10 +9,16 @@ reference cache by its folder, and returns a
 :class:`~whitted.compare.results.SceneResult` (images reduced to thumbnails). No
 Mitsuba object goes in or out unless the caller shares its process.
 
-Timing is honest: each render is repeated and the median of the render times is
-kept (every repeat's time too, for the spread), kernel compilation excluded
-(``result.seconds`` of the rendering API) and reported apart
-(``compile_seconds``). Error is measured on linear images (:mod:`whitted.metrics`).
+Timing is honest on a busy machine: each render is repeated and its fastest repeat is
+kept (other processes only ever add time, so the fastest is the best estimate of the
+render's own cost; every repeat's time is kept too, for the spread); while the two
+fastest repeats differ by more than :data:`~whitted.defaults.COMPARE_SPREAD_LIMIT`, the
+fastest is not trusted yet and the render is timed again, a bounded number of times.
+Kernel compilation is excluded (``result.seconds`` of the rendering API) and reported
+apart (``compile_seconds``). Error is measured on linear images (:mod:`whitted.metrics`).
+
+After its renders, each Whitted method's limit is rendered (:mod:`.limits`) and every
+render of the method scored against it too.
 
 Every render is kept under the output folder (``renders/SCENE/``: its linear EXR,
 an sRGB PNG and FLIP's error map, :mod:`.errormaps`), written by whoever renders
@@ -22,7 +28,6 @@ it: a worker process must share the output folder's file system.
 from __future__ import annotations
 
 import math
-import statistics
 import time
 from pathlib import Path
 
@@ -30,8 +35,11 @@ import numpy as np
 
 from .. import imageio, metrics
 from .. import rendering  # rendering.render looked up at call time: tests count calls
+from ..defaults import COMPARE_MAX_EXTRA_REPEATS, COMPARE_SPREAD_LIMIT
 from .budget import Budget
 from .errormaps import write_render
+from .limits import render_limit
+from .planning import limit_methods
 from .reference import Chunk, ReferenceCache, reference_image
 from .report import thumbnail
 from .results import Measurement, Options, SceneResult, Setting
@@ -41,13 +49,25 @@ from .scenes import SceneFile
 SWEEP_SEED = 0
 
 
+def spread(times: list[float]) -> float:
+    """How far the second fastest of ``times`` lies above the fastest, as a fraction of
+    it (0 for fewer than two): small when the fastest can be trusted."""
+    if len(times) < 2:
+        return 0.0
+    fastest, second = sorted(times)[:2]
+    return second / fastest - 1.0 if fastest > 0 else math.inf
+
+
 def measure(loaded, setting: Setting, reference: np.ndarray, repeats: int,
             out: Path | None = None, folder: str = "") -> Measurement:
-    """Render ``setting`` of ``loaded`` (an ``mi.Scene``) ``repeats`` times and score the
-    image against ``reference``; the median render time is kept, and every repeat's.
-    With ``out``, the image and its error map are kept under ``out / folder``."""
+    """Render ``setting`` of ``loaded`` (an ``mi.Scene``) ``repeats`` times, and up to
+    :data:`~whitted.defaults.COMPARE_MAX_EXTRA_REPEATS` more while the two fastest differ
+    by more than :data:`~whitted.defaults.COMPARE_SPREAD_LIMIT`, and score the image
+    against ``reference``; the fastest render time is kept, and every repeat's. With
+    ``out``, the image and its error map are kept under ``out / folder``."""
     seconds, compile_seconds, image = [], [], None
-    for _ in range(repeats):
+    while (len(seconds) < repeats or (spread(seconds) > COMPARE_SPREAD_LIMIT
+                                      and len(seconds) < repeats + COMPARE_MAX_EXTRA_REPEATS)):
         result = rendering.render(loaded, integrator=setting.integrator, spp=setting.spp,
                                   max_depth=setting.max_depth,
                                   lighting=setting.lighting if setting.integrator == "whitted" else None,
@@ -58,8 +78,8 @@ def measure(loaded, setting: Setting, reference: np.ndarray, repeats: int,
             image = np.asarray(result.image, dtype=np.float32)
     error_map, flip = metrics.flip_map(image, reference)
     files = write_render(out, f"{folder}/{setting.slug}", image, error_map) if out is not None else {}
-    return Measurement(setting, statistics.median(seconds), max(compile_seconds),
-                       metrics.relative_mse(image, reference), flip, repeats, thumbnail(image),
+    return Measurement(setting, min(seconds), max(compile_seconds),
+                       metrics.relative_mse(image, reference), flip, len(seconds), thumbnail(image),
                        times=tuple(seconds), **files)
 
 
@@ -81,7 +101,8 @@ def sweep_scene(scene: SceneFile, entry: SceneResult, settings: list[Setting], o
                  ``entry.notes`` says why
     ``loaded``   the scene's ``mi.Scene`` when the caller has it (else loaded here,
                  in ``entry.variant``)
-    ``progress`` a tqdm bar to advance by one per setting, or None
+    ``progress`` a tqdm bar to advance by one per setting and per Whitted method's
+                 limit, or None
     ``chunks``   the reference's chunks (:class:`~whitted.compare.reference.Chunk`)
                  when a cluster's workers rendered them; None: rendered here unless
                  cached
@@ -97,8 +118,10 @@ def sweep_scene(scene: SceneFile, entry: SceneResult, settings: list[Setting], o
     if reference is None:
         entry.skipped.extend(settings)
         if progress is not None:
-            progress.update(len(settings))
+            progress.update(len(settings) + len(limit_methods(settings)))
         return entry
+    if progress is not None:  # the estimate of the time left: from the renders' own rate
+        progress.unpause()
     entry.reference_thumbnail = thumbnail(reference)
     entry.reference_png = f"{entry.folder}/reference.png"  # its EXR is the cache's
     (out / entry.folder).mkdir(parents=True, exist_ok=True)
@@ -120,6 +143,7 @@ def sweep_scene(scene: SceneFile, entry: SceneResult, settings: list[Setting], o
             done.append((setting, measurement.seconds, time.monotonic() - start))
         if progress is not None:
             progress.update(1)
+    _limits(loaded, entry, settings, reference, out, deadline, progress)
     if settings and not entry.measurements:
         took = ("was read from the cache" if entry.reference_cached
                 else f"took {entry.reference_seconds:.1f} s")
@@ -146,3 +170,22 @@ def _below_the_reference(entry: SceneResult, settings: list[Setting], progress) 
         if progress is not None:
             progress.update(len(dropped))
     return kept
+
+
+def _limits(loaded, entry: SceneResult, settings: list[Setting], reference: np.ndarray, out: Path,
+            deadline: float, progress) -> None:
+    """Each Whitted method's limit (:func:`~whitted.compare.limits.render_limit`), its
+    renders read back from their kept EXRs and scored against it."""
+    for method in limit_methods(settings):
+        if progress is not None:
+            progress.set_postfix_str(f"{entry.name}: {method} limit", refresh=False)
+        measured = [(m, imageio.read_image(out / m.image)) for m in entry.measurements
+                    if m.setting.method == method and m.image]
+        limit = render_limit(loaded, entry, method, measured, reference, out, deadline)
+        if limit is not None:
+            entry.limits[method] = limit
+        elif measured:
+            entry.notes.append(f"{method}: its limit was not rendered: it would have overrun the "
+                               f"scene's share of --budget")
+        if progress is not None:
+            progress.update(1)
