@@ -81,8 +81,10 @@ class _MitsubaHook:
         exec_module = spec.loader.exec_module
 
         def exec_then_register(module):
-            exec_module(module)
-            _mitsuba_ready(sys.modules.get(fullname, module))
+            from .interrupt import deferred
+            with deferred():   # a Ctrl-C is not to cut Mitsuba's and Dr.Jit's set-up in half
+                exec_module(module)
+                _mitsuba_ready(sys.modules.get(fullname, module))
 
         spec.loader.exec_module = exec_then_register
         return spec

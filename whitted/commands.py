@@ -82,9 +82,11 @@ def render_command(args) -> None:
     """``whitted render SCENE -o OUT``: everything is checked before anything is written."""
     from .atomic import check_writable, write_text
     from .defaults import check_ambient
-    from .imageio import image_format, write_image
+    from .interrupt import deferred
     from .memory import peak_resident_bytes
-    from .rendering import article_materials, check_settings, render
+    with deferred():   # numpy's C extension is not cut mid-import by a Ctrl-C (see deferred)
+        from .imageio import image_format, write_image
+        from .rendering import article_materials, check_settings, render
 
     output = Path(args.output)
     check_settings(args.spp, args.max_depth, args.lighting, args.integrator, args.min_weight)

@@ -11,23 +11,31 @@ exception's type. SIGTERM is treated the same way.
 
 from __future__ import annotations
 
+import contextlib
 import signal
 
 _received: int | None = None
 #: What the stop left behind, for the one line the CLI prints (see :func:`tell`).
 _outcome: str | None = None
+#: Inside :func:`deferred`: a stop is remembered (``_pending``), and raised when the block ends.
+_deferring = False
+_pending = False
 
 
 def _handler(number, frame):
-    global _received
+    global _received, _pending
     _received = number
-    raise KeyboardInterrupt
+    if _deferring:
+        _pending = True
+    else:
+        raise KeyboardInterrupt
 
 
 def install() -> None:
     """Route SIGINT and SIGTERM through :func:`requested` (the CLI calls this first)."""
-    global _received, _outcome
+    global _received, _outcome, _pending
     _received = _outcome = None
+    _pending = False
     for number in (signal.SIGINT, signal.SIGTERM):
         signal.signal(number, _handler)
 
@@ -52,3 +60,26 @@ def tell(outcome: str) -> None:
 def message() -> str:
     """The one line a stop prints: ``whitted: interrupted``, and what was kept."""
     return "whitted: interrupted" + (f"; {_outcome}" if _outcome else "")
+
+
+@contextlib.contextmanager
+def deferred():
+    """Hold a stop (Ctrl-C, SIGTERM) until the block ends, then raise it.
+
+    For work that must not be cut in the middle: importing Mitsuba and Dr.Jit and
+    setting a variant. A ``KeyboardInterrupt`` raised inside their initialisation
+    (Python code that C++ calls back, such as the plugins' registration) left them
+    half done: the signal was sometimes swallowed (the render went on), and the
+    interpreter sometimes aborted on its way out ("Fatal Python error:
+    PyThreadState_Get"), instead of exiting with status 130. Without
+    :func:`install` (whitted used as a library) it changes nothing.
+    """
+    global _deferring, _pending
+    outer, _deferring = _deferring, True
+    try:
+        yield
+    finally:
+        _deferring = outer
+    if not outer and _pending:
+        _pending = False
+        raise KeyboardInterrupt

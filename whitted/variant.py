@@ -117,7 +117,14 @@ def set_variant(variant: str | None = None) -> str:
     """Select a Mitsuba variant and register the project's plugins for it.
 
     ``None`` keeps a variant already chosen through Mitsuba, else takes the default.
+    A Ctrl-C meanwhile takes effect once it is done (:func:`whitted.interrupt.deferred`).
     """
+    from .interrupt import deferred
+    with deferred():
+        return _set_variant(variant)
+
+
+def _set_variant(variant: str | None) -> str:
     import mitsuba as mi
 
     if variant is None:
