@@ -19,10 +19,11 @@ setup: $(STAMP) llvm
 $(PY):
 	$(PYTHON) -m venv $(VENV)
 
-# Reinstalled only when the package's metadata changes.
+# Reinstalled only when the package's metadata changes. setuptools' note that an editable
+# install maps folders (converter/ and plugins/ into whitted) is information, not a problem.
 $(STAMP): pyproject.toml | $(PY)
 	$(PY) -m pip install --quiet --upgrade pip
-	$(PY) -m pip install --quiet -e '.[test]'
+	PYTHONWARNINGS="ignore:Editable installation" $(PY) -m pip install --quiet -e '.[test]'
 	touch $(STAMP)
 
 # Finds libLLVM >= 16, or installs Debian's libllvm19 when missing and allowed;
