@@ -39,6 +39,7 @@ from pathlib import Path
 
 from .. import defaults as D
 from .frame import scene_origin, to_frame
+from .giants import exact_spheres, giant_spheres
 from .scene import Material, Scene, Sphere, Vec3
 
 
@@ -180,9 +181,11 @@ def _sphere(sphere: Sphere, origin: Vec3, material_id: str) -> dict:
     return shape
 
 
-def describe(scene: Scene, base_dir: str | os.PathLike | None) -> Description:
+def describe(scene: Scene, base_dir: str | os.PathLike | None, smallest: float | None = None) -> Description:
     """The description of ``scene``. Texture paths are relative to ``base_dir`` (the folder
-    the XML will live in: Mitsuba resolves paths against it), or absolute when it is None."""
+    the XML will live in: Mitsuba resolves paths against it), or absolute when it is None.
+    ``smallest``: the smallest radius of spheres the scene holds elsewhere (the loader's
+    ellipsoids), which decides with its own which spheres are giant (:mod:`.giants`)."""
     base_dir = None if base_dir is None else Path(os.path.abspath(base_dir))
     origin = scene_origin(scene)
     near, far = clip_range(scene)
@@ -195,6 +198,11 @@ def describe(scene: Scene, base_dir: str | os.PathLike | None) -> Description:
         defaults["min_weight"] = float(scene.min_weight)
         integrator["min_weight"] = Param("min_weight")
     integrator["light_reference"] = to_frame(scene.lookat, origin)
+    giants = giant_spheres(scene, origin, smallest)
+    if giants:
+        # Their exact values, for the integrator to intersect in float64 (plugins/giants.py).
+        integrator["exact_spheres"] = exact_spheres(
+            (f"sphere_{k}", to_frame(scene.spheres[k].center, origin), scene.spheres[k].radius) for k in giants)
     objects: dict = {"type": "scene", "integrator": integrator}
     objects["sensor"] = {
         "type": "perspective", "fov_axis": "x", "fov": float(scene.fov),

@@ -114,7 +114,8 @@ def _sealed_dict(model, grouping, params: dict) -> dict:
     description of the rest of the scene in the scaled frame, plus those shapes."""
     from . import sealed
     from .converter.description import describe, material_dict
-    description = describe(sealed.remaining(model, grouping), base_dir=None)
+    # The grouped spheres, of radius 1 in the scaled frame, count among the scene's details.
+    description = describe(sealed.remaining(model, grouping), base_dir=None, smallest=1.0)
     scene = mitsuba_dict(description, params)
     for k, (material, centers) in enumerate(sealed.groups(model, grouping, description.origin)):
         scene[f"sealed_{k}"] = sealed.ellipsoids(centers, material_dict(material, base_dir=None))
