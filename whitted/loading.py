@@ -62,7 +62,7 @@ def _checked(overrides: dict) -> dict:
 
 
 def load_scene(path: str | os.PathLike, variant: str | None = None, *, model=None,
-               ellipsoids: bool | None = None, **overrides):
+               ellipsoids: bool | None = None, integrator: str = D.INTEGRATOR, **overrides):
     """Load a ``.scn`` or ``.xml`` scene as a ``mi.Scene``.
 
     ``variant`` selects a Mitsuba variant first (default: keep the current one).
@@ -75,6 +75,8 @@ def load_scene(path: str | os.PathLike, variant: str | None = None, *, model=Non
     faster than as ``sphere`` shapes). None (the default) does so when at least
     ``sealed.MIN_GROUP`` spheres share that radius, True whenever one does,
     False never. ``.xml`` files are loaded as written.
+    ``integrator`` ("whitted" or "path") is what the scene will be rendered with: a ``.scn``
+    file read here is warned about as that integrator needs (converter/frame.py).
     ``overrides`` replace the scene's ``spp``, ``max_depth``, ``ambient`` or
     ``lighting`` ("article" or "physical").
     """
@@ -96,7 +98,7 @@ def load_scene(path: str | os.PathLike, variant: str | None = None, *, model=Non
         from .converter.frame import warn_precision
         if model is None:
             model = parse_file(path)
-            warn_precision(model)
+            warn_precision(model, integrator=integrator)
         from . import sealed
         grouping = None if ellipsoids is False else \
             sealed.choose(model, min_group=1 if ellipsoids else sealed.MIN_GROUP)
