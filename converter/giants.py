@@ -84,3 +84,130 @@ def parse_exact_spheres(text: str) -> list[tuple[str, Vec3, float]]:
             raise ValueError(f"exact_spheres: the radius must be positive in {part!r}")
         entries.append((key.strip(), (x, y, z), r))
     return entries
+
+
+# -- a mesh of the sphere for Mitsuba's own integrators --------------------------------------------
+
+#: Mitsuba's own ray offset near a point p is ``(1 + max|p_i|)·RayEpsilon``, RayEpsilon = 1500 ε
+RAY_EPSILON = 1500 * EPSILON32
+#: the mesh's deviation from its sphere, relative to the distance from the eye, at most: a
+#: pixel of a 2048-pixel-wide image at 45° spans 3.8e-4 (docs/numerics.md, hazard 14)
+MESH_TOLERANCE = 2e-4
+#: the least height of the eye above a meshed sphere, in distances from the eye to the lookat
+MIN_HEIGHT = 1e-2
+
+
+def mitsuba_misplaces(sphere: Sphere, origin: Vec3) -> bool:
+    """Whether Mitsuba's float32 sphere test (off by about ε·(r + max|C_i|)) is coarser than
+    its own ray offset near the sphere, ``(1 + d)·RayEpsilon`` with d the sphere's distance
+    from the frame's origin (the lookat): then Mitsuba's own integrators show acne on it."""
+    center = [c - o for c, o in zip(sphere.center, origin)]
+    distance = abs(sum(c * c for c in center) ** 0.5 - sphere.radius)
+    return EPSILON32 * (sphere.radius + max(abs(c) for c in center)) > RAY_EPSILON * (1 + distance)
+
+
+def sphere_mesh(center: Vec3, radius: float, eye: Vec3, view: float, tolerance: float = MESH_TOLERANCE):
+    """A closed triangle mesh inscribed in the sphere (``center``, ``radius``; in the frame),
+    finest where the eye is nearest: ``(positions, normals, faces)`` as numpy arrays
+    (float64 N×3, float64 N×3, int64 M×3), faces counter-clockwise seen from outside.
+
+    Rings of latitude around the sphere's point nearest the eye (the *anchor*), at polar
+    angles θ_k, each a regular polygon of M_k vertices; M doubles from one ring to the next
+    where needed (each vertex of the inner ring then meets three of the outer, no T-joints:
+    the mesh is watertight). The step from ring to ring is ``sqrt(2δ/r)``, δ = ``tolerance``
+    times twice a lower bound of the eye's distance to the ring, and M keeps the polygon's
+    sides below that step: each quad of two rings lies in a plane (an isosceles trapezoid)
+    whose circle has an angular radius of at most step/√2, so it lies within r·step²/4 = δ/2
+    of the sphere, ``tolerance`` times the distance (:func:`deviation` measures it). ``view`` is the distance from the eye to the
+    lookat: an eye closer to the surface than :data:`MIN_HEIGHT` of it is taken to be that
+    far (the mesh stays finite; the bound there is then relative to that height).
+    """
+    import numpy as np
+    c = np.asarray(center, np.float64)
+    offset = np.asarray(eye, np.float64) - c
+    length = float(np.linalg.norm(offset))
+    axis = offset / length if length > 0 else np.array([0.0, 1.0, 0.0])
+    # two unit vectors perpendicular to the axis
+    helper = np.array([1.0, 0.0, 0.0]) if abs(axis[0]) < 0.9 else np.array([0.0, 0.0, 1.0])
+    u = np.cross(axis, helper)
+    u /= np.linalg.norm(u)
+    v = np.cross(axis, u)
+    height = max(abs(length - radius), MIN_HEIGHT * view)
+    thetas, counts = [0.0], [1]
+    theta, count = 0.0, 8
+    while True:
+        # at least half the eye's distance to the points of the next ring (s: their arc
+        # from the anchor; their chord to it is at least 2s/π): h + 2s/π from outside,
+        # h + s/π from inside (the distance is at least max(h, 2s/π - h) there)
+        arc = radius * theta
+        near = height + (2 if length > radius else 1) * arc / np.pi
+        step = np.sqrt(2 * tolerance * near / radius)
+        if theta + 1.5 * step >= np.pi:
+            break
+        theta += step
+        while 2 * np.pi / count * np.sin(theta) > step:
+            count *= 2
+        thetas.append(theta)
+        counts.append(count)
+    thetas.append(np.pi)
+    counts.append(1)
+    rings, start = [], 0
+    positions = []
+    for theta, count in zip(thetas, counts):
+        phi = 2 * np.pi * np.arange(count) / count
+        direction = (np.cos(theta) * axis[None, :] +
+                     np.sin(theta) * (np.cos(phi)[:, None] * u[None, :] + np.sin(phi)[:, None] * v[None, :]))
+        if count == 1:
+            direction = np.array([axis if theta == 0 else -axis])
+        positions.append(direction)
+        rings.append(np.arange(start, start + count))
+        start += count
+    faces = []
+    for inner, outer in zip(rings[:-1], rings[1:]):
+        m, n = len(inner), len(outer)
+        if m == 1:        # the fan around the anchor
+            faces.append(np.stack([np.full(n, inner[0]), outer, np.roll(outer, -1)], axis=1))
+        elif n == 1:      # the fan around the antipode
+            faces.append(np.stack([inner, np.full(m, outer[0]), np.roll(inner, -1)], axis=1))
+        elif n == m:
+            a, b = inner, np.roll(inner, -1)
+            p, q = outer, np.roll(outer, -1)
+            faces += [np.stack([a, p, q], axis=1), np.stack([a, q, b], axis=1)]
+        else:             # n = 2 m: each inner edge meets two outer edges
+            a, b = inner, np.roll(inner, -1)
+            p, mid, q = outer[0::2], outer[1::2], np.roll(outer[0::2], -1)
+            faces += [np.stack([a, p, mid], axis=1), np.stack([a, mid, b], axis=1),
+                      np.stack([b, mid, q], axis=1)]
+    normals = np.concatenate(positions)
+    faces = np.concatenate(faces)
+    # outward-facing: the winding that makes (p1 - p0) × (p2 - p0) point away from the center
+    p0, p1, p2 = (normals[faces[:, k]] for k in range(3))
+    flip = np.einsum("ij,ij->i", np.cross(p1 - p0, p2 - p0), p0 + p1 + p2) < 0
+    faces[flip] = faces[flip][:, [0, 2, 1]]
+    return c + radius * normals, normals, faces
+
+
+def deviation(positions, faces, center: Vec3, radius: float):
+    """Per triangle, the most its plane lies inside the sphere: r − (distance from the center
+    to the plane), which bounds how far any point of the triangle lies off the sphere when
+    its vertices lie on it."""
+    import numpy as np
+    p0, p1, p2 = (np.asarray(positions, np.float64)[faces[:, k]] for k in range(3))
+    normal = np.cross(p1 - p0, p2 - p0)
+    normal /= np.linalg.norm(normal, axis=1)[:, None]
+    return radius - np.abs(np.einsum("ij,ij->i", normal, p0 - np.asarray(center, np.float64)))
+
+
+def ply_bytes(positions, normals, faces) -> bytes:
+    """A binary little-endian PLY of the mesh, float32 positions and normals (what Mitsuba's
+    ``ply`` shape reads, and what ``mi.load_dict`` of the same file builds)."""
+    import numpy as np
+    header = ("ply\nformat binary_little_endian 1.0\n"
+              f"element vertex {len(positions)}\n"
+              "property float x\nproperty float y\nproperty float z\n"
+              "property float nx\nproperty float ny\nproperty float nz\n"
+              f"element face {len(faces)}\nproperty list uchar int vertex_indices\nend_header\n")
+    vertices = np.concatenate([positions, normals], axis=1).astype("<f4")
+    face_records = np.zeros(len(faces), dtype=[("n", "u1"), ("i", "<i4", (3,))])
+    face_records["n"], face_records["i"] = 3, faces
+    return header.encode("ascii") + vertices.tobytes() + face_records.tobytes()
