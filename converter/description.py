@@ -39,7 +39,7 @@ from pathlib import Path
 
 from .. import defaults as D
 from .frame import scene_origin, to_frame
-from .giants import exact_spheres, giant_spheres
+from .giants import cached, exact_spheres, giant_spheres, mesh_bytes, mitsuba_misplaces
 from .scene import Material, Scene, Sphere, Vec3
 
 
@@ -64,6 +64,15 @@ class LookAt:
 class Matrix:
     """A ``to_world`` transform given as a 4×4 matrix, row by row."""
     rows: tuple[tuple[float, float, float, float], ...]
+
+
+@dataclass(frozen=True)
+class Mesh:
+    """A mesh shape's ``filename``, with the file's bytes (a PLY: :mod:`.giants`). The XML
+    names the file; whoever writes the XML writes it beside (:func:`meshes`), and
+    ``mi.load_dict`` reads it from the mesh cache (:func:`.giants.cached`)."""
+    filename: str
+    data: bytes = field(repr=False)
 
 
 @dataclass
@@ -166,10 +175,13 @@ def material_dict(material: Material, base_dir: Path | None) -> dict:
             "refract": float(material.refract), "ior": float(material.ior)}
 
 
-def _sphere(sphere: Sphere, origin: Vec3, material_id: str) -> dict:
+def _sphere(sphere: Sphere, origin: Vec3, material_id: str, mesh: Mesh | None = None) -> dict:
+    """A ``sphere`` shape, or the ``ply`` shape of ``mesh`` when given."""
     center = to_frame(sphere.center, origin)
     shape = {"type": "sphere"}
-    if sphere.material.texture is None:
+    if mesh is not None:
+        shape = {"type": "ply", "filename": mesh}
+    elif sphere.material.texture is None:
         shape.update(center=center, radius=float(sphere.radius))
     else:
         # Oriented so that Mitsuba's own UV is the article's mapping.
@@ -198,7 +210,10 @@ def describe(scene: Scene, base_dir: str | os.PathLike | None, smallest: float |
         defaults["min_weight"] = float(scene.min_weight)
         integrator["min_weight"] = Param("min_weight")
     integrator["light_reference"] = to_frame(scene.lookat, origin)
-    giants = giant_spheres(scene, origin, smallest)
+    # Spheres float32 cannot place finely enough for the Whitted integrator, and those it
+    # cannot place finely enough for Mitsuba's own integrators, which get a mesh instead.
+    meshed = _meshed(scene, origin)
+    giants = sorted(set(giant_spheres(scene, origin, smallest)) | set(meshed))
     if giants:
         # Their exact values, for the integrator to intersect in float64 (plugins/giants.py).
         integrator["exact_spheres"] = exact_spheres(
@@ -227,6 +242,26 @@ def describe(scene: Scene, base_dir: str | os.PathLike | None, smallest: float |
             materials[material] = f"material_{len(materials)}"
             objects[materials[material]] = material_dict(material, base_dir)
         ids.append(materials[material])
+    meshed = set(meshed)
     for i, (sphere, material_id) in enumerate(zip(scene.spheres, ids)):
-        objects[f"sphere_{i}"] = _sphere(sphere, origin, material_id)
+        mesh = None
+        if i in meshed:
+            data = mesh_bytes(sphere, origin, scene.eye, scene.lookat)
+            mesh = Mesh(str(cached(data)) if base_dir is None else f"{Path(scene.source).stem}.sphere_{i}.ply",
+                        data)
+        objects[f"sphere_{i}"] = _sphere(sphere, origin, material_id, mesh)
     return Description(objects, defaults, origin, scene.source.name)
+
+
+def _meshed(scene: Scene, origin: Vec3) -> list[int]:
+    """The spheres Mitsuba gets as meshes (:mod:`.giants`): the untextured ones its own
+    integrators would place less finely than their ray offset. The Whitted integrator
+    intersects them exactly (they are listed in ``exact_spheres``)."""
+    return [k for k, sphere in enumerate(scene.spheres)
+            if sphere.material.texture is None and mitsuba_misplaces(sphere, origin)]
+
+
+def meshes(description: Description) -> list[Mesh]:
+    """The mesh files ``description`` refers to, in order."""
+    return [node["filename"] for node in description.scene.values()
+            if isinstance(node, dict) and isinstance(node.get("filename"), Mesh)]

@@ -22,6 +22,11 @@ readers of the XML. A scene without giant spheres is written as before.
 
 from __future__ import annotations
 
+import hashlib
+import os
+import tempfile
+from pathlib import Path
+
 from .scene import Scene, Sphere, Vec3
 
 #: float32's unit round-off, 2^-24
@@ -211,3 +216,30 @@ def ply_bytes(positions, normals, faces) -> bytes:
     face_records = np.zeros(len(faces), dtype=[("n", "u1"), ("i", "<i4", (3,))])
     face_records["n"], face_records["i"] = 3, faces
     return header.encode("ascii") + vertices.tobytes() + face_records.tobytes()
+
+
+def mesh_bytes(sphere: Sphere, origin: Vec3, eye: Vec3, lookat: Vec3) -> bytes:
+    """The PLY file of ``sphere``'s mesh (:func:`sphere_mesh`) in the frame of ``origin``."""
+    center = tuple(c - o for c, o in zip(sphere.center, origin))
+    eye = tuple(c - o for c, o in zip(eye, origin))
+    view = sum((a - b) ** 2 for a, b in zip(eye, (c - o for c, o in zip(lookat, origin)))) ** 0.5
+    return ply_bytes(*sphere_mesh(center, sphere.radius, eye, view))
+
+
+def cache_folder() -> Path:
+    """Where meshes of scenes loaded without an XML file live: named by their content, so
+    that every process finds the same file and none is ever rewritten."""
+    return Path(tempfile.gettempdir()) / f"whitted-meshes-{os.getuid() if hasattr(os, 'getuid') else 0}"
+
+
+def cached(data: bytes) -> Path:
+    """The cached file holding ``data`` (written when missing, atomically)."""
+    folder = cache_folder()
+    path = folder / f"{hashlib.sha256(data).hexdigest()[:32]}.ply"
+    if not path.is_file():
+        folder.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(prefix=".mesh.", suffix=".ply", dir=folder)
+        with os.fdopen(fd, "wb") as out:
+            out.write(data)
+        os.replace(tmp, path)
+    return path

@@ -22,7 +22,7 @@ import os
 import re
 from xml.sax.saxutils import escape
 
-from .description import Description, LookAt, Matrix, Param, describe
+from .description import Description, LookAt, Matrix, Mesh, Param, describe
 from .scene import Scene, Vec3
 
 FORMAT_VERSION = "3.0.0"
@@ -32,7 +32,7 @@ INDENT = "    "
 _OBJECT_TAGS = {
     "whitted": "integrator", "perspective": "sensor", "independent": "sampler",
     "hdrfilm": "film", "box": "rfilter", "constant": "emitter", "point": "emitter",
-    "article": "bsdf", "bitmap": "texture", "sphere": "shape",
+    "article": "bsdf", "bitmap": "texture", "sphere": "shape", "ply": "shape",
 }
 
 
@@ -81,6 +81,8 @@ def _value(value, defaults: dict) -> tuple[str, str]:
         return "float", num(value)
     if isinstance(value, str):
         return "string", string_value(value)
+    if isinstance(value, Mesh):
+        return "string", string_value(value.filename)
     if isinstance(value, tuple) and len(value) == 3:
         return "point", vec(value, ", ")
     raise TypeError(f"no XML form for {value!r}")
@@ -144,5 +146,7 @@ def description_to_xml(description: Description) -> str:
 def scene_to_xml(scene: Scene, base_dir: str | os.PathLike | None) -> str:
     """The Mitsuba XML of ``scene``. Texture paths are written relative to ``base_dir``
     (the folder the XML will live in: Mitsuba resolves paths against it), or
-    absolute when ``base_dir`` is None (XML loaded from memory)."""
+    absolute when ``base_dir`` is None (XML loaded from memory). So are the mesh files
+    of giant spheres (:mod:`.giants`): beside the XML, where the caller writes them
+    (:func:`.description.meshes`; ``whitted convert`` does), or in the mesh cache."""
     return description_to_xml(describe(scene, base_dir))

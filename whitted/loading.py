@@ -37,7 +37,8 @@ def mitsuba_dict(description, overrides: dict | None = None) -> dict:
     """
     import mitsuba as mi
 
-    from .converter.description import LookAt, Matrix, Param
+    from .converter.description import LookAt, Matrix, Mesh, Param
+    from .converter.giants import cached
     values = {**description.defaults, **(overrides or {})}
 
     def convert(value):
@@ -47,6 +48,8 @@ def mitsuba_dict(description, overrides: dict | None = None) -> dict:
             return values[value.name]
         if isinstance(value, LookAt):
             return mi.ScalarTransform4d().look_at(origin=value.origin, target=value.target, up=value.up)
+        if isinstance(value, Mesh):   # the same bytes as the XML's file, from the mesh cache
+            return str(cached(value.data))
         if isinstance(value, Matrix):
             return mi.ScalarTransform4d([list(row) for row in value.rows])
         return value
