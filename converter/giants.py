@@ -102,13 +102,22 @@ MESH_TOLERANCE = 2e-4
 MIN_HEIGHT = 1e-2
 
 
+#: how much coarser than Mitsuba's ray offset its float32 sphere may be before the sphere is
+#: meshed: the example scenes' floors of radius 10^3 (ratio 0.7 to 1.1) path-trace without
+#: acne (docs/numerics.md, hazard 14); smallpt's walls (1.5 to 3.2) and floors of radius
+#: 10^4 under the eye (8.9) do not
+MISPLACED_RATIO = 1.4
+
+
 def mitsuba_misplaces(sphere: Sphere, origin: Vec3) -> bool:
     """Whether Mitsuba's float32 sphere test (off by about ε·(r + max|C_i|)) is coarser than
-    its own ray offset near the sphere, ``(1 + d)·RayEpsilon`` with d the sphere's distance
-    from the frame's origin (the lookat): then Mitsuba's own integrators show acne on it."""
+    :data:`MISPLACED_RATIO` times its own ray offset near the sphere, ``(1 + d)·RayEpsilon``
+    with d the sphere's distance from the frame's origin (the lookat): then Mitsuba's own
+    integrators show acne on it."""
     center = [c - o for c, o in zip(sphere.center, origin)]
     distance = abs(sum(c * c for c in center) ** 0.5 - sphere.radius)
-    return EPSILON32 * (sphere.radius + max(abs(c) for c in center)) > RAY_EPSILON * (1 + distance)
+    error = EPSILON32 * (sphere.radius + max(abs(c) for c in center))
+    return error > MISPLACED_RATIO * RAY_EPSILON * (1 + distance)
 
 
 def sphere_mesh(center: Vec3, radius: float, eye: Vec3, view: float, tolerance: float = MESH_TOLERANCE):

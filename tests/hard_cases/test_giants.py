@@ -71,8 +71,8 @@ def test_the_scenes_show_what_they_test(giants):
 def test_which_spheres_are_giant():
     """Floors from 10^4 on under balls of 0.3, and the sky dome; not smallpt's walls (float32
     places them to 0.07, 4e-3 of its balls' radius 16.5, and renders them right), nor the
-    floors of radius 100 to 1000 of the other hazard scenes (but large_floor's 10^4, and
-    grazing's, meshed for Mitsuba), nor the sky dome scene's floor of radius 10^3."""
+    floors of radius 100 to 1000 of the other hazard scenes (but large_floor's 10^4), nor
+    the sky dome scene's floor of radius 10^3."""
     for name in ("floor_1e4", "floor_1e5", "floor_1e6", "floor_1e7"):
         model = hs.GIANTS[name]()
         assert giant_spheres(model, model.lookat) == [0], name
@@ -84,9 +84,7 @@ def test_which_spheres_are_giant():
         if name not in ("texture_poles", "arccos_range"):
             model = hs.HAZARDS[name]()
             giant = "exact_spheres" in describe(model, None).scene["integrator"]
-            # large_floor's floor has radius 10^4; grazing's of 10^3 is seen from 0.15 above,
-            # where Mitsuba's own ray offset (9.4e-5) is below its float32 error (1.2e-4)
-            assert giant == (name in ("large_floor", "grazing")), name
+            assert giant == (name == "large_floor"), name   # its floor has radius 10^4
 
 
 def test_the_integrator_gets_the_exact_values():
