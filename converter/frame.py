@@ -30,7 +30,7 @@ from __future__ import annotations
 import math
 import sys
 
-from .giants import giant_spheres
+from .giants import giant_spheres, mitsuba_misplaces
 from .scene import Scene, Vec3
 
 #: float32's unit round-off, 2^-24
@@ -43,8 +43,7 @@ EPSILON32 = 2.0 ** -24
 #: Measured (docs/numerics.md, hazard 6): mirror-and-glass seen from 10^5 away (0.02)
 #: has 0.2 % of its pixels off by more than 0.02, from 10^6 (0.2) 2 %, from 10^7 19 %.
 SPREAD_WARNING = 0.1
-#: Mitsuba's own ray offset, ``(1 + max|p_i|)·RayEpsilon`` (RayEpsilon = 1500 ε)
-RAY_EPSILON = 1500 * EPSILON32
+
 
 
 def scene_origin(scene: Scene) -> Vec3:
@@ -112,21 +111,17 @@ def path_warning(scene: Scene) -> str | None:
     """One line naming the first sphere that Mitsuba's own integrators (``--integrator
     path``) place less finely than their ray offset near the scene, else None.
 
-    Mitsuba's float32 sphere test is off by about an ulp of the radius plus the center's
-    largest coordinate; its ray offset near the sphere is ``(1 + d)·RayEpsilon``, d the
-    sphere's distance from the lookat. Where the first exceeds the second, rays leaving
-    the sphere meet it again: acne (docs/numerics.md, hazard 14).
+    Such spheres are handed to Mitsuba as meshes (:mod:`.giants`), but for textured ones,
+    whose lat/long mapping a mesh would not carry: those stay ``sphere`` shapes, and rays
+    leaving them meet them again (acne; docs/numerics.md, hazard 14).
     """
     origin = scene_origin(scene)
     for sphere in scene.spheres:
-        center = to_frame(sphere.center, origin)
-        error = EPSILON32 * (sphere.radius + max(abs(c) for c in center))
-        offset = RAY_EPSILON * (1 + abs(_length(center) - sphere.radius))
-        if error > offset:
-            return (f"{_where(scene, sphere)}: Mitsuba's own integrators place this sphere of radius "
-                    f"{sphere.radius:.3g} only to {error:.2g} (float32), more than their ray offset "
-                    f"there ({offset:.2g}): expect acne on it with the path integrator; the whitted "
-                    f"integrator intersects it exactly (--lighting physical: the same direct light) "
+        if sphere.material.texture is not None and mitsuba_misplaces(sphere, origin):
+            return (f"{_where(scene, sphere)}: Mitsuba's own integrators place this textured sphere of "
+                    f"radius {sphere.radius:.3g} only to ulps of its size (float32), more than their ray "
+                    f"offset there: expect acne on it with the path integrator; the whitted integrator "
+                    f"intersects it exactly, or leave its texture out to have it meshed "
                     f"(docs/numerics.md, hazard 14)")
     return None
 
