@@ -23,6 +23,8 @@ readers of the XML. A scene without giant spheres is written as before.
 from __future__ import annotations
 
 import hashlib
+import itertools
+import math
 import os
 import tempfile
 from pathlib import Path
@@ -48,19 +50,42 @@ def float32_error(sphere: Sphere, origin: Vec3) -> float:
     return EPSILON32 * (RADIUS_ULPS * sphere.radius + CENTER_ULPS * center)
 
 
+def _detail_near(scene: Scene, k: int) -> float:
+    """The finest detail next to sphere ``k``'s surface: over the other spheres, the larger of
+    a sphere's radius and its gap to that surface (a ball resting on it: its radius; one far
+    from it: the gap, which no ray offset of the surface's size can cross)."""
+    import numpy as np
+    giant = scene.spheres[k]
+    n = len(scene.spheres)
+    if n < 2:
+        return math.inf
+    center = np.fromiter(itertools.chain.from_iterable(s.center for s in scene.spheres), np.float64, 3 * n)
+    radius = np.fromiter((s.radius for s in scene.spheres), np.float64, n)
+    gap = np.abs(np.linalg.norm(center.reshape(n, 3) - np.asarray(giant.center), axis=1) - giant.radius) - radius
+    detail = np.maximum(radius, np.abs(gap))
+    detail[k] = math.inf
+    return float(detail.min())
+
+
 def giant_spheres(scene: Scene, origin: Vec3, smallest: float | None = None) -> list[int]:
-    """Indices of the giant spheres of ``scene`` (written in the frame of ``origin``).
+    """Indices of the giant spheres of ``scene`` (written in the frame of ``origin``): those
+    whose float32 error bound exceeds :data:`GIANT_FRACTION` of the finest detail next to
+    them (:func:`_detail_near`).
 
     ``smallest`` is the smallest radius of spheres the scene holds elsewhere (the loader's
-    ellipsoids: whitted/sealed.py), if any.
+    ellipsoids: whitted/sealed.py), if any: they count as resting on every sphere.
     """
     if not scene.spheres:
         return []
     detail = min(sphere.radius for sphere in scene.spheres)
     if smallest is not None:
         detail = min(detail, smallest)
-    return [k for k, sphere in enumerate(scene.spheres)
-            if float32_error(sphere, origin) > GIANT_FRACTION * detail]
+    # cheap first: only spheres coarse against the smallest radius can be coarse against a detail
+    candidates = [k for k, sphere in enumerate(scene.spheres)
+                  if float32_error(sphere, origin) > GIANT_FRACTION * detail]
+    return [k for k in candidates
+            if float32_error(scene.spheres[k], origin) >
+            GIANT_FRACTION * min(_detail_near(scene, k), smallest if smallest is not None else math.inf)]
 
 
 def exact_spheres(entries) -> str:
