@@ -9,6 +9,7 @@ from __future__ import annotations
 import dataclasses
 import math
 
+import drjit as dr
 import mitsuba as mi
 import numpy as np
 import pytest
@@ -18,7 +19,7 @@ import whitted
 from conftest import VARIANTS
 from reference import Reference, assert_matches
 from whitted.cli import main
-from whitted.converter import scene_to_xml
+from whitted.converter import Light, Scene, Sphere, scene_to_xml
 from whitted.converter.description import describe, meshes
 from whitted.converter.giants import MESH_TOLERANCE, deviation, giant_spheres, parse_exact_spheres, sphere_mesh
 from whitted.converter.xml_writer import description_to_xml
@@ -239,3 +240,40 @@ def test_mitsubas_path_tracer_is_free_of_acne(tmp_path, llvm, name, route):
         scene = whitted.load_scene(tmp_path / f"{name}.xml")
     error, off = _path_against_whitted(scene)
     assert error <= 2e-3 and off <= 0.01, f"relative MSE {error:.2e}, {off:.2%} of pixels off by > 0.1"
+
+
+@pytest.mark.parametrize("variant", VARIANTS)
+@pytest.mark.parametrize("radius", [1e4, 1e7])
+def test_rays_leaving_a_giant_floor_do_not_meet_it_again(variant, radius):
+    """test_acne.py's experiment on the float64 finder: hits on a floor of radius 10^4 or
+    10^7 near the balls, found by camera rays; a ray leaving each hit upwards must miss the
+    floor, one leaving downwards must meet it again (its far side), and the shadow segment
+    to a light above must be clear, all with the offsets of the point's own error bound."""
+    whitted.set_variant(variant)
+    from whitted.plugins.giants import GiantHits
+    from whitted.plugins.shading import spawn_ray, spawn_ray_to
+    model = Scene(eye=(0.0, 1.5, 8.0), lookat=(0.0, 0.5, 0.0), lights=[Light((0.0, 10.0, 0.0))],
+                  spheres=[Sphere((0.0, -radius, 0.0), radius), Sphere((40.0, 0.3, -40.0), 0.3)])
+    scene = mi.load_string(scene_to_xml(model, None))
+    hits = GiantHits(scene, False, scene.integrator().exact_spheres)
+    rng = np.random.default_rng(7)
+    count = 2000 if dr.is_jit_v(mi.Float) else 300
+    target = np.stack([rng.uniform(-6, 6, count), np.full(count, -0.5), rng.uniform(-6, 6, count)], axis=1)
+    eye = np.array(model.eye) - np.array(model.lookat)
+    direction = target - eye
+    direction /= np.linalg.norm(direction, axis=1)[:, None]
+    light = mi.Point3f(0.0, 9.5, 0.0)
+    escaped = shadowed = 0
+    for k in range(1 if dr.is_jit_v(mi.Float) else count):
+        d = direction if dr.is_jit_v(mi.Float) else direction[k:k + 1]
+        ray = mi.Ray3f(mi.Point3f(*(float(c) for c in eye)),
+                       mi.Vector3f(*(d.T.astype(np.float32) if dr.is_jit_v(mi.Float) else map(float, d[0]))))
+        hit, si, _, error = hits.intersect(ray, False)
+        up = mi.Vector3f(0.0, 1.0, 0.0)
+        again, _, _, _ = hits.intersect(spawn_ray(si, error, up), False)
+        down, _, _, _ = hits.intersect(spawn_ray(si, error, -up), False)
+        blocked = hits.blocked(spawn_ray_to(si, error, light), hit)
+        assert np.all(np.array(hit))
+        escaped += int(np.sum(np.array(~down if dr.is_jit_v(mi.Float) else not down)))
+        shadowed += int(np.sum(np.array(again | blocked if dr.is_jit_v(mi.Float) else again or blocked)))
+    assert escaped == 0 and shadowed == 0
