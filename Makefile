@@ -30,11 +30,13 @@ $(STAMP): pyproject.toml | $(PY)
 llvm: $(STAMP)
 	@WHITTED_VARIANT=scalar_rgb $(PY) -c 'from whitted.variant import ensure_llvm; ensure_llvm()'
 
-# scenes_xml/ is regenerated from scenes/ (every .scn, new ones too) by one convert call.
+# scenes_xml/ is regenerated from scenes/ (every .scn, new ones too): X.xml (the article's
+# model, for Python after `import whitted`) and X.portable.xml (stock plugins, any Mitsuba 3).
 scenes: setup
 	@if [ -f scenes/make_textures.py ]; then $(PY) scenes/make_textures.py; fi
 	@mkdir -p scenes_xml
 	@$(VENV)/bin/whitted convert scenes/ -o scenes_xml/
+	@$(VENV)/bin/whitted convert scenes/ -o scenes_xml/ --portable
 	@echo "scenes_xml/ regenerated from scenes/"
 
 # Renders what scenes/ holds now: the .scn files themselves (an edit shows at once),

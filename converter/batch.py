@@ -15,13 +15,15 @@ from pathlib import Path
 
 from ..atomic import atomic_path, write_text
 from ..errors import WhittedError
+from .description import describe, meshes
 from .frame import warn_precision
 from .parser import parse_file
-from .description import describe, meshes
-from .xml_writer import description_to_xml
+from .xml_writer import xml_of
 
 #: the legacy scene files a folder argument stands for
 SCENE_SUFFIX = ".scn"
+#: what X.scn becomes: X.xml, or X.portable.xml in the stock-plugins form (``--portable``)
+XML_SUFFIX, PORTABLE_SUFFIX = ".xml", ".portable.xml"
 
 
 def scene_files(folder: Path) -> list[Path]:
@@ -33,13 +35,15 @@ def scene_files(folder: Path) -> list[Path]:
     return entries
 
 
-def plan(inputs: list[str | os.PathLike], output: str | os.PathLike | None = None) -> list[tuple[Path, Path]]:
+def plan(inputs: list[str | os.PathLike], output: str | os.PathLike | None = None,
+         suffix: str = XML_SUFFIX) -> list[tuple[Path, Path]]:
     """The (source, target) pairs of a conversion.
 
     Each input is a ``.scn`` file or a folder (its ``.scn`` files). Without
-    ``output`` every ``X.scn`` becomes ``X.xml`` beside it. With one input file,
-    ``output`` names the XML file, unless it is an existing folder or ends with
-    a path separator; otherwise it is the folder that receives every ``X.xml``.
+    ``output`` every ``X.scn`` becomes ``X.xml`` (``X`` + ``suffix``) beside it.
+    With one input file, ``output`` names the XML file, unless it is an existing
+    folder or ends with a path separator; otherwise it is the folder that
+    receives every ``X.xml``.
     """
     if not inputs:
         raise WhittedError("no scene given: name .scn files or folders")
@@ -59,9 +63,9 @@ def plan(inputs: list[str | os.PathLike], output: str | os.PathLike | None = Non
     pairs, seen = [], {}
     for source in sources:
         if out is None:
-            target = source.with_suffix(".xml")
+            target = source.with_suffix(suffix)
         elif into_folder:
-            target = out / source.with_suffix(".xml").name
+            target = out / source.with_suffix(suffix).name
         else:
             target = out
         key = os.path.abspath(target)
@@ -75,15 +79,16 @@ def plan(inputs: list[str | os.PathLike], output: str | os.PathLike | None = Non
     return pairs
 
 
-def convert_file(source: Path, target: Path) -> None:
-    """Parse ``source`` and write its XML to ``target`` atomically (nothing for an invalid scene),
-    with the mesh files of its giant spheres beside it (:mod:`.giants`); warn on stderr when
-    float32 cannot hold the scene's detail (:mod:`.frame`)."""
+def convert_file(source: Path, target: Path, portable: bool = False) -> None:
+    """Parse ``source`` and write its XML (``portable``: in stock plugins only) to ``target``
+    atomically (nothing for an invalid scene), with the mesh files of its giant spheres
+    beside it (:mod:`.giants`); warn on stderr when float32 cannot hold the scene's detail
+    (:mod:`.frame`)."""
     scene = parse_file(source)
     if target.is_dir():
         raise WhittedError(f"{target}: is a folder; give the output file's name")
     description = describe(scene, base_dir=target.parent)
-    xml = description_to_xml(description)
+    xml = xml_of(description, portable)
     warn_precision(scene)
     for mesh in meshes(description):   # giant spheres' meshes (.giants), before the XML that names them
         with atomic_path(target.parent / mesh.filename) as tmp:

@@ -1,9 +1,11 @@
 """Scene description -> Mitsuba 3 XML (format version 3.0.0).
 
-The XML holds everything needed to render the scene with stock Mitsuba plus the
-project's plugins (``import whitted`` registers them): the perspective sensor,
-spheres, point lights, background, the article's materials and textures, and
-the Whitted integrator. What the scene holds, and every formula behind it
+The default XML holds everything needed to render the scene with stock Mitsuba
+plus the project's plugins (``import whitted`` registers them): the perspective
+sensor, spheres, point lights, background, the article's materials and textures,
+and the Whitted integrator. The portable XML (:mod:`.portable`) holds the same
+scene in Mitsuba's stock plugins only, with a comment at the top saying what
+differs from the article's model. What the scene holds, and every formula behind it
 (frame, light intensities, texture frames), is decided once in
 :mod:`.description`; this module only writes that description as text, so the
 XML and ``mi.load_dict`` of the same description are the same scene.
@@ -23,6 +25,7 @@ import re
 from xml.sax.saxutils import escape
 
 from .description import Description, LookAt, Matrix, Mesh, Param, describe
+from .portable import portable as to_portable
 from .scene import Scene, Vec3
 
 FORMAT_VERSION = "3.0.0"
@@ -32,7 +35,11 @@ INDENT = "    "
 _OBJECT_TAGS = {
     "whitted": "integrator", "perspective": "sensor", "independent": "sampler",
     "hdrfilm": "film", "box": "rfilter", "constant": "emitter", "point": "emitter",
-    "article": "bsdf", "bitmap": "texture", "sphere": "shape", "ply": "shape",
+    "article": "bsdf", "bitmap": "texture", "sphere": "shape",
+    "ply": "shape",   # giant spheres' meshes (converter/giants.py)
+    # the portable form's stock plugins (converter/portable.py)
+    "path": "integrator", "diffuse": "bsdf", "conductor": "bsdf", "dielectric": "bsdf",
+    "blendbsdf": "bsdf", "twosided": "bsdf",
 }
 
 
@@ -123,12 +130,17 @@ def _object(key: str, node: dict, defaults: dict, depth: int) -> list[str]:
     return lines + [f"{pad}</{_OBJECT_TAGS[kind]}>"]
 
 
-def description_to_xml(description: Description) -> str:
-    """The Mitsuba XML of a scene description."""
+def description_to_xml(description: Description, notes: list[str] = ()) -> str:
+    """The Mitsuba XML of a scene description; ``notes`` are lines of a comment at the top."""
     o = description.origin
     out = [
         '<?xml version="1.0" encoding="utf-8"?>',
         f'<!-- Converted by whitted from {comment(description.source)} -->',
+    ]
+    if notes:
+        out += [f"<!-- {comment(notes[0])}"] + [f"     {comment(n)}" for n in notes[1:]]
+        out[-1] += " -->"
+    out += [
         f'<!-- Positions are relative to the scene origin (its lookat), world point {vec(o, ", ")}:',
         '     world coordinates = these coordinates + world_origin (docs/numerics.md) -->',
         f'<scene version="{FORMAT_VERSION}">',
@@ -143,10 +155,18 @@ def description_to_xml(description: Description) -> str:
     return "\n".join(out)
 
 
-def scene_to_xml(scene: Scene, base_dir: str | os.PathLike | None) -> str:
+def scene_to_xml(scene: Scene, base_dir: str | os.PathLike | None, portable: bool = False) -> str:
     """The Mitsuba XML of ``scene``. Texture paths are written relative to ``base_dir``
     (the folder the XML will live in: Mitsuba resolves paths against it), or
     absolute when ``base_dir`` is None (XML loaded from memory). So are the mesh files
     of giant spheres (:mod:`.giants`): beside the XML, where the caller writes them
-    (:func:`.description.meshes`; ``whitted convert`` does), or in the mesh cache."""
-    return description_to_xml(describe(scene, base_dir))
+    (:func:`.description.meshes`; ``whitted convert`` does), or in the mesh cache.
+    ``portable``: the form that names only Mitsuba's stock plugins (:mod:`.portable`)."""
+    return xml_of(describe(scene, base_dir), portable)
+
+
+def xml_of(description: Description, portable: bool = False) -> str:
+    """The XML of ``description``, in the default or the ``portable`` form."""
+    if not portable:
+        return description_to_xml(description)
+    return description_to_xml(*to_portable(description))

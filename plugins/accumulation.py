@@ -30,6 +30,11 @@ import drjit as dr
 import mitsuba as mi
 
 
+#: values zeroed per kernel when an image is cleared (64 MiB of float32): short enough
+#: for Ctrl-C to act between two
+CLEAR_BAND = 1 << 24
+
+
 def image_for(film, spp: int):
     """How a render of ``spp`` samples per pixel accumulates on ``film``."""
     if dr.is_jit_v(mi.Float) and PixelMeans.applies(film):
@@ -81,7 +86,24 @@ class PixelMeans:
         self.width, self.height = (int(c) for c in film.crop_size())
         self.spp = spp
         self.scale = dr.opaque(mi.Float, 1.0 / spp)
-        self.image = dr.zeros(mi.Float, 3 * self.width * self.height)
+        self.image = self._cleared(3 * self.width * self.height, spp)
+
+    @staticmethod
+    def _cleared(size: int, spp: int):
+        """The image's values: zeros where samples are added up (``spp`` > 1), else
+        uninitialised (one sample, or one pixel's mean, is stored per value).
+
+        Zeroed a band at a time: ``dr.zeros`` is one memset kernel, which at 16384² is
+        3 GiB of first-touched memory and seconds long, during which Ctrl-C waits
+        (Python regains control only between kernels)."""
+        image = dr.empty(mi.Float, size)
+        if spp > 1:
+            zero = dr.opaque(mi.Float, 0.0)
+            for first in range(0, size, CLEAR_BAND):
+                index = dr.arange(mi.UInt32, min(CLEAR_BAND, size - first)) + dr.opaque(mi.UInt32, first)
+                dr.scatter(image, zero, index)
+                dr.eval(image)
+        return image
 
     def put(self, pixel, position, color) -> None:
         """Add ``color / spp`` to ``pixel`` (its linear index in the crop; ``position`` unused)."""

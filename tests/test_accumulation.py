@@ -75,3 +75,31 @@ def test_means_match_the_reference(llvm):
     scene_model = model(4)
     assert_matches(whitted.render(mi.load_string(scene_to_xml(scene_model, base_dir=None))).image,
                    render_reference(scene_model))
+
+
+@pytest.mark.parametrize("depth", [1, 4])
+@pytest.mark.parametrize("spp", [1, 4])
+def test_the_image_is_cleared_in_bands_that_ctrl_c_can_stop_between(llvm, monkeypatch, depth, spp):
+    """A render clears its image in kernels of at most CLEAR_BAND values, never in one
+    memset of the whole image (3 GiB at 16384², seconds during which Ctrl-C waited), and
+    not at all where every value is stored once; the image is the film's all the same."""
+    import drjit as dr
+    from whitted.plugins import accumulation
+    monkeypatch.setattr(accumulation, "CLEAR_BAND", 89)   # 36 * 24 * 3 = 29 * 89 + 11 values
+    scene = mi.load_string(scene_to_xml(model(depth), base_dir=None))
+    integrator = mi.load_dict({"type": "whitted", "max_depth": depth,
+                               "light_reference": mi.ScalarPoint3f(model(depth).lookat)})
+    with dr.scoped_set_flag(dr.JitFlag.KernelHistory, True):
+        dr.kernel_history_clear()
+        means = integrator.render_detailed(scene, spp=spp, seed=3)
+        history = dr.kernel_history()
+    whole_image = [k for k in history if k["type"] == dr.KernelType.Memset and k["size"] == 36 * 24 * 3 * 4]
+    bands = [k for k in history if k["type"] == dr.KernelType.JIT and k["size"] in (89, 11)]
+    assert not whole_image
+    if spp > 1:
+        assert len(bands) >= 30
+    else:
+        assert len(bands) < 30
+    monkeypatch.setattr(PixelMeans, "applies", staticmethod(lambda film: False))
+    splats = integrator.render_detailed(scene, spp=spp, seed=3)
+    np.testing.assert_allclose(np.array(means.image), np.array(splats.image), rtol=1e-6, atol=1e-7)

@@ -90,6 +90,31 @@ def test_cli_user_errors(case, message, write_scene, tmp_path, capsys):
     assert good.read_text() == "sphere 0 0 0 1\n"
 
 
+def test_an_output_folder_is_created_for_one_file_as_for_many(write_scene, tmp_path, capsys):
+    """One rule: -o naming a folder (a trailing / or several inputs) is created when missing."""
+    scene = write_scene("sphere 0 0 0 1\n", "ball.scn")
+    assert convert(scene, "-o", f"{tmp_path / 'one' / 'deep'}/") == 0
+    assert (tmp_path / "one" / "deep" / "ball.xml").is_file()
+    other = write_scene("sphere 0 0 0 2\n", "other.scn")
+    assert convert(scene, other, "-o", tmp_path / "many") == 0
+    assert sorted(p.name for p in (tmp_path / "many").iterdir()) == ["ball.xml", "other.xml"]
+    assert capsys.readouterr().err == ""
+
+
+@pytest.mark.parametrize("output, message", [
+    ("{tmp}/missing/x.xml", "{tmp}/missing/x.xml: output folder {tmp}/missing does not exist"),
+    ("/proc/x.xml", "/proc/x.xml: cannot write in /proc"),
+    ("/proc/sub/", "/proc/sub: cannot write in /proc"),
+])
+def test_output_errors_name_only_the_users_paths(output, message, write_scene, tmp_path, capsys):
+    scene = write_scene("sphere 0 0 0 1\n")
+    assert convert(scene, "-o", output.format(tmp=tmp_path)) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("whitted: error: " + message.format(tmp=tmp_path)) and err.count("\n") == 1
+    assert ".whitted" not in err
+    assert not (tmp_path / "missing").exists()
+
+
 def test_output_folder_receives_the_xml(write_scene, tmp_path):
     scene = write_scene("sphere 0 0 0 1\n", "ball.scn")
     out = tmp_path / "out"
@@ -308,17 +333,19 @@ def test_there_are_example_scenes():
     assert {p.stem for p in SCENES} >= {"spheres", "globe", "mirrors", "tir"}
 
 
+@pytest.mark.parametrize("portable", [False, True], ids=["default", "portable"])
 @pytest.mark.parametrize("scn", SCENES, ids=lambda p: p.stem)
-def test_scenes_xml_is_not_stale(scn):
+def test_scenes_xml_is_not_stale(scn, portable):
     """scenes_xml/ must be what `make scenes` writes now (run it after editing scenes/)."""
-    xml = REPO / "scenes_xml" / f"{scn.stem}.xml"
+    xml = REPO / "scenes_xml" / f"{scn.stem}{'.portable' if portable else ''}.xml"
     assert xml.is_file(), f"{xml} is missing: run `make scenes`"
-    assert scene_to_xml(parse_file(scn), xml.parent) == xml.read_text(encoding="utf-8"), \
+    assert scene_to_xml(parse_file(scn), xml.parent, portable=portable) == xml.read_text(encoding="utf-8"), \
         f"{xml} is stale: run `make scenes`"
 
 
 def test_no_xml_without_its_scene():
-    assert {p.stem for p in (REPO / "scenes_xml").glob("*.xml")} == {p.stem for p in SCENES}
+    names = {p.name for p in (REPO / "scenes_xml").glob("*.xml")}
+    assert names == {f"{p.stem}{suffix}" for p in SCENES for suffix in (".xml", ".portable.xml")}
 
 
 def test_texture_image_is_not_stale():

@@ -128,7 +128,11 @@ def test_package_has_no_import_cycle():
 
 
 def test_every_package_folder_is_installed():
-    """A subpackage missing from pyproject's list works in an editable install only."""
-    listed = set(_setuptools()["packages"])
+    """A subpackage missing from pyproject's list works in an editable install only; a
+    folder of data (the report's templates) is listed with its files as package data."""
+    settings = _setuptools()
+    data = set(settings.get("package-data", {}))
+    listed = set(settings["packages"]) - data
     packages = {name for name, file in package_modules().items() if file.name == "__init__.py"}
     assert packages == listed
+    assert data <= set(settings["packages"])

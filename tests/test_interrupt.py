@@ -87,8 +87,9 @@ def test_compare_keeps_what_finished(slow_scene, tmp_path):
         time.sleep(0.2)
     status, _, err, took = interrupt_after(process, 4.0, signal.SIGINT)
     assert status == 130 and "Traceback" not in err
-    assert err.strip().splitlines()[-1] == "whitted: interrupted"
-    assert "hold what was done" in err
+    # One line says it all: the stop, and what was kept (the progress bar aside).
+    assert [line for line in err.splitlines() if "interrupted" in line] == \
+        [f"whitted: interrupted; the outputs in {out} hold what was done"]
     rows = (out / "results.csv").read_text().strip().splitlines()
     assert len(rows) >= 2                      # the header and at least one finished render
     assert not [p for p in Path(out).rglob(".*") if p.is_file()]   # no temporary files left

@@ -76,3 +76,18 @@ def test_bad_variant_in_the_environment_is_one_line(tmp_path):
         "whitted: error: WHITTED_VARIANT=bogus: not a variant whitted runs in; "
         "choose one of scalar_rgb, llvm_ad_rgb, cuda_ad_rgb"]
     assert not (tmp_path / "x.png").exists()
+
+
+def test_the_package_builds_without_setuptools_warnings(tmp_path):
+    """A wheel built as pip builds it (isolated, current setuptools) ships the report's
+    template and draws no BuildBackendWarning (``make demo`` printed 40 lines of one)."""
+    from pathlib import Path
+    import zipfile
+
+    repo = Path(__file__).resolve().parent.parent
+    build = subprocess.run([sys.executable, "-m", "pip", "wheel", "-v", "--no-deps", "-w", str(tmp_path),
+                            str(repo)], capture_output=True, text=True, timeout=600)
+    assert build.returncode == 0, build.stderr[-2000:]
+    assert "BuildBackendWarning" not in build.stdout + build.stderr
+    (wheel,) = tmp_path.glob("whitted-*.whl")
+    assert "whitted/compare/templates/report.html.j2" in zipfile.ZipFile(wheel).namelist()

@@ -2,7 +2,7 @@
 
 The README is what a new user tries first, so each of its blocks is executed
 here, in a fresh process, from a folder laid out like the repository
-(``scenes/`` and ``scenes_xml/``) whose scenes are the project's examples shrunk
+(``scenes/`` and ``scenes_xml/``, default and portable XML) whose scenes are the project's examples shrunk
 to a few pixels, so that the whole README runs in seconds:
 
 * ``sh`` blocks: every line is run by the shell as written (``make`` lines are
@@ -62,9 +62,23 @@ def workdir(tmp_path_factory):
         scene.write_text(text)
     (root / "scenes_xml").mkdir()
     env = environment()
-    subprocess.run([sys.executable, "-m", "whitted", "convert", "scenes", "-o", "scenes_xml"],
-                   cwd=root, env=env, check=True)
+    for portable in ([], ["--portable"]):
+        subprocess.run([sys.executable, "-m", "whitted", "convert", "scenes", "-o", "scenes_xml", *portable],
+                       cwd=root, env=env, check=True)
+    (root / "out").mkdir()   # as `make demo`, the README's first command, leaves it
+    # A checkout of its own, ignoring what the repository ignores: the README's commands
+    # must leave `git status` clean (their outputs under out/ or ignored).
+    shutil.copy(REPO / ".gitignore", root / ".gitignore")
+    for command in (["init", "-q"], ["add", "-A"],
+                    ["-c", "user.name=t", "-c", "user.email=t@t", "commit", "-qm", "clone"]):
+        subprocess.run(["git", *command], cwd=root, check=True)
     return root
+
+
+def untracked(root: Path) -> str:
+    """What ``git status`` would show a user after running something in ``root``."""
+    return subprocess.run(["git", "status", "--porcelain"], cwd=root, capture_output=True, text=True,
+                          check=True).stdout
 
 
 def environment() -> dict:
@@ -89,6 +103,7 @@ def test_shell_command_runs_as_written(command, workdir):
                          text=True, timeout=600)
     assert run.returncode == 0, f"{command}\n{run.stderr}"
     assert "Traceback" not in run.stderr
+    assert untracked(workdir) == "", command
 
 
 @pytest.mark.parametrize("index", range(len(blocks("python"))))
@@ -97,13 +112,14 @@ def test_python_block_runs_as_written(index, workdir):
     run = subprocess.run([sys.executable, "-c", code], cwd=workdir, env=environment(),
                          capture_output=True, text=True, timeout=600)
     assert run.returncode == 0, f"{code}\n{run.stderr}"
+    assert untracked(workdir) == "", code
 
 
 def test_documented_stats_have_the_real_keys(workdir):
     documented = json.loads(blocks("json")[0])
-    out = workdir / "readme-stats.json"
+    out = workdir / "out" / "readme-stats.json"
     subprocess.run([sys.executable, "-m", "whitted", "render", "scenes/tir.scn", "-o",
-                    str(workdir / "readme-stats.png"), "--stats", str(out), "-q"],
+                    str(workdir / "out" / "readme-stats.png"), "--stats", str(out), "-q"],
                    cwd=workdir, env=environment(), check=True)
     real = json.loads(out.read_text())
     assert sorted(documented) == sorted(real)

@@ -159,6 +159,29 @@ def test_bad_input_fails_cleanly_and_writes_nothing(case, scene_xml, tmp_path, c
     assert files(tmp_path) == before
 
 
+@pytest.mark.parametrize("output, message", [
+    ("{tmp}", "{tmp}: is a folder; give a file name"),
+    ("/dev/full", "/dev/full: is not a regular file"),
+    ("/proc/x.png", "/proc/x.png: cannot write in /proc"),
+    ("{tmp}/no/x.png", "{tmp}/no/x.png: output folder {tmp}/no does not exist"),
+])
+def test_output_path_errors_say_what_is_wrong_with_the_path(output, message, scene_xml, tmp_path, capsys):
+    before = files(tmp_path)
+    assert render(scene_xml, "-o", output.format(tmp=tmp_path), "-q") == 2
+    err = capsys.readouterr().err
+    assert err.startswith("whitted: error: " + message.format(tmp=tmp_path)) and err.count("\n") == 1
+    assert files(tmp_path) == before
+
+
+def test_an_unknown_option_shows_the_commands_own_usage(scene_xml, tmp_path):
+    run = subprocess.run([sys.executable, "-m", "whitted", "render", str(scene_xml), "-o",
+                          str(tmp_path / "x.png"), "--bogus"], capture_output=True, text=True)
+    assert run.returncode == 2
+    assert run.stderr.startswith("usage: whitted render ")
+    assert "whitted render: error: unrecognized arguments: --bogus" in run.stderr
+    assert not (tmp_path / "x.png").exists()
+
+
 def test_scene_without_article_materials_is_refused(tmp_path, capsys):
     xml = tmp_path / "plain.xml"
     xml.write_text("<scene version='3.0.0'><sensor type='perspective'><film type='hdrfilm'>"

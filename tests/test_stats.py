@@ -146,6 +146,8 @@ def test_timings_and_memory_are_reported():
 
 def test_path_integrator_stats():
     stats = whitted.render(load(mixed(), "llvm_ad_rgb"), integrator="path", spp=2).stats
-    assert KEYS <= set(stats)
-    assert stats["rays"] == {"camera": W * H * 2, "shadow": None, "reflection": None, "refraction": None}
-    assert stats["max_depth_reached"] is None
+    # Only what is known without Mitsuba counting: the camera samples, times, effects, memory.
+    assert stats["rays"] == {"camera": W * H * 2}
+    assert set(stats) == {"rays", "seconds", "compile_seconds", "effects", "peak_memory_bytes",
+                          "peak_resident_bytes"}
+    assert None not in stats.values()

@@ -7,6 +7,7 @@ an interrupted or failed run never leaves a partial output behind.
 from __future__ import annotations
 
 import contextlib
+import errno
 import os
 import tempfile
 from pathlib import Path
@@ -41,26 +42,38 @@ def atomic_path(target: str | os.PathLike):
 
 
 def check_writable(target: str | os.PathLike, inputs: tuple = ()) -> Path:
-    """Fail now, with one clear line, if ``target`` could not be written later.
+    """Fail now, with one clear line naming ``target``, if it could not be written later.
 
     Called before any long work (a render, a sweep), so that an unwritable
-    output is not found after minutes of rendering. The folder must exist and
-    accept a new file: a temporary file is created and removed there, which also
-    catches what permission bits cannot show (``/proc``, ``/sys``, read-only
-    mounts, and root, for whom ``os.access`` says yes to everything).
-    ``inputs`` are files the output must not overwrite.
+    output is not found after minutes of rendering. ``target`` must name a file
+    (not a folder, nor a device such as ``/dev/full``: the atomic rename would
+    replace it), its folder must exist and accept a new file: a temporary file
+    is created and removed there, which also catches what permission bits cannot
+    show (``/proc``, ``/sys``, read-only mounts, and root, for whom
+    ``os.access`` says yes to everything). ``inputs`` are files the output must
+    not overwrite.
     """
     target = Path(target)
     folder = target.parent if str(target.parent) else Path(".")
     if target.is_dir():
         raise WhittedError(f"{target}: is a folder; give a file name")
-    if not folder.is_dir():
-        raise WhittedError(f"{target}: output folder {folder} does not exist")
+    if target.exists() and not target.is_file():
+        raise WhittedError(f"{target}: is not a regular file; give a file name")
     for source in inputs:
         if target.exists() and Path(source).exists() and target.resolve() == Path(source).resolve():
             raise WhittedError(f"{target}: output would overwrite the input {source}")
-    _probe(folder, target)
+    check_folder(folder, target)
     return target
+
+
+def check_folder(folder: str | os.PathLike, named: str | os.PathLike) -> Path:
+    """``folder`` exists and accepts a new file; errors name ``named``, the user's path."""
+    folder = Path(folder)
+    if not folder.is_dir():
+        what = "is not a folder" if folder.exists() else "does not exist"
+        raise WhittedError(f"{named}: output folder {folder} {what}")
+    _probe(folder, named)
+    return folder
 
 
 def _probe(folder: Path, named: Path) -> None:
@@ -68,21 +81,25 @@ def _probe(folder: Path, named: Path) -> None:
     try:
         fd, probe = tempfile.mkstemp(prefix=".whitted-", suffix=".probe", dir=folder)
     except OSError as error:
-        raise WhittedError(f"{named}: cannot write in {folder}: {error.strerror or error}") from None
+        # /proc and /sys answer ENOENT for a new file in a folder that exists.
+        why = "it accepts no new files" if error.errno == errno.ENOENT else (error.strerror or str(error))
+        raise WhittedError(f"{named}: cannot write in {folder}: {why}") from None
     os.close(fd)
     os.unlink(probe)
 
 
-def check_folder_creatable(folder: str | os.PathLike) -> Path:
+def check_folder_creatable(folder: str | os.PathLike, named: str | os.PathLike | None = None) -> Path:
     """Check, without creating anything, that ``folder`` exists and accepts files or can
-    be made: its nearest existing ancestor must be a folder that accepts files."""
+    be made: its nearest existing ancestor must be a folder that accepts files. Errors
+    name ``named`` (default: ``folder``), the path the user gave."""
     folder = Path(folder)
+    named = folder if named is None else Path(named)
     existing = folder
     while not existing.exists() and existing != existing.parent:
         existing = existing.parent
     if not existing.is_dir():
-        raise WhittedError(f"{folder}: cannot create a folder under the file {existing}")
-    _probe(existing, folder)
+        raise WhittedError(f"{named}: cannot create a folder under the file {existing}")
+    _probe(existing, named)
     return folder
 
 

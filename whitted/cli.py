@@ -51,7 +51,9 @@ def build_parser() -> argparse.ArgumentParser:
         "convert", help="convert legacy .scn scenes to Mitsuba 3 XML",
         description="Convert legacy .scn scenes to Mitsuba 3 XML (format 3.0.0): each X.scn "
                     "becomes X.xml beside it, or in the folder given with -o. The XML loads in "
-                    "stock Mitsuba once 'import whitted' has registered the project's plugins. "
+                    "Mitsuba's Python once 'import whitted' has registered the project's plugins; "
+                    "with --portable, X.portable.xml names only Mitsuba's stock plugins and loads "
+                    "in any Mitsuba 3 (the mitsuba command too), as the path tracer renders it. "
                     "A bad file is reported as FILE:LINE: message and nothing is written for it; "
                     "the others are still converted, and the exit status is 2.")
     convert.add_argument("scenes", nargs="+", metavar="SCENE",
@@ -59,8 +61,12 @@ def build_parser() -> argparse.ArgumentParser:
     convert.add_argument("-o", "--output", metavar="OUT",
                          help="the XML file (one input file), or the folder that receives every "
                               "X.xml (default: beside each input)")
+    convert.add_argument("--portable", action="store_true",
+                         help="write X.portable.xml in Mitsuba's stock plugins only (path integrator, "
+                              "stock BSDFs): the scene read physically, for any Mitsuba 3 tool; a "
+                              "comment at its top says what differs from the article's model")
     convert.add_argument("-v", "--verbose", action="store_true", help="say what was written")
-    convert.set_defaults(run=_convert)
+    convert.set_defaults(run=_convert, parser=convert)
 
     render = sub.add_parser(
         "render", help="render a .scn or .xml scene to EXR or PNG",
@@ -90,7 +96,7 @@ def build_parser() -> argparse.ArgumentParser:
     render.add_argument("--stats", metavar="FILE.json", help="write ray counts and timings as JSON")
     render.add_argument("-v", "--verbose", action="store_true", help="print a one-line summary")
     render.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
-    render.set_defaults(run=_render)
+    render.set_defaults(run=_render, parser=render)
 
     from .compare.cli import add_arguments as add_compare_arguments
     compare = sub.add_parser(
@@ -100,14 +106,16 @@ def build_parser() -> argparse.ArgumentParser:
                     "tracer (spp) and score each render's relative MSE and FLIP against it. Writes "
                     "DIR/results.csv, DIR/error_vs_time.png and DIR/contact_sheet.png.")
     add_compare_arguments(compare)
-    compare.set_defaults(run=_compare)
+    compare.set_defaults(run=_compare, parser=compare)
     return parser
 
 
 def main(argv: list[str] | None = None) -> int:
     interrupt.install()
     parser = build_parser()
-    args = parser.parse_args(argv)
+    args, unknown = parser.parse_known_args(argv)
+    if unknown:   # the command's own usage, not the top-level one
+        args.parser.error(f"unrecognized arguments: {' '.join(unknown)}")
     try:
         from .variant import check_environment
         check_environment()
@@ -124,7 +132,7 @@ def main(argv: list[str] | None = None) -> int:
             raise
     else:
         return status
-    print("whitted: interrupted", file=sys.stderr)
+    print(interrupt.message(), file=sys.stderr)
     return interrupt.exit_status()
 
 

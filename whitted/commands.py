@@ -17,21 +17,31 @@ from .errors import EXIT_USER_ERROR, WhittedError, report
 
 
 def convert_command(args) -> int:
-    """``whitted convert SCENE... [-o OUT]``: every file converted that can be; 2 if any failed."""
-    from .atomic import check_writable
-    from .converter.batch import convert_file, plan
+    """``whitted convert SCENE... [-o OUT] [--portable]``: every file converted that can be;
+    2 if any failed."""
+    from .atomic import check_folder, check_folder_creatable, writable_folder
+    from .converter.batch import PORTABLE_SUFFIX, XML_SUFFIX, convert_file, plan
 
-    pairs = plan(args.scenes, args.output)
-    out = Path(args.output) if args.output else None
-    if out is not None and len(pairs) > 1 and not out.exists():
-        from .atomic import writable_folder
-        writable_folder(out)
-    for folder in sorted({target.parent for _, target in pairs}):
-        check_writable(folder / ".whitted-convert")
+    portable = getattr(args, "portable", False)
+    pairs = plan(args.scenes, args.output, PORTABLE_SUFFIX if portable else XML_SUFFIX)
+    # One rule: an -o that names a folder (several inputs, or a trailing /) is created
+    # when missing; the folder of an -o that names a file must exist. Every folder
+    # is checked before the first file is converted; errors name the user's paths.
+    named_folder = Path(args.output) if args.output else None
+    folders = sorted({target.parent for _, target in pairs})
+    for folder in folders:
+        targets = [target for _, target in pairs if target.parent == folder]
+        named = targets[0] if len(targets) == 1 else folder
+        if folder == named_folder and not folder.exists():
+            check_folder_creatable(folder)
+        else:
+            check_folder(folder, named)
+    if named_folder in folders:
+        writable_folder(named_folder)
     failed = 0
     for source, target in pairs:
         try:
-            convert_file(source, target)
+            convert_file(source, target, portable)
         except WhittedError as error:
             report(error)
             failed += 1
@@ -48,9 +58,9 @@ def convert_command(args) -> int:
 def _summary(args, result, width: int, height: int, spp: int) -> str:
     import mitsuba as mi
     s = result.stats
-    rays = ", ".join(f"{v} {k}" for k, v in s["rays"].items() if v is not None)
-    depth = "" if s["max_depth_reached"] is None else f"depth reached {s['max_depth_reached']}; "
-    if s["min_weight"]:
+    rays = ", ".join(f"{v} {k}" for k, v in s["rays"].items())
+    depth = f"depth reached {s['max_depth_reached']}; " if "max_depth_reached" in s else ""
+    if s.get("min_weight"):
         depth += (f"{s['culled_rays']} rays culled, error at most {s['error_bound']:.2g} "
                   f"(min weight {s['min_weight']:.3g}); ")
     return (f"whitted: {width}x{height} at {spp} spp with {args.integrator} ({mi.variant()}): "
@@ -74,22 +84,25 @@ def render_command(args) -> None:
     from .defaults import check_ambient
     from .imageio import image_format, write_image
     from .memory import peak_resident_bytes
-    from .rendering import check_settings, render
+    from .rendering import article_materials, check_settings, render
 
     output = Path(args.output)
-    image_format(output)
     check_settings(args.spp, args.max_depth, args.lighting, args.integrator, args.min_weight)
     if args.ambient is not None:
         check_ambient(args.ambient)
     if args.stats and Path(args.stats).resolve() == output.resolve():
         raise WhittedError(f"{args.stats}: the statistics would overwrite the image")
-    check_writable(output, inputs=(args.scene,))
+    check_writable(output, inputs=(args.scene,))   # what is wrong with the path first
+    image_format(output)
     if args.stats:
         check_writable(args.stats, inputs=(args.scene,))
 
     scene = _load_quietly(args)
     if not scene.sensors():
         raise WhittedError(f"{args.scene}: the scene has no sensor (camera) to render from")
+    if args.integrator == "whitted" and not article_materials(scene):
+        raise WhittedError(f"{args.scene}: Mitsuba's stock materials (a portable scene?): the whitted "
+                           f"integrator needs the article's; use --integrator path, or the default XML")
     sensor = scene.sensors()[0]
     width, height = (int(c) for c in sensor.film().crop_size())
     spp = sensor.sampler().sample_count()

@@ -63,6 +63,13 @@ LIGHTING = "article"
 #: the article's model, or Mitsuba's stock path tracer
 INTEGRATORS = ("whitted", "path")
 INTEGRATOR = "whitted"
+
+
+def path_depth(depth: int) -> int:
+    """Mitsuba ``path``'s ``max_depth`` for the article's depth N: N + 1 (docs/radiometry.md,
+    "Depth": N surface interactions, each connected to the lights by one more segment)."""
+    return depth + 1
+
 #: The adaptive depth control (Hall and Greenberg; POV-Ray's adc_bailout): branches of the
 #: ray tree are left untraced as long as together they cannot change a pixel by more than
 #: this, one step of an 8-bit image (plugins/adaptive.py); 0 traces the exact tree

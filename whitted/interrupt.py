@@ -14,6 +14,8 @@ from __future__ import annotations
 import signal
 
 _received: int | None = None
+#: What the stop left behind, for the one line the CLI prints (see :func:`tell`).
+_outcome: str | None = None
 
 
 def _handler(number, frame):
@@ -24,8 +26,8 @@ def _handler(number, frame):
 
 def install() -> None:
     """Route SIGINT and SIGTERM through :func:`requested` (the CLI calls this first)."""
-    global _received
-    _received = None
+    global _received, _outcome
+    _received = _outcome = None
     for number in (signal.SIGINT, signal.SIGTERM):
         signal.signal(number, _handler)
 
@@ -38,3 +40,15 @@ def requested(error: BaseException | None = None) -> bool:
 def exit_status() -> int:
     """The shell's convention: 128 + the signal's number (130 for Ctrl-C, 143 for SIGTERM)."""
     return 128 + (_received if _received is not None else signal.SIGINT)
+
+
+def tell(outcome: str) -> None:
+    """Say what an interrupted command kept (``"the outputs in DIR hold what was done"``):
+    the CLI adds it to its one line, so that a stop is reported once."""
+    global _outcome
+    _outcome = outcome
+
+
+def message() -> str:
+    """The one line a stop prints: ``whitted: interrupted``, and what was kept."""
+    return "whitted: interrupted" + (f"; {_outcome}" if _outcome else "")

@@ -13,6 +13,7 @@ loading only adds to it (benchmarks/RESULTS.md, "Scene building").
 from __future__ import annotations
 
 import os
+import re
 from pathlib import Path
 
 from . import defaults as D
@@ -81,7 +82,9 @@ def load_scene(path: str | os.PathLike, variant: str | None = None, *, model=Non
     ``integrator`` ("whitted" or "path") is what the scene will be rendered with: a ``.scn``
     file read here is warned about as that integrator needs (converter/frame.py).
     ``overrides`` replace the scene's ``spp``, ``max_depth``, ``ambient`` or
-    ``lighting`` ("article" or "physical").
+    ``lighting`` ("article" or "physical"). A portable ``.xml`` (stock plugins,
+    ``whitted convert --portable``) has only ``spp`` and ``max_depth``, the latter
+    in Mitsuba's sense (the article's depth + 1).
     """
     import mitsuba as mi
 
@@ -109,6 +112,10 @@ def load_scene(path: str | os.PathLike, variant: str | None = None, *, model=Non
             return mi.load_dict(mitsuba_dict(describe(model, base_dir=None), params), parallel=PARALLEL)
         return mi.load_dict(_sealed_dict(model, grouping, params), parallel=PARALLEL)
     except RuntimeError as error:
+        unused = re.findall(r"^\s*- \$(\w+)=", str(error), re.M)
+        if "unused parameters" in str(error) and unused:
+            # e.g. ambient or lighting given for a portable scene, which has neither
+            raise WhittedError(f"{path}: the scene has no {' or '.join(unused)} to override") from None
         first = str(error).strip().splitlines()[0] if str(error).strip() else type(error).__name__
         raise WhittedError(f"{path}: Mitsuba could not load the scene: {first}") from None
 

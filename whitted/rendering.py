@@ -43,9 +43,14 @@ render so that the mark starts from what is really in use. In
 ``peak_resident_bytes`` is what the operating system counts: the process's
 peak resident set size during the render (on Linux; elsewhere over the
 process's life; see :mod:`whitted.memory`), everything included. ``whitted
-render`` extends it to the end of writing the image. Mitsuba's ``path`` integrator does not count its
-rays: for it only ``camera`` is given and the others are null, as are
-``max_depth_reached`` and the adaptive depth control's entries.
+render`` extends it to the end of writing the image.
+
+Mitsuba's ``path`` integrator counts none of its rays, so its stats hold what is
+known without it: ``rays`` is ``{"camera": N}`` (the camera samples), with
+``seconds``, ``compile_seconds``, ``effects`` (what the scene calls for) and the
+memory entries; the entries that describe the Whitted ray tree
+(``max_depth_reached``, ``merged_rays`` and the adaptive depth control's) are
+absent.
 """
 
 from __future__ import annotations
@@ -180,7 +185,9 @@ def render(scene, integrator: str = D.INTEGRATOR, spp: int | None = None, max_de
     ``lighting`` and ``min_weight`` (the Whitted integrator's adaptive depth
     control, 0 = off) default to the scene's own settings. ``integrator="path"``
     uses Mitsuba's ``path`` integrator with ``max_depth + 1`` (one more
-    segment for the connection to a light).
+    segment for the connection to a light); a scene whose own integrator is
+    ``path`` (a portable scene) is rendered with it unless ``max_depth`` is given.
+    The whitted integrator refuses a scene without the ``article`` BSDF.
     """
     import mitsuba as mi
 
@@ -194,6 +201,10 @@ def render(scene, integrator: str = D.INTEGRATOR, spp: int | None = None, max_de
     width, height = (int(c) for c in sensor.film().crop_size())
 
     if integrator == "whitted":
+        if not article_materials(scene):
+            raise WhittedError("the whitted integrator renders the article's materials only, and this "
+                               "scene has Mitsuba's stock BSDFs (a portable scene?): render it with "
+                               "the path integrator, or render the default XML")
         min_weight = float(min_weight) if min_weight is not None else settings["min_weight"]
         whitted = _whitted_integrator(scene, settings, depth, lighting or settings["lighting"], min_weight)
         with progress_bar(progress, width * height * spp, "render") as bar, _Clock() as clock:
@@ -202,23 +213,39 @@ def render(scene, integrator: str = D.INTEGRATOR, spp: int | None = None, max_de
             image = np.asarray(rendering.image, dtype=np.float32)
         rays = rendering.rays
         stats_rays, effects, reached = rays.rays(), list(rendering.effects), rays.max_depth_reached
-        adaptive = {"merged_rays": rays.merged, "min_weight": min_weight, "culled_rays": rays.culled,
-                    "culled_weight": rays.culled_weight, "error_bound": rendering.error_bound}
+        adaptive = {"max_depth_reached": reached, "merged_rays": rays.merged, "min_weight": min_weight,
+                    "culled_rays": rays.culled, "culled_weight": rays.culled_weight,
+                    "error_bound": rendering.error_bound}
     else:
-        path = mi.load_dict({"type": "path", "max_depth": depth + 1})
+        path = _path_integrator(scene, max_depth, depth)
         with progress_bar(progress, width * height * spp, "path tracing") as bar, _Clock() as clock:
             image = _render_path(scene, path, sensor, spp, seed, bar.update)
-        stats_rays = {"camera": width * height * spp, "shadow": None, "reflection": None,
-                      "refraction": None}
-        effects, reached = _effects_or_none(scene, depth), None
-        adaptive = {"merged_rays": None, "min_weight": None, "culled_rays": None, "culled_weight": None,
-                    "error_bound": None}
+        # Mitsuba's path tracer counts nothing: only what the caller knows is reported.
+        stats_rays, effects = {"camera": width * height * spp}, _effects_or_none(scene, depth)
+        adaptive = {}
 
     image = image[..., :3]
     stats = {"rays": stats_rays, "seconds": clock.seconds, "compile_seconds": clock.compile,
-             "effects": effects, "max_depth_reached": reached, "peak_memory_bytes": clock.peak_memory,
+             "effects": effects, "peak_memory_bytes": clock.peak_memory,
              "peak_resident_bytes": clock.peak_resident, **adaptive}
     return RenderResult(np.ascontiguousarray(image), clock.seconds, clock.compile, stats)
+
+
+def article_materials(scene) -> bool:
+    """Whether every shape has the ``article`` BSDF, as the whitted integrator needs
+    (a portable scene's are Mitsuba's stock BSDFs)."""
+    return all(hasattr(shape.bsdf(), "material_row") for shape in scene.shapes())
+
+
+def _path_integrator(scene, max_depth: int | None, depth: int):
+    """The path tracer for the article's ``depth``: the scene's own stock ``path``
+    integrator when it has one and no depth is asked for (a portable scene's, whose
+    ``max_depth`` is already the article's depth + 1), else a new one."""
+    import mitsuba as mi
+    own = scene.integrator()
+    if max_depth is None and own is not None and own.class_name() == "PathIntegrator":
+        return own
+    return mi.load_dict({"type": "path", "max_depth": D.path_depth(depth)})
 
 
 def path_passes(spp: int, pixels: int) -> list[int]:

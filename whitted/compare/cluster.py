@@ -43,8 +43,12 @@ Failures
     before the run fails). A scene's result is the return value of one whole task,
     so nothing is lost or counted twice. A scheduler that does not answer within
     :data:`~whitted.defaults.COMPARE_CONNECT_TIMEOUT` seconds, or has no worker, is
-    one line of error before any work. Ctrl-C cancels the tasks and the caller
-    writes what finished.
+    one line of error before any work. Ctrl-C cancels the tasks, ends the ones
+    running (:func:`stop_rendering`, so that no worker has to be killed on the way
+    out) and the caller writes what finished, in one line. A local cluster's own
+    log messages are silenced (``silence_logs``): a worker's failure reaches the
+    user as the one-line error of the task it ran, and shutting down mid-task would
+    otherwise print the heartbeat tracebacks of workers outliving their scheduler.
 """
 
 from __future__ import annotations
@@ -80,6 +84,39 @@ MIN_THREADS = 2
 _RENDERING = threading.Lock()
 #: The (variant, Dr.Jit threads) this worker process is prepared for.
 _prepared: tuple[str, int] | None = None
+#: The thread of the task rendering now in this worker process (None: none).
+_rendering_thread: int | None = None
+
+
+class Stopped(Exception):
+    """Raised in a worker's rendering thread when the client stops the run (Ctrl-C)."""
+
+
+@contextlib.contextmanager
+def _rendering():
+    """One render at a time, its thread known so that :func:`stop_rendering` can end it."""
+    global _rendering_thread
+    with _RENDERING:
+        _rendering_thread = threading.get_ident()
+        try:
+            yield
+        finally:
+            _rendering_thread = None
+
+
+def stop_rendering() -> bool:
+    """On a worker (through ``client.run``): end the task rendering there, if any.
+
+    A task cannot be cancelled once it runs, and a worker busy with one can only be
+    killed on the way out, leaving the semaphores of its process to the resource
+    tracker (which warns about them). Instead its thread gets :class:`Stopped` at its
+    next Python step (between kernels, or between a pass's levels), the task ends with
+    that error (its future is cancelled already) and the worker stops cleanly."""
+    import ctypes
+    thread = _rendering_thread
+    if thread is None:
+        return False
+    return ctypes.pythonapi.PyThreadState_SetAsyncExc(ctypes.c_ulong(thread), ctypes.py_object(Stopped)) == 1
 
 
 def available_cores() -> int:
@@ -115,7 +152,7 @@ def _prepare(variant: str, threads: dict[str, int]) -> str:
 def chunk_task(scene: SceneFile, variant: str, max_depth: int, spp: int, seed: int, half: int,
                threads: dict[str, int]) -> Chunk:
     """One chunk of a reference (:func:`~whitted.compare.reference.reference_chunks`)."""
-    with _RENDERING:
+    with _rendering():
         worker = _prepare(variant, threads)
         chunk = render_chunk(scene.load(variant), spp, seed, half, max_depth)
         chunk.worker = worker
@@ -126,7 +163,7 @@ def sweep_task(scene: SceneFile, entry: SceneResult, settings: list[Setting], op
                seconds: float, end: float | None, threads: dict[str, int],
                chunks: list[Chunk] | None) -> SceneResult:
     """One scene's sweep on this worker: its result, with ``worker`` set."""
-    with _RENDERING:
+    with _rendering():
         worker = _prepare(entry.variant, threads)
         if end is not None:
             seconds = min(seconds, max(0.0, end - time.time()))
@@ -158,7 +195,7 @@ def connect(options: Options):
                                        processes=True, host="127.0.0.1", dashboard_address=None,
                                        scheduler_kwargs={"dashboard": False,
                                                          "dashboard_address": "127.0.0.1:0"},
-                                       silence_logs=logging.ERROR)
+                                       silence_logs=logging.CRITICAL)
             client = Client(cluster, set_as_default=False)
         else:
             client = _connect_scheduler(options.scheduler)
@@ -311,6 +348,8 @@ def sweep_on_cluster(client, scenes: list[SceneFile], entries: list[SceneResult]
     except BaseException:
         if tasks:
             client.cancel(list(tasks), force=True)
+            with contextlib.suppress(Exception):   # the tasks running now end too
+                client.run(stop_rendering, wait=True)
         raise
     finally:
         bar.close()

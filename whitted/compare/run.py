@@ -126,5 +126,4 @@ def _write_what_was_done(out: Path, entries: list[SceneResult], options: Options
     """The outputs of an interrupted run, when a scene got as far as its reference."""
     if any(e.reference_thumbnail is not None for e in entries):
         report.write_all(out, entries, options.levels)
-        print(f"whitted compare: interrupted; the outputs in {out} hold what was done",
-              file=sys.stderr)
+        interrupt.tell(f"the outputs in {out} hold what was done")

@@ -1,0 +1,141 @@
+"""The converter's description -> one that names only Mitsuba's stock plugins (``whitted convert --portable``).
+
+Why a second form. The default XML holds the article's exact model, but its
+``whitted`` integrator and ``article`` BSDF are Python plugins that exist only
+in a Python process that imports ``whitted``: the ``mitsuba`` command, a
+render farm, or a colleague without this package cannot load it. The portable
+form is the same scene read physically, as ``whitted render --integrator path``
+renders it (docs/radiometry.md), in plugins every Mitsuba 3 build has.
+
+Why built on the description. Everything but the materials and the integrator
+is taken as :mod:`.description` wrote it (sensor, film, frame, spheres, lights,
+background, textures): however the description represents a sphere or a light,
+the portable XML represents it the same way. Only three things change:
+
+* the ``whitted`` integrator becomes ``path`` with ``max_depth`` = the
+  article's depth + 1 (:func:`whitted.defaults.path_depth`), as ``--integrator
+  path`` renders it; ``$spp``, ``$max_depth``, ``$width`` and ``$height`` are
+  parameters (``mitsuba -D spp=256 ...``);
+* each ``article`` BSDF becomes the stock mixture of its three lobes
+  (:func:`stock_material`), whose weights are the article's 1 − KR − KT, KR, KT;
+* the notes say which materials' stock form is not exact, and why (the XML
+  writes them as a comment at the top).
+
+What is not exact (docs/portable.md has the measurements): refraction by
+``dielectric`` always applies Fresnel (a share F of KT goes to the mirror
+direction; the article refracts all of it, except under total internal
+reflection, where both send everything to the mirror); and Mitsuba 3.8 to at
+least 3.9.1's ``blendbsdf`` under-weights a mirror reflection mixed with a
+diffuse lobe whose color is not white. Pure diffuse (textured or not), pure
+mirror, white mirror-and-diffuse materials, and glass of IOR 1 are exact.
+
+This module imports neither Mitsuba nor Dr.Jit, like the rest of the converter.
+"""
+
+from __future__ import annotations
+
+import copy
+
+from .. import defaults as D
+from .description import Description, Param
+
+#: weights below this are no lobe (1 − KR − KT can round to 1e-17 instead of 0)
+NEGLIGIBLE = 1e-12
+
+#: what the header says of every portable file
+SUMMARY = (
+    "Portable form: Mitsuba's stock plugins only (any Mitsuba 3 loads it, without whitted).",
+    "It is the scene read physically, as `whitted render` with the path integrator renders the default XML:",
+    "the `path` integrator (max_depth = the article's depth + 1), point lights with inverse-square",
+    "fall-off (intensities matched to the article's light colors at lookat), Lambertian diffuse",
+    "surfaces, indirect and sky light, no ambient term. The article's own model is the default",
+    "XML of `whitted convert`, loaded in Python after `import whitted`.",
+    "Parameters: spp, max_depth, width, height (mitsuba -D spp=256 ...).",
+)
+
+
+def fresnel_normal(ior: float) -> float:
+    """The share Fresnel reflects at normal incidence, ((n − 1)/(n + 1))² (n the relative index)."""
+    return ((ior - 1.0) / (ior + 1.0)) ** 2
+
+
+def _mix(parts: list[tuple[float, dict]]) -> dict:
+    """The lobes ``(weight, bsdf)`` (at most two, weights > 0) as one BSDF with those shares."""
+    if len(parts) == 1:
+        return parts[0][1]
+    (w0, b0), (w1, b1) = parts
+    return {"type": "blendbsdf", "weight": w1 / (w0 + w1), "bsdf_0": b0, "bsdf_1": b1}
+
+
+def stock_material(article: dict) -> dict:
+    """The stock form of an ``article`` BSDF (description form).
+
+    ``(1 − KR − KT)·diffuse(B) + KR·mirror + KT·glass``, as nested ``blendbsdf``:
+    the diffuse and mirror lobes in a ``twosided`` (the article shades both sides
+    of a sphere alike), the glass as ``dielectric`` (two-sided by nature; outside
+    index 1, as the article's). ``conductor`` with ``material="none"`` is a
+    perfect mirror, reflecting everything at every angle.
+    """
+    kr, kt = article["reflect"], article["refract"]
+    diffuse = 1.0 - kr - kt
+    surface = []
+    if diffuse > NEGLIGIBLE:
+        surface.append((diffuse, {"type": "diffuse", "reflectance": copy.deepcopy(article["color"])}))
+    if kr > NEGLIGIBLE:
+        surface.append((kr, {"type": "conductor", "material": "none"}))
+    lobes = []
+    if surface:
+        lobes.append((sum(w for w, _ in surface), {"type": "twosided", "bsdf": _mix(surface)}))
+    if kt > NEGLIGIBLE:
+        lobes.append((kt, {"type": "dielectric", "int_ior": article["ior"], "ext_ior": 1.0}))
+    return _mix(lobes)
+
+
+def inexact(article: dict) -> list[str]:
+    """Why the stock form of an ``article`` BSDF differs from it (empty when it is exact)."""
+    kr, kt, ior = article["reflect"], article["refract"], article["ior"]
+    diffuse = 1.0 - kr - kt
+    reasons = []
+    if kt > NEGLIGIBLE and ior != 1.0:
+        reasons.append(f"Fresnel: dielectric sends a share F of KT = {kt:g} to the mirror direction "
+                       f"(F = {fresnel_normal(ior):.3g} at normal incidence, 1 at grazing; the article "
+                       f"refracts all of it, and both mirror it under total internal reflection)")
+    if diffuse > NEGLIGIBLE and (kr > NEGLIGIBLE or kt > NEGLIGIBLE) and not _white(article["color"]):
+        reasons.append("blendbsdf of Mitsuba 3.8 to 3.9.1 at least weights a mirror reflection "
+                       "mixed with a diffuse color B < 1 too low (docs/portable.md)")
+    return reasons
+
+
+def _white(color: dict) -> bool:
+    """B = 1: ``blendbsdf``'s weighting of a mirror reflection against the diffuse lobe,
+    (w + (1 − w)·B·p) / (w + (1 − w)·p), is then exactly 1 (docs/portable.md)."""
+    return color.get("type") == "rgb" and all(c == 1.0 for c in color["value"])
+
+
+def portable(description: Description) -> tuple[Description, list[str]]:
+    """The portable form of ``description`` and the lines of its header comment."""
+    scene = copy.deepcopy(description.scene)
+    integrator = scene["integrator"]
+    depth = description.defaults["max_depth"]
+    defaults = {"spp": description.defaults["spp"], "max_depth": D.path_depth(depth),
+                "width": 0, "height": 0}
+    scene["integrator"] = {"type": "path", "max_depth": Param("max_depth")}
+    film = scene["sensor"]["film"]
+    for name in ("width", "height"):
+        defaults[name], film[name] = film[name], Param(name)
+    notes = list(SUMMARY)
+    notes.append(f"The article's depth is {depth}: max_depth = {defaults['max_depth']}.")
+    if integrator.get("min_weight") is not None:
+        notes.append("The scene's minweight (the whitted integrator's adaptive depth) has no stock form.")
+    _replace_materials(scene, notes)
+    return Description(scene, defaults, description.origin, description.source), notes
+
+
+def _replace_materials(node: dict, notes: list[str]) -> None:
+    """Every ``article`` BSDF under ``node`` (shared at the top level, or inline) made stock."""
+    for key, child in node.items():
+        if isinstance(child, dict) and child.get("type") == "article":
+            notes += [f"Not exact, {key}: {reason}." for reason in inexact(child)]
+            node[key] = stock_material(child)
+        elif isinstance(child, dict):
+            _replace_materials(child, notes)
