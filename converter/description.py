@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import math
 import os
+import re
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
@@ -247,10 +248,15 @@ def describe(scene: Scene, base_dir: str | os.PathLike | None, smallest: float |
         mesh = None
         if i in meshed:
             data = mesh_bytes(sphere, origin, scene.eye, scene.lookat)
-            mesh = Mesh(str(cached(data)) if base_dir is None else f"{Path(scene.source).stem}.sphere_{i}.ply",
-                        data)
+            mesh = Mesh(str(cached(data)) if base_dir is None else f"{_stem(scene)}.sphere_{i}.ply", data)
         objects[f"sphere_{i}"] = _sphere(sphere, origin, material_id, mesh)
     return Description(objects, defaults, origin, scene.source.name)
+
+
+def _stem(scene: Scene) -> str:
+    """The scene file's name without its suffix, as a safe file name ("memory" for a model
+    that came from no file)."""
+    return re.sub(r"[^A-Za-z0-9._-]+", "_", Path(scene.source).stem).strip("_.") or "scene"
 
 
 def _meshed(scene: Scene, origin: Vec3) -> list[int]:
