@@ -40,7 +40,7 @@ from pathlib import Path
 
 from .. import defaults as D
 from .frame import scene_origin, to_frame
-from .giants import cached, exact_spheres, giant_spheres, mesh_bytes, mitsuba_misplaces
+from .giants import cached, exact_spheres, giant_spheres, mesh_bytes, misplaced_spheres
 from .scene import Material, Scene, Sphere, Vec3
 
 
@@ -263,8 +263,7 @@ def _meshed(scene: Scene, origin: Vec3) -> list[int]:
     """The spheres Mitsuba gets as meshes (:mod:`.giants`): the untextured ones its own
     integrators would place less finely than their ray offset. The Whitted integrator
     intersects them exactly (they are listed in ``exact_spheres``)."""
-    return [k for k, sphere in enumerate(scene.spheres)
-            if sphere.material.texture is None and mitsuba_misplaces(sphere, origin)]
+    return [k for k in misplaced_spheres(scene, origin) if scene.spheres[k].material.texture is None]
 
 
 def meshes(description: Description) -> list[Mesh]:

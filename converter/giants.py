@@ -67,6 +67,15 @@ def _detail_near(scene: Scene, k: int) -> float:
     return float(detail.min())
 
 
+def _spheres(scene: Scene, origin: Vec3):
+    """``(center, radius)`` of the scene's spheres as numpy arrays (N×3 in the frame, N)."""
+    import numpy as np
+    n = len(scene.spheres)
+    center = np.fromiter(itertools.chain.from_iterable(s.center for s in scene.spheres), np.float64, 3 * n)
+    radius = np.fromiter((s.radius for s in scene.spheres), np.float64, n)
+    return center.reshape(n, 3) - np.asarray(origin, np.float64), radius
+
+
 def giant_spheres(scene: Scene, origin: Vec3, smallest: float | None = None) -> list[int]:
     """Indices of the giant spheres of ``scene`` (written in the frame of ``origin``): those
     whose float32 error bound exceeds :data:`GIANT_FRACTION` of the finest detail next to
@@ -75,17 +84,27 @@ def giant_spheres(scene: Scene, origin: Vec3, smallest: float | None = None) -> 
     ``smallest`` is the smallest radius of spheres the scene holds elsewhere (the loader's
     ellipsoids: whitted/sealed.py), if any: they count as resting on every sphere.
     """
+    import numpy as np
     if not scene.spheres:
         return []
-    detail = min(sphere.radius for sphere in scene.spheres)
-    if smallest is not None:
-        detail = min(detail, smallest)
+    center, radius = _spheres(scene, origin)
+    detail = radius.min() if smallest is None else min(radius.min(), smallest)
+    error = EPSILON32 * (RADIUS_ULPS * radius + CENTER_ULPS * np.abs(center).max(axis=1))
     # cheap first: only spheres coarse against the smallest radius can be coarse against a detail
-    candidates = [k for k, sphere in enumerate(scene.spheres)
-                  if float32_error(sphere, origin) > GIANT_FRACTION * detail]
+    candidates = np.flatnonzero(error > GIANT_FRACTION * detail).tolist()
     return [k for k in candidates
-            if float32_error(scene.spheres[k], origin) >
-            GIANT_FRACTION * min(_detail_near(scene, k), smallest if smallest is not None else math.inf)]
+            if error[k] > GIANT_FRACTION * min(_detail_near(scene, k), smallest if smallest is not None else math.inf)]
+
+
+def misplaced_spheres(scene: Scene, origin: Vec3) -> list[int]:
+    """Indices of the spheres :func:`mitsuba_misplaces`, computed for all at once."""
+    import numpy as np
+    if not scene.spheres:
+        return []
+    center, radius = _spheres(scene, origin)
+    distance = np.abs(np.linalg.norm(center, axis=1) - radius)
+    error = EPSILON32 * (radius + np.abs(center).max(axis=1))
+    return np.flatnonzero(error > MISPLACED_RATIO * RAY_EPSILON * (1 + distance)).tolist()
 
 
 def exact_spheres(entries) -> str:
