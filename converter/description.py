@@ -40,7 +40,7 @@ from pathlib import Path
 
 from .. import defaults as D
 from .frame import scene_origin, to_frame
-from .giants import cached, exact_spheres, giant_spheres, mesh_bytes, misplaced_spheres
+from .giants import cached, coarse_spheres, exact_spheres, mesh_bytes
 from .scene import Material, Scene, Sphere, Vec3
 
 
@@ -213,8 +213,9 @@ def describe(scene: Scene, base_dir: str | os.PathLike | None, smallest: float |
     integrator["light_reference"] = to_frame(scene.lookat, origin)
     # Spheres float32 cannot place finely enough for the Whitted integrator, and those it
     # cannot place finely enough for Mitsuba's own integrators, which get a mesh instead.
-    meshed = _meshed(scene, origin)
-    giants = sorted(set(giant_spheres(scene, origin, smallest)) | set(meshed))
+    giants, misplaced = coarse_spheres(scene, origin, smallest)
+    meshed = [k for k in misplaced if scene.spheres[k].material.texture is None]
+    giants = sorted(set(giants) | set(meshed))
     if giants:
         # Their exact values, for the integrator to intersect in float64 (plugins/giants.py).
         integrator["exact_spheres"] = exact_spheres(
@@ -257,13 +258,6 @@ def _stem(scene: Scene) -> str:
     """The scene file's name without its suffix, as a safe file name ("memory" for a model
     that came from no file)."""
     return re.sub(r"[^A-Za-z0-9._-]+", "_", Path(scene.source).stem).strip("_.") or "scene"
-
-
-def _meshed(scene: Scene, origin: Vec3) -> list[int]:
-    """The spheres Mitsuba gets as meshes (:mod:`.giants`): the untextured ones its own
-    integrators would place less finely than their ray offset. The Whitted integrator
-    intersects them exactly (they are listed in ``exact_spheres``)."""
-    return [k for k in misplaced_spheres(scene, origin) if scene.spheres[k].material.texture is None]
 
 
 def meshes(description: Description) -> list[Mesh]:

@@ -23,7 +23,6 @@ readers of the XML. A scene without giant spheres is written as before.
 from __future__ import annotations
 
 import hashlib
-import itertools
 import math
 import os
 import tempfile
@@ -54,57 +53,51 @@ def _detail_near(scene: Scene, k: int) -> float:
     """The finest detail next to sphere ``k``'s surface: over the other spheres, the larger of
     a sphere's radius and its gap to that surface (a ball resting on it: its radius; one far
     from it: the gap, which no ray offset of the surface's size can cross)."""
-    import numpy as np
     giant = scene.spheres[k]
-    n = len(scene.spheres)
-    if n < 2:
-        return math.inf
-    center = np.fromiter(itertools.chain.from_iterable(s.center for s in scene.spheres), np.float64, 3 * n)
-    radius = np.fromiter((s.radius for s in scene.spheres), np.float64, n)
-    gap = np.abs(np.linalg.norm(center.reshape(n, 3) - np.asarray(giant.center), axis=1) - giant.radius) - radius
-    detail = np.maximum(radius, np.abs(gap))
-    detail[k] = math.inf
-    return float(detail.min())
+    (gx, gy, gz), gr = giant.center, giant.radius
+    finest = math.inf
+    for j, sphere in enumerate(scene.spheres):
+        (x, y, z), r = sphere.center, sphere.radius
+        if j != k and r < finest:
+            gap = abs(abs(math.sqrt((x - gx) ** 2 + (y - gy) ** 2 + (z - gz) ** 2) - gr) - r)
+            finest = min(finest, max(r, gap))
+    return finest
 
 
-def _spheres(scene: Scene, origin: Vec3):
-    """``(center, radius)`` of the scene's spheres as numpy arrays (N×3 in the frame, N)."""
-    import numpy as np
-    n = len(scene.spheres)
-    center = np.fromiter(itertools.chain.from_iterable(s.center for s in scene.spheres), np.float64, 3 * n)
-    radius = np.fromiter((s.radius for s in scene.spheres), np.float64, n)
-    return center.reshape(n, 3) - np.asarray(origin, np.float64), radius
+def coarse_spheres(scene: Scene, origin: Vec3, smallest: float | None = None) -> tuple[list[int], list[int]]:
+    """``(giant, misplaced)``: the indices of the spheres of ``scene`` (written in the frame of
+    ``origin``) that are giant, and of those Mitsuba misplaces (:func:`mitsuba_misplaces`),
+    in one pass.
+
+    Giant: the float32 error bound exceeds :data:`GIANT_FRACTION` of the finest detail next
+    to the sphere (:func:`_detail_near`). ``smallest`` is the smallest radius of spheres the
+    scene holds elsewhere (the loader's ellipsoids: whitted/sealed.py), if any: they count
+    as resting on every sphere.
+    """
+    if not scene.spheres:
+        return [], []
+    detail = min(sphere.radius for sphere in scene.spheres)
+    if smallest is not None:
+        detail = min(detail, smallest)
+    ox, oy, oz = origin
+    candidates, misplaced = [], []
+    for k, sphere in enumerate(scene.spheres):
+        (x, y, z), r = sphere.center, sphere.radius
+        x, y, z = x - ox, y - oy, z - oz
+        c = max(abs(x), abs(y), abs(z))
+        error = EPSILON32 * (RADIUS_ULPS * r + CENTER_ULPS * c)
+        if error > GIANT_FRACTION * detail:   # only these can be coarse against a detail
+            candidates.append((k, error))
+        if EPSILON32 * (r + c) > MISPLACED_RATIO * RAY_EPSILON * (1 + abs(math.sqrt(x * x + y * y + z * z) - r)):
+            misplaced.append(k)
+    limit = smallest if smallest is not None else math.inf
+    giant = [k for k, error in candidates if error > GIANT_FRACTION * min(_detail_near(scene, k), limit)]
+    return giant, misplaced
 
 
 def giant_spheres(scene: Scene, origin: Vec3, smallest: float | None = None) -> list[int]:
-    """Indices of the giant spheres of ``scene`` (written in the frame of ``origin``): those
-    whose float32 error bound exceeds :data:`GIANT_FRACTION` of the finest detail next to
-    them (:func:`_detail_near`).
-
-    ``smallest`` is the smallest radius of spheres the scene holds elsewhere (the loader's
-    ellipsoids: whitted/sealed.py), if any: they count as resting on every sphere.
-    """
-    import numpy as np
-    if not scene.spheres:
-        return []
-    center, radius = _spheres(scene, origin)
-    detail = radius.min() if smallest is None else min(radius.min(), smallest)
-    error = EPSILON32 * (RADIUS_ULPS * radius + CENTER_ULPS * np.abs(center).max(axis=1))
-    # cheap first: only spheres coarse against the smallest radius can be coarse against a detail
-    candidates = np.flatnonzero(error > GIANT_FRACTION * detail).tolist()
-    return [k for k in candidates
-            if error[k] > GIANT_FRACTION * min(_detail_near(scene, k), smallest if smallest is not None else math.inf)]
-
-
-def misplaced_spheres(scene: Scene, origin: Vec3) -> list[int]:
-    """Indices of the spheres :func:`mitsuba_misplaces`, computed for all at once."""
-    import numpy as np
-    if not scene.spheres:
-        return []
-    center, radius = _spheres(scene, origin)
-    distance = np.abs(np.linalg.norm(center, axis=1) - radius)
-    error = EPSILON32 * (radius + np.abs(center).max(axis=1))
-    return np.flatnonzero(error > MISPLACED_RATIO * RAY_EPSILON * (1 + distance)).tolist()
+    """The giant spheres of :func:`coarse_spheres`."""
+    return coarse_spheres(scene, origin, smallest)[0]
 
 
 def exact_spheres(entries) -> str:
@@ -157,11 +150,8 @@ def mitsuba_misplaces(sphere: Sphere, origin: Vec3) -> bool:
     """Whether Mitsuba's float32 sphere test (off by about ε·(r + max|C_i|)) is coarser than
     :data:`MISPLACED_RATIO` times its own ray offset near the sphere, ``(1 + d)·RayEpsilon``
     with d the sphere's distance from the frame's origin (the lookat): then Mitsuba's own
-    integrators show acne on it."""
-    center = [c - o for c, o in zip(sphere.center, origin)]
-    distance = abs(sum(c * c for c in center) ** 0.5 - sphere.radius)
-    error = EPSILON32 * (sphere.radius + max(abs(c) for c in center))
-    return error > MISPLACED_RATIO * RAY_EPSILON * (1 + distance)
+    integrators show acne on it (:func:`coarse_spheres` for a whole scene)."""
+    return coarse_spheres(Scene(spheres=[sphere]), origin)[1] == [0]
 
 
 def sphere_mesh(center: Vec3, radius: float, eye: Vec3, view: float, tolerance: float = MESH_TOLERANCE):
