@@ -21,8 +21,11 @@ away), where an eye-centered frame would put the whole scene 10^4 out.
 What a frame cannot fix: a scene whose own extent is large against its
 smallest detail (a floor sphere of radius 10^7 under balls of radius 0.1: in
 float32 the floor's surface near them is only known to ~0.5 whatever the
-origin). :func:`precision_warning` measures that from the model, for the
-converter to warn about.
+origin). Such giant spheres are handed to the integrator exactly
+(:mod:`.giants`); what remains is an eye far from small spheres.
+:func:`precision_warning` measures that from the model, for the converter to
+warn about, and :func:`path_warning` names the spheres Mitsuba's own
+integrators still misplace.
 """
 
 from __future__ import annotations
