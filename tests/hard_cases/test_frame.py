@@ -179,3 +179,16 @@ def test_convert_and_render_warn_in_one_line_and_still_work(tmp_path, capsys):
     out, err = capsys.readouterr()
     assert out == "" and err.count("\n") == 1 and err.startswith("whitted: warning: ")
     assert (tmp_path / "planet.exr").is_file()
+
+
+def test_render_with_the_path_integrator_warns_about_a_textured_giant(write_scene, texture_png, tmp_path, capsys):
+    """``whitted render --integrator path`` names the textured giant sphere it keeps as a
+    sphere shape; the Whitted integrator's render of the same file says nothing."""
+    texture_png("tex.png")
+    source = write_scene("size 8 6\neye 0 1.5 8\nlookat 0 0.5 0\nlight 3 5 4\nsphere 0 1 0 1\n"
+                         "sphere 0 -100000 0 100000 texture tex.png\n")
+    assert main(["render", str(source), "-o", str(tmp_path / "path.exr"), "--integrator", "path", "-q"]) == 0
+    out, err = capsys.readouterr()
+    assert out == "" and err.count("\n") == 1 and err.startswith(f"whitted: warning: {source}:6: ")
+    assert main(["render", str(source), "-o", str(tmp_path / "whitted.exr"), "-q"]) == 0
+    assert capsys.readouterr() == ("", "")
