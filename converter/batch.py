@@ -13,11 +13,12 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-from ..atomic import write_text
+from ..atomic import atomic_path, write_text
 from ..errors import WhittedError
+from .description import describe, meshes
 from .frame import warn_precision
 from .parser import parse_file
-from .xml_writer import scene_to_xml
+from .xml_writer import xml_of
 
 #: the legacy scene files a folder argument stands for
 SCENE_SUFFIX = ".scn"
@@ -80,11 +81,16 @@ def plan(inputs: list[str | os.PathLike], output: str | os.PathLike | None = Non
 
 def convert_file(source: Path, target: Path, portable: bool = False) -> None:
     """Parse ``source`` and write its XML (``portable``: in stock plugins only) to ``target``
-    atomically (nothing for an invalid scene); warn on stderr when float32 cannot hold
-    the scene's detail (:mod:`.frame`)."""
+    atomically (nothing for an invalid scene), with the mesh files of its giant spheres
+    beside it (:mod:`.giants`); warn on stderr when float32 cannot hold the scene's detail
+    (:mod:`.frame`)."""
     scene = parse_file(source)
     if target.is_dir():
         raise WhittedError(f"{target}: is a folder; give the output file's name")
-    xml = scene_to_xml(scene, base_dir=target.parent, portable=portable)
+    description = describe(scene, base_dir=target.parent)
+    xml = xml_of(description, portable)
     warn_precision(scene)
+    for mesh in meshes(description):   # giant spheres' meshes (.giants), before the XML that names them
+        with atomic_path(target.parent / mesh.filename) as tmp:
+            tmp.write_bytes(mesh.data)
     write_text(target, xml)   # atomic; an OS error comes back as a one-line WhittedError

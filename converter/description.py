@@ -34,11 +34,13 @@ from __future__ import annotations
 
 import math
 import os
+import re
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from .. import defaults as D
 from .frame import scene_origin, to_frame
+from .giants import cached, coarse_spheres, exact_spheres, mesh_bytes
 from .scene import Material, Scene, Sphere, Vec3
 
 
@@ -63,6 +65,15 @@ class LookAt:
 class Matrix:
     """A ``to_world`` transform given as a 4×4 matrix, row by row."""
     rows: tuple[tuple[float, float, float, float], ...]
+
+
+@dataclass(frozen=True)
+class Mesh:
+    """A mesh shape's ``filename``, with the file's bytes (a PLY: :mod:`.giants`). The XML
+    names the file; whoever writes the XML writes it beside (:func:`meshes`), and
+    ``mi.load_dict`` reads it from the mesh cache (:func:`.giants.cached`)."""
+    filename: str
+    data: bytes = field(repr=False)
 
 
 @dataclass
@@ -165,10 +176,13 @@ def material_dict(material: Material, base_dir: Path | None) -> dict:
             "refract": float(material.refract), "ior": float(material.ior)}
 
 
-def _sphere(sphere: Sphere, origin: Vec3, material_id: str) -> dict:
+def _sphere(sphere: Sphere, origin: Vec3, material_id: str, mesh: Mesh | None = None) -> dict:
+    """A ``sphere`` shape, or the ``ply`` shape of ``mesh`` when given."""
     center = to_frame(sphere.center, origin)
     shape = {"type": "sphere"}
-    if sphere.material.texture is None:
+    if mesh is not None:
+        shape = {"type": "ply", "filename": mesh}
+    elif sphere.material.texture is None:
         shape.update(center=center, radius=float(sphere.radius))
     else:
         # Oriented so that Mitsuba's own UV is the article's mapping.
@@ -180,9 +194,11 @@ def _sphere(sphere: Sphere, origin: Vec3, material_id: str) -> dict:
     return shape
 
 
-def describe(scene: Scene, base_dir: str | os.PathLike | None) -> Description:
+def describe(scene: Scene, base_dir: str | os.PathLike | None, smallest: float | None = None) -> Description:
     """The description of ``scene``. Texture paths are relative to ``base_dir`` (the folder
-    the XML will live in: Mitsuba resolves paths against it), or absolute when it is None."""
+    the XML will live in: Mitsuba resolves paths against it), or absolute when it is None.
+    ``smallest``: the smallest radius of spheres the scene holds elsewhere (the loader's
+    ellipsoids), which decides with its own which spheres are giant (:mod:`.giants`)."""
     base_dir = None if base_dir is None else Path(os.path.abspath(base_dir))
     origin = scene_origin(scene)
     near, far = clip_range(scene)
@@ -195,6 +211,15 @@ def describe(scene: Scene, base_dir: str | os.PathLike | None) -> Description:
         defaults["min_weight"] = float(scene.min_weight)
         integrator["min_weight"] = Param("min_weight")
     integrator["light_reference"] = to_frame(scene.lookat, origin)
+    # Spheres float32 cannot place finely enough for the Whitted integrator, and those it
+    # cannot place finely enough for Mitsuba's own integrators, which get a mesh instead.
+    giants, misplaced = coarse_spheres(scene, origin, smallest)
+    meshed = [k for k in misplaced if scene.spheres[k].material.texture is None]
+    giants = sorted(set(giants) | set(meshed))
+    if giants:
+        # Their exact values, for the integrator to intersect in float64 (plugins/giants.py).
+        integrator["exact_spheres"] = exact_spheres(
+            (f"sphere_{k}", to_frame(scene.spheres[k].center, origin), scene.spheres[k].radius) for k in giants)
     objects: dict = {"type": "scene", "integrator": integrator}
     objects["sensor"] = {
         "type": "perspective", "fov_axis": "x", "fov": float(scene.fov),
@@ -219,6 +244,23 @@ def describe(scene: Scene, base_dir: str | os.PathLike | None) -> Description:
             materials[material] = f"material_{len(materials)}"
             objects[materials[material]] = material_dict(material, base_dir)
         ids.append(materials[material])
+    meshed = set(meshed)
     for i, (sphere, material_id) in enumerate(zip(scene.spheres, ids)):
-        objects[f"sphere_{i}"] = _sphere(sphere, origin, material_id)
+        mesh = None
+        if i in meshed:
+            data = mesh_bytes(sphere, origin, scene.eye, scene.lookat)
+            mesh = Mesh(str(cached(data)) if base_dir is None else f"{_stem(scene)}.sphere_{i}.ply", data)
+        objects[f"sphere_{i}"] = _sphere(sphere, origin, material_id, mesh)
     return Description(objects, defaults, origin, scene.source.name)
+
+
+def _stem(scene: Scene) -> str:
+    """The scene file's name without its suffix, as a safe file name ("memory" for a model
+    that came from no file)."""
+    return re.sub(r"[^A-Za-z0-9._-]+", "_", Path(scene.source).stem).strip("_.") or "scene"
+
+
+def meshes(description: Description) -> list[Mesh]:
+    """The mesh files ``description`` refers to, in order."""
+    return [node["filename"] for node in description.scene.values()
+            if isinstance(node, dict) and isinstance(node.get("filename"), Mesh)]

@@ -21,8 +21,11 @@ away), where an eye-centered frame would put the whole scene 10^4 out.
 What a frame cannot fix: a scene whose own extent is large against its
 smallest detail (a floor sphere of radius 10^7 under balls of radius 0.1: in
 float32 the floor's surface near them is only known to ~0.5 whatever the
-origin). :func:`precision_warning` measures that from the model, for the
-converter to warn about.
+origin). Such giant spheres are handed to the integrator exactly
+(:mod:`.giants`); what remains is an eye far from small spheres.
+:func:`precision_warning` measures that from the model, for the converter to
+warn about, and :func:`path_warning` names the spheres Mitsuba's own
+integrators still misplace.
 """
 
 from __future__ import annotations
@@ -30,6 +33,7 @@ from __future__ import annotations
 import math
 import sys
 
+from .giants import giant_spheres, mitsuba_misplaces
 from .scene import Scene, Vec3
 
 #: float32's unit round-off, 2^-24
@@ -37,10 +41,12 @@ EPSILON32 = 2.0 ** -24
 
 #: :func:`float32_spread` above which a conversion warns: rounding the scene's
 #: largest coordinate in the frame to float32 moves it by this fraction of the
-#: smallest sphere's radius. Measured (docs/numerics.md, hazard 6): at 4e-3 (a
-#: floor sphere of radius 10^4 under balls of 0.3) images stay within the
-#: hazard tests' thresholds; at 4e-2 (radius 10^5) 5-6 % of the pixels are off.
-SPREAD_WARNING = 1e-2
+#: smallest sphere's radius. Giant spheres do not count (the Whitted integrator
+#: intersects them exactly: converter/giants.py), so only a far eye can reach it.
+#: Measured (docs/numerics.md, hazard 6): mirror-and-glass seen from 10^5 away (0.02)
+#: has 0.2 % of its pixels off by more than 0.02, from 10^6 (0.2) 2 %, from 10^7 19 %.
+SPREAD_WARNING = 0.1
+
 
 
 def scene_origin(scene: Scene) -> Vec3:
@@ -58,12 +64,21 @@ def _length(v: Vec3) -> float:
 
 
 def extent(scene: Scene, origin: Vec3) -> float:
-    """The largest distance from ``origin`` that Mitsuba stores: the eye, and each sphere's
-    center plus its radius (the size of the numbers that describe its surface)."""
-    reach = _length(to_frame(scene.eye, origin))
-    for sphere in scene.spheres:
-        reach = max(reach, _length(to_frame(sphere.center, origin)) + sphere.radius)
-    return reach
+    """The largest distance from ``origin`` that Mitsuba stores and the Whitted integrator
+    relies on: the eye, and each sphere's center plus its radius (the size of the numbers
+    that describe its surface), giant spheres but for (:mod:`.giants`)."""
+    return _farthest(scene, origin)[0]
+
+
+def _farthest(scene: Scene, origin: Vec3):
+    """``(extent, sphere)``: :func:`extent` and the sphere that sets it (None: the eye)."""
+    giants = set(giant_spheres(scene, origin))
+    reach, farthest = _length(to_frame(scene.eye, origin)), None
+    for k, sphere in enumerate(scene.spheres):
+        size = _length(to_frame(sphere.center, origin)) + sphere.radius
+        if k not in giants and size > reach:
+            reach, farthest = size, sphere
+    return reach, farthest
 
 
 def float32_spread(scene: Scene) -> float:
@@ -75,20 +90,50 @@ def float32_spread(scene: Scene) -> float:
     return EPSILON32 * extent(scene, scene_origin(scene)) / smallest
 
 
+def _where(scene: Scene, sphere) -> str:
+    return f"{scene.source}:{sphere.line}" if sphere.line else f"{scene.source}"
+
+
 def precision_warning(scene: Scene) -> str | None:
-    """One line when the scene spans too many orders of magnitude for float32, else None."""
+    """One line when float32 cannot hold the scene for the Whitted integrator, else None."""
     spread = float32_spread(scene)
     if spread <= SPREAD_WARNING:
         return None
-    smallest = min(sphere.radius for sphere in scene.spheres)
-    return (f"{scene.source}: the scene spans {extent(scene, scene_origin(scene)):.3g} around its "
-            f"lookat but its smallest sphere has radius {smallest:.3g}; Mitsuba's float32 positions "
-            f"are off by up to {spread:.0%} of that radius, so small details may look wrong "
-            f"(docs/numerics.md, 'Scenes far from the origin')")
+    origin = scene_origin(scene)
+    reach, farthest = _farthest(scene, origin)
+    smallest = min(scene.spheres, key=lambda sphere: sphere.radius)
+    what = "the eye" if farthest is None else f"the sphere at {_where(scene, farthest)}"
+    return (f"{scene.source}: {what} lies {reach:.3g} from the lookat, but the sphere at "
+            f"{_where(scene, smallest)} has radius {smallest.radius:.3g}: Mitsuba's float32 positions "
+            f"are off by up to {spread:.0%} of that radius, so its details may look wrong; bring "
+            f"{'the eye' if farthest is None else 'that sphere'} closer to the lookat or make the "
+            f"small spheres larger (docs/numerics.md, hazard 6)")
 
 
-def warn_precision(scene: Scene, stream=None) -> None:
-    """:func:`precision_warning` as one line on ``stream`` (stderr), when there is one."""
+def path_warning(scene: Scene) -> str | None:
+    """One line naming the first sphere that Mitsuba's own integrators (``--integrator
+    path``) place less finely than their ray offset near the scene, else None.
+
+    Such spheres are handed to Mitsuba as meshes (:mod:`.giants`), but for textured ones,
+    whose lat/long mapping a mesh would not carry: those stay ``sphere`` shapes, and rays
+    leaving them meet them again (acne; docs/numerics.md, hazard 14).
+    """
+    origin = scene_origin(scene)
+    for sphere in scene.spheres:
+        if sphere.material.texture is not None and mitsuba_misplaces(sphere, origin):
+            return (f"{_where(scene, sphere)}: Mitsuba's own integrators place this textured sphere of "
+                    f"radius {sphere.radius:.3g} only to ulps of its size (float32), more than their ray "
+                    f"offset there: expect acne on it with the path integrator; the whitted integrator "
+                    f"intersects it exactly, or leave its texture out to have it meshed "
+                    f"(docs/numerics.md, hazard 14)")
+    return None
+
+
+def warn_precision(scene: Scene, stream=None, integrator: str = "whitted") -> None:
+    """:func:`precision_warning` (or, for ``integrator`` "path", :func:`path_warning` too)
+    as one line on ``stream`` (stderr), when there is one."""
     message = precision_warning(scene)
+    if integrator == "path":
+        message = message or path_warning(scene)
     if message:
         print(f"whitted: warning: {message}", file=stream or sys.stderr)

@@ -24,7 +24,7 @@ import os
 import re
 from xml.sax.saxutils import escape
 
-from .description import Description, LookAt, Matrix, Param, describe
+from .description import Description, LookAt, Matrix, Mesh, Param, describe
 from .portable import portable as to_portable
 from .scene import Scene, Vec3
 
@@ -36,6 +36,7 @@ _OBJECT_TAGS = {
     "whitted": "integrator", "perspective": "sensor", "independent": "sampler",
     "hdrfilm": "film", "box": "rfilter", "constant": "emitter", "point": "emitter",
     "article": "bsdf", "bitmap": "texture", "sphere": "shape",
+    "ply": "shape",   # giant spheres' meshes (converter/giants.py)
     # the portable form's stock plugins (converter/portable.py)
     "path": "integrator", "diffuse": "bsdf", "conductor": "bsdf", "dielectric": "bsdf",
     "blendbsdf": "bsdf", "twosided": "bsdf",
@@ -87,6 +88,8 @@ def _value(value, defaults: dict) -> tuple[str, str]:
         return "float", num(value)
     if isinstance(value, str):
         return "string", string_value(value)
+    if isinstance(value, Mesh):
+        return "string", string_value(value.filename)
     if isinstance(value, tuple) and len(value) == 3:
         return "point", vec(value, ", ")
     raise TypeError(f"no XML form for {value!r}")
@@ -155,9 +158,15 @@ def description_to_xml(description: Description, notes: list[str] = ()) -> str:
 def scene_to_xml(scene: Scene, base_dir: str | os.PathLike | None, portable: bool = False) -> str:
     """The Mitsuba XML of ``scene``. Texture paths are written relative to ``base_dir``
     (the folder the XML will live in: Mitsuba resolves paths against it), or
-    absolute when ``base_dir`` is None (XML loaded from memory). ``portable``: the
-    form that names only Mitsuba's stock plugins (:mod:`.portable`)."""
-    description = describe(scene, base_dir)
+    absolute when ``base_dir`` is None (XML loaded from memory). So are the mesh files
+    of giant spheres (:mod:`.giants`): beside the XML, where the caller writes them
+    (:func:`.description.meshes`; ``whitted convert`` does), or in the mesh cache.
+    ``portable``: the form that names only Mitsuba's stock plugins (:mod:`.portable`)."""
+    return xml_of(describe(scene, base_dir), portable)
+
+
+def xml_of(description: Description, portable: bool = False) -> str:
+    """The XML of ``description``, in the default or the ``portable`` form."""
     if not portable:
         return description_to_xml(description)
     return description_to_xml(*to_portable(description))

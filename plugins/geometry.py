@@ -324,6 +324,10 @@ class MitsubaHits:
         tables["base"] = _base_table(base)
         return tables
 
+    def blocked(self, ray, active):
+        """Whether a surface crosses the segment ``ray`` (:func:`blocked`)."""
+        return blocked(self.scene, ray, active)
+
     def intersect(self, ray, coherent: bool):
         """``(hit, si, bsdf, error)``; ``bsdf`` is the BSDF's instance ID (JIT) or the BSDF
         itself (scalar, only meaningful where ``hit``); ``error`` bounds how far ``si.p``
@@ -383,6 +387,10 @@ class SphereHits:
         return {"surface_at": _SurfacesNear(numbers.center, numbers.radius, numbers.error,
                                             numbers.sphere).surface_at,
                 "spheres": (*table, frame, _base_table(base))}
+
+    def blocked(self, ray, active):
+        """Whether a surface crosses the segment ``ray`` (:func:`blocked`)."""
+        return blocked(self.scene, ray, active)
 
     def intersect(self, ray, coherent: bool):
         """``(hit, si, bsdf, error)`` as :meth:`MitsubaHits.intersect`, ``bsdf`` an instance ID."""

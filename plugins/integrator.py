@@ -34,6 +34,7 @@ import drjit as dr
 import mitsuba as mi
 
 from whitted import defaults as D
+from whitted.converter.giants import parse_exact_spheres
 
 from .accumulation import image_for
 from .adaptive import allowance, brightest
@@ -109,6 +110,14 @@ class WhittedIntegrator(mi.SamplingIntegrator):
          them) times the brightest color a ray can have bound the change.
          0 traces the exact tree. (Default: 1/255)
 
+     * - exact_spheres
+       - |string|
+       - Giant spheres (a floor, wall or sky of radius up to 10^7 next to small
+         spheres) that the integrator intersects itself in float64:
+         ``id: x y z r`` per shape, separated by ``;``, the shape's exact center
+         and radius. The converter writes it where float32 cannot place a
+         sphere finely enough (docs/numerics.md, hazard 14). (Default: none)
+
      * - wavefront_size
        - |int|
        - Camera samples per pass, and the widest wavefront the JIT variants
@@ -180,6 +189,8 @@ class WhittedIntegrator(mi.SamplingIntegrator):
         self.light_reference = mi.ScalarPoint3f(props.get("light_reference", mi.ScalarPoint3f(D.LOOKAT)))
         self.wavefront_size = int(props.get("wavefront_size", D.WAVEFRONT_SIZE))
         self.min_weight = D.check_min_weight(props.get("min_weight", D.MIN_WEIGHT), "whitted: min_weight")
+        # Giant spheres' exact centers and radii, as the converter lists them (.giants).
+        self.exact_spheres = parse_exact_spheres(str(props.get("exact_spheres", "")))
         if self.wavefront_size < 0:
             raise ValueError(f"whitted: wavefront_size must be >= 0, got {self.wavefront_size}")
 
@@ -203,7 +214,7 @@ class WhittedIntegrator(mi.SamplingIntegrator):
         analysis = analyse(scene, self.max_depth, self.light_reference)
         bright = brightest(scene, analysis, self.lighting, self.ambient) if self.min_weight > 0 else None
         tally = Tally()
-        shader = Shader(scene, analysis, self.ambient, self.lighting, tally)
+        shader = Shader(scene, analysis, self.ambient, self.lighting, tally, self.exact_spheres)
         tracer = tracer_for_variant(shader, allowance(self.min_weight, bright), tally,
                                     self.wavefront_size or SAMPLES_PER_PASS)
         return tracer, analysis, bright

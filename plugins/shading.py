@@ -31,7 +31,8 @@ import drjit as dr
 import mitsuba as mi
 
 from . import optics
-from .geometry import blocked, hit_finder
+from .geometry import hit_finder
+from .giants import GiantHits
 from .masks import off
 from .surfaces import SurfaceTable
 
@@ -99,13 +100,15 @@ def spawn_ray_to(si, error, target, target_error=0.0, target_normal=None):
 class Shader:
     """The article's model for one scene (see the module docstring)."""
 
-    def __init__(self, scene, analysis, ambient: float, lighting: str, tally):
+    def __init__(self, scene, analysis, ambient: float, lighting: str, tally, exact_spheres=()):
         self.scene = scene
         self.physical = lighting == "physical"
         # Per-render constants are opaque: kernels are reused across scenes (plain numbers in scalar).
         self.ambient = dr.opaque(mi.Float, ambient)
         # Article lighting uses the light's color; physical lighting its intensity (divided by r^2).
-        self.hits = hit_finder(scene, need_uv=analysis.has("textures"))
+        # Giant spheres listed with their exact values are intersected in float64 (.giants).
+        need_uv = analysis.has("textures")
+        self.hits = GiantHits(scene, need_uv, exact_spheres) if exact_spheres else hit_finder(scene, need_uv)
         # (position, strength, (error bound, normal) of a sphere the light sits on)
         self.lights = []
         for light in analysis.lights:
@@ -186,7 +189,7 @@ class Shader:
         if off(facing):
             return mi.Color3f(0)
         self.tally.add("shadow", facing)
-        shadowed = blocked(self.scene, spawn_ray_to(si, error, position, *(on_surface or ())), facing)
+        shadowed = self.hits.blocked(spawn_ray_to(si, error, position, *(on_surface or ())), facing)
         if self.physical:
             strength = strength * dr.rcp(dr.maximum(dist2, _TINY))
         return dr.select(shadowed, 0, dr.select(facing, cos * strength, 0))

@@ -74,16 +74,50 @@ def camera_ray(scene, i: float, j: float):
 
 # -- spheres -------------------------------------------------------------------------------------
 
+def _square(a):
+    """``(p, e)`` with p + e = a² exactly (Dekker's product, Veltkamp's split)."""
+    p = a * a
+    big = a * 134217729.0   # 2^27 + 1
+    high = big - (big - a)
+    low = a - high
+    return p, ((high * high - p) + 2 * high * low) + low * low
+
+
+def _difference(a, b):
+    """``(s, e)`` with s + e = a − b exactly (Knuth's two-sum)."""
+    s = a - b
+    z = s - a
+    return s, (a - (s - z)) - (b + z)
+
+
+def _squares_minus(origin, center, r):
+    """|origin − center|² − r², from the exact differences, rounded once: near a sphere of
+    radius 10^7 the rounded difference alone would move the origin by 2e-9, beyond
+    EPSILON from its surface."""
+    terms = []
+    for o, c in zip(origin, center):
+        high, low = _difference(o, c)
+        terms += [*_square(high), 2 * high * low, low * low]
+    terms += [-part for part in _square(r)]
+    return math.fsum(terms)
+
+
 def intersect(sphere, origin, direction):
     """Both roots t of |origin + t·direction − C| = r (direction unit), or None.
 
     The discriminant is r² − |f − (f·d)d|² (f = origin − C), not (f·d)² − (|f|² − r²):
     the latter loses its digits to cancellation when the ray starts far from the
-    sphere (even float64 is off by ~5e-9 at 10^4 radii, more than EPSILON).
+    sphere (even float64 is off by ~5e-9 at 10^4 radii, more than EPSILON). For the same
+    reason c = |f|² − r² is summed exactly (:func:`_squares_minus`): on a floor of radius
+    10^7 the plain float64 difference loses 0.05, which put the other root of a ray leaving
+    the floor at a grazing angle microns in front of it, beyond EPSILON (acne near the
+    horizon).
     """
     f = sub(origin, sphere.center)
     b = dot(f, direction)
     c = dot(f, f) - sphere.radius ** 2
+    if abs(c) < 1e-6 * sphere.radius ** 2:   # the origin near the surface: c has cancelled
+        c = _squares_minus(origin, sphere.center, sphere.radius)
     perpendicular = sub(f, mul(direction, b))
     disc = sphere.radius ** 2 - dot(perpendicular, perpendicular)
     if disc < 0:

@@ -165,12 +165,19 @@ def test_a_sphereflake_with_its_leaves_as_ellipsoids_matches_the_reference(varia
     model = flake()
     path = write_scene(sphereflake.to_scn(model))
     scene = whitted.load_scene(path, model=model, ellipsoids=True)
-    assert sorted(s.class_name() for s in scene.shapes()) == ["Ellipsoids"] + ["Sphere"] * 11
+    # scaled by 1/r (r = 1/54), the floor of radius 1000 is too coarse for Mitsuba's absolute
+    # ray offset and becomes a mesh (converter/giants.py; the Whitted integrator keeps it exact)
+    assert sorted(s.class_name() for s in scene.shapes()) == ["Ellipsoids", "PLYMesh"] + ["Sphere"] * 10
     plain, grouped = both_ways(path, model)
     expected = render_reference(model)
     assert_matches(plain, expected)
     assert_matches(grouped, expected)
-    assert np.abs(grouped - plain).mean() < 2e-4   # the same image, up to rounding
+    # The same image up to rounding, but for the floor: exact in the grouped load (meshed
+    # for Mitsuba, so intersected in float64 by the integrator), a float32 sphere in the
+    # plain one, whose error is most of their difference (measured: 2.05e-4 against the
+    # reference, the grouped load 6e-7).
+    assert np.abs(grouped - plain).mean() < 4e-4
+    assert np.abs(grouped - expected).mean() <= np.abs(plain - expected).mean()
 
 
 def test_mitsubas_path_tracer_renders_the_same_scene_both_ways(llvm, write_scene):

@@ -76,7 +76,7 @@ def example(doc: str, language: str) -> str:
 DEFAULTS = {
     "whitted": {"max_depth": D.DEPTH, "ambient": D.AMBIENT, "lighting": D.LIGHTING,
                 "light_reference": D.LOOKAT, "min_weight": D.MIN_WEIGHT,
-                "wavefront_size": D.WAVEFRONT_SIZE},
+                "wavefront_size": D.WAVEFRONT_SIZE, "exact_spheres": "none"},
     "article": {"color": D.COLOR, "reflect": D.REFLECT, "refract": D.REFRACT, "ior": D.IOR},
 }
 
@@ -86,7 +86,8 @@ def plugin_values(plugin) -> dict:
     if hasattr(plugin, "light_reference"):
         return {"max_depth": plugin.max_depth, "ambient": plugin.ambient, "lighting": plugin.lighting,
                 "light_reference": tuple(float(x) for x in plugin.light_reference),
-                "min_weight": plugin.min_weight, "wavefront_size": plugin.wavefront_size}
+                "min_weight": plugin.min_weight, "wavefront_size": plugin.wavefront_size,
+                "exact_spheres": "; ".join(key for key, _, _ in plugin.exact_spheres) or "none"}
     color = plugin.color.eval(dr.zeros(mi.SurfaceInteraction3f))
     return {"color": tuple(float(dr.ravel(c)[0]) for c in color), "reflect": plugin.reflect,
             "refract": plugin.refract, "ior": plugin.ior}

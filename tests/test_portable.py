@@ -29,6 +29,8 @@ import whitted
 from hard_cases.hazard_scenes import HAZARDS, build
 from whitted.cli import main
 from whitted.converter import Light, Material, Scene, Sphere, parse_file, scene_to_xml
+from whitted.converter.description import describe, meshes
+from whitted.converter.xml_writer import xml_of
 from whitted.imageio import read_image
 from whitted.metrics import relative_mse
 from whitted.variant import find_libllvm
@@ -59,8 +61,14 @@ def stock_mitsuba(variant: str, files: list[Path], **params) -> None:
 
 
 def portable_file(model: Scene, folder: Path, name: str) -> Path:
+    """The portable XML of ``model`` in ``folder``, with its giant spheres' meshes beside it
+    (converter/giants.py; named after the model's source: one model per source here)."""
     path = folder / f"{name}.portable.xml"
-    path.write_text(scene_to_xml(model, base_dir=folder, portable=True), encoding="utf-8")
+    model = replace(model, source=folder / f"{name}.scn")
+    description = describe(model, base_dir=folder)
+    for mesh in meshes(description):
+        (folder / mesh.filename).write_bytes(mesh.data)
+    path.write_text(xml_of(description, portable=True), encoding="utf-8")
     return path
 
 

@@ -74,8 +74,8 @@ def _load_quietly(args):
     from .loading import load_scene
     from .rendering import quiet_mitsuba
     with quiet_mitsuba():
-        return load_scene(args.scene, variant=args.variant, spp=args.spp, max_depth=args.max_depth,
-                          ambient=args.ambient, lighting=args.lighting)
+        return load_scene(args.scene, variant=args.variant, integrator=args.integrator, spp=args.spp,
+                          max_depth=args.max_depth, ambient=args.ambient, lighting=args.lighting)
 
 
 def render_command(args) -> None:

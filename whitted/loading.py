@@ -38,7 +38,8 @@ def mitsuba_dict(description, overrides: dict | None = None) -> dict:
     """
     import mitsuba as mi
 
-    from .converter.description import LookAt, Matrix, Param
+    from .converter.description import LookAt, Matrix, Mesh, Param
+    from .converter.giants import cached
     values = {**description.defaults, **(overrides or {})}
 
     def convert(value):
@@ -48,6 +49,8 @@ def mitsuba_dict(description, overrides: dict | None = None) -> dict:
             return values[value.name]
         if isinstance(value, LookAt):
             return mi.ScalarTransform4d().look_at(origin=value.origin, target=value.target, up=value.up)
+        if isinstance(value, Mesh):   # the same bytes as the XML's file, from the mesh cache
+            return str(cached(value.data))
         if isinstance(value, Matrix):
             return mi.ScalarTransform4d([list(row) for row in value.rows])
         return value
@@ -63,7 +66,7 @@ def _checked(overrides: dict) -> dict:
 
 
 def load_scene(path: str | os.PathLike, variant: str | None = None, *, model=None,
-               ellipsoids: bool | None = None, **overrides):
+               ellipsoids: bool | None = None, integrator: str = D.INTEGRATOR, **overrides):
     """Load a ``.scn`` or ``.xml`` scene as a ``mi.Scene``.
 
     ``variant`` selects a Mitsuba variant first (default: keep the current one).
@@ -76,6 +79,8 @@ def load_scene(path: str | os.PathLike, variant: str | None = None, *, model=Non
     faster than as ``sphere`` shapes). None (the default) does so when at least
     ``sealed.MIN_GROUP`` spheres share that radius, True whenever one does,
     False never. ``.xml`` files are loaded as written.
+    ``integrator`` ("whitted" or "path") is what the scene will be rendered with: a ``.scn``
+    file read here is warned about as that integrator needs (converter/frame.py).
     ``overrides`` replace the scene's ``spp``, ``max_depth``, ``ambient`` or
     ``lighting`` ("article" or "physical"). A portable ``.xml`` (stock plugins,
     ``whitted convert --portable``) has only ``spp`` and ``max_depth``, the latter
@@ -99,7 +104,7 @@ def load_scene(path: str | os.PathLike, variant: str | None = None, *, model=Non
         from .converter.frame import warn_precision
         if model is None:
             model = parse_file(path)
-            warn_precision(model)
+            warn_precision(model, integrator=integrator)
         from . import sealed
         grouping = None if ellipsoids is False else \
             sealed.choose(model, min_group=1 if ellipsoids else sealed.MIN_GROUP)
@@ -121,7 +126,8 @@ def _sealed_dict(model, grouping, params: dict) -> dict:
     description of the rest of the scene in the scaled frame, plus those shapes."""
     from . import sealed
     from .converter.description import describe, material_dict
-    description = describe(sealed.remaining(model, grouping), base_dir=None)
+    # The grouped spheres, of radius 1 in the scaled frame, count among the scene's details.
+    description = describe(sealed.remaining(model, grouping), base_dir=None, smallest=1.0)
     scene = mitsuba_dict(description, params)
     for k, (material, centers) in enumerate(sealed.groups(model, grouping, description.origin)):
         scene[f"sealed_{k}"] = sealed.ellipsoids(centers, material_dict(material, base_dir=None))

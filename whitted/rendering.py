@@ -87,8 +87,8 @@ def whitted_settings(scene) -> dict:
     if integrator is not None and hasattr(integrator, "light_reference"):
         return {"max_depth": integrator.max_depth, "ambient": integrator.ambient,
                 "lighting": integrator.lighting, "light_reference": integrator.light_reference,
-                "min_weight": integrator.min_weight}
-    return {**DEFAULTS, "light_reference": mi.ScalarPoint3f(0, 0, 0)}
+                "min_weight": integrator.min_weight, "exact_spheres": integrator.exact_spheres}
+    return {**DEFAULTS, "light_reference": mi.ScalarPoint3f(0, 0, 0), "exact_spheres": []}
 
 
 def _whitted_integrator(scene, settings: dict, depth: int, lighting: str, min_weight: float,
@@ -100,10 +100,11 @@ def _whitted_integrator(scene, settings: dict, depth: int, lighting: str, min_we
     if (hasattr(own, "light_reference") and own.max_depth == depth and own.lighting == lighting
             and own.min_weight == min_weight and own.ambient == ambient):
         return own
+    from .converter.giants import exact_spheres
     with quiet_mitsuba():
         return mi.load_dict({"type": "whitted", "max_depth": depth, "ambient": ambient,
                              "lighting": lighting, "light_reference": settings["light_reference"],
-                             "min_weight": min_weight})
+                             "min_weight": min_weight, "exact_spheres": exact_spheres(settings["exact_spheres"])})
 
 
 @contextlib.contextmanager

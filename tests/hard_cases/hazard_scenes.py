@@ -239,6 +239,62 @@ HAZARDS = {
 }
 
 
+# -- giant spheres: the legacy floor, wall and sky (docs/numerics.md, hazard 14) -----------------
+
+def giant_floor(radius: float) -> Scene:
+    """A reflective floor sphere of ``radius`` (10^4 to 10^7) under a mirror ball, a glass ball
+    and small opaque balls (radius 0.3 to 1) that touch it: contact shadows, the floor's
+    reflections of the balls and the balls' reflections of the floor. Float32 places such a
+    floor only to ulps of its radius, which from 10^6 on exceeds the gaps it must keep."""
+    return Scene(**_camera(depth=5, background=(0.3, 0.4, 0.6)),
+                 lights=[Light((3.0, 6.0, 4.0)), Light((-4.0, 3.0, 5.0), (0.4, 0.4, 0.4))],
+                 spheres=[Sphere((0.0, -radius, 0.0), radius, Material(color=(0.8, 0.8, 0.75), reflect=0.3)),
+                          Sphere((-1.2, 1.0, 0.0), 1.0, MIRROR), Sphere((1.3, 0.8, 0.8), 0.8, GLASS),
+                          Sphere((0.2, 0.3, 2.2), 0.3, BLUE), Sphere((1.0, 0.4, -2.5), 0.4, RED),
+                          Sphere((-2.6, 0.5, 1.4), 0.5, GREEN)])
+
+
+def smallpt_box() -> Scene:
+    """smallpt's Cornell box (Kevin Beason): six spheres of radius 10^5 as walls around a
+    mirror ball and a glass ball, its area light as a point light under the ceiling, depth 8.
+    smallpt starts its camera rays 140 units ahead of the camera, inside the box; a pinhole
+    can only do so by standing there."""
+    wall = 1e5
+    return Scene(width=W, height=H, eye=(50.0, 46.0, 155.6), lookat=(50.0, 40.8, 81.6), fov=70.0,
+                 depth=8, ambient=0.1, lights=[Light((50.0, 75.0, 81.6))],
+                 spheres=[Sphere((wall + 1, 40.8, 81.6), wall, Material(color=(0.75, 0.25, 0.25))),
+                          Sphere((-wall + 99, 40.8, 81.6), wall, Material(color=(0.25, 0.25, 0.75))),
+                          Sphere((50.0, 40.8, wall), wall, Material(color=(0.75, 0.75, 0.75))),
+                          Sphere((50.0, 40.8, -wall + 170), wall, Material(color=(0.0, 0.0, 0.0))),
+                          Sphere((50.0, wall, 81.6), wall, Material(color=(0.75, 0.75, 0.75))),
+                          Sphere((50.0, -wall + 81.6, 81.6), wall, Material(color=(0.75, 0.75, 0.75))),
+                          Sphere((27.0, 16.5, 47.0), 16.5, Material(color=(0.999, 0.999, 0.999), reflect=0.999)),
+                          Sphere((73.0, 16.5, 78.0), 16.5, Material(color=(0.999, 0.999, 0.999), refract=0.999,
+                                                                    ior=1.5))])
+
+
+def sky_dome() -> Scene:
+    """The eye inside a sky dome of radius 10^5 (its inside lit by the lights), over a floor
+    of radius 10^3 with a mirror ball and a glass ball on it."""
+    return Scene(**_camera(depth=5, ambient=0.3),
+                 lights=[Light((3.0, 6.0, 4.0)), Light((-40.0, 300.0, -50.0), (0.5, 0.5, 0.5))],
+                 spheres=[Sphere((0.0, 0.0, 0.0), 1e5, Material(color=(0.45, 0.6, 0.9))),
+                          Sphere((0.0, -1e3, 0.0), 1e3, Material(color=(0.8, 0.8, 0.75), reflect=0.2)),
+                          Sphere((-1.2, 1.0, 0.0), 1.0, MIRROR), Sphere((1.3, 0.8, 0.8), 0.8, GLASS),
+                          Sphere((0.4, 0.3, -2.0), 0.3, RED)])
+
+
+#: giant-sphere hard case -> builder (tests/hard_cases/test_giants.py)
+GIANTS = {
+    "floor_1e4": lambda: giant_floor(1e4),
+    "floor_1e5": lambda: giant_floor(1e5),
+    "floor_1e6": lambda: giant_floor(1e6),
+    "floor_1e7": lambda: giant_floor(1e7),
+    "smallpt_box": smallpt_box,
+    "sky_dome": sky_dome,
+}
+
+
 def build(name: str, tmp_dir: Path) -> Scene:
     builder = HAZARDS[name]
     return builder(tmp_dir) if builder in (texture_poles, tilted_globe) else builder()

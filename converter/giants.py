@@ -1,0 +1,288 @@
+"""Giant spheres: the legacy floor, wall and sky, which float32 cannot place finely enough.
+
+Why. A format that knows only spheres makes its floors, walls and skies out
+of huge ones (``sphere 0 -100000 0 100000``; smallpt's box is six spheres of
+radius 10^5). Mitsuba stores a sphere's center and radius in float32 and, in
+its JIT variants, intersects it in float32 in world space, so it places the
+surface only to ulps of the radius: about 1 near a floor of radius 10^7, next
+to balls of radius 0.3 that must touch it. The Whitted integrator's ray
+offsets, which must clear that uncertainty, then lift shadow and reflection
+rays over those balls (docs/numerics.md, hazard 14).
+
+What the converter does. It decides which spheres are *giant*: those whose
+float32 error bound (the integrator's ``hit_error``: ε·(8 r + 4 max|C_i|) in
+the frame) exceeds :data:`GIANT_FRACTION` of the scene's smallest radius,
+where float32 can no longer keep the gaps the scene's details need. It lists
+them, with their centers (in the frame, subtracted in float64) and radii as
+float64 text, in the Whitted integrator's ``exact_spheres`` property, and the
+integrator intersects those spheres itself in float64 (plugins/giants.py).
+They stay ``sphere`` shapes too, for Mitsuba's own integrators and for
+readers of the XML. A scene without giant spheres is written as before.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+import os
+import tempfile
+from pathlib import Path
+
+from .scene import Scene, Sphere, Vec3
+
+#: float32's unit round-off, 2^-24
+EPSILON32 = 2.0 ** -24
+#: the integrator's error bound of a float32 hit, in round-offs of the radius and of the
+#: center's largest coordinate (plugins/geometry.py, ``hit_error``)
+RADIUS_ULPS, CENTER_ULPS = 8, 4
+#: a sphere is giant when that bound exceeds this fraction of the scene's smallest radius.
+#: Measured (docs/numerics.md, hazard 14) on floors under balls of radius 0.3: radius 10^3
+#: (bound 2.4e-3 of 0.3) renders from float32 as the float64 reference does; from 10^4
+#: (2.4e-2) on, pixels go wrong as the radius grows (0.65 %, 9 % at 10^5, 27 % at 10^6)
+GIANT_FRACTION = 1e-2
+
+
+def float32_error(sphere: Sphere, origin: Vec3) -> float:
+    """The integrator's error bound of a float32 hit on ``sphere`` written in the frame whose
+    origin is the world point ``origin``."""
+    center = max(abs(c - o) for c, o in zip(sphere.center, origin))
+    return EPSILON32 * (RADIUS_ULPS * sphere.radius + CENTER_ULPS * center)
+
+
+def _detail_near(scene: Scene, k: int) -> float:
+    """The finest detail next to sphere ``k``'s surface: over the other spheres, the larger of
+    a sphere's radius and its gap to that surface (a ball resting on it: its radius; one far
+    from it: the gap, which no ray offset of the surface's size can cross)."""
+    giant = scene.spheres[k]
+    (gx, gy, gz), gr = giant.center, giant.radius
+    finest = math.inf
+    for j, sphere in enumerate(scene.spheres):
+        (x, y, z), r = sphere.center, sphere.radius
+        if j != k and r < finest:
+            gap = abs(abs(math.sqrt((x - gx) ** 2 + (y - gy) ** 2 + (z - gz) ** 2) - gr) - r)
+            finest = min(finest, max(r, gap))
+    return finest
+
+
+def coarse_spheres(scene: Scene, origin: Vec3, smallest: float | None = None) -> tuple[list[int], list[int]]:
+    """``(giant, misplaced)``: the indices of the spheres of ``scene`` (written in the frame of
+    ``origin``) that are giant, and of those Mitsuba misplaces (:func:`mitsuba_misplaces`),
+    in one pass.
+
+    Giant: the float32 error bound exceeds :data:`GIANT_FRACTION` of the finest detail next
+    to the sphere (:func:`_detail_near`). ``smallest`` is the smallest radius of spheres the
+    scene holds elsewhere (the loader's ellipsoids: whitted/sealed.py), if any: they count
+    as resting on every sphere.
+    """
+    if not scene.spheres:
+        return [], []
+    detail = min(sphere.radius for sphere in scene.spheres)
+    if smallest is not None:
+        detail = min(detail, smallest)
+    ox, oy, oz = origin
+    candidates, misplaced = [], []
+    for k, sphere in enumerate(scene.spheres):
+        (x, y, z), r = sphere.center, sphere.radius
+        x, y, z = x - ox, y - oy, z - oz
+        c = max(abs(x), abs(y), abs(z))
+        error = EPSILON32 * (RADIUS_ULPS * r + CENTER_ULPS * c)
+        if error > GIANT_FRACTION * detail:   # only these can be coarse against a detail
+            candidates.append((k, error))
+        if EPSILON32 * (r + c) > MISPLACED_RATIO * RAY_EPSILON * (1 + abs(math.sqrt(x * x + y * y + z * z) - r)):
+            misplaced.append(k)
+    limit = smallest if smallest is not None else math.inf
+    giant = [k for k, error in candidates if error > GIANT_FRACTION * min(_detail_near(scene, k), limit)]
+    return giant, misplaced
+
+
+def giant_spheres(scene: Scene, origin: Vec3, smallest: float | None = None) -> list[int]:
+    """The giant spheres of :func:`coarse_spheres`."""
+    return coarse_spheres(scene, origin, smallest)[0]
+
+
+def exact_spheres(entries) -> str:
+    """The ``exact_spheres`` property: ``id: x y z r`` per sphere, joined by ``"; "``, each
+    number as the shortest text that reads back as the same float64."""
+    return "; ".join(f"{key}: {' '.join(repr(float(v)) for v in (*center, radius))}"
+                     for key, center, radius in entries)
+
+
+def parse_exact_spheres(text: str) -> list[tuple[str, Vec3, float]]:
+    """``(id, center, radius)`` of each entry of an ``exact_spheres`` property (ValueError
+    when malformed)."""
+    entries = []
+    for part in (p.strip() for p in text.split(";")):
+        if not part:
+            continue
+        key, sep, numbers = part.rpartition(":")
+        values = numbers.split()
+        if not sep or not key.strip() or len(values) != 4:
+            raise ValueError(f"exact_spheres: expected 'id: x y z r', got {part!r}")
+        try:
+            x, y, z, r = (float(v) for v in values)
+        except ValueError:
+            raise ValueError(f"exact_spheres: expected four numbers in {part!r}") from None
+        if not r > 0:
+            raise ValueError(f"exact_spheres: the radius must be positive in {part!r}")
+        entries.append((key.strip(), (x, y, z), r))
+    return entries
+
+
+# -- a mesh of the sphere for Mitsuba's own integrators --------------------------------------------
+
+#: Mitsuba's own ray offset near a point p is ``(1 + max|p_i|)·RayEpsilon``, RayEpsilon = 1500 ε
+RAY_EPSILON = 1500 * EPSILON32
+#: the mesh's deviation from its sphere, relative to the distance from the eye, at most: a
+#: pixel of a 2048-pixel-wide image at 45° spans 3.8e-4 (docs/numerics.md, hazard 14)
+MESH_TOLERANCE = 2e-4
+#: the least height of the eye above a meshed sphere, in distances from the eye to the lookat
+MIN_HEIGHT = 1e-2
+
+
+#: how much coarser than Mitsuba's ray offset its float32 sphere may be before the sphere is
+#: meshed: the example scenes' floors of radius 10^3 (ratio 0.7 to 1.1) path-trace without
+#: acne (docs/numerics.md, hazard 14); smallpt's walls (1.5 to 3.2) and floors of radius
+#: 10^4 under the eye (8.9) do not
+MISPLACED_RATIO = 1.4
+
+
+def mitsuba_misplaces(sphere: Sphere, origin: Vec3) -> bool:
+    """Whether Mitsuba's float32 sphere test (off by about ε·(r + max|C_i|)) is coarser than
+    :data:`MISPLACED_RATIO` times its own ray offset near the sphere, ``(1 + d)·RayEpsilon``
+    with d the sphere's distance from the frame's origin (the lookat): then Mitsuba's own
+    integrators show acne on it (:func:`coarse_spheres` for a whole scene)."""
+    return coarse_spheres(Scene(spheres=[sphere]), origin)[1] == [0]
+
+
+def sphere_mesh(center: Vec3, radius: float, eye: Vec3, view: float, tolerance: float = MESH_TOLERANCE):
+    """A closed triangle mesh inscribed in the sphere (``center``, ``radius``; in the frame),
+    finest where the eye is nearest: ``(positions, normals, faces)`` as numpy arrays
+    (float64 N×3, float64 N×3, int64 M×3), faces counter-clockwise seen from outside.
+
+    Rings of latitude around the sphere's point nearest the eye (the *anchor*), at polar
+    angles θ_k, each a regular polygon of M_k vertices; M doubles from one ring to the next
+    where needed (each vertex of the inner ring then meets three of the outer, no T-joints:
+    the mesh is watertight). The step from ring to ring is ``sqrt(2δ/r)``, δ = ``tolerance``
+    times twice a lower bound of the eye's distance to the ring, and M keeps the polygon's
+    sides below that step: each quad of two rings lies in a plane (an isosceles trapezoid)
+    whose circle has an angular radius of at most step/√2, so it lies within r·step²/4 = δ/2
+    of the sphere, ``tolerance`` times the distance (:func:`deviation` measures it). ``view`` is the distance from the eye to the
+    lookat: an eye closer to the surface than :data:`MIN_HEIGHT` of it is taken to be that
+    far (the mesh stays finite; the bound there is then relative to that height).
+    """
+    import numpy as np
+    c = np.asarray(center, np.float64)
+    offset = np.asarray(eye, np.float64) - c
+    length = float(np.linalg.norm(offset))
+    axis = offset / length if length > 0 else np.array([0.0, 1.0, 0.0])
+    # two unit vectors perpendicular to the axis
+    helper = np.array([1.0, 0.0, 0.0]) if abs(axis[0]) < 0.9 else np.array([0.0, 0.0, 1.0])
+    u = np.cross(axis, helper)
+    u /= np.linalg.norm(u)
+    v = np.cross(axis, u)
+    height = max(abs(length - radius), MIN_HEIGHT * view)
+    thetas, counts = [0.0], [1]
+    theta, count = 0.0, 8
+    while True:
+        # at least half the eye's distance to the points of the next ring (s: their arc
+        # from the anchor; their chord to it is at least 2s/π): h + 2s/π from outside,
+        # h + s/π from inside (the distance is at least max(h, 2s/π - h) there)
+        arc = radius * theta
+        near = height + (2 if length > radius else 1) * arc / np.pi
+        step = np.sqrt(2 * tolerance * near / radius)
+        if theta + 1.5 * step >= np.pi:
+            break
+        theta += step
+        while 2 * np.pi / count * np.sin(theta) > step:
+            count *= 2
+        thetas.append(theta)
+        counts.append(count)
+    thetas.append(np.pi)
+    counts.append(1)
+    rings, start = [], 0
+    positions = []
+    for theta, count in zip(thetas, counts):
+        phi = 2 * np.pi * np.arange(count) / count
+        direction = (np.cos(theta) * axis[None, :] +
+                     np.sin(theta) * (np.cos(phi)[:, None] * u[None, :] + np.sin(phi)[:, None] * v[None, :]))
+        if count == 1:
+            direction = np.array([axis if theta == 0 else -axis])
+        positions.append(direction)
+        rings.append(np.arange(start, start + count))
+        start += count
+    faces = []
+    for inner, outer in zip(rings[:-1], rings[1:]):
+        m, n = len(inner), len(outer)
+        if m == 1:        # the fan around the anchor
+            faces.append(np.stack([np.full(n, inner[0]), outer, np.roll(outer, -1)], axis=1))
+        elif n == 1:      # the fan around the antipode
+            faces.append(np.stack([inner, np.full(m, outer[0]), np.roll(inner, -1)], axis=1))
+        elif n == m:
+            a, b = inner, np.roll(inner, -1)
+            p, q = outer, np.roll(outer, -1)
+            faces += [np.stack([a, p, q], axis=1), np.stack([a, q, b], axis=1)]
+        else:             # n = 2 m: each inner edge meets two outer edges
+            a, b = inner, np.roll(inner, -1)
+            p, mid, q = outer[0::2], outer[1::2], np.roll(outer[0::2], -1)
+            faces += [np.stack([a, p, mid], axis=1), np.stack([a, mid, b], axis=1),
+                      np.stack([b, mid, q], axis=1)]
+    normals = np.concatenate(positions)
+    faces = np.concatenate(faces)
+    # outward-facing: the winding that makes (p1 - p0) × (p2 - p0) point away from the center
+    p0, p1, p2 = (normals[faces[:, k]] for k in range(3))
+    flip = np.einsum("ij,ij->i", np.cross(p1 - p0, p2 - p0), p0 + p1 + p2) < 0
+    faces[flip] = faces[flip][:, [0, 2, 1]]
+    return c + radius * normals, normals, faces
+
+
+def deviation(positions, faces, center: Vec3, radius: float):
+    """Per triangle, the most its plane lies inside the sphere: r − (distance from the center
+    to the plane), which bounds how far any point of the triangle lies off the sphere when
+    its vertices lie on it."""
+    import numpy as np
+    p0, p1, p2 = (np.asarray(positions, np.float64)[faces[:, k]] for k in range(3))
+    normal = np.cross(p1 - p0, p2 - p0)
+    normal /= np.linalg.norm(normal, axis=1)[:, None]
+    return radius - np.abs(np.einsum("ij,ij->i", normal, p0 - np.asarray(center, np.float64)))
+
+
+def ply_bytes(positions, normals, faces) -> bytes:
+    """A binary little-endian PLY of the mesh, float32 positions and normals (what Mitsuba's
+    ``ply`` shape reads, and what ``mi.load_dict`` of the same file builds)."""
+    import numpy as np
+    header = ("ply\nformat binary_little_endian 1.0\n"
+              f"element vertex {len(positions)}\n"
+              "property float x\nproperty float y\nproperty float z\n"
+              "property float nx\nproperty float ny\nproperty float nz\n"
+              f"element face {len(faces)}\nproperty list uchar int vertex_indices\nend_header\n")
+    vertices = np.concatenate([positions, normals], axis=1).astype("<f4")
+    face_records = np.zeros(len(faces), dtype=[("n", "u1"), ("i", "<i4", (3,))])
+    face_records["n"], face_records["i"] = 3, faces
+    return header.encode("ascii") + vertices.tobytes() + face_records.tobytes()
+
+
+def mesh_bytes(sphere: Sphere, origin: Vec3, eye: Vec3, lookat: Vec3) -> bytes:
+    """The PLY file of ``sphere``'s mesh (:func:`sphere_mesh`) in the frame of ``origin``."""
+    center = tuple(c - o for c, o in zip(sphere.center, origin))
+    eye = tuple(c - o for c, o in zip(eye, origin))
+    view = sum((a - b) ** 2 for a, b in zip(eye, (c - o for c, o in zip(lookat, origin)))) ** 0.5
+    return ply_bytes(*sphere_mesh(center, sphere.radius, eye, view))
+
+
+def cache_folder() -> Path:
+    """Where meshes of scenes loaded without an XML file live: named by their content, so
+    that every process finds the same file and none is ever rewritten."""
+    return Path(tempfile.gettempdir()) / f"whitted-meshes-{os.getuid() if hasattr(os, 'getuid') else 0}"
+
+
+def cached(data: bytes) -> Path:
+    """The cached file holding ``data`` (written when missing, atomically)."""
+    folder = cache_folder()
+    path = folder / f"{hashlib.sha256(data).hexdigest()[:32]}.ply"
+    if not path.is_file():
+        folder.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(prefix=".mesh.", suffix=".ply", dir=folder)
+        with os.fdopen(fd, "wb") as out:
+            out.write(data)
+        os.replace(tmp, path)
+    return path
