@@ -261,6 +261,14 @@ def test_whitted_integrator_is_refused_in_one_line(mirrors_portable, tmp_path, c
         whitted.render(whitted.load_scene(mirrors_portable))
 
 
+def test_compare_refuses_a_portable_file_before_any_work(mirrors_portable, tmp_path, capsys):
+    out = tmp_path / "cmp"
+    assert main(["compare", str(mirrors_portable), "--out", str(out), "-q"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"whitted: error: {mirrors_portable}: ") and err.count("\n") == 1
+    assert not out.exists()
+
+
 def test_overrides_the_portable_file_lacks_are_one_line(mirrors_portable, tmp_path, capsys):
     out = tmp_path / "out.png"
     assert main(["render", str(mirrors_portable), "-o", str(out), "-q", "--integrator", "path",

@@ -86,7 +86,7 @@ def render_command(args) -> None:
     from .memory import peak_resident_bytes
     with deferred():   # numpy's C extension is not cut mid-import by a Ctrl-C (see deferred)
         from .imageio import image_format, write_image
-        from .rendering import article_materials, check_settings, render
+        from .rendering import check_article_materials, check_settings, render
 
     output = Path(args.output)
     check_settings(args.spp, args.max_depth, args.lighting, args.integrator, args.min_weight)
@@ -102,9 +102,8 @@ def render_command(args) -> None:
     scene = _load_quietly(args)
     if not scene.sensors():
         raise WhittedError(f"{args.scene}: the scene has no sensor (camera) to render from")
-    if args.integrator == "whitted" and not article_materials(scene):
-        raise WhittedError(f"{args.scene}: Mitsuba's stock materials (a portable scene?): the whitted "
-                           f"integrator needs the article's; use --integrator path, or the default XML")
+    if args.integrator == "whitted":
+        check_article_materials(scene, args.scene)
     sensor = scene.sensors()[0]
     width, height = (int(c) for c in sensor.film().crop_size())
     spp = sensor.sampler().sample_count()

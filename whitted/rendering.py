@@ -204,10 +204,7 @@ def render(scene, integrator: str = D.INTEGRATOR, spp: int | None = None, max_de
     width, height = (int(c) for c in sensor.film().crop_size())
 
     if integrator == "whitted":
-        if not article_materials(scene):
-            raise WhittedError("the whitted integrator renders the article's materials only, and this "
-                               "scene has Mitsuba's stock BSDFs (a portable scene?): render it with "
-                               "the path integrator, or render the default XML")
+        check_article_materials(scene)
         min_weight = float(min_weight) if min_weight is not None else settings["min_weight"]
         ambient = D.check_ambient(ambient, "ambient") if ambient is not None else settings["ambient"]
         whitted = _whitted_integrator(scene, settings, depth, lighting or settings["lighting"], min_weight,
@@ -240,6 +237,15 @@ def article_materials(scene) -> bool:
     """Whether every shape has the ``article`` BSDF, as the whitted integrator needs
     (a portable scene's are Mitsuba's stock BSDFs)."""
     return all(hasattr(shape.bsdf(), "material_row") for shape in scene.shapes())
+
+
+def check_article_materials(scene, name: str | None = None) -> None:
+    """One clean error (naming the scene file ``name`` when given) unless ``scene`` can be
+    rendered by the whitted integrator (:func:`article_materials`)."""
+    if not article_materials(scene):
+        raise WhittedError(f"{name + ': ' if name else ''}Mitsuba's stock materials (a portable "
+                           "scene?): the whitted integrator needs the article's; use the path "
+                           "integrator (--integrator path), or the default XML")
 
 
 def _path_integrator(scene, max_depth: int | None, depth: int):

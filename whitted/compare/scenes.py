@@ -98,7 +98,10 @@ class SceneFile:
         absolute) is not scale-invariant, so the reference would change with it.
         """
         from ..loading import load_scene
-        return load_scene(self.path, variant, model=self.model, ellipsoids=False)
+        from ..rendering import check_article_materials
+        scene = load_scene(self.path, variant, model=self.model, ellipsoids=False)
+        check_article_materials(scene, str(self.path))   # before any work: compare renders both
+        return scene
 
 
 def _xml_textures_and_depth(path: Path, data: bytes) -> tuple[tuple[Path, ...], int | None]:
