@@ -92,31 +92,60 @@ class Stopped(Exception):
     """Raised in a worker's rendering thread when the client stops the run (Ctrl-C)."""
 
 
+#: Guards :data:`_rendering_thread` between a task's thread and :func:`stop_rendering`.
+_STOP_LOCK = threading.Lock()
+#: How long :func:`stop_rendering` keeps trying, and how often (seconds).
+STOP_PATIENCE, STOP_INTERVAL = 10.0, 0.1
+
+
+def _raise_in(thread: int, error: type[BaseException] | None) -> None:
+    """Have ``thread`` raise ``error`` at its next Python step (None: forget a pending one)."""
+    import ctypes
+    ctypes.pythonapi.PyThreadState_SetAsyncExc(ctypes.c_ulong(thread),
+                                               None if error is None else ctypes.py_object(error))
+
+
 @contextlib.contextmanager
 def _rendering():
     """One render at a time, its thread known so that :func:`stop_rendering` can end it."""
     global _rendering_thread
     with _RENDERING:
-        _rendering_thread = threading.get_ident()
+        with _STOP_LOCK:
+            _rendering_thread = threading.get_ident()
         try:
             yield
         finally:
-            _rendering_thread = None
+            with _STOP_LOCK:
+                _rendering_thread = None
+                _raise_in(threading.get_ident(), None)   # a stop that came too late is dropped
 
 
-def stop_rendering() -> bool:
-    """On a worker (through ``client.run``): end the task rendering there, if any.
+def _ignore_stopped(unraisable) -> None:
+    """``sys.unraisablehook`` of a worker: :class:`Stopped` landing where Python cannot raise
+    it (a garbage collector's callback, a finalizer) is no news; it is sent again."""
+    if not isinstance(unraisable.exc_value, Stopped):
+        sys.__unraisablehook__(unraisable)
+
+
+async def stop_rendering() -> bool:
+    """On a worker (through ``client.run``, on its event loop): end the task rendering there.
 
     A task cannot be cancelled once it runs, and a worker busy with one can only be
     killed on the way out, leaving the semaphores of its process to the resource
     tracker (which warns about them). Instead its thread gets :class:`Stopped` at its
     next Python step (between kernels, or between a pass's levels), the task ends with
-    that error (its future is cancelled already) and the worker stops cleanly."""
-    import ctypes
-    thread = _rendering_thread
-    if thread is None:
-        return False
-    return ctypes.pythonapi.PyThreadState_SetAsyncExc(ctypes.c_ulong(thread), ctypes.py_object(Stopped)) == 1
+    that error (its future is cancelled already) and the worker stops cleanly. Where
+    Python had to drop it (raised inside a callback), it is sent again until the task
+    has ended, for :data:`STOP_PATIENCE` seconds at most; whether it ended is returned.
+    """
+    import asyncio
+    for _ in range(round(STOP_PATIENCE / STOP_INTERVAL)):
+        with _STOP_LOCK:
+            if _rendering_thread is None:
+                return True
+            _raise_in(_rendering_thread, Stopped)
+        await asyncio.sleep(STOP_INTERVAL)
+    return _rendering_thread is None
 
 
 def available_cores() -> int:
@@ -140,6 +169,8 @@ def _prepare(variant: str, threads: dict[str, int]) -> str:
 
     address = get_worker().address
     count = threads.get(get_address_host(address)) or max(MIN_THREADS, available_cores())
+    if _prepared is None:
+        sys.unraisablehook = _ignore_stopped
     if _prepared != (variant, count):
         set_variant(variant)  # registers the plugins too
         dr.set_thread_count(count)
