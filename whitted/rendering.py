@@ -233,19 +233,18 @@ def render(scene, integrator: str = D.INTEGRATOR, spp: int | None = None, max_de
     return RenderResult(np.ascontiguousarray(image), clock.seconds, clock.compile, stats)
 
 
-def article_materials(scene) -> bool:
-    """Whether every shape has the ``article`` BSDF, as the whitted integrator needs
-    (a portable scene's are Mitsuba's stock BSDFs)."""
-    return all(hasattr(shape.bsdf(), "material_row") for shape in scene.shapes())
-
-
 def check_article_materials(scene, name: str | None = None) -> None:
-    """One clean error (naming the scene file ``name`` when given) unless ``scene`` can be
-    rendered by the whitted integrator (:func:`article_materials`)."""
-    if not article_materials(scene):
-        raise WhittedError(f"{name + ': ' if name else ''}Mitsuba's stock materials (a portable "
-                           "scene?): the whitted integrator needs the article's; use the path "
-                           "integrator (--integrator path), or the default XML")
+    """One clean error (naming the scene file ``name`` when given) unless every shape of
+    ``scene`` has the ``article`` BSDF, as the whitted integrator needs. The plugin
+    decides (:func:`whitted.plugins.surfaces.shape_materials`, read once per scene
+    state and reused by the render); this adds the file and what to do instead."""
+    from .plugins.surfaces import shape_materials
+    try:
+        shape_materials(scene)
+    except WhittedError as error:
+        raise WhittedError(f"{name + ': ' if name else ''}{error} (Mitsuba's stock materials, a "
+                           "portable scene? use the path integrator (--integrator path), or the "
+                           "default XML)") from None
 
 
 def _path_integrator(scene, max_depth: int | None, depth: int):
