@@ -81,12 +81,19 @@ def test_bad_variant_in_the_environment_is_one_line(tmp_path):
 def test_the_package_builds_without_setuptools_warnings(tmp_path):
     """A wheel built as pip builds it (isolated, current setuptools) ships the report's
     template and draws no BuildBackendWarning (``make demo`` printed 40 lines of one)."""
-    from pathlib import Path
+    import shutil
     import zipfile
+    from pathlib import Path
 
     repo = Path(__file__).resolve().parent.parent
+    source = tmp_path / "source"   # pip builds in the source tree: a copy, not the checkout
+    source.mkdir()
+    for name in ("pyproject.toml", "README.md"):
+        shutil.copy(repo / name, source / name)
+    for name in ("whitted", "converter", "plugins"):
+        shutil.copytree(repo / name, source / name, ignore=shutil.ignore_patterns("__pycache__"))
     build = subprocess.run([sys.executable, "-m", "pip", "wheel", "-v", "--no-deps", "-w", str(tmp_path),
-                            str(repo)], capture_output=True, text=True, timeout=600)
+                            str(source)], capture_output=True, text=True, timeout=600)
     assert build.returncode == 0, build.stderr[-2000:]
     assert "BuildBackendWarning" not in build.stdout + build.stderr
     (wheel,) = tmp_path.glob("whitted-*.whl")
