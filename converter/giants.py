@@ -28,6 +28,7 @@ import os
 import tempfile
 from pathlib import Path
 
+from ..atomic import atomic_path
 from .scene import Scene, Sphere, Vec3
 
 #: float32's unit round-off, 2^-24
@@ -281,8 +282,6 @@ def cached(data: bytes) -> Path:
     path = folder / f"{hashlib.sha256(data).hexdigest()[:32]}.ply"
     if not path.is_file():
         folder.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(prefix=".mesh.", suffix=".ply", dir=folder)
-        with os.fdopen(fd, "wb") as out:
-            out.write(data)
-        os.replace(tmp, path)
+        with atomic_path(path) as tmp:
+            tmp.write_bytes(data)
     return path
