@@ -17,7 +17,7 @@ Three measurements (``--only`` picks some):
     impact parameters below 0.99 r must hit, above 1.01 r must miss; the
     float32 hit point ``o + t·d`` (evaluated in float64) must lie within the
     integrator's error bound ``e = ε(8r + 4 max|Cᵢ|)`` of the sphere
-    (``plugins/geometry.hit_error``), by which it moves secondary rays off the
+    (``whitted/float32.hit_error``), by which it moves secondary rays off the
     surface. Three intersectors: Mitsuba's ``sphere``, its ``ellipsoids``, and
     the ellipsoid routine with a one-line fix, emulated in numpy float32 in
     Mitsuba's operation order (see :func:`ellipsoid_t`).
@@ -69,7 +69,7 @@ EPS = 2.0 ** -24
 
 
 def error_bound(radius, center):
-    from whitted.plugins.geometry import hit_error
+    from whitted.float32 import hit_error
     return hit_error(radius, np.abs(np.asarray(center, float)).max())
 
 

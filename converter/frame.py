@@ -33,11 +33,10 @@ from __future__ import annotations
 import math
 import sys
 
+from ..float32 import UNIT_ROUNDOFF
 from .giants import giant_spheres, mitsuba_misplaces
 from .scene import Scene, Vec3
 
-#: float32's unit round-off, 2^-24
-EPSILON32 = 2.0 ** -24
 
 #: :func:`float32_spread` above which a conversion warns: rounding the scene's
 #: largest coordinate in the frame to float32 moves it by this fraction of the
@@ -87,7 +86,7 @@ def float32_spread(scene: Scene) -> float:
     if not scene.spheres:
         return 0.0
     smallest = min(sphere.radius for sphere in scene.spheres)
-    return EPSILON32 * extent(scene, scene_origin(scene)) / smallest
+    return UNIT_ROUNDOFF * extent(scene, scene_origin(scene)) / smallest
 
 
 def _where(scene: Scene, sphere) -> str:

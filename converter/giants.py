@@ -29,13 +29,9 @@ import tempfile
 from pathlib import Path
 
 from ..atomic import atomic_path
+from ..float32 import UNIT_ROUNDOFF, hit_error
 from .scene import Scene, Sphere, Vec3
 
-#: float32's unit round-off, 2^-24
-EPSILON32 = 2.0 ** -24
-#: the integrator's error bound of a float32 hit, in round-offs of the radius and of the
-#: center's largest coordinate (plugins/geometry.py, ``hit_error``)
-RADIUS_ULPS, CENTER_ULPS = 8, 4
 #: a sphere is giant when that bound exceeds this fraction of the scene's smallest radius.
 #: Measured (docs/numerics.md, hazard 14) on floors under balls of radius 0.3: radius 10^3
 #: (bound 2.4e-3 of 0.3) renders from float32 as the float64 reference does; from 10^4
@@ -47,7 +43,7 @@ def float32_error(sphere: Sphere, origin: Vec3) -> float:
     """The integrator's error bound of a float32 hit on ``sphere`` written in the frame whose
     origin is the world point ``origin``."""
     center = max(abs(c - o) for c, o in zip(sphere.center, origin))
-    return EPSILON32 * (RADIUS_ULPS * sphere.radius + CENTER_ULPS * center)
+    return hit_error(sphere.radius, center)
 
 
 def _detail_near(scene: Scene, k: int) -> float:
@@ -86,10 +82,10 @@ def coarse_spheres(scene: Scene, origin: Vec3, smallest: float | None = None) ->
         (x, y, z), r = sphere.center, sphere.radius
         x, y, z = x - ox, y - oy, z - oz
         c = max(abs(x), abs(y), abs(z))
-        error = EPSILON32 * (RADIUS_ULPS * r + CENTER_ULPS * c)
+        error = hit_error(r, c)
         if error > GIANT_FRACTION * detail:   # only these can be coarse against a detail
             candidates.append((k, error))
-        if EPSILON32 * (r + c) > MISPLACED_RATIO * RAY_EPSILON * (1 + abs(math.sqrt(x * x + y * y + z * z) - r)):
+        if UNIT_ROUNDOFF * (r + c) > MISPLACED_RATIO * RAY_EPSILON * (1 + abs(math.sqrt(x * x + y * y + z * z) - r)):
             misplaced.append(k)
     limit = smallest if smallest is not None else math.inf
     giant = [k for k, error in candidates if error > GIANT_FRACTION * min(_detail_near(scene, k), limit)]
@@ -132,7 +128,7 @@ def parse_exact_spheres(text: str) -> list[tuple[str, Vec3, float]]:
 # -- a mesh of the sphere for Mitsuba's own integrators --------------------------------------------
 
 #: Mitsuba's own ray offset near a point p is ``(1 + max|p_i|)·RayEpsilon``, RayEpsilon = 1500 ε
-RAY_EPSILON = 1500 * EPSILON32
+RAY_EPSILON = 1500 * UNIT_ROUNDOFF
 #: the mesh's deviation from its sphere, relative to the distance from the eye, at most: a
 #: pixel of a 2048-pixel-wide image at 45° spans 3.8e-4 (docs/numerics.md, hazard 14)
 MESH_TOLERANCE = 2e-4

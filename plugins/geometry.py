@@ -37,31 +37,10 @@ import drjit as dr
 import mitsuba as mi
 import numpy as np
 
+from whitted.float32 import UNIT_ROUNDOFF, hit_error  # noqa: F401  (re-exported)
+
 from .scene_state import memo
 from .surfaces import shape_materials
-
-
-#: float32's unit round-off, 2^-24
-UNIT_ROUNDOFF = 2.0 ** -24
-#: the error bound of a hit point, in round-offs of its shape's radius and of its center's
-#: largest coordinate (docs/numerics.md, "The error bound behind the ray offsets")
-RADIUS_ULPS = 8
-CENTER_ULPS = 4
-
-
-def hit_error(radius, center):
-    """How far a float32 hit point on a shape may lie off its surface, and how far off
-    a float32 ray-shape test near it may place the surface.
-
-    ``radius`` is the shape's radius (half its bounding box's widest side) and
-    ``center`` its center's largest coordinate magnitude. Both terms come from
-    rounding: re-projecting the point (``C + r·N``), subtracting the center,
-    and Mitsuba's float32 quadratic, whose self-intersection root is off by
-    up to about two ulps of r (head-on rays) and an ulp of |C|. A floor sphere of
-    radius 10^4 under the origin gets 7e-3, a unit sphere at 10^4 2.4e-3, a
-    unit sphere at the origin 5e-7.
-    """
-    return (RADIUS_ULPS * UNIT_ROUNDOFF) * radius + (CENTER_ULPS * UNIT_ROUNDOFF) * center
 
 
 def lat_long_uv(n, x_axis, y_axis, z_axis):

@@ -17,8 +17,7 @@ import math
 import drjit as dr
 import mitsuba as mi
 
-#: multiplier that spreads consecutive seeds over the hash's input space
-_SEED_STRIDE = 0x9E3779B9
+from whitted.defaults import SEED_STRIDE
 
 
 def strata(spp: int) -> tuple[int, int]:
@@ -41,7 +40,7 @@ def pixel_offset(pixel, sample, spp: int, seed: int):
     column = sample % nx
     row = sample // nx
     # The seed is opaque: a new seed must not compile new kernels.
-    seed_offset = (seed * _SEED_STRIDE) & 0xFFFFFFFF
+    seed_offset = (seed * SEED_STRIDE) & 0xFFFFFFFF
     # (the mask wraps the sum to 32 bits where UInt32 is a Python int: scalar variants)
     salt = (mi.UInt32(sample) + dr.opaque(mi.UInt32, seed_offset)) & 0xFFFFFFFF
     bits_x, bits_y = mi.sample_tea_32(mi.UInt32(pixel), salt)

@@ -60,7 +60,7 @@ def offset_origin(p, n, error, d):
     """``p`` moved by ``error`` along the normal ``n``, to the side that ``d`` leaves towards.
 
     ``error`` bounds how far the float32 hit point ``p`` lies off its surface
-    (see :func:`.geometry.hit_error`): from the moved origin, neither the
+    (see :func:`whitted.float32.hit_error`): from the moved origin, neither the
     surface's true position nor the float32 ray-surface test can put the
     surface in front of the ray again (no acne). Mitsuba's own ``spawn_ray``
     moves by ``(1 + max|p_i|)·RayEpsilon`` instead, which is too little for a

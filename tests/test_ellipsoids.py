@@ -15,7 +15,7 @@ import pytest
 import whitted
 from conftest import REPO
 from reference import assert_matches, render_reference
-from whitted import sealed
+from whitted import float32, sealed
 from whitted.converter import Light, Material, Scene, Sphere
 
 if "sphereflake" not in sys.modules:
@@ -108,13 +108,13 @@ def test_mitsuba_interactions_get_each_primitive_s_error_bound(variant):
     scene = mi.load_dict(description)
     assert not geometry.SphereHits.applies(scene)
     hits = geometry.MitsubaHits(scene, need_uv=False)
-    expected = geometry.hit_error(1.0, np.abs(np.float32(center)).max(axis=1))
+    expected = float32.hit_error(1.0, np.abs(np.float32(center)).max(axis=1))
     for k, c in enumerate(center):   # straight down onto each ball
         ray = mi.Ray3f(mi.Point3f(*(float(x) for x in c + [0, 5, 0])), mi.Vector3f(0, -1, 0))
         hit, si, _, error = hits.intersect(ray, coherent=False)
         assert bool(np.array(hit).reshape(-1)[0])
         assert np.array(error, float).reshape(-1)[0] == pytest.approx(expected[k], rel=1e-6)
-    wall = geometry.hit_error(50.0, 30.0)
+    wall = float32.hit_error(50.0, 30.0)
     for x, y in ((-20.0, 20.0), (20.0, -20.0), (20.0, 20.0), (-20.0, -20.0)):   # both triangles
         hit, si, _, error = hits.intersect(mi.Ray3f(mi.Point3f(x, y, 0.0), mi.Vector3f(0, 0, -1)), coherent=False)
         assert bool(np.array(hit).reshape(-1)[0])
@@ -127,7 +127,7 @@ def test_a_light_on_a_grouped_sphere_is_found_on_it(llvm):
     scene = mi.load_dict(scene_dict(center, red, grouped=True))
     hits = geometry.hit_finder(scene, need_uv=False)
     error, normal = hits.surface_at(center[3] + [0.0, 1.0, 0.0])
-    assert error == pytest.approx(geometry.hit_error(1.0, np.abs(np.float32(center[3])).max()), rel=1e-6)
+    assert error == pytest.approx(float32.hit_error(1.0, np.abs(np.float32(center[3])).max()), rel=1e-6)
     assert normal == pytest.approx((0.0, 1.0, 0.0), abs=1e-6)
 
 

@@ -17,6 +17,7 @@ import pytest
 
 import whitted
 import whitted.rendering
+from whitted import defaults as D
 from reference import render_reference, srgb_to_linear
 from whitted.cli import main
 from whitted.converter import Light, Material, Scene, Sphere, scene_to_xml
@@ -218,7 +219,7 @@ def test_path_tracer_renders_in_passes_and_averages_them(scene_xml, monkeypatch)
     result = whitted.render(scene, integrator="path", spp=5, seed=3)
     assert sensor.sampler().sample_count() == own_spp   # mi.render's change is undone
     path = mi.load_dict({"type": "path", "max_depth": MODEL.depth + 1})
-    seeds = [3] + [(3 * 0x9E3779B1 + k) & 0xFFFFFFFF for k in (1, 2)]
+    seeds = [3] + [(3 * D.SEED_STRIDE + k) & 0xFFFFFFFF for k in (1, 2)]
     passes = [np.array(mi.render(scene, integrator=path, spp=n, seed=s), dtype=np.float64)
               for n, s in zip((2, 2, 1), seeds)]
     expected = (2 * passes[0] + 2 * passes[1] + passes[2]) / 5

@@ -76,6 +76,9 @@ def path_depth(depth: int) -> int:
 MIN_WEIGHT = 1 / 255
 #: camera samples per pass of the whitted integrator (0: as its tracer prefers; see plugins/wavefront.py)
 WAVEFRONT_SIZE = 0
+#: the multiplier that spreads consecutive seeds over 32 bits (the golden ratio's, Knuth's
+#: multiplicative hash): a render's seed and its passes' seeds are far apart
+SEED_STRIDE = 0x9E3779B9
 #: the most samples per pixel a render accepts (API and CLI; Mitsuba's samplers count in 32 bits)
 MAX_SPP = 2 ** 31
 #: Mitsuba variants whitted runs in: the default when a libLLVM >= 16 exists, else the fallback

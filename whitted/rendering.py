@@ -292,7 +292,7 @@ def _render_path(scene, integrator, sensor, spp, seed, progress) -> np.ndarray:
         for k, n in enumerate(path_passes(spp, width * height)):
             # Distinct seeds per pass: passes are independent estimates (a single
             # pass is exactly mi.render with the caller's seed).
-            pass_seed = seed if k == 0 else (seed * 0x9E3779B1 + k) & 0xFFFFFFFF
+            pass_seed = seed if k == 0 else (seed * D.SEED_STRIDE + k) & 0xFFFFFFFF
             image = np.array(mi.render(scene, sensor=sensor, integrator=integrator, spp=n,
                                        seed=pass_seed), dtype=np.float64)
             total = image * n if total is None else total + image * n
