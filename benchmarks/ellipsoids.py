@@ -64,7 +64,7 @@ import mitsuba as mi  # noqa: E402
 import whitted  # noqa: E402,F401  (selects the variant, registers the plugins)
 
 F32 = np.float32
-#: float32's unit round-off and the integrator's error-bound constants (plugins/geometry.py)
+#: float32's unit round-off (whitted/float32.py)
 EPS = 2.0 ** -24
 
 

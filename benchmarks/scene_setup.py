@@ -6,9 +6,10 @@ Usage::
 
     python benchmarks/scene_setup.py [SPHERES]      # default 66 000
 
-The integrator computes these tables once per scene state (plugins/scene_state.py);
-this prints the time of :func:`analyse` plus the :class:`Shader` construction, which is
-all a render does with the scene before its kernels run.
+The integrator builds these tables once per scene state and checks them at every render
+(plugins/scene/tables.py); this prints the time of that check or build, :func:`analyse`
+and the :class:`Shader` construction, which is all a render does with the scene before its
+kernels run.
 """
 
 from __future__ import annotations
@@ -25,9 +26,10 @@ import mitsuba as mi  # noqa: E402
 
 import whitted  # noqa: E402,F401  (selects the variant, registers the plugins)
 import scenes  # noqa: E402
-from whitted.plugins.effects import analyse  # noqa: E402
-from whitted.plugins.counts import Tally  # noqa: E402
-from whitted.plugins.shading import Shader  # noqa: E402
+from whitted.plugins.scene.effects import analyse  # noqa: E402
+from whitted.plugins.scene.tables import scene_tables  # noqa: E402
+from whitted.plugins.shading.shader import Shader  # noqa: E402
+from whitted.plugins.tree.counts import Tally  # noqa: E402
 
 
 def main(count: int) -> None:
@@ -39,7 +41,7 @@ def main(count: int) -> None:
 
     def setup() -> float:
         start = time.perf_counter()
-        Shader(scene, analyse(scene, model.depth, reference), model.ambient, "article", Tally())
+        Shader(scene, analyse(scene_tables(scene), model.depth, reference), model.ambient, "article", Tally())
         dr.eval()
         return time.perf_counter() - start
 

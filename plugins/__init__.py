@@ -1,18 +1,27 @@
-"""The project's Mitsuba plugins, registered for the current variant.
+"""The project's Mitsuba plugins, and what the rest of the package may ask of them.
 
-Plugin classes derive from variant-specific Mitsuba base classes, so their
-modules are (re)loaded once per variant, after ``mi.set_variant``.
+Two plugins: the ``whitted`` integrator (:mod:`.integrator`) and the
+``article`` BSDF (:mod:`.bsdf`). Their classes derive from variant-specific
+Mitsuba base classes, so those two modules are (re)loaded once per variant,
+after ``mi.set_variant``, by :func:`register`. Behind the integrator:
+:mod:`.scene` (what it reads from a scene), :mod:`.tree` (walking the ray
+tree), :mod:`.shading` (the article's model, optics and hits) and
+:mod:`.film` (where camera samples start and go).
+
+The rest of the package asks through the functions below, never through the
+plugins' insides.
 """
 
 from __future__ import annotations
 
 import importlib
 
-_registered: set[str] = set()
+#: (variant, plugin name) -> the plugin's class for that variant
+_classes: dict[tuple[str, str], type] = {}
 
 # (module, registration function name, plugin name, class name)
 _PLUGINS = (
-    ("whitted.plugins.material", "register_bsdf", "article", "ArticleBSDF"),
+    ("whitted.plugins.bsdf", "register_bsdf", "article", "ArticleBSDF"),
     ("whitted.plugins.integrator", "register_integrator", "whitted", "WhittedIntegrator"),
 )
 
@@ -22,14 +31,34 @@ def register() -> None:
     import mitsuba as mi
 
     variant = mi.variant()
-    if variant in _registered:
+    if any(key[0] == variant for key in _classes):
         return
-    from .scene_state import watch
-    watch(mi.Scene)   # scene changes drop what the integrator derived from the scene
     for module_name, function, plugin_name, class_name in _PLUGINS:
         module = importlib.import_module(module_name)
-        if _registered:  # built for another variant before: rebuild the classes
+        if _classes:  # built for another variant before: rebuild the classes
             module = importlib.reload(module)
-        cls = getattr(module, class_name)
+        cls = _classes[variant, plugin_name] = getattr(module, class_name)
         getattr(mi, function)(plugin_name, lambda props, cls=cls: cls(props))
-    _registered.add(variant)
+
+
+def whitted_integrator(integrator):
+    """``integrator`` if it is the ``whitted`` plugin (of the current variant), else None."""
+    import mitsuba as mi
+    cls = _classes.get((mi.variant(), "whitted"))
+    return integrator if cls is not None and isinstance(integrator, cls) else None
+
+
+def check_scene(scene) -> None:
+    """Raise :class:`~whitted.errors.WhittedError` unless the ``whitted`` integrator can
+    render ``scene``: every shape has the ``article`` BSDF and every emitter is a point
+    light or the environment. What it reads is kept for the render (:mod:`.scene.tables`)."""
+    from .scene.tables import scene_tables
+    scene_tables(scene)
+
+
+def scene_effects(scene, max_depth: int, light_reference=(0.0, 0.0, 0.0)) -> tuple[str, ...]:
+    """The effects a render of ``scene`` to ``max_depth`` calls for (:mod:`.scene.effects`);
+    raises :class:`~whitted.errors.WhittedError` as :func:`check_scene` does."""
+    from .scene.effects import analyse
+    from .scene.tables import scene_tables
+    return analyse(scene_tables(scene), max_depth, light_reference).effects

@@ -6,24 +6,16 @@ ray tree of fixed depth, no sampling), and written with Dr.Jit it runs as
 compiled kernels in the JIT variants, as fast as Mitsuba's own C++ ``direct``
 integrator on the same rays. What it is: see the class docstring.
 
-How the ray tree is walked: see :mod:`.tracer`. The shading model is written
-once (:mod:`.shading`); the walk is a :class:`~.wavefront.WavefrontTracer` in
-the JIT variants and a :class:`~.depth_first.DepthFirstTracer` in the scalar
-ones, chosen in :func:`tracer_for_variant`.
-
-The image is rendered in passes of at most ``wavefront_size`` camera
-samples, accumulated as :mod:`.accumulation` says: straight into the
-developed image for a box-filtered RGB film, else in Mitsuba's image block,
-developed by the film.
-Camera rays come from the sensor's ``sample_ray`` (Mitsuba's perspective
-camera), placed in their pixels by :mod:`.pixel_samples`.
-
-The modules behind it: :mod:`.effects` (what the scene calls for),
-:mod:`.tracer`, :mod:`.wavefront` and :mod:`.depth_first` (walking the ray
-tree), :mod:`.shading` (the article's model), :mod:`.geometry` (hit points,
-normals, UV), :mod:`.surfaces` (material lookups), :mod:`.optics` (reflection
-and refraction), :mod:`.counts` (what ``--stats`` reports), :mod:`.masks`
-(masks for one ray and for a wavefront) and :mod:`.pixel_samples`.
+A render, as in Mitsuba's own Python integrators, prepares, samples and
+develops. Prepare: read the scene's tables (:mod:`.scene`: lights,
+materials, primitives, kept between renders while the scene is unchanged)
+and what the scene calls for (:mod:`.scene.effects`), and build a tracer.
+Sample: camera rays from the sensor's ``sample_ray`` (Mitsuba's perspective
+camera), placed in their pixels by :func:`.film.pixel_offset`, in passes
+of at most ``wavefront_size`` camera samples; each ray's tree is walked by
+:mod:`.tree` and shaded by :mod:`.shading`. Develop: the samples go straight
+into the developed image for a box-filtered RGB film, else into Mitsuba's
+image block, developed by the film (:mod:`.film`).
 """
 
 from __future__ import annotations
@@ -34,26 +26,16 @@ import drjit as dr
 import mitsuba as mi
 
 from whitted import defaults as D
-from whitted.converter.giants import parse_exact_spheres
+from whitted.converter.giants import exact_spheres, parse_exact_spheres
 
-from .accumulation import image_for
-from .adaptive import allowance, brightest
-from .counts import RayCounts, Tally
-from .depth_first import DepthFirstTracer
-from .effects import analyse
-from .pixel_samples import pixel_offset
-from .shading import Shader
-from .tracer import Tracer
-from .wavefront import SAMPLES_PER_PASS, WavefrontTracer
-
-
-def tracer_for_variant(shader, epsilon: float, tally, lanes: int) -> Tracer:
-    """The walk the current variant can do. The one place that tells the variants apart:
-    wavefronts need Dr.Jit arrays to gather a level's rays into (JIT variants), and the
-    scalar variants' values are one ray's plain numbers."""
-    if dr.is_jit_v(mi.Float):
-        return WavefrontTracer(shader, epsilon, tally, lanes)
-    return DepthFirstTracer(shader, epsilon, tally)
+from .film import image_for, pixel_offset
+from .scene.effects import analyse
+from .scene.tables import scene_tables
+from .shading.shader import Shader
+from .tree import tracer_for_variant
+from .tree.adaptive import allowance, brightest
+from .tree.counts import RayCounts, Tally
+from .tree.wavefront import SAMPLES_PER_PASS
 
 
 @dataclass
@@ -61,7 +43,7 @@ class Rendering:
     """What :meth:`WhittedIntegrator.render_detailed` returns."""
     image: object          # mi.TensorXf (H, W, channels), developed by the film
     rays: RayCounts
-    effects: tuple         # see plugins/effects.py
+    effects: tuple         # see plugins/scene/effects.py
     depth: int             # the tree depth the scene needed (<= max_depth)
     passes: int
     error_bound: float     # the most the adaptive depth control can have changed a pixel
@@ -124,7 +106,7 @@ class WhittedIntegrator(mi.SamplingIntegrator):
          trace at once: it bounds memory. 0 lets the tracer choose (2^20, or
          2^21 when the tree has a single level). (Default: 0)
 
-    The article's ray tracer (shared/scene-format.md, "Shading"): a camera ray
+    The article's ray tracer (docs/scene-format.md, "Shading"): a camera ray
     that hits a sphere gets ``(1 - KR - KT)·point + KR·reflected +
     KT·refracted``, where ``point`` is the sphere's base color B lit by the
     point lights it sees (every sphere casts shadows, transparent ones too)
@@ -155,7 +137,7 @@ class WhittedIntegrator(mi.SamplingIntegrator):
     reached (``error_bound``: the largest weight culled from one sample times
     ``L``). Where ``L`` is not known (a light on a surface in physical
     lighting, an environment other than a constant one, a texture other than a
-    bitmap) the tree is traced exactly. :mod:`.adaptive` has the rule.
+    bitmap) the tree is traced exactly. :mod:`.tree.adaptive` has the rule.
 
     :meth:`render_detailed` also returns the rays traced and the bound
     (``whitted render --stats``).
@@ -194,6 +176,24 @@ class WhittedIntegrator(mi.SamplingIntegrator):
         if self.wavefront_size < 0:
             raise ValueError(f"whitted: wavefront_size must be >= 0, got {self.wavefront_size}")
 
+    #: the settings :meth:`settings` reports and :meth:`with_settings` changes
+    SETTINGS = ("max_depth", "ambient", "lighting", "light_reference", "min_weight", "exact_spheres")
+
+    def settings(self) -> dict:
+        """The integrator's properties as Python values (``exact_spheres``: ``(id, center,
+        radius)`` per giant sphere)."""
+        return {name: getattr(self, name) for name in self.SETTINGS}
+
+    def with_settings(self, **changes):
+        """This integrator if ``changes`` change none of its :meth:`settings`, else a new one
+        with them changed and the rest (the light reference, the giant spheres) kept."""
+        current = self.settings()
+        if all(current[name] == value for name, value in changes.items()):
+            return self
+        settings = {**current, **changes}
+        settings["exact_spheres"] = exact_spheres(settings["exact_spheres"])
+        return mi.load_dict({"type": "whitted", **settings})
+
     # -- Mitsuba's entry points ------------------------------------------------------------------
 
     def render(self, scene, sensor=0, seed=0, spp=0, develop=True, evaluate=True):
@@ -209,10 +209,10 @@ class WhittedIntegrator(mi.SamplingIntegrator):
     # -- Rendering ------------------------------------------------------------------------------
 
     def _tracer(self, scene):
-        """A tracer for ``scene`` (see :mod:`.tracer`), the scene's analysis, and the
-        brightest color a ray can have in it (:func:`.adaptive.brightest`; None: unknown)."""
-        analysis = analyse(scene, self.max_depth, self.light_reference)
-        bright = brightest(scene, analysis, self.lighting, self.ambient) if self.min_weight > 0 else None
+        """A tracer for ``scene`` (see :mod:`.tree`), the scene's analysis, and the
+        brightest color a ray can have in it (:func:`.tree.adaptive.brightest`; None: unknown)."""
+        analysis = analyse(scene_tables(scene), self.max_depth, self.light_reference)
+        bright = brightest(analysis, self.lighting, self.ambient) if self.min_weight > 0 else None
         tally = Tally()
         shader = Shader(scene, analysis, self.ambient, self.lighting, tally, self.exact_spheres)
         tracer = tracer_for_variant(shader, allowance(self.min_weight, bright), tally,

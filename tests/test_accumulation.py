@@ -1,4 +1,4 @@
-"""How samples become the image (plugins/accumulation.py): per-pixel means or Mitsuba's film.
+"""How samples become the image (plugins/film.py): per-pixel means or Mitsuba's film.
 
 A box-filtered RGB film is developed by the integrator itself (each pixel's mean
 of its samples); it must give Mitsuba's film's image, which every other film
@@ -14,7 +14,7 @@ import pytest
 import whitted
 from reference import assert_matches, render_reference
 from whitted.converter import Light, Material, Scene, Sphere, scene_to_xml
-from whitted.plugins.accumulation import FilmSplats, PixelMeans, image_for
+from whitted.plugins.film import FilmSplats, PixelMeans, image_for
 
 
 def model(depth: int) -> Scene:
@@ -84,8 +84,8 @@ def test_the_image_is_cleared_in_bands_that_ctrl_c_can_stop_between(llvm, monkey
     memset of the whole image (3 GiB at 16384², seconds during which Ctrl-C waited), and
     not at all where every value is stored once; the image is the film's all the same."""
     import drjit as dr
-    from whitted.plugins import accumulation
-    monkeypatch.setattr(accumulation, "CLEAR_BAND", 89)   # 36 * 24 * 3 = 29 * 89 + 11 values
+    from whitted.plugins import film
+    monkeypatch.setattr(film, "CLEAR_BAND", 89)   # 36 * 24 * 3 = 29 * 89 + 11 values
     scene = mi.load_string(scene_to_xml(model(depth), base_dir=None))
     integrator = mi.load_dict({"type": "whitted", "max_depth": depth,
                                "light_reference": mi.ScalarPoint3f(model(depth).lookat)})

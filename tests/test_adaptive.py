@@ -1,4 +1,4 @@
-"""Adaptive depth control (plugins/adaptive.py): ``min_weight``, ``--min-weight``, on by default.
+"""Adaptive depth control (plugins/tree/adaptive.py): ``min_weight``, ``--min-weight``, on by default.
 
 Branches are left untraced as long as, together, they cannot change a pixel
 by more than ``min_weight``. Expectations come from the weights themselves:
@@ -28,7 +28,7 @@ from whitted.errors import WhittedError
 
 from conftest import REPO
 
-#: plugins/adaptive.py's ROUND_OFF_MARGIN (ε is taken this much smaller than min_weight / L)
+#: plugins/tree/adaptive.py's ROUND_OFF_MARGIN (ε is taken this much smaller than min_weight / L)
 MARGIN = 1e-5
 
 
@@ -54,7 +54,7 @@ def brightest(model: Scene) -> float:
 
 
 def predicted(kr: float, kt: float, min_weight: float, depth: int, bright: float) -> dict:
-    """One camera ray's tree in :func:`inside_mirror` under the rule of plugins/adaptive.py."""
+    """One camera ray's tree in :func:`inside_mirror` under the rule of plugins/tree/adaptive.py."""
     counts = {"reflection": 0, "refraction": 0, "culled": 0, "culled_weight": 0.0, "deepest": 1,
               "closest_call": math.inf}
     allowance = min_weight / bright * (1 - MARGIN) if min_weight > 0 else 0.0
@@ -162,26 +162,27 @@ def test_no_pixel_changes_by_more_than_the_bound(variant, spp, min_weight):
 
 
 def test_brightest_color_by_hand(llvm):
-    from whitted.plugins.adaptive import brightest as plugin_brightest
-    from whitted.plugins.effects import analyse
+    from whitted.plugins.scene.effects import analyse
+    from whitted.plugins.scene.tables import scene_tables
+    from whitted.plugins.tree.adaptive import brightest as plugin_brightest
     model = Scene(width=4, height=4, eye=(0.0, 0.0, 10.0), ambient=0.3, background=(0.1, 0.2, 0.5),
                   lights=[Light((0.0, 4.0, 0.0), (0.6, 0.5, 0.4)), Light((5.0, 0.0, 0.0), (0.2, 0.3, 0.1))],
                   spheres=[Sphere((0.0, 0.0, 0.0), 1.0, Material(color=(0.5, 0.7, 0.6), reflect=0.2)),
                            Sphere((0.0, 8.0, 0.0), 2.0, Material(color=(0.4, 0.4, 0.4)))])
     scene = load(model)
-    analysis = analyse(scene, 5, mi.ScalarPoint3f(model.lookat))
+    analysis = analyse(scene_tables(scene), 5, mi.ScalarPoint3f(model.lookat))
     # article: max B · (A + (1 - A)·Σ max light)
-    assert plugin_brightest(scene, analysis, "article", 0.3) == pytest.approx(0.7 * (0.3 + 0.7 * (0.6 + 0.3)))
+    assert plugin_brightest(analysis, "article", 0.3) == pytest.approx(0.7 * (0.3 + 0.7 * (0.6 + 0.3)))
     # physical: (max B / π)·Σ max I / d², d to the nearest surface; I = color·π·d_ref² (lookat: origin)
     intensity = [0.6 * math.pi * 16, 0.3 * math.pi * 25]
     distance = [2.0, 4.0]   # light 0: 3 above the unit sphere, 2 below the one at y = 8; light 1: 4 off
     expected = 0.7 / math.pi * sum(i / d ** 2 for i, d in zip(intensity, distance))
-    assert plugin_brightest(scene, analysis, "physical", 0.3) == pytest.approx(expected, rel=1e-5)
+    assert plugin_brightest(analysis, "physical", 0.3) == pytest.approx(expected, rel=1e-5)
     # a light on a surface has no bound in physical lighting: the tree is then traced exactly
     model.lights[0] = Light((0.0, 1.0, 0.0))
     scene = load(model)
-    analysis = analyse(scene, 5, mi.ScalarPoint3f(model.lookat))
-    assert plugin_brightest(scene, analysis, "physical", 0.3) is None
+    analysis = analyse(scene_tables(scene), 5, mi.ScalarPoint3f(model.lookat))
+    assert plugin_brightest(analysis, "physical", 0.3) is None
     stats = whitted.render(scene, lighting="physical").stats
     assert stats["culled_rays"] == 0 and stats["error_bound"] == 0
 

@@ -1,5 +1,5 @@
 """Unit spheres held by one Mitsuba ``ellipsoids`` shape are spheres to the Whitted integrator
-(plugins/geometry.py reads their centers per primitive; whitted/sealed.py builds them)."""
+(plugins/scene/primitives.py reads their centers per primitive; whitted/sealed.py builds them)."""
 
 from __future__ import annotations
 
@@ -74,14 +74,15 @@ def colors(scene, bsdf_ids):
 
 
 def test_the_sphere_table_serves_ellipsoid_primitives_as_their_spheres(llvm):
-    from whitted.plugins import geometry
+    from whitted.plugins.scene.tables import scene_tables
+    from whitted.plugins.shading import hits as geometry
     center, red = balls()
     ray = rays()
     found = {}
     for grouped in (False, True):
         scene = mi.load_dict(scene_dict(center, red, grouped))
-        assert geometry.SphereHits.applies(scene)
-        hits = geometry.hit_finder(scene, need_uv=False)
+        assert scene_tables(scene).spheres_only
+        hits = geometry.hit_finder(scene, scene_tables(scene), need_uv=False)
         hit, si, bsdf, error = hits.intersect(ray, coherent=False)
         found[grouped] = (np.array(hit), np.array(si.t), np.array(si.n), np.array(si.p), np.array(error),
                           colors(scene, bsdf))
@@ -100,14 +101,15 @@ def test_the_sphere_table_serves_ellipsoid_primitives_as_their_spheres(llvm):
 def test_mitsuba_interactions_get_each_primitive_s_error_bound(variant):
     """Beside a shape of other primitives (a rectangle: two triangles), which keeps one bound."""
     whitted.set_variant(variant)
-    from whitted.plugins import geometry
+    from whitted.plugins.scene.tables import scene_tables
+    from whitted.plugins.shading import hits as geometry
     center, red = balls(count=6)
     description = scene_dict(center, red, grouped=True)
     description["wall"] = {"type": "rectangle", "bsdf": FLOOR_BSDF,
                            "to_world": mi.ScalarTransform4f().translate([0.0, 0.0, -30.0]).scale(50.0)}
     scene = mi.load_dict(description)
-    assert not geometry.SphereHits.applies(scene)
-    hits = geometry.MitsubaHits(scene, need_uv=False)
+    assert not scene_tables(scene).spheres_only
+    hits = geometry.MitsubaHits(scene, scene_tables(scene), need_uv=False)
     expected = float32.hit_error(1.0, np.abs(np.float32(center)).max(axis=1))
     for k, c in enumerate(center):   # straight down onto each ball
         ray = mi.Ray3f(mi.Point3f(*(float(x) for x in c + [0, 5, 0])), mi.Vector3f(0, -1, 0))
@@ -122,25 +124,27 @@ def test_mitsuba_interactions_get_each_primitive_s_error_bound(variant):
 
 
 def test_a_light_on_a_grouped_sphere_is_found_on_it(llvm):
-    from whitted.plugins import geometry
+    from whitted.plugins.scene.tables import scene_tables
+    from whitted.plugins.shading import hits as geometry
     center, red = balls(count=4)
     scene = mi.load_dict(scene_dict(center, red, grouped=True))
-    hits = geometry.hit_finder(scene, need_uv=False)
+    hits = geometry.hit_finder(scene, scene_tables(scene), need_uv=False)
     error, normal = hits.surface_at(center[3] + [0.0, 1.0, 0.0])
     assert error == pytest.approx(float32.hit_error(1.0, np.abs(np.float32(center[3])).max()), rel=1e-6)
     assert normal == pytest.approx((0.0, 1.0, 0.0), abs=1e-6)
 
 
 def test_ellipsoids_that_are_not_spheres_leave_the_sphere_table_out(llvm):
-    from whitted.plugins import geometry
+    from whitted.plugins.scene.tables import scene_tables
+    from whitted.plugins.shading import hits as geometry
     shape = sealed.ellipsoids(np.zeros((2, 3)), RED_BSDF)
     shape["scales"] = mi.TensorXf(np.array([[1, 1, 1], [1, 2, 1]], np.float32))
-    assert not geometry.SphereHits.applies(mi.load_dict({"type": "scene", "e": shape}))
+    assert not scene_tables(mi.load_dict({"type": "scene", "e": shape})).spheres_only
     shape = sealed.ellipsoids(np.zeros((2, 3)), RED_BSDF)
     shape["quaternions"] = mi.TensorXf(np.array([[0, 0, 0, 1], [0, 0.6, 0, 0.8]], np.float32))
-    assert not geometry.SphereHits.applies(mi.load_dict({"type": "scene", "e": shape}))
+    assert not scene_tables(mi.load_dict({"type": "scene", "e": shape})).spheres_only
     spheres = sealed.ellipsoids(np.zeros((2, 3)), RED_BSDF)
-    assert geometry.SphereHits.applies(mi.load_dict({"type": "scene", "e": spheres}))
+    assert scene_tables(mi.load_dict({"type": "scene", "e": spheres})).spheres_only
 
 
 # -- whole images: the loader's fast path against sphere shapes and the float64 reference ----------
@@ -259,10 +263,11 @@ def test_no_ray_meets_the_unit_ellipsoid_it_leaves(llvm, center):
     shape (the only radius the loader gives them): outward rays and shadow segments leave it
     for good. (Inward rays do not exist for a sealed sphere; the shape culls them.)"""
     from hard_cases.test_acne import RAYS, failures_jit
-    from whitted.plugins import geometry
+    from whitted.plugins.scene.tables import scene_tables
+    from whitted.plugins.shading import hits as geometry
     center = np.array(center)
     scene = mi.load_dict({"type": "scene", "ball": sealed.ellipsoids(center[None], RED_BSDF)})
-    hits = geometry.hit_finder(scene, need_uv=False)
+    hits = geometry.hit_finder(scene, scene_tables(scene), need_uv=False)
     assert isinstance(hits, geometry.SphereHits)
     n, outward, _, shadowed = failures_jit(scene, hits, center, 1.0, np.pi, RAYS["llvm_ad_rgb"],
                                            np.random.default_rng(5))

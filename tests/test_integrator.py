@@ -252,7 +252,7 @@ def test_one_sample_is_deterministic(tmp_path):
 def test_pixel_samples_are_stratified(spp):
     """Each of the spp samples lies in its own cell of an nx × ny grid covering the pixel."""
     use_variant("llvm_ad_rgb")
-    from whitted.plugins.pixel_samples import pixel_offset, strata
+    from whitted.plugins.film import pixel_offset, strata
     nx, ny = strata(spp)
     assert nx * ny == spp and nx >= ny
     pixels = np.repeat(np.arange(50), spp)
@@ -351,10 +351,12 @@ def test_example_scenes_match_the_reference(path, variant):
 
 @pytest.mark.parametrize("name", ("everything", "tir", "texture"))
 def test_mitsuba_interactions_match_the_sphere_table(suite, name, monkeypatch):
-    """In llvm, all-sphere scenes skip Mitsuba's per-shape call (plugins/geometry.py); the
+    """In llvm, all-sphere scenes skip Mitsuba's per-shape call (plugins/shading/hits.py); the
     general path through ``scene.ray_intersect`` must give the same image."""
-    from whitted.plugins.geometry import SphereHits
-    monkeypatch.setattr(SphereHits, "applies", staticmethod(lambda scene: False))
+    from functools import partial
+
+    import whitted.plugins.shading.shader as shader
+    monkeypatch.setattr(shader, "hit_finder", partial(shader.hit_finder, sphere_table=False))
     general = render(suite(name, "model"), "llvm_ad_rgb")
     assert_matches(general, suite(name, "reference"))
     assert np.abs(general - suite(name, "llvm_ad_rgb")).max() < 1e-3

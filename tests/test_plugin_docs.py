@@ -24,7 +24,7 @@ from conftest import VARIANTS
 
 def plugin_class(name: str):
     from whitted.plugins.integrator import WhittedIntegrator
-    from whitted.plugins.material import ArticleBSDF
+    from whitted.plugins.bsdf import ArticleBSDF
     return {"whitted": WhittedIntegrator, "article": ArticleBSDF}[name]
 
 

@@ -72,9 +72,9 @@ def path_depth(depth: int) -> int:
 
 #: The adaptive depth control (Hall and Greenberg; POV-Ray's adc_bailout): branches of the
 #: ray tree are left untraced as long as together they cannot change a pixel by more than
-#: this, one step of an 8-bit image (plugins/adaptive.py); 0 traces the exact tree
+#: this, one step of an 8-bit image (plugins/tree/adaptive.py); 0 traces the exact tree
 MIN_WEIGHT = 1 / 255
-#: camera samples per pass of the whitted integrator (0: as its tracer prefers; see plugins/wavefront.py)
+#: camera samples per pass of the whitted integrator (0: as its tracer prefers; see plugins/tree/wavefront.py)
 WAVEFRONT_SIZE = 0
 #: the multiplier that spreads consecutive seeds over 32 bits (the golden ratio's, Knuth's
 #: multiplicative hash): a render's seed and its passes' seeds are far apart

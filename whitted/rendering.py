@@ -26,7 +26,7 @@ the mirror direction: one ray, traced once, counted in both ``reflection``
 and ``refraction``); the rays traced are the sum of ``rays`` minus it.
 
 ``min_weight`` is the adaptive depth control's setting (1/255 by default, 0:
-off; see plugins/adaptive.py): the most the branches it leaves untraced may
+off; see plugins/tree/adaptive.py): the most the branches it leaves untraced may
 change a pixel. ``culled_rays`` counts the reflected and refracted rays it left
 untraced and ``culled_weight`` sums their path weights; ``error_bound`` is the
 most it can have changed any pixel, in any channel (linear radiance): the
@@ -66,8 +66,6 @@ from .errors import WhittedError
 from .memory import peak_resident_bytes, reset_peak
 from .progress import progress_bar
 
-#: the Whitted settings of a scene whose integrator is not the ``whitted`` plugin
-DEFAULTS = {"max_depth": D.DEPTH, "ambient": D.AMBIENT, "lighting": D.LIGHTING, "min_weight": D.MIN_WEIGHT}
 #: camera samples per ``mi.render`` call of the path tracer (bounds its memory)
 PATH_SAMPLES_PER_PASS = 1 << 20
 
@@ -80,31 +78,21 @@ class RenderResult:
     stats: dict              # see the module docstring
 
 
+def whitted_integrator(scene):
+    """The scene's own ``whitted`` integrator, else one with the default settings."""
+    import mitsuba as mi
+
+    from .plugins import whitted_integrator as as_whitted
+    own = as_whitted(scene.integrator())
+    if own is not None:
+        return own
+    with quiet_mitsuba():
+        return mi.load_dict({"type": "whitted"})
+
+
 def whitted_settings(scene) -> dict:
     """The scene's own Whitted settings (its integrator's properties), else the defaults."""
-    import mitsuba as mi
-    integrator = scene.integrator()
-    if integrator is not None and hasattr(integrator, "light_reference"):
-        return {"max_depth": integrator.max_depth, "ambient": integrator.ambient,
-                "lighting": integrator.lighting, "light_reference": integrator.light_reference,
-                "min_weight": integrator.min_weight, "exact_spheres": integrator.exact_spheres}
-    return {**DEFAULTS, "light_reference": mi.ScalarPoint3f(0, 0, 0), "exact_spheres": []}
-
-
-def _whitted_integrator(scene, settings: dict, depth: int, lighting: str, min_weight: float,
-                        ambient: float):
-    """The scene's own Whitted integrator, or a new one where depth, lighting, min weight or
-    ambient differ."""
-    import mitsuba as mi
-    own = scene.integrator()
-    if (hasattr(own, "light_reference") and own.max_depth == depth and own.lighting == lighting
-            and own.min_weight == min_weight and own.ambient == ambient):
-        return own
-    from .converter.giants import exact_spheres
-    with quiet_mitsuba():
-        return mi.load_dict({"type": "whitted", "max_depth": depth, "ambient": ambient,
-                             "lighting": lighting, "light_reference": settings["light_reference"],
-                             "min_weight": min_weight, "exact_spheres": exact_spheres(settings["exact_spheres"])})
+    return whitted_integrator(scene).settings()
 
 
 @contextlib.contextmanager
@@ -197,7 +185,8 @@ def render(scene, integrator: str = D.INTEGRATOR, spp: int | None = None, max_de
     check_settings(spp, max_depth, lighting, integrator, min_weight)
     if not scene.sensors():
         raise WhittedError("the scene has no sensor (camera) to render from")
-    settings = whitted_settings(scene)
+    own = whitted_integrator(scene)
+    settings = own.settings()
     depth = int(max_depth) if max_depth is not None else settings["max_depth"]
     sensor = scene.sensors()[0]
     spp = int(spp) if spp is not None else sensor.sampler().sample_count()
@@ -207,8 +196,9 @@ def render(scene, integrator: str = D.INTEGRATOR, spp: int | None = None, max_de
         check_article_materials(scene)
         min_weight = float(min_weight) if min_weight is not None else settings["min_weight"]
         ambient = D.check_ambient(ambient, "ambient") if ambient is not None else settings["ambient"]
-        whitted = _whitted_integrator(scene, settings, depth, lighting or settings["lighting"], min_weight,
-                                      ambient)
+        with quiet_mitsuba():
+            whitted = own.with_settings(max_depth=depth, lighting=lighting or settings["lighting"],
+                                        min_weight=min_weight, ambient=ambient)
         with progress_bar(progress, width * height * spp, "render") as bar, _Clock() as clock:
             rendering = whitted.render_detailed(scene, sensor, seed=seed, spp=spp, progress=bar.update)
             # The developed image's own memory, not a copy (a 16384² image is 3 GiB).
@@ -234,13 +224,12 @@ def render(scene, integrator: str = D.INTEGRATOR, spp: int | None = None, max_de
 
 
 def check_article_materials(scene, name: str | None = None) -> None:
-    """One clean error (naming the scene file ``name`` when given) unless every shape of
-    ``scene`` has the ``article`` BSDF, as the whitted integrator needs. The plugin
-    decides (:func:`whitted.plugins.surfaces.shape_materials`, read once per scene
-    state and reused by the render); this adds the file and what to do instead."""
-    from .plugins.surfaces import shape_materials
+    """One clean error (naming the scene file ``name`` when given) unless the whitted
+    integrator can render ``scene`` (:func:`whitted.plugins.check_scene`: the ``article``
+    BSDF on every shape, point lights); this adds the file and what to do instead."""
+    from .plugins import check_scene
     try:
-        shape_materials(scene)
+        check_scene(scene)
     except WhittedError as error:
         raise WhittedError(f"{name + ': ' if name else ''}{error} (Mitsuba's stock materials, a "
                            "portable scene? use the path integrator (--integrator path), or the "
@@ -304,8 +293,8 @@ def _render_path(scene, integrator, sensor, spp, seed, progress) -> np.ndarray:
 
 def _effects_or_none(scene, depth: int) -> list:
     """The effects of an article scene (for the stats of a path-traced render), else []."""
-    from .plugins.effects import analyse
+    from .plugins import scene_effects
     try:
-        return list(analyse(scene, depth, whitted_settings(scene)["light_reference"]).effects)
+        return list(scene_effects(scene, depth))
     except WhittedError:
         return []

@@ -2,8 +2,8 @@
 
 One sphere of center C and radius r, over six orders of magnitude of each. Rays
 from random points around it hit it at random places; from each hit, the
-integrator's own ray spawning (plugins/shading.py) and hit finding
-(plugins/geometry.py) must give:
+integrator's own ray spawning and hit finding (plugins/shading/hits.py)
+must give:
 
 - a ray leaving outwards (grazing ones included) that never meets the sphere
   again (a convex surface cannot be hit from outside by a ray leaving it),
@@ -70,8 +70,7 @@ def leaving(si_n, tangent, cosine):
 
 
 def failures_jit(scene, hits, center, radius, cap, n, rng):
-    from whitted.plugins.geometry import blocked
-    from whitted.plugins.shading import spawn_ray, spawn_ray_to
+    from whitted.plugins.shading.hits import blocked, spawn_ray, spawn_ray_to
     origin, direction, tangent, cosine = hits_and_directions(center, radius, cap, n, rng)
     hit, si, _, error = hits.intersect(mi.Ray3f(mi.Point3f(origin), mi.Vector3f(direction)), False)
     hit = np.array(hit)
@@ -88,8 +87,7 @@ def failures_jit(scene, hits, center, radius, cap, n, rng):
 
 
 def failures_scalar(scene, hits, center, radius, cap, n, rng):
-    from whitted.plugins.geometry import blocked
-    from whitted.plugins.shading import spawn_ray, spawn_ray_to
+    from whitted.plugins.shading.hits import blocked, spawn_ray, spawn_ray_to
     origin, direction, tangent, cosine = hits_and_directions(center, radius, cap, n, rng)
     counts = np.zeros(4, int)
     for k in range(n):
@@ -111,14 +109,13 @@ def failures_scalar(scene, hits, center, radius, cap, n, rng):
 @pytest.mark.parametrize("size", list(SIZES))
 def test_no_ray_meets_the_surface_it_leaves(variant, finder, size, monkeypatch):
     whitted.set_variant(variant)
-    from whitted.plugins import geometry
-    if finder == "mitsuba":
-        monkeypatch.setattr(geometry.SphereHits, "applies", staticmethod(lambda scene: False))
+    from whitted.plugins.scene.tables import scene_tables
+    from whitted.plugins.shading import hits as geometry
     center, radius, cap = SIZES[size]
     center = np.array(center)
     scene = mi.load_dict({"type": "scene", "ball": {"type": "sphere", "center": center.tolist(),
                                                      "radius": radius, "bsdf": {"type": "article"}}})
-    hits = geometry.hit_finder(scene, need_uv=False)
+    hits = geometry.hit_finder(scene, scene_tables(scene), need_uv=False, sphere_table=finder == "sphere table")
     assert isinstance(hits, geometry.SphereHits) == (finder == "sphere table")
     check = failures_jit if dr.is_jit_v(mi.Float) else failures_scalar
     n, outward, inward, shadowed = check(scene, hits, center, radius, cap, RAYS[variant], np.random.default_rng(5))

@@ -18,7 +18,6 @@ from reference import assert_matches, render_reference
 from whitted.cli import main
 from whitted.converter import Sphere, parse_file, scene_to_xml
 from whitted.converter.frame import SPREAD_WARNING, float32_spread, path_warning, precision_warning
-from whitted.plugins.effects import analyse
 
 FAR = (1e7, -1e7, 1e7)
 
@@ -65,7 +64,9 @@ def test_textured_spheres_are_moved_into_the_frame(tmp_path):
 
 def _light_colors(loaded) -> np.ndarray:
     integrator = loaded.integrator()
-    return np.array([light.color for light in analyse(loaded, 1, integrator.light_reference).lights])
+    from whitted.plugins.scene.effects import analyse
+    from whitted.plugins.scene.tables import scene_tables
+    return np.array([light.color for light in analyse(scene_tables(loaded), 1, integrator.light_reference).lights])
 
 
 def test_far_from_the_origin_article_lights_keep_the_files_colors():

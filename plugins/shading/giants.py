@@ -13,7 +13,7 @@ How. The converter lists the giant spheres (converter/giants.py) in the
 integrator's ``exact_spheres`` property: each shape's id, its center (in the
 scene's frame, subtracted in float64) and its radius, as float64 text.
 :class:`GiantHits` traces every *other* shape through Mitsuba, on a scene of
-those shapes alone (:func:`rest_scene`: the same shape objects, so the same
+those shapes alone (:meth:`~whitted.plugins.scene.tables.SceneTables.rest_scene`: the same shape objects, so the same
 instance IDs, BSDFs and tables), and intersects the giant spheres itself in
 float64 (``Float64`` in the JIT variants, Python floats in the scalar ones)
 with the stable discriminant r² − |f − (f·d)d|² (hazard 4b) and the
@@ -33,10 +33,12 @@ import drjit as dr
 import mitsuba as mi
 import numpy as np
 
-from .geometry import UNIT_ROUNDOFF, hit_finder, lat_long_uv
-from .masks import off
-from .scene_state import memo
-from .surfaces import material_row
+from whitted.float32 import UNIT_ROUNDOFF
+
+from ..scene.materials import bsdf_key
+from ..scene.tables import scene_tables
+from . import off
+from .hits import hit_finder, lat_long_uv
 
 #: the error bound of a point rounded from float64 to float32, in round-offs of its largest
 #: coordinate (half an ulp per coordinate, with the margin the other bounds keep)
@@ -51,15 +53,6 @@ def point_error(p, size):
     (``size``: radius plus the center's largest coordinate; its float64 test's share)."""
     largest = dr.maximum(dr.maximum(dr.abs(p.x), dr.abs(p.y)), dr.abs(p.z))
     return (POINT_ULPS * UNIT_ROUNDOFF) * largest + FLOAT64_ERROR * size
-
-
-def rest_scene(scene, ids):
-    """A scene of ``scene``'s shapes but those whose id is in ``ids`` (the same objects), or
-    None when no shape is left; computed once per scene state."""
-    def build():
-        rest = {f"shape_{k}": shape for k, shape in enumerate(scene.shapes()) if shape.id() not in ids}
-        return mi.load_dict({"type": "scene", **rest}) if rest else None
-    return memo(scene, ("rest scene", tuple(sorted(ids))), build)
 
 
 def _roots(o, d, center, radius):
@@ -88,7 +81,7 @@ class _Giant:
         if jit:
             self.center = dr.opaque(mi.Point3d, center)
             self.radius_ = dr.opaque(mi.Float64, radius)
-            self.bsdf = dr.opaque(mi.UInt32, int(material_row(shape.bsdf())[0]))
+            self.bsdf = dr.opaque(mi.UInt32, bsdf_key(shape.bsdf()))
         else:
             self.center, self.radius_, self.bsdf = mi.Point3d(center), radius, shape.bsdf()
         self.frame = None
@@ -100,22 +93,22 @@ class _Giant:
 
 class GiantHits:
     """Nearest hits, shadow tests and light surfaces for a scene with giant spheres: Mitsuba's
-    answer for the other shapes (through the finder :func:`.geometry.hit_finder` picks for
+    answer for the other shapes (through the finder :func:`.hits.hit_finder` picks for
     them), the float64 test for the giant ones (see the module docstring)."""
 
-    def __init__(self, scene, need_uv: bool, spheres):
+    def __init__(self, scene, tables, need_uv: bool, spheres):
         self.jit = dr.is_jit_v(mi.Float)
         shapes = {shape.id(): shape for shape in scene.shapes()}
         spheres = [entry for entry in spheres if entry[0] in shapes]
         self.giants = [_Giant(shapes[key], center, radius, self.jit) for key, center, radius in spheres]
-        self.rest = rest_scene(scene, {key for key, _, _ in spheres})
-        self.inner = None if self.rest is None else hit_finder(self.rest, need_uv)
+        self.rest = tables.rest_scene(scene, {key for key, _, _ in spheres})
+        self.inner = None if self.rest is None else hit_finder(self.rest, scene_tables(self.rest), need_uv)
         self.need_uv = need_uv
 
     # -- lights on surfaces ----------------------------------------------------------------------
 
     def surface_at(self, point):
-        """As :meth:`.geometry.MitsubaHits.surface_at`; a giant sphere's bound is the point's."""
+        """As :meth:`.hits.MitsubaHits.surface_at`; a giant sphere's bound is the point's."""
         p = np.asarray(point, np.float64).reshape(-1)
         for giant in self.giants:
             offset = p - np.asarray(giant.center_tuple)
@@ -142,7 +135,7 @@ class GiantHits:
     # -- nearest hits ----------------------------------------------------------------------------
 
     def intersect(self, ray, coherent: bool):
-        """``(hit, si, bsdf, error)`` as :meth:`.geometry.MitsubaHits.intersect`."""
+        """``(hit, si, bsdf, error)`` as :meth:`.hits.MitsubaHits.intersect`."""
         if self.inner is not None:
             hit, si, bsdf, error = self.inner.intersect(ray, coherent)
         else:

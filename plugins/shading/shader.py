@@ -12,15 +12,12 @@ Under total internal reflection both children would be the very same ray, and
 inside a glass ball that traps light the tree would double at every bounce. So
 the mirror ray is traced once, with weight ``w·(KR + KT)``: exact, since the
 color is linear in the weights. It still counts as a reflection ray and as a
-refraction ray (``Child.merged``), as the article's recursion traces both.
+refraction ray (``SecondaryRay.merged``), as the article's recursion traces both.
 
 Summing the contributions of every level gives exactly the article's recursion
 ``color = (1 - KR - KT)·point + KR·reflected + KT·refracted`` (it is linear),
-which lets the tracers (:mod:`.tracer`) walk the tree in any order. Code for an
-effect the scene lacks (see :mod:`.effects`) is left out of the kernels.
-
-The same code shades a single ray (scalar variants) and a wavefront (JIT
-variants); :mod:`.masks` says what differs and where it is handled.
+which lets the tracers (:mod:`whitted.plugins.tree`) walk the tree in any order. Code for an
+effect the scene lacks (see :mod:`whitted.plugins.scene.effects`) is left out of the kernels.
 """
 
 from __future__ import annotations
@@ -30,15 +27,13 @@ from dataclasses import dataclass
 import drjit as dr
 import mitsuba as mi
 
-from . import optics
-from .geometry import hit_finder
+from . import off, optics
 from .giants import GiantHits
-from .masks import off
-from .surfaces import SurfaceTable
+from .hits import TINY, hit_finder, spawn_ray, spawn_ray_to
 
 
 @dataclass
-class Child:
+class SecondaryRay:
     """A secondary ray and its path weight; ``kind`` is "reflection" or "refraction"."""
     kind: str
     ray: object      # mi.Ray3f
@@ -49,52 +44,7 @@ class Child:
 @dataclass
 class Shaded:
     color: object   # mi.Color3f, already multiplied by the path weight
-    children: list   # [Child], empty when the tree ends at this level
-
-
-#: a floor for squared distances: keeps 1/r and 1/r^2 finite when a light sits on the surface
-_TINY = 1e-30
-
-
-def offset_origin(p, n, error, d):
-    """``p`` moved by ``error`` along the normal ``n``, to the side that ``d`` leaves towards.
-
-    ``error`` bounds how far the float32 hit point ``p`` lies off its surface
-    (see :func:`whitted.float32.hit_error`): from the moved origin, neither the
-    surface's true position nor the float32 ray-surface test can put the
-    surface in front of the ray again (no acne). Mitsuba's own ``spawn_ray``
-    moves by ``(1 + max|p_i|)·RayEpsilon`` instead, which is too little for a
-    huge sphere under the origin and far too much in a scene of size 10^-3 or
-    at 10^4 (docs/numerics.md).
-    """
-    return dr.fma(dr.mulsign(error, dr.dot(n, d)), n, p)
-
-
-def spawn_ray(si, error, d):
-    """The ray leaving the hit ``si`` along ``d``."""
-    return mi.Ray3f(offset_origin(si.p, si.n, error, d), d)
-
-
-def spawn_ray_to(si, error, target, target_error=0.0, target_normal=None):
-    """The segment from the hit ``si`` to ``target``, which ends short of ``target``.
-
-    When ``target`` sits on a surface (a light on a sphere), the end is moved
-    off that surface by the surface's error bound ``target_error`` along its
-    normal ``target_normal``, to the hit's side, as :func:`offset_origin` moves
-    the start: the surface the light sits on does not hide it, even from
-    segments that meet it at a grazing angle. Nothing else shortens the
-    segment; Mitsuba's ``spawn_ray_to`` stops a fixed fraction of the length
-    short, which lets a light inside a small sphere far away out of it.
-    """
-    if target_normal is not None:
-        target = offset_origin(target, target_normal, target_error, si.p - target)
-    origin = offset_origin(si.p, si.n, error, target - si.p)
-    d = target - origin
-    distance2 = dr.squared_norm(d)
-    distance = dr.sqrt(distance2)
-    ray = mi.Ray3f(origin, d * dr.rsqrt(dr.maximum(distance2, _TINY)))  # no 0/0 at the target
-    ray.maxt = distance
-    return ray
+    children: list   # [SecondaryRay], empty when the tree ends at this level
 
 
 class Shader:
@@ -108,7 +58,9 @@ class Shader:
         # Article lighting uses the light's color; physical lighting its intensity (divided by r^2).
         # Giant spheres listed with their exact values are intersected in float64 (.giants).
         need_uv = analysis.has("textures")
-        self.hits = GiantHits(scene, need_uv, exact_spheres) if exact_spheres else hit_finder(scene, need_uv)
+        tables = analysis.tables
+        self.hits = GiantHits(scene, tables, need_uv, exact_spheres) if exact_spheres else \
+            hit_finder(scene, tables, need_uv)
         # (position, strength, (error bound, normal) of a sphere the light sits on)
         self.lights = []
         for light in analysis.lights:
@@ -119,8 +71,8 @@ class Shader:
         self.environment = analysis.environment
         self.reflection = analysis.has("reflection")
         self.refraction = analysis.has("refraction")
-        self.surfaces = SurfaceTable(analysis.surfaces, need_ior=self.refraction)
-        self.tally = tally   # counts the shadow rays (see .counts)
+        self.surfaces = SurfaceLookup(tables.materials, tables.material_table, need_ior=self.refraction)
+        self.tally = tally   # counts the shadow rays (:class:`~whitted.plugins.tree.counts.Tally`)
         self.depth = analysis.depth
 
     def background(self, ray):
@@ -158,10 +110,10 @@ class Shader:
                     merged = tir & (kr > 0) & (kt > 0)
                     kr, kt = kr + dr.select(merged, kt, 0), dr.select(merged, 0, kt)
             if self.reflection:
-                children.append(Child("reflection", spawn_ray(si, error, mirror),
+                children.append(SecondaryRay("reflection", spawn_ray(si, error, mirror),
                                       dr.select(hit, weight * kr, 0), merged))
             if self.refraction:
-                children.append(Child("refraction", refracted, dr.select(hit, weight * kt, 0)))
+                children.append(SecondaryRay("refraction", refracted, dr.select(hit, weight * kt, 0)))
         return Shaded(color, children)
 
     def point_color(self, si, error, n_facing, base, active):
@@ -184,12 +136,61 @@ class Shader:
         """
         to_light = position - si.p
         dist2 = dr.squared_norm(to_light)
-        cos = dr.dot(n_facing, to_light) * dr.rsqrt(dr.maximum(dist2, _TINY))
+        cos = dr.dot(n_facing, to_light) * dr.rsqrt(dr.maximum(dist2, TINY))
         facing = active & (dist2 > 0) & (cos > 0)
         if off(facing):
             return mi.Color3f(0)
         self.tally.add("shadow", facing)
         shadowed = self.hits.blocked(spawn_ray_to(si, error, position, *(on_surface or ())), facing)
         if self.physical:
-            strength = strength * dr.rcp(dr.maximum(dist2, _TINY))
+            strength = strength * dr.rcp(dr.maximum(dist2, TINY))
         return dr.select(shadowed, 0, dr.select(facing, cos * strength, 0))
+
+
+@dataclass
+class SurfaceSample:
+    """The material at a hit point."""
+    base: object      # mi.Color3f, B (texel or color)
+    reflect: object   # mi.Float, KR
+    refract: object   # mi.Float, KT
+    ior: object       # mi.Float
+
+
+class SurfaceLookup:
+    """The material at a hit, from the scene's material table
+    (:meth:`whitted.plugins.scene.materials.Materials.table`).
+
+    ``need_ior`` leaves the IOR out of the kernels of scenes without refraction.
+    """
+
+    def __init__(self, materials, table, need_ior: bool):
+        self.need_ior = need_ior
+        # KR and KT that are 0 on every material are constants, not lookups
+        self.reflective, self.refractive = materials.reflective, materials.refractive
+        self.textured = list(materials.textures.values())   # slot k is textured[k - 1]
+        row_of, columns = table
+        if dr.is_jit_v(mi.Float):
+            self._row = lambda bsdf: bsdf
+            self._read = lambda tp, values, row, active: dr.gather(tp, values, row, active)
+        else:
+            self._row = lambda bsdf: row_of[id(bsdf)]
+            self._read = lambda tp, values, row, active: tp(values[..., row].tolist())
+        self._color, self._reflect, self._refract, self._ior, self._slot = columns
+
+    def lookup(self, si, bsdf, active) -> SurfaceSample:
+        """The material at ``si`` on the lanes ``active`` (hits only).
+
+        ``bsdf`` is the hit BSDF's instance ID (JIT variants) or the BSDF itself (scalar).
+        """
+        row = self._row(bsdf)
+        base = self._read(*self._color, row, active)
+        if self.textured:
+            slot = self._read(*self._slot, row, active)
+            for k, texture in enumerate(self.textured, start=1):
+                on_texture = active & (slot == k)
+                if not off(on_texture):
+                    base = dr.select(on_texture, mi.Color3f(texture.eval(si, on_texture)), base)
+        ior = self._read(*self._ior, row, active) if self.need_ior else mi.Float(1)
+        reflect = self._read(*self._reflect, row, active) if self.reflective else mi.Float(0)
+        refract = self._read(*self._refract, row, active) if self.refractive else mi.Float(0)
+        return SurfaceSample(base, reflect, refract, ior)

@@ -44,10 +44,6 @@ from __future__ import annotations
 import math
 
 import drjit as dr
-import mitsuba as mi
-import numpy as np
-
-from .geometry import shape_numbers
 
 #: ε is taken this much smaller than ``min_weight / L``: float32 round-off in the
 #: allowances of up to 64 levels (a few ulps each) cannot then push the bound past ``min_weight``
@@ -78,8 +74,9 @@ def split(w1, w2, a):
 
 # -- the brightest color ----------------------------------------------------------------------------
 
-def brightest(scene, analysis, lighting: str, ambient: float):
-    """An upper bound on every channel of every ray's color in ``scene``, or None.
+def brightest(analysis, lighting: str, ambient: float):
+    """An upper bound on every channel of every ray's color in the scene of ``analysis``
+    (:class:`~whitted.plugins.scene.effects.SceneAnalysis`), or None.
 
     Article lighting: a point's color is ``B·(A + (1 - A)·Σ s·light)`` with
     ``s <= 1``, so at most ``max B · (A + (1 - A)·Σ max light)``. Physical
@@ -90,63 +87,18 @@ def brightest(scene, analysis, lighting: str, ambient: float):
     lets KR + KT exceed 1. None when a texture or an environment is of a kind
     whose largest value is not known here.
     """
-    base, gain = _material_bounds(analysis.surfaces)
-    background = 0.0 if analysis.environment is None else _largest_emission(analysis.environment)
-    if base is None or background is None:
+    tables = analysis.tables
+    base, gain = tables.materials.largest_base(), tables.materials.largest_gain()
+    if base is None or tables.background is None:
         return None
     if lighting == "physical":
         lit = 0.0
         for light in analysis.lights:
-            distance = _distance_to_surfaces(scene, light.position)
+            distance = tables.primitives.distance_to_surfaces(light.position)
             if distance <= 0:
                 return None
             lit += max(light.intensity) / distance ** 2
         point = base * lit / math.pi
     else:
         point = base * (ambient + (1 - ambient) * sum(max(light.color) for light in analysis.lights))
-    return max(point, background) * max(1.0, gain) ** (analysis.depth - 1)
-
-
-def _material_bounds(materials):
-    """``(largest B, largest KR + KT)`` over a scene's materials (B: None when a texture's
-    largest value is not known); computed once per scene state (the materials are)."""
-    def bounds():
-        textured = [_largest_texel(texture) for texture in materials.textures.values()]
-        base = None if None in textured else max([materials.largest_color(), *textured])
-        return base, materials.largest_gain()
-    return materials.memo("bounds", bounds)
-
-
-def _largest_texel(texture):
-    """The largest value a bitmap texture can return: its largest stored value (8- and 16-bit
-    ones read as v/255 and v/65535, which is at least their sRGB-decoded value)."""
-    params = mi.traverse(texture)
-    if "data" not in params:
-        return None
-    data = np.array(params["data"])
-    scale = {np.dtype(np.uint8): 255.0, np.dtype(np.uint16): 65535.0}.get(data.dtype, 1.0)
-    return float(data.max(initial=0.0)) / scale
-
-
-def _largest_emission(emitter):
-    """The largest channel of a constant environment's radiance (None for other emitters)."""
-    params = mi.traverse(emitter)
-    if emitter.class_name() != "ConstantBackgroundEmitter" or "radiance.value" not in params:
-        return None
-    return float(np.array(params["radiance.value"], np.float64).max())
-
-
-def _distance_to_surfaces(scene, point) -> float:
-    """A lower bound on the distance from ``point`` to every surface of ``scene`` (inf without one).
-
-    A sphere's is ``| |point - C| - r |`` less its float32 error bound (center and radius
-    from its bounding box, as :mod:`.geometry` takes them); any other shape's, the distance
-    to its bounding box (0 inside it).
-    """
-    numbers = shape_numbers(scene, need_uv=False)
-    if not len(numbers.radius):
-        return math.inf
-    point = np.asarray(point, np.float64).reshape(3, 1)
-    to_sphere = np.abs(np.linalg.norm(point - numbers.center, axis=0) - numbers.radius) - numbers.error
-    to_box = np.linalg.norm(np.maximum(0.0, np.maximum(numbers.low - point, point - numbers.high)), axis=0)
-    return float(np.maximum(np.where(numbers.sphere, to_sphere, to_box), 0.0).min())
+    return max(point, tables.background) * max(1.0, gain) ** (analysis.depth - 1)

@@ -44,10 +44,10 @@ as for every Mitsuba BSDF with delta components; the probability of choosing
 the diffuse lobe is part of its pdf.
 
 The Whitted integrator reads the parameters directly: ``color`` (a texture),
-``reflect``, ``refract`` and ``ior`` (Python floats), ``material_row`` (all
-of them and a constant B as one row of the integrator's material table, see
-:mod:`.surfaces`), or through :meth:`eval_diffuse_reflectance` (B,
-without the weight 1 − KR − KT) and :meth:`eval_attribute_1`.
+``reflect``, ``refract`` and ``ior`` (Python floats), into its material table
+(:mod:`whitted.plugins.scene.materials`); other code can use
+:meth:`eval_diffuse_reflectance` (B, without the weight 1 − KR − KT) and
+:meth:`eval_attribute_1`.
 """
 
 from __future__ import annotations
@@ -57,9 +57,8 @@ import mitsuba as mi
 
 from whitted import defaults as D
 
-from . import optics
-from .scene_state import forget as forget_scenes
-from .surfaces import material_row
+from .scene.tables import material_changed
+from .shading import optics
 
 DIFFUSE, REFLECTION, TRANSMISSION = 0, 1, 2
 
@@ -75,7 +74,7 @@ _LOBE_TYPES = (mi.BSDFFlags.DiffuseReflection, mi.BSDFFlags.DeltaReflection,
 
 def delta_directions(wi, ior):
     """The article's mirror and refracted directions for ``wi`` (local frame,
-    pointing away from the surface, normal +z), with :mod:`.optics`' formulas.
+    pointing away from the surface, normal +z), with :mod:`.shading.optics`' formulas.
 
     Returns (R, T, total_internal_reflection, eta), eta being Mitsuba's
     ``bs.eta``: the relative index n2/n1 of the side T enters. Under total
@@ -148,6 +147,9 @@ class ArticleBSDF(mi.BSDF):
             'ior': 1.5
     """
 
+    #: what the Whitted integrator checks every shape's BSDF for
+    is_article = True
+
     def __init__(self, props: mi.Properties):
         super().__init__(props)
         self.color = (props.get_texture("color") if "color" in props
@@ -163,7 +165,6 @@ class ArticleBSDF(mi.BSDF):
                              f"{self.reflect} + {self.refract}")
         if not self.ior > 0.0:
             raise ValueError(f"article BSDF: ior must be > 0, got {self.ior}")
-        self._material_row = None
         # Component indices are fixed (0 diffuse, 1 mirror, 2 refraction); the
         # material's flags name only the lobes it can actually use, so that
         # integrators skip light sampling on pure mirrors and glass.
@@ -177,19 +178,10 @@ class ArticleBSDF(mi.BSDF):
             flags |= COMPONENT_FLAGS[TRANSMISSION]
         self.m_flags = flags
 
-    @property
-    def material_row(self) -> tuple:
-        """The numbers the Whitted integrator reads (:func:`.surfaces.material_row`), kept
-        until ``color`` changes. Read on first use, not in the constructor: reading a color
-        evaluates it, and Mitsuba's loader, which builds a scene's objects in parallel, would
-        then build more of them inside this constructor, one inside another."""
-        if self._material_row is None:
-            self._material_row = material_row(self)
-        return self._material_row
-
     def parameters_changed(self, keys=[]):  # noqa: B006  (Mitsuba's own default)
-        self._material_row = None   # ``color`` was written (mi.SceneParameters.update)
-        forget_scenes()             # even through mi.traverse(bsdf), which no scene hears of
+        # ``color`` was written (mi.SceneParameters.update, even through mi.traverse(bsdf),
+        # which no scene hears of): the Whitted integrator's tables are to be read again.
+        material_changed()
 
     @property
     def diffuse_weight(self) -> float:

@@ -1,0 +1,189 @@
+"""A scene's primitives as numbers: each one's bounding sphere, error bound and texture frame,
+and the Dr.Jit tables the hit finders read them from.
+
+A ``sphere`` shape is one primitive; an ``ellipsoids`` shape is one
+primitive per ellipsoid, which is a sphere when its three scales are equal
+and it is not rotated (the loader writes sealed spheres that way:
+whitted/sealed.py); any other shape is one primitive known by its bounding
+box. Center and radius come from the bounding boxes, exact to a float32 ulp
+of |C| + r for a sphere (within the error bound, :func:`whitted.float32.hit_error`),
+and an ellipsoid's from its own center and largest scale. A textured
+sphere's frame (rows: the local x, y and z axes) is its ``to_world``
+rotation, which also gives its center and radius.
+
+Where a hit finds its primitive (JIT variants). A hit names its shape by
+instance ID and, within an ``ellipsoids`` shape, by ``prim_index``. A shape of
+one primitive has its instance ID as its *slot* in the tables; the primitives
+of ellipsoids shapes follow all of those, and a per-instance-ID ``base`` says
+where they start, so that a hit's slot is ``base[row] + prim_index`` for them
+(:func:`slot_of`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import drjit as dr
+import mitsuba as mi
+import numpy as np
+
+from whitted.float32 import hit_error
+
+
+def ellipsoid_numbers(shape):
+    """``(center, radius, sphere)`` of an ``ellipsoids`` shape's primitives: 3×M centers, M
+    radii (the largest scale times the extent) and whether each is a sphere (equal scales,
+    no rotation, no per-ellipsoid extent)."""
+    params = mi.traverse(shape)
+    data = np.asarray(params["data"], np.float64).reshape(-1, 10)
+    scales = data[:, 3:6] * float(params["extent"])
+    sphere = (scales[:, 0] == scales[:, 1]) & (scales[:, 1] == scales[:, 2]) & (data[:, 6:9] == 0).all(axis=1)
+    if params["extent_adaptive_clamping"]:
+        sphere[:] = False
+    return data[:, :3].T.copy(), scales.max(axis=1), sphere
+
+
+@dataclass
+class Primitives:
+    """Per primitive of ``scene.shapes()``, listed shape by shape in that order."""
+    low: np.ndarray          # 3×P, bounding box
+    high: np.ndarray         # 3×P
+    center: np.ndarray       # 3×P
+    radius: np.ndarray       # P
+    error: np.ndarray        # P, :func:`whitted.float32.hit_error`
+    sphere: np.ndarray       # P, whether the primitive is a sphere
+    frames: dict             # {primitive index: 3×3 frame} of textured spheres
+    first: np.ndarray        # N, each shape's first primitive
+    rows: np.ndarray | None  # N, each shape's instance ID (JIT variants)
+    bsdf: np.ndarray | None  # N, the instance ID of each shape's BSDF (JIT variants)
+
+    @classmethod
+    def read(cls, shapes, corners, types, textured, rows=None, bsdf_keys=None) -> "Primitives":
+        """The primitives of ``shapes`` (``scene.shapes()``), from their bounding boxes
+        ``corners`` (N×2×3), their ``mi.ShapeType``s, whether each one's color is a texture,
+        and in the JIT variants their instance IDs and their BSDFs' keys."""
+        low, high = corners[:, 0].T, corners[:, 1].T
+        center, radius = (low + high) / 2, (high - low).max(axis=0, initial=0.0) / 2
+        sphere = types == int(mi.ShapeType.Sphere)
+        frames = {}
+        for index in np.flatnonzero(textured & sphere).tolist():
+            matrix = np.array(mi.traverse(shapes[index])["to_world"].matrix, np.float64).reshape(4, 4)
+            center[:, index], radius[index] = matrix[:3, 3], np.linalg.norm(matrix[:3, 0])
+            frames[index] = (matrix[:3, :3] / radius[index]).T
+        first = np.arange(len(shapes))
+        groups = np.flatnonzero(types == int(mi.ShapeType.Ellipsoids))
+        if len(groups):   # each ellipsoids shape's one entry becomes one per primitive
+            parts, counts, start = [], np.ones(len(shapes), np.int64), 0
+            for k in groups.tolist():
+                c, r, s = ellipsoid_numbers(shapes[k])
+                parts += [(low[:, start:k], high[:, start:k], center[:, start:k], radius[start:k], sphere[start:k]),
+                          (c - r, c + r, c, r, s)]
+                counts[k], start = len(r), k + 1
+            parts.append((low[:, start:], high[:, start:], center[:, start:], radius[start:], sphere[start:]))
+            low, high, center, radius, sphere = (np.concatenate(column, axis=-1) for column in zip(*parts))
+            first = np.concatenate([[0], np.cumsum(counts)[:-1]])
+            frames = {int(first[k]): frame for k, frame in frames.items()}
+        error = hit_error(radius, np.abs(center).max(axis=0, initial=0.0))
+        return cls(low, high, center, radius, error, sphere, frames, first, rows, bsdf_keys)
+
+    @property
+    def counts(self) -> np.ndarray:
+        """Each shape's number of primitives (1 but for ellipsoids shapes)."""
+        return np.diff(np.append(self.first, len(self.radius)))
+
+    def surface_at(self, point):
+        """``(error, normal)`` of the sphere that ``point`` lies on (within twice its error
+        bound; the one with the largest bound if several do), ``(0, 0)`` if none."""
+        point = np.asarray(point, np.float64).reshape(3, 1)
+        center, radius, error = self.center[:, self.sphere], self.radius[self.sphere], self.error[self.sphere]
+        offset = point - center
+        distance = np.linalg.norm(offset, axis=0)
+        near = np.flatnonzero(np.abs(distance - radius) <= 2 * error)
+        if not len(near):
+            return 0.0, (0.0, 0.0, 0.0)
+        k = near[np.argmax(error[near])]
+        return float(error[k]), tuple(offset[:, k] / distance[k])
+
+    def distance_to_surfaces(self, point) -> float:
+        """A lower bound on the distance from ``point`` to every primitive (inf without one):
+        a sphere's ``| |point - C| - r |`` less its error bound, any other's the distance to
+        its bounding box (0 inside it)."""
+        if not len(self.radius):
+            return np.inf
+        point = np.asarray(point, np.float64).reshape(3, 1)
+        to_sphere = np.abs(np.linalg.norm(point - self.center, axis=0) - self.radius) - self.error
+        to_box = np.linalg.norm(np.maximum(0.0, np.maximum(self.low - point, point - self.high)), axis=0)
+        return float(np.maximum(np.where(self.sphere, to_sphere, to_box), 0.0).min())
+
+    # -- the JIT tables -------------------------------------------------------------------------
+
+    def slots(self):
+        """``(slot, base, size)``: each primitive's slot, the ``base`` of the module docstring
+        (with whether each instance ID's primitives are listed one by one; None when no shape
+        has several) and the tables' size."""
+        rows = self.rows if self.rows is not None else np.zeros(0, np.int64)
+        size = int(rows.max(initial=0)) + 1
+        counts = self.counts
+        many = np.flatnonzero(counts != 1)
+        if not len(many):
+            return rows, None, size
+        base = np.arange(size, dtype=np.int64)
+        base[rows[many]] = size + np.concatenate([[0], np.cumsum(counts[many])[:-1]])
+        slot = np.repeat(base[rows], counts) + (np.arange(len(self.radius)) - np.repeat(self.first, counts))
+        expanded = np.zeros(size, bool)
+        expanded[rows[many]] = True
+        return slot, (base, expanded), size + int(counts[many].sum())
+
+    def tables(self, spheres: bool) -> "PrimitiveTables":
+        """The opaque Dr.Jit tables of the primitives, by slot; ``spheres`` adds each one's
+        center, radius and BSDF (for a scene of spheres only)."""
+        slots, base, size = self.slots()
+        error = np.zeros(size)
+        error[slots] = self.error
+        mapped, frame = np.zeros(size, bool), np.zeros((3, 3, size))
+        frame[0, 0] = frame[1, 1] = frame[2, 2] = 1.0
+        for k, prim_frame in self.frames.items():
+            mapped[slots[k]], frame[:, :, slots[k]] = True, prim_frame
+        tables = PrimitiveTables(mi.Float(error), mi.Bool(mapped), [mi.Vector3f(frame[axis]) for axis in range(3)])
+        if base is not None:
+            tables.base = (mi.UInt32(base[0].astype(np.uint32)), mi.Bool(base[1]))
+        if spheres:
+            center, radius, bsdf = np.zeros((3, size)), np.ones(size), np.zeros(size, np.uint32)
+            center[:, slots], radius[slots], bsdf[slots] = self.center, self.radius, np.repeat(self.bsdf, self.counts)
+            tables.center, tables.radius, tables.bsdf = mi.Point3f(center), mi.Float(radius), mi.UInt32(bsdf)
+        dr.make_opaque(tables.error, tables.mapped, *tables.frame, *(tables.base or ()))
+        if spheres:
+            dr.make_opaque(tables.center, tables.radius, tables.bsdf)
+        return tables
+
+    def scalar_tables(self, shapes) -> dict:
+        """The scalar variant's table: ``id(shape) -> (first primitive, whether the shape has
+        several, its texture frame or None)`` (it hands out the same shape objects each time)."""
+        first, many = self.first.tolist(), (self.counts != 1).tolist()
+        return {id(shape): (first[k], many[k], [mi.Vector3f(axis) for axis in self.frames[first[k]]]
+                            if first[k] in self.frames else None)
+                for k, shape in enumerate(shapes)}
+
+
+@dataclass
+class PrimitiveTables:
+    """Opaque per-slot tables (JIT variants): error bound, whether a texture frame applies and
+    the frame's axes; where ellipsoids shapes' primitives start; for a scene of spheres, each
+    one's center, radius and BSDF instance ID."""
+    error: object
+    mapped: object
+    frame: list
+    base: tuple | None = None
+    center: object = None
+    radius: object = None
+    bsdf: object = None
+
+
+def slot_of(base, row, prim_index, active):
+    """A hit's slot in the primitive tables from its shape's instance ID ``row`` and its
+    ``prim_index`` (see the module docstring)."""
+    if base is None:
+        return row
+    start, expanded = base
+    return dr.gather(mi.UInt32, start, row, active) + \
+        dr.select(dr.gather(mi.Bool, expanded, row, active), prim_index, 0)

@@ -1,0 +1,203 @@
+"""What the Whitted integrator derives from a scene, in one place: :class:`SceneTables`.
+
+Why. A render needs the scene's lights, background, materials and primitives,
+as numbers and as Dr.Jit tables (:mod:`.lights`, :mod:`.materials`,
+:mod:`.primitives`). Building them takes a pass over the shapes, which a scene
+of tens of thousands of spheres feels, while they only change when the scene
+does. So they are kept from one render to the next, and checked at the start
+of each one.
+
+The one way they are invalidated. :func:`scene_tables`, which every render
+calls first, reads what the tables were built from and what costs little to
+read: each shape's bounding box (a sphere's center and radius; a tenth of
+a microsecond a shape), each ``ellipsoids`` shape's data array, each textured
+sphere's ``to_world``, the lights and the background, and how many times an
+``article`` BSDF has changed (:func:`material_changed`, called by the BSDF's
+own ``parameters_changed``). Anything else the tables hold follows from
+these. When one differs, the tables are built afresh. So an edit made the
+Mitsuba way (``params = mi.traverse(scene)``, ``params[...] = ...``,
+``params.update()``) shows in the next render without the integrator being
+told, and no Mitsuba class is touched. (A shape edited through its own
+``mi.traverse(shape)`` reaches no scene: Mitsuba's own ray tracing of it is
+then stale as well, and so are the tables.)
+
+Which scene. Scenes take neither Python attributes nor weak references, so
+tables are kept by the scene's address, and a scene is recognised by a
+*witness* held with them: in the JIT variants the Dr.Jit arrays of its
+shapes, emitters and sensors (a held variable's index is never reused, so a
+new scene at the address of a dead one has other ones), in ``scalar_rgb`` its
+first shape, emitter or sensor object. At most :data:`SCENES` scenes' tables
+are kept.
+"""
+
+from __future__ import annotations
+
+import itertools
+from collections import OrderedDict
+
+import drjit as dr
+import mitsuba as mi
+import numpy as np
+
+from whitted.errors import WhittedError
+
+from .lights import largest_emission, point_lights
+from .materials import Materials
+from .primitives import Primitives
+
+#: how many scenes' tables are kept (the least recently used go first)
+SCENES = 8
+
+#: (variant, scene address) -> (witness, tables)
+_kept: OrderedDict = OrderedDict()
+_material_changes = 0
+
+
+def material_changed() -> None:
+    """An ``article`` BSDF's parameters changed: every scene's tables are checked afresh."""
+    global _material_changes
+    _material_changes += 1
+
+
+def _bounds(shapes) -> list:
+    """The shapes' bounding boxes (a call per shape, about 0.1 µs; a vectorized call on the
+    shapes would trace each of them). Boxes compare exactly with ``==``."""
+    return [shape.bbox() for shape in shapes]
+
+
+def _corners(boxes) -> np.ndarray:
+    """Bounding boxes as an N×2×3 array (read without converting each box on its own)."""
+    return np.fromiter(itertools.chain.from_iterable((*box.min, *box.max) for box in boxes),
+                       np.float64, 6 * len(boxes)).reshape(-1, 2, 3)
+
+
+def _shape_types(scene, shapes) -> np.ndarray:
+    """Each shape's ``mi.ShapeType`` as an integer (one gather in the JIT variants)."""
+    if dr.is_jit_v(mi.Float):
+        return np.asarray(scene.shapes_dr().shape_type(), np.uint32).reshape(-1)
+    return np.array([int(shape.shape_type()) for shape in shapes], np.uint32)
+
+
+def _ellipsoid_data(shape):
+    """What an ``ellipsoids`` shape's primitives are read from: its data array (the Dr.Jit
+    array itself in the JIT variants, compared by variable index; a copy in scalar) and extent."""
+    params = mi.traverse(shape)
+    data = params["data"]
+    return (data if dr.is_jit_v(mi.Float) else np.array(data)), float(params["extent"])
+
+
+def _same_data(a, b) -> bool:
+    if dr.is_jit_v(mi.Float):
+        return a[0].index == b[0].index and a[1] == b[1]
+    return np.array_equal(a[0], b[0]) and a[1] == b[1]
+
+
+def _to_world(shape) -> tuple:
+    return tuple(np.array(mi.traverse(shape)["to_world"].matrix, np.float64).reshape(-1).tolist())
+
+
+class SceneTables:
+    """Everything the Whitted integrator reads from one state of a scene, built in one pass.
+
+    ============== =======================================================================
+    lights         ``(position, intensity)`` of each point light
+    environment    the environment emitter (the background) or None
+    background     the largest channel of its radiance (0 without one; None: not known)
+    materials      the distinct ``article`` BSDFs (:class:`.materials.Materials`)
+    material_table their numbers as lookup tables (:meth:`.materials.Materials.table`)
+    primitives     each primitive's bounding sphere and error bound (:class:`.primitives.Primitives`)
+    spheres_only   whether every primitive is a sphere (the JIT variants' sphere table applies)
+    hit_tables     the primitives' Dr.Jit tables (JIT variants) or ``id(shape)`` table (scalar)
+    ============== =======================================================================
+
+    Raises :class:`~whitted.errors.WhittedError` when a shape lacks the ``article`` BSDF or
+    an emitter is neither a point light nor the environment.
+    """
+
+    def __init__(self, scene):
+        shapes = scene.shapes()
+        bsdfs = [shape.bsdf() for shape in shapes]
+        for shape, bsdf in zip(shapes, bsdfs):
+            if not getattr(bsdf, "is_article", False):
+                raise WhittedError(
+                    f"the whitted integrator needs the 'article' BSDF on every shape; shape "
+                    f"{shape.id()!r} has {bsdf.class_name() if bsdf is not None else 'none'}")
+        self.lights = point_lights(scene)
+        self.environment = scene.environment()
+        self.background = 0.0 if self.environment is None else largest_emission(self.environment)
+        self.materials, keys = Materials.of(bsdfs)
+        self.material_table = self.materials.table()
+        textured = np.isin(keys, list(self.materials.textures))
+        types = _shape_types(scene, shapes)
+        boxes = _bounds(shapes)
+        jit = dr.is_jit_v(mi.Float)
+        rows = np.asarray(dr.reinterpret_array(mi.UInt32, scene.shapes_dr()), np.int64).reshape(-1) \
+            if jit and shapes else None
+        self.primitives = Primitives.read(shapes, _corners(boxes), types, textured, rows, keys if jit else None)
+        self.spheres_only = bool(len(shapes)) and bool(self.primitives.sphere.all())
+        if jit:
+            self.hit_tables = self.primitives.tables(spheres=self.spheres_only)
+        else:
+            self.hit_tables = self.primitives.scalar_tables(shapes)
+        self._rest_scenes = {}
+        # what the tables were built from (:meth:`describe`)
+        self._boxes, self._changes = boxes, _material_changes
+        ellipsoids = types == int(mi.ShapeType.Ellipsoids)
+        self._ellipsoids = {k: _ellipsoid_data(shapes[k]) for k in np.flatnonzero(ellipsoids).tolist()}
+        spheres = types == int(mi.ShapeType.Sphere)
+        self._frames = {k: _to_world(shapes[k]) for k in np.flatnonzero(textured & spheres).tolist()}
+
+    def describe(self, scene) -> bool:
+        """Whether these tables are still those of ``scene`` (see the module docstring)."""
+        shapes = scene.shapes()
+        return (_material_changes == self._changes and _bounds(shapes) == self._boxes
+                and all(_same_data(_ellipsoid_data(shapes[k]), data) for k, data in self._ellipsoids.items())
+                and all(_to_world(shapes[k]) == matrix for k, matrix in self._frames.items())
+                and point_lights(scene) == self.lights
+                and (scene.environment() is None) == (self.environment is None)
+                and (self.environment is None or largest_emission(scene.environment()) == self.background))
+
+    def rest_scene(self, scene, ids):
+        """A scene of ``scene``'s shapes but those whose id is in ``ids`` (the same objects:
+        the same instance IDs and BSDFs), or None when no shape is left; built once."""
+        key = tuple(sorted(ids))
+        if key not in self._rest_scenes:
+            rest = {f"shape_{k}": shape for k, shape in enumerate(scene.shapes()) if shape.id() not in ids}
+            self._rest_scenes[key] = mi.load_dict({"type": "scene", **rest}) if rest else None
+        return self._rest_scenes[key]
+
+
+def _witness(scene):
+    """Something that identifies ``scene`` while held, or None (nothing to keep)."""
+    if dr.is_jit_v(mi.Float):
+        arrays = (scene.shapes_dr(), scene.emitters_dr(), scene.sensors_dr())
+        return arrays if any(dr.width(a) for a in arrays) else None
+    for objects in (scene.shapes(), scene.emitters(), scene.sensors()):
+        if objects:
+            return objects[0]
+    return None
+
+
+def _same(witness, current) -> bool:
+    if isinstance(witness, tuple):
+        return all(a.index == b.index for a, b in zip(witness, current))
+    return witness is current
+
+
+def scene_tables(scene) -> SceneTables:
+    """The :class:`SceneTables` of ``scene`` as it is now: the kept ones while they still
+    describe it, else new ones."""
+    witness = _witness(scene)
+    if witness is None:
+        return SceneTables(scene)
+    address = (scene.variant_name(), scene.ptr)
+    kept = _kept.get(address)
+    if kept is not None and _same(kept[0], witness) and kept[1].describe(scene):
+        _kept.move_to_end(address)
+        return kept[1]
+    _kept.pop(address, None)
+    tables = SceneTables(scene)
+    _kept[address] = (witness, tables)
+    while len(_kept) > SCENES:
+        _kept.popitem(last=False)
+    return tables
