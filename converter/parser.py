@@ -32,7 +32,6 @@ divide by zero or overflow.
 from __future__ import annotations
 
 import difflib
-import math
 import os
 import re
 import stat
@@ -45,6 +44,7 @@ from .. import defaults
 from ..defaults import MAX_DEPTH, MAX_SAMPLES, MAX_SIZE, PARALLEL_SINE
 from ..errors import SceneError
 from .scene import Light, Material, Scene, Sphere, Vec3
+from .vectors import cross, length, normalize
 
 # The format's limits live in whitted.defaults (see there why each is what it is).
 MAX_MAGNITUDE = Decimal(defaults.MAX_MAGNITUDE)
@@ -738,21 +738,11 @@ def _is_zero(v) -> bool:
     return all(c == 0 for c in v)
 
 
-def _unit(v) -> Vec3:
-    """``v`` normalized without underflow or overflow, whatever its magnitude."""
-    scale = max(abs(c) for c in v)
-    w = [c / scale for c in v]
-    n = math.sqrt(sum(c * c for c in w))
-    return tuple(c / n for c in w)
-
-
 def _sine(a, b) -> float:
     """Sine of the angle between two directions (0 when either is zero)."""
     if _is_zero(a) or _is_zero(b):
         return 0.0
-    a, b = _unit(a), _unit(b)
-    cross = (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
-    return math.sqrt(sum(c * c for c in cross))
+    return length(cross(normalize(a), normalize(b)))
 
 
 def _show_vec(v) -> str:
