@@ -65,6 +65,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from .converter.frame import farthest
 from .converter.scene import Material, Scene
 
 #: a sealed sphere keeps the eye farther than this from its surface, relative to the size of
@@ -165,19 +166,15 @@ def choose(scene: Scene, min_group: int = MIN_GROUP) -> Grouping | None:
     if counts[best] < min_group:
         return None
     r = float(values[best])
-    if reach(scene, spheres) / r > MAX_REACH:
+    if reach(scene) / r > MAX_REACH:
         return None
     return Grouping(1.0 / r, r, mask & (spheres.radius == r), spheres)
 
 
-def reach(scene: Scene, spheres: Spheres) -> float:
+def reach(scene: Scene) -> float:
     """The largest distance from ``lookat`` of the eye, a light or a sphere's surface."""
-    origin = np.asarray(scene.lookat, np.float64)
-    points = np.array([scene.eye, *(light.position for light in scene.lights)], np.float64)
-    far = float(np.linalg.norm(points - origin, axis=1).max())
-    if len(spheres.radius):
-        far = max(far, float((np.linalg.norm(spheres.center - origin, axis=1) + spheres.radius).max()))
-    return far
+    points = [scene.eye, *(light.position for light in scene.lights)]
+    return farthest(scene.lookat, points, scene.spheres)[0]
 
 
 def _about(point, origin, scale):
