@@ -89,8 +89,16 @@ _EQUATOR = tuple(float(c) for c in defaults.EQUATOR)
 def parse_file(path: str | os.PathLike) -> Scene:
     """Read and parse a ``.scn`` file; errors name ``path`` as given."""
     path = Path(path)
+    return parse_text(decode(read_scene_file(path), path), path)
+
+
+def check_scene_file(path: str | os.PathLike) -> None:
+    """Nothing, or a :class:`SceneError` naming ``path`` when it is not an existing regular
+    file: the one check of a scene file, whoever reads it (the parser, the loader, and
+    ``compare``'s scenes, ``.scn`` or ``.xml``). A FIFO or a device is refused before
+    anything waits on reading it."""
     try:
-        info = path.stat()
+        info = os.stat(path)
     except FileNotFoundError:
         raise SceneError(path, None, "no such file") from None
     except OSError as error:
@@ -99,11 +107,16 @@ def parse_file(path: str | os.PathLike) -> Scene:
         raise SceneError(path, None, "is a folder, not a scene file")
     if not stat.S_ISREG(info.st_mode):
         raise SceneError(path, None, "is not a regular file")
+
+
+def read_scene_file(path: str | os.PathLike) -> bytes:
+    """The bytes of the scene file ``path`` (:func:`check_scene_file`; an unreadable one is a
+    :class:`SceneError` too)."""
+    check_scene_file(path)
     try:
-        data = path.read_bytes()
+        return Path(path).read_bytes()
     except OSError as error:
         raise SceneError(path, None, f"cannot read: {error.strerror or error}") from None
-    return parse_text(decode(data, path), path)
 
 
 def decode(data: bytes, path: str | os.PathLike) -> str:
