@@ -43,6 +43,7 @@ from pathlib import Path
 from .. import defaults
 from ..defaults import MAX_DEPTH, MAX_SAMPLES, MAX_SIZE, PARALLEL_SINE
 from ..errors import SceneError
+from .images import image_problem
 from .scene import Light, Material, Scene, Sphere, Vec3
 from .vectors import cross, length, normalize
 
@@ -689,7 +690,7 @@ class _Parser:
     def image_problem(self, path: Path) -> str | None:
         """Why Mitsuba could not use ``path`` as a texture, or None (cached per parse)."""
         if path not in self._images:
-            self._images[path] = _image_problem(path)
+            self._images[path] = image_problem(path)
         return self._images[path]
 
     # ---- checks across statements
@@ -712,27 +713,6 @@ class _Parser:
 
 
 # ------------------------------------------------------------------------- helpers
-
-
-def _image_problem(path: Path) -> str | None:
-    if not path.exists():
-        return f"no such file {path}"
-    if path.is_dir():
-        return f"{path} is a folder, not an image"
-    if not os.access(path, os.R_OK):
-        return f"cannot read {path}: permission denied"
-    import mitsuba as mi
-    try:
-        # Exactly what the converted XML asks of Mitsuba.
-        mi.load_dict({"type": "bitmap", "filename": str(path),
-                      "filter_type": "nearest", "wrap_mode": "clamp"})
-    except Exception as error:  # Mitsuba reports decoding failures as RuntimeError
-        reason = " ".join(str(error).split()) or type(error).__name__
-        reason = re.sub(r"^\[[^\]]*\]\s*", "", reason)           # [parser.cpp:1718]
-        reason = re.sub(r"^.*failed to instantiate [^:]*: ", "", reason)
-        reason = reason.replace(f'"{path}": ', "")
-        return f"{path} is not an image Mitsuba can read ({reason[:160]})"
-    return None
 
 
 def _looks_like_name(token: Token) -> bool:
