@@ -102,9 +102,9 @@ def render_command(args) -> None:
     if args.stats:
         check_writable(args.stats, inputs=(args.scene,))
 
-    scene = _load_quietly(args)
+    loaded = _load_quietly(args)   # the mi.Scene
     try:   # render checks the scene (a sensor; the article's materials) before it starts
-        result = render(scene, integrator=args.integrator, progress=not args.quiet,
+        result = render(loaded, integrator=args.integrator, progress=not args.quiet,
                         min_weight=args.min_weight)
     except WhittedError as error:
         raise WhittedError(f"{args.scene}: {error}") from None
@@ -113,4 +113,4 @@ def render_command(args) -> None:
     if args.stats:
         write_text(args.stats, json.dumps(result.stats, indent=2) + "\n")
     if args.verbose:
-        print(_summary(args, result, scene.sensors()[0]), file=sys.stderr)
+        print(_summary(args, result, loaded.sensors()[0]), file=sys.stderr)

@@ -93,9 +93,9 @@ class SceneFile:
         """
         from ..loading import load_scene
         from ..rendering import check_article_materials
-        scene = load_scene(self.path, variant, model=self.model, ellipsoids=False)
-        check_article_materials(scene, str(self.path))   # before any work: compare renders both
-        return scene
+        loaded = load_scene(self.path, variant, model=self.model, ellipsoids=False)
+        check_article_materials(loaded, str(self.path))   # before any work: compare renders both
+        return loaded
 
 
 def _xml_textures_and_depth(path: Path, data: bytes) -> tuple[tuple[Path, ...], int | None]:
