@@ -26,13 +26,20 @@ SCENE_SUFFIX = ".scn"
 XML_SUFFIX, PORTABLE_SUFFIX = ".xml", ".portable.xml"
 
 
-def scene_files(folder: Path) -> list[Path]:
-    """The ``.scn`` files directly in ``folder``, sorted by name."""
+def folder_scenes(folder: Path, accepted: tuple[str, ...] = (SCENE_SUFFIX,)) -> list[Path]:
+    """The scene files a folder argument stands for: the files directly in ``folder``, sorted
+    by name, whose suffix (in any case) is the first of ``accepted`` that any of them has.
+    ``whitted convert`` takes ``.scn`` files; ``whitted compare`` takes ``.scn`` files, else
+    ``.xml`` ones, so that converted copies beside their originals do not count twice."""
     try:
-        entries = sorted(p for p in folder.iterdir() if p.suffix.lower() == SCENE_SUFFIX and p.is_file())
+        entries = [p for p in folder.iterdir() if p.suffix.lower() in accepted and p.is_file()]
     except OSError as error:
         raise WhittedError(f"{folder}: cannot list: {error.strerror or error}") from None
-    return entries
+    for suffix in accepted:
+        found = sorted(p for p in entries if p.suffix.lower() == suffix)
+        if found:
+            return found
+    return []
 
 
 def plan(inputs: list[str | os.PathLike], output: str | os.PathLike | None = None,
@@ -51,7 +58,7 @@ def plan(inputs: list[str | os.PathLike], output: str | os.PathLike | None = Non
     single_file = len(inputs) == 1
     for item in map(Path, inputs):
         if item.is_dir():
-            found = scene_files(item)
+            found = folder_scenes(item)
             if not found:
                 raise WhittedError(f"{item}: no {SCENE_SUFFIX} files in this folder")
             sources.extend(found)

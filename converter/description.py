@@ -39,9 +39,10 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from .. import defaults as D
-from .frame import scene_origin, to_frame
+from .frame import farthest, scene_origin, to_frame
 from .giants import cached, coarse_spheres, exact_spheres, mesh_bytes
 from .scene import Material, Scene, Sphere, Vec3
+from .vectors import cross, dot, normalize, sub
 
 
 # -- markers for what the dict form cannot hold without Mitsuba ----------------------------------
@@ -94,28 +95,6 @@ class Description:
     source: str = ""
 
 
-# -- vector helpers (float64) --------------------------------------------------------------------
-
-def _sub(a: Vec3, b: Vec3) -> Vec3:
-    return (a[0] - b[0], a[1] - b[1], a[2] - b[2])
-
-
-def _dot(a: Vec3, b: Vec3) -> float:
-    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-
-
-def _cross(a: Vec3, b: Vec3) -> Vec3:
-    return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
-
-
-def normalize(a: Vec3) -> Vec3:
-    """``a`` / |a|, scaled first so that tiny or huge components neither underflow nor overflow."""
-    scale = max(abs(c) for c in a)
-    a = (a[0] / scale, a[1] / scale, a[2] / scale)
-    n = math.sqrt(_dot(a, a))
-    return (a[0] / n, a[1] / n, a[2] / n)
-
-
 # -- the formulas --------------------------------------------------------------------------------
 
 def texture_frame(north: Vec3, equator: Vec3) -> tuple[Vec3, Vec3, Vec3]:
@@ -126,14 +105,14 @@ def texture_frame(north: Vec3, equator: Vec3) -> tuple[Vec3, Vec3, Vec3]:
     north pole and a bitmap's top row, as the article's row floor((1 - v) H).
     """
     vn = normalize(north)
-    d = _dot(equator, vn)
+    d = dot(equator, vn)
     ve = normalize((equator[0] - d * vn[0], equator[1] - d * vn[1], equator[2] - d * vn[2]))
-    return ve, _cross(vn, ve), vn
+    return ve, cross(vn, ve), vn
 
 
 def light_intensity(scene: Scene, position: Vec3, color: Vec3) -> Vec3:
     """Point-light intensity that matches the article's brightness at ``lookat``."""
-    d2 = _dot(_sub(position, scene.lookat), _sub(position, scene.lookat))
+    d2 = dot(sub(position, scene.lookat), sub(position, scene.lookat))
     if d2 == 0.0:
         d2 = 1.0
     return tuple(c * math.pi * d2 for c in color)
@@ -141,10 +120,7 @@ def light_intensity(scene: Scene, position: Vec3, color: Vec3) -> Vec3:
 
 def clip_range(scene: Scene) -> tuple[float, float]:
     """Near and far clip distances that contain every sphere seen from the eye."""
-    extent = math.sqrt(_dot(_sub(scene.lookat, scene.eye), _sub(scene.lookat, scene.eye)))
-    for s in scene.spheres:
-        extent = max(extent, math.sqrt(_dot(_sub(s.center, scene.eye), _sub(s.center, scene.eye))) + s.radius)
-    far = 4.0 * extent
+    far = 4.0 * farthest(scene.eye, [scene.lookat], scene.spheres)[0]
     # Mitsuba starts primary rays on the near plane, not at the eye. A near/far
     # ratio of 1e-12 keeps them at the eye for any fov and aspect ratio while the
     # directions stay as float32-exact as with Mitsuba's defaults (measured: the

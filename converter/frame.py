@@ -30,12 +30,12 @@ integrators still misplace.
 
 from __future__ import annotations
 
-import math
 import sys
 
 from ..float32 import UNIT_ROUNDOFF
 from .giants import giant_spheres, mitsuba_misplaces
-from .scene import Scene, Vec3
+from .scene import Scene, Sphere, Vec3
+from .vectors import length
 
 
 #: :func:`float32_spread` above which a conversion warns: rounding the scene's
@@ -58,8 +58,20 @@ def to_frame(point: Vec3, origin: Vec3) -> Vec3:
     return (point[0] - origin[0], point[1] - origin[1], point[2] - origin[2])
 
 
-def _length(v: Vec3) -> float:
-    return math.sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2])
+def farthest(origin: Vec3, points=(), spheres=()) -> tuple[float, Sphere | None]:
+    """The largest distance from ``origin`` of ``points`` and of the surfaces of ``spheres``
+    (a sphere counts as its center's distance plus its radius: the size of the numbers that
+    describe its surface), 0 when there are none, and the sphere that sets it (None: one of
+    the points, or nothing). The one computation of how far a scene reaches: its frame's
+    extent, the camera's clip range and the loader's scaled frame all ask it."""
+    reach, which = 0.0, None
+    for point in points:
+        reach = max(reach, length(to_frame(point, origin)))
+    for sphere in spheres:
+        size = length(to_frame(sphere.center, origin)) + sphere.radius
+        if size > reach:
+            reach, which = size, sphere
+    return reach, which
 
 
 def extent(scene: Scene, origin: Vec3) -> float:
@@ -69,15 +81,10 @@ def extent(scene: Scene, origin: Vec3) -> float:
     return _farthest(scene, origin)[0]
 
 
-def _farthest(scene: Scene, origin: Vec3):
+def _farthest(scene: Scene, origin: Vec3) -> tuple[float, Sphere | None]:
     """``(extent, sphere)``: :func:`extent` and the sphere that sets it (None: the eye)."""
     giants = set(giant_spheres(scene, origin))
-    reach, farthest = _length(to_frame(scene.eye, origin)), None
-    for k, sphere in enumerate(scene.spheres):
-        size = _length(to_frame(sphere.center, origin)) + sphere.radius
-        if k not in giants and size > reach:
-            reach, farthest = size, sphere
-    return reach, farthest
+    return farthest(origin, [scene.eye], (s for k, s in enumerate(scene.spheres) if k not in giants))
 
 
 def float32_spread(scene: Scene) -> float:

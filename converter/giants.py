@@ -17,7 +17,7 @@ them, with their centers (in the frame, subtracted in float64) and radii as
 float64 text, in the Whitted integrator's ``exact_spheres`` property, and the
 integrator intersects those spheres itself in float64 (plugins/shading/giants.py).
 They stay ``sphere`` shapes too, for Mitsuba's own integrators and for
-readers of the XML. A scene without giant spheres is written as before.
+readers of the XML. A scene without giant spheres has no ``exact_spheres``.
 """
 
 from __future__ import annotations

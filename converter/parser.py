@@ -32,7 +32,6 @@ divide by zero or overflow.
 from __future__ import annotations
 
 import difflib
-import math
 import os
 import re
 import stat
@@ -44,7 +43,9 @@ from pathlib import Path
 from .. import defaults
 from ..defaults import MAX_DEPTH, MAX_SAMPLES, MAX_SIZE, PARALLEL_SINE
 from ..errors import SceneError
+from .images import image_problem
 from .scene import Light, Material, Scene, Sphere, Vec3
+from .vectors import cross, length, normalize
 
 # The format's limits live in whitted.defaults (see there why each is what it is).
 MAX_MAGNITUDE = Decimal(defaults.MAX_MAGNITUDE)
@@ -89,8 +90,16 @@ _EQUATOR = tuple(float(c) for c in defaults.EQUATOR)
 def parse_file(path: str | os.PathLike) -> Scene:
     """Read and parse a ``.scn`` file; errors name ``path`` as given."""
     path = Path(path)
+    return parse_text(decode(read_scene_file(path), path), path)
+
+
+def check_scene_file(path: str | os.PathLike) -> None:
+    """Nothing, or a :class:`SceneError` naming ``path`` when it is not an existing regular
+    file: the one check of a scene file, whoever reads it (the parser, the loader, and
+    ``compare``'s scenes, ``.scn`` or ``.xml``). A FIFO or a device is refused before
+    anything waits on reading it."""
     try:
-        info = path.stat()
+        info = os.stat(path)
     except FileNotFoundError:
         raise SceneError(path, None, "no such file") from None
     except OSError as error:
@@ -99,11 +108,16 @@ def parse_file(path: str | os.PathLike) -> Scene:
         raise SceneError(path, None, "is a folder, not a scene file")
     if not stat.S_ISREG(info.st_mode):
         raise SceneError(path, None, "is not a regular file")
+
+
+def read_scene_file(path: str | os.PathLike) -> bytes:
+    """The bytes of the scene file ``path`` (:func:`check_scene_file`; an unreadable one is a
+    :class:`SceneError` too)."""
+    check_scene_file(path)
     try:
-        data = path.read_bytes()
+        return Path(path).read_bytes()
     except OSError as error:
         raise SceneError(path, None, f"cannot read: {error.strerror or error}") from None
-    return parse_text(decode(data, path), path)
 
 
 def decode(data: bytes, path: str | os.PathLike) -> str:
@@ -676,7 +690,7 @@ class _Parser:
     def image_problem(self, path: Path) -> str | None:
         """Why Mitsuba could not use ``path`` as a texture, or None (cached per parse)."""
         if path not in self._images:
-            self._images[path] = _image_problem(path)
+            self._images[path] = image_problem(path)
         return self._images[path]
 
     # ---- checks across statements
@@ -701,27 +715,6 @@ class _Parser:
 # ------------------------------------------------------------------------- helpers
 
 
-def _image_problem(path: Path) -> str | None:
-    if not path.exists():
-        return f"no such file {path}"
-    if path.is_dir():
-        return f"{path} is a folder, not an image"
-    if not os.access(path, os.R_OK):
-        return f"cannot read {path}: permission denied"
-    import mitsuba as mi
-    try:
-        # Exactly what the converted XML asks of Mitsuba.
-        mi.load_dict({"type": "bitmap", "filename": str(path),
-                      "filter_type": "nearest", "wrap_mode": "clamp"})
-    except Exception as error:  # Mitsuba reports decoding failures as RuntimeError
-        reason = " ".join(str(error).split()) or type(error).__name__
-        reason = re.sub(r"^\[[^\]]*\]\s*", "", reason)           # [parser.cpp:1718]
-        reason = re.sub(r"^.*failed to instantiate [^:]*: ", "", reason)
-        reason = reason.replace(f'"{path}": ', "")
-        return f"{path} is not an image Mitsuba can read ({reason[:160]})"
-    return None
-
-
 def _looks_like_name(token: Token) -> bool:
     return not token.quoted and token.text.lower() in ATTRIBUTES
 
@@ -738,21 +731,11 @@ def _is_zero(v) -> bool:
     return all(c == 0 for c in v)
 
 
-def _unit(v) -> Vec3:
-    """``v`` normalized without underflow or overflow, whatever its magnitude."""
-    scale = max(abs(c) for c in v)
-    w = [c / scale for c in v]
-    n = math.sqrt(sum(c * c for c in w))
-    return tuple(c / n for c in w)
-
-
 def _sine(a, b) -> float:
     """Sine of the angle between two directions (0 when either is zero)."""
     if _is_zero(a) or _is_zero(b):
         return 0.0
-    a, b = _unit(a), _unit(b)
-    cross = (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
-    return math.sqrt(sum(c * c for c in cross))
+    return length(cross(normalize(a), normalize(b)))
 
 
 def _show_vec(v) -> str:

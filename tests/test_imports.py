@@ -12,6 +12,8 @@ import hides a cycle from Python, not from the design. Imports by name
 from __future__ import annotations
 
 import ast
+import subprocess
+import sys
 import tomllib
 from pathlib import Path
 
@@ -136,3 +138,26 @@ def test_every_package_folder_is_installed():
     packages = {name for name, file in package_modules().items() if file.name == "__init__.py"}
     assert packages == listed
     assert data <= set(settings["packages"])
+
+
+def test_converter_loads_neither_mitsuba_nor_drjit(tmp_path):
+    """Importing the converter, parsing a scene with a texture (checked as an image Mitsuba
+    can read: converter/images.py) and converting it load no module of Mitsuba or Dr.Jit
+    (checked in a fresh interpreter)."""
+    from PIL import Image
+    Image.new("RGB", (4, 2), (40, 80, 200)).save(tmp_path / "tex.png")
+    (tmp_path / "tex.scn").write_text("size 8 8\nlight 1 1 1\nsphere 0 0 0 1 texture tex.png\n")
+    (tmp_path / "bad.png").write_bytes(b"\x89PNG\r\n\x1a\n" + bytes(40))
+    (tmp_path / "bad.scn").write_text("size 8 8\nsphere 0 0 0 1 texture bad.png\n")
+    code = ("import sys\n"
+            "import whitted.converter as c\n"
+            "from whitted.cli import main\n"
+            "assert c.parse_file('tex.scn').spheres[0].material.texture is not None\n"
+            "status = main(['convert', 'tex.scn']), main(['convert', 'bad.scn', '--portable'])\n"
+            "heavy = sorted(m for m in sys.modules if m.split('.')[0] in ('mitsuba', 'drjit'))\n"
+            "print(*status, ','.join(heavy) or '-')\n")
+    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=tmp_path)
+    assert run.stdout.split() == ["0", "2", "-"], run.stderr
+    assert (tmp_path / "tex.xml").is_file() and not (tmp_path / "bad.portable.xml").exists()
+    assert f"bad.scn:2: sphere texture 'bad.png': {tmp_path / 'bad.png'} is not an image Mitsuba can read" \
+        in run.stderr

@@ -231,6 +231,35 @@ def test_missing_and_unreadable_textures(tmp_path, make, message):
     assert message in error.message and "texture 'tex.png'" in error.message
 
 
+@pytest.mark.parametrize("suffix", ["png", "jpg", "exr", "hdr", "pfm", "ppm"])
+def test_textures_are_checked_as_mitsuba_reads_them(tmp_path, suffix):
+    """Every format Mitsuba writes is accepted whole (the converter checks it without Mitsuba:
+    converter/images.py), and refused cut in half, where Mitsuba refuses it too: but for a
+    JPEG, which libjpeg reads truncated (Mitsuba warns, and renders it)."""
+    import mitsuba as mi
+    import numpy as np
+    pixels = np.linspace(0.05, 0.95, 9 * 13 * 3, dtype=np.float32).reshape(9, 13, 3)
+    whole = tmp_path / f"whole.{suffix}"
+    data = pixels if suffix in ("exr", "hdr", "pfm") else (pixels * 255).astype(np.uint8)
+    mi.Bitmap(data, pixel_format=mi.Bitmap.PixelFormat.RGB).write(str(whole))
+    cut = tmp_path / f"cut.{suffix}"
+    cut.write_bytes(whole.read_bytes()[:whole.stat().st_size // 2])
+    assert parse_text(f"sphere 0 0 0 1 texture whole.{suffix}\n", tmp_path / "a.scn").spheres
+    for path in (whole, cut):
+        try:
+            mi.load_dict({"type": "bitmap", "filename": str(path)})
+            mitsuba_reads = True
+        except RuntimeError:
+            mitsuba_reads = False
+        text = f"size 10 10\nsphere 0 0 0 1 texture {path.name}\n"
+        if mitsuba_reads:
+            assert parse_text(text, tmp_path / "a.scn").spheres
+        else:
+            error = error_of(text, tmp_path / "a.scn")
+            assert error.line == 2 and "is not an image Mitsuba can read" in error.message
+    assert suffix == "jpg" or not mitsuba_reads   # the cut file: the case this test is about
+
+
 def test_texture_without_read_permission(tmp_path, texture_png, monkeypatch):
     texture = texture_png("tex.png")
     real_access = os.access

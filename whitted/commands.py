@@ -55,8 +55,10 @@ def convert_command(args) -> int:
 
 
 
-def _summary(args, result, width: int, height: int, spp: int) -> str:
+def _summary(args, result, sensor) -> str:
     import mitsuba as mi
+    width, height = (int(c) for c in sensor.film().crop_size())
+    spp = sensor.sampler().sample_count()
     s = result.stats
     rays = ", ".join(f"{v} {k}" for k, v in s["rays"].items())
     depth = f"depth reached {s['max_depth_reached']}; " if "max_depth_reached" in s else ""
@@ -86,9 +88,10 @@ def render_command(args) -> None:
     from .memory import peak_resident_bytes
     with deferred():   # numpy's C extension is not cut mid-import by a Ctrl-C (see deferred)
         from .imageio import image_format, write_image
-        from .rendering import check_article_materials, check_settings, render
+        from .rendering import check_settings, render
 
     output = Path(args.output)
+    # Before the scene is loaded (seconds for a large one), though render checks them again.
     check_settings(args.spp, args.max_depth, args.lighting, args.integrator, args.min_weight)
     if args.ambient is not None:
         check_ambient(args.ambient)
@@ -99,19 +102,15 @@ def render_command(args) -> None:
     if args.stats:
         check_writable(args.stats, inputs=(args.scene,))
 
-    scene = _load_quietly(args)
-    if not scene.sensors():
-        raise WhittedError(f"{args.scene}: the scene has no sensor (camera) to render from")
-    if args.integrator == "whitted":
-        check_article_materials(scene, args.scene)
-    sensor = scene.sensors()[0]
-    width, height = (int(c) for c in sensor.film().crop_size())
-    spp = sensor.sampler().sample_count()
-    result = render(scene, integrator=args.integrator, progress=not args.quiet,
-                    min_weight=args.min_weight)
+    loaded = _load_quietly(args)   # the mi.Scene
+    try:   # render checks the scene (a sensor; the article's materials) before it starts
+        result = render(loaded, integrator=args.integrator, progress=not args.quiet,
+                        min_weight=args.min_weight)
+    except WhittedError as error:
+        raise WhittedError(f"{args.scene}: {error}") from None
     write_image(output, result.image, progress=not args.quiet)
     result.stats["peak_resident_bytes"] = peak_resident_bytes()   # the writing included
     if args.stats:
         write_text(args.stats, json.dumps(result.stats, indent=2) + "\n")
     if args.verbose:
-        print(_summary(args, result, width, height, spp), file=sys.stderr)
+        print(_summary(args, result, loaded.sensors()[0]), file=sys.stderr)

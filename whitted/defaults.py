@@ -1,10 +1,10 @@
 """One home for every default and limit: the scene format's, the plugins' and the CLI's.
 
 Why one module: the same number (the format's depth cap of 64, the ambient
-coefficient 0.2, ...) used to be written in the parser, the scene model, the
-integrator's constructor, the rendering API and ``compare``, and the copies
-could drift apart. Everything here is plain Python (no Mitsuba, no Dr.Jit), so
-the standalone converter can import it as cheaply as the plugins do.
+coefficient 0.2, ...) is needed by the parser, the scene model, the
+integrator's constructor, the rendering API and ``compare``; written once, no
+copy can drift from another. Everything here is plain Python (no Mitsuba, no
+Dr.Jit), so the standalone converter can import it as cheaply as the plugins do.
 
 The scene format's defaults and limits restate ``docs/scene-format.md`` (the
 project's copy of the format contract); the ``check_*`` functions validate a

@@ -68,10 +68,10 @@ def deferred():
 
     For work that must not be cut in the middle: importing Mitsuba and Dr.Jit and
     setting a variant. A ``KeyboardInterrupt`` raised inside their initialisation
-    (Python code that C++ calls back, such as the plugins' registration) left them
-    half done: the signal was sometimes swallowed (the render went on), and the
-    interpreter sometimes aborted on its way out ("Fatal Python error:
-    PyThreadState_Get"), instead of exiting with status 130. Without
+    (Python code that C++ calls back, such as the plugins' registration) leaves them
+    half done: the signal can be swallowed (the render goes on), or the interpreter
+    can abort on its way out ("Fatal Python error: PyThreadState_Get") instead of
+    exiting with status 130. Without
     :func:`install` (whitted used as a library) it changes nothing.
     """
     global _deferring, _pending

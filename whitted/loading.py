@@ -88,16 +88,16 @@ def load_scene(path: str | os.PathLike, variant: str | None = None, *, model=Non
     """
     import mitsuba as mi
 
+    from .converter.parser import check_scene_file
     from .variant import set_variant
     set_variant(variant)
     params = _checked(overrides)
     path = Path(path)
-    if not path.exists():
-        raise WhittedError(f"{path}: no such file")
-    if path.is_dir():
-        raise WhittedError(f"{path}: is a folder, not a scene file")
+    xml = path.suffix.lower() == ".xml"
+    if xml or model is not None:
+        check_scene_file(path)   # else parse_file checks it
     try:
-        if path.suffix.lower() == ".xml":
+        if xml:
             return mi.load_file(str(path), parallel=PARALLEL, **{k: str(v) for k, v in params.items()})
         from .converter import parse_file
         from .converter.description import describe

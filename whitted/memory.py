@@ -2,11 +2,12 @@
 
 Why: Dr.Jit's allocator high-water mark (``peak_memory_bytes`` in the render
 statistics) counts Dr.Jit's arrays only, not numpy's copies, Mitsuba's
-bitmaps, Embree, LLVM or Python. A 16384² render once reported 8.7 GiB there
-and peaked at 22 GB of resident memory. Linux keeps the peak resident set
-size (``VmHWM`` in ``/proc/self/status``) and lets a process reset it
-(writing ``5`` to ``/proc/self/clear_refs``), so the peak of one stretch of
-work can be measured. Elsewhere the peak is that of the process's whole life
+bitmaps, Embree, LLVM or Python, which can make a large render's real peak
+several times larger (benchmarks/RESULTS.md, "Peak memory of a large
+render"). Linux keeps the peak resident set size (``VmHWM`` in
+``/proc/self/status``) and lets a process reset it (writing ``5`` to
+``/proc/self/clear_refs``), so the peak of one stretch of work can be
+measured. Elsewhere the peak is that of the process's whole life
 (``getrusage``), which :func:`reset_peak` cannot reset.
 """
 

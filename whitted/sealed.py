@@ -1,56 +1,22 @@
 """Which spheres of a scene may be loaded as one Mitsuba ``ellipsoids`` shape, and in what frame.
 
-Why. Mitsuba spends 60–140 µs of CPU on every ``sphere`` shape it loads (a
-plugin object, an Embree geometry, a registry entry): seconds for a scene of
-66 000 spheres. Its ``ellipsoids`` shape holds any number of primitives, built
-from three tensors in a fraction of a millisecond per thousand. An ellipsoid
-with three equal scales and the identity rotation is a sphere. Two things
-keep it from being a drop-in replacement, and this module decides where
-neither matters.
+Why. Mitsuba builds a plugin object, an Embree geometry and a registry entry for
+every ``sphere`` shape, which makes a scene of tens of thousands of spheres slow
+to load; its ``ellipsoids`` shape holds any number of primitives, built from
+three tensors (benchmarks/RESULTS.md, "Mitsuba's ellipsoids shape as a fast path
+for spheres"). An ellipsoid with three equal scales and the identity rotation is
+a sphere but for two things, and this module decides where neither matters
+(docs/numerics.md, "Spheres as Mitsuba ellipsoids", has the proof and the
+measurements):
 
-**Back faces.** The ellipsoids shape culls them: a ray that starts inside an
-ellipsoid passes through it. In the article's model that never matters for a
-*sealed* sphere: opaque (KT = 0) and not holding the eye. Every ray starts at
-the eye or at a hit point, and by induction none starts inside a sealed
-sphere: the eye is outside all of them; a ray that starts outside a sealed
-sphere can only get in by crossing its surface, where it hits it (from
-outside) and ends; from a hit on a sealed sphere the reflected ray and the
-shadow rays leave into the outside half-space of its tangent plane (V·N < 0
-gives R·N > 0, and shadow rays are cast only where N·L > 0), so they stay
-outside that convex sphere, and it refracts nothing; a hit on any other
-sphere lies outside every sealed one (it was reached from outside). Lights
-need no condition: a shadow segment to a light inside a sealed sphere starts
-outside it and meets its front face, which blocks it as the sphere shape's
-would (and a segment to a light on its surface ends moved off it, to the
-outside, as for a sphere shape). Nesting is covered by the same induction: a
-sealed sphere inside a sealed one is never reached, one inside a glass sphere
-is reached from outside. The only exceptions are hit points on two surfaces
-at once (the contact point of touching spheres, the circle where two spheres
-cross): a set of measure zero, which in float32 widens to where the gap
-between two surfaces is below the integrator's ray offset (docs/numerics.md,
-hazard 10), as it already does for sphere shapes.
-
-**Accuracy.** Mitsuba 3.9's ellipsoid intersection moves the ray origin to
-"the plane through the center" before solving its quadratic, but computes
-that plane's distance in the unit sphere's coordinates as
-``dot(-o, d) / norm(d)`` where ``|d| = 1/r``: for r ≠ 1 the point lands
-``t·|1/r - 1|`` away from the plane and the quadratic cancels
-catastrophically. Spheres of radius 10⁻² seen from 100 radii lose half their
-hits; radius 10² spheres get hit distances wrong by 10⁻² r
-(benchmarks/ellipsoids.py measures it). For r = 1 exactly the routine *is*
-the sphere's (same plane step, same quadratic). So the ellipsoids hold the
-sealed spheres of one radius, and the scene is loaded in a frame scaled so
-that this radius is 1. The article's model is invariant under a similarity
-transform: the image depends on the scene relative to itself (angles, and
-light colors measured at ``lookat``, which the loader recomputes from the
-scaled distances), and the Whitted integrator's ray offsets are relative
-(docs/numerics.md), so the image changes by rounding only. So is the
-physical model (point lights' intensities ``I = c·π·d²`` scale with the
-distances they are divided by), but Mitsuba's own path tracer is not quite:
-it moves rays off surfaces by an absolute ``(1 + max|p|)·9·10⁻⁵``, which the
-scale makes smaller or larger against the scene (a level-2 sphereflake
-path-traced in the scaled frame is 4 % darker, with or without ellipsoids:
-fewer rays leak between its touching spheres).
+* the shape culls back faces, which never changes a result for a *sealed*
+  sphere (opaque, untextured, not holding the eye): no ray of the article's
+  model starts inside one;
+* Mitsuba's ellipsoid intersection is exact only at radius 1, so the grouped
+  spheres share one radius and the scene is loaded in a frame scaled to make it
+  1. The article's model is invariant under that similarity (the image changes
+  by rounding only); Mitsuba's path tracer, whose ray offsets are absolute, is
+  not quite.
 
 This module works on the scene model (numpy, no Mitsuba): :func:`sealed`
 says which spheres are sealed, :func:`choose` picks the radius and the
@@ -65,6 +31,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from .converter.frame import farthest
 from .converter.scene import Material, Scene
 
 #: a sealed sphere keeps the eye farther than this from its surface, relative to the size of
@@ -165,19 +132,15 @@ def choose(scene: Scene, min_group: int = MIN_GROUP) -> Grouping | None:
     if counts[best] < min_group:
         return None
     r = float(values[best])
-    if reach(scene, spheres) / r > MAX_REACH:
+    if reach(scene) / r > MAX_REACH:
         return None
     return Grouping(1.0 / r, r, mask & (spheres.radius == r), spheres)
 
 
-def reach(scene: Scene, spheres: Spheres) -> float:
+def reach(scene: Scene) -> float:
     """The largest distance from ``lookat`` of the eye, a light or a sphere's surface."""
-    origin = np.asarray(scene.lookat, np.float64)
-    points = np.array([scene.eye, *(light.position for light in scene.lights)], np.float64)
-    far = float(np.linalg.norm(points - origin, axis=1).max())
-    if len(spheres.radius):
-        far = max(far, float((np.linalg.norm(spheres.center - origin, axis=1) + spheres.radius).max()))
-    return far
+    points = [scene.eye, *(light.position for light in scene.lights)]
+    return farthest(scene.lookat, points, scene.spheres)[0]
 
 
 def _about(point, origin, scale):

@@ -155,12 +155,6 @@ def on_variant_changed(old: str | None, new: str | None) -> None:
         plugins.register()
 
 
-def is_vectorized() -> bool:
-    """True in the JIT variants, where one call processes a whole wavefront of rays."""
-    import mitsuba as mi
-    return not mi.variant().startswith("scalar")
-
-
 def ensure_llvm(allow_install: bool = True) -> str | None:
     """Find a libLLVM >= 16; when none exists, install Debian's libllvm19 if allowed.
 

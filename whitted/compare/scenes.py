@@ -16,8 +16,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from ..converter import Scene
-from ..converter.parser import decode, parse_text
-from ..errors import SceneError, WhittedError
+from ..converter.batch import folder_scenes
+from ..converter.parser import decode, parse_text, read_scene_file
+from ..errors import WhittedError
 
 
 def scene_files(arguments: list[str | os.PathLike]) -> list[Path]:
@@ -28,7 +29,7 @@ def scene_files(arguments: list[str | os.PathLike]) -> list[Path]:
     for argument in arguments:
         path = Path(argument)
         if path.is_dir():
-            found = sorted(path.glob("*.scn")) or sorted(path.glob("*.xml"))
+            found = folder_scenes(path, (".scn", ".xml"))
             if not found:
                 raise WhittedError(f"{path}: folder holds no .scn or .xml scene")
             files.extend(found)
@@ -75,14 +76,7 @@ class SceneFile:
     def read(cls, path: str | os.PathLike, name: str | None = None) -> SceneFile:
         """Read and parse ``path``; a bad scene raises :class:`~whitted.errors.WhittedError`."""
         path = Path(path)
-        try:
-            data = path.read_bytes()
-        except FileNotFoundError:
-            raise SceneError(path, None, "no such file") from None
-        except IsADirectoryError:
-            raise SceneError(path, None, "is a folder, not a scene file") from None
-        except OSError as error:
-            raise SceneError(path, None, f"cannot read: {error.strerror or error}") from None
+        data = read_scene_file(path)
         name = path.stem if name is None else name
         if path.suffix.lower() == ".scn":
             model = parse_text(decode(data, path), path)
@@ -99,9 +93,9 @@ class SceneFile:
         """
         from ..loading import load_scene
         from ..rendering import check_article_materials
-        scene = load_scene(self.path, variant, model=self.model, ellipsoids=False)
-        check_article_materials(scene, str(self.path))   # before any work: compare renders both
-        return scene
+        loaded = load_scene(self.path, variant, model=self.model, ellipsoids=False)
+        check_article_materials(loaded, str(self.path))   # before any work: compare renders both
+        return loaded
 
 
 def _xml_textures_and_depth(path: Path, data: bytes) -> tuple[tuple[Path, ...], int | None]:
