@@ -26,7 +26,7 @@ from .analysis import (METHOD_NAMES, TIMING, Analysis, equal_time_how, reach_tex
                        spread_text)
 from .curves import pareto_front
 from .errormaps import colorbar
-from .results import METHODS, WHITTED_METHODS, Measurement, SceneResult, seconds_text
+from .results import METHODS, WHITTED_LIGHTING, WHITTED_METHODS, Measurement, SceneResult, seconds_text
 
 TEMPLATE = "report.html.j2"
 #: The viewer enlarges small images by a whole factor (pixels stay square) to at least this width.
@@ -124,7 +124,7 @@ def scene_context(analysis: Analysis, plot: str, out: Path) -> dict:
         "decompositions": [d.text for d in analysis.decompositions],
         "plot": plot, "groups": groups, "renders": renders, "first": first,
         "cards": [r for r in renders if r["card"]],
-        "methods": methods, "whitted": [m.split("-")[1] for m in whitted],
+        "methods": methods, "whitted": [WHITTED_LIGHTING[m] for m in whitted],
         "equal_quality": equal_quality, "equal_time": equal_time,
         "skipped": len(entry.skipped),
     }

@@ -37,7 +37,7 @@ from ..atomic import atomic_path, write_text
 from .analysis import (METHOD_NAMES, TIMING, Analysis, analyse, equal_time_how, reach_text,
                        speedup_text)
 from .curves import pareto_front
-from .results import METHODS, WHITTED_METHODS, Measurement, SceneResult, seconds_text
+from .results import METHODS, WHITTED_LIGHTING, WHITTED_METHODS, Measurement, SceneResult, seconds_text
 
 #: The CSV's columns; new ones are added at the end, so that readers of the old keep working.
 CSV_COLUMNS = ("scene", "method", "integrator", "lighting", "spp", "max_depth", "seconds",
@@ -268,7 +268,7 @@ def _sheet_rows(entry: SceneResult) -> list[list[tuple[str, np.ndarray | None, s
             + [cell(f"path · {spp} spp", done.get(("path", entry.path_depth, spp)))
                for spp in entry.path_spp]]
     for depth in entry.depths:
-        rows.append([cell(f"{method.split('-')[1]} d{depth} · {spp} spp",
+        rows.append([cell(f"{WHITTED_LIGHTING[method]} d{depth} · {spp} spp",
                           done.get((method, depth, spp)))
                      for method in WHITTED_METHODS for spp in entry.whitted_spp])
     return rows
@@ -324,7 +324,7 @@ def equal_quality_lines(analysis: Analysis) -> list[str]:
     methods = analysis.table_methods
     whitted = [m for m in WHITTED_METHODS if m in methods]
     header = (["rel_mse ≤"] + methods + ["fastest"]
-              + [f"{m.split('-')[1]} vs path" for m in whitted])
+              + [f"{WHITTED_LIGHTING[m]} vs path" for m in whitted])
     rows = [header]
     for row in analysis.equal_quality:
         rows.append([f"{row.level:g}"] + [reach_text(row.reach.get(m)) for m in methods]

@@ -18,12 +18,13 @@ from pathlib import Path
 
 from .. import interrupt
 from ..atomic import check_folder_creatable
+from ..defaults import check_depth
 from ..errors import WhittedError
 from ..progress import progress_bar
 from . import report
 from .budget import Budget
 from .planning import plan_scene, progress_units
-from .results import MAX_DEPTH, Comparison, Options, SceneResult
+from .results import Comparison, Options, SceneResult
 from .scenes import SceneFile, scene_files, scene_names
 from .sweep import sweep_scene
 
@@ -38,10 +39,10 @@ def check_options(options: Options) -> None:
         raise WhittedError("--repeats and --reference-spp must be >= 1")
     if options.budget is not None and not options.budget > 0:
         raise WhittedError(f"--budget must be a positive number of seconds, got {options.budget}")
-    if options.depths and max(options.depths) > MAX_DEPTH:
-        raise WhittedError(f"--depths: the scene format allows depths up to {MAX_DEPTH}")
-    if options.path_depth is not None and not 1 <= options.path_depth <= MAX_DEPTH:
-        raise WhittedError(f"--path-depth must be in 1…{MAX_DEPTH}, got {options.path_depth}")
+    for depth in options.depths or ():
+        check_depth(depth, "--depths")
+    if options.path_depth is not None:
+        check_depth(options.path_depth, "--path-depth")
     cache_folder = options.cache_folder
     if cache_folder.exists() and not cache_folder.is_dir():
         raise WhittedError(f"{cache_folder}: the reference cache exists and is not a folder")
