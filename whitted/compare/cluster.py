@@ -67,8 +67,8 @@ from pathlib import Path
 
 from ..defaults import COMPARE_CONNECT_TIMEOUT
 from ..errors import WhittedError
-from . import report
 from .budget import Budget
+from .csvfile import CSV_NAME, write_csv
 from .reference import Chunk, ReferenceCache, reference_chunks, reference_settings, render_chunk
 from .results import Options, SceneResult, Setting
 from .scenes import SceneFile
@@ -368,7 +368,7 @@ def sweep_on_cluster(client, scenes: list[SceneFile], entries: list[SceneResult]
                 entries[index] = result = _result(future, name)
                 finished[index] = True
                 chunks_of.pop(index, None)  # their images may go now
-                report.write_csv(out / report.CSV_NAME, [e for e, f in zip(entries, finished) if f])
+                write_csv(out / CSV_NAME, [e for e, f in zip(entries, finished) if f])
                 bar.set_postfix_str(f"{sum(finished)}/{len(entries)} scenes", refresh=False)
                 if not options.quiet:
                     bar.write(f"whitted compare: {name}: {len(result.measurements)} renders on "

@@ -23,9 +23,11 @@ from ..errors import WhittedError
 from ..progress import progress_bar
 from . import report
 from .budget import Budget
+from .csvfile import CSV_NAME, write_csv
 from .planning import plan_scene, progress_units
 from .results import Comparison, Options, SceneResult
 from .scenes import SceneFile, scene_files, scene_names
+from .summary import findings
 from .sweep import sweep_scene
 
 
@@ -93,7 +95,7 @@ def compare(scenes: list[str | os.PathLike], options: Options) -> Comparison:
         for index, (scene, entry, settings) in enumerate(zip(read, entries, plans)):
             sweep_scene(scene, entry, settings, options, budget.share(len(entries) - index),
                         loaded=loaded[index], progress=bar)
-            report.write_csv(out / report.CSV_NAME, entries[:index + 1])
+            write_csv(out / CSV_NAME, entries[:index + 1])
             loaded[index] = None  # free the scene's memory
     except BaseException as error:   # Ctrl-C may arrive wrapped (see whitted.interrupt)
         if not interrupt.requested(error):
@@ -125,7 +127,7 @@ def _compare_on_cluster(scenes: list[SceneFile], entries: list[SceneResult], pla
 
 def _written(out: Path, entries: list[SceneResult], options: Options) -> Comparison:
     analyses = report.write_all(out, entries, options.levels)
-    return Comparison(entries, analyses, report.findings(analyses))
+    return Comparison(entries, analyses, findings(analyses))
 
 
 def _write_what_was_done(out: Path, entries: list[SceneResult], plans: list, options: Options) -> None:

@@ -41,9 +41,9 @@ from .errormaps import write_render
 from .limits import render_limit
 from .planning import limit_methods
 from .reference import Chunk, ReferenceCache, reference_image
-from .report import thumbnail
 from .results import Measurement, Options, SceneResult, Setting
 from .scenes import SceneFile
+from .sheet import thumbnail
 
 #: The seed of every render of the sweep (the reference has its own).
 SWEEP_SEED = 0
