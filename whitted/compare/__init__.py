@@ -22,7 +22,8 @@ The modules, in the order the work flows (each imports only those above it;
                 floor, the reference's noise from its two halves
 ``budget``      ``--budget``: each scene's share of the time, the reference's
                 affordable spp (from a probe), each render's predicted cost
-``reference``   the path-traced reference (two halves) and its on-disk cache
+``reference``   the path-traced reference: its plan (cache, budget probe, chunks and
+                seeds), its two halves and its on-disk cache
 ``limits``      each Whitted method's limit (exact tree, converged anti-aliasing): what
                 a render's depth and spp cost, the model's bias, the best ambient
 ``errormaps``   the images kept of each render: EXR, PNG, FLIP's error map
