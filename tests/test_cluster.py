@@ -13,6 +13,7 @@ stopped by the test that started it; the scenes are tiny.
 from __future__ import annotations
 
 import csv
+import math
 import os
 import signal
 import socket
@@ -151,6 +152,65 @@ def test_reference_chunks_follow_the_options_alone():
     assert set(reference_chunks(256, 128)) < set(reference_chunks(512, 128))  # more extends
 
 
+def test_reference_chunks_complete_what_is_done():
+    """Chunks already rendered (the budget's probe, in the first half) count: the rest of each
+    half is planned after them, their seeds continuing the half's count."""
+    from whitted.compare.reference import chunk_seed, reference_chunks
+    probes = [(1, chunk_seed(0, 0), 0), (2, chunk_seed(0, 1), 0), (4, chunk_seed(0, 2), 0)]
+    rest = reference_chunks(40, 8, probes)
+    assert rest == [(8, chunk_seed(0, 3), 0), (5, chunk_seed(0, 4), 0),
+                    (8, chunk_seed(1, 0), 1), (8, chunk_seed(1, 1), 1), (4, chunk_seed(1, 2), 1)]
+    assert reference_chunks(40, 8) == reference_chunks(40, 8, [])
+    assert len({seed for _, seed, _ in probes + rest}) == len(probes + rest)
+    assert [half for _, _, half in reference_chunks(8, 8, probes)] == [1]  # half 0 is full
+
+
+@pytest.mark.parametrize("per_spp", [1e-4, 2.0])
+def test_a_budgeted_reference_is_the_same_in_process_and_in_chunks(llvm, write_scene, tmp_path,
+                                                                    monkeypatch, per_spp):
+    """Under --budget, a plan made on one worker (its probe renders there), its chunks
+    rendered elsewhere (here: in reverse order, from scenes loaded apart, as the cluster's
+    chunk tasks do) and put together by a third make the reference of a run in one process,
+    bit for bit: all of it asked for (cheap samples), or scaled down (dear ones)."""
+    import json
+
+    import whitted.compare.reference as reference
+    from whitted.compare.planning import plan_scene
+    monkeypatch.setattr(reference, "COMPARE_PROBE_SECONDS", math.inf)  # the probe's spp alone decide
+    monkeypatch.setattr(reference, "fit_cost", lambda points: (0.0, per_spp))
+    scene = cmp.SceneFile.read(write_scene(MIRROR_SCENE), "mirror")
+    options = cmp.Options(out=tmp_path, reference_spp=64, reference_chunk_spp=8, budget=200.0,
+                          quiet=True)
+
+    def made(folder: str, apart: bool):
+        loaded = scene.load()
+        entry, _ = plan_scene(scene, loaded, options, "llvm_ad_rgb")
+        cache = reference.ReferenceCache(tmp_path / folder)
+        if not apart:
+            image = reference.reference_image(scene, loaded, entry, cache, options, seconds=100.0)
+        else:
+            plan = reference.plan_reference(scene, scene.load(), entry, cache, options, 100.0)
+            planned = plan.chunks(options.reference_chunk_spp)
+            rendered = {c: reference.render_chunk(scene.load(), *c, entry.path_depth)
+                        for c in reversed(planned)}
+            image = reference.reference_image(scene, None, entry, cache, options, plan=plan,
+                                              chunks=[rendered[c] for c in planned])
+        (info,) = (tmp_path / folder).glob("*.json")
+        return image, entry, json.loads(info.read_text())["chunks"]
+
+    (image, entry, chunks), (image_apart, entry_apart, chunks_apart) = made("one", False), made("apart", True)
+    assert np.array_equal(image, image_apart)
+    assert entry.reference_spp == entry_apart.reference_spp == (64 if per_spp < 1 else 32)
+    assert entry.reference_noise == entry_apart.reference_noise
+    assert [note.split(" (")[0] for note in entry.notes] == [note.split(" (")[0] for note in entry_apart.notes]
+    assert ("scaled down from 64 to 32 spp" in " ".join(entry.notes)) == (per_spp >= 1)
+    seeds = [(c["spp"], c["seed"], c["half"]) for c in chunks]
+    assert seeds == [(c["spp"], c["seed"], c["half"]) for c in chunks_apart]
+    assert [spp for spp, _, _ in seeds[:4]] == [1, 2, 4, 8]   # the probe: the first chunks
+    assert len({seed for _, seed, _ in seeds}) == len(seeds) and max(spp for spp, _, _ in seeds) <= 8
+    assert sum(spp for spp, _, _ in seeds) == entry.reference_spp
+
+
 def test_threads_are_the_host_cores_shared_among_its_workers():
     from whitted.compare.cluster import MIN_THREADS, worker_threads
     cores = {"tcp://10.0.0.1:1": 32, "tcp://10.0.0.1:2": 32, "tcp://10.0.0.1:3": 32,
@@ -175,6 +235,26 @@ def test_local_cluster_writes_the_in_process_results(scenes, in_process, tmp_pat
     assert ours.keys() == theirs.keys() == set(SCENES)
     assert all(np.array_equal(ours[k], theirs[k]) for k in ours)   # bit for bit
     # the cluster is stopped: none of its processes is left
+    assert children() <= before
+
+
+def test_local_cluster_chunks_a_reference_under_a_budget(scenes, tmp_path):
+    """Under --budget a worker probes each reference and the rest of it runs as chunk tasks:
+    each cache entry lists the probe's renders first (1, 2, ... spp), then chunks of at most
+    --reference-chunk-spp, all rendered by the cluster's workers."""
+    import json
+    out = tmp_path / "out"
+    before = children()
+    assert main(["compare", str(scenes), "--out", str(out), "--workers", "2", "--budget", "300",
+                 *OPTIONS]) == 0
+    assert {r["scene"] for r in read_rows(out / "results.csv")} == set(SCENES)
+    infos = [json.loads(p.read_text()) for p in (out / "references").glob("*.json")]
+    assert len(infos) == len(SCENES)
+    for info in infos:
+        chunks = info["chunks"]
+        assert [c["spp"] for c in chunks[:2]] == [1, 2] and max(c["spp"] for c in chunks) <= 64
+        assert sum(c["spp"] for c in chunks) == info["settings"]["spp"]
+        assert all(c["worker"].startswith("tcp://127.0.0.1:") for c in chunks)
     assert children() <= before
 
 

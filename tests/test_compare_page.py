@@ -151,7 +151,7 @@ def test_plot_labels_do_not_overlap():
     from matplotlib.figure import Figure
     from matplotlib.transforms import Bbox
 
-    from whitted.compare.report import place_labels
+    from whitted.compare.plot import place_labels
 
     fig = Figure(figsize=(4, 3), layout="constrained")
     FigureCanvasAgg(fig)
@@ -302,7 +302,7 @@ def test_plot_labels_keep_off_the_lines():
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
-    from whitted.compare.report import line_boxes, place_labels
+    from whitted.compare.plot import line_boxes, place_labels
 
     fig = Figure(figsize=(4, 3), layout="constrained")
     FigureCanvasAgg(fig)

@@ -22,14 +22,18 @@ The modules, in the order the work flows (each imports only those above it;
                 floor, the reference's noise from its two halves
 ``budget``      ``--budget``: each scene's share of the time, the reference's
                 affordable spp (from a probe), each render's predicted cost
-``reference``   the path-traced reference (two halves) and its on-disk cache
+``reference``   the path-traced reference: its plan (cache, budget probe, chunks and
+                seeds), its two halves and its on-disk cache
 ``limits``      each Whitted method's limit (exact tree, converged anti-aliasing): what
                 a render's depth and spp cost, the model's bias, the best ambient
 ``errormaps``   the images kept of each render: EXR, PNG, FLIP's error map
 ``analysis``    the floors, equal quality, equal time, what the error is made of
+``csvfile``     results.csv: one row per render
+``plot``        error_vs_time.png, its label placement, and each method's colour
+``sheet``       contact_sheet.png, and the thumbnails it is made of
+``summary``     summary.txt and findings.json: the conclusions in words and as JSON
 ``page``        report.html, from its Jinja2 template (``templates/``)
-``report``      every output: results.csv, the plots, contact sheet, summary.txt,
-                and the page
+``report``      every output written in one go (:func:`write_all`)
 ``sweep``       one scene's work: reference, renders, scores (plain data in/out)
 ``cluster``     ``--workers``/``--scheduler``: the scenes' sweeps and the reference's
                 chunks as tasks on a Dask cluster (docs/cluster.md)

@@ -5,19 +5,19 @@ left a scene may use (an even share among the scenes still to do, after a few
 seconds kept back for writing the outputs), how many samples its reference can
 afford (from probe renders: a cost per render call and per sample,
 :func:`fit_cost`, :func:`render_cost`), and whether a render fits in what the
-scene has left (predicted from what the same method already cost there). A share is a duration, not a clock reading, so it means the same in
-another process or on another machine.
+scene has left (predicted from what the same method already cost there). A share
+is a duration, not a clock reading, so it means the same in another process or on
+another machine.
 
-The reference comes first and is the costliest render of a scene, so it is the
-one that used to sink a budget (a 20-second budget met a reference of three
-hours). Its cost is now measured on short probe renders before the rest is
-started, and it may take at most :data:`~whitted.defaults.COMPARE_REFERENCE_SHARE`
-of the scene's share: when the requested spp does not fit, the largest power of
-two that does is used, and below :data:`~whitted.defaults.COMPARE_MIN_REFERENCE_SPP`
-the scene is refused. The cost has two parts because a render call has a fixed
-cost of its own: on a scene of 3000 spheres, Mitsuba's path tracer took about 4 s
-per call before its first sample (tracing a kernel that dispatches to 3000 BSDFs)
-and 0.8 s per spp at 640×400, so spp alone would misjudge it.
+The reference comes first and is the costliest render of a scene, by far on some
+scenes, so its cost is measured on short probe renders before the rest is started
+(:func:`~whitted.compare.reference.plan_reference`), and it may take at most
+:data:`~whitted.defaults.COMPARE_REFERENCE_SHARE` of the scene's share: when the
+requested spp does not fit, the largest power of two that does is used, and below
+:data:`~whitted.defaults.COMPARE_MIN_REFERENCE_SPP` the scene is refused. The cost
+has two parts because a render call has a fixed cost of its own (tracing a kernel
+that dispatches to every BSDF of the scene: docs/compare.md has a measured case), so
+spp alone would misjudge it.
 """
 
 from __future__ import annotations

@@ -97,8 +97,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def compare_command(args: argparse.Namespace) -> None:
     """The CLI's ``compare`` subcommand."""
-    from . import report
+    from .report import output_files
     from .run import compare
+    from .summary import summary
 
     options = Options(out=Path(args.out), reference_spp=args.reference_spp, depths=args.depths,
                       whitted_spp=args.spp, path_spp=args.path_spp, path_depth=args.path_depth,
@@ -110,7 +111,7 @@ def compare_command(args: argparse.Namespace) -> None:
     entries = compare(args.scenes, options)
     skipped = sum(len(e.skipped) for e in entries)
     done = sum(len(e.measurements) for e in entries)
-    print(report.summary(entries.analyses, equal_time=False))
+    print(summary(entries.analyses, equal_time=False))
     if skipped:
         print(f"\nbudget of {options.budget:g} s: skipped {skipped} of {skipped + done} renders; "
               f"the outputs hold the renders that were done")
@@ -124,5 +125,5 @@ def compare_command(args: argparse.Namespace) -> None:
               file=sys.stderr)
     if done == 0:
         print("whitted compare: no render was done (see the lines above for why)", file=sys.stderr)
-    print(f"\n{done} renders in {time.monotonic() - start:.1f} s; wrote {report.output_files(options.out)}",
+    print(f"\n{done} renders in {time.monotonic() - start:.1f} s; wrote {output_files(options.out)}",
           file=sys.stderr)

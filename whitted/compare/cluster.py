@@ -9,19 +9,24 @@ the others. The same code runs in both cases.
 
 What runs where
     This process (the client) reads, loads and plans every scene as a run in one
-    process does (a bad scene fails at once), then submits two kinds of task on
+    process does (a bad scene fails at once), then submits three kinds of task on
     plain data only, since Mitsuba objects do not pickle: the
     :class:`~whitted.compare.scenes.SceneFile` (the scene's path, bytes and
     parsed model), the settings and the :class:`~whitted.compare.results.Options`.
 
-    * a *chunk* of a reference (:func:`~whitted.compare.reference.reference_chunks`),
+    * under ``--budget``, a scene's *probe*: the plan of its reference
+      (:func:`~whitted.compare.reference.plan_reference`: short probe renders that
+      measure its cost, and the spp that fits); without a budget the client plans
+      each reference itself, since that renders nothing;
+    * a *chunk* of a reference (:meth:`~whitted.compare.reference.ReferencePlan.chunks`),
       for each reference not in the cache: one reference's chunks run on any
-      workers at once (under ``--budget`` the reference is probed and scaled to fit,
-      one step after another, so it is made whole by its scene's sweep instead);
+      workers at once, with or without a budget;
     * a scene's *sweep* (:func:`~whitted.compare.sweep.sweep_scene`): the reference
-      averaged from its chunks and stored in the cache (by that worker, atomically),
-      then every setting of the scene, one after the other on that one worker, so
-      that a scene's times are measured under the same conditions and compare.
+      averaged from its plan's probes and chunks and stored in the cache (by that
+      worker, atomically), then every setting of the scene, one after the other on
+      that one worker, so that a scene's times are measured under the same
+      conditions and compare. Under ``--budget`` the scene's share counts from its
+      probe.
 
     A worker process prepares itself on its first task: it selects the variant and
     registers the plugins (``whitted.set_variant``) and sizes Dr.Jit's thread pool
@@ -33,9 +38,12 @@ What runs where
 
 Same results
     Without ``--budget``, a cluster writes the results.csv of a run in one process,
-    the time columns and ``worker`` aside: the reference's chunks follow from the options alone, every
-    render has a fixed seed, and a render's image depends on its seed alone
-    (:func:`whitted.rendering.path_passes`), whatever the worker's thread count.
+    the time columns and ``worker`` aside: the reference's chunks follow from its plan
+    alone (and without a budget the plan from the options alone), every render has a
+    fixed seed, and a render's image depends on its seed alone
+    (:func:`whitted.rendering.path_passes`), whatever the worker's thread count. Under
+    ``--budget`` the plan depends on the probe's timings, but a plan makes the same
+    reference wherever its chunks run.
 
 Failures
     A worker that dies mid-task: the scheduler hands its tasks to the others (a
@@ -67,9 +75,9 @@ from pathlib import Path
 
 from ..defaults import COMPARE_CONNECT_TIMEOUT
 from ..errors import WhittedError
-from . import report
 from .budget import Budget
-from .reference import Chunk, ReferenceCache, reference_chunks, reference_settings, render_chunk
+from .csvfile import CSV_NAME, write_csv
+from .reference import Chunk, ReferenceCache, ReferencePlan, plan_reference, render_chunk
 from .results import Options, SceneResult, Setting
 from .scenes import SceneFile
 from .sweep import sweep_scene
@@ -190,15 +198,37 @@ def chunk_task(scene: SceneFile, variant: str, max_depth: int, spp: int, seed: i
         return chunk
 
 
-def sweep_task(scene: SceneFile, entry: SceneResult, settings: list[Setting], options: Options,
-               seconds: float, end: float | None, threads: dict[str, int],
-               chunks: list[Chunk] | None) -> SceneResult:
-    """One scene's sweep on this worker: its result, with ``worker`` set."""
+def _seconds(seconds: float, end: float | None, began: float | None = None) -> float:
+    """A scene's time left now: its share ``seconds`` less what passed since its work
+    ``began``, and none past the budget's ``end`` (``time.time()`` readings)."""
+    now = time.time()
+    if began is not None:
+        seconds -= max(0.0, now - began)
+    return seconds if end is None else min(seconds, max(0.0, end - now))
+
+
+def probe_task(scene: SceneFile, entry: SceneResult, options: Options, seconds: float,
+               end: float | None, threads: dict[str, int]) -> ReferencePlan:
+    """Under ``--budget``, the plan of a scene's reference
+    (:func:`~whitted.compare.reference.plan_reference`: its probe renders, here)."""
     with _rendering():
         worker = _prepare(entry.variant, threads)
-        if end is not None:
-            seconds = min(seconds, max(0.0, end - time.time()))
-        result = sweep_scene(scene, entry, settings, options, seconds, chunks=chunks)
+        plan = plan_reference(scene, scene.load(entry.variant), entry,
+                              ReferenceCache(options.cache_folder), options, _seconds(seconds, end))
+        for chunk in plan.probes:
+            chunk.worker = worker
+        return plan
+
+
+def sweep_task(scene: SceneFile, entry: SceneResult, settings: list[Setting], options: Options,
+               seconds: float, end: float | None, threads: dict[str, int],
+               plan: ReferencePlan | None, chunks: list[Chunk] | None) -> SceneResult:
+    """One scene's sweep on this worker: its result, with ``worker`` set. With ``plan``
+    the scene's time counts from when its reference was planned."""
+    with _rendering():
+        worker = _prepare(entry.variant, threads)
+        seconds = _seconds(seconds, end, plan.began if plan is not None else None)
+        result = sweep_scene(scene, entry, settings, options, seconds, plan=plan, chunks=chunks)
         result.worker = worker
         return result
 
@@ -339,36 +369,48 @@ def sweep_on_cluster(client, scenes: list[SceneFile], entries: list[SceneResult]
                    quiet=True)
     cache = ReferenceCache(sent.cache_folder)
     run = uuid.uuid4().hex[:8]
-    tasks = {}   # future -> (scene index, "chunk" or "sweep")
+    tasks = {}   # future -> (scene index, "probe", "chunk" or "sweep")
     chunks_of = {}
-    for index, (scene, entry, settings) in enumerate(zip(scenes, entries, plans)):
-        chunks = None
-        if budget.seconds is None and cache.load(
-                entry.name, ReferenceCache.key(scene, reference_settings(entry, options.reference_spp)),
-                (entry.height, entry.width)) is None:
-            chunks = [client.submit(chunk_task, scene, entry.variant, entry.path_depth, *chunk, threads,
-                                    key=f"whitted-reference-{entry.name}-{k}-{run}")
-                      for k, chunk in enumerate(reference_chunks(options.reference_spp,
-                                                                 options.reference_chunk_spp))]
-            tasks.update((future, (index, "chunk")) for future in chunks)
-            chunks_of[index] = chunks
-        sweep = client.submit(sweep_task, scene, entry, settings, sent, share, end, threads, chunks,
-                              key=f"whitted-sweep-{entry.name}-{run}")
+
+    def submit_sweep(index: int, plan: ReferencePlan) -> list:
+        """The chunks left of the scene's reference and its sweep, as tasks."""
+        scene, entry = scenes[index], entries[index]
+        chunks = [client.submit(chunk_task, scene, entry.variant, entry.path_depth, *chunk, threads,
+                                key=f"whitted-reference-{entry.name}-{k}-{run}")
+                  for k, chunk in enumerate(plan.chunks(options.reference_chunk_spp))]
+        chunks_of[index] = chunks
+        sweep = client.submit(sweep_task, scene, entry, plans[index], sent, share, end, threads, plan,
+                              chunks, key=f"whitted-sweep-{entry.name}-{run}")
+        tasks.update((future, (index, "chunk")) for future in chunks)
         tasks[sweep] = (index, "sweep")
+        return chunks + [sweep]
+
+    for index, (scene, entry) in enumerate(zip(scenes, entries)):
+        if budget.seconds is None:  # planned here: nothing to render for it, only the cache to read
+            submit_sweep(index, plan_reference(scene, None, entry, cache, sent))
+        else:  # planned by a worker: the probe renders, then what fits
+            tasks[client.submit(probe_task, scene, entry, sent, share, end, threads,
+                                key=f"whitted-probe-{entry.name}-{run}")] = (index, "probe")
 
     out = Path(options.out)
     finished = [False] * len(entries)
     bar = tqdm(total=len(tasks), desc="whitted compare", unit="task", disable=options.quiet,
                file=sys.stderr, dynamic_ncols=True)
     try:
-        for future in as_completed(list(tasks), loop=client.loop):
+        running = as_completed(list(tasks), loop=client.loop)
+        for future in running:
             index, kind = tasks.pop(future)
             name = entries[index].name
-            if kind == "sweep":
+            if kind == "probe":
+                submitted = submit_sweep(index, _result(future, name))
+                for task in submitted:
+                    running.add(task)
+                bar.total += len(submitted)
+            elif kind == "sweep":
                 entries[index] = result = _result(future, name)
                 finished[index] = True
                 chunks_of.pop(index, None)  # their images may go now
-                report.write_csv(out / report.CSV_NAME, [e for e, f in zip(entries, finished) if f])
+                write_csv(out / CSV_NAME, [e for e, f in zip(entries, finished) if f])
                 bar.set_postfix_str(f"{sum(finished)}/{len(entries)} scenes", refresh=False)
                 if not options.quiet:
                     bar.write(f"whitted compare: {name}: {len(result.measurements)} renders on "

@@ -35,7 +35,7 @@ from .. import imageio, metrics
 from .. import rendering  # rendering.render looked up at call time: tests count calls
 from ..defaults import COMPARE_LIMIT_MAX_SPP, COMPARE_LIMIT_NOISE_SHARE, COMPARE_LIMIT_SPP_FACTOR
 from .curves import best_ambient, reference_noise
-from .results import Limit, Measurement, SceneResult
+from .results import WHITTED_LIGHTING, Limit, Measurement, SceneResult
 
 #: The seeds of a limit's halves: this, and this plus one. Independent of the sweep's
 #: (0, and its later passes 1, 2, ...) and of the reference's (0x5EED0000 and up).
@@ -63,7 +63,7 @@ def render_limit(loaded, entry: SceneResult, method: str, measured: list[tuple[M
     the first halves fit before ``deadline`` (a ``time.monotonic`` reading)."""
     if not measured:
         return None
-    lighting = method.split("-", 1)[1]
+    lighting = WHITTED_LIGHTING[method]
     depth = max(m.setting.max_depth for m, _ in measured)
     densest = max(m.setting.spp for m, _ in measured)
     ambient = (float(rendering.whitted_settings(loaded)["ambient"]) if lighting == "article"

@@ -26,8 +26,10 @@ from .analysis import (METHOD_NAMES, TIMING, Analysis, equal_time_how, reach_tex
                        spread_text)
 from .curves import pareto_front
 from .errormaps import colorbar
-from .results import METHODS, WHITTED_METHODS, Measurement, SceneResult, seconds_text
+from .plot import COLORS
+from .results import METHODS, WHITTED_LIGHTING, WHITTED_METHODS, Measurement, SceneResult, seconds_text
 
+PAGE_NAME = "report.html"
 TEMPLATE = "report.html.j2"
 #: The viewer enlarges small images by a whole factor (pixels stay square) to at least this width.
 VIEWER_WIDTH = 640
@@ -124,7 +126,7 @@ def scene_context(analysis: Analysis, plot: str, out: Path) -> dict:
         "decompositions": [d.text for d in analysis.decompositions],
         "plot": plot, "groups": groups, "renders": renders, "first": first,
         "cards": [r for r in renders if r["card"]],
-        "methods": methods, "whitted": [m.split("-")[1] for m in whitted],
+        "methods": methods, "whitted": [WHITTED_LIGHTING[m] for m in whitted],
         "equal_quality": equal_quality, "equal_time": equal_time,
         "skipped": len(entry.skipped),
     }
@@ -142,6 +144,6 @@ def write_page(path: str | os.PathLike, analyses: list[Analysis], plots: dict[st
     text = template.render(
         scenes=[scene_context(a, plots[a.entry.name], path.parent) for a in analyses],
         left_out=[{"name": e.name, "notes": list(e.notes) or ["no reference"]} for e in left_out],
-        files=files, colorbar=colorbar(), version=VERSION, interrupted=interrupted, timing=TIMING,
+        files=files, colorbar=colorbar(), colors=COLORS, version=VERSION, interrupted=interrupted, timing=TIMING,
         created=time.strftime("%Y-%m-%d %H:%M"))
     write_text(path, text)

@@ -1,4 +1,5 @@
-"""The reference each render is scored against, and the cache that keeps it.
+"""The reference each render is scored against: how it is planned, rendered in chunks,
+put together, and kept on disk.
 
 A converged path-traced reference costs more than the rest of a scene's sweep,
 so it is rendered once and kept on disk (``DIR/references`` unless ``--cache``),
@@ -8,21 +9,25 @@ versions of whitted and Mitsuba. An entry is written atomically, image first and
 description second, and read only when both are whole: an interrupted run leaves
 either a complete entry or none.
 
-A reference is rendered as two independent halves (:class:`Halves`: half the
-samples each, their own seeds) and averaged: the two halves disagree by exactly the
-noise the reference carries, so their difference estimates it
+A reference is two independent halves (:class:`Halves`: half the samples each, their
+own seeds) averaged: the two halves disagree by exactly the noise the reference
+carries, so their difference estimates it
 (:func:`~whitted.compare.curves.reference_noise`), and the report draws it as the
-floor no render can measurably go below. Under ``--budget`` short probe renders
-(1, 2, 4, ... spp, kept as part of the first half) measure what a render and a
-sample cost first, and the reference is scaled down to what the scene's share
-affords (:meth:`~whitted.compare.budget.Budget.reference_spp`) or refused.
+floor no render can measurably go below.
 
-Without a budget, each half is rendered in chunks (:func:`reference_chunks`) of at
-most ``--reference-chunk-spp`` samples per pixel, each from its own seed. The chunks
-follow from the options alone, never from who renders them, so a cluster can spread
-them over its workers (:mod:`.cluster`) and still make the very image a run in one
-process makes, bit for bit (a path-traced image depends only on its seed:
-:func:`whitted.rendering.path_passes`).
+One plan makes every reference, with or without ``--budget``, in one process or on a
+cluster (:func:`plan_reference`, then :func:`reference_chunks`): each half is a list
+of *chunks* of at most ``--reference-chunk-spp`` samples per pixel, chunk ``i`` of
+half ``h`` rendered from the seed :func:`chunk_seed` ``(h, i)``. Under ``--budget``
+the first chunks of the first half are short probe renders (1, 2, 4, ... spp) that
+measure what a render and a sample cost; the reference is then scaled down to what
+the scene's share affords (:meth:`~whitted.compare.budget.Budget.reference_spp`) or
+refused, and the rest of both halves is planned as without a budget. The chunks to
+render follow from the plan alone, never from who renders them, so a cluster spreads
+them over its workers (:mod:`.cluster`) and makes the very image a run in one
+process makes from the same plan, bit for bit (a path-traced image depends only on
+its seed: :func:`whitted.rendering.path_passes`; the chunks are added in the plan's
+order, in float64).
 """
 
 from __future__ import annotations
@@ -33,7 +38,7 @@ import math
 import re
 import sys
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -45,25 +50,36 @@ from .curves import reference_noise
 from .results import IN_PROCESS, Options, SceneResult, seconds_text
 from .scenes import SceneFile
 
-#: The seeds of the reference's renders are this plus a running count (even: the first
-#: half, odd: the second). Its samples must be independent of the sweep's (seed 0, whose
-#: later passes use seeds 1, 2, ...), or its noise would correlate with theirs and
-#: flatter the path tracer; and the halves must be independent of each other, or their
-#: difference would understate the noise.
+#: The seeds of the reference's chunks are this plus a running count (:func:`chunk_seed`).
+#: Its samples must be independent of the sweep's (seed 0, whose later passes use seeds
+#: derived from it), or its noise would correlate with theirs and flatter the path
+#: tracer; and the halves must be independent of each other, or their difference would
+#: understate the noise.
 REFERENCE_SEED = 0x5EED0000
 #: Bumped when the meaning of a cached reference changes (2: two halves, noise estimated).
 CACHE_FORMAT = "whitted-compare-reference/2"
 
 
-def reference_chunks(reference_spp: int, chunk_spp: int) -> list[tuple[int, int, int]]:
-    """The chunks of a reference rendered without a budget, as (spp, seed, half), in
-    order: each half (``reference_spp // 2`` samples per pixel, then the rest) cut into
-    chunks of at most ``chunk_spp``; chunk ``i`` of half ``h`` has the seed
-    ``REFERENCE_SEED + 2 i + h``."""
+def chunk_seed(half: int, index: int) -> int:
+    """The seed of chunk ``index`` of ``half`` (0 or 1): the halves' seeds interleave, so
+    neither half's seeds depend on how many chunks the other has."""
+    return REFERENCE_SEED + 2 * index + half
+
+
+def reference_chunks(reference_spp: int, chunk_spp: int,
+                     done: list[tuple[int, int, int]] = ()) -> list[tuple[int, int, int]]:
+    """The chunks still to render of a reference of ``reference_spp``, as (spp, seed, half),
+    in order, after those ``done`` already (the same triples: under ``--budget``, the
+    probe's, in the first half): each half (``reference_spp // 2`` samples per pixel,
+    then the rest) completed in chunks of at most ``chunk_spp``, chunk ``i`` of half
+    ``h`` (counting those done) seeded :func:`chunk_seed` ``(h, i)``. A half that the
+    chunks done fill already gets none."""
     chunks = []
     for half, spp in enumerate((reference_spp // 2, reference_spp - reference_spp // 2)):
-        sizes = [chunk_spp] * (spp // chunk_spp) + ([spp % chunk_spp] if spp % chunk_spp else [])
-        chunks += [(n, REFERENCE_SEED + 2 * i + half, half) for i, n in enumerate(sizes)]
+        had = [n for n, _, h in done if h == half]
+        rest = max(0, spp - sum(had))
+        sizes = [chunk_spp] * (rest // chunk_spp) + ([rest % chunk_spp] if rest % chunk_spp else [])
+        chunks += [(n, chunk_seed(half, len(had) + i), half) for i, n in enumerate(sizes)]
     return chunks
 
 
@@ -87,6 +103,11 @@ class Chunk:
     seconds: float
     compile_seconds: float
     worker: str = IN_PROCESS
+
+    @property
+    def planned(self) -> tuple[int, int, int]:
+        """(spp, seed, half): the entry of :func:`reference_chunks` it renders."""
+        return self.spp, self.seed, self.half
 
 
 def render_chunk(loaded, spp: int, seed: int, half: int, max_depth: int,
@@ -184,37 +205,20 @@ class ReferenceCache:
 
 
 class Halves:
-    """A reference being rendered: two independent halves, each the sum of path-traced
-    renders of its own seeds, averaged at the end (and differenced for its noise).
+    """A reference being put together: two independent halves, each the sum of its
+    chunks, averaged at the end (and differenced for its noise)."""
 
-    ============= ====================================================================
-    ``loaded``    the scene's ``mi.Scene``
-    ``max_depth`` the path tracer's max depth
-    ``progress``  whether each render shows a progress bar
-    ============= ====================================================================
-    """
-
-    def __init__(self, loaded, max_depth: int, progress: bool = False):
-        self.loaded, self.max_depth, self.progress = loaded, max_depth, progress
+    def __init__(self, chunks: list[Chunk] = ()):
         self.sums: list[np.ndarray | None] = [None, None]
         self.counts = [0, 0]
-        self.renders = 0
         self.seconds = 0.0          # render time, compilation excluded
         self.compile_seconds = 0.0
-
-    def render(self, half: int, spp: int) -> float:
-        """Add ``spp`` samples per pixel to ``half`` (0 or 1); returns the render's seconds."""
-        if spp <= 0:
-            return 0.0
-        chunk = render_chunk(self.loaded, spp, REFERENCE_SEED + 2 * self.renders + half, half,
-                             self.max_depth, self.progress)
-        self.add(chunk)
-        return chunk.seconds
+        for chunk in chunks:
+            self.add(chunk)
 
     def add(self, chunk: Chunk) -> None:
         """Add a rendered chunk to its half (in float64: the same chunks in the same
         order give the same bits)."""
-        self.renders += 1
         image = chunk.image.astype(np.float64) * chunk.spp
         half = chunk.half
         self.sums[half] = image if self.sums[half] is None else self.sums[half] + image
@@ -239,115 +243,159 @@ class Halves:
                                *self.counts)
 
 
-def probe(halves: Halves, most_spp: int, most_seconds: float) -> list[tuple[int, float]]:
-    """Renders of 1, 2, 4, ... spp into the first half (kept: they are part of the
-    reference) until a third one takes :data:`COMPARE_PROBE_SECONDS` (several, to tell
-    the cost of a render call from that of a sample), the next would pass ``most_spp``
-    or the probe has taken ``most_seconds``; returns [(spp, seconds)] for
-    :func:`~whitted.compare.budget.fit_cost`."""
-    start, points, spp = time.monotonic(), [], 1
+def probe(loaded, max_depth: int, most_spp: int, most_seconds: float,
+          progress: bool = False) -> list[Chunk]:
+    """The first chunks of a reference's first half under ``--budget``: renders of 1, 2,
+    4, ... spp (``loaded``: the ``mi.Scene``) until a third one takes
+    :data:`COMPARE_PROBE_SECONDS` (several, to tell the cost of a render call from that
+    of a sample), the next would pass ``most_spp`` or the probe has taken
+    ``most_seconds``. Their (spp, seconds) feed
+    :func:`~whitted.compare.budget.fit_cost`; their images are kept in the reference."""
+    start, chunks, spp = time.monotonic(), [], 1
     while True:
-        points.append((spp, halves.render(0, spp)))
+        chunks.append(render_chunk(loaded, spp, chunk_seed(0, len(chunks)), 0, max_depth, progress))
         # three renders: the cost of a sample is read between the last two (the first may
         # still pay for warm-up), once they are long enough to time
-        enough = len(points) >= 3 and points[-1][1] >= COMPARE_PROBE_SECONDS
+        enough = len(chunks) >= 3 and chunks[-1].seconds >= COMPARE_PROBE_SECONDS
         if enough or 2 * spp > most_spp or time.monotonic() - start >= most_seconds:
-            return points
+            return chunks
         spp *= 2
 
 
-def reference_image(scene: SceneFile, loaded, entry: SceneResult, cache: ReferenceCache,
-                    options: Options, seconds: float = math.inf,
-                    chunks: list[Chunk] | None = None) -> np.ndarray | None:
-    """The scene's reference, from the cache or rendered from ``loaded`` (its ``mi.Scene``)
-    within ``seconds`` (the scene's share of ``--budget``; ``math.inf``: no budget).
+@dataclass
+class ReferencePlan:
+    """How a scene's reference is made, decided before the rest of it is rendered (plain
+    data: on a cluster, one worker probes and plans, and the chunks run on any).
 
-    Under a budget, a reference that is not cached is first probed (:func:`probe`: its
-    first renders, kept) and completed at the spp :meth:`Budget.reference_spp` allows:
-    fewer than asked (a reference of that spp is looked up in the cache first; a line of
-    ``entry.notes`` says so), or none, when not even the minimum fits (the note says why
-    and the result is None). Without a budget it is rendered in :func:`reference_chunks`,
-    or made of ``chunks`` rendered elsewhere (a cluster's workers). Records in ``entry``
-    where the reference lies, its spp and noise, whether it was cached and what it cost.
+    ============= ====================================================================
+    ``requested`` the spp asked for (``--reference-spp``)
+    ``spp``       the spp it will have (0: none, the scene is skipped; ``notes`` say why)
+    ``key``       its cache key
+    ``cached``    (image, description) read from the cache, or None: to be rendered
+    ``probes``    its chunks rendered already (under ``--budget``: the probe's)
+    ``notes``     what ``--budget`` did to it and why, one line each (for ``entry.notes``)
+    ``began``     when planning began (``time.time()``: a scene's share of the budget is
+                  counted from it, also on another machine)
+    ============= ====================================================================
     """
-    def settings(spp: int) -> dict:
-        return reference_settings(entry, spp)
+    requested: int
+    spp: int
+    key: str
+    cached: tuple[np.ndarray, dict] | None = None
+    probes: list[Chunk] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
+    began: float = field(default_factory=time.time)
 
+    def chunks(self, chunk_spp: int) -> list[tuple[int, int, int]]:
+        """What is left to render, as (spp, seed, half) (:func:`reference_chunks`)."""
+        if not self.spp or self.cached is not None:
+            return []
+        return reference_chunks(self.spp, chunk_spp, [c.planned for c in self.probes])
+
+
+def plan_reference(scene: SceneFile, loaded, entry: SceneResult, cache: ReferenceCache,
+                   options: Options, seconds: float = math.inf) -> ReferencePlan:
+    """The plan of the scene's reference within ``seconds`` (the scene's share of
+    ``--budget``; ``math.inf``: no budget, and then nothing is rendered and ``loaded``,
+    the scene's ``mi.Scene``, is not needed).
+
+    A reference in the cache is used as it is. Under a budget, one that is not is
+    first probed (:func:`probe`) and planned at the spp :meth:`Budget.reference_spp`
+    allows: fewer than asked (a reference of that spp is looked up in the cache
+    first; a note says so), or none, when not even the minimum fits (the note says
+    why). The budget's cost of a reference is that of the chunks its plan renders.
+    """
     def lookup(spp: int) -> tuple[str, tuple[np.ndarray, dict] | None]:
-        key = cache.key(scene, settings(spp))
+        key = cache.key(scene, reference_settings(entry, spp))
         return key, cache.load(entry.name, key, (entry.height, entry.width))
 
-    start = time.monotonic()
-    requested = options.reference_spp
+    start, began = time.monotonic(), time.time()
+    requested, chunk_spp = options.reference_spp, options.reference_chunk_spp
     key, cached = lookup(requested)
-    halves = Halves(loaded, entry.path_depth, progress=not options.quiet)
-    if cached is None and math.isfinite(seconds):
-        if seconds <= 0:
-            entry.notes.append("skipped whole: no time was left to render its reference")
-            return None
-        pixels = entry.width * entry.height
-        pass_spp = rendering.path_passes(requested, pixels)[0]  # the most spp of one pass
-        points = probe(halves, most_spp=min(pass_spp, max(1, requested // 4)),
-                       most_seconds=COMPARE_REFERENCE_SHARE * seconds / 4)
-        overhead, per_spp = fit_cost(points)
+    if cached is not None or not math.isfinite(seconds):
+        return ReferencePlan(requested, requested, key, cached, began=began)
+    if seconds <= 0:
+        return ReferencePlan(requested, 0, key, began=began, notes=[
+            "skipped whole: no time was left to render its reference"])
+    pixels = entry.width * entry.height
+    pass_spp = rendering.path_passes(requested, pixels)[0]  # the most spp of one pass
+    probes = probe(loaded, entry.path_depth, most_spp=min(pass_spp, max(1, requested // 4), chunk_spp),
+                   most_seconds=COMPARE_REFERENCE_SHARE * seconds / 4, progress=not options.quiet)
+    overhead, per_spp = fit_cost([(c.spp, c.seconds) for c in probes])
+    done = [c.planned for c in probes]
 
-        def cost(spp: int) -> float:  # what the rest of an spp-sample reference costs
-            rest = (max(0, spp // 2 - halves.counts[0]), spp - spp // 2)
-            return sum(render_cost(n, len(rendering.path_passes(n, pixels)),
-                                   overhead, per_spp) for n in rest)
+    def cost(spp: int) -> float:  # what the rest of an spp-sample reference costs
+        return sum(render_cost(n, len(rendering.path_passes(n, pixels)), overhead, per_spp)
+                   for n, _, _ in reference_chunks(spp, chunk_spp, done))
 
-        fitted = Budget.reference_spp(requested, cost, seconds, spent=time.monotonic() - start)
-        estimate = (f"probe renders of 1–{points[-1][0]} spp: {seconds_text(overhead)} a render "
-                    f"plus {seconds_text(per_spp)} per spp" if overhead > 0 else
-                    f"a {points[-1][0]}-spp probe took {seconds_text(points[-1][1])}")
-        if fitted is None:
-            entry.notes.append(
-                f"skipped whole: its reference would take about "
-                f"{seconds_text(cost(requested))} at {requested} spp ({estimate}); the scene's "
-                f"{seconds_text(seconds)} share of --budget {options.budget:g} s affords less than "
-                f"the {COMPARE_MIN_REFERENCE_SPP} spp a usable reference needs: raise --budget "
-                f"or lower --reference-spp")
-            return None
-        if fitted < requested:
-            entry.notes.append(
-                f"reference scaled down from {requested} to {fitted} spp to fit --budget "
-                f"{options.budget:g} s ({estimate}: {requested} spp would take about "
-                f"{seconds_text(cost(requested))}, {fitted} spp about {seconds_text(cost(fitted))})")
-        target = fitted
-        key, cached = lookup(max(halves.counts[0], target // 2) + target - target // 2)
-    else:
-        target = requested
-    if cached is not None:
-        image, info = cached
+    fitted = Budget.reference_spp(requested, cost, seconds, spent=time.monotonic() - start)
+    last = probes[-1]
+    estimate = (f"probe renders of 1–{last.spp} spp: {seconds_text(overhead)} a render "
+                f"plus {seconds_text(per_spp)} per spp" if overhead > 0 else
+                f"a {last.spp}-spp probe took {seconds_text(last.seconds)}")
+    if fitted is None:
+        return ReferencePlan(requested, 0, key, began=began, notes=[
+            f"skipped whole: its reference would take about "
+            f"{seconds_text(cost(requested))} at {requested} spp ({estimate}); the scene's "
+            f"{seconds_text(seconds)} share of --budget {options.budget:g} s affords less than "
+            f"the {COMPARE_MIN_REFERENCE_SPP} spp a usable reference needs: raise --budget "
+            f"or lower --reference-spp"])
+    notes = []
+    if fitted < requested:
+        notes.append(
+            f"reference scaled down from {requested} to {fitted} spp to fit --budget "
+            f"{options.budget:g} s ({estimate}: {requested} spp would take about "
+            f"{seconds_text(cost(requested))}, {fitted} spp about {seconds_text(cost(fitted))})")
+    # a half the probe filled already may hold more than half of ``fitted``
+    spp = sum(n for n, _, _ in done + reference_chunks(fitted, chunk_spp, done))
+    if spp != requested:
+        key, cached = lookup(spp)
+    return ReferencePlan(requested, spp, key, cached, [] if cached else probes, notes, began)
+
+
+def reference_image(scene: SceneFile, loaded, entry: SceneResult, cache: ReferenceCache,
+                    options: Options, seconds: float = math.inf, plan: ReferencePlan | None = None,
+                    chunks: list[Chunk] | None = None) -> np.ndarray | None:
+    """The scene's reference, from the cache or rendered from ``loaded`` (its ``mi.Scene``)
+    as :func:`plan_reference` plans it within ``seconds``; or as ``plan`` says, made
+    elsewhere, with ``chunks`` (the rest of it after the plan's probes) rendered
+    elsewhere too (a cluster's workers). None when the plan has no reference (its notes
+    say why). Records in ``entry`` the plan's notes, where the reference lies, its spp
+    and noise, whether it was cached and what it cost.
+    """
+    if plan is None:
+        plan = plan_reference(scene, loaded, entry, cache, options, seconds)
+    entry.notes.extend(plan.notes)
+    if not plan.spp:
+        return None
+    if plan.cached is not None:
+        image, info = plan.cached
         entry.reference_cached = True
         entry.reference_seconds = float(info.get("seconds", math.nan))
         entry.reference_noise = float(info.get("noise_rel_mse", math.nan))
-        entry.reference_spp = int(info.get("settings", {}).get("spp", target))
+        entry.reference_spp = int(info.get("settings", {}).get("spp", plan.spp))
     else:
+        planned = plan.chunks(options.reference_chunk_spp)
         if not options.quiet:
             print(f"whitted compare: {entry.name}: rendering the reference "
-                  f"(path tracer, {target} spp in two halves)", file=sys.stderr)
-        if math.isfinite(seconds):  # the probe's renders are part of the first half
-            halves.render(0, target // 2 - halves.counts[0])
-            halves.render(1, target - target // 2)
-        else:
-            planned = reference_chunks(target, options.reference_chunk_spp)
-            if chunks is None:
-                chunks = [render_chunk(loaded, *chunk, entry.path_depth, progress=not options.quiet)
-                          for chunk in planned]
-            if [(c.spp, c.seed, c.half) for c in chunks] != planned:
-                raise ValueError("the reference's chunks are not those its options make")
-            for chunk in chunks:
-                halves.add(chunk)
+                  f"(path tracer, {plan.spp} spp in two halves)", file=sys.stderr)
+        if chunks is None:
+            chunks = [render_chunk(loaded, *chunk, entry.path_depth, progress=not options.quiet)
+                      for chunk in planned]
+        if [c.planned for c in chunks] != planned:
+            raise ValueError("the reference's chunks are not those its plan makes")
+        chunks = plan.probes + chunks
+        halves = Halves(chunks)
         image = halves.image()
         entry.reference_spp = halves.spp
         entry.reference_seconds = halves.seconds
         entry.reference_noise = halves.noise()
-        cache.store(entry.name, key, image, {
-            "scene": str(entry.path), "settings": settings(halves.spp), "seconds": halves.seconds,
-            "compile_seconds": halves.compile_seconds, "noise_rel_mse": entry.reference_noise,
-            "spp_per_half": halves.counts, "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
+        cache.store(entry.name, plan.key, image, {
+            "scene": str(entry.path), "settings": reference_settings(entry, halves.spp),
+            "seconds": halves.seconds, "compile_seconds": halves.compile_seconds,
+            "noise_rel_mse": entry.reference_noise, "spp_per_half": halves.counts,
+            "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
             "chunks": [{"spp": c.spp, "seed": c.seed, "half": c.half, "seconds": c.seconds,
-                        "worker": c.worker} for c in chunks or ()]})
-    entry.reference_file = cache.entry(entry.name, key)[0]
+                        "worker": c.worker} for c in chunks]})
+    entry.reference_file = cache.entry(entry.name, plan.key)[0]
     return image

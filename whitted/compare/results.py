@@ -21,21 +21,33 @@ from ..defaults import (COMPARE_MAX_DEFAULT_DEPTH as MAX_DEFAULT_DEPTH,
                         COMPARE_REFERENCE_CHUNK_SPP as DEFAULT_REFERENCE_CHUNK_SPP,
                         COMPARE_REFERENCE_SPP as DEFAULT_REFERENCE_SPP,
                         COMPARE_REPEATS as DEFAULT_REPEATS, COMPARE_WHITTED_SPP as DEFAULT_WHITTED_SPP,
-                        MAX_DEPTH)
+                        LIGHTING_MODES, MAX_DEPTH)
 
 if TYPE_CHECKING:
     import numpy as np
 
+
+
+def method_of(integrator: str, lighting: str) -> str:
+    """The name of the method that renders with ``integrator`` in ``lighting``:
+    ``whitted-article``, ``whitted-physical`` or ``path`` (the path tracer has one
+    lighting). Names are made here only; their parts are read from
+    :data:`WHITTED_LIGHTING`, never parsed back out of the name."""
+    return "path" if integrator == "path" else f"whitted-{lighting}"
+
+
+#: Each Whitted method (the Whitted integrator in one lighting mode) -> its lighting mode.
+WHITTED_LIGHTING = {method_of("whitted", lighting): lighting for lighting in LIGHTING_MODES}
 #: The Whitted integrator in its two lighting modes, then the path tracer.
-WHITTED_METHODS = ("whitted-article", "whitted-physical")
+WHITTED_METHODS = tuple(WHITTED_LIGHTING)
 METHODS = WHITTED_METHODS + ("path",)
 #: Who rendered a scene's sweep when no cluster did (``SceneResult.worker``).
 IN_PROCESS = "in-process"
 
 __all__ = ["DEFAULT_PATH_SPP", "DEFAULT_REFERENCE_CHUNK_SPP", "DEFAULT_REFERENCE_SPP",
            "DEFAULT_REPEATS", "DEFAULT_WHITTED_SPP", "IN_PROCESS", "MAX_DEFAULT_DEPTH", "MAX_DEPTH",
-           "METHODS", "WHITTED_METHODS", "Comparison", "Limit", "Measurement", "Options", "SceneResult", "Setting",
-           "seconds_text"]
+           "METHODS", "WHITTED_LIGHTING", "WHITTED_METHODS", "Comparison", "Limit", "Measurement",
+           "Options", "SceneResult", "Setting", "method_of", "seconds_text"]
 
 
 @dataclass(frozen=True)
@@ -57,7 +69,7 @@ class Setting:
     @property
     def method(self) -> str:
         """One of :data:`METHODS`."""
-        return "path" if self.integrator == "path" else f"whitted-{self.lighting}"
+        return method_of(self.integrator, self.lighting)
 
     @property
     def label(self) -> str:

@@ -18,13 +18,16 @@ from pathlib import Path
 
 from .. import interrupt
 from ..atomic import check_folder_creatable
+from ..defaults import check_depth
 from ..errors import WhittedError
 from ..progress import progress_bar
 from . import report
 from .budget import Budget
+from .csvfile import CSV_NAME, write_csv
 from .planning import plan_scene, progress_units
-from .results import MAX_DEPTH, Comparison, Options, SceneResult
+from .results import Comparison, Options, SceneResult
 from .scenes import SceneFile, scene_files, scene_names
+from .summary import findings
 from .sweep import sweep_scene
 
 
@@ -38,10 +41,10 @@ def check_options(options: Options) -> None:
         raise WhittedError("--repeats and --reference-spp must be >= 1")
     if options.budget is not None and not options.budget > 0:
         raise WhittedError(f"--budget must be a positive number of seconds, got {options.budget}")
-    if options.depths and max(options.depths) > MAX_DEPTH:
-        raise WhittedError(f"--depths: the scene format allows depths up to {MAX_DEPTH}")
-    if options.path_depth is not None and not 1 <= options.path_depth <= MAX_DEPTH:
-        raise WhittedError(f"--path-depth must be in 1…{MAX_DEPTH}, got {options.path_depth}")
+    for depth in options.depths or ():
+        check_depth(depth, "--depths")
+    if options.path_depth is not None:
+        check_depth(options.path_depth, "--path-depth")
     cache_folder = options.cache_folder
     if cache_folder.exists() and not cache_folder.is_dir():
         raise WhittedError(f"{cache_folder}: the reference cache exists and is not a folder")
@@ -92,7 +95,7 @@ def compare(scenes: list[str | os.PathLike], options: Options) -> Comparison:
         for index, (scene, entry, settings) in enumerate(zip(read, entries, plans)):
             sweep_scene(scene, entry, settings, options, budget.share(len(entries) - index),
                         loaded=loaded[index], progress=bar)
-            report.write_csv(out / report.CSV_NAME, entries[:index + 1])
+            write_csv(out / CSV_NAME, entries[:index + 1])
             loaded[index] = None  # free the scene's memory
     except BaseException as error:   # Ctrl-C may arrive wrapped (see whitted.interrupt)
         if not interrupt.requested(error):
@@ -124,7 +127,7 @@ def _compare_on_cluster(scenes: list[SceneFile], entries: list[SceneResult], pla
 
 def _written(out: Path, entries: list[SceneResult], options: Options) -> Comparison:
     analyses = report.write_all(out, entries, options.levels)
-    return Comparison(entries, analyses, report.findings(analyses))
+    return Comparison(entries, analyses, findings(analyses))
 
 
 def _write_what_was_done(out: Path, entries: list[SceneResult], plans: list, options: Options) -> None:

@@ -40,10 +40,10 @@ from .budget import Budget
 from .errormaps import write_render
 from .limits import render_limit
 from .planning import limit_methods
-from .reference import Chunk, ReferenceCache, reference_image
-from .report import thumbnail
+from .reference import Chunk, ReferenceCache, ReferencePlan, reference_image
 from .results import Measurement, Options, SceneResult, Setting
 from .scenes import SceneFile
+from .sheet import thumbnail
 
 #: The seed of every render of the sweep (the reference has its own).
 SWEEP_SEED = 0
@@ -85,7 +85,7 @@ def measure(loaded, setting: Setting, reference: np.ndarray, repeats: int,
 
 def sweep_scene(scene: SceneFile, entry: SceneResult, settings: list[Setting], options: Options,
                 seconds: float = math.inf, *, loaded=None, progress=None,
-                chunks: list[Chunk] | None = None) -> SceneResult:
+                plan: ReferencePlan | None = None, chunks: list[Chunk] | None = None) -> SceneResult:
     """Render and score one scene's ``settings`` (in order) within ``seconds``.
 
     ============ ======================================================================
@@ -103,9 +103,11 @@ def sweep_scene(scene: SceneFile, entry: SceneResult, settings: list[Setting], o
                  in ``entry.variant``)
     ``progress`` a tqdm bar to advance by one per setting and per Whitted method's
                  limit, or None
-    ``chunks``   the reference's chunks (:class:`~whitted.compare.reference.Chunk`)
-                 when a cluster's workers rendered them; None: rendered here unless
-                 cached
+    ``plan``     the reference's plan (:func:`~whitted.compare.reference.plan_reference`)
+                 when it was made elsewhere; None: made here
+    ``chunks``   the rest of the reference after the plan's probes
+                 (:class:`~whitted.compare.reference.Chunk`) when a cluster's workers
+                 rendered them; None: rendered here unless cached
     ============ ======================================================================
     """
     deadline = time.monotonic() + seconds
@@ -114,7 +116,7 @@ def sweep_scene(scene: SceneFile, entry: SceneResult, settings: list[Setting], o
     out = Path(options.out)
     cache = ReferenceCache(options.cache_folder)
     reference = reference_image(scene, loaded, entry, cache, options,
-                                seconds=deadline - time.monotonic(), chunks=chunks)
+                                seconds=deadline - time.monotonic(), plan=plan, chunks=chunks)
     if reference is None:
         entry.skipped.extend(settings)
         if progress is not None:

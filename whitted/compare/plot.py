@@ -1,0 +1,180 @@
+"""``error_vs_time.png``: error against render time, one row per scene (and the
+scene's own plot, for the page), with each front point labelled where its label fits.
+
+How to read it: relative MSE on the left and FLIP on the right, against the render
+time (the fastest repeat, compilation excluded; the bars reach to the slowest
+repeat), both axes logarithmic. Each method has one colour (:data:`COLORS`, the
+page's too); its faint dots are every setting that was rendered, and its line joins
+the settings that no faster setting of the same method beats (its Pareto front):
+the best error that method buys for a given time. Only the front's points are
+labelled (``d3·4``: depth 3 at 4 spp; ``64``: the path tracer at 64 spp), each label
+placed where it overlaps no other label, point or line (:func:`place_labels`), and
+dropped when no place is free. A curve that flattens is a bias showing: more samples
+or depth no longer bring the image closer to the reference. The dashed line is the
+reference's own noise (estimated from its two independent halves,
+:func:`~whitted.compare.curves.reference_noise`): no render can measurably score
+below it.
+
+Figures use matplotlib's object API with the Agg canvas, never pyplot's global
+state, and are written atomically (:func:`save_figure`).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+
+from ..atomic import atomic_path
+from .analysis import METHOD_NAMES
+from .curves import pareto_front
+from .results import METHODS, SceneResult, seconds_text
+
+PLOT_NAME = "error_vs_time.png"
+#: each scene's own plot, for the page, relative to the output folder
+SCENE_PLOT = "{folder}/error_vs_time.png"
+
+#: Each method's colour, here and on the page (``report.html``'s method swatches).
+COLORS = {"whitted-article": "#1f77b4", "whitted-physical": "#ff7f0e", "path": "#2ca02c"}
+MARKERS = {"whitted-article": "o", "whitted-physical": "s", "path": "^"}
+
+
+def _usable(value: float) -> bool:
+    return math.isfinite(value) and value > 0
+
+
+#: Where a label may go around its point (offset in points, alignment), tried in order.
+LABEL_PLACES = ((4, 3, "left", "bottom"), (4, -3, "left", "top"), (-4, 3, "right", "bottom"),
+                (-4, -3, "right", "top"), (0, 7, "center", "bottom"), (0, -7, "center", "top"),
+                (10, 0, "left", "center"), (-10, 0, "right", "center"))
+
+
+#: Display pixels kept free around a label, so that two labels never read as one.
+LABEL_GAP = 3
+
+
+def line_boxes(ax, line: list[tuple[float, float]], step: float = 3.0) -> list:
+    """Small display-space boxes along a polyline of data points (one every ``step``
+    pixels), so that labels keep off the lines drawn, not only off their points."""
+    from matplotlib.transforms import Bbox
+
+    points = [ax.transData.transform(p) for p in line]
+    boxes = []
+    for (x0, y0), (x1, y1) in zip(points, points[1:]):
+        count = max(1, int(math.hypot(x1 - x0, y1 - y0) / step))
+        for k in range(count + 1):
+            x, y = x0 + (x1 - x0) * k / count, y0 + (y1 - y0) * k / count
+            boxes.append(Bbox.from_extents(x - 1, y - 1, x + 1, y + 1))
+    return boxes
+
+
+def place_labels(fig, ax, labels: list[tuple[float, float, str, str]], taken: list) -> int:
+    """Annotate ``labels`` = [(x, y, text, color)] in ``ax`` where each overlaps neither
+    a label placed before, a data point nor anything in ``taken`` (display-space boxes,
+    extended in place); a label with no free place is left out. Needs a drawn figure
+    (its layout final). Returns how many were placed."""
+    from matplotlib.transforms import Bbox
+
+    renderer = fig.canvas.get_renderer()
+    frame = ax.get_window_extent(renderer)
+    placed = 0
+    for x, y, text, color in labels:
+        for dx, dy, ha, va in LABEL_PLACES:
+            label = ax.annotate(text, (x, y), xytext=(dx, dy), textcoords="offset points",
+                                ha=ha, va=va, fontsize=6.5, color=color)
+            label.set_in_layout(False)
+            box = label.get_window_extent(renderer)
+            box = Bbox.from_extents(box.x0 - LABEL_GAP, box.y0 - LABEL_GAP, box.x1 + LABEL_GAP,
+                                    box.y1 + LABEL_GAP)
+            inside = frame.contains(box.x0, box.y0) and frame.contains(box.x1, box.y1)
+            if inside and not any(box.overlaps(other) for other in taken):
+                taken.append(box)
+                placed += 1
+                break
+            label.remove()
+    return placed
+
+
+def plot_error_vs_time(path: str | os.PathLike, entries: list[SceneResult]) -> None:
+    """Error against time, log–log; one row of two panels (rel. MSE, FLIP) per scene."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+    from matplotlib.transforms import Bbox
+
+    rows = max(1, len(entries))
+    fig = Figure(figsize=(10.0, 4.4 * rows), layout="constrained")
+    FigureCanvasAgg(fig)
+    if not entries:
+        fig.suptitle("nothing rendered within the budget")
+    pending = []  # (axes, labels, points, lines): labels are placed once the layout is final
+    for entry, subfig in zip(entries, fig.subfigures(rows, 1, squeeze=False)[:, 0]):
+        ax_mse, ax_flip = subfig.subplots(1, 2)
+        for ax, metric, name in ((ax_mse, "rel_mse", "relative MSE"), (ax_flip, "flip", "FLIP")):
+            labels, points, lines = [], [], []
+            for method in METHODS:
+                ms = [m for m in entry.measurements if m.setting.method == method
+                      and _usable(m.seconds) and _usable(getattr(m, metric))]
+                if not ms:
+                    continue
+                color = COLORS[method]
+                xs, ys = [m.seconds for m in ms], [getattr(m, metric) for m in ms]
+                spread = [[m.seconds - m.seconds_min for m in ms], [m.seconds_max - m.seconds for m in ms]]
+                ax.errorbar(xs, ys, xerr=spread, fmt="none", ecolor=color, alpha=0.25, linewidth=0.8)
+                ax.scatter(xs, ys, s=12, color=color, alpha=0.3, marker=MARKERS[method], linewidths=0)
+                front = pareto_front(list(zip(xs, ys)))
+                ax.plot(*zip(*front), color=color, marker=MARKERS[method], markersize=4,
+                        label=METHOD_NAMES[method] + f" ({method})")
+                by_point = {(m.seconds, getattr(m, metric)): m.setting for m in ms}
+                labels += [(x, y, by_point[(x, y)].short_label, color) for x, y in front]
+                points += list(zip(xs, ys))
+                lines.append(front)
+            if metric == "rel_mse" and _usable(entry.reference_noise):
+                ax.axhline(entry.reference_noise, color="0.35", linestyle="--", linewidth=0.9,
+                           label=f"reference noise ({entry.reference_spp} spp, est. from two halves)")
+            ax.set_xscale("log")
+            ax.set_yscale("log")
+            _time_axis(ax, [x for x, _ in points])
+            ax.set_xlabel("render time (fastest repeat; bars: to the slowest)")
+            ax.set_ylabel(f"{name} vs reference")
+            ax.grid(True, which="both", alpha=0.2)
+            pending.append((ax, labels, points, lines))
+        ax_mse.set_title(f"{entry.name} ({entry.width}×{entry.height}): relative MSE", fontsize=9)
+        ax_flip.set_title(f"{entry.name}: FLIP (as displayed, [0, 1] sRGB)", fontsize=9)
+        if entry.measurements:
+            subfig.legend(*ax_mse.get_legend_handles_labels(), loc="outside lower center", ncols=2,
+                          fontsize=7, title="labels: dDEPTH·SPP (Whitted), SPP (path tracer); "
+                          f"reference: path tracer, {entry.reference_spp} spp", title_fontsize=7)
+        else:
+            ax_mse.text(0.5, 0.5, "no render within the budget", transform=ax_mse.transAxes,
+                        ha="center")
+    fig.draw_without_rendering()  # the layout is final now: labels can be measured
+    fig.set_layout_engine("none")  # and stays so (labels are not part of it): saving is faster
+    for ax, labels, points, lines in pending:
+        taken = [Bbox.from_extents(px - 3, py - 3, px + 3, py + 3)
+                 for px, py in (ax.transData.transform(p) for p in points)]
+        taken += [box for line in lines for box in line_boxes(ax, line)]
+        place_labels(fig, ax, labels, taken)
+    save_figure(fig, path, dpi=100)
+
+
+def _time_axis(ax, seconds: list[float]) -> None:
+    """Label a log time axis in words (``2 ms``, ``1.5 s``); minor ticks are labelled
+    only when the data span less than a decade (else their labels would collide)."""
+    from matplotlib.ticker import FuncFormatter, NullFormatter
+
+    def label(value, _position=None):
+        return seconds_text(value) if value > 0 else ""
+
+    ax.xaxis.set_major_formatter(FuncFormatter(label))
+    narrow = seconds and math.log10(max(seconds) / min(seconds)) < 1.0
+    ax.xaxis.set_minor_formatter(FuncFormatter(lambda v, p=None: label(v) if _leading(v) in (2, 5) else "")
+                                 if narrow else NullFormatter())
+
+
+def _leading(value: float) -> int:
+    """The leading digit of a positive number (2 for 0.0021)."""
+    return int(round(value / 10 ** math.floor(math.log10(value) + 1e-9)))
+
+
+def save_figure(fig, path: str | os.PathLike, dpi: int) -> None:
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, format="png", dpi=dpi)
