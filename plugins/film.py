@@ -10,14 +10,13 @@ hash of (pixel, sample, seed) rather than a stream from a sampler, so an
 image does not depend on how the render is split into passes.
 
 Where its color goes: straight into the developed image, or through
-Mitsuba's film. Why two ways. Mitsuba's film accepts samples anywhere on the image plane and
-spreads each over the pixels its reconstruction filter covers:
+Mitsuba's film. Why two ways. Mitsuba's film accepts samples anywhere on the
+image plane and spreads each over the pixels its reconstruction filter covers:
 ``ImageBlock.put`` evaluates the filter and adds, per sample, red, green,
 blue and a weight into a block of four floats per pixel; the film then adds
 the block into its own storage (four more) and develops a third image, each
-pixel's weighted sum divided by its summed weights. On the benchmark scene
-that costs about 0.45 times the ray-casting floor, and at 16384² pixels the
-three images take 44 bytes a pixel.
+pixel's weighted sum divided by its summed weights: three images, 44 bytes a
+pixel, and a share of the render time that benchmarks/RESULTS.md measures.
 
 With a box filter (what converted scenes use, and Mitsuba's integrators put
 a box-filtered sample at its pixel alone), every sample lands in one pixel
@@ -29,8 +28,7 @@ pixel's samples sit side by side), nothing else to develop, 12 bytes a pixel.
 It is the film's image up to the order of the additions (an ulp or so; none
 with one sample per pixel). It serves Mitsuba's ``hdrfilm`` with a box
 filter and RGB pixels in the JIT variants; :class:`FilmSplats` serves every
-other film, filter and pixel format, and the scalar variant, through the film
-as before. Unlike the film path, :class:`PixelMeans` leaves the film's own
+other film, filter and pixel format, and the scalar variant, through the film. Unlike the film path, :class:`PixelMeans` leaves the film's own
 storage alone: read the image the render returns, not ``film.bitmap()``.
 """
 

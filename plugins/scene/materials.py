@@ -24,7 +24,7 @@ KEY, TEXTURED, COLOR, REFLECT, REFRACT, IOR = 0, 1, slice(2, 5), 5, 6, 7
 
 def uniform_color(texture) -> tuple[float, float, float]:
     """The color of a texture that does not vary over the surface, as three floats
-    (read by indexing: numpy's conversion costs 8 µs a call)."""
+    (read by indexing, which is much cheaper than numpy's conversion)."""
     value = texture.eval(dr.zeros(mi.SurfaceInteraction3f))
     color = tuple(float(c[0]) if dr.is_jit_v(c) else float(c) for c in value)
     return color * 3 if len(color) == 1 else color

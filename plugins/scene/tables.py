@@ -9,8 +9,7 @@ of each one.
 
 The one way they are invalidated. :func:`scene_tables`, which every render
 calls first, reads what the tables were built from and what costs little to
-read: each shape's bounding box (a sphere's center and radius; a tenth of
-a microsecond a shape), each ``ellipsoids`` shape's data array, each textured
+read: each shape's bounding box (a sphere's center and radius), each ``ellipsoids`` shape's data array, each textured
 sphere's ``to_world``, the lights and the background, and how many times an
 ``article`` BSDF has changed (:func:`material_changed`, called by the BSDF's
 own ``parameters_changed``). Anything else the tables hold follows from
@@ -60,8 +59,8 @@ def material_changed() -> None:
 
 
 def _bounds(shapes) -> list:
-    """The shapes' bounding boxes (a call per shape, about 0.1 µs; a vectorized call on the
-    shapes would trace each of them). Boxes compare exactly with ``==``."""
+    """The shapes' bounding boxes (a call per shape; a vectorized call on the shapes would
+    trace each of them). Boxes compare exactly with ``==``."""
     return [shape.bbox() for shape in shapes]
 
 

@@ -23,7 +23,7 @@ SAMPLES_PER_PASS = 1 << 20
 #: the same when the tree has a single level: then one kernel traces, shades
 #: and splats each sample, storing nothing per lane, so a larger pass costs no
 #: memory; but it is one kernel, which Ctrl-C cannot stop, and 2^21 samples keep
-#: it under a second on 2 cores (2^24 took 6 s)
+#: it short (well under a second on 2 cores: benchmarks/RESULTS.md)
 SAMPLES_PER_FLAT_PASS = 1 << 21
 
 
