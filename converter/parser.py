@@ -546,29 +546,24 @@ class _Parser:
             self.in_range(value, token.text, "background color", 0, None)
         self.scene.background = _floats(color)
 
+    def _one_number(self, args, statement, placeholder, low, high, integer=False):
+        """The single number of a one-number statement, checked against [low, high]."""
+        self.count(statement, args, placeholder, 1)
+        value = self.number(args[0], statement, integer=integer)
+        self.in_range(value, args[0].text, statement, low, high)
+        return int(value) if integer else float(value)
+
     def statement_ambient(self, args):
-        self.count("ambient", args, "A", 1)
-        ambient = self.number(args[0], "ambient")
-        self.in_range(ambient, args[0].text, "ambient", 0, 1)
-        self.scene.ambient = float(ambient)
+        self.scene.ambient = self._one_number(args, "ambient", "A", 0, 1)
 
     def statement_depth(self, args):
-        self.count("depth", args, "N", 1)
-        depth = self.number(args[0], "depth", integer=True)
-        self.in_range(depth, args[0].text, "depth", 1, MAX_DEPTH)
-        self.scene.depth = int(depth)
+        self.scene.depth = self._one_number(args, "depth", "N", 1, MAX_DEPTH, integer=True)
 
     def statement_samples(self, args):
-        self.count("samples", args, "N", 1)
-        samples = self.number(args[0], "samples", integer=True)
-        self.in_range(samples, args[0].text, "samples", 1, MAX_SAMPLES)
-        self.scene.samples = int(samples)
+        self.scene.samples = self._one_number(args, "samples", "N", 1, MAX_SAMPLES, integer=True)
 
     def statement_minweight(self, args):
-        self.count("minweight", args, "W", 1)
-        weight = self.number(args[0], "minweight")
-        self.in_range(weight, args[0].text, "minweight", 0, 1)
-        self.scene.min_weight = float(weight)
+        self.scene.min_weight = self._one_number(args, "minweight", "W", 0, 1)
 
     def statement_light(self, args):
         self.count("light", args, "X Y Z [R G B]", 3, 6)
