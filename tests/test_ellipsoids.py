@@ -170,8 +170,11 @@ def test_a_sphereflake_with_its_leaves_as_ellipsoids_matches_the_reference(varia
     path = write_scene(sphereflake.to_scn(model))
     scene = whitted.load_scene(path, model=model, ellipsoids=True)
     # scaled by 1/r (r = 1/54), the floor of radius 1000 is too coarse for Mitsuba's absolute
-    # ray offset and becomes a mesh (converter/giants.py; the Whitted integrator keeps it exact)
-    assert sorted(s.class_name() for s in scene.shapes()) == ["Ellipsoids", "PLYMesh"] + ["Sphere"] * 10
+    # ray offset and becomes a mesh (converter/giants.py; the Whitted integrator keeps it
+    # exact); for the whitted integrator the flake's three radii are three ellipsoids shapes
+    assert sorted(s.class_name() for s in scene.shapes()) == ["Ellipsoids"] * 3 + ["PLYMesh"]
+    path_scene = whitted.load_scene(path, model=model, ellipsoids=True, integrator="path")
+    assert sorted(s.class_name() for s in path_scene.shapes()) == ["Ellipsoids", "PLYMesh"] + ["Sphere"] * 10
     plain, grouped = both_ways(path, model)
     expected = render_reference(model)
     assert_matches(plain, expected)
@@ -199,7 +202,8 @@ def test_mitsubas_path_tracer_renders_the_same_scene_both_ways(llvm, write_scene
     in_frame = sealed.remaining(model, replace(grouping, member=np.zeros_like(grouping.member)))
     scenes = [whitted.load_scene(write_scene(sphereflake.to_scn(in_frame), "scaled.scn"), model=in_frame,
                                  ellipsoids=False),
-              whitted.load_scene(write_scene(sphereflake.to_scn(model)), model=model, ellipsoids=True)]
+              whitted.load_scene(write_scene(sphereflake.to_scn(model)), model=model, ellipsoids=True,
+                                 integrator="path")]
     image = {(k, seed): whitted.render(scenes[k], integrator="path", spp=16, seed=seed).image
              for k in (0, 1) for seed in (1, 2)}
     noise = np.abs(image[0, 1] - image[0, 2]).mean()

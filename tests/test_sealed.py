@@ -66,7 +66,7 @@ def test_ties_go_to_the_larger_radius_and_materials_are_kept_apart():
     s = scene([((3 * k, 0, -5), 0.25, MATTE if k % 2 else MIRROR) for k in range(5)])
     g = S.choose(s, min_group=1)
     parts = S.groups(s, g, origin=s.lookat)
-    assert [(m, len(c)) for m, c in parts] == [(MIRROR, 3), (MATTE, 2)]
+    assert [(m, r, len(c)) for m, r, c in parts] == [(MIRROR, 1.0, 3), (MATTE, 1.0, 2)]
 
 
 def test_no_grouping_when_scaling_would_change_the_image_or_overflow():
@@ -85,11 +85,12 @@ def test_remaining_scales_every_length_about_lookat_and_drops_the_group():
     rest = S.remaining(s, g)
     assert rest.lookat == lookat and rest.eye == (1, 2, 23) and rest.lights[0].position == (1, 22, 3)
     assert [(sp.center, sp.radius, sp.material) for sp in rest.spheres] == [((1, 10, 3), 4.0, GLASS)]
-    (material, centers), = S.groups(s, g, origin=lookat)
+    (material, radius, centers), = S.groups(s, g, origin=lookat)
+    assert radius == 1.0
     assert material == MATTE
     np.testing.assert_array_equal(centers, [[0, 0, -8], [6, 0, -8]])
     # the same in another frame origin (a point of the scaled scene)
-    (_, moved), = S.groups(s, g, origin=(0.0, 0.0, 0.0))
+    (_, _, moved), = S.groups(s, g, origin=(0.0, 0.0, 0.0))
     np.testing.assert_array_equal(moved, [[1, 2, -5], [7, 2, -5]])
 
 
@@ -100,3 +101,22 @@ def test_the_grouped_radius_is_exactly_one_in_float32(scale):
     g = S.choose(s, min_group=1)
     assert np.float32(g.radius * g.scale) == 1.0
     assert math.isclose(g.scale, scale)
+
+
+def test_only_lights_limit_the_scaled_frame():
+    """The scaled frame's limit is about light intensities (color·π·d², d from lookat): a
+    floor sphere far beyond MAX_REACH·r does not switch grouping off, a light that far does."""
+    balls = [((3 * k, 0, -5), 0.001, MATTE) for k in range(3)]
+    floor = [((0, -1e4, 0), 1e4 - 1, MATTE)]                  # reach 2e4 / 1e-3 = 2e7 > 1e6
+    assert S.choose(scene(balls + floor), min_group=1) is not None
+    assert S.choose(scene(balls + floor, lights=((0.0, 2000.0, 0.0),)), min_group=1) is None
+
+
+def test_other_radius_classes_are_grouped_in_the_scaled_frame():
+    small = [((k, 0, -5), 0.25, MATTE) for k in range(4)]
+    large = [((k, 3, -5), 0.5, MATTE) for k in range(2)]
+    s = scene(small + large)
+    g = S.choose(s, min_group=2, classes=True)
+    assert g.radii == (0.25, 0.5) and g.member.all()
+    assert [(r, len(c)) for _, r, c in S.groups(s, g, origin=s.lookat)] == [(1.0, 4), (2.0, 2)]
+    assert S.choose(s, min_group=3, classes=True).radii == (0.25,)    # a class of 2 is too few

@@ -76,9 +76,10 @@ def load_scene(path: str | os.PathLike, variant: str | None = None, *, model=Non
     untextured, not holding the eye) of its commonest radius as Mitsuba
     ``ellipsoids`` shapes, in a frame scaled to make that radius 1
     (:mod:`whitted.sealed`: the same image; those spheres load a hundred times
-    faster than as ``sphere`` shapes). None (the default) does so when at least
-    ``sealed.MIN_GROUP`` spheres share that radius, True whenever one does,
-    False never. ``.xml`` files are loaded as written.
+    faster than as ``sphere`` shapes), and for the whitted integrator those of
+    every other radius as well, which it traces in frames of their own. None (the
+    default) does so for the radii at least ``sealed.MIN_GROUP`` spheres share,
+    True whenever one does, False never. ``.xml`` files are loaded as written.
     ``integrator`` ("whitted" or "path") is what the scene will be rendered with: a ``.scn``
     file read here is warned about as that integrator needs (converter/frame.py).
     ``overrides`` replace the scene's ``spp``, ``max_depth``, ``ambient`` or
@@ -107,7 +108,8 @@ def load_scene(path: str | os.PathLike, variant: str | None = None, *, model=Non
             warn_precision(model, integrator=integrator)
         from . import sealed
         grouping = None if ellipsoids is False else \
-            sealed.choose(model, min_group=1 if ellipsoids else sealed.MIN_GROUP)
+            sealed.choose(model, min_group=1 if ellipsoids else sealed.MIN_GROUP,
+                          classes=integrator == "whitted")
         if grouping is None:
             return mi.load_dict(mitsuba_dict(describe(model, base_dir=None), params), parallel=PARALLEL)
         return mi.load_dict(_sealed_dict(model, grouping, params), parallel=PARALLEL)
@@ -126,9 +128,11 @@ def _sealed_dict(model, grouping, params: dict) -> dict:
     description of the rest of the scene in the scaled frame, plus those shapes."""
     from . import sealed
     from .converter.description import describe, material_dict
-    # The grouped spheres, of radius 1 in the scaled frame, count among the scene's details.
-    description = describe(sealed.remaining(model, grouping), base_dir=None, smallest=1.0)
+    # The grouped spheres (the commonest of radius 1 in the scaled frame) count among the
+    # scene's details.
+    smallest = min([1.0, *(radius * grouping.scale for radius in grouping.radii)])
+    description = describe(sealed.remaining(model, grouping), base_dir=None, smallest=smallest)
     scene = mitsuba_dict(description, params)
-    for k, (material, centers) in enumerate(sealed.groups(model, grouping, description.origin)):
-        scene[f"sealed_{k}"] = sealed.ellipsoids(centers, material_dict(material, base_dir=None))
+    for k, (material, radius, centers) in enumerate(sealed.groups(model, grouping, description.origin)):
+        scene[f"sealed_{k}"] = sealed.ellipsoids(centers, material_dict(material, base_dir=None), radius)
     return scene

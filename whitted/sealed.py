@@ -12,11 +12,14 @@ measurements):
 * the shape culls back faces, which never changes a result for a *sealed*
   sphere (opaque, untextured, not holding the eye): no ray of the article's
   model starts inside one;
-* Mitsuba's ellipsoid intersection is exact only at radius 1, so the grouped
-  spheres share one radius and the scene is loaded in a frame scaled to make it
-  1. The article's model is invariant under that similarity (the image changes
-  by rounding only); Mitsuba's path tracer, whose ray offsets are absolute, is
-  not quite.
+* Mitsuba's ellipsoid intersection is exact only at radius 1, so the scene is
+  loaded in a frame scaled to make the commonest radius 1. The article's model
+  is invariant under that similarity (the image changes by rounding only);
+  Mitsuba's path tracer, whose ray offsets are absolute, is not quite. Spheres
+  of other radii may be grouped too, by radius (``classes``): the Whitted
+  integrator traces each such class in a frame of its own, scaled to make its
+  radius 1 (plugins/shading/layers.py); Mitsuba's own integrators would
+  intersect them inexactly, so they are grouped only for the Whitted integrator.
 
 This module works on the scene model (numpy, no Mitsuba): :func:`sealed`
 says which spheres are sealed, :func:`choose` picks the radius and the
@@ -32,14 +35,17 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from .converter.frame import farthest
+from .converter.giants import GIANT_FRACTION
 from .converter.scene import Material, Scene
+from .float32 import hit_error
 
 #: a sealed sphere keeps the eye farther than this from its surface, relative to the size of
 #: the numbers involved (float32 rounds them by 6e-8 of that): an eye closer than that might
 #: round inside, and the sphere stays a real ``sphere`` shape
 CLEARANCE = 1e-5
-#: the largest distance from ``lookat`` a scaled scene may reach: light intensities
-#: (color·π·d²) then stay below 10¹² as for a scene file (whitted.defaults.MAX_MAGNITUDE)
+#: the largest distance from ``lookat`` a light of the scaled scene may have: light
+#: intensities (color·π·d²) then stay below 10¹² as for a scene file
+#: (whitted.defaults.MAX_MAGNITUDE)
 MAX_REACH = 1e6
 #: the fewest spheres of one radius worth an ``ellipsoids`` shape by default: below this the
 #: load time saved (~0.1 ms a sphere) is below a render's noise, and the scene is left as written
@@ -99,24 +105,27 @@ class Grouping:
     =========== ================================================================
     ``scale``   lengths are multiplied by this about ``lookat``: the grouped
                 spheres' radius becomes 1
-    ``radius``  the grouped spheres' radius in the scene file's units
+    ``radius``  the commonest grouped radius in the scene file's units
     ``member``  per sphere of the scene, whether it is grouped
     ``spheres`` the scene's :class:`Spheres`
+    ``radii``   every grouped radius (``radius`` first), in the file's units
     =========== ================================================================
     """
     scale: float
     radius: float
     member: np.ndarray
     spheres: Spheres
+    radii: tuple[float, ...] = ()
 
 
-def choose(scene: Scene, min_group: int = MIN_GROUP) -> Grouping | None:
+def choose(scene: Scene, min_group: int = MIN_GROUP, classes: bool = False) -> Grouping | None:
     """The sealed spheres of the most common radius, if at least ``min_group`` (≥ 1) share
-    it (ties: the larger radius), else None.
+    it (ties: the larger radius), else None; with ``classes``, also those of every other
+    radius that at least ``min_group`` sealed spheres share.
 
     None too when scaling would change the image: a light at ``lookat`` (its physical
-    intensity is then defined with d = 1, a length in the file's units), or a scaled
-    scene reaching beyond :data:`MAX_REACH`.
+    intensity is then defined with d = 1, a length in the file's units), or a light of
+    the scaled scene farther than :data:`MAX_REACH` from it.
     """
     min_group = max(min_group, 1)
     if len(scene.spheres) < min_group:
@@ -132,15 +141,26 @@ def choose(scene: Scene, min_group: int = MIN_GROUP) -> Grouping | None:
     if counts[best] < min_group:
         return None
     r = float(values[best])
-    if reach(scene) / r > MAX_REACH:
+    if light_reach(scene) / r > MAX_REACH:
         return None
-    return Grouping(1.0 / r, r, mask & (spheres.radius == r), spheres)
+    radii = [r]
+    if classes:   # other radii, but not spheres float32 places too coarsely (converter/giants.py)
+        fine = mask & ~_coarse(scene, spheres)
+        values, counts = np.unique(spheres.radius[fine], return_counts=True)
+        radii += [float(v) for v, n in zip(values, counts) if n >= min_group and v != r]
+    return Grouping(1.0 / r, r, mask & np.isin(spheres.radius, radii), spheres, tuple(radii))
 
 
-def reach(scene: Scene) -> float:
-    """The largest distance from ``lookat`` of the eye, a light or a sphere's surface."""
-    points = [scene.eye, *(light.position for light in scene.lights)]
-    return farthest(scene.lookat, points, scene.spheres)[0]
+def _coarse(scene: Scene, spheres: Spheres) -> np.ndarray:
+    """Per sphere: whether its float32 error bound exceeds GIANT_FRACTION of the smallest
+    radius (the spheres that may be giant: they stay for the converter to judge)."""
+    offset = np.abs(spheres.center - np.asarray(scene.lookat, np.float64)).max(axis=1)
+    return hit_error(spheres.radius, offset) > GIANT_FRACTION * spheres.radius.min()
+
+
+def light_reach(scene: Scene) -> float:
+    """The largest distance from ``lookat`` of a light (what light intensities grow with)."""
+    return farthest(scene.lookat, [light.position for light in scene.lights], [])[0]
 
 
 def _about(point, origin, scale):
@@ -160,29 +180,32 @@ def remaining(scene: Scene, grouping: Grouping) -> Scene:
                             for s in (scene.spheres[k] for k in keep)])
 
 
-def groups(scene: Scene, grouping: Grouping, origin) -> list[tuple[Material, np.ndarray]]:
-    """The grouped spheres by material: ``(material, centers)``, the centers (M×3, float64)
-    in the scaled scene's coordinates minus ``origin`` (the loader's frame origin, a point
-    of the scaled scene). Their radius there is 1."""
+def groups(scene: Scene, grouping: Grouping, origin) -> list[tuple[Material, float, np.ndarray]]:
+    """The grouped spheres by radius and material: ``(material, radius, centers)``, the
+    radius and the centers (M×3, float64) in the scaled scene's coordinates, the centers
+    minus ``origin`` (the loader's frame origin, a point of the scaled scene). The commonest
+    radius is 1 there."""
     spheres, scale = grouping.spheres, grouping.scale
     lookat = np.asarray(scene.lookat, np.float64)
     shift = lookat - np.asarray(origin, np.float64)
     result = []
-    for k, material in enumerate(spheres.materials):
-        pick = grouping.member & (spheres.material == k)
-        if pick.any():
-            result.append((material, (spheres.center[pick] - lookat) * scale + shift))
+    for radius in grouping.radii or (grouping.radius,):
+        for k, material in enumerate(spheres.materials):
+            pick = grouping.member & (spheres.material == k) & (spheres.radius == radius)
+            if pick.any():
+                scaled = 1.0 if radius == grouping.radius else radius * scale
+                result.append((material, scaled, (spheres.center[pick] - lookat) * scale + shift))
     return result
 
 
-def ellipsoids(centers: np.ndarray, bsdf) -> dict:
-    """The ``mi.load_dict`` entry of one ``ellipsoids`` shape of unit spheres at ``centers``
-    (M×3): equal scales of 1, no rotation, and ``extent`` 1 (Mitsuba's default, 3, would
-    triple them)."""
+def ellipsoids(centers: np.ndarray, bsdf, radius: float = 1.0) -> dict:
+    """The ``mi.load_dict`` entry of one ``ellipsoids`` shape of spheres of ``radius`` at
+    ``centers`` (M×3): equal scales, no rotation, and ``extent`` 1 (Mitsuba's default, 3,
+    would triple them)."""
     import mitsuba as mi
     count = len(centers)
     return {"type": "ellipsoids", "extent": 1.0,
             "centers": mi.TensorXf(np.ascontiguousarray(centers, np.float32).reshape(count, 3)),
-            "scales": mi.TensorXf(np.ones((count, 3), np.float32)),
+            "scales": mi.TensorXf(np.full((count, 3), radius, np.float32)),
             "quaternions": mi.TensorXf(np.tile(np.array([0.0, 0.0, 0.0, 1.0], np.float32), (count, 1))),
             "bsdf": bsdf}

@@ -40,6 +40,7 @@ import numpy as np
 
 from whitted.errors import WhittedError
 
+from .layers import layers
 from .lights import largest_emission, point_lights
 from .materials import Materials
 from .primitives import Primitives
@@ -106,7 +107,10 @@ class SceneTables:
     material_table their numbers as lookup tables (:meth:`.materials.Materials.table`)
     primitives     each primitive's bounding sphere and error bound (:class:`.primitives.Primitives`)
     spheres_only   whether every primitive is a sphere (the JIT variants' sphere table applies)
+    sphere_shapes  whether a shape is a ``sphere`` shape (shadow rays must avoid its ray_test)
     hit_tables     the primitives' Dr.Jit tables (JIT variants) or ``id(shape)`` table (scalar)
+    layers         spheres traced in frames of their own (:mod:`.layers`)
+    layered        the indices of the shapes the layers hold
     ============== =======================================================================
 
     Raises :class:`~whitted.errors.WhittedError` when a shape lacks the ``article`` BSDF or
@@ -134,10 +138,12 @@ class SceneTables:
             if jit and shapes else None
         self.primitives = Primitives.read(shapes, _corners(boxes), types, textured, rows, keys if jit else None)
         self.spheres_only = bool(len(shapes)) and bool(self.primitives.sphere.all())
+        self.sphere_shapes = bool((types == int(mi.ShapeType.Sphere)).any())
         if jit:
             self.hit_tables = self.primitives.tables(spheres=self.spheres_only)
         else:
             self.hit_tables = self.primitives.scalar_tables(shapes)
+        self.layers, self.layered = layers(shapes, types)
         self._rest_scenes = {}
         # what the tables were built from (:meth:`describe`)
         self._boxes, self._changes = boxes, _material_changes
@@ -156,12 +162,12 @@ class SceneTables:
                 and (scene.environment() is None) == (self.environment is None)
                 and (self.environment is None or largest_emission(scene.environment()) == self.background))
 
-    def rest_scene(self, scene, ids):
-        """A scene of ``scene``'s shapes but those whose id is in ``ids`` (the same objects:
-        the same instance IDs and BSDFs), or None when no shape is left; built once."""
-        key = tuple(sorted(ids))
+    def rest_scene(self, scene, left_out):
+        """A scene of ``scene``'s shapes but those whose index is in ``left_out`` (the same
+        objects: the same instance IDs and BSDFs), or None when no shape is left; built once."""
+        key = tuple(sorted(left_out))
         if key not in self._rest_scenes:
-            rest = {f"shape_{k}": shape for k, shape in enumerate(scene.shapes()) if shape.id() not in ids}
+            rest = {f"shape_{k}": shape for k, shape in enumerate(scene.shapes()) if k not in left_out}
             self._rest_scenes[key] = mi.load_dict({"type": "scene", **rest}) if rest else None
         return self._rest_scenes[key]
 

@@ -36,9 +36,8 @@ import numpy as np
 from whitted.float32 import UNIT_ROUNDOFF
 
 from ..scene.materials import bsdf_key
-from ..scene.tables import scene_tables
 from . import off
-from .hits import hit_finder, lat_long_uv
+from .hits import lat_long_uv, no_blocker, no_hits
 
 #: the error bound of a point rounded from float64 to float32, in round-offs of its largest
 #: coordinate (half an ulp per coordinate, with the margin the other bounds keep)
@@ -92,17 +91,16 @@ class _Giant:
 
 
 class GiantHits:
-    """Nearest hits, shadow tests and light surfaces for a scene with giant spheres: Mitsuba's
-    answer for the other shapes (through the finder :func:`.hits.hit_finder` picks for
-    them), the float64 test for the giant ones (see the module docstring)."""
+    """Nearest hits, shadow tests and light surfaces for a scene with giant spheres: the
+    ``inner`` finder's answer for the other shapes (None: there are none), the float64 test
+    for the giant ones (see the module docstring)."""
 
-    def __init__(self, scene, tables, need_uv: bool, spheres):
+    def __init__(self, scene, inner, need_uv: bool, giants):
+        """``giants``: ``(shape index, center, radius)`` of each giant sphere."""
         self.jit = dr.is_jit_v(mi.Float)
-        shapes = {shape.id(): shape for shape in scene.shapes()}
-        spheres = [entry for entry in spheres if entry[0] in shapes]
-        self.giants = [_Giant(shapes[key], center, radius, self.jit) for key, center, radius in spheres]
-        self.rest = tables.rest_scene(scene, {key for key, _, _ in spheres})
-        self.inner = None if self.rest is None else hit_finder(self.rest, scene_tables(self.rest), need_uv)
+        shapes = scene.shapes()
+        self.giants = [_Giant(shapes[k], center, radius, self.jit) for k, center, radius in giants]
+        self.inner = inner
         self.need_uv = need_uv
 
     # -- lights on surfaces ----------------------------------------------------------------------
@@ -122,8 +120,7 @@ class GiantHits:
 
     def blocked(self, ray, active):
         """Whether a surface crosses the segment ``ray`` (origin to ``ray.maxt``)."""
-        shadowed = self.inner.blocked(ray, active) if self.inner is not None else (
-            mi.Bool(False) if self.jit else False)
+        shadowed = self.inner.blocked(ray, active) if self.inner is not None else no_blocker()
         if not self.jit and (shadowed or not active):
             return shadowed
         o, d, maxt = mi.Point3d(ray.o), mi.Vector3d(ray.d), mi.Float64(ray.maxt) if self.jit else float(ray.maxt)
@@ -136,11 +133,7 @@ class GiantHits:
 
     def intersect(self, ray, coherent: bool):
         """``(hit, si, bsdf, error)`` as :meth:`.hits.MitsubaHits.intersect`."""
-        if self.inner is not None:
-            hit, si, bsdf, error = self.inner.intersect(ray, coherent)
-        else:
-            hit, si = (mi.Bool(False) if self.jit else False), dr.zeros(mi.SurfaceInteraction3f)
-            si.t, bsdf, error = dr.inf, (mi.UInt32(0) if self.jit else None), 0.0
+        hit, si, bsdf, error = self.inner.intersect(ray, coherent) if self.inner is not None else no_hits()
         o, d = mi.Point3d(ray.o), mi.Vector3d(ray.d)
         if not self.jit:
             return self._scalar(ray, o, d, hit, si, bsdf, error)

@@ -96,22 +96,39 @@ def spawn_ray_to(si, error, target, target_error=0.0, target_normal=None):
     return ray
 
 
-def blocked(scene, ray, active):
-    """Whether a surface crosses the segment ``ray`` (from its origin to ``ray.maxt``).
+def blocked(scene, ray, active, spheres: bool = True):
+    """Whether a surface crosses the segment ``ray`` (from its origin to ``ray.maxt``);
+    ``spheres``: whether ``scene`` holds ``sphere`` shapes.
 
-    In the JIT variants Mitsuba's ``ray_test`` on a sphere solves the textbook
-    quadratic in float32, whose discriminant ``B² - 4AC`` loses every digit
-    when the ray starts a few thousand radii from the sphere (a small ball
+    In the JIT variants Mitsuba's ``ray_test`` on a sphere shape solves the
+    textbook quadratic in float32, whose discriminant ``B² - 4AC`` loses every
+    digit when the ray starts a few thousand radii from the sphere (a small ball
     near a distant light casts a shadow of noise). Its ``ray_intersect_preliminary``
     first moves the origin to the plane through the sphere's center and stays
-    exact, so shadow rays use it. The scalar variants solve in float64 already.
+    exact, so shadow rays use it where there are sphere shapes. Elsewhere
+    ``ray_test`` answers as the nearest hit would (an ``ellipsoids`` shape runs
+    the same routine for both; triangles are watertight), and may stop at the
+    first blocker. The scalar variants solve spheres in float64 already.
     """
-    if dr.is_jit_v(mi.Float):
+    if spheres and dr.is_jit_v(mi.Float):
         return scene.ray_intersect_preliminary(ray, coherent=False, active=active).is_valid()
-    return scene.ray_test(ray, active)
+    return scene.ray_test(ray, coherent=False, active=active)
 
 
 # -- finding hits ----------------------------------------------------------------------------------
+
+def no_hits():
+    """``(hit, si, bsdf, error)`` of rays that hit nothing (where a finder has no shapes)."""
+    jit = dr.is_jit_v(mi.Float)
+    si = dr.zeros(mi.SurfaceInteraction3f)
+    si.t = dr.inf
+    return (mi.Bool(False) if jit else False), si, (mi.UInt32(0) if jit else None), 0.0
+
+
+def no_blocker():
+    """What :func:`blocked` says where a finder has no shapes."""
+    return mi.Bool(False) if dr.is_jit_v(mi.Float) else False
+
 
 def hit_finder(scene, tables, need_uv: bool, sphere_table: bool = True):
     """The fastest exact way to intersect ``scene`` (whose :class:`SceneTables` are ``tables``)
@@ -135,12 +152,13 @@ class MitsubaHits:
         self.flags = mi.RayFlags.Minimal | (mi.RayFlags.UV if need_uv else mi.RayFlags.Empty)
         self.vectorized = dr.is_jit_v(mi.Float)
         self.surface_at = tables.primitives.surface_at
+        self.spheres = tables.sphere_shapes
         self.tables = tables.hit_tables
         self._errors = None if self.vectorized else tables.primitives.error.tolist()
 
     def blocked(self, ray, active):
         """Whether a surface crosses the segment ``ray`` (:func:`blocked`)."""
-        return blocked(self.scene, ray, active)
+        return blocked(self.scene, ray, active, self.spheres)
 
     def intersect(self, ray, coherent: bool):
         """``(hit, si, bsdf, error)``; ``bsdf`` is the BSDF's instance ID (JIT) or the BSDF
@@ -172,11 +190,12 @@ class SphereHits:
         self.scene = scene
         self.need_uv = need_uv
         self.surface_at = tables.primitives.surface_at
+        self.spheres = tables.sphere_shapes
         self.tables = tables.hit_tables
 
     def blocked(self, ray, active):
         """Whether a surface crosses the segment ``ray`` (:func:`blocked`)."""
-        return blocked(self.scene, ray, active)
+        return blocked(self.scene, ray, active, self.spheres)
 
     def intersect(self, ray, coherent: bool):
         """``(hit, si, bsdf, error)`` as :meth:`MitsubaHits.intersect`, ``bsdf`` an instance ID."""

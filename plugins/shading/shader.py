@@ -27,9 +27,11 @@ from dataclasses import dataclass
 import drjit as dr
 import mitsuba as mi
 
+from ..scene.tables import scene_tables
 from . import off, optics
 from .giants import GiantHits
 from .hits import TINY, hit_finder, spawn_ray, spawn_ray_to
+from .layers import LayeredHits
 
 
 @dataclass
@@ -47,6 +49,23 @@ class Shaded:
     children: list   # [SecondaryRay], empty when the tree ends at this level
 
 
+def scene_hits(scene, tables, need_uv: bool, exact_spheres=()):
+    """How rays meet ``scene`` (whose :class:`SceneTables` are ``tables``): Mitsuba's ray
+    tracing (:func:`.hits.hit_finder`) for the shapes it intersects exactly, layers for
+    spheres it intersects exactly only in frames of their own (:mod:`.layers`), and the
+    float64 test for the giant spheres listed in ``exact_spheres`` (:mod:`.giants`)."""
+    index = {shape.id(): k for k, shape in enumerate(scene.shapes())}
+    giants = [(index[key], center, radius) for key, center, radius in exact_spheres if key in index]
+    left_out = {k for k, _, _ in giants} | set(tables.layered)
+    if not left_out:
+        return hit_finder(scene, tables, need_uv)
+    rest = tables.rest_scene(scene, left_out)
+    hits = None if rest is None else hit_finder(rest, scene_tables(rest), need_uv)
+    if tables.layers:
+        hits = LayeredHits(hits, tables, need_uv)
+    return GiantHits(scene, hits, need_uv, giants) if giants else hits
+
+
 class Shader:
     """The article's model for one scene (see the module docstring)."""
 
@@ -59,8 +78,7 @@ class Shader:
         # Giant spheres listed with their exact values are intersected in float64 (.giants).
         need_uv = analysis.has("textures")
         tables = analysis.tables
-        self.hits = GiantHits(scene, tables, need_uv, exact_spheres) if exact_spheres else \
-            hit_finder(scene, tables, need_uv)
+        self.hits = scene_hits(scene, tables, need_uv, exact_spheres)
         # (position, strength, (error bound, normal) of a sphere the light sits on)
         self.lights = []
         for light in analysis.lights:

@@ -251,12 +251,12 @@ def test_rays_leaving_a_giant_floor_do_not_meet_it_again(variant, radius):
     to a light above must be clear, all with the offsets of the point's own error bound."""
     whitted.set_variant(variant)
     from whitted.plugins.scene.tables import scene_tables
-    from whitted.plugins.shading.giants import GiantHits
+    from whitted.plugins.shading.shader import scene_hits
     from whitted.plugins.shading.hits import spawn_ray, spawn_ray_to
     model = Scene(eye=(0.0, 1.5, 8.0), lookat=(0.0, 0.5, 0.0), lights=[Light((0.0, 10.0, 0.0))],
                   spheres=[Sphere((0.0, -radius, 0.0), radius), Sphere((40.0, 0.3, -40.0), 0.3)])
     scene = mi.load_string(scene_to_xml(model, None))
-    hits = GiantHits(scene, scene_tables(scene), False, scene.integrator().exact_spheres)
+    hits = scene_hits(scene, scene_tables(scene), False, scene.integrator().exact_spheres)
     rng = np.random.default_rng(7)
     count = 2000 if dr.is_jit_v(mi.Float) else 300
     target = np.stack([rng.uniform(-6, 6, count), np.full(count, -0.5), rng.uniform(-6, 6, count)], axis=1)
