@@ -23,45 +23,59 @@ _AXES = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
 
 
 class LayeredHits:
-    """The ``inner`` finder's hits (None: no other shapes) and the layers' of ``tables``."""
+    """The ``inner`` finder's hits (None: no other shapes) and the layers' of ``tables``.
+
+    The layers are traced first, largest spheres first, each bounded by the nearest hit so
+    far (``maxt``), and the inner finder last, bounded the same way: Embree skips what lies
+    beyond. A shadow segment already blocked is not traced again.
+    """
 
     def __init__(self, inner, tables, need_uv: bool):
         self.jit = dr.is_jit_v(mi.Float)
         self.inner = inner
-        self.layers = tables.layers
+        self.layers = sorted(tables.layers, key=lambda layer: -layer.radius)
         self.need_uv = need_uv
         self.surface_at = tables.primitives.surface_at
         # per-render constants are opaque: one kernel serves every scale
         self.scales = [dr.opaque(mi.Float, layer.scale) if self.jit else layer.scale for layer in self.layers]
         self.radii = [dr.opaque(mi.Float, layer.radius) if self.jit else layer.radius for layer in self.layers]
 
-    def _ray(self, k: int, ray):
-        """``ray`` in layer ``k``'s frame."""
+    def _ray(self, k: int, ray, maxt):
+        """``ray`` in layer ``k``'s frame, up to ``maxt`` (in the scene's frame)."""
         scaled = mi.Ray3f(ray.o * self.scales[k], ray.d)
-        scaled.maxt = ray.maxt * self.scales[k]
+        scaled.maxt = maxt * self.scales[k]
         return scaled
 
     def blocked(self, ray, active):
         """Whether a surface crosses the segment ``ray`` (origin to ``ray.maxt``)."""
-        shadowed = self.inner.blocked(ray, active) if self.inner is not None else no_blocker()
+        shadowed = no_blocker()
         for k, layer in enumerate(self.layers):
             if not self.jit and (shadowed or not active):
                 return shadowed
-            shadowed = shadowed | blocked(layer.scene, self._ray(k, ray), active, spheres=False)
+            shadowed = shadowed | blocked(layer.scene, self._ray(k, ray, ray.maxt), active & ~shadowed
+                                          if self.jit else active, spheres=False)
+        if self.inner is not None and not (not self.jit and (shadowed or not active)):
+            shadowed = shadowed | self.inner.blocked(ray, active & ~shadowed if self.jit else active)
         return shadowed & active
 
     def intersect(self, ray, coherent: bool):
         """``(hit, si, bsdf, error)`` as :meth:`.hits.MitsubaHits.intersect`."""
-        hit, si, bsdf, error = self.inner.intersect(ray, coherent) if self.inner is not None else no_hits()
         if not self.jit:
-            return self._scalar(ray, coherent, hit, si, bsdf, error)
-        best, which, slot = dr.select(hit, si.t, dr.inf), mi.Int32(-1), mi.UInt32(0)
+            return self._scalar(ray, coherent)
+        best, which, slot = mi.Float(ray.maxt), mi.Int32(-1), mi.UInt32(0)
         for k, layer in enumerate(self.layers):
-            pi = layer.scene.ray_intersect_preliminary(self._ray(k, ray), coherent=coherent)
+            pi = layer.scene.ray_intersect_preliminary(self._ray(k, ray, best), coherent=coherent)
             t = pi.t / self.scales[k]
             nearer = pi.is_valid() & (t < best)
             layer_slot = slot_of(layer.tables.base, dr.reinterpret_array(mi.UInt32, pi.shape), pi.prim_index, nearer)
             best, which, slot = dr.select(nearer, t, best), dr.select(nearer, k, which), dr.select(nearer, layer_slot, slot)
+        if self.inner is not None:   # the other shapes, before the nearest layer hit
+            bounded = mi.Ray3f(ray)
+            bounded.maxt = best
+            hit, si, bsdf, error = self.inner.intersect(bounded, coherent)
+            which = dr.select(hit, -1, which)
+        else:
+            hit, si, bsdf, error = no_hits()
         layered = which >= 0
         center, radius, layer_bsdf, layer_error = mi.Point3f(0.0), mi.Float(1.0), mi.UInt32(0), mi.Float(0.0)
         for k, layer in enumerate(self.layers):
@@ -80,13 +94,19 @@ class LayeredHits:
             si.uv = dr.select(layered, lat_long_uv(n, *(mi.Vector3f(a) for a in _AXES)), si.uv)
         return hit | layered, si, dr.select(layered, layer_bsdf, bsdf), dr.select(layered, layer_error, error)
 
-    def _scalar(self, ray, coherent, hit, si, bsdf, error):
-        best, nearest = (float(si.t) if hit else float("inf")), None
+    def _scalar(self, ray, coherent):
+        best, nearest = float(ray.maxt), None
         for k, layer in enumerate(self.layers):
-            pi = layer.scene.ray_intersect_preliminary(self._ray(k, ray), coherent=coherent)
+            pi = layer.scene.ray_intersect_preliminary(self._ray(k, ray, best), coherent=coherent)
             if pi.is_valid() and pi.t / layer.scale < best:
                 best, nearest = pi.t / layer.scale, (layer, pi.shape, int(pi.prim_index))
-        if nearest is None:
+        if self.inner is not None:
+            bounded = mi.Ray3f(ray)
+            bounded.maxt = best
+            hit, si, bsdf, error = self.inner.intersect(bounded, coherent)
+        else:
+            hit, si, bsdf, error = no_hits()
+        if hit or nearest is None:
             return hit, si, bsdf, error
         layer, shape, prim = nearest
         first, layer_bsdf = layer.tables[id(shape)]
