@@ -336,9 +336,11 @@ def plot(rows: list[Row], path: Path, title: str) -> None:
         ax.set_xscale("log")
         ax.set_yscale("log")
         ax.set_xlabel(f"spheres (levels {levels[0]}…{levels[-1]} and the floor)")
-        ax.set_title(f"floor sphere of radius {_floor_name(floor)}", fontsize=9)
+        ax.set_title(f"floor sphere of radius ${_floor_name(floor).replace('^', '^{')}}}$"
+                     if "^" in _floor_name(floor) else f"floor sphere of radius {floor:g}", fontsize=9)
         ax.grid(True, which="both", alpha=0.3)
-        ax.legend(fontsize=8)
+        if ax.lines:
+            ax.legend(fontsize=8)
     axes[0][0].set_ylabel("seconds (median)")
     fig.suptitle(title, fontsize=10)
     fig.tight_layout()
