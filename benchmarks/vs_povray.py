@@ -400,6 +400,8 @@ def main(argv=None) -> int:
     settings = dict(QUICK if args.quick else FULL)
     if args.levels:
         settings["levels"] = tuple(sorted(set(args.levels)))
+        # by default, reading is timed where POV-Ray's runs give its Parse Time beside it
+        settings["read_levels"] = tuple(level for level in settings["read_levels"] if level in settings["levels"])
     if args.floors:
         settings["floors"] = tuple(args.floors)
     if args.read_levels is not None:
