@@ -76,8 +76,8 @@ povray: $(STAMP)
 	@$(PY) benchmarks/povray.py --install
 
 # Speed against Mitsuba's own integrators and the ray-casting floor, then against POV-Ray 3.7
-# on the sphereflake, levels 1-5 (benchmarks/RESULTS.md); `make bench BENCHFLAGS=--quick` for
-# a short run.
+# on the sphereflake, levels 1-6 on floors of radius 10^3 and 10^4 (benchmarks/RESULTS.md); `make bench
+# BENCHFLAGS=--quick` for a short run (levels 1-3).
 BENCHFLAGS ?=
 bench: setup povray
 	$(PY) benchmarks/run.py $(BENCHFLAGS)

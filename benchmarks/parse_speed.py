@@ -9,9 +9,15 @@ of 66 000 spheres, each with its own random color and reflection coefficient,
 shows the fast path where no two spheres share their attributes. Times are
 CPU seconds of this process (``time.process_time``), medians of ``rounds``.
 
+What a user waits for is more than the parser: ``--convert`` also times the
+whole ``whitted convert flake.scn -o flake.xml`` process (Python's start-up,
+imports, parsing, writing the XML), its wall time and its peak memory
+(process.py). vs_povray.py sets that beside POV-Ray's own Parse Time of the
+same scene, level 6 included.
+
 Usage::
 
-    python benchmarks/parse_speed.py [--rounds 5] [--level 5]
+    python benchmarks/parse_speed.py [--rounds 5] [--level 5] [--convert]
 """
 
 from __future__ import annotations
@@ -20,12 +26,14 @@ import argparse
 import random
 import statistics
 import sys
+import tempfile
 import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
+import process  # noqa: E402
 import sphereflake  # noqa: E402
 from whitted.converter.parser import _parse  # noqa: E402
 
@@ -60,6 +68,23 @@ def measure(text: str, rounds: int) -> dict:
             "fast_us_per_line": 1e6 * f / lines, "careful_us_per_line": 1e6 * c / lines}
 
 
+def fast_seconds(text: str, rounds: int = 1) -> float:
+    """Median CPU seconds of :func:`whitted.converter.parse_text`'s path (the fast one) on ``text``."""
+    return statistics.median(_cpu(lambda: _parse(text, "bench.scn", fast=True)) for _ in range(rounds))
+
+
+def convert(scn: Path, xml: Path, runs: int = 1, timeout: float | None = None) -> list[process.ProcessRun]:
+    """``runs`` runs of the whole ``whitted convert scn -o xml`` process (wall time, peak memory);
+    the first that fails or runs past ``timeout`` seconds ends the list."""
+    done = []
+    for _ in range(runs):
+        run = process.run(process.whitted_command() + ["convert", str(scn), "-o", str(xml)], timeout)
+        done.append(run)
+        if not run.ok:
+            break
+    return done
+
+
 def table(rounds: int = 5, level: int = 5, distinct: bool = True) -> list[tuple[str, dict]]:
     """The sphereflake at ``level``, and (``distinct``) 66 000 spheres of distinct attributes."""
     flake = sphereflake.to_scn(sphereflake.scene(level))
@@ -82,8 +107,21 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--rounds", type=int, default=5)
     parser.add_argument("--level", type=int, default=5, choices=list(sphereflake.LEVELS))
+    parser.add_argument("--convert", action="store_true",
+                        help="also time the whole `whitted convert` process on the level's scene")
     args = parser.parse_args(argv)
     print(markdown(table(args.rounds, args.level)))
+    if args.convert:
+        with tempfile.TemporaryDirectory() as folder:
+            scn = sphereflake.write(args.level, Path(folder) / f"flake{args.level}.scn")
+            runs = convert(scn, Path(folder) / f"flake{args.level}.xml", args.rounds)
+        good = [r for r in runs if r.ok]
+        if good:
+            print(f"\nwhitted convert flake{args.level}.scn: {statistics.median(r.wall_seconds for r in good):.2f} s "
+                  f"wall, peak RSS {statistics.median(r.peak_rss for r in good) / 2**20:.0f} MiB "
+                  f"(median of {len(good)})")
+        if len(good) < len(runs):
+            print(f"whitted convert flake{args.level}.scn: {runs[-1].failure()}: {runs[-1].stderr.strip()[-300:]}")
     return 0
 
 

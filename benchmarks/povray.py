@@ -45,12 +45,13 @@ import shutil
 import subprocess
 import sys
 import tempfile
-import time
 from dataclasses import dataclass
 from pathlib import Path
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
+import process  # noqa: E402
 from whitted.converter import parse_file  # noqa: E402
 from whitted.converter.scene import Scene  # noqa: E402
 
@@ -157,36 +158,46 @@ def _env(home: Path) -> dict:
 class PovRun:
     wall_seconds: float      # the whole process
     trace_seconds: float     # POV-Ray's own "Trace Time"
-    parse_seconds: float     # POV-Ray's own "Parse Time"
+    parse_seconds: float     # POV-Ray's own "Parse Time" (reading the scene, before tracing)
     shadow_rays: int         # POV-Ray's "Shadow Ray Tests"
     reflected_rays: int      # POV-Ray's "Reflected Rays"
+    peak_rss: int = 0        # bytes: the process's peak resident memory (process.py)
+    bounding_seconds: float = float("nan")   # POV-Ray's "Bounding Time" (its hierarchy's build)
 
 
 _TIME = r"{}:\s+\d+ hours?\s+\d+ minutes?\s+\d+ seconds? \(([\d.]+) seconds?\)"
 
 
-def run(exe: str, pov: Path, image: Path, width: int, height: int, threads: int = 2) -> PovRun:
-    """Render ``pov`` to the PNG ``image`` with ``threads`` threads; times from POV-Ray's report."""
+def run(exe: str, pov: Path, image: Path, width: int, height: int, threads: int = 2,
+        timeout: float | None = None) -> PovRun:
+    """Render ``pov`` to the PNG ``image`` with ``threads`` threads; times from POV-Ray's report,
+    the whole process's wall time and peak memory measured (process.py). Past ``timeout``
+    seconds POV-Ray is killed and :class:`process.DidNotFinish` raised."""
     pov, image = Path(pov).resolve(), Path(image).resolve()
+    image.unlink(missing_ok=True)
     with tempfile.TemporaryDirectory() as home:
         # PNG, no display, no anti-aliasing, no progress; statistics on (they hold the times)
         command = [exe, f"+I{pov}", f"+O{image}", f"+W{width}", f"+H{height}", "+FN", "-D", "-A",
                    "-V", "+GS", f"+WT{threads}"]
-        start = time.perf_counter()
-        result = subprocess.run(command, capture_output=True, text=True, cwd=image.parent,
-                                env=_env(Path(home)))
-        wall = time.perf_counter() - start
+        result = process.run(command, timeout, cwd=image.parent, env=_env(Path(home)))
+    if result.timed_out:
+        raise process.DidNotFinish("POV-Ray", result)
     report = result.stdout + result.stderr
     trace = re.search(_TIME.format("Trace Time"), report)
-    parse = re.search(_TIME.format("Parse Time"), report)
     if result.returncode != 0 or trace is None or not image.exists():
         tail = " ".join(report.strip().splitlines()[-3:])
-        raise RuntimeError(f"POV-Ray failed (exit status {result.returncode}): {tail[:300]}")
+        raise RuntimeError(f"POV-Ray failed ({result.failure() or 'no Trace Time'}): {tail[:300]}")
+
+    def seconds(name: str) -> float:
+        found = re.search(_TIME.format(name), report)
+        return float(found.group(1)) if found else float("nan")
+
     def count(name: str) -> int:
         found = re.search(rf"{name}:\s+(\d+)", report)
         return int(found.group(1)) if found else 0
-    return PovRun(wall, float(trace.group(1)), float(parse.group(1)) if parse else float("nan"),
-                  count("Shadow Ray Tests"), count("Reflected Rays"))
+    return PovRun(result.wall_seconds, float(trace.group(1)), seconds("Parse Time"),
+                  count("Shadow Ray Tests"), count("Reflected Rays"), result.peak_rss,
+                  seconds("Bounding Time"))
 
 
 def main(argv=None) -> int:

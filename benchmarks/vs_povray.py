@@ -1,4 +1,4 @@
-"""whitted against POV-Ray 3.7 on Eric Haines' sphereflake, levels 1 to 5 (``make bench``).
+"""whitted against POV-Ray 3.7 on Eric Haines' sphereflake, levels 1 to 6 (``make bench``).
 
 What is compared: the same scene (sphereflake.py: the SPD's spheres, lights
 and view, 512×512, depth 5, one ray per pixel) rendered by two whole programs,
@@ -10,23 +10,37 @@ each started as a user starts it:
   povray.py (``max_trace_level 5``, ``adc_bailout 0``: no adaptive depth
   control either; no anti-aliasing).
 
-Two times for each: the whole process (wall clock of the subprocess: start-up,
-reading the scene, building the acceleration structure, rendering, writing the
-PNG), and the render alone as each program reports it: whitted's ``--stats``
-``seconds`` (kernel compilation excluded, reported beside it) and POV-Ray's
-"Trace Time". Ratios are whitted / POV-Ray (below 1: whitted is faster). That
-both trace the same tree is checked, not assumed: the table shows both
-programs' shadow and reflected ray counts and the mean difference of their
-8-bit images.
+Every level is rendered twice, on a floor sphere of radius 10³ and of 10⁴
+(its top at the same height): the larger, flatter floor is harder on 32-bit
+intersections. Level 6 has 597 872 spheres.
+
+For each: the whole process (wall clock of the subprocess: start-up, reading
+the scene, building the acceleration structure, rendering, writing the PNG)
+and its peak resident memory (process.py: the program's own, not the
+benchmark's), and the render alone as each program reports it: whitted's
+``--stats`` ``seconds`` (kernel compilation excluded, reported beside it) and
+POV-Ray's "Trace Time". Ratios are whitted / POV-Ray (below 1: whitted is
+faster or smaller). That both trace the same tree is checked, not assumed: the
+table shows both programs' shadow and reflected ray counts and the mean
+difference of their 8-bit images.
+
+Reading the scene, side by side: the whole ``whitted convert flakeL.scn -o
+X.xml`` process (wall time, peak memory; parse_speed.py) against POV-Ray's own
+"Parse Time" of the same scene in the render runs above (its "Bounding Time",
+building its hierarchy, beside it), and whitted's parser alone in this process.
 
 Each number is the median of a few runs, the two programs alternating; one
 untimed run of each first fills the disk caches (Dr.Jit's kernel cache, the
-page cache). The cost curve (time against sphere count, log-log) is drawn with
-matplotlib.
+page cache). Level 6 is timed once per floor (each run takes minutes). A run
+past ``--timeout`` seconds is killed and its cell says so; the rest goes on.
+The cost curve (time against sphere count, log-log, one panel per floor) is
+drawn with matplotlib.
 
 Usage::
 
     python benchmarks/vs_povray.py [--quick] [--markdown benchmarks/RESULTS.md] [--plot PNG]
+        [--levels 1 2 ...] [--floors 1000 10000] [--runs N] [--timeout 600]
+        [--programs whitted povray convert]
 
 Options of run.py that ``make bench BENCHFLAGS=...`` passes along are ignored.
 """
@@ -36,10 +50,10 @@ from __future__ import annotations
 import argparse
 import datetime
 import json
+import math
 import os
 import platform
 import statistics
-import subprocess
 import sys
 import tempfile
 import time
@@ -50,49 +64,80 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import parse_speed  # noqa: E402
 import povray  # noqa: E402
+import process  # noqa: E402
 import sections  # noqa: E402
 import sphereflake  # noqa: E402
 
-FULL = {"levels": (1, 2, 3, 4, 5), "runs": {1: 5, 2: 5, 3: 5, 4: 3, 5: 2},
-        "parse_rounds": 3, "parse_level": 5, "parse_distinct": True}
-QUICK = {"levels": (1, 2, 3), "runs": {1: 1, 2: 1, 3: 1}, "parse_rounds": 1, "parse_level": 4,
-         "parse_distinct": False}
-
-
-def whitted_command() -> list[str]:
-    """The ``whitted`` command of this Python environment."""
-    script = Path(sys.executable).parent / "whitted"
-    return [str(script)] if script.exists() else [sys.executable, "-m", "whitted"]
+FLOORS = (1000.0, 10000.0)
+FULL = {"levels": (1, 2, 3, 4, 5, 6), "floors": FLOORS, "runs": {1: 5, 2: 5, 3: 5, 4: 3, 5: 2, 6: 1},
+        "read_levels": (5, 6), "read_runs": {5: 3, 6: 2}}
+QUICK = {"levels": (1, 2, 3), "floors": FLOORS, "runs": {1: 1, 2: 1, 3: 1},
+         "read_levels": (3,), "read_runs": {3: 1}}
+#: seconds after which a run is killed and reported as not finished
+TIMEOUT = 600.0
+PROGRAMS = ("whitted", "povray", "convert")
+MIB = 2 ** 20
 
 
 @dataclass
 class Row:
     level: int
+    floor: float
     spheres: int
+    runs: int = 0
     whitted_wall: list = field(default_factory=list)
     whitted_render: list = field(default_factory=list)
     whitted_compile: list = field(default_factory=list)
+    whitted_rss: list = field(default_factory=list)
     whitted_rays: dict = field(default_factory=dict)
+    whitted_failure: str = ""           # why a whitted run failed ('not run': left out)
+    whitted_failed_rss: int = 0         # bytes reached by a run that did not finish
     pov_wall: list = field(default_factory=list)
     pov_trace: list = field(default_factory=list)
+    pov_parse: list = field(default_factory=list)
+    pov_bounding: list = field(default_factory=list)
+    pov_rss: list = field(default_factory=list)
     pov_rays: tuple = (0, 0)
+    pov_failure: str = ""
+    pov_failed_rss: int = 0
     image_difference: float | None = None   # mean |whitted - POV-Ray|, 8-bit levels
-    pov_missing: str = ""
+    scn: Path | None = None
+
+
+@dataclass
+class ReadRow:
+    """Reading one level's scene: ``whitted convert`` against POV-Ray's Parse Time."""
+    level: int
+    spheres: int
+    lines: int
+    megabytes: float
+    convert_wall: list = field(default_factory=list)
+    convert_rss: list = field(default_factory=list)
+    convert_failure: str = ""
+    parse_cpu: float | None = None      # whitted's parse_text alone, CPU s, in this process
+    pov: Row | None = None              # the render row whose POV-Ray runs give Parse Time
 
 
 def _median(values) -> float | None:
+    values = [v for v in values if not (isinstance(v, float) and math.isnan(v))]
     return statistics.median(values) if values else None
 
 
-def run_whitted(scene: Path, image: Path, stats: Path) -> tuple[float, dict]:
-    command = whitted_command() + ["render", str(scene), "-o", str(image), "--min-weight", "0",
-                                   "--stats", str(stats), "-q"]
-    start = time.perf_counter()
-    result = subprocess.run(command, capture_output=True, text=True)
-    wall = time.perf_counter() - start
-    if result.returncode != 0:
-        raise RuntimeError(f"whitted failed on {scene}: {result.stderr.strip()[-300:]}")
-    return wall, json.loads(stats.read_text())
+def _floor_name(radius: float) -> str:
+    exponent = math.log10(radius)
+    return f"10^{exponent:.0f}" if exponent == int(exponent) else f"{radius:g}"
+
+
+def run_whitted(scene: Path, image: Path, stats: Path, timeout: float | None) -> tuple[process.ProcessRun, dict]:
+    command = process.whitted_command() + ["render", str(scene), "-o", str(image), "--min-weight", "0",
+                                           "--stats", str(stats), "-q"]
+    stats.unlink(missing_ok=True)
+    result = process.run(command, timeout)
+    if result.timed_out:
+        raise process.DidNotFinish("whitted", result)
+    if not result.ok:
+        raise RuntimeError(f"whitted failed ({result.failure()}) on {scene.name}: {result.stderr.strip()[-300:]}")
+    return result, json.loads(stats.read_text())
 
 
 def image_difference(a: Path, b: Path) -> float:
@@ -102,31 +147,81 @@ def image_difference(a: Path, b: Path) -> float:
     return float(abs(x - y).mean() * 255)
 
 
-def bench_level(level: int, runs: int, folder: Path, pov_exe: str | None, pov_missing: str,
-                threads: int, out) -> Row:
-    model = sphereflake.scene(level)
-    scn = sphereflake.write(level, folder / f"flake{level}.scn")
-    pov = folder / f"flake{level}.pov"
+def bench_level(level: int, floor: float, runs: int, folder: Path, pov_exe: str | None, pov_missing: str,
+                threads: int, out, timeout: float | None = TIMEOUT, programs=PROGRAMS) -> Row:
+    name = f"flake{level}-{floor:g}"
+    model = sphereflake.scene(level, floor)
+    scn = folder / f"{name}.scn"
+    scn.write_text(sphereflake.to_scn(model, sphereflake.title(level, floor)))
+    pov = folder / f"{name}.pov"
     pov.write_text(povray.scene_to_pov(model))
-    row = Row(level, len(model.spheres), pov_missing=pov_missing)
-    w_image, p_image, stats = folder / f"whitted{level}.png", folder / f"povray{level}.png", folder / "stats.json"
+    width, height = model.width, model.height
+    row = Row(level, floor, len(model.spheres), runs, scn=scn,
+              whitted_failure="" if "whitted" in programs else "not run",
+              pov_failure=("" if "povray" in programs else "not run") if pov_exe else pov_missing)
+    del model   # level 6: some 600 MB of Python objects
+    w_image, p_image, stats = folder / f"whitted-{name}.png", folder / f"povray-{name}.png", folder / "stats.json"
     for _ in range(runs):
-        wall, s = run_whitted(scn, w_image, stats)
-        row.whitted_wall.append(wall)
-        row.whitted_render.append(s["seconds"])
-        row.whitted_compile.append(s["compile_seconds"])
-        row.whitted_rays = s["rays"]
-        if pov_exe:
-            p = povray.run(pov_exe, pov, p_image, model.width, model.height, threads)
-            row.pov_wall.append(p.wall_seconds)
-            row.pov_trace.append(p.trace_seconds)
-            row.pov_rays = (p.shadow_rays, p.reflected_rays)
-    if pov_exe:
+        if not row.whitted_failure:
+            try:
+                run, s = run_whitted(scn, w_image, stats, timeout)
+            except process.DidNotFinish as error:
+                row.whitted_failure, row.whitted_failed_rss = str(error).removeprefix("whitted "), error.run.peak_rss
+            except RuntimeError as error:
+                row.whitted_failure = str(error)
+            else:
+                row.whitted_wall.append(run.wall_seconds)
+                row.whitted_rss.append(run.peak_rss)
+                row.whitted_render.append(s["seconds"])
+                row.whitted_compile.append(s["compile_seconds"])
+                row.whitted_rays = s["rays"]
+        if not row.pov_failure:
+            try:
+                p = povray.run(pov_exe, pov, p_image, width, height, threads, timeout)
+            except process.DidNotFinish as error:
+                row.pov_failure, row.pov_failed_rss = str(error).removeprefix("POV-Ray "), error.run.peak_rss
+            except RuntimeError as error:
+                row.pov_failure = str(error)
+            else:
+                row.pov_wall.append(p.wall_seconds)
+                row.pov_trace.append(p.trace_seconds)
+                row.pov_parse.append(p.parse_seconds)
+                row.pov_bounding.append(p.bounding_seconds)
+                row.pov_rss.append(p.peak_rss)
+                row.pov_rays = (p.shadow_rays, p.reflected_rays)
+    if row.whitted_wall and row.pov_wall and not (row.whitted_failure or row.pov_failure):
         row.image_difference = image_difference(w_image, p_image)
-    print(f"level {level}: {row.spheres} spheres, whitted {_median(row.whitted_wall):.2f} s "
-          f"(render {_median(row.whitted_render):.3f} s)"
-          + (f", POV-Ray {_median(row.pov_wall):.2f} s (trace {_median(row.pov_trace):.3f} s)"
-             if pov_exe else f", POV-Ray: {pov_missing}"), file=out, flush=True)
+    w_text = (f"whitted {_median(row.whitted_wall):.2f} s (render {_median(row.whitted_render):.3f} s, "
+              f"{_median(row.whitted_rss) / MIB:.0f} MiB)" if row.whitted_wall else "whitted: —"
+              if row.whitted_failure != "not run" else "whitted not run")
+    p_text = (f"POV-Ray {_median(row.pov_wall):.2f} s (trace {_median(row.pov_trace):.3f} s, "
+              f"{_median(row.pov_rss) / MIB:.0f} MiB)" if row.pov_wall else "POV-Ray: —"
+              if row.pov_failure != "not run" else "POV-Ray not run")
+    failures = "".join(f"; {who}: {why}" for who, why in (("whitted", row.whitted_failure),
+                                                           ("POV-Ray", row.pov_failure)) if why and why != "not run")
+    print(f"level {level}, floor {_floor_name(floor)}: {row.spheres} spheres, {w_text}, {p_text}{failures}",
+          file=out, flush=True)
+    return row
+
+
+def bench_read(level: int, runs: int, rows: list[Row], folder: Path, timeout: float | None, out) -> ReadRow:
+    """``whitted convert`` of the level's scene (floor 10³), beside POV-Ray's Parse Time of it."""
+    render = next((r for r in rows if r.level == level and r.floor == sphereflake.FLOOR_RADIUS), None)
+    scn = render.scn if render else sphereflake.write(level, folder / f"flake{level}-read.scn")
+    text = scn.read_text()
+    row = ReadRow(level, sphereflake.count(level) + 1, text.count("\n"), len(text.encode()) / 1e6, pov=render)
+    for run in parse_speed.convert(scn, folder / f"flake{level}.xml", runs, timeout):
+        if run.ok:
+            row.convert_wall.append(run.wall_seconds)
+            row.convert_rss.append(run.peak_rss)
+        else:
+            row.convert_failure = run.failure() + (f": {run.stderr.strip()[-200:]}" if not run.timed_out else "")
+    row.parse_cpu = parse_speed.fast_seconds(text, 1)
+    del text
+    pov = f", POV-Ray parse {_median(render.pov_parse):.2f} s" if render and render.pov_parse else ""
+    convert = (f"whitted convert {_median(row.convert_wall):.2f} s ({_median(row.convert_rss) / MIB:.0f} MiB)"
+               if row.convert_wall else f"whitted convert: {row.convert_failure}")
+    print(f"reading level {level}: {convert}, parse_text {row.parse_cpu:.2f} s CPU{pov}", file=out, flush=True)
     return row
 
 
@@ -134,13 +229,25 @@ def _s(x: float | None) -> str:
     return "—" if x is None else f"{x:.3f}" if x < 10 else f"{x:.1f}"
 
 
+def _mib(x: float | None) -> str:
+    return "—" if x is None else f"{x / MIB:.0f}"
+
+
 def _ratio(a: float | None, b: float | None) -> str:
-    return "—" if a is None or b is None else f"{a / b:.2f}"
+    return "—" if a is None or b is None or b == 0 else f"{a / b:.2f}"
 
 
-COLUMNS = ["level", "spheres", "runs", "whitted process s", "POV-Ray process s", "process whitted / POV",
-           "whitted render s", "POV-Ray trace s", "render whitted / POV", "whitted compile s",
+COLUMNS = ["level", "floor radius", "spheres", "runs", "whitted process s", "POV-Ray process s",
+           "process whitted / POV", "whitted render s", "POV-Ray trace s", "render whitted / POV",
+           "whitted peak RSS MiB", "POV-Ray peak RSS MiB", "RSS whitted / POV", "whitted compile s",
            "shadow rays whitted / POV", "reflected rays whitted / POV", "image Δ (8-bit levels)"]
+
+
+def _failed(failure: str, peak: int) -> tuple[str, str]:
+    """A failed program's process cell and peak-memory cell."""
+    short = "not run" if failure == "not run" else \
+        failure if failure.startswith("did not finish") else "failed (see below)"
+    return short, (f"≥ {peak / MIB:.0f}" if peak else "—")
 
 
 def table_rows(rows: list[Row]) -> list[list[str]]:
@@ -148,51 +255,114 @@ def table_rows(rows: list[Row]) -> list[list[str]]:
     for r in rows:
         ww, pw = _median(r.whitted_wall), _median(r.pov_wall)
         wr, pt = _median(r.whitted_render), _median(r.pov_trace)
-        shadow = f"{r.whitted_rays.get('shadow', 0)} / {r.pov_rays[0]}" if r.pov_wall else "—"
-        reflected = f"{r.whitted_rays.get('reflection', 0)} / {r.pov_rays[1]}" if r.pov_wall else "—"
-        out.append([str(r.level), str(r.spheres), str(len(r.whitted_wall)), _s(ww), _s(pw), _ratio(ww, pw),
-                    _s(wr), _s(pt), _ratio(wr, pt), _s(_median(r.whitted_compile)), shadow, reflected,
+        wm, pm = _median(r.whitted_rss), _median(r.pov_rss)
+        both = r.whitted_wall and r.pov_wall
+        shadow = f"{r.whitted_rays.get('shadow', 0)} / {r.pov_rays[0]}" if both else "—"
+        reflected = f"{r.whitted_rays.get('reflection', 0)} / {r.pov_rays[1]}" if both else "—"
+        w_process, w_rss = (_s(ww), _mib(wm)) if ww is not None else _failed(r.whitted_failure, r.whitted_failed_rss)
+        p_process, p_rss = (_s(pw), _mib(pm)) if pw is not None else _failed(r.pov_failure, r.pov_failed_rss)
+        runs = {len(r.whitted_wall), len(r.pov_wall)} - {0}
+        out.append([str(r.level), _floor_name(r.floor), str(r.spheres),
+                    "/".join(str(n) for n in sorted(runs)) or "0", w_process, p_process, _ratio(ww, pw),
+                    _s(wr), _s(pt), _ratio(wr, pt), w_rss, p_rss, _ratio(wm, pm),
+                    _s(_median(r.whitted_compile)), shadow, reflected,
                     "—" if r.image_difference is None else f"{r.image_difference:.2f}"])
     return out
 
 
-def text_table(rows: list[Row]) -> str:
-    cells = [COLUMNS] + table_rows(rows)
-    widths = [max(len(c[i]) for c in cells) for i in range(len(COLUMNS))]
-    return "\n".join("  ".join(c.ljust(w) for c, w in zip(row, widths)) for row in cells)
+READ_COLUMNS = ["level", "spheres", ".scn MB", "runs", "whitted convert process s", "convert peak RSS MiB",
+                "POV-Ray Parse Time s", "convert / POV-Ray parse", "POV-Ray Bounding Time s",
+                "POV-Ray process s", "whitted parse_text alone CPU s"]
 
 
-def markdown_table(rows: list[Row]) -> str:
-    lines = ["| " + " | ".join(COLUMNS) + " |", "|" + "---|" * len(COLUMNS)]
-    return "\n".join(lines + ["| " + " | ".join(r) + " |" for r in table_rows(rows)])
+def read_rows(rows: list[ReadRow]) -> list[list[str]]:
+    out = []
+    for r in rows:
+        cw = _median(r.convert_wall)
+        parse = _median(r.pov.pov_parse) if r.pov else None
+        process_cell = _s(cw) if cw is not None else \
+            (r.convert_failure if r.convert_failure.startswith("did not finish") else "failed (see below)")
+        out.append([str(r.level), str(r.spheres), f"{r.megabytes:.1f}", str(len(r.convert_wall)), process_cell,
+                    _mib(_median(r.convert_rss)), _s(parse), _ratio(cw, parse),
+                    _s(_median(r.pov.pov_bounding)) if r.pov else "—",
+                    _s(_median(r.pov.pov_wall)) if r.pov else "—", _s(r.parse_cpu)])
+    return out
+
+
+def failures(rows: list[Row], reads: list[ReadRow], pov_missing: str = "") -> list[str]:
+    """One line per program that failed or did not finish, with why (POV-Ray's absence is said apart)."""
+    lines = []
+    for r in rows:
+        for who, why in (("whitted", r.whitted_failure), ("POV-Ray", r.pov_failure)):
+            if why and why not in ("not run", pov_missing):
+                lines.append(f"level {r.level}, floor {_floor_name(r.floor)}: {who}: {why}")
+    for r in reads:
+        if r.convert_failure:
+            lines.append(f"level {r.level}: whitted convert: {r.convert_failure}")
+    return lines
+
+
+def text_table(columns: list[str], cells: list[list[str]]) -> str:
+    cells = [columns] + cells
+    widths = [max(len(c[i]) for c in cells) for i in range(len(columns))]
+    return "\n".join("  ".join(c.ljust(w) for c, w in zip(row, widths)).rstrip() for row in cells)
+
+
+def markdown_table(columns: list[str], cells: list[list[str]]) -> str:
+    lines = ["| " + " | ".join(columns) + " |", "|" + "---|" * len(columns)]
+    return "\n".join(lines + ["| " + " | ".join(r) + " |" for r in cells])
 
 
 def plot(rows: list[Row], path: Path, title: str) -> None:
-    """Time against sphere count, log-log: both programs, whole process and render."""
+    """Time against sphere count, log-log, one panel per floor: both programs, whole process and render."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    counts = [r.spheres for r in rows]
-    fig, ax = plt.subplots(figsize=(7, 4.5), dpi=110)
-    series = [("whitted, whole process", [_median(r.whitted_wall) for r in rows], "C0", "-"),
-              ("whitted, render", [_median(r.whitted_render) for r in rows], "C0", "--"),
-              ("POV-Ray 3.7, whole process", [_median(r.pov_wall) for r in rows], "C1", "-"),
-              ("POV-Ray 3.7, trace", [_median(r.pov_trace) for r in rows], "C1", "--")]
-    for label, values, color, style in series:
-        points = [(c, v) for c, v in zip(counts, values) if v is not None]
-        if points:
-            ax.plot(*zip(*points), style, marker="o", color=color, label=label)
-    ax.set_xscale("log")
-    ax.set_yscale("log")
-    ax.set_xlabel("spheres (sphereflake levels 1…5 and the floor)")
-    ax.set_ylabel("seconds (median)")
-    ax.set_title(title, fontsize=10)
-    ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=8)
+    floors = sorted({r.floor for r in rows})
+    fig, axes = plt.subplots(1, len(floors), figsize=(5.5 * len(floors), 4.5), dpi=110, sharey=True,
+                             squeeze=False)
+    for ax, floor in zip(axes[0], floors):
+        these = [r for r in rows if r.floor == floor]
+        counts = [r.spheres for r in these]
+        series = [("whitted, whole process", [_median(r.whitted_wall) for r in these], "C0", "-"),
+                  ("whitted, render", [_median(r.whitted_render) for r in these], "C0", "--"),
+                  ("POV-Ray 3.7, whole process", [_median(r.pov_wall) for r in these], "C1", "-"),
+                  ("POV-Ray 3.7, trace", [_median(r.pov_trace) for r in these], "C1", "--")]
+        for label, values, color, style in series:
+            points = [(c, v) for c, v in zip(counts, values) if v is not None]
+            if points:
+                ax.plot(*zip(*points), style, marker="o", color=color, label=label)
+        levels = sorted({r.level for r in these})
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_xlabel(f"spheres (levels {levels[0]}…{levels[-1]} and the floor)")
+        ax.set_title(f"floor sphere of radius ${_floor_name(floor).replace('^', '^{')}}}$"
+                     if "^" in _floor_name(floor) else f"floor sphere of radius {floor:g}", fontsize=9)
+        ax.grid(True, which="both", alpha=0.3)
+        if ax.lines:
+            ax.legend(fontsize=8)
+    axes[0][0].set_ylabel("seconds (median)")
+    fig.suptitle(title, fontsize=10)
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path)
     plt.close(fig)
+
+
+def _runs_note(runs: dict[int, int], why: str = "") -> str:
+    """How many runs each level's medians are of, e.g. 'medians of 5 runs (levels 1-3), 2 (level 5), ...'."""
+    by_count: dict[int, list[int]] = {}
+    for level, n in sorted(runs.items()):
+        by_count.setdefault(n, []).append(level)
+    if len(by_count) == 1:
+        (n, _), = by_count.items()
+        return f"{'one run' if n == 1 else f'medians of {n} runs'} per level and floor" + (f" ({why})" if why else "")
+    parts = []
+    for n, levels in sorted(by_count.items(), reverse=True):
+        named = f"level{'s' if len(levels) > 1 else ''} {', '.join(map(str, levels))}"
+        parts.append(f"{'one run only' if n == 1 else f'{n} runs'} at {named}"
+                     + (" (for its size: each run takes minutes)" if n == 1 and 6 in levels else ""))
+    return "medians of " + "; ".join(parts) + " per floor"
 
 
 def machine() -> str:
@@ -207,38 +377,75 @@ def machine() -> str:
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--quick", action="store_true", help="levels 1-3, one run each")
+    parser.add_argument("--quick", action="store_true", help="levels 1-3 on both floors, one run each")
     parser.add_argument("--markdown", metavar="FILE",
                         help="record the run in FILE's 'sphereflake' section (benchmarks/RESULTS.md) "
                              "and draw the cost curve beside it")
     parser.add_argument("--plot", metavar="PNG", help="where to draw the cost curve "
                         "(default: cost_curve.png beside --markdown, else out/bench/cost_curve.png)")
+    parser.add_argument("--levels", type=int, nargs="+", choices=list(sphereflake.LEVELS), metavar="L",
+                        help="the levels to render (default: 1-6, --quick 1-3)")
+    parser.add_argument("--floors", type=float, nargs="+", metavar="R",
+                        help="the floor sphere's radii (default: 1000 10000)")
+    parser.add_argument("--runs", type=int, metavar="N", help="runs of each level (default: 5 for small "
+                        "levels down to 1 for level 6)")
+    parser.add_argument("--read-levels", type=int, nargs="*", choices=list(sphereflake.LEVELS), metavar="L",
+                        help="the levels whose reading is timed (default: 5 and 6, --quick 3)")
+    parser.add_argument("--timeout", type=float, default=TIMEOUT, metavar="S",
+                        help=f"kill a run after S seconds and say so (default {TIMEOUT:g})")
+    parser.add_argument("--programs", nargs="+", choices=PROGRAMS, default=list(PROGRAMS),
+                        help="what to run: whitted render, POV-Ray, whitted convert (default: all)")
     # `make bench BENCHFLAGS=...` passes run.py's options here too: those are not this script's.
     args, _ = parser.parse_known_args(argv)
-    settings = QUICK if args.quick else FULL
+    settings = dict(QUICK if args.quick else FULL)
+    if args.levels:
+        settings["levels"] = tuple(sorted(set(args.levels)))
+        # by default, reading is timed where POV-Ray's runs give its Parse Time beside it
+        settings["read_levels"] = tuple(level for level in settings["read_levels"] if level in settings["levels"])
+    if args.floors:
+        settings["floors"] = tuple(args.floors)
+    if args.read_levels is not None:
+        settings["read_levels"] = tuple(sorted(set(args.read_levels)))
+    runs = {level: args.runs or settings["runs"].get(level, FULL["runs"][level]) for level in settings["levels"]}
+    read_runs = {level: args.runs or settings["read_runs"].get(level, FULL["read_runs"].get(level, 3))
+                 for level in settings["read_levels"]}
+    if "convert" not in args.programs:
+        settings["read_levels"] = ()
+    timeout = args.timeout if args.timeout > 0 else None
     threads = len(os.sched_getaffinity(0))
     pov_exe, pov_missing = povray.find()
     load = os.getloadavg()[0]
     started = datetime.datetime.now(datetime.timezone.utc)
-    print(f"whitted vs POV-Ray 3.7 on the sphereflake ({'quick' if args.quick else 'full'}): {machine()}; "
+    mode = "quick" if args.quick else "full"
+    print(f"whitted vs POV-Ray 3.7 on the sphereflake ({mode}): {machine()}; "
           f"POV-Ray: {pov_exe or pov_missing}", flush=True)
     start = time.perf_counter()
     with tempfile.TemporaryDirectory() as tmp, open(os.devnull, "w") as quiet:
         folder = Path(tmp)
-        # Warm-up: Dr.Jit's kernel cache, the page cache, POV-Ray's first start.
-        bench_level(1, 1, folder, pov_exe, pov_missing, threads, quiet)
-        rows = [bench_level(level, settings["runs"][level], folder, pov_exe, pov_missing, threads, sys.stdout)
-                for level in settings["levels"]]
-    print("\n== whitted vs POV-Ray 3.7, sphereflake 512×512, depth 5, 1 ray per pixel, adaptive depth off")
-    print(text_table(rows))
-    if not pov_exe:
-        print(f"POV-Ray rows missing: {pov_missing}")
-
-    print(f"\n== parsing the level-{settings['parse_level']} sphereflake (CPU seconds)")
-    parse_rows = parse_speed.table(settings["parse_rounds"], settings["parse_level"], settings["parse_distinct"])
-    print(parse_speed.markdown(parse_rows))
+        # Warm-up: Dr.Jit's kernel cache (some kernels differ with the floor), the page cache,
+        # POV-Ray's first start.
+        for floor in settings["floors"]:
+            bench_level(1, floor, 1, folder, pov_exe, pov_missing, threads, quiet, timeout, args.programs)
+        rows = [bench_level(level, floor, runs[level], folder, pov_exe, pov_missing, threads, sys.stdout,
+                            timeout, args.programs)
+                for level in settings["levels"] for floor in settings["floors"]]
+        reads = [bench_read(level, read_runs[level], rows, folder, timeout, sys.stdout)
+                 for level in settings["read_levels"]]
     seconds = time.perf_counter() - start
     load = max(load, os.getloadavg()[0])
+    runs_note = _runs_note(runs, "--quick" if args.quick else "")
+    failed = failures(rows, reads, pov_missing)
+
+    print(f"\n== whitted vs POV-Ray 3.7, sphereflake 512×512, depth 5, 1 ray per pixel, adaptive depth off; "
+          f"{runs_note}; a run is killed after {timeout or math.inf:g} s")
+    print(text_table(COLUMNS, table_rows(rows)))
+    if reads:
+        print("\n== reading the scene: the whole `whitted convert` process vs POV-Ray's Parse Time (floor 10^3)")
+        print(text_table(READ_COLUMNS, read_rows(reads)))
+    if not pov_exe:
+        print(f"POV-Ray rows missing: {pov_missing}")
+    for line in failed:
+        print(line)
     print(f"total {seconds:.0f} s; load average up to {load:.1f} on {threads} cores")
 
     plot_path = Path(args.plot) if args.plot else \
@@ -248,35 +455,44 @@ def main(argv=None) -> int:
 
     if args.markdown:
         note = ("" if pov_exe else f"\n\nPOV-Ray rows missing: {pov_missing}.")
+        if failed:
+            note += "\n\nRuns that failed or did not finish:\n\n" + "\n".join(f"- {line}" for line in failed)
+        levels = settings["levels"]
+        reading = "" if not reads else f"""
+Reading the scene, side by side: the whole `whitted convert flakeL.scn -o flakeL.xml` process (Python's
+start-up, parsing, writing the XML; wall time and peak resident memory, medians of the runs shown) against
+POV-Ray's own Parse Time of the same scene (floor 10³) in its render runs above, with its Bounding Time
+(building its hierarchy) and its whole render process beside it. The last column is whitted's parser alone
+(`parse_text`, CPU seconds in the benchmark's own process): how much of the process is parsing.
+
+{markdown_table(READ_COLUMNS, read_rows(reads))}
+"""
         body = f"""## whitted vs POV-Ray 3.7 on the sphereflake (benchmarks/vs_povray.py)
 
-Measured {started:%Y-%m-%d %H:%M UTC} on {machine()}, {'quick' if args.quick else 'full'} mode, \
-{seconds:.0f} s in all; the one-minute load average reached {load:.1f} on {threads} cores: other \
-engineers were using the CPUs, so absolute times are high and noisy (to be re-run on a quiet machine).
+Measured {started:%Y-%m-%d %H:%M UTC} on {machine()}, {mode} mode, \
+{seconds:.0f} s in all; the one-minute load average reached {load:.1f} on {threads} cores.
 Both programs render Eric Haines' sphereflake (benchmarks/sphereflake.py: the SPD's view, three lights,
-mirror spheres with reflection 0.5 and a floor sphere) at 512×512, depth 5, one ray per pixel, with no
-adaptive depth control (whitted `--min-weight 0`; POV-Ray `max_trace_level 5`, `adc_bailout 0`), each
-with {threads} threads (Dr.Jit's pool; POV-Ray `+WT{threads}`). "Process" is the wall time of the whole
-command (`whitted render flakeL.scn -o X.png --min-weight 0`, `povray +IflakeL.pov ...`); "render" is
-whitted's `--stats` seconds (kernel compilation excluded, shown beside it) and POV-Ray's own Trace Time.
-Medians of the runs shown, the two programs alternating, after one untimed run of each. Ratios are
-whitted / POV-Ray (below 1: whitted is faster). The ray counts and the mean difference of the two 8-bit
-images (in levels of 255) show that both trace the same tree.{note}
+mirror spheres with reflection 0.5), levels {levels[0]} to {levels[-1]}, each on a floor sphere of radius
+{" and ".join(_floor_name(f) for f in settings["floors"])} (its top at the same height), at 512×512, depth 5,
+one ray per pixel, with no adaptive depth control (whitted `--min-weight 0`; POV-Ray `max_trace_level 5`,
+`adc_bailout 0`), each with {threads} threads (Dr.Jit's pool; POV-Ray `+WT{threads}`). "Process" is the
+wall time of the whole command (`whitted render flakeL.scn -o X.png --min-weight 0`, `povray +IflakeL.pov
+...`) and "peak RSS" its own peak resident memory (benchmarks/process.py); "render" is whitted's `--stats`
+seconds (kernel compilation excluded, shown beside it) and POV-Ray's own Trace Time. {runs_note[0].upper()}\
+{runs_note[1:]}, the two programs alternating, after one untimed run of each; a run is killed after \
+{timeout or math.inf:g} s and its cell says so. Ratios are whitted / POV-Ray (below 1: whitted is faster or smaller).
+The ray counts and the mean difference of the two 8-bit images (in levels of 255) show that both trace the
+same tree.{note}
 
 POV-Ray counts as "reflected" also the rays its last level spawns and then leaves
 untraced (whitted at `--max-depth 6` counts 115 779 reflected rays on level 2, POV-Ray at
 `max_trace_level 5` 115 780): its counts are whitted's one level deeper.
 
-{markdown_table(rows)}
+{markdown_table(COLUMNS, table_rows(rows))}
 
-![time against sphere count, log-log](cost_curve.png)
-
-Parsing the level-{settings['parse_level']} sphereflake (CPU seconds, median of \
-{settings['parse_rounds']}; see the parse-speed section for the method):
-
-{parse_speed.markdown(parse_rows)}
-
-Reproduce: `make bench` (prints this table; `BENCHFLAGS=--quick` for levels 1-3), or
+![time against sphere count, log-log, one panel per floor](cost_curve.png)
+{reading}
+Reproduce: `make bench` (prints these tables; `BENCHFLAGS=--quick` for levels 1-3), or
 `.venv/bin/python benchmarks/vs_povray.py --markdown benchmarks/RESULTS.md` to rewrite this section.
 """
         sections.replace(args.markdown, "sphereflake", body)

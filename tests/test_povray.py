@@ -1,9 +1,12 @@
-"""The POV-Ray 3.7 scene writer of the benchmarks (benchmarks/povray.py).
+"""The POV-Ray 3.7 scene writer of the benchmarks (benchmarks/povray.py), and what the
+side-by-side benchmark measures (benchmarks/process.py, benchmarks/vs_povray.py).
 
 The writer must make POV-Ray trace and shade what whitted does, or the
 side-by-side benchmark compares different work. Where POV-Ray is installed,
 the two programs render the same small scene and their images must agree;
 elsewhere the written scene is checked against the mapping it promises.
+A program's peak memory must be its own (not the benchmark's), a run past its
+time limit must be killed and said, and the table must say so.
 """
 
 from __future__ import annotations
@@ -68,3 +71,60 @@ def test_povray_renders_the_image_whitted_renders(tmp_path):
     assert difference.mean() < 1.0                       # levels of 255
     assert (difference.max(axis=-1) <= 2).mean() > 0.97  # all but a few edge pixels
     assert run.shadow_rays == result.stats["rays"]["shadow"]
+
+
+process = povray.process   # the module povray.py runs POV-Ray with (its DidNotFinish)
+vs_povray = _load("vs_povray")
+
+
+def test_a_programs_peak_memory_is_its_own_not_the_benchmarks():
+    # this process holds 300 MiB more than the program it starts: the program must not inherit it
+    ballast = np.ones(300 * 2 ** 20 // 8)
+    small = process.run([sys.executable, "-I", "-S", "-c", "print('small')"])
+    big = process.run([sys.executable, "-I", "-S", "-c",
+                       "x = bytearray(200 * 2 ** 20); x[::4096] = b'1' * len(x[::4096])"])
+    del ballast
+    assert small.ok and small.stdout == "small\n" and small.wall_seconds > 0
+    assert small.peak_rss < 60 * 2 ** 20
+    assert 200 * 2 ** 20 < big.peak_rss < 260 * 2 ** 20
+
+
+def test_a_run_past_its_time_limit_is_killed_and_said():
+    run = process.run(["sleep", "30"], timeout=0.5)
+    assert run.timed_out and not run.ok and run.wall_seconds < 10
+    assert run.failure() == "did not finish in 0.5 s"
+    assert process.run(["sh", "-c", "exit 3"]).failure() == "exit status 3"
+
+
+@pytest.mark.skipif(shutil.which("povray") is None, reason="POV-Ray is not installed")
+def test_povray_reports_parse_time_and_memory_and_keeps_to_its_limit(tmp_path):
+    exe, why = povray.find()
+    assert exe, why
+    model = replace(sphereflake.scene(2, floor_radius=1e4), width=32, height=32)
+    (tmp_path / "flake.pov").write_text(povray.scene_to_pov(model))
+    run = povray.run(exe, tmp_path / "flake.pov", tmp_path / "pov.png", 32, 32, threads=1)
+    assert run.parse_seconds >= 0 and run.bounding_seconds >= 0 and 5 * 2 ** 20 < run.peak_rss < 2 ** 30
+    with pytest.raises(process.DidNotFinish, match="did not finish in 0.01 s"):
+        povray.run(exe, tmp_path / "flake.pov", tmp_path / "pov.png", 32, 32, threads=1, timeout=0.01)
+
+
+def test_benchmark_table_has_both_floors_memory_and_says_what_did_not_finish():
+    done = vs_povray.Row(6, 1e3, 597872, 1, whitted_wall=[90.0], whitted_render=[2.0], whitted_compile=[0.0],
+                         whitted_rss=[11 * 2 ** 30], whitted_rays={"shadow": 10, "reflection": 4},
+                         pov_wall=[8.0], pov_trace=[1.8], pov_parse=[2.5], pov_bounding=[2.5],
+                         pov_rss=[610 * 2 ** 20], pov_rays=(10, 5), image_difference=0.3)
+    late = vs_povray.Row(6, 1e4, 597872, 1, whitted_failure="did not finish in 600 s",
+                         whitted_failed_rss=9 * 2 ** 30, pov_wall=[8.0], pov_trace=[1.8], pov_rss=[610 * 2 ** 20])
+    cells = [dict(zip(vs_povray.COLUMNS, row)) for row in vs_povray.table_rows([done, late])]
+    assert [c["floor radius"] for c in cells] == ["10^3", "10^4"]
+    assert cells[0]["whitted peak RSS MiB"] == "11264" and cells[0]["POV-Ray peak RSS MiB"] == "610"
+    assert cells[0]["process whitted / POV"] == "11.25" and cells[0]["image Δ (8-bit levels)"] == "0.30"
+    assert cells[1]["whitted process s"] == "did not finish in 600 s"
+    assert cells[1]["whitted peak RSS MiB"] == "≥ 9216" and cells[1]["process whitted / POV"] == "—"
+    assert vs_povray.failures([done, late], []) == ["level 6, floor 10^4: whitted: did not finish in 600 s"]
+
+    read = vs_povray.ReadRow(6, 597872, 597885, 69.7, convert_wall=[2.0], convert_rss=[400 * 2 ** 20],
+                             parse_cpu=1.5, pov=done)
+    cell = dict(zip(vs_povray.READ_COLUMNS, vs_povray.read_rows([read])[0]))
+    assert cell["whitted convert process s"] == "2.000" and cell["POV-Ray Parse Time s"] == "2.500"
+    assert cell["convert / POV-Ray parse"] == "0.80" and cell["convert peak RSS MiB"] == "400"

@@ -50,8 +50,34 @@ def test_sphere_counts_per_level(level, total):
         assert all(math.isclose(s.radius, 0.5 / 3 ** n, rel_tol=1e-12) for s in at_n)
 
 
-def test_level_5_count_without_building_it():
+def test_level_5_and_6_counts_without_building_them():
     assert sphereflake.count(5) == 66430
+    assert sphereflake.count(6) == 597871 and 6 in sphereflake.LEVELS
+
+
+def _recursive_flake(level):
+    """The flake as the SPD builds it, a sphere at a time (depth first): what the arrays must equal."""
+    spheres = []
+
+    def grow(center, radius, axis, parent, depth):
+        index = len(spheres)
+        spheres.append((center, radius, axis, parent, depth))
+        if depth == level:
+            return
+        child_radius = radius * sphereflake.SCALE
+        distance = radius + child_radius
+        for direction in sphereflake.CHILDREN:
+            d = sphereflake._turn_z_to(axis, direction)
+            grow(tuple(c + distance * e for c, e in zip(center, d)), child_radius, d, index, depth + 1)
+
+    grow((0.0, 0.0, 0.0), sphereflake.RADIUS, (0.0, 0.0, 1.0), -1, 0)
+    return spheres
+
+
+@pytest.mark.parametrize("level", [0, 1, 3])
+def test_arrays_are_the_recursion_bit_for_bit(level):
+    built = [(s.center, s.radius, s.axis, s.parent, s.level) for s in sphereflake.flake(level)]
+    assert built == _recursive_flake(level)   # == on floats: the same bits, the same order
 
 
 def test_children_touch_their_parent_on_its_equator_and_above():
@@ -108,4 +134,23 @@ def test_command_line(tmp_path):
     assert sphereflake.main(["1", "-o", str(out)]) == 0
     assert len(parse_text(out.read_text(), out).spheres) == 11
     with pytest.raises(SystemExit):
-        sphereflake.main(["6", "-o", str(out)])
+        sphereflake.main(["7", "-o", str(out)])
+    with pytest.raises(SystemExit):
+        sphereflake.main(["1", "--floor-radius", "0", "-o", str(out)])
+
+
+@pytest.mark.parametrize("radius", [1000.0, 1e4])
+def test_floor_radius_keeps_the_floor_top_in_place(tmp_path, radius):
+    out = tmp_path / "f1.scn"
+    assert sphereflake.main(["1", "--floor-radius", str(radius), "-o", str(out)]) == 0
+    floor = parse_text(out.read_text(), out).spheres[-1]
+    assert floor.radius == radius and floor.center == (0, 0, sphereflake.FLOOR_HEIGHT - radius)
+    assert floor.center[2] + floor.radius == sphereflake.FLOOR_HEIGHT
+    assert sphereflake.scene(1, floor_radius=radius).spheres[-1] == sphereflake.floor(radius)
+    # the default floor's scene is written as before the option existed (same title, same lines)
+    default = sphereflake.write(1, tmp_path / "default.scn")
+    differing = [a for a, b in zip(default.read_text().splitlines(), out.read_text().splitlines()) if a != b]
+    if radius == sphereflake.FLOOR_RADIUS:
+        assert differing == []
+    else:
+        assert len(differing) == 2 and differing[0].startswith("# ") and differing[1].startswith("sphere 0 0 -1000.5 1000 ")

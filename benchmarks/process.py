@@ -1,0 +1,147 @@
+"""One program run as a user runs it: its wall time, its own peak memory, a time limit.
+
+The peak resident set size is the program's own, from the ``os.wait4`` that
+reaps it (``resource.getrusage(RUSAGE_CHILDREN)`` would give the maximum over
+every child ever waited for). Two pitfalls are avoided: Linux's ``ru_maxrss``
+carries over the high-water mark of the process that forked the program (the
+memory the child shared before its ``exec``), so a big benchmark process
+would lend the program its own size; and a wrapper that waits is needed
+anyway to get one child's usage. So each program is started by a small
+wrapper, ``python -I -S`` of about 9 MiB (GNU ``time`` not needed), which
+forks it, waits for it with ``os.wait4`` and writes its exit status, peak
+memory and wall time to a file. A program smaller than the wrapper would read
+as the wrapper's size; whitted and POV-Ray are larger (POV-Ray's
+``--version`` alone takes 13 MiB). ``ru_maxrss`` counts the program's threads,
+not programs it starts (whitted and POV-Ray start none); Linux gives it in KiB.
+
+A run past its time limit is killed (SIGKILL) and reported as not finished,
+with the memory it had reached by then, so that a benchmark of a program that
+is slow today records that fact and goes on.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+
+def whitted_command() -> list[str]:
+    """The ``whitted`` command of this Python environment."""
+    script = Path(sys.executable).parent / "whitted"
+    return [str(script)] if script.exists() else [sys.executable, "-m", "whitted"]
+
+
+@dataclass
+class ProcessRun:
+    command: list
+    returncode: int          # negative: killed by that signal
+    wall_seconds: float      # from start to exit, as the user waits for it
+    peak_rss: int            # bytes: the process's own high-water mark of resident memory
+    timed_out: bool          # killed after ``timeout`` seconds
+    timeout: float | None
+    stdout: str
+    stderr: str
+
+    @property
+    def ok(self) -> bool:
+        return self.returncode == 0 and not self.timed_out
+
+    def failure(self) -> str:
+        """Why the run failed, in a few words for a table ('' when it did not)."""
+        if self.timed_out:
+            return f"did not finish in {self.timeout:g} s"
+        if self.returncode < 0:
+            name = signal.Signals(-self.returncode).name if -self.returncode in signal.valid_signals() \
+                else str(-self.returncode)
+            return f"killed by {name}" + (" (out of memory?)" if name == "SIGKILL" else "")
+        if self.returncode:
+            return f"exit status {self.returncode}"
+        return ""
+
+
+class DidNotFinish(RuntimeError):
+    """A program ran past its time limit and was killed."""
+
+    def __init__(self, program: str, run: ProcessRun):
+        super().__init__(f"{program} {run.failure()}")
+        self.run = run
+
+
+#: the wrapper: fork, exec the program, wait for it, write "status maxrss-KiB wall-seconds"
+_WRAPPER = r"""
+import os, signal, sys, time
+report, argv, pid = sys.argv[1], sys.argv[2:], 0
+def stop(*_):
+    if pid > 0:
+        os.kill(pid, signal.SIGKILL)
+    else:
+        os._exit(128 + signal.SIGTERM)
+signal.signal(signal.SIGTERM, stop)
+start = time.perf_counter()
+pid = os.fork()
+if pid == 0:
+    try:
+        os.execvp(argv[0], argv)
+    except BaseException as error:
+        os.write(2, f"cannot run {argv[0]}: {error}\n".encode())
+    os._exit(127)
+_, status, usage = os.wait4(pid, 0)
+wall = time.perf_counter() - start
+with open(report, "w") as f:
+    f.write(f"{os.waitstatus_to_exitcode(status)} {usage.ru_maxrss} {wall!r}\n")
+"""
+
+#: seconds a wrapper gets to report after its program is killed, before it is killed too
+_GRACE = 30.0
+
+
+def run(command: list, timeout: float | None = None, cwd=None, env=None) -> ProcessRun:
+    """Run ``command`` to its end, or kill it after ``timeout`` seconds; its output is kept."""
+    command = [str(c) for c in command]
+    with tempfile.TemporaryDirectory() as folder, \
+            open(Path(folder) / "out", "w+b") as out, open(Path(folder) / "err", "w+b") as err:
+        report = Path(folder) / "report"
+        killed = threading.Event()
+        start = time.perf_counter()
+        wrapper = subprocess.Popen([sys.executable, "-I", "-S", "-c", _WRAPPER, str(report)] + command,
+                                   stdin=subprocess.DEVNULL, stdout=out, stderr=err, cwd=cwd, env=env,
+                                   start_new_session=True)
+
+        def stop() -> None:
+            killed.set()
+            if wrapper.poll() is None:
+                wrapper.send_signal(signal.SIGTERM)     # the wrapper kills the program, reports
+
+        def kill_all() -> None:
+            if wrapper.poll() is None:
+                os.killpg(wrapper.pid, signal.SIGKILL)
+
+        timers = [threading.Timer(timeout, stop), threading.Timer(timeout + _GRACE, kill_all)] if timeout else []
+        for timer in timers:
+            timer.daemon = True
+            timer.start()
+        try:
+            wrapper.wait()
+        except BaseException:       # Ctrl-C: do not leave the program running
+            kill_all()
+            wrapper.wait()
+            raise
+        finally:
+            for timer in timers:
+                timer.cancel()
+        wall = time.perf_counter() - start
+        returncode, peak_kib = wrapper.returncode, 0
+        if report.exists():
+            status, peak_kib, wall = report.read_text().split()
+            returncode, peak_kib, wall = int(status), int(peak_kib), float(wall)
+        out.seek(0)
+        err.seek(0)
+        return ProcessRun(command, returncode, wall, peak_kib * 1024, killed.is_set(), timeout,
+                          out.read().decode(errors="replace"), err.read().decode(errors="replace"))
