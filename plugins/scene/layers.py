@@ -27,7 +27,7 @@ import numpy as np
 from whitted.float32 import hit_error
 
 from .materials import bsdf_key
-from .primitives import Primitives, ellipsoid_numbers
+from .primitives import Primitives
 
 
 @dataclass
@@ -47,13 +47,16 @@ class Layer:
     error: list | None = None
 
 
-def layers(shapes, types) -> tuple[list[Layer], list[int]]:
-    """The layers of ``shapes`` (``scene.shapes()``, their ``mi.ShapeType``s), and the
-    indices of the shapes they hold (which the scene's own ray tracing must then leave out)."""
+def layers(shapes, types, primitives: Primitives) -> tuple[list[Layer], list[int]]:
+    """The layers of ``shapes`` (``scene.shapes()``, their ``mi.ShapeType``s and
+    :class:`~.primitives.Primitives`), and the indices of the shapes they hold (which the
+    scene's own ray tracing must then leave out)."""
     members: dict[float, list] = {}
     held = []
+    counts = primitives.counts
     for k in np.flatnonzero(types == int(mi.ShapeType.Ellipsoids)).tolist():
-        center, radius, sphere = ellipsoid_numbers(shapes[k])
+        span = slice(primitives.first[k], primitives.first[k] + counts[k])
+        center, radius, sphere = primitives.center[:, span], primitives.radius[span], primitives.sphere[span]
         if not len(radius) or not sphere.all() or (radius == 1.0).all():
             continue
         held.append(k)

@@ -31,6 +31,7 @@ are kept.
 
 from __future__ import annotations
 
+import copy
 import itertools
 from collections import OrderedDict
 
@@ -137,13 +138,14 @@ class SceneTables:
         rows = np.asarray(dr.reinterpret_array(mi.UInt32, scene.shapes_dr()), np.int64).reshape(-1) \
             if jit and shapes else None
         self.primitives = Primitives.read(shapes, _corners(boxes), types, textured, rows, keys if jit else None)
+        self._types = types
         self.spheres_only = bool(len(shapes)) and bool(self.primitives.sphere.all())
         self.sphere_shapes = bool((types == int(mi.ShapeType.Sphere)).any())
-        if jit:
-            self.hit_tables = self.primitives.tables(spheres=self.spheres_only)
+        if jit:   # with every primitive's sphere (a mesh's is its bounding sphere): see :meth:`part`
+            self.hit_tables = self.primitives.tables(spheres=True)
         else:
             self.hit_tables = self.primitives.scalar_tables(shapes)
-        self.layers, self.layered = layers(shapes, types)
+        self.layers, self.layered = layers(shapes, types, self.primitives)
         self._rest_scenes = {}
         # what the tables were built from (:meth:`describe`)
         self._boxes, self._changes = boxes, _material_changes
@@ -161,6 +163,20 @@ class SceneTables:
                 and point_lights(scene) == self.lights
                 and (scene.environment() is None) == (self.environment is None)
                 and (self.environment is None or largest_emission(scene.environment()) == self.background))
+
+    def part(self, left_out) -> "SceneTables":
+        """These tables, for the scene of :meth:`rest_scene` (the same shape objects keep their
+        instance IDs, rows and primitives): only what depends on which shapes there are
+        changes."""
+        part = copy.copy(self)
+        kept = np.ones(len(self._types), bool)
+        kept[list(left_out)] = False
+        shape_sphere = np.add.reduceat(~self.primitives.sphere, self.primitives.first) == 0 \
+            if len(self._types) else np.zeros(0, bool)
+        part.spheres_only = bool(kept.any()) and bool(shape_sphere[kept].all())
+        part.sphere_shapes = bool((self._types[kept] == int(mi.ShapeType.Sphere)).any())
+        part.layers, part.layered = [], []
+        return part
 
     def rest_scene(self, scene, left_out):
         """A scene of ``scene``'s shapes but those whose index is in ``left_out`` (the same

@@ -27,7 +27,6 @@ from dataclasses import dataclass
 import drjit as dr
 import mitsuba as mi
 
-from ..scene.tables import scene_tables
 from . import off, optics
 from .giants import GiantHits
 from .hits import TINY, hit_finder, spawn_ray, spawn_ray_to
@@ -60,7 +59,7 @@ def scene_hits(scene, tables, need_uv: bool, exact_spheres=()):
     if not left_out:
         return hit_finder(scene, tables, need_uv)
     rest = tables.rest_scene(scene, left_out)
-    hits = None if rest is None else hit_finder(rest, scene_tables(rest), need_uv)
+    hits = None if rest is None else hit_finder(rest, tables.part(left_out), need_uv)
     if tables.layers:
         hits = LayeredHits(hits, tables, need_uv)
     return GiantHits(scene, hits, need_uv, giants) if giants else hits
