@@ -16,6 +16,11 @@ the top level carry their key as ``id``, nested ones as ``name``; each
 ``mi.load_file(..., name=value)`` overrides. The frame's origin is written as
 a comment and as the ``<default name="world_origin">`` that no property
 uses: world coordinates = XML coordinates + ``world_origin``.
+
+A scene of a million spheres makes about 150 MB of XML. The spheres a description
+holds as arrays (:class:`~.description.SphereBlock`) are written a batch at a time,
+with one format operation per sphere and each radius's text made once, and
+:func:`write_xml` hands the text to a file piece by piece, never holding all of it.
 """
 
 from __future__ import annotations
@@ -24,7 +29,7 @@ import os
 import re
 from xml.sax.saxutils import escape
 
-from .description import Description, LookAt, Matrix, Mesh, Param, describe
+from .description import Description, LookAt, Matrix, Mesh, Param, SphereBlock, describe
 from .portable import portable as to_portable
 from .scene import Scene, Vec3
 
@@ -132,6 +137,11 @@ def _object(key: str, node: dict, defaults: dict, depth: int) -> list[str]:
 
 def description_to_xml(description: Description, notes: list[str] = ()) -> str:
     """The Mitsuba XML of a scene description; ``notes`` are lines of a comment at the top."""
+    return "".join(_pieces(description, notes))
+
+
+def _pieces(description: Description, notes: list[str] = ()):
+    """The text of :func:`description_to_xml`, piece by piece."""
     o = description.origin
     out = [
         '<?xml version="1.0" encoding="utf-8"?>',
@@ -148,11 +158,61 @@ def description_to_xml(description: Description, notes: list[str] = ()) -> str:
     for name, value in description.defaults.items():
         out.append(f'{INDENT}<default name="{name}" value="{_value(value, {})[1]}"/>')
     out.append(f'{INDENT}<default name="world_origin" value="{vec(o, ", ")}"/>')
+    # each object comes after a blank line
+    block = description.spheres
+    later = set() if block is None else {f"sphere_{k}" for k in block.in_scene}
     for key, node in description.scene.items():
-        if key != "type":
+        if key != "type" and key not in later:
             out += [""] + _object(key, node, description.defaults, 1)
-    out += ["</scene>", ""]
-    return "\n".join(out)
+    yield "\n".join(out) + "\n"
+    if block is not None:
+        yield from _block(block, description.scene, description.defaults)
+    yield "</scene>\n"
+
+
+#: the objects of :func:`_block`'s spheres, from the blank line before to the line break after
+_SPHERE = ('\n    <shape type="sphere" id="sphere_%d">\n'
+           '        <point name="center" value="%r, %r, %r"/>\n'
+           '        <float name="radius" value="%s"/>\n'
+           '        <ref name="bsdf" id="%s"/>\n'
+           '    </shape>\n')
+#: the spheres :func:`_block` formats at a time
+_BATCH = 1 << 14
+
+
+def _block(block: SphereBlock, scene: dict, defaults: dict):
+    """The objects of a :class:`~.description.SphereBlock`, in order, as :func:`_object` writes
+    them: a number's text is :func:`num`'s, ``repr(x + 0.0)`` (adding 0.0 turns -0.0 into 0.0)."""
+    import numpy as np
+    center = block.center + 0.0
+    radius = block.radius
+    # a scene of many spheres has few radii: each one's text is made once
+    distinct, which = np.unique(radius, return_inverse=True)
+    radii = [num(r) for r in distinct.tolist()] if len(distinct) <= len(radius) // 4 else None
+    ids = block.material_ids
+    special = sorted(block.in_scene)
+    starts = [0] + [k + 1 for k in special]
+    for start, stop in zip(starts, special + [len(block)]):
+        for a in range(start, stop, _BATCH):
+            b = min(a + _BATCH, stop)
+            x, y, z = center[a:b].T.tolist()
+            texts = (map(radii.__getitem__, which[a:b].tolist()) if radii is not None
+                     else map(repr, radius[a:b].tolist()))
+            yield "".join(map(_SPHERE.__mod__, zip(range(a, b), x, y, z, texts,
+                                                    map(ids.__getitem__, block.material[a:b].tolist()))))
+        if stop < len(block):
+            key = f"sphere_{stop}"
+            yield "\n" + "\n".join(_object(key, scene[key], defaults, 1)) + "\n"
+
+
+def write_xml(description: Description, file, portable: bool = False) -> None:
+    """Write the XML of ``description`` (:func:`xml_of`) to the text ``file``, piece by piece."""
+    if portable:
+        description, notes = to_portable(description)
+    else:
+        notes = ()
+    for piece in _pieces(description, notes):
+        file.write(piece)
 
 
 def scene_to_xml(scene: Scene, base_dir: str | os.PathLike | None, portable: bool = False) -> str:
@@ -162,7 +222,7 @@ def scene_to_xml(scene: Scene, base_dir: str | os.PathLike | None, portable: boo
     of giant spheres (:mod:`.giants`): beside the XML, where the caller writes them
     (:func:`.description.meshes`; ``whitted convert`` does), or in the mesh cache.
     ``portable``: the form that names only Mitsuba's stock plugins (:mod:`.portable`)."""
-    return xml_of(describe(scene, base_dir), portable)
+    return xml_of(describe(scene, base_dir, block=True), portable)
 
 
 def xml_of(description: Description, portable: bool = False) -> str:
