@@ -43,7 +43,7 @@ from typing import TYPE_CHECKING
 from .. import defaults as D
 from .frame import farthest, farthest_index, scene_origin, to_frame
 from .giants import cached, coarse_spheres, exact_spheres, mesh_bytes
-from .scene import Material, Scene, Sphere, SphereArrays, Vec3
+from .scene import Material, Scene, Sphere, SphereArrays, Vec3, first_use
 from .vectors import cross, dot, normalize, sub
 
 if TYPE_CHECKING:
@@ -275,7 +275,7 @@ def _describe_arrays(scene: Scene, spheres: SphereArrays, objects: dict, materia
     materials and the spheres, as :func:`describe` makes them from the list, with numpy."""
     origin = description.origin
     ids = [""] * len(spheres.materials)
-    for k in _first_use(spheres.material):    # ids in order of first use, as from the list
+    for k in first_use(spheres.material).tolist():    # ids in order of first use, as from the list
         material = _shared(spheres.materials[k])
         if material not in materials:
             materials[material] = f"material_{len(materials)}"
@@ -301,15 +301,6 @@ def _describe_arrays(scene: Scene, spheres: SphereArrays, objects: dict, materia
             mesh = Mesh(str(cached(data)) if base_dir is None else f"{_stem(scene)}.sphere_{k}.ply", data)
         objects[f"sphere_{k}"] = _sphere(sphere, origin, ids[int(spheres.material[k])], mesh)
     return description
-
-
-def _first_use(index: np.ndarray) -> list[int]:
-    """The distinct values of ``index``, in order of first appearance."""
-    import numpy as np
-    if len(index) and (np.diff(index) == 0).all():   # one value only: the usual many spheres
-        return [int(index[0])]
-    values, first = np.unique(index, return_index=True)
-    return values[np.argsort(first)].tolist()
 
 
 def _stem(scene: Scene) -> str:

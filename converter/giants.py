@@ -125,7 +125,18 @@ def coarse_spheres(scene: Scene, origin: Vec3, smallest: float | None = None,
 
 
 def _coarse_arrays(spheres: SphereArrays, origin: Vec3, smallest: float | None) -> tuple[list[int], list[int]]:
-    """:func:`coarse_spheres` of spheres given as arrays, with numpy, bit for bit."""
+    """:func:`coarse_spheres` of spheres given as arrays, with numpy, bit for bit (kept with
+    the arrays, which do not change: a conversion asks three times)."""
+    key = ("coarse", tuple(origin), smallest)
+    cache = spheres.__dict__.setdefault("_cache", {})
+    if key not in cache:
+        cache.clear()
+        cache[key] = _coarse_of(spheres, origin, smallest)
+    giant, misplaced = cache[key]
+    return list(giant), list(misplaced)
+
+
+def _coarse_of(spheres: SphereArrays, origin: Vec3, smallest: float | None) -> tuple[list[int], list[int]]:
     import numpy as np
     if not len(spheres):
         return [], []

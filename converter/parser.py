@@ -51,7 +51,7 @@ from .. import defaults
 from ..defaults import MAX_DEPTH, MAX_SAMPLES, MAX_SIZE, PARALLEL_SINE
 from ..errors import SceneError
 from .images import image_problem
-from .scene import Distinct, Light, Material, Scene, Sphere, SphereArrays, Vec3
+from .scene import Distinct, Light, Material, Scene, Sphere, SphereArrays, Vec3, first_use
 from .vectors import cross, length, normalize
 
 # The format's limits live in whitted.defaults (see there why each is what it is).
@@ -518,7 +518,6 @@ class _Parser:
         edges[last] -= 1
         text = b[np.cumsum(edges[:m], dtype=np.int8).view(bool)]
         text[(np.cumsum(last - first) - 1)[last > fourth]] = 32   # the byte after: a blank or '#'
-
         tokens = text.tobytes().split()
         try:
             numbers = np.fromiter(map(float, tokens), np.float64, len(tokens))
@@ -544,7 +543,10 @@ class _Parser:
                     texts, which = np.unique(rows.view(f"S{length}").ravel(), return_inverse=True)
                     material[group] = np.array([self.plain_tail(t) for t in texts.tolist()])[which]
             ok &= material >= 0
-        self.spheres.add_arrays(lines[ok], numbers[ok, :3], radius[ok], material[ok])
+        if ok.all():
+            self.spheres.add_arrays(lines, numbers[:, :3], radius, material)
+        else:
+            self.spheres.add_arrays(lines[ok], numbers[ok, :3], radius[ok], material[ok])
         return ok
 
     def plain_tail(self, text: bytes) -> int:
@@ -955,8 +957,7 @@ def _by_first_use(index: np.ndarray, values: list) -> tuple[np.ndarray, tuple]:
     """``index`` renumbered so that the values it refers to come in order of first use,
     and those values."""
     import numpy as np
-    used, first = np.unique(index, return_index=True)
-    order = used[np.argsort(first)]
+    order = first_use(index)
     if len(order) == len(values) and (order == np.arange(len(values))).all():
         return index, tuple(values)
     remap = np.zeros(len(values), np.int64)

@@ -206,6 +206,25 @@ def test_scenes_held_as_arrays_convert_as_lists_do(texture_png, tmp_path, capsys
     assert len(warnings) == 4 and warnings[0] == warnings[1] and warnings[2] == warnings[3]
 
 
+def test_two_processes_write_the_same_bytes(write_scene, tmp_path, monkeypatch):
+    """A large block of spheres is formatted by two processes (converter/xml_writer.py):
+    the same file as by one, special spheres in either half included."""
+    from whitted.converter import parser, xml_writer
+    monkeypatch.setattr(parser, "ARRAYS_FROM", 0)
+    lines = ["size 8 8", "eye 0 2e5 3", "light 1 2 3", "sphere 0 -1e4 0 1e4 color 0.8 0.8 0.75"]
+    lines += [f"sphere {i} {i % 7} -{i % 3} 0.{i % 5 + 1} color 1 0.9 0.7 reflect 0.5" for i in range(1, 40)]
+    lines += ["sphere 1e5 0 0 9e4", "sphere 5 5 5 1"]
+    scene = write_scene("\n".join(lines) + "\n", "many.scn")
+    written = []
+    for parallel_from in (10**9, 2, 3):
+        monkeypatch.setattr(xml_writer, "PARALLEL_FROM", parallel_from)
+        for portable in ([], ["--portable"]):
+            assert convert(scene, "-o", tmp_path / f"out{parallel_from}{len(portable)}.xml", *portable) == 0
+            written.append((tmp_path / f"out{parallel_from}{len(portable)}.xml").read_bytes())
+    assert b"exact_spheres" in written[0] and b'type="ply"' in written[0]
+    assert written[0] == written[2] == written[4] and written[1] == written[3] == written[5] != written[0]
+
+
 def test_cli_process_exit_status_and_stderr(write_scene, tmp_path):
     """The real command: non-zero status, the spec's message, no traceback, no file."""
     scene = write_scene(BAD)
