@@ -68,7 +68,7 @@ class SphereArrays:
     ``center``       N×3 float64: the centers
     ``radius``       N float64: the radii
     ``material``     N int64: each sphere's index into ``materials``
-    ``materials``    the distinct materials (by value), in order of first use
+    ``materials``    the distinct materials (by repr: -0.0 apart from 0.0), in order of first use
     ``line``         N int64: each sphere's line in its file (0: none)
     ``orientation``  N int64: each sphere's index into ``orientations``
     ``orientations`` the distinct ``(north, equator)`` pairs, in order of first use
@@ -97,7 +97,7 @@ class SphereArrays:
     def to_list(self) -> list[Sphere]:
         """Every sphere as an object, in order."""
         orientations = [self.orientations[k] for k in self.orientation.tolist()]
-        return list(map(_new_sphere, map(tuple, self.center.tolist()), self.radius.tolist(),
+        return list(map(Sphere, map(tuple, self.center.tolist()), self.radius.tolist(),
                         map(self.materials.__getitem__, self.material.tolist()),
                         (o[0] for o in orientations), (o[1] for o in orientations), self.line.tolist()))
 
@@ -152,15 +152,6 @@ class Distinct:
             if self.values[k] is value:
                 self._by_id[id(value)] = k
         return k
-
-
-def _new_sphere(center, radius, material, north, equator, line, _new=object.__new__) -> Sphere:
-    """``Sphere(center, radius, material, north, equator, line)``, made faster than by its
-    frozen dataclass's ``__init__`` (six ``object.__setattr__`` calls)."""
-    sphere = _new(Sphere)
-    sphere.__dict__.update(center=center, radius=radius, material=material, north=north,
-                           equator=equator, line=line)
-    return sphere
 
 
 @dataclass
