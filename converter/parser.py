@@ -83,7 +83,7 @@ _NOT_PLAIN = re.compile(r'["\\\x00\x1c-\x1f]')
 _NOT_PLAIN_CHARACTERS = ('"', "\\", "\x00", "\x1c", "\x1d", "\x1e", "\x1f")
 _NOT_PLAIN_BYTES = (b'"', b"\\", b"\x00", b"\x1c", b"\x1d", b"\x1e", b"\x1f")
 #: the bytes :meth:`_Parser.plain_bytes` reads at a time (a chunk ends at a line break)
-_CHUNK = 1 << 22
+_CHUNK = 1 << 20
 #: texts from this many bytes on are read with numpy into arrays (:meth:`_Parser.plain_chunk`)
 ARRAYS_FROM = 1 << 20
 _PLAIN_ATTRIBUTES = ("color", "reflect", "refract")
