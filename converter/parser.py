@@ -18,7 +18,7 @@ read on a fast path: a text without quotes, continuations or odd separators is
 split line by line, and a plain ``light`` or ``sphere`` line is converted with
 ``float`` and accepted when every number lies clearly inside its range (a float
 compared strictly with a bound decides as the exact decimal would; at a bound
-the text itself is checked). Plain sphere lines are read a few megabytes at a
+the text itself is checked). Plain sphere lines are read a megabyte at a
 time with numpy (:meth:`_Parser.plain_chunk`): their tokens are found in the
 bytes, their four numbers converted in one pass and their attribute texts
 looked up once each, and the spheres go into arrays (:class:`_SphereList`),
