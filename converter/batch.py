@@ -13,12 +13,12 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-from ..atomic import atomic_path, write_text
+from ..atomic import atomic_path
 from ..errors import WhittedError
 from .description import describe, meshes
 from .frame import warn_precision
 from .parser import parse_file
-from .xml_writer import xml_of
+from .xml_writer import write_xml
 
 #: the legacy scene files a folder argument stands for
 SCENE_SUFFIX = ".scn"
@@ -94,10 +94,12 @@ def convert_file(source: Path, target: Path, portable: bool = False) -> None:
     scene = parse_file(source)
     if target.is_dir():
         raise WhittedError(f"{target}: is a folder; give the output file's name")
-    description = describe(scene, base_dir=target.parent)
-    xml = xml_of(description, portable)
+    description = describe(scene, base_dir=target.parent, block=True)
     warn_precision(scene)
     for mesh in meshes(description):   # giant spheres' meshes (.giants), before the XML that names them
         with atomic_path(target.parent / mesh.filename) as tmp:
             tmp.write_bytes(mesh.data)
-    write_text(target, xml)   # atomic; an OS error comes back as a one-line WhittedError
+    # atomic, written as it is made (a scene of a million spheres makes 150 MB of XML);
+    # an OS error comes back as a one-line WhittedError
+    with atomic_path(target) as tmp, open(tmp, "w", encoding="utf-8") as file:
+        write_xml(description, file, portable)

@@ -38,11 +38,16 @@ import re
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
+from typing import TYPE_CHECKING
+
 from .. import defaults as D
-from .frame import farthest, scene_origin, to_frame
+from .frame import farthest, farthest_index, scene_origin, to_frame
 from .giants import cached, coarse_spheres, exact_spheres, mesh_bytes
-from .scene import Material, Scene, Sphere, Vec3
+from .scene import Material, Scene, Sphere, SphereArrays, Vec3, first_use
 from .vectors import cross, dot, normalize, sub
+
+if TYPE_CHECKING:
+    import numpy as np
 
 
 # -- markers for what the dict form cannot hold without Mitsuba ----------------------------------
@@ -77,6 +82,24 @@ class Mesh:
     data: bytes = field(repr=False)
 
 
+@dataclass(frozen=True, eq=False)
+class SphereBlock:
+    """Spheres a description holds as arrays rather than as dicts in its ``scene``
+    (``describe(..., block=True)``, for the XML writer): sphere ``k`` of the scene is the
+    object ``sphere_k``, a ``sphere`` shape of center ``center[k]`` (in the frame) and radius
+    ``radius[k]`` whose ``bsdf`` refers to ``material_ids[material[k]]``, unless ``k`` is in
+    ``in_scene``: then ``scene["sphere_k"]`` describes it (a textured or meshed sphere).
+    Those objects come after every other one."""
+    center: np.ndarray
+    radius: np.ndarray
+    material: np.ndarray
+    material_ids: tuple[str, ...]
+    in_scene: frozenset = frozenset()
+
+    def __len__(self) -> int:
+        return len(self.radius)
+
+
 @dataclass
 class Description:
     """A Mitsuba scene as plain Python.
@@ -87,12 +110,14 @@ class Description:
                  them (the values :class:`Param` markers stand for)
     ``origin``   the world coordinates of the frame's origin: world = frame + origin
     ``source``   the name of the scene file it came from
+    ``spheres``  None, or the spheres ``scene`` leaves out (:class:`SphereBlock`)
     ============ ==============================================================
     """
     scene: dict
     defaults: dict = field(default_factory=dict)
     origin: Vec3 = (0.0, 0.0, 0.0)
     source: str = ""
+    spheres: SphereBlock | None = None
 
 
 # -- the formulas --------------------------------------------------------------------------------
@@ -120,7 +145,11 @@ def light_intensity(scene: Scene, position: Vec3, color: Vec3) -> Vec3:
 
 def clip_range(scene: Scene) -> tuple[float, float]:
     """Near and far clip distances that contain every sphere seen from the eye."""
-    far = 4.0 * farthest(scene.eye, [scene.lookat], scene.spheres)[0]
+    spheres = scene.held_sphere_arrays()
+    if spheres is None:
+        far = 4.0 * farthest(scene.eye, [scene.lookat], scene.spheres)[0]
+    else:
+        far = 4.0 * farthest_index(scene.eye, [scene.lookat], spheres)[0]
     # Mitsuba starts primary rays on the near plane, not at the eye. A near/far
     # ratio of 1e-12 keeps them at the eye for any fov and aspect ratio while the
     # directions stay as float32-exact as with Mitsuba's defaults (measured: the
@@ -170,12 +199,19 @@ def _sphere(sphere: Sphere, origin: Vec3, material_id: str, mesh: Mesh | None = 
     return shape
 
 
-def describe(scene: Scene, base_dir: str | os.PathLike | None, smallest: float | None = None) -> Description:
+def describe(scene: Scene, base_dir: str | os.PathLike | None, smallest: float | None = None,
+             block: bool = False) -> Description:
     """The description of ``scene``. Texture paths are relative to ``base_dir`` (the folder
     the XML will live in: Mitsuba resolves paths against it), or absolute when it is None.
     ``smallest``: the smallest radius of spheres the scene holds elsewhere (the loader's
-    ellipsoids), which decides with its own which spheres are giant (:mod:`.giants`)."""
+    ellipsoids), which decides with its own which spheres are giant (:mod:`.giants`).
+    ``block``: when the scene holds its spheres as arrays (:meth:`~.scene.Scene.held_sphere_arrays`),
+    the plain ones (untextured, not meshed) are left out of ``scene`` and held as arrays in
+    :attr:`Description.spheres` (what the XML writer reads fastest; ``mi.load_dict`` needs
+    them in ``scene``)."""
     base_dir = None if base_dir is None else Path(os.path.abspath(base_dir))
+    spheres = scene.held_sphere_arrays()
+    sphere = scene.spheres.__getitem__ if spheres is None else spheres.sphere
     origin = scene_origin(scene)
     near, far = clip_range(scene)
     defaults = {"spp": int(scene.samples), "max_depth": int(scene.depth),
@@ -189,13 +225,13 @@ def describe(scene: Scene, base_dir: str | os.PathLike | None, smallest: float |
     integrator["light_reference"] = to_frame(scene.lookat, origin)
     # Spheres float32 cannot place finely enough for the Whitted integrator, and those it
     # cannot place finely enough for Mitsuba's own integrators, which get a mesh instead.
-    giants, misplaced = coarse_spheres(scene, origin, smallest)
-    meshed = [k for k in misplaced if scene.spheres[k].material.texture is None]
+    giants, misplaced = coarse_spheres(scene, origin, smallest, spheres)
+    meshed = [k for k in misplaced if sphere(k).material.texture is None]
     giants = sorted(set(giants) | set(meshed))
     if giants:
         # Their exact values, for the integrator to intersect in float64 (plugins/shading/giants.py).
         integrator["exact_spheres"] = exact_spheres(
-            (f"sphere_{k}", to_frame(scene.spheres[k].center, origin), scene.spheres[k].radius) for k in giants)
+            (f"sphere_{k}", to_frame(sphere(k).center, origin), sphere(k).radius) for k in giants)
     objects: dict = {"type": "scene", "integrator": integrator}
     objects["sensor"] = {
         "type": "perspective", "fov_axis": "x", "fov": float(scene.fov),
@@ -213,6 +249,9 @@ def describe(scene: Scene, base_dir: str | os.PathLike | None, smallest: float |
     # Identical materials are described once and shared by reference, which keeps
     # Mitsuba's per-material dispatch small for scenes of many spheres.
     materials: dict[Material, str] = {}
+    if spheres is not None:
+        return _describe_arrays(scene, spheres, objects, materials, meshed, base_dir, block,
+                                Description(objects, defaults, origin, scene.source.name))
     ids = []
     for sphere in scene.spheres:
         material = _shared(sphere.material)
@@ -228,6 +267,40 @@ def describe(scene: Scene, base_dir: str | os.PathLike | None, smallest: float |
             mesh = Mesh(str(cached(data)) if base_dir is None else f"{_stem(scene)}.sphere_{i}.ply", data)
         objects[f"sphere_{i}"] = _sphere(sphere, origin, material_id, mesh)
     return Description(objects, defaults, origin, scene.source.name)
+
+
+def _describe_arrays(scene: Scene, spheres: SphereArrays, objects: dict, materials: dict, meshed: list[int],
+                     base_dir: Path | None, block: bool, description: Description) -> Description:
+    """The rest of :func:`describe` for a scene that holds its spheres as arrays: the
+    materials and the spheres, as :func:`describe` makes them from the list, with numpy."""
+    origin = description.origin
+    ids = [""] * len(spheres.materials)
+    for k in first_use(spheres.material).tolist():    # ids in order of first use, as from the list
+        material = _shared(spheres.materials[k])
+        if material not in materials:
+            materials[material] = f"material_{len(materials)}"
+            objects[materials[material]] = material_dict(material, base_dir)
+        ids[k] = materials[material]
+    import numpy as np
+    special = sorted(set(meshed) | set(np.flatnonzero(spheres.textured()).tolist()))
+    center = spheres.center - origin
+    if block:
+        description.spheres = SphereBlock(center, spheres.radius, spheres.material, tuple(ids), frozenset(special))
+    else:
+        bsdfs = [{"type": "ref", "id": i} for i in ids]   # one dict per material: copied below
+        for k, ((x, y, z), radius, material) in enumerate(zip(center.tolist(), spheres.radius.tolist(),
+                                                               spheres.material.tolist())):
+            objects[f"sphere_{k}"] = {"type": "sphere", "center": (x, y, z), "radius": radius,
+                                      "bsdf": dict(bsdfs[material])}
+    meshed = set(meshed)
+    for k in special:    # textured and meshed spheres, as from the list
+        mesh = None
+        sphere = spheres.sphere(k)
+        if k in meshed:
+            data = mesh_bytes(sphere, origin, scene.eye, scene.lookat)
+            mesh = Mesh(str(cached(data)) if base_dir is None else f"{_stem(scene)}.sphere_{k}.ply", data)
+        objects[f"sphere_{k}"] = _sphere(sphere, origin, ids[int(spheres.material[k])], mesh)
+    return description
 
 
 def _stem(scene: Scene) -> str:

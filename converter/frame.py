@@ -33,8 +33,8 @@ from __future__ import annotations
 import sys
 
 from ..float32 import UNIT_ROUNDOFF
-from .giants import giant_spheres, mitsuba_misplaces
-from .scene import Scene, Sphere, Vec3
+from .giants import coarse_spheres, giant_spheres, mitsuba_misplaces
+from .scene import Scene, Sphere, SphereArrays, Vec3
 from .vectors import length
 
 
@@ -74,6 +74,27 @@ def farthest(origin: Vec3, points=(), spheres=()) -> tuple[float, Sphere | None]
     return reach, which
 
 
+def farthest_index(origin: Vec3, points=(), spheres: SphereArrays | None = None,
+                   mask: np.ndarray | None = None) -> tuple[float, int | None]:
+    """:func:`farthest` of spheres given as arrays (those of ``mask`` only, when given): the
+    reach, and the index of the sphere that sets it (None: one of the points, or nothing).
+    The same numbers as :func:`farthest`, bit for bit."""
+    import numpy as np
+    reach, which = 0.0, None
+    for point in points:
+        reach = max(reach, length(to_frame(point, origin)))
+    if spheres is not None and len(spheres):
+        offset = spheres.center - origin
+        x, y, z = offset.T
+        size = np.sqrt(x * x + y * y + z * z) + spheres.radius
+        if mask is not None:
+            size = np.where(mask, size, -np.inf)
+        k = int(np.argmax(size))
+        if size[k] > reach:
+            reach, which = float(size[k]), k
+    return reach, which
+
+
 def extent(scene: Scene, origin: Vec3) -> float:
     """The largest distance from ``origin`` that Mitsuba stores and the Whitted integrator
     relies on: the eye, and each sphere's center plus its radius (the size of the numbers
@@ -83,21 +104,45 @@ def extent(scene: Scene, origin: Vec3) -> float:
 
 def _farthest(scene: Scene, origin: Vec3) -> tuple[float, Sphere | None]:
     """``(extent, sphere)``: :func:`extent` and the sphere that sets it (None: the eye)."""
-    giants = set(giant_spheres(scene, origin))
-    return farthest(origin, [scene.eye], (s for k, s in enumerate(scene.spheres) if k not in giants))
+    spheres = scene.held_sphere_arrays()
+    giants = set(giant_spheres(scene, origin, spheres=spheres))
+    if spheres is None:
+        return farthest(origin, [scene.eye], (s for k, s in enumerate(scene.spheres) if k not in giants))
+    import numpy as np
+    mask = None
+    if giants:
+        mask = np.ones(len(spheres), bool)
+        mask[list(giants)] = False
+    reach, which = farthest_index(origin, [scene.eye], spheres, mask)
+    return reach, None if which is None else spheres.sphere(which)
 
 
 def float32_spread(scene: Scene) -> float:
     """How far float32 may move the scene's surfaces, as a fraction of its smallest sphere's
     radius: ε·extent / r_min (0 for a scene without spheres)."""
-    if not scene.spheres:
-        return 0.0
-    smallest = min(sphere.radius for sphere in scene.spheres)
+    spheres = scene.held_sphere_arrays()
+    if spheres is not None:
+        if not len(spheres):
+            return 0.0
+        smallest = float(spheres.radius.min())
+    else:
+        if not scene.spheres:
+            return 0.0
+        smallest = min(sphere.radius for sphere in scene.spheres)
     return UNIT_ROUNDOFF * extent(scene, scene_origin(scene)) / smallest
 
 
 def _where(scene: Scene, sphere) -> str:
     return f"{scene.source}:{sphere.line}" if sphere.line else f"{scene.source}"
+
+
+def _smallest(scene: Scene) -> Sphere:
+    """The first sphere of the least radius."""
+    spheres = scene.held_sphere_arrays()
+    if spheres is None:
+        return min(scene.spheres, key=lambda sphere: sphere.radius)
+    import numpy as np
+    return spheres.sphere(int(np.argmin(spheres.radius)))
 
 
 def precision_warning(scene: Scene) -> str | None:
@@ -107,7 +152,7 @@ def precision_warning(scene: Scene) -> str | None:
         return None
     origin = scene_origin(scene)
     reach, farthest = _farthest(scene, origin)
-    smallest = min(scene.spheres, key=lambda sphere: sphere.radius)
+    smallest = _smallest(scene)
     what = "the eye" if farthest is None else f"the sphere at {_where(scene, farthest)}"
     return (f"{scene.source}: {what} lies {reach:.3g} from the lookat, but the sphere at "
             f"{_where(scene, smallest)} has radius {smallest.radius:.3g}: Mitsuba's float32 positions "
@@ -125,13 +170,21 @@ def path_warning(scene: Scene) -> str | None:
     leaving them meet them again (acne; docs/numerics.md, hazard 14).
     """
     origin = scene_origin(scene)
-    for sphere in scene.spheres:
-        if sphere.material.texture is not None and mitsuba_misplaces(sphere, origin):
-            return (f"{_where(scene, sphere)}: Mitsuba's own integrators place this textured sphere of "
-                    f"radius {sphere.radius:.3g} only to ulps of its size (float32), more than their ray "
-                    f"offset there: expect acne on it with the path integrator; the whitted integrator "
-                    f"intersects it exactly, or leave its texture out to have it meshed "
-                    f"(docs/numerics.md, hazard 14)")
+    spheres = scene.held_sphere_arrays()
+    if spheres is None:
+        textured = (k for k, sphere in enumerate(scene.spheres) if sphere.material.texture is not None)
+        found = next((k for k in textured if mitsuba_misplaces(scene.spheres[k], origin)), None)
+        sphere = None if found is None else scene.spheres[found]
+    else:
+        flags = spheres.textured()
+        found = next((k for k in (coarse_spheres(scene, origin)[1] if flags.any() else ()) if flags[k]), None)
+        sphere = None if found is None else spheres.sphere(found)
+    if sphere is not None:
+        return (f"{_where(scene, sphere)}: Mitsuba's own integrators place this textured sphere of "
+                f"radius {sphere.radius:.3g} only to ulps of its size (float32), more than their ray "
+                f"offset there: expect acne on it with the path integrator; the whitted integrator "
+                f"intersects it exactly, or leave its texture out to have it meshed "
+                f"(docs/numerics.md, hazard 14)")
     return None
 
 

@@ -30,7 +30,7 @@ from pathlib import Path
 
 from ..atomic import atomic_path
 from ..float32 import UNIT_ROUNDOFF, hit_error
-from .scene import Scene, Sphere, Vec3
+from .scene import Scene, Sphere, SphereArrays, Vec3
 
 #: a sphere is giant when that bound exceeds this fraction of the scene's smallest radius.
 #: Measured (docs/numerics.md, hazard 14) on floors under balls of radius 0.3: radius 10^3
@@ -61,7 +61,33 @@ def _detail_near(scene: Scene, k: int) -> float:
     return finest
 
 
-def coarse_spheres(scene: Scene, origin: Vec3, smallest: float | None = None) -> tuple[list[int], list[int]]:
+def _detail_near_arrays(spheres: SphereArrays, k: int) -> float:
+    """:func:`_detail_near` of spheres given as arrays, bit for bit: computed with numpy for
+    every sphere, then again in :func:`_detail_near`'s arithmetic for those within rounding
+    of the least (``**`` is ``pow``, which may round x² unlike numpy's ``x * x``)."""
+    import numpy as np
+    center, radius = spheres.center, spheres.radius
+    (gx, gy, gz), gr = center[k].tolist(), float(radius[k])
+    offset = center - (gx, gy, gz)
+    distance = np.sqrt(np.einsum("ij,ij->i", offset, offset))
+    detail = np.maximum(radius, np.abs(np.abs(distance - gr) - radius))
+    detail[k] = np.inf
+    if len(detail) <= 1:
+        return math.inf
+    # a few ulps of the numbers involved bound the difference to Python's result
+    slack = 1e-14 * (distance + gr + radius)
+    near = np.flatnonzero(detail - slack <= (detail + slack).min())
+    return min(_detail_of(tuple(center[j].tolist()), float(radius[j]), (gx, gy, gz), gr) for j in near.tolist())
+
+
+def _detail_of(c: Vec3, r: float, g: Vec3, gr: float) -> float:
+    (x, y, z), (gx, gy, gz) = c, g
+    gap = abs(abs(math.sqrt((x - gx) ** 2 + (y - gy) ** 2 + (z - gz) ** 2) - gr) - r)
+    return max(r, gap)
+
+
+def coarse_spheres(scene: Scene, origin: Vec3, smallest: float | None = None,
+                   spheres: SphereArrays | None = None) -> tuple[list[int], list[int]]:
     """``(giant, misplaced)``: the indices of the spheres of ``scene`` (written in the frame of
     ``origin``) that are giant, and of those Mitsuba misplaces (:func:`mitsuba_misplaces`),
     in one pass.
@@ -69,8 +95,14 @@ def coarse_spheres(scene: Scene, origin: Vec3, smallest: float | None = None) ->
     Giant: the float32 error bound exceeds :data:`GIANT_FRACTION` of the finest detail next
     to the sphere (:func:`_detail_near`). ``smallest`` is the smallest radius of spheres the
     scene holds elsewhere (the loader's ellipsoids: whitted/sealed.py), if any: they count
-    as resting on every sphere.
+    as resting on every sphere. ``spheres``: the scene's spheres as arrays, when the caller
+    has them; else those the scene holds (:meth:`~.scene.Scene.held_sphere_arrays`), else
+    its list.
     """
+    if spheres is None:
+        spheres = scene.held_sphere_arrays()
+    if spheres is not None:
+        return _coarse_arrays(spheres, origin, smallest)
     if not scene.spheres:
         return [], []
     detail = min(sphere.radius for sphere in scene.spheres)
@@ -92,9 +124,42 @@ def coarse_spheres(scene: Scene, origin: Vec3, smallest: float | None = None) ->
     return giant, misplaced
 
 
-def giant_spheres(scene: Scene, origin: Vec3, smallest: float | None = None) -> list[int]:
+def _coarse_arrays(spheres: SphereArrays, origin: Vec3, smallest: float | None) -> tuple[list[int], list[int]]:
+    """:func:`coarse_spheres` of spheres given as arrays, with numpy, bit for bit (kept with
+    the arrays, which do not change: a conversion asks three times)."""
+    key = ("coarse", tuple(origin), smallest)
+    cache = spheres.__dict__.setdefault("_cache", {})
+    if key not in cache:
+        cache.clear()
+        cache[key] = _coarse_of(spheres, origin, smallest)
+    giant, misplaced = cache[key]
+    return list(giant), list(misplaced)
+
+
+def _coarse_of(spheres: SphereArrays, origin: Vec3, smallest: float | None) -> tuple[list[int], list[int]]:
+    import numpy as np
+    if not len(spheres):
+        return [], []
+    radius = spheres.radius
+    detail = float(radius.min())
+    if smallest is not None:
+        detail = min(detail, smallest)
+    x, y, z = (spheres.center - origin).T
+    c = np.maximum(np.maximum(np.abs(x), np.abs(y)), np.abs(z))
+    error = hit_error(radius, c)
+    candidates = np.flatnonzero(error > GIANT_FRACTION * detail)
+    misplaced = np.flatnonzero(UNIT_ROUNDOFF * (radius + c) > MISPLACED_RATIO * RAY_EPSILON *
+                               (1 + np.abs(np.sqrt(x * x + y * y + z * z) - radius)))
+    limit = smallest if smallest is not None else math.inf
+    giant = [k for k in candidates.tolist()
+             if float(error[k]) > GIANT_FRACTION * min(_detail_near_arrays(spheres, k), limit)]
+    return giant, misplaced.tolist()
+
+
+def giant_spheres(scene: Scene, origin: Vec3, smallest: float | None = None,
+                  spheres: SphereArrays | None = None) -> list[int]:
     """The giant spheres of :func:`coarse_spheres`."""
-    return coarse_spheres(scene, origin, smallest)[0]
+    return coarse_spheres(scene, origin, smallest, spheres)[0]
 
 
 def exact_spheres(entries) -> str:

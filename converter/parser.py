@@ -13,15 +13,21 @@ layers, each small:
   continuations and ``"quoted paths"``;
 * :class:`_Parser` gives each statement its meaning, defaults and constraints.
 
-Scenes of tens of thousands of spheres (the sphereflake of ``make bench``) are
+Scenes of up to millions of spheres (the sphereflake of ``make bench``) are
 read on a fast path: a text without quotes, continuations or odd separators is
-split line by line with ``str.split``, and a plain ``light`` or ``sphere`` line
-is converted with ``float`` and accepted when every number lies clearly inside
-its range (a float compared strictly with a bound decides as the exact decimal
-would; at a bound the text itself is checked). Every other line, and every
-doubt, goes to the careful path above, so both paths accept, reject and word
-their messages alike (tests/test_parser.py checks it), and only valid input
-needs to be fast.
+split line by line, and a plain ``light`` or ``sphere`` line is converted with
+``float`` and accepted when every number lies clearly inside its range (a float
+compared strictly with a bound decides as the exact decimal would; at a bound
+the text itself is checked). Plain sphere lines are read a megabyte at a
+time with numpy (:meth:`_Parser.plain_chunk`): their tokens are found in the
+bytes, their four numbers converted in one pass and their attribute texts
+looked up once each, and the spheres go into arrays (:class:`_SphereList`),
+one object per sphere never being made; a text below :data:`ARRAYS_FROM` bytes
+is read line by line in plain Python, which spares loading numpy. Every other
+line, and every doubt,
+goes to the careful path above, so both paths accept, reject and word their
+messages alike (tests/test_parser.py checks it), and only valid input needs to
+be fast.
 
 Beyond the format's own constraints, numbers are kept where Mitsuba's 32-bit
 floats stay finite and meaningful (see :data:`MAX_MAGNITUDE` and
@@ -32,6 +38,7 @@ divide by zero or overflow.
 from __future__ import annotations
 
 import difflib
+import math
 import os
 import re
 import stat
@@ -44,7 +51,7 @@ from .. import defaults
 from ..defaults import MAX_DEPTH, MAX_SAMPLES, MAX_SIZE, PARALLEL_SINE
 from ..errors import SceneError
 from .images import image_problem
-from .scene import Light, Material, Scene, Sphere, Vec3
+from .scene import Distinct, Light, Material, Scene, Sphere, SphereArrays, Vec3, first_use
 from .vectors import cross, length, normalize
 
 # The format's limits live in whitted.defaults (see there why each is what it is).
@@ -73,6 +80,12 @@ _BLANKS = " \t\f\v"
 # the careful tokenizer's tokens with str.split(): no quotes, no continuations, no NUL, and
 # none of the ASCII separators that str.split() takes for blanks but the format does not.
 _NOT_PLAIN = re.compile(r'["\\\x00\x1c-\x1f]')
+_NOT_PLAIN_CHARACTERS = ('"', "\\", "\x00", "\x1c", "\x1d", "\x1e", "\x1f")
+_NOT_PLAIN_BYTES = (b'"', b"\\", b"\x00", b"\x1c", b"\x1d", b"\x1e", b"\x1f")
+#: the bytes :meth:`_Parser.plain_bytes` reads at a time (a chunk ends at a line break)
+_CHUNK = 1 << 20
+#: texts from this many bytes on are read with numpy into arrays (:meth:`_Parser.plain_chunk`)
+ARRAYS_FROM = 1 << 20
 _PLAIN_ATTRIBUTES = ("color", "reflect", "refract")
 _MAX = float(defaults.MAX_MAGNITUDE)        # |x| < this: inside the magnitude limit
 _MIN = float(defaults.MIN_POSITIVE)         # x > this: at least MIN_POSITIVE
@@ -90,7 +103,13 @@ _EQUATOR = tuple(float(c) for c in defaults.EQUATOR)
 def parse_file(path: str | os.PathLike) -> Scene:
     """Read and parse a ``.scn`` file; errors name ``path`` as given."""
     path = Path(path)
-    return parse_text(decode(read_scene_file(path), path), path)
+    data = read_scene_file(path)
+    if len(data) >= ARRAYS_FROM and data.isascii() and not any(c in data for c in _NOT_PLAIN_BYTES):
+        # the fast path straight from the bytes: ASCII is UTF-8 without a BOM
+        parser = _Parser(path)
+        parser.plain_bytes(data)
+        return parser.finish()
+    return parse_text(decode(data, path), path)
 
 
 def check_scene_file(path: str | os.PathLike) -> None:
@@ -236,14 +255,15 @@ def parse_text(text: str, source: str | os.PathLike) -> Scene:
     return _parse(text, source, fast=True)
 
 
-def _parse(text: str, source: str | os.PathLike, *, fast: bool) -> Scene:
-    """:func:`parse_text`; ``fast=False`` takes the careful path for every statement (for tests)."""
+def _parse(text: str, source: str | os.PathLike, *, fast: bool, arrays: bool | None = None) -> Scene:
+    """:func:`parse_text`; ``fast=False`` takes the careful path for every statement, and
+    ``arrays`` True or False the fast path with numpy or without, whatever the size (for tests)."""
     source = Path(source)
     if text.startswith("\ufeff"):
         text = text[1:]
     parser = _Parser(source)
-    if fast and not _NOT_PLAIN.search(text):
-        parser.parse_plain(text)
+    if fast and not any(c in text for c in _NOT_PLAIN_CHARACTERS):
+        parser.parse_plain(text, arrays)
     else:
         parser.parse(_statements(text, source, parser.errors))
     return parser.finish()
@@ -273,6 +293,8 @@ class _Parser:
         self._images: dict[Path, str | None] = {}
         self.exact: set[str] = set()                          # fast path: tokens exactly 0 or 1
         self._materials: dict[str, Material | None] = {}     # fast path: attribute text -> material
+        self._tails: dict[bytes, int] = {}    # fast path: attribute bytes -> material index, or -1
+        self.spheres = _SphereList()          # the spheres read so far
 
     def fail(self, message: str):
         raise SceneError(self.source, self.line, message)
@@ -345,6 +367,7 @@ class _Parser:
             self.errors.sort(key=lambda error: error[0] or 0)
             raise SceneError.collected([(self.source, line, message) for line, message in self.errors],
                                       defaults.MAX_REPORTED_ERRORS)
+        self.scene.spheres = self.spheres.result()
         return self.scene
 
     def statement(self, line: int, tokens: list[Token]) -> None:
@@ -371,38 +394,190 @@ class _Parser:
 
     # ---- the fast path: plain lights and spheres
 
-    def parse_plain(self, text: str) -> None:
-        """Parse a text free of quotes, continuations and odd separators (see :data:`_NOT_PLAIN`).
-
-        Every line is split on blanks; a plain ``light`` or ``sphere`` statement
-        whose numbers all lie clearly inside their ranges is taken as it is
-        (:meth:`plain_light`, :meth:`plain_sphere`). Any other line, or any doubt,
-        goes to :meth:`statement` with the careful tokenizer's tokens, which
-        decides exactly as if the whole file had gone the careful way.
-        """
+    def parse_plain(self, text: str, arrays: bool | None = None) -> None:
+        """Parse a text free of quotes, continuations and odd separators (see :data:`_NOT_PLAIN`):
+        :meth:`plain_bytes` of its UTF-8 bytes when it is large (or ``arrays``), else line
+        by line (:meth:`plain_line`)."""
+        if arrays or arrays is None and len(text) >= ARRAYS_FROM:
+            self.plain_bytes(text.encode("utf-8", "surrogatepass"))
+            return
         lines = _LINE_BREAK.split(text) if "\r" in text else text.split("\n")
         if len(lines) > 1 and lines[-1] == "":
             lines.pop()  # the final line break ends the last line; no empty line follows it
-        plain_sphere, plain_light = self.plain_sphere, self.plain_light
         for number, line in enumerate(lines, start=1):
-            hash_ = line.find("#")
-            code = line if hash_ < 0 else line[:hash_]
-            tokens = code.split(None, 5)
-            if not tokens:
-                if not code.isascii():  # blanks the format does not know may be tokens
-                    self.careful_line(number, line)
-                continue
-            # Python's float() reads exactly the format's numbers in ASCII text without '_'
-            # (and nan/inf, which fail every range check).
-            if code.isascii() and "_" not in code:
-                keyword = tokens[0]
-                if keyword == "sphere" or keyword.lower() == "sphere":
-                    if plain_sphere(number, tokens):
-                        continue
-                elif keyword == "light" or keyword.lower() == "light":
-                    if plain_light(number, code.split()):
-                        continue
-            self.careful_line(number, line)
+            self.plain_line(number, line)
+
+    def plain_bytes(self, data: bytes) -> None:
+        """Parse the UTF-8 bytes of a text free of quotes, continuations and odd separators.
+
+        Every line is split on blanks; a plain ``light`` or ``sphere`` statement
+        whose numbers all lie clearly inside their ranges is taken as it is
+        (:meth:`plain_chunk`, :meth:`plain_light`, :meth:`plain_sphere`). Any other
+        line, or any doubt, goes to :meth:`statement` with the careful tokenizer's
+        tokens, which decides exactly as if the whole file had gone the careful way.
+        """
+        self.spheres.numpy = True
+        ascii_ = data.isascii()
+        pos, line, n = 0, 1, len(data)
+        while pos < n:
+            end = data.find(b"\n", pos + _CHUNK) + 1 if pos + _CHUNK < n else n
+            end = end or n
+            line = self.plain_chunk(data, pos, end, line, ascii_)
+            pos = end
+
+    def plain_chunk(self, data: bytes, pos: int, end: int, first: int, ascii_: bool) -> int:
+        """Parse the lines of ``data[pos:end]`` (whole lines; the first is line ``first``) and
+        return the number of the line after them.
+
+        The plain sphere lines are read here, with numpy on the bytes: a line whose code
+        (the text before a ``#``) holds only ASCII without ``_`` and no control character
+        but the blanks splits on blanks as ``str.split`` would split it, and when its
+        first token is ``sphere`` (in any case), it has at least five tokens, its four
+        numbers are clearly in range and its attributes are a plain material
+        (:meth:`plain_material`), it is the sphere :meth:`plain_sphere` would make of it.
+        Every other line goes to :meth:`plain_line`, in file order.
+        """
+        import numpy as np
+        b = np.frombuffer(data, np.uint8, end - pos, pos)
+        m = len(b)
+        ctrl = b < 32
+        # line breaks: \n, \r\n or \r; line k spans starts[k]:ends[k]
+        if data.find(b"\r", pos, end) < 0:
+            ends = np.flatnonzero(b == 10)
+            nexts = ends + 1
+        else:
+            cr = b == 13
+            lf_alone = b == 10
+            lf_alone[1:] &= ~cr[:-1]
+            ends = np.flatnonzero(cr | lf_alone)
+            nexts = ends + 1
+            nexts[cr[ends] & (b[np.minimum(nexts, m - 1)] == 10) & (nexts < m)] += 1
+        breaks = len(ends)
+        starts = np.concatenate(([0], nexts))
+        ends = np.concatenate((ends, [m]))
+        if starts[-1] == m:       # the chunk ends with a line break: no line after it
+            starts, ends = starts[:-1], ends[:-1]
+        lines = len(starts)
+        sep = ctrl | (b == 32)
+        code_end = ends
+        hashes = np.flatnonzero(b == 35) if data.find(b"#", pos, end) >= 0 else None
+        if hashes is not None:    # a comment runs from a line's first '#' to its end
+            holder, first_hash = np.unique(np.searchsorted(ends, hashes, "right"), return_index=True)
+            code_end = ends.copy()
+            code_end[holder] = hashes[first_hash]
+            edges = np.zeros(m + 1, np.int8)
+            edges[hashes[first_hash]] = 1
+            edges[ends[holder]] -= 1
+            sep |= np.cumsum(edges[:m], dtype=np.int8).view(bool)
+        # lines whose code holds what str.split and float() read otherwise: non-ASCII bytes,
+        # '_' or a control character that is no blank
+        blank_codes = np.array(_BLANK_CODES, np.uint8)
+        odd_control = np.isin(b[ctrl], blank_codes, invert=True).any()
+        doubtful = np.zeros(lines, bool)
+        if not ascii_ or odd_control or data.find(b"_", pos, end) >= 0:
+            odd = (b == 95) | (b >= 128)
+            if odd_control:
+                odd |= ctrl & np.isin(b, blank_codes, invert=True)
+            where = np.flatnonzero(odd)
+            holder = np.searchsorted(ends, where, "right")
+            doubtful[holder[where < code_end[holder]]] = True
+        # tokens: token k spans token_start[k]:token_end[k]
+        edges = np.diff((~sep).view(np.int8), prepend=np.int8(0), append=np.int8(0))
+        token_start = np.flatnonzero(edges == 1)
+        token_end = np.flatnonzero(edges == -1)
+        first_token = np.searchsorted(token_start, starts)
+        counts = np.diff(np.append(first_token, len(token_start)))
+        # the plain sphere lines: 'sphere' and at least four more tokens
+        candidates = np.flatnonzero((counts >= 5) & ~doubtful)
+        keyword = first_token[candidates]
+        at = token_start[keyword]
+        is_sphere = token_end[keyword] - at == 6
+        for k, c in enumerate(b"sphere"):
+            is_sphere &= (b[np.minimum(at + k, m - 1)] | 0x20) == c
+        candidates, keyword = candidates[is_sphere], keyword[is_sphere]
+        accepted = np.zeros(lines, bool)
+        if len(candidates):
+            accepted[candidates] = self.plain_spheres(data, pos, b, candidates + first, keyword,
+                                                      counts[candidates], token_start, token_end)
+        rest = np.flatnonzero(((counts > 0) | doubtful) & ~accepted)
+        for k, a, z in zip(rest.tolist(), starts[rest].tolist(), ends[rest].tolist()):
+            self.plain_line(first + k, data[pos + a:pos + z].decode("utf-8", "surrogatepass"))
+        return first + breaks
+
+    def plain_spheres(self, data, pos, b, lines, keyword, counts, token_start, token_end) -> np.ndarray:
+        """Add the spheres of the sphere lines ``lines`` (numbers) of the chunk ``b`` at ``pos``
+        of ``data`` whose first tokens are ``keyword`` (indices into ``token_start`` and
+        ``token_end``) and that have ``counts`` tokens; return which were taken."""
+        import numpy as np
+        m = len(b)
+        # the four numbers of every line as one text, each line's followed by a blank
+        first, fourth = token_start[keyword + 1], token_end[keyword + 4]
+        last = np.minimum(fourth + 1, m)
+        edges = np.zeros(m + 1, np.int8)
+        edges[first] = 1
+        edges[last] -= 1
+        text = b[np.cumsum(edges[:m], dtype=np.int8).view(bool)]
+        text[(np.cumsum(last - first) - 1)[last > fourth]] = 32   # the byte after: a blank or '#'
+        tokens = text.tobytes().split()
+        try:
+            numbers = np.fromiter(map(float, tokens), np.float64, len(tokens))
+        except ValueError:
+            numbers = np.array([_float_or_nan(t) for t in tokens], np.float64)
+        numbers = numbers.reshape(-1, 4)
+        ok = (np.abs(numbers[:, :3]) < _MAX).all(axis=1)
+        radius = numbers[:, 3]
+        ok &= (radius > _MIN) & (radius < _MAX)
+        # the attributes, read once per distinct text: lines whose attribute texts have the
+        # same length are compared as rows of bytes
+        material = np.full(len(lines), self.spheres.material(_PLAIN), np.int64)
+        tails = np.flatnonzero(counts > 5)
+        if len(tails):
+            start = token_start[keyword[tails] + 5]
+            size = token_end[keyword[tails] + counts[tails] - 1] - start
+            for length in np.unique(size).tolist():
+                group = tails[size == length] if len(tails) > 1 else tails
+                rows = b[start[size == length][:, None] + np.arange(length)]
+                if (rows == rows[0]).all():
+                    material[group] = self.plain_tail(rows[0].tobytes())
+                else:
+                    texts, which = np.unique(rows.view(f"S{length}").ravel(), return_inverse=True)
+                    material[group] = np.array([self.plain_tail(t) for t in texts.tolist()])[which]
+            ok &= material >= 0
+        if ok.all():
+            self.spheres.add_arrays(lines, numbers[:, :3], radius, material)
+        else:
+            self.spheres.add_arrays(lines[ok], numbers[ok, :3], radius[ok], material[ok])
+        return ok
+
+    def plain_tail(self, text: bytes) -> int:
+        """The material index of a plain sphere's attributes ``text``, or -1 when they are
+        not plain (:meth:`plain_material`)."""
+        index = self._tails.get(text)
+        if index is None:
+            found = self.plain_material(text.decode("ascii").split())
+            index = self._tails[text] = -1 if found is None else self.spheres.material(found)
+        return index
+
+    def plain_line(self, number: int, line: str) -> None:
+        """One line of a plain text, on the fast path if it can, else on the careful one."""
+        hash_ = line.find("#")
+        code = line if hash_ < 0 else line[:hash_]
+        tokens = code.split(None, 5)
+        if not tokens:
+            if not code.isascii():  # blanks the format does not know may be tokens
+                self.careful_line(number, line)
+            return
+        # Python's float() reads exactly the format's numbers in ASCII text without '_'
+        # (and nan/inf, which fail every range check).
+        if code.isascii() and "_" not in code:
+            keyword = tokens[0]
+            if keyword == "sphere" or keyword.lower() == "sphere":
+                if self.plain_sphere(number, tokens):
+                    return
+            elif keyword == "light" or keyword.lower() == "light":
+                if self.plain_light(number, code.split()):
+                    return
+        self.careful_line(number, line)
 
     def careful_line(self, number: int, line: str) -> None:
         tokens, _ = _split_line(line, self.source, number)
@@ -464,7 +639,7 @@ class _Parser:
                 material = self._materials[tokens[5]] = self.plain_material(tokens[5].split())
             if material is None:
                 return False
-        self.scene.spheres.append(Sphere((x, y, z), radius, material, _NORTH, _EQUATOR, line=line))
+        self.spheres.add(Sphere((x, y, z), radius, material, _NORTH, _EQUATOR, line=line))
         return True
 
     def plain_material(self, tokens: list[str]) -> Material | None:
@@ -608,8 +783,7 @@ class _Parser:
             ior=float(values.get("refract", (0, 1))[1]),
             texture=values.get("texture"),
         )
-        self.scene.spheres.append(Sphere(_floats(center), float(radius), material, north, equator,
-                                         line=self.line))
+        self.spheres.add(Sphere(_floats(center), float(radius), material, north, equator, line=self.line))
 
     def attributes(self, args: list[Token]) -> dict:
         """The sphere attributes after the radius, checked and converted."""
@@ -708,6 +882,87 @@ class _Parser:
 
 
 # ------------------------------------------------------------------------- helpers
+
+
+#: the control characters that are blanks or line breaks (the format's and str.split's alike)
+_BLANK_CODES = (9, 10, 11, 12, 13)
+
+
+def _float_or_nan(token: bytes) -> float:
+    try:
+        return float(token)
+    except ValueError:
+        return math.nan
+
+
+class _SphereList:
+    """The spheres of a file as they are read: arrays of many (the fast path) and single
+    :class:`Sphere` objects, each with its line; :meth:`arrays` puts them in file order."""
+
+    def __init__(self):
+        self.blocks: list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = []
+        self.singles: list[Sphere] = []
+        self.materials = Distinct()
+        self.numpy = False    # whether numpy read spheres (else the singles are in file order)
+
+    def material(self, material: Material) -> int:
+        """The index of ``material`` (by value)."""
+        return self.materials.index(material)
+
+    def add(self, sphere: Sphere) -> None:
+        self.singles.append(sphere)
+
+    def add_arrays(self, lines, centers, radii, materials) -> None:
+        """Spheres of the default orientation: their lines, centers (N×3), radii and
+        material indices (:meth:`material`)."""
+        if len(lines):
+            self.blocks.append((lines, centers, radii, materials))
+
+    def result(self) -> list[Sphere] | SphereArrays:
+        """The spheres in file order: as :meth:`arrays` when numpy read some, else as a list."""
+        return self.arrays() if self.numpy else self.singles
+
+    def arrays(self) -> SphereArrays:
+        import numpy as np
+        blocks = list(self.blocks)
+        orientations = Distinct()
+        orientations.index((_NORTH, _EQUATOR))
+        if self.singles:
+            singles = self.singles
+            n = len(singles)
+            blocks.append((
+                np.fromiter((s.line for s in singles), np.int64, n),
+                np.array([s.center for s in singles], np.float64).reshape(n, 3),
+                np.fromiter((s.radius for s in singles), np.float64, n),
+                np.fromiter((self.material(s.material) for s in singles), np.int64, n)))
+            single_orientation = np.fromiter(
+                (orientations.index((s.north, s.equator)) for s in singles), np.int64, n)
+        if not blocks:
+            return SphereArrays(np.zeros((0, 3)), np.zeros(0), np.zeros(0, np.int64), (),
+                                np.zeros(0, np.int64), np.zeros(0, np.int64), ())
+        line, center, radius, material = (np.concatenate(parts) for parts in zip(*blocks))
+        orientation = np.zeros(len(line), np.int64)
+        if self.singles:
+            orientation[len(line) - len(self.singles):] = single_orientation
+        if len(line) > 1 and (np.diff(line) < 0).any():
+            order = np.argsort(line, kind="stable")
+            line, center, radius, material, orientation = (
+                a[order] for a in (line, center, radius, material, orientation))
+        material, materials = _by_first_use(material, self.materials.values)
+        orientation, orientations = _by_first_use(orientation, orientations.values)
+        return SphereArrays(center, radius, material, materials, line, orientation, orientations)
+
+
+def _by_first_use(index: np.ndarray, values: list) -> tuple[np.ndarray, tuple]:
+    """``index`` renumbered so that the values it refers to come in order of first use,
+    and those values."""
+    import numpy as np
+    order = first_use(index)
+    if len(order) == len(values) and (order == np.arange(len(values))).all():
+        return index, tuple(values)
+    remap = np.zeros(len(values), np.int64)
+    remap[order] = np.arange(len(order))
+    return remap[index], tuple(values[k] for k in order.tolist())
 
 
 def _looks_like_name(token: Token) -> bool:

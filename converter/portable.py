@@ -128,7 +128,8 @@ def portable(description: Description) -> tuple[Description, list[str]]:
     if integrator.get("min_weight") is not None:
         notes.append("The scene's minweight (the whitted integrator's adaptive depth) has no stock form.")
     _replace_materials(scene, notes)
-    return Description(scene, defaults, description.origin, description.source), notes
+    # the spheres held as arrays refer to their materials by id: nothing to change there
+    return Description(scene, defaults, description.origin, description.source, description.spheres), notes
 
 
 def _replace_materials(node: dict, notes: list[str]) -> None:

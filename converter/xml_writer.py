@@ -16,15 +16,25 @@ the top level carry their key as ``id``, nested ones as ``name``; each
 ``mi.load_file(..., name=value)`` overrides. The frame's origin is written as
 a comment and as the ``<default name="world_origin">`` that no property
 uses: world coordinates = XML coordinates + ``world_origin``.
+
+A scene of a million spheres makes about 150 MB of XML. The spheres a description
+holds as arrays (:class:`~.description.SphereBlock`) are written a batch at a time,
+with one format operation per sphere and each radius's text made once, and
+:func:`write_xml` hands the text to a file piece by piece, never holding all of it.
 """
 
 from __future__ import annotations
 
+import contextlib
 import os
 import re
+import shutil
+import signal
+import tempfile
+from dataclasses import replace
 from xml.sax.saxutils import escape
 
-from .description import Description, LookAt, Matrix, Mesh, Param, describe
+from .description import Description, LookAt, Matrix, Mesh, Param, SphereBlock, describe
 from .portable import portable as to_portable
 from .scene import Scene, Vec3
 
@@ -132,6 +142,11 @@ def _object(key: str, node: dict, defaults: dict, depth: int) -> list[str]:
 
 def description_to_xml(description: Description, notes: list[str] = ()) -> str:
     """The Mitsuba XML of a scene description; ``notes`` are lines of a comment at the top."""
+    return "".join(_pieces(description, notes))
+
+
+def _pieces(description: Description, notes: list[str] = ()):
+    """The text of :func:`description_to_xml`, piece by piece."""
     o = description.origin
     out = [
         '<?xml version="1.0" encoding="utf-8"?>',
@@ -148,11 +163,145 @@ def description_to_xml(description: Description, notes: list[str] = ()) -> str:
     for name, value in description.defaults.items():
         out.append(f'{INDENT}<default name="{name}" value="{_value(value, {})[1]}"/>')
     out.append(f'{INDENT}<default name="world_origin" value="{vec(o, ", ")}"/>')
+    # each object comes after a blank line
+    block = description.spheres
+    later = set() if block is None else {f"sphere_{k}" for k in block.in_scene}
     for key, node in description.scene.items():
-        if key != "type":
+        if key != "type" and key not in later:
             out += [""] + _object(key, node, description.defaults, 1)
-    out += ["</scene>", ""]
-    return "\n".join(out)
+    yield "\n".join(out) + "\n"
+    if block is not None:
+        yield from _block(block, description.scene, description.defaults)
+    yield "</scene>\n"
+
+
+#: the objects of :func:`_block`'s spheres, from the blank line before to the line break after
+_SPHERE = ('\n    <shape type="sphere" id="sphere_%d">\n'
+           '        <point name="center" value="%r, %r, %r"/>\n'
+           '        <float name="radius" value="%s"/>\n'
+           '        <ref name="bsdf" id="%s"/>\n'
+           '    </shape>\n')
+#: the spheres :func:`_block` formats at a time
+_BATCH = 1 << 14
+#: blocks of this many spheres on are formatted by two processes (:func:`write_xml`)
+PARALLEL_FROM = 100_000
+
+
+class _Block:
+    """The text of a :class:`~.description.SphereBlock`'s objects, in order, as :func:`_object`
+    writes them: a number's text is :func:`num`'s, ``repr(x + 0.0)`` (adding 0.0 turns -0.0
+    into 0.0), each radius's made once when a few radii serve many spheres."""
+
+    def __init__(self, block: SphereBlock, scene: dict, defaults: dict):
+        import numpy as np
+        self.block, self.scene, self.defaults = block, scene, defaults
+        self.center = block.center + 0.0
+        distinct, self.which = np.unique(block.radius, return_inverse=True)
+        self.radii = [num(r) for r in distinct.tolist()] if len(distinct) <= len(block) // 4 else None
+
+    def pieces(self, lo: int = 0, hi: int | None = None):
+        """The objects of spheres ``lo`` to ``hi`` (excluded), a batch at a time."""
+        block, center, radii = self.block, self.center, self.radii
+        hi = len(block) if hi is None else hi
+        ids = block.material_ids
+        special = sorted(k for k in block.in_scene if lo <= k < hi)
+        for start, stop in zip([lo] + [k + 1 for k in special], special + [hi]):
+            for a in range(start, stop, _BATCH):
+                b = min(a + _BATCH, stop)
+                x, y, z = center[a:b].T.tolist()
+                texts = (map(radii.__getitem__, self.which[a:b].tolist()) if radii is not None
+                         else map(repr, block.radius[a:b].tolist()))
+                yield "".join(map(_SPHERE.__mod__, zip(range(a, b), x, y, z, texts,
+                                                        map(ids.__getitem__, block.material[a:b].tolist()))))
+            if stop < hi:
+                key = f"sphere_{stop}"
+                yield "\n" + "\n".join(_object(key, self.scene[key], self.defaults, 1)) + "\n"
+
+
+def _block(block: SphereBlock, scene: dict, defaults: dict):
+    """The objects of a :class:`~.description.SphereBlock`, in order (:class:`_Block`)."""
+    yield from _Block(block, scene, defaults).pieces()
+
+
+def write_xml(description: Description, file, portable: bool = False) -> None:
+    """Write the XML of ``description`` (:func:`xml_of`) to the text ``file``, piece by piece.
+
+    A block of :data:`PARALLEL_FROM` spheres or more, written to a real file on a machine
+    with two processors or more, is formatted by two processes: a child (``os.fork``)
+    formats its second half into a temporary file while this process formats the first
+    half, then appends the child's text. Anything amiss with the child (no fork, a
+    failure, a signal) and this process formats the second half itself: the bytes are
+    the same either way."""
+    if portable:
+        description, notes = to_portable(description)
+    else:
+        notes = ()
+    block = description.spheres
+    if block is None or len(block) < PARALLEL_FROM or not _can_fork(file):
+        for piece in _pieces(description, notes):
+            file.write(piece)
+        return
+    # _pieces without the block, which comes in two halves
+    pieces = list(_pieces(replace(description, spheres=None, scene=_without(description)), notes))
+    file.write(pieces[0])
+    text = _Block(block, description.scene, description.defaults)
+    half = len(block) // 2
+    with tempfile.TemporaryFile() as spill:
+        child = _fork_writer(text, half, spill)
+        try:
+            for piece in text.pieces(0, half):
+                file.write(piece)
+            done = child is not None and os.waitpid(child, 0)[1] == 0
+            child = None
+            if done:
+                file.flush()
+                spill.seek(0)
+                shutil.copyfileobj(spill, file.buffer, 1 << 20)
+            else:
+                for piece in text.pieces(half):
+                    file.write(piece)
+        finally:
+            if child is not None:   # this process failed or was interrupted: stop the child
+                with contextlib.suppress(OSError):
+                    os.kill(child, signal.SIGKILL)
+                    os.waitpid(child, 0)
+    file.write(pieces[-1])
+
+
+def _without(description: Description) -> dict:
+    """The description's objects but the block's spheres it holds (written with the block)."""
+    later = {f"sphere_{k}" for k in description.spheres.in_scene}
+    return {key: node for key, node in description.scene.items() if key not in later}
+
+
+def _can_fork(file) -> bool:
+    if not hasattr(os, "fork") or not hasattr(file, "buffer"):
+        return False
+    try:
+        return len(os.sched_getaffinity(0)) >= 2
+    except (AttributeError, OSError):
+        return (os.cpu_count() or 1) >= 2
+
+
+def _fork_writer(text: _Block, half: int, spill) -> int | None:
+    """A child process that writes the objects of spheres ``half`` on to ``spill`` and exits
+    (status 0 when it wrote them all); its id, or None when there is none."""
+    try:
+        child = os.fork()
+    except OSError:
+        return None
+    if child:
+        return child
+    status = 1
+    try:   # the child: never returns, never runs the parent's clean-up or flushes its files
+        with open(spill.fileno(), "w", encoding="utf-8", closefd=False) as out:
+            for piece in text.pieces(half):
+                out.write(piece)
+        status = 0
+    except BaseException:
+        pass
+    finally:
+        os._exit(status)
 
 
 def scene_to_xml(scene: Scene, base_dir: str | os.PathLike | None, portable: bool = False) -> str:
@@ -162,7 +311,7 @@ def scene_to_xml(scene: Scene, base_dir: str | os.PathLike | None, portable: boo
     of giant spheres (:mod:`.giants`): beside the XML, where the caller writes them
     (:func:`.description.meshes`; ``whitted convert`` does), or in the mesh cache.
     ``portable``: the form that names only Mitsuba's stock plugins (:mod:`.portable`)."""
-    return xml_of(describe(scene, base_dir), portable)
+    return xml_of(describe(scene, base_dir, block=True), portable)
 
 
 def xml_of(description: Description, portable: bool = False) -> str:

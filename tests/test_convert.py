@@ -182,6 +182,49 @@ def test_convert_loads_neither_mitsuba_nor_drjit(write_scene, tmp_path):
     assert scene.with_suffix(".xml").is_file()
 
 
+def test_scenes_held_as_arrays_convert_as_lists_do(texture_png, tmp_path, capsys):
+    """A large file's scene holds its spheres as arrays (converter/scene.py), and the
+    description, the warnings and the XML are computed from them with numpy: the same
+    bytes as from the list of spheres, giant, meshed, textured and odd ones included."""
+    from whitted.converter import parser
+    from whitted.converter.frame import warn_precision
+    text = (f"size 16 12\neye 0 2e5 3\nlookat 0.5 0 0.25\nlight 1 2 3\n"
+            f"sphere 0 -1e4 0 1e4 color 0.8 0.8 0.75 reflect 0.3\nsphere 0 1 0 1 reflect 0.5\n"
+            f"sphere -0 2 -0.0 0.25 color 1 0.9 0.7 reflect 0.5\nsphere 3 1 0 0.5\n"
+            f"sphere 1 1 1 1 texture {texture_png().name} north 0 0 1 equator 1 0 0\nsphere 2 2 2 1e-6 refract 0.9 1.5\n"
+            f"sphere 1e5 0 0 9e4 color 0.2 0.3 0.4\nsphere 4 0 0 0.5 color 1 0.9 0.7 reflect 0.5\n")
+    for portable in (False, True):
+        xml = []
+        for arrays in (False, True):
+            scene = parser._parse(text, tmp_path / "s.scn", fast=True, arrays=arrays)
+            assert (scene.held_sphere_arrays() is not None) is arrays
+            xml.append(scene_to_xml(scene, tmp_path, portable=portable))
+            warn_precision(scene, integrator="path")
+            assert (scene.held_sphere_arrays() is not None) is arrays   # nothing made the list
+        assert xml[0] == xml[1]
+    warnings = capsys.readouterr().err.splitlines()
+    assert len(warnings) == 4 and warnings[0] == warnings[1] and warnings[2] == warnings[3]
+
+
+def test_two_processes_write_the_same_bytes(write_scene, tmp_path, monkeypatch):
+    """A large block of spheres is formatted by two processes (converter/xml_writer.py):
+    the same file as by one, special spheres in either half included."""
+    from whitted.converter import parser, xml_writer
+    monkeypatch.setattr(parser, "ARRAYS_FROM", 0)
+    lines = ["size 8 8", "eye 0 2e5 3", "light 1 2 3", "sphere 0 -1e4 0 1e4 color 0.8 0.8 0.75"]
+    lines += [f"sphere {i} {i % 7} -{i % 3} 0.{i % 5 + 1} color 1 0.9 0.7 reflect 0.5" for i in range(1, 40)]
+    lines += ["sphere 1e5 0 0 9e4", "sphere 5 5 5 1"]
+    scene = write_scene("\n".join(lines) + "\n", "many.scn")
+    written = []
+    for parallel_from in (10**9, 2, 3):
+        monkeypatch.setattr(xml_writer, "PARALLEL_FROM", parallel_from)
+        for portable in ([], ["--portable"]):
+            assert convert(scene, "-o", tmp_path / f"out{parallel_from}{len(portable)}.xml", *portable) == 0
+            written.append((tmp_path / f"out{parallel_from}{len(portable)}.xml").read_bytes())
+    assert b"exact_spheres" in written[0] and b'type="ply"' in written[0]
+    assert written[0] == written[2] == written[4] and written[1] == written[3] == written[5] != written[0]
+
+
 def test_cli_process_exit_status_and_stderr(write_scene, tmp_path):
     """The real command: non-zero status, the spec's message, no traceback, no file."""
     scene = write_scene(BAD)

@@ -597,10 +597,10 @@ def _any_line(draw):
     return line
 
 
-def _outcome(text: str, fast: bool):
+def _outcome(text: str, fast: bool, arrays: bool | None = None):
     """The parsed scene's full repr (floats and -0.0 included), or the error's text and line."""
     try:
-        return "scene", repr(parser_module._parse(text, "scene.scn", fast=fast))
+        return "scene", repr(parser_module._parse(text, "scene.scn", fast=fast, arrays=arrays))
     except SceneError as error:
         return "error", str(error), error.line
 
@@ -613,6 +613,32 @@ def test_fast_path_and_careful_path_agree(lines, ending, final_break):
     assert _outcome(text, fast=True) == _outcome(text, fast=False)
 
 
+@settings(max_examples=400, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(st.lists(_any_line(), min_size=1, max_size=12), st.sampled_from(["\n", "\r\n", "\r"]),
+       st.booleans())
+def test_fast_path_with_numpy_and_careful_path_agree(lines, ending, final_break):
+    """A large text's fast path (numpy on the bytes, spheres as arrays) on small texts."""
+    text = ending.join(lines) + (ending if final_break else "")
+    assert _outcome(text, fast=True, arrays=True) == _outcome(text, fast=False)
+
+
+def test_fast_path_with_numpy_across_chunks(monkeypatch):
+    """Lines are read a chunk at a time; spheres from both paths come back in file order."""
+    monkeypatch.setattr(parser_module, "_CHUNK", 40)
+    lines = ["# chunks", "size 8 8"]
+    for i in range(60):
+        lines.append([f"sphere {i} 0 0 0.5 color 1 0.9 0.7 reflect 0.5", f"Sphere {i} 1 0 1  # c",
+                      f"sphere {i} 2 0 1 north 0 0 1 equator 1 0 0", f"light {i} 9 9",
+                      f"sphere {i} 3 0 1 reflect 0.2 color 0.5 0.5 0.5\t", ""][i % 6])
+    for ending in ("\n", "\r\n"):
+        text = ending.join(lines)
+        assert _outcome(text, fast=True, arrays=True) == _outcome(text, fast=False)
+        scene = parser_module._parse(text, "s.scn", fast=True, arrays=True)
+        assert scene.held_sphere_arrays() is not None
+        assert [s.line for s in scene.spheres] == [n for n, line in enumerate(lines, 1)
+                                                   if line.lower().startswith("sphere")]
+
+
 @pytest.mark.parametrize("template", [
     "sphere 0 0 0 1 color {v} 0.5 0.5", "sphere 0 0 0 1 color 1 1 {v}", "sphere 0 0 0 1 reflect {v}",
     "sphere 0 0 0 1 refract {v} 1.5", "sphere 0 0 0 1 refract 0.5 {v}", "sphere 0 0 0 {v}",
@@ -621,7 +647,9 @@ def test_fast_path_and_careful_path_agree(lines, ending, final_break):
 def test_fast_path_at_every_bound(template):
     for value in BOUNDARY_NUMBERS:
         text = f"size 8 8\n{template.format(v=value)}\nsphere 1 2 3 0.5 color 1 0 0.5\n"
-        assert _outcome(text, fast=True) == _outcome(text, fast=False), text
+        careful = _outcome(text, fast=False)
+        assert _outcome(text, fast=True) == careful, text
+        assert _outcome(text, fast=True, arrays=True) == careful, text
 
 
 def test_fast_path_reads_plain_spheres_itself(monkeypatch):
@@ -716,9 +744,9 @@ def test_camera_errors_come_in_file_order_and_do_not_follow_from_others():
 
 def test_at_most_twenty_errors_are_listed_then_counted():
     text = "".join(f"sphere 0 0 0 -{i}\n" for i in range(1, 26))
-    for fast in (True, False):
+    for fast, arrays in ((True, None), (True, True), (False, None)):
         with pytest.raises(SceneError) as info:
-            parser_module._parse(text, "many.scn", fast=fast)
+            parser_module._parse(text, "many.scn", fast=fast, arrays=arrays)
         lines = str(info.value).split("\n")
         assert len(info.value.errors) == 25 and len(lines) == 21
         assert lines[0] == "many.scn:1: sphere radius must be > 0, got -1"
