@@ -46,15 +46,16 @@ def many_radii(texture=None, inside: bool = False, counts=(30, 12, 40)) -> Scene
                  lights=[Light((3.0, 6.0, 4.0)), Light((-4.0, 3.0, 5.0), (0.4, 0.4, 0.4))], spheres=spheres)
 
 
-def test_choose_groups_every_radius_class_for_the_whitted_integrator_only():
+def test_choose_groups_the_other_radius_classes_for_the_whitted_integrator_only():
     model = many_radii()
     path = sealed.choose(model, min_group=1)
-    whitted_grouping = sealed.choose(model, min_group=1, classes=True)
+    whitted_grouping = sealed.choose(model, min_group=1, classes=sealed.MAX_LAYERS)
     assert path.radii == (0.05,) and path.member.sum() == 40
     # the floor is float32-coarse (it may be giant): it stays for the converter to judge
-    assert sorted(whitted_grouping.radii) == [0.05, 0.1, 0.25]
+    assert whitted_grouping.radii == (0.05, 0.1, 0.25)   # the commonest, then by count
     assert whitted_grouping.member.sum() == 82 and not whitted_grouping.member[0]
-    assert sealed.choose(model, min_group=20, classes=True).radii == (0.05, 0.1)
+    assert sealed.choose(model, min_group=1, classes=1).radii == (0.05, 0.1)
+    assert sealed.choose(model, min_group=41, classes=8) is None
 
 
 #: the layers' radii in the scaled frame: the commonest radius 0.05 (scaled by 20), or 0.25 (by 4)

@@ -76,10 +76,11 @@ def load_scene(path: str | os.PathLike, variant: str | None = None, *, model=Non
     untextured, not holding the eye) of its commonest radius as Mitsuba
     ``ellipsoids`` shapes, in a frame scaled to make that radius 1
     (:mod:`whitted.sealed`: the same image; those spheres load a hundred times
-    faster than as ``sphere`` shapes), and for the whitted integrator those of
-    every other radius as well, which it traces in frames of their own. None (the
-    default) does so for the radii at least ``sealed.MIN_GROUP`` spheres share,
-    True whenever one does, False never. ``.xml`` files are loaded as written.
+    faster than as ``sphere`` shapes), and for the whitted integrator those of up
+    to ``sealed.MAX_LAYERS`` other radii as well, which it traces in frames of
+    their own. None (the default) does so when at least ``sealed.MIN_GROUP``
+    spheres share the commonest radius, True whenever one does, False never.
+    ``.xml`` files are loaded as written.
     ``integrator`` ("whitted" or "path") is what the scene will be rendered with: a ``.scn``
     file read here is warned about as that integrator needs (converter/frame.py).
     ``overrides`` replace the scene's ``spp``, ``max_depth``, ``ambient`` or
@@ -109,7 +110,7 @@ def load_scene(path: str | os.PathLike, variant: str | None = None, *, model=Non
         from . import sealed
         grouping = None if ellipsoids is False else \
             sealed.choose(model, min_group=1 if ellipsoids else sealed.MIN_GROUP,
-                          classes=integrator == "whitted")
+                          classes=sealed.MAX_LAYERS if integrator == "whitted" else 0)
         if grouping is None:
             return mi.load_dict(mitsuba_dict(describe(model, base_dir=None), params), parallel=PARALLEL)
         return mi.load_dict(_sealed_dict(model, grouping, params), parallel=PARALLEL)

@@ -29,14 +29,13 @@ scale, :func:`remaining` gives the rest of the scene in that frame and
 
 from __future__ import annotations
 
-import itertools
 from dataclasses import dataclass, replace
 
 import numpy as np
 
 from .converter.frame import farthest
 from .converter.giants import GIANT_FRACTION
-from .converter.scene import Material, Scene
+from .converter.scene import Material, Scene, SphereArrays
 from .float32 import hit_error
 
 #: a sealed sphere keeps the eye farther than this from its surface, relative to the size of
@@ -47,45 +46,20 @@ CLEARANCE = 1e-5
 #: intensities (color·π·d²) then stay below 10¹² as for a scene file
 #: (whitted.defaults.MAX_MAGNITUDE)
 MAX_REACH = 1e6
+#: the most radii besides the commonest that are grouped for the Whitted integrator, which
+#: traces each in a layer of its own (a traversal per ray each; a sphere left as a shape makes
+#: every shadow ray take the slower nearest-hit query instead): the classes of most spheres
+MAX_LAYERS = 8
 #: the fewest spheres of one radius worth an ``ellipsoids`` shape by default: below this the
 #: load time saved (~0.1 ms a sphere) is below a render's noise, and the scene is left as written
 MIN_GROUP = 1000
 
 
-@dataclass(frozen=True)
-class Spheres:
-    """A scene's spheres as arrays: centers (N×3), radii (N), and each one's index into
-    ``materials`` (the distinct materials, in order of first use)."""
-    center: np.ndarray
-    radius: np.ndarray
-    material: np.ndarray
-    materials: list
-
-    @staticmethod
-    def of(scene: Scene) -> "Spheres":
-        spheres = scene.spheres
-        n = len(spheres)
-        center = np.fromiter(itertools.chain.from_iterable(s.center for s in spheres), np.float64, 3 * n)
-        radius = np.fromiter((s.radius for s in spheres), np.float64, n)
-        by_id, by_value, materials = {}, {}, []
-
-        def index(material: Material) -> int:
-            k = by_id.get(id(material))
-            if k is None:
-                k = by_id[id(material)] = by_value.setdefault(material, len(by_value))
-                if k == len(materials):
-                    materials.append(material)
-            return k
-
-        material = np.fromiter((index(s.material) for s in spheres), np.int64, n)
-        return Spheres(center.reshape(n, 3), radius, material, materials)
-
-
-def sealed(scene: Scene, spheres: Spheres | None = None) -> np.ndarray:
+def sealed(scene: Scene, spheres: SphereArrays | None = None) -> np.ndarray:
     """Per sphere of ``scene``: whether it is opaque, untextured and does not hold the eye
     (nor has it within :data:`CLEARANCE` of its surface). Untextured: the loader's
     ellipsoids carry no texture frame (nothing in the argument needs it)."""
-    spheres = spheres or Spheres.of(scene)
+    spheres = scene.sphere_arrays() if spheres is None else spheres
     if not len(spheres.radius):
         return np.zeros(0, bool)
     center, radius = spheres.center, spheres.radius
@@ -107,32 +81,32 @@ class Grouping:
                 spheres' radius becomes 1
     ``radius``  the commonest grouped radius in the scene file's units
     ``member``  per sphere of the scene, whether it is grouped
-    ``spheres`` the scene's :class:`Spheres`
+    ``spheres`` the scene's spheres as arrays (:class:`~whitted.converter.scene.SphereArrays`)
     ``radii``   every grouped radius (``radius`` first), in the file's units
     =========== ================================================================
     """
     scale: float
     radius: float
     member: np.ndarray
-    spheres: Spheres
+    spheres: SphereArrays
     radii: tuple[float, ...] = ()
 
 
-def choose(scene: Scene, min_group: int = MIN_GROUP, classes: bool = False) -> Grouping | None:
+def choose(scene: Scene, min_group: int = MIN_GROUP, classes: int = 0) -> Grouping | None:
     """The sealed spheres of the most common radius, if at least ``min_group`` (≥ 1) share
-    it (ties: the larger radius), else None; with ``classes``, also those of every other
-    radius that at least ``min_group`` sealed spheres share.
+    it (ties: the larger radius), else None; and those of up to ``classes`` other radii,
+    the ones most spheres share (ties: the larger radius).
 
     None too when scaling would change the image: a light at ``lookat`` (its physical
     intensity is then defined with d = 1, a length in the file's units), or a light of
     the scaled scene farther than :data:`MAX_REACH` from it.
     """
     min_group = max(min_group, 1)
-    if len(scene.spheres) < min_group:
+    spheres = scene.sphere_arrays()
+    if len(spheres) < min_group:
         return None
     if any(tuple(light.position) == tuple(scene.lookat) for light in scene.lights):
         return None
-    spheres = Spheres.of(scene)
     mask = sealed(scene, spheres)
     if mask.sum() < min_group:
         return None
@@ -145,13 +119,14 @@ def choose(scene: Scene, min_group: int = MIN_GROUP, classes: bool = False) -> G
         return None
     radii = [r]
     if classes:   # other radii, but not spheres float32 places too coarsely (converter/giants.py)
-        fine = mask & ~_coarse(scene, spheres)
+        fine = mask & ~_coarse(scene, spheres) & (spheres.radius != r)
         values, counts = np.unique(spheres.radius[fine], return_counts=True)
-        radii += [float(v) for v, n in zip(values, counts) if n >= min_group and v != r]
+        order = np.lexsort((-values, -counts))[:classes]
+        radii += [float(values[k]) for k in order]
     return Grouping(1.0 / r, r, mask & np.isin(spheres.radius, radii), spheres, tuple(radii))
 
 
-def _coarse(scene: Scene, spheres: Spheres) -> np.ndarray:
+def _coarse(scene: Scene, spheres: SphereArrays) -> np.ndarray:
     """Per sphere: whether its float32 error bound exceeds GIANT_FRACTION of the smallest
     radius (the spheres that may be giant: they stay for the converter to judge)."""
     offset = np.abs(spheres.center - np.asarray(scene.lookat, np.float64)).max(axis=1)
@@ -177,7 +152,7 @@ def remaining(scene: Scene, grouping: Grouping) -> Scene:
                    lights=[replace(light, position=_about(light.position, origin, scale))
                            for light in scene.lights],
                    spheres=[replace(s, center=_about(s.center, origin, scale), radius=s.radius * scale)
-                            for s in (scene.spheres[k] for k in keep)])
+                            for s in map(grouping.spheres.sphere, keep)])
 
 
 def groups(scene: Scene, grouping: Grouping, origin) -> list[tuple[Material, float, np.ndarray]]:
