@@ -9,6 +9,8 @@ each other to float32 round-off.
 
 from __future__ import annotations
 
+import dataclasses
+
 import math
 from pathlib import Path
 
@@ -370,7 +372,7 @@ def test_other_shapes_render_through_mitsubas_interactions(tmp_path):
                  '<translate y="-0.6"/></transform>\n'
                  '        <bsdf type="article"><rgb name="color" value="0.3, 0.6, 0.9"/>'
                  '<float name="reflect" value="0.5"/></bsdf>\n    </shape>\n')
-    xml = scene_to_xml(Scene(**{**model.__dict__, "spheres": model.spheres[1:]}), base_dir=None)
+    xml = scene_to_xml(dataclasses.replace(model, spheres=model.spheres[1:]), base_dir=None)
     xml = xml.replace("</scene>", rectangle + "</scene>")
     images = {}
     for variant in VARIANTS:
