@@ -35,9 +35,27 @@ COMPARE_PATIENCE = 30.0
 
 
 def start(args, cwd):
+    """The command, once it handles signals itself (:func:`handles_signals`): a signal that
+    lands while Python itself is still starting is Python's to report, whatever the program."""
     env = dict(os.environ)
-    return subprocess.Popen([sys.executable, "-m", "whitted", *args], cwd=cwd, env=env,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    process = subprocess.Popen([sys.executable, "-m", "whitted", *args], cwd=cwd, env=env,
+                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 30
+    while not handles_signals(process.pid) and process.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.005)
+    return process
+
+
+def handles_signals(pid: int) -> bool:
+    """Whether process ``pid`` catches SIGTERM, as whitted's CLI does from its first step
+    (``interrupt.install``; Python alone catches only SIGINT): read from /proc on Linux,
+    assumed elsewhere."""
+    try:
+        with open(f"/proc/{pid}/status") as status:
+            caught = next(int(line.split()[1], 16) for line in status if line.startswith("SigCgt:"))
+    except (OSError, StopIteration):
+        return True
+    return bool(caught & (1 << (signal.SIGTERM - 1)))
 
 
 def interrupt_after(process, seconds: float, number: int):
