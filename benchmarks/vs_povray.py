@@ -48,6 +48,7 @@ Options of run.py that ``make bench BENCHFLAGS=...`` passes along are ignored.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import datetime
 import json
 import math
@@ -161,6 +162,13 @@ def bench_level(level: int, floor: float, runs: int, folder: Path, pov_exe: str 
               pov_failure=("" if "povray" in programs else "not run") if pov_exe else pov_missing)
     del model   # level 6: some 600 MB of Python objects
     w_image, p_image, stats = folder / f"whitted-{name}.png", folder / f"povray-{name}.png", folder / "stats.json"
+    # One untimed run of each first: the kernels a scene needs depend on its radii (one layer
+    # each: plugins/shading/layers.py), and Dr.Jit compiles them once, then reads its cache.
+    with contextlib.suppress(process.DidNotFinish, RuntimeError):
+        if not row.whitted_failure:
+            run_whitted(scn, w_image, stats, timeout)
+        if not row.pov_failure:
+            povray.run(pov_exe, pov, p_image, width, height, threads, timeout)
     for _ in range(runs):
         if not row.whitted_failure:
             try:
@@ -420,12 +428,8 @@ def main(argv=None) -> int:
     print(f"whitted vs POV-Ray 3.7 on the sphereflake ({mode}): {machine()}; "
           f"POV-Ray: {pov_exe or pov_missing}", flush=True)
     start = time.perf_counter()
-    with tempfile.TemporaryDirectory() as tmp, open(os.devnull, "w") as quiet:
+    with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
-        # Warm-up: Dr.Jit's kernel cache (some kernels differ with the floor), the page cache,
-        # POV-Ray's first start.
-        for floor in settings["floors"]:
-            bench_level(1, floor, 1, folder, pov_exe, pov_missing, threads, quiet, timeout, args.programs)
         rows = [bench_level(level, floor, runs[level], folder, pov_exe, pov_missing, threads, sys.stdout,
                             timeout, args.programs)
                 for level in settings["levels"] for floor in settings["floors"]]
