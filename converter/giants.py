@@ -136,18 +136,28 @@ def _coarse_arrays(spheres: SphereArrays, origin: Vec3, smallest: float | None) 
     return list(giant), list(misplaced)
 
 
+def coarse_candidates(spheres: SphereArrays, origin: Vec3, smallest: float | None = None):
+    """``(error, candidate)`` per sphere (arrays, in the frame of ``origin``): the float32 error
+    bound, and whether it exceeds :data:`GIANT_FRACTION` of the finest detail the scene holds
+    (its smallest radius, or ``smallest`` if smaller): only these spheres can be giant."""
+    import numpy as np
+    detail = float(spheres.radius.min())
+    if smallest is not None:
+        detail = min(detail, smallest)
+    x, y, z = (spheres.center - origin).T
+    error = hit_error(spheres.radius, np.maximum(np.maximum(np.abs(x), np.abs(y)), np.abs(z)))
+    return error, error > GIANT_FRACTION * detail
+
+
 def _coarse_of(spheres: SphereArrays, origin: Vec3, smallest: float | None) -> tuple[list[int], list[int]]:
     import numpy as np
     if not len(spheres):
         return [], []
     radius = spheres.radius
-    detail = float(radius.min())
-    if smallest is not None:
-        detail = min(detail, smallest)
     x, y, z = (spheres.center - origin).T
     c = np.maximum(np.maximum(np.abs(x), np.abs(y)), np.abs(z))
-    error = hit_error(radius, c)
-    candidates = np.flatnonzero(error > GIANT_FRACTION * detail)
+    error, candidate = coarse_candidates(spheres, origin, smallest)
+    candidates = np.flatnonzero(candidate)
     misplaced = np.flatnonzero(UNIT_ROUNDOFF * (radius + c) > MISPLACED_RATIO * RAY_EPSILON *
                                (1 + np.abs(np.sqrt(x * x + y * y + z * z) - radius)))
     limit = smallest if smallest is not None else math.inf

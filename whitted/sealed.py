@@ -34,9 +34,8 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from .converter.frame import farthest
-from .converter.giants import GIANT_FRACTION
+from .converter.giants import coarse_candidates
 from .converter.scene import Material, Scene, SphereArrays
-from .float32 import hit_error
 
 #: a sealed sphere keeps the eye farther than this from its surface, relative to the size of
 #: the numbers involved (float32 rounds them by 6e-8 of that): an eye closer than that might
@@ -127,10 +126,9 @@ def choose(scene: Scene, min_group: int = MIN_GROUP, classes: int = 0) -> Groupi
 
 
 def _coarse(scene: Scene, spheres: SphereArrays) -> np.ndarray:
-    """Per sphere: whether its float32 error bound exceeds GIANT_FRACTION of the smallest
-    radius (the spheres that may be giant: they stay for the converter to judge)."""
-    offset = np.abs(spheres.center - np.asarray(scene.lookat, np.float64)).max(axis=1)
-    return hit_error(spheres.radius, offset) > GIANT_FRACTION * spheres.radius.min()
+    """Per sphere: whether it may be giant (converter/giants.py): such spheres stay for the
+    converter to judge."""
+    return coarse_candidates(spheres, tuple(scene.lookat))[1]
 
 
 def light_reach(scene: Scene) -> float:

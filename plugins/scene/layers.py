@@ -27,7 +27,7 @@ import numpy as np
 from whitted.float32 import hit_error
 
 from .materials import bsdf_key
-from .primitives import Primitives
+from .primitives import Primitives, bounds, corners
 
 
 @dataclass
@@ -78,10 +78,9 @@ def _layer(radius: float, parts) -> Layer:
         first = np.cumsum([0] + [c.shape[1] for _, c in parts])[:-1].tolist()
         tables = {id(shape): (start, parts[i][0].bsdf()) for i, (shape, start) in enumerate(zip(own, first))}
         return Layer(scale, radius, scene, tables, [mi.Point3f(c) for c in center.T.tolist()], error.tolist())
-    corners = np.array([[list(box.min), list(box.max)] for box in (shape.bbox() for shape in own)], np.float64)
     rows = np.asarray(dr.reinterpret_array(mi.UInt32, scene.shapes_dr()), np.int64).reshape(-1)
     keys = np.array([bsdf_key(shape.bsdf()) for shape, _ in parts], np.int64)
-    primitives = Primitives.read(own, corners, np.full(len(own), int(mi.ShapeType.Ellipsoids)),
+    primitives = Primitives.read(own, corners(bounds(own)), np.full(len(own), int(mi.ShapeType.Ellipsoids)),
                                  np.zeros(len(own), bool), rows, keys)
     primitives.center, primitives.radius, primitives.error = center, np.full(center.shape[1], radius), error
     return Layer(scale, radius, scene, primitives.tables(spheres=True))

@@ -21,6 +21,7 @@ where they start, so that a hit's slot is ``base[row] + prim_index`` for them
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass
 
 import drjit as dr
@@ -28,6 +29,18 @@ import mitsuba as mi
 import numpy as np
 
 from whitted.float32 import hit_error
+
+
+def bounds(shapes) -> list:
+    """The shapes' bounding boxes (a call per shape; a vectorized call on the shapes would
+    trace each of them). Boxes compare exactly with ``==``."""
+    return [shape.bbox() for shape in shapes]
+
+
+def corners(boxes) -> np.ndarray:
+    """Bounding boxes as an N×2×3 array (read without converting each box on its own)."""
+    return np.fromiter(itertools.chain.from_iterable((*box.min, *box.max) for box in boxes),
+                       np.float64, 6 * len(boxes)).reshape(-1, 2, 3)
 
 
 def ellipsoid_numbers(shape):

@@ -32,7 +32,6 @@ are kept.
 from __future__ import annotations
 
 import copy
-import itertools
 from collections import OrderedDict
 
 import drjit as dr
@@ -44,7 +43,7 @@ from whitted.errors import WhittedError
 from .layers import layers
 from .lights import largest_emission, point_lights
 from .materials import Materials
-from .primitives import Primitives
+from .primitives import Primitives, bounds, corners
 
 #: how many scenes' tables are kept (the least recently used go first)
 SCENES = 8
@@ -58,18 +57,6 @@ def material_changed() -> None:
     """An ``article`` BSDF's parameters changed: every scene's tables are checked afresh."""
     global _material_changes
     _material_changes += 1
-
-
-def _bounds(shapes) -> list:
-    """The shapes' bounding boxes (a call per shape; a vectorized call on the shapes would
-    trace each of them). Boxes compare exactly with ``==``."""
-    return [shape.bbox() for shape in shapes]
-
-
-def _corners(boxes) -> np.ndarray:
-    """Bounding boxes as an N×2×3 array (read without converting each box on its own)."""
-    return np.fromiter(itertools.chain.from_iterable((*box.min, *box.max) for box in boxes),
-                       np.float64, 6 * len(boxes)).reshape(-1, 2, 3)
 
 
 def _shape_types(scene, shapes) -> np.ndarray:
@@ -133,11 +120,11 @@ class SceneTables:
         self.material_table = self.materials.table()
         textured = np.isin(keys, list(self.materials.textures))
         types = _shape_types(scene, shapes)
-        boxes = _bounds(shapes)
+        boxes = bounds(shapes)
         jit = dr.is_jit_v(mi.Float)
         rows = np.asarray(dr.reinterpret_array(mi.UInt32, scene.shapes_dr()), np.int64).reshape(-1) \
             if jit and shapes else None
-        self.primitives = Primitives.read(shapes, _corners(boxes), types, textured, rows, keys if jit else None)
+        self.primitives = Primitives.read(shapes, corners(boxes), types, textured, rows, keys if jit else None)
         self._types = types
         self.spheres_only = bool(len(shapes)) and bool(self.primitives.sphere.all())
         self.sphere_shapes = bool((types == int(mi.ShapeType.Sphere)).any())
@@ -157,17 +144,27 @@ class SceneTables:
     def describe(self, scene) -> bool:
         """Whether these tables are still those of ``scene`` (see the module docstring)."""
         shapes = scene.shapes()
-        return (_material_changes == self._changes and _bounds(shapes) == self._boxes
+        return (_material_changes == self._changes and bounds(shapes) == self._boxes
                 and all(_same_data(_ellipsoid_data(shapes[k]), data) for k, data in self._ellipsoids.items())
                 and all(_to_world(shapes[k]) == matrix for k, matrix in self._frames.items())
                 and point_lights(scene) == self.lights
                 and (scene.environment() is None) == (self.environment is None)
                 and (self.environment is None or largest_emission(scene.environment()) == self.background))
 
-    def part(self, left_out) -> "SceneTables":
-        """These tables, for the scene of :meth:`rest_scene` (the same shape objects keep their
-        instance IDs, rows and primitives): only what depends on which shapes there are
-        changes."""
+    def rest(self, scene, left_out):
+        """``(rest_scene, tables)``: a scene of ``scene``'s shapes but those whose index is in
+        ``left_out`` (the same objects: the same instance IDs and BSDFs; None when no shape is
+        left), and its tables (:meth:`_part`); made once for each ``left_out``."""
+        key = tuple(sorted(left_out))
+        if key not in self._rest_scenes:
+            rest = {f"shape_{k}": shape for k, shape in enumerate(scene.shapes()) if k not in left_out}
+            self._rest_scenes[key] = (mi.load_dict({"type": "scene", **rest}) if rest else None,
+                                      self._part(left_out))
+        return self._rest_scenes[key]
+
+    def _part(self, left_out) -> "SceneTables":
+        """These tables, for the scene of :meth:`rest` (its shape objects keep their instance
+        IDs, rows and primitives): only what depends on which shapes there are changes."""
         part = copy.copy(self)
         kept = np.ones(len(self._types), bool)
         kept[list(left_out)] = False
@@ -175,17 +172,8 @@ class SceneTables:
             if len(self._types) else np.zeros(0, bool)
         part.spheres_only = bool(kept.any()) and bool(shape_sphere[kept].all())
         part.sphere_shapes = bool((self._types[kept] == int(mi.ShapeType.Sphere)).any())
-        part.layers, part.layered = [], []
+        part.layers, part.layered, part._rest_scenes = [], [], {}
         return part
-
-    def rest_scene(self, scene, left_out):
-        """A scene of ``scene``'s shapes but those whose index is in ``left_out`` (the same
-        objects: the same instance IDs and BSDFs), or None when no shape is left; built once."""
-        key = tuple(sorted(left_out))
-        if key not in self._rest_scenes:
-            rest = {f"shape_{k}": shape for k, shape in enumerate(scene.shapes()) if k not in left_out}
-            self._rest_scenes[key] = mi.load_dict({"type": "scene", **rest}) if rest else None
-        return self._rest_scenes[key]
 
 
 def _witness(scene):

@@ -13,7 +13,7 @@ How. The converter lists the giant spheres (converter/giants.py) in the
 integrator's ``exact_spheres`` property: each shape's id, its center (in the
 scene's frame, subtracted in float64) and its radius, as float64 text.
 :class:`GiantHits` traces every *other* shape through Mitsuba, on a scene of
-those shapes alone (:meth:`~whitted.plugins.scene.tables.SceneTables.rest_scene`: the same shape objects, so the same
+those shapes alone (:meth:`~whitted.plugins.scene.tables.SceneTables.rest`: the same shape objects, so the same
 instance IDs, BSDFs and tables), and intersects the giant spheres itself in
 float64 (``Float64`` in the JIT variants, Python floats in the scalar ones)
 with the stable discriminant r² − |f − (f·d)d|² (hazard 4b) and the

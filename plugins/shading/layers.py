@@ -48,14 +48,19 @@ class LayeredHits:
 
     def blocked(self, ray, active):
         """Whether a surface crosses the segment ``ray`` (origin to ``ray.maxt``)."""
+        tests = [lambda mask, k=k, layer=layer: blocked(layer.scene, self._ray(k, ray, ray.maxt), mask,
+                                                        spheres=False)
+                 for k, layer in enumerate(self.layers)]
+        if self.inner is not None:
+            tests.append(lambda mask: self.inner.blocked(ray, mask))
         shadowed = no_blocker()
-        for k, layer in enumerate(self.layers):
-            if not self.jit and (shadowed or not active):
-                return shadowed
-            shadowed = shadowed | blocked(layer.scene, self._ray(k, ray, ray.maxt), active & ~shadowed
-                                          if self.jit else active, spheres=False)
-        if self.inner is not None and not (not self.jit and (shadowed or not active)):
-            shadowed = shadowed | self.inner.blocked(ray, active & ~shadowed if self.jit else active)
+        for test in tests:
+            if self.jit:   # lanes already blocked are not traced again
+                shadowed = shadowed | test(active & ~shadowed)
+            elif shadowed or not active:
+                break
+            else:
+                shadowed = test(active)
         return shadowed & active
 
     def intersect(self, ray, coherent: bool):

@@ -53,13 +53,15 @@ def scene_hits(scene, tables, need_uv: bool, exact_spheres=()):
     tracing (:func:`.hits.hit_finder`) for the shapes it intersects exactly, layers for
     spheres it intersects exactly only in frames of their own (:mod:`.layers`), and the
     float64 test for the giant spheres listed in ``exact_spheres`` (:mod:`.giants`)."""
-    index = {shape.id(): k for k, shape in enumerate(scene.shapes())}
-    giants = [(index[key], center, radius) for key, center, radius in exact_spheres if key in index]
+    giants = []
+    if exact_spheres:
+        index = {shape.id(): k for k, shape in enumerate(scene.shapes())}
+        giants = [(index[key], center, radius) for key, center, radius in exact_spheres if key in index]
     left_out = {k for k, _, _ in giants} | set(tables.layered)
     if not left_out:
         return hit_finder(scene, tables, need_uv)
-    rest = tables.rest_scene(scene, left_out)
-    hits = None if rest is None else hit_finder(rest, tables.part(left_out), need_uv)
+    rest, rest_tables = tables.rest(scene, left_out)
+    hits = None if rest is None else hit_finder(rest, rest_tables, need_uv)
     if tables.layers:
         hits = LayeredHits(hits, tables, need_uv)
     return GiantHits(scene, hits, need_uv, giants) if giants else hits
