@@ -426,3 +426,18 @@ def test_workers_and_scheduler_exclude_each_other(scenes, tmp_path):
     assert exit_info.value.code == 2
     assert main(["compare", str(scenes), "--out", str(tmp_path / "out"), "--workers", "0"]) == 2
     assert not (tmp_path / "out").exists()
+
+
+def test_a_plan_s_chunks_complete_the_spp_it_promises():
+    """Under --budget the probe fills part of the first half: the chunks left are those of
+    the spp the budget affords, and with the probe's they add up to the plan's spp (the cache
+    key's), half by half as reference_chunks splits it."""
+    from whitted.compare.reference import Chunk, ReferencePlan, reference_chunks
+    done = [(1, 11, 0), (2, 12, 0), (4, 13, 0)]       # a probe of 1, 2 and 4 spp
+    fitted = 8                                       # what the budget affords
+    spp = sum(n for n, _, _ in done + reference_chunks(fitted, 4, done))
+    probes = [Chunk(n, seed, half, np.zeros((1, 1, 3), np.float32), 0.0, 0.0) for n, seed, half in done]
+    plan = ReferencePlan(fitted, spp, "key", None, probes)
+    chunks = plan.chunks(4)
+    assert spp == 11 and sum(n for n, _, _ in chunks) == spp - 7
+    assert [n for n, _, h in chunks if h == 1] == [4]   # the second half: fitted - fitted // 2

@@ -268,7 +268,8 @@ class ReferencePlan:
     data: on a cluster, one worker probes and plans, and the chunks run on any).
 
     ============= ====================================================================
-    ``requested`` the spp asked for (``--reference-spp``)
+    ``planned``   the spp its chunks are planned from (``--reference-spp``, or what
+                  ``--budget`` affords; the probe's chunks may add to it)
     ``spp``       the spp it will have (0: none, the scene is skipped; ``notes`` say why)
     ``key``       its cache key
     ``cached``    (image, description) read from the cache, or None: to be rendered
@@ -278,7 +279,7 @@ class ReferencePlan:
                   counted from it, also on another machine)
     ============= ====================================================================
     """
-    requested: int
+    planned: int
     spp: int
     key: str
     cached: tuple[np.ndarray, dict] | None = None
@@ -290,7 +291,7 @@ class ReferencePlan:
         """What is left to render, as (spp, seed, half) (:func:`reference_chunks`)."""
         if not self.spp or self.cached is not None:
             return []
-        return reference_chunks(self.spp, chunk_spp, [c.planned for c in self.probes])
+        return reference_chunks(self.planned, chunk_spp, [c.planned for c in self.probes])
 
 
 def plan_reference(scene: SceneFile, loaded, entry: SceneResult, cache: ReferenceCache,
@@ -350,7 +351,7 @@ def plan_reference(scene: SceneFile, loaded, entry: SceneResult, cache: Referenc
     spp = sum(n for n, _, _ in done + reference_chunks(fitted, chunk_spp, done))
     if spp != requested:
         key, cached = lookup(spp)
-    return ReferencePlan(requested, spp, key, cached, [] if cached else probes, notes, began)
+    return ReferencePlan(fitted, spp, key, cached, [] if cached else probes, notes, began)
 
 
 def reference_image(scene: SceneFile, loaded, entry: SceneResult, cache: ReferenceCache,
