@@ -48,7 +48,6 @@ Options of run.py that ``make bench BENCHFLAGS=...`` passes along are ignored.
 from __future__ import annotations
 
 import argparse
-import contextlib
 import datetime
 import json
 import math
@@ -148,6 +147,22 @@ def image_difference(a: Path, b: Path) -> float:
     return float(abs(x - y).mean() * 255)
 
 
+def _attempt(row: Row, program: str, run):
+    """``run()`` unless ``program`` ("whitted" or "pov") failed already on ``row``; None when it
+    fails now, the failure (a timeout with its memory) recorded on the row."""
+    if getattr(row, f"{program}_failure"):
+        return None
+    try:
+        return run()
+    except process.DidNotFinish as error:
+        name = "whitted " if program == "whitted" else "POV-Ray "
+        setattr(row, f"{program}_failure", str(error).removeprefix(name))
+        setattr(row, f"{program}_failed_rss", error.run.peak_rss)
+    except RuntimeError as error:
+        setattr(row, f"{program}_failure", str(error))
+    return None
+
+
 def bench_level(level: int, floor: float, runs: int, folder: Path, pov_exe: str | None, pov_missing: str,
                 threads: int, out, timeout: float | None = TIMEOUT, programs=PROGRAMS) -> Row:
     name = f"flake{level}-{floor:g}"
@@ -162,41 +177,29 @@ def bench_level(level: int, floor: float, runs: int, folder: Path, pov_exe: str 
               pov_failure=("" if "povray" in programs else "not run") if pov_exe else pov_missing)
     del model   # level 6: some 600 MB of Python objects
     w_image, p_image, stats = folder / f"whitted-{name}.png", folder / f"povray-{name}.png", folder / "stats.json"
+    run_w = lambda: run_whitted(scn, w_image, stats, timeout)   # noqa: E731
+    run_p = lambda: povray.run(pov_exe, pov, p_image, width, height, threads, timeout)   # noqa: E731
     # One untimed run of each first: the kernels a scene needs depend on its radii (one layer
     # each: plugins/shading/layers.py), and Dr.Jit compiles them once, then reads its cache.
-    with contextlib.suppress(process.DidNotFinish, RuntimeError):
-        if not row.whitted_failure:
-            run_whitted(scn, w_image, stats, timeout)
-        if not row.pov_failure:
-            povray.run(pov_exe, pov, p_image, width, height, threads, timeout)
+    _attempt(row, "whitted", run_w)
+    _attempt(row, "pov", run_p)
     for _ in range(runs):
-        if not row.whitted_failure:
-            try:
-                run, s = run_whitted(scn, w_image, stats, timeout)
-            except process.DidNotFinish as error:
-                row.whitted_failure, row.whitted_failed_rss = str(error).removeprefix("whitted "), error.run.peak_rss
-            except RuntimeError as error:
-                row.whitted_failure = str(error)
-            else:
-                row.whitted_wall.append(run.wall_seconds)
-                row.whitted_rss.append(run.peak_rss)
-                row.whitted_render.append(s["seconds"])
-                row.whitted_compile.append(s["compile_seconds"])
-                row.whitted_rays = s["rays"]
-        if not row.pov_failure:
-            try:
-                p = povray.run(pov_exe, pov, p_image, width, height, threads, timeout)
-            except process.DidNotFinish as error:
-                row.pov_failure, row.pov_failed_rss = str(error).removeprefix("POV-Ray "), error.run.peak_rss
-            except RuntimeError as error:
-                row.pov_failure = str(error)
-            else:
-                row.pov_wall.append(p.wall_seconds)
-                row.pov_trace.append(p.trace_seconds)
-                row.pov_parse.append(p.parse_seconds)
-                row.pov_bounding.append(p.bounding_seconds)
-                row.pov_rss.append(p.peak_rss)
-                row.pov_rays = (p.shadow_rays, p.reflected_rays)
+        done = _attempt(row, "whitted", run_w)
+        if done is not None:
+            run, s = done
+            row.whitted_wall.append(run.wall_seconds)
+            row.whitted_rss.append(run.peak_rss)
+            row.whitted_render.append(s["seconds"])
+            row.whitted_compile.append(s["compile_seconds"])
+            row.whitted_rays = s["rays"]
+        p = _attempt(row, "pov", run_p)
+        if p is not None:
+            row.pov_wall.append(p.wall_seconds)
+            row.pov_trace.append(p.trace_seconds)
+            row.pov_parse.append(p.parse_seconds)
+            row.pov_bounding.append(p.bounding_seconds)
+            row.pov_rss.append(p.peak_rss)
+            row.pov_rays = (p.shadow_rays, p.reflected_rays)
     if row.whitted_wall and row.pov_wall and not (row.whitted_failure or row.pov_failure):
         row.image_difference = image_difference(w_image, p_image)
     w_text = (f"whitted {_median(row.whitted_wall):.2f} s (render {_median(row.whitted_render):.3f} s, "

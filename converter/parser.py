@@ -79,9 +79,8 @@ _BLANKS = " \t\f\v"
 # The fast path (_Parser.parse_plain). A text holding none of these characters splits into
 # the careful tokenizer's tokens with str.split(): no quotes, no continuations, no NUL, and
 # none of the ASCII separators that str.split() takes for blanks but the format does not.
-_NOT_PLAIN = re.compile(r'["\\\x00\x1c-\x1f]')
 _NOT_PLAIN_CHARACTERS = ('"', "\\", "\x00", "\x1c", "\x1d", "\x1e", "\x1f")
-_NOT_PLAIN_BYTES = (b'"', b"\\", b"\x00", b"\x1c", b"\x1d", b"\x1e", b"\x1f")
+_NOT_PLAIN_BYTES = tuple(c.encode() for c in _NOT_PLAIN_CHARACTERS)
 #: the bytes :meth:`_Parser.plain_bytes` reads at a time (a chunk ends at a line break)
 _CHUNK = 1 << 20
 #: texts from this many bytes on are read with numpy into arrays (:meth:`_Parser.plain_chunk`)
@@ -395,7 +394,7 @@ class _Parser:
     # ---- the fast path: plain lights and spheres
 
     def parse_plain(self, text: str, arrays: bool | None = None) -> None:
-        """Parse a text free of quotes, continuations and odd separators (see :data:`_NOT_PLAIN`):
+        """Parse a text free of quotes, continuations and odd separators (see :data:`_NOT_PLAIN_CHARACTERS`):
         :meth:`plain_bytes` of its UTF-8 bytes when it is large (or ``arrays``), else line
         by line (:meth:`plain_line`)."""
         if arrays or arrays is None and len(text) >= ARRAYS_FROM:

@@ -30,6 +30,7 @@ import os
 import re
 import shutil
 import signal
+import sys
 import tempfile
 from dataclasses import replace
 from xml.sax.saxutils import escape
@@ -275,7 +276,9 @@ def _without(description: Description) -> dict:
 
 
 def _can_fork(file) -> bool:
-    if not hasattr(os, "fork") or not hasattr(file, "buffer"):
+    """Whether a child may format half the block: a real file, two processors, and no threads
+    to fork from (a process that runs Dr.Jit, where ``whitted convert`` never does)."""
+    if not hasattr(os, "fork") or not hasattr(file, "buffer") or "drjit" in sys.modules:
         return False
     try:
         return len(os.sched_getaffinity(0)) >= 2

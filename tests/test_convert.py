@@ -206,21 +206,33 @@ def test_scenes_held_as_arrays_convert_as_lists_do(texture_png, tmp_path, capsys
     assert len(warnings) == 4 and warnings[0] == warnings[1] and warnings[2] == warnings[3]
 
 
-def test_two_processes_write_the_same_bytes(write_scene, tmp_path, monkeypatch):
+def test_two_processes_write_the_same_bytes(write_scene, tmp_path):
     """A large block of spheres is formatted by two processes (converter/xml_writer.py):
-    the same file as by one, special spheres in either half included."""
-    from whitted.converter import parser, xml_writer
-    monkeypatch.setattr(parser, "ARRAYS_FROM", 0)
+    the same file as by one, special spheres in either half included. In a process of its
+    own, as ``whitted convert`` runs: one that runs Dr.Jit (this one) never forks."""
     lines = ["size 8 8", "eye 0 2e5 3", "light 1 2 3", "sphere 0 -1e4 0 1e4 color 0.8 0.8 0.75"]
     lines += [f"sphere {i} {i % 7} -{i % 3} 0.{i % 5 + 1} color 1 0.9 0.7 reflect 0.5" for i in range(1, 40)]
     lines += ["sphere 1e5 0 0 9e4", "sphere 5 5 5 1"]
     scene = write_scene("\n".join(lines) + "\n", "many.scn")
-    written = []
-    for parallel_from in (10**9, 2, 3):
-        monkeypatch.setattr(xml_writer, "PARALLEL_FROM", parallel_from)
-        for portable in ([], ["--portable"]):
-            assert convert(scene, "-o", tmp_path / f"out{parallel_from}{len(portable)}.xml", *portable) == 0
-            written.append((tmp_path / f"out{parallel_from}{len(portable)}.xml").read_bytes())
+    script = f"""
+import sys
+from whitted.cli import main
+from whitted.converter import parser, xml_writer
+parser.ARRAYS_FROM = 0
+forks = []
+fork = xml_writer._fork_writer
+xml_writer._fork_writer = lambda *args: forks.append(1) or fork(*args)
+for parallel_from in (10**9, 2, 3):
+    xml_writer.PARALLEL_FROM = parallel_from
+    for portable in ([], ["--portable"]):
+        out = rf"{tmp_path}/out" + str(parallel_from) + str(len(portable)) + ".xml"
+        assert main(["convert", rf"{scene}", "-o", out, *portable]) == 0
+print(len(forks))
+"""
+    done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.split() == ["4"]   # the child ran four times
+    written = [(tmp_path / f"out{p}{n}.xml").read_bytes() for p in (10**9, 2, 3) for n in (0, 1)]
     assert b"exact_spheres" in written[0] and b'type="ply"' in written[0]
     assert written[0] == written[2] == written[4] and written[1] == written[3] == written[5] != written[0]
 
