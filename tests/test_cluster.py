@@ -57,8 +57,9 @@ sphere 0 -101 0 100 color 0.8 0.8 0.8
 #: One reference is 4 chunks of 64 spp: on a cluster they run on several workers.
 OPTIONS = ["--reference-spp", "256", "--reference-chunk-spp", "64", "--depths", "1,2",
            "--spp", "1", "--path-spp", "1,16", "--rounds", "1", "-q"]
-#: the columns that may differ between runs: times, and who rendered
-VARYING = {"seconds", "seconds_min", "seconds_max", "seconds_each", "compile_seconds", "worker"}
+#: the columns that may differ between runs: times, how many rounds timed them (more while a
+#: headline is unsettled), and who rendered
+VARYING = {"seconds", "seconds_min", "seconds_max", "seconds_each", "compile_seconds", "repeats", "worker"}
 
 
 def read_rows(path: Path) -> list[dict]:
