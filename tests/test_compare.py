@@ -190,7 +190,8 @@ def test_second_run_reuses_the_cached_reference(sweep, mirror_scene, tmp_path, m
     assert not [c for c in calls if c.get("integrator") == "path" and c.get("spp") == REFERENCE_SPP]
     sweep_calls = [c for c in calls if c.get("min_weight") is None]
     limit_calls = [c for c in calls if c.get("min_weight") == 0]
-    assert len(sweep_calls) == 3 * 2  # the sweep's renders, scored then timed in one round; no reference
+    # the sweep's three renders, each scored then timed in one round (repeated there when fast)
+    assert len({tuple(sorted(c.items())) for c in sweep_calls}) == 3 and len(sweep_calls) >= 3 * 2
     # each Whitted method's limit: two halves, at A = 0 and A = 1 in the article's lighting
     assert sorted((c["lighting"], c["ambient"]) for c in limit_calls) == [
         ("article", 0.0), ("article", 0.0), ("article", 1.0), ("article", 1.0),

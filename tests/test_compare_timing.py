@@ -164,16 +164,25 @@ def test_interval_and_unsettled_flag_reach_findings_summary_and_page(tmp_path):
 
 class _FakeRenders:
     """Stands in for whitted.rendering.render: ``seconds(setting, call)`` is each render's
-    time; the calls are kept, in order."""
+    time, by which it advances the sweep's clock (``monotonic``, installed as the sweep
+    module's ``time``); the calls are kept, in order."""
 
-    def __init__(self, seconds):
-        self.seconds, self.calls = seconds, []
+    def __init__(self, seconds, monkeypatch):
+        import whitted.compare.sweep as sweep_module
+        import whitted.rendering as render_module
+        self.seconds, self.calls, self.now = seconds, [], 1000.0
+        monkeypatch.setattr(render_module, "render", self)
+        monkeypatch.setattr(sweep_module, "time", self)
+
+    def monotonic(self) -> float:
+        return self.now
 
     def __call__(self, scene, **kwargs):
         from whitted.rendering import RenderResult
         setting = (kwargs["integrator"], kwargs["max_depth"], kwargs["spp"])
         t = self.seconds(setting, len(self.calls))
         self.calls.append(setting)
+        self.now += t
         return RenderResult(np.zeros((4, 4, 3), np.float32), t, 0.0, {"rays": {"camera": 16}}, t)
 
 
@@ -187,27 +196,38 @@ def _sweep_entry() -> SceneResult:
 
 
 def test_rounds_interleave_the_settings_forward_then_backward(monkeypatch):
-    import whitted.rendering as render_module
+    """Every setting once per round, in order, then in reverse; within a round a render under
+    50 ms is repeated until its renders add up to 50 ms (at most 8) and the fastest kept."""
+    import itertools
+
     from whitted.compare.sweep import time_rounds
-    renders = _FakeRenders(lambda setting, call: 0.001 * setting[1] if setting[0] == "whitted"
-                           else 0.01 * setting[2])
-    monkeypatch.setattr(render_module, "render", renders)
+    base = {("whitted", 1, 1): 0.001, ("whitted", 2, 1): 0.002, ("path", 6, 1): 0.012, ("path", 6, 4): 0.04}
+    # every third render is slowed 1.5×: the fastest of a round's repeats is the base time
+    renders = _FakeRenders(lambda setting, call: base[setting] * (1.5 if call % 3 == 0 else 1.0), monkeypatch)
     entry = _sweep_entry()
     time_rounds(None, entry, 3)
     order = [(m.setting.integrator, m.setting.max_depth, m.setting.spp) for m in entry.measurements]
-    assert renders.calls == order + order[::-1] + order   # steady times settle at once
+    runs = [(setting, len(list(group))) for setting, group in itertools.groupby(renders.calls)]
+    # (a round's last setting is the next round's first: their renders run together)
+    expected = [setting for setting, _ in itertools.groupby(order + order[::-1] + order)]
+    assert [setting for setting, _ in runs] == expected   # three rounds: settled at once
+    repeats = dict(runs[:len(order)])
+    assert repeats[("whitted", 1, 1)] == 8                   # 8 ms < 50 ms: the cap
+    assert repeats[("path", 6, 1)] == 4                      # 12, 12, 18 or 12·4 ≥ 50 ms
+    # (40 ms: one or two renders a round; its first round's run together with the second's)
     for m in entry.measurements:
+        setting = (m.setting.integrator, m.setting.max_depth, m.setting.spp)
         assert m.rounds == 3 and m.seconds == float(np.median(m.times))
+        if repeats[setting] > 1:
+            assert m.times == (base[setting],) * 3
 
 
 def test_more_rounds_while_the_headline_is_unsettled_up_to_the_cap(monkeypatch):
-    import whitted.rendering as render_module
     from whitted.compare.sweep import time_rounds
     # the path tracer's times swing up to 16× from one call to the next: never settles
     swing = random.Random(3)
-    renders = _FakeRenders(lambda setting, call: 0.002 if setting[0] == "whitted"
-                           else 0.01 * setting[2] * 16 ** swing.random())
-    monkeypatch.setattr(render_module, "render", renders)
+    _FakeRenders(lambda setting, call: 0.002 if setting[0] == "whitted"
+                 else 0.01 * setting[2] * 16 ** swing.random(), monkeypatch)
     entry = _sweep_entry()
     time_rounds(None, entry, 3)
     assert {m.rounds for m in entry.measurements} == {COMPARE_MAX_ROUNDS}
@@ -215,12 +235,10 @@ def test_more_rounds_while_the_headline_is_unsettled_up_to_the_cap(monkeypatch):
 
 
 def test_rounds_stop_before_the_budget_runs_out(monkeypatch):
-    import time
-
-    import whitted.rendering as render_module
     from whitted.compare.sweep import time_rounds
-    monkeypatch.setattr(render_module, "render", _FakeRenders(lambda setting, call: 0.01))
+    clock = _FakeRenders(lambda setting, call: 0.01, monkeypatch)
     entry = _sweep_entry()
-    time_rounds(None, entry, 5, deadline=time.monotonic() - 1)
-    assert all(m.rounds == 0 for m in entry.measurements)
-    assert entry.notes and "timed in 0 rounds, not 5" in entry.notes[0]
+    time_rounds(None, entry, 5, deadline=clock.now + 0.5)   # a round: 4 × 50 ms; 2 fit
+    assert all(m.rounds == 2 for m in entry.measurements)
+    assert entry.notes == ["timed in 2 rounds, not 5: the next would have overrun the scene's "
+                           "share of --budget"]

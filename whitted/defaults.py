@@ -109,10 +109,15 @@ COMPARE_PATH_SPP = (1, 4, 16, 64, 256, 1024)   #: the path tracer's spp ladder
 #: COMPARE_ROUNDS rounds; more while a headline ratio's interval (COMPARE_CONFIDENCE, for
 #: the median of its paired per-round ratios) is wider than 1 + COMPARE_SETTLED_WIDTH, up to
 #: COMPARE_MAX_ROUNDS rounds and COMPARE_ROUNDS_SECONDS of extra rounds per scene.
-COMPARE_ROUNDS = 5
-COMPARE_MAX_ROUNDS = 15
-COMPARE_ROUNDS_SECONDS = 60.0
+COMPARE_ROUNDS = 3
+COMPARE_MAX_ROUNDS = 9
+COMPARE_ROUNDS_SECONDS = 20.0
 COMPARE_CONFIDENCE = 0.9
+#: Within a round, a render faster than COMPARE_ROUND_SECONDS is repeated back to back until
+#: its renders add up to that (at most COMPARE_ROUND_REPEATS), the fastest kept: a render of a
+#: few milliseconds is at the mercy of one scheduler tick.
+COMPARE_ROUND_SECONDS = 0.05
+COMPARE_ROUND_REPEATS = 8
 COMPARE_SETTLED_WIDTH = 0.25
 #: The clock a render's time is read on: "cpu" (the process's CPU time, every thread's)
 #: or "wall"; docs/compare.md says which is steadier on a loaded machine, measured.
