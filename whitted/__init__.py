@@ -16,7 +16,7 @@ user needs still happens on its own, through Mitsuba's own hooks:
   XML files that name them.
 
 The rendering API (:func:`load_scene`, :func:`render`, :func:`write_image`,
-:func:`read_image`, :func:`set_variant`) is loaded on first use.
+:func:`read_image`, :func:`to_srgb`, :func:`set_variant`) is loaded on first use.
 """
 
 from __future__ import annotations
@@ -38,6 +38,7 @@ _LAZY = {
     "RenderResult": ("whitted.rendering", "RenderResult"),
     "write_image": ("whitted.imageio", "write_image"),
     "read_image": ("whitted.imageio", "read_image"),
+    "to_srgb": ("whitted.display", "to_srgb"),
     "set_variant": ("whitted.variant", "set_variant"),
 }
 
