@@ -18,9 +18,10 @@ turned into display colors, and there is more than one sensible way to do it:
 An exposure of EV stops multiplies the linear image by 2^EV before the view.
 :func:`default_view` chooses the view from how the image was lit: ``clip`` for the
 article's model, ``aces`` for physical lighting and the path tracer. ``whitted compare``
-shows every image of a scene in one view (that of its reference, the path tracer) and
-FLIP, which scores images as displayed, scores them in that view
-(:func:`whitted.metrics.flip_map`); the relative MSE never sees a view.
+shows every image of a scene in one view, so that they compare: ``clip`` while its
+path-traced reference fits in [0, 1] (plain sRGB clips under 1 % of its pixels), else
+``aces`` (:func:`fitting_view`); FLIP, which scores images as displayed, scores them in
+that view (:func:`whitted.metrics.flip_map`). The relative MSE never sees a view.
 
 Images are processed in bands of rows (:data:`BAND_ROWS`), so that a 16384² render
 costs no whole-image float temporary.
@@ -43,10 +44,12 @@ OCIO_SOURCE = "Linear Rec.709 (sRGB)"     #: the working space of Mitsuba's RGB 
 OCIO_DISPLAY = "sRGB - Display"
 OCIO_VIEW = "ACES 2.0 - SDR 100 nits (Rec.709)"
 #: What each view is, in words (CLI help, the compare page).
-VIEW_NAMES = {"clip": "sRGB, clipped to [0, 1]",
-              "aces": f"OpenColorIO {OCIO_VIEW} (sRGB display)"}
+VIEW_NAMES = {"clip": "plain sRGB, clipped to [0, 1]",
+              "aces": f"tone-mapped sRGB (OpenColorIO's “{OCIO_VIEW}” view)"}
 #: Linear values are capped here before a view (infinity included): no view tells brighter apart.
 BRIGHTEST = 1e6
+#: The share of pixels a view may clip before :func:`fitting_view` tone-maps instead.
+MOST_CLIPPED = 0.01
 #: rows converted at a time: bounds the conversion's temporaries
 BAND_ROWS = 256
 
@@ -55,6 +58,24 @@ def default_view(integrator: str = "whitted", lighting: str | None = None) -> st
     """``clip`` for the article's model (its colors are display values), ``aces`` for
     physically lit images (the path tracer, or ``lighting="physical"``)."""
     return "aces" if integrator == "path" or lighting == "physical" else "clip"
+
+
+def fitting_view(reference, exposure: float = 0.0) -> str:
+    """The view that shows every image of a comparison against ``reference`` (linear RGB):
+    ``clip`` while plain sRGB clips less than :data:`MOST_CLIPPED` of the reference's
+    pixels (its colors then stay as they are), else ``aces``."""
+    return "clip" if clipped_fraction(to_srgb(reference, exposure, "clip")) < MOST_CLIPPED else "aces"
+
+
+def view_text(view: str, exposure: float = 0.0, clipped: float = math.nan) -> str:
+    """How images are shown, in words, and (given the share of a reference's pixels plain
+    sRGB clips) why."""
+    text = VIEW_NAMES[view] + (f", exposure {exposure:+g} EV" if exposure else "")
+    if math.isfinite(clipped) and view == "aces" and clipped >= MOST_CLIPPED:
+        text += f", as plain sRGB would clip {clipped:.0%} of the reference's pixels"
+    elif math.isfinite(clipped) and view == "clip":
+        text += ", as the reference fits in it" if clipped < MOST_CLIPPED else ""
+    return text
 
 
 def check_view(view) -> str:
