@@ -136,5 +136,8 @@ def compare_command(args: argparse.Namespace) -> None:
               file=sys.stderr)
     if done == 0:
         print("whitted compare: no render was done (see the lines above for why)", file=sys.stderr)
-    print(f"\n{done} renders in {time.monotonic() - start:.1f} s; wrote {output_files(options.out)}",
+    # The progress bar counts every render, each Whitted method's limit too: so does this line.
+    limits = sum(len(e.limits) for e in entries)
+    counted = f"{done + limits} renders ({done} timed and scored, {limits} limits)" if limits else f"{done} renders"
+    print(f"\n{counted} in {time.monotonic() - start:.1f} s; wrote {output_files(options.out)}",
           file=sys.stderr)
