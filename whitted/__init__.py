@@ -15,7 +15,7 @@ user needs still happens on its own, through Mitsuba's own hooks:
   (``mitsuba.detail.add_variant_callback``), so that ``mi.load_file`` reads
   XML files that name them.
 
-The rendering API (:func:`load_scene`, :func:`render`, :func:`write_image`,
+The rendering API (:func:`load_scene`, :func:`loads`, :func:`render`, :func:`write_image`,
 :func:`read_image`, :func:`to_srgb`, :func:`set_variant`) is loaded on first use.
 """
 
@@ -34,6 +34,7 @@ _prepare_llvm()  # only sets an environment variable: Dr.Jit reads it when it st
 #: public name -> (module, attribute): the API, imported on first use
 _LAZY = {
     "load_scene": ("whitted.loading", "load_scene"),
+    "loads": ("whitted.loading", "loads"),
     "render": ("whitted.rendering", "render"),
     "RenderResult": ("whitted.rendering", "RenderResult"),
     "write_image": ("whitted.imageio", "write_image"),

@@ -102,18 +102,11 @@ def load_scene(path: str | os.PathLike, variant: str | None = None, *, model=Non
         if xml:
             return mi.load_file(str(path), parallel=PARALLEL, **{k: str(v) for k, v in params.items()})
         from .converter import parse_file
-        from .converter.description import describe
         from .converter.frame import warn_precision
         if model is None:
             model = parse_file(path)
             warn_precision(model, integrator=integrator)
-        from . import sealed
-        grouping = None if ellipsoids is False else \
-            sealed.choose(model, min_group=1 if ellipsoids else sealed.MIN_GROUP,
-                          classes=sealed.MAX_LAYERS if integrator == "whitted" else 0)
-        if grouping is None:
-            return mi.load_dict(mitsuba_dict(describe(model, base_dir=None), params), parallel=PARALLEL)
-        return mi.load_dict(_sealed_dict(model, grouping, params), parallel=PARALLEL)
+        return _load_model(model, params, ellipsoids, integrator)
     except RuntimeError as error:
         unused = re.findall(r"^\s*- \$(\w+)=", str(error), re.M)
         if "unused parameters" in str(error) and unused:
@@ -121,6 +114,52 @@ def load_scene(path: str | os.PathLike, variant: str | None = None, *, model=Non
             raise WhittedError(f"{path}: the scene has no {' or '.join(unused)} to override") from None
         first = str(error).strip().splitlines()[0] if str(error).strip() else type(error).__name__
         raise WhittedError(f"{path}: Mitsuba could not load the scene: {first}") from None
+
+
+def loads(text: str, variant: str | None = None, *, base_dir: str | os.PathLike = ".",
+          ellipsoids: bool | None = None, integrator: str = D.INTEGRATOR, **overrides):
+    """Load a scene from its text (what a ``.scn`` file holds) as a ``mi.Scene``: for notebooks
+    and scripts, ``whitted.loads("sphere 0 0 0 1\\nlight 5 5 5")``.
+
+    Texture paths are relative to ``base_dir`` (default: the current folder); errors name
+    the text as ``<text>:LINE``. ``variant``, ``ellipsoids``, ``integrator`` and
+    ``overrides`` (``spp``, ``max_depth``, ``ambient``, ``lighting``) are those of
+    :func:`load_scene`.
+    """
+    import mitsuba as mi  # noqa: F401  (the variant hook runs on import)
+
+    from .converter import parse_text
+    from .converter.frame import warn_precision
+    from .variant import set_variant
+    if not isinstance(text, str):
+        raise WhittedError(f"loads takes the scene's text as a str, got {type(text).__name__}")
+    set_variant(variant)
+    params = _checked(overrides)
+    model = parse_text(text, Path(base_dir) / TEXT_NAME)
+    warn_precision(model, integrator=integrator)
+    try:
+        return _load_model(model, params, ellipsoids, integrator)
+    except RuntimeError as error:
+        first = str(error).strip().splitlines()[0] if str(error).strip() else type(error).__name__
+        raise WhittedError(f"{TEXT_NAME}: Mitsuba could not load the scene: {first}") from None
+
+
+#: How :func:`loads` names scene text in messages (``<text>:3: ...``).
+TEXT_NAME = "<text>"
+
+
+def _load_model(model, params: dict, ellipsoids: bool | None, integrator: str):
+    """A parsed scene model as a ``mi.Scene`` (see :func:`load_scene`'s ``ellipsoids``)."""
+    import mitsuba as mi
+
+    from . import sealed
+    from .converter.description import describe
+    grouping = None if ellipsoids is False else \
+        sealed.choose(model, min_group=1 if ellipsoids else sealed.MIN_GROUP,
+                      classes=sealed.MAX_LAYERS if integrator == "whitted" else 0)
+    if grouping is None:
+        return mi.load_dict(mitsuba_dict(describe(model, base_dir=None), params), parallel=PARALLEL)
+    return mi.load_dict(_sealed_dict(model, grouping, params), parallel=PARALLEL)
 
 
 def _sealed_dict(model, grouping, params: dict) -> dict:
