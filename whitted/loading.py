@@ -98,6 +98,8 @@ def load_scene(path: str | os.PathLike, variant: str | None = None, *, model=Non
     xml = path.suffix.lower() == ".xml"
     if xml or model is not None:
         check_scene_file(path)   # else parse_file checks it
+    if xml:
+        check_referenced_files(path)
     try:
         if xml:
             return mi.load_file(str(path), parallel=PARALLEL, **{k: str(v) for k, v in params.items()})
@@ -114,6 +116,25 @@ def load_scene(path: str | os.PathLike, variant: str | None = None, *, model=Non
             raise WhittedError(f"{path}: the scene has no {' or '.join(unused)} to override") from None
         first = str(error).strip().splitlines()[0] if str(error).strip() else type(error).__name__
         raise WhittedError(f"{path}: Mitsuba could not load the scene: {first}") from None
+
+
+#: A file an XML scene names (a texture's image, a giant sphere's mesh): ``<string name="filename" value="…"/>``.
+_FILENAME = re.compile(rb'<string\s+name="filename"\s+value="([^"$]*)"')
+
+
+def check_referenced_files(path: Path) -> None:
+    """One clear error naming the path the XML gives when a file it names (a texture, a mesh)
+    is not where the XML says, relative to the XML's folder: Mitsuba would also look in the
+    current folder and quietly take a same-named file from there."""
+    import html
+
+    with open(path, "rb") as file:
+        data = file.read()
+    for match in dict.fromkeys(_FILENAME.findall(data)):
+        named = html.unescape(match.decode("utf-8", "replace"))
+        where = path.parent / named
+        if not where.is_file():
+            raise WhittedError(f"{path}: the file it names, {named}, does not exist (looked for {where})")
 
 
 def loads(text: str, variant: str | None = None, *, base_dir: str | os.PathLike = ".",
