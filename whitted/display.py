@@ -125,10 +125,17 @@ def _display_band(band: np.ndarray, exposure: float, view: str) -> np.ndarray:
     if view == "aces":
         _aces_processor().applyRGB(_exposed(band, exposure))
         return np.clip(band, 0.0, 1.0, out=band)
-    band = _clipped(band, exposure)
-    # The sRGB transfer curve (IEC 61966-2-1), as Mitsuba's Bitmap applies it.
-    return np.where(band <= 0.0031308, 12.92 * band,
-                    1.055 * np.power(band, 1 / 2.4, dtype=np.float32) - 0.055).astype(np.float32)
+    return _srgb_encoded(_clipped(band, exposure), "Float32")
+
+
+def _srgb_encoded(band: np.ndarray, kind: str) -> np.ndarray:
+    """Linear values in [0, 1] sRGB-encoded by Mitsuba's own ``Bitmap`` conversion, as
+    ``kind`` ("Float32", or "UInt8": what PNG files hold, which Mitsuba dithers)."""
+    import mitsuba as mi
+
+    bitmap = mi.Bitmap(band, pixel_format=mi.Bitmap.PixelFormat.RGB)
+    return np.asarray(bitmap.convert(mi.Bitmap.PixelFormat.RGB, getattr(mi.Struct.Type, kind),
+                                     srgb_gamma=True))
 
 
 def _checked(image) -> np.ndarray:
@@ -155,17 +162,12 @@ def to_srgb(image, exposure: float = 0.0, view: str = "clip", rows_done=None) ->
 
     ``exposure`` in stops (the image times 2^exposure), ``view`` one of :data:`VIEWS`;
     ``rows_done(n)`` is called after each band of rows."""
-    import mitsuba as mi
-
     pixels, exposure, view = _checked(image), check_exposure(exposure), check_view(view)
     out = np.empty(pixels.shape, np.uint8)
     for start in range(0, pixels.shape[0], BAND_ROWS):
         band = np.array(pixels[start:start + BAND_ROWS], dtype=np.float32)
         if view == "clip":   # Mitsuba's own 8-bit sRGB encoding, as PNGs were always written
-            band = _clipped(band, exposure)
-            out[start:start + BAND_ROWS] = np.asarray(mi.Bitmap(band, pixel_format=mi.Bitmap.PixelFormat.RGB)
-                                                      .convert(mi.Bitmap.PixelFormat.RGB, mi.Struct.Type.UInt8,
-                                                               srgb_gamma=True))
+            out[start:start + BAND_ROWS] = _srgb_encoded(_clipped(band, exposure), "UInt8")
         else:
             out[start:start + BAND_ROWS] = np.rint(_display_band(band, exposure, view) * 255.0)
         if rows_done is not None:
