@@ -10,7 +10,7 @@ STAMP   := $(VENV)/.installed
 SCENES  := $(wildcard scenes/*.scn)
 OUT     := out
 
-.PHONY: all demo test bench scenes setup llvm povray chromium clean
+.PHONY: all demo test bench scenes setup llvm povray chromium clean images
 
 all: demo
 
@@ -53,6 +53,10 @@ demo: scenes
 			--integrator path --spp 64 -q || exit 1; \
 	done
 	@echo "demo images in $(OUT)/demo/: NAME.png and NAME.exr (the article's model), NAME-path.png (Mitsuba's path tracer, 64 spp)"
+
+# The README's first picture: scenes/spheres.scn with the article's model and the path tracer.
+images: setup
+	$(PY) docs/images/first_look.py
 
 # Debian's Chromium, for the browser test of `whitted compare`'s report page
 # (tests/test_compare_page.py skips it without one): installed when missing and

@@ -11,6 +11,7 @@ Mitsuba nor Dr.Jit: conversion is text in, text out.
 from __future__ import annotations
 
 import os
+import sys
 from pathlib import Path
 
 from ..atomic import atomic_path
@@ -86,6 +87,16 @@ def plan(inputs: list[str | os.PathLike], output: str | os.PathLike | None = Non
     return pairs
 
 
+def mesh_note(target: Path, written: list) -> str:
+    """The one line that names the mesh files written beside ``target``, and why."""
+    size = sum(len(mesh.data) for mesh in written)
+    names = ", ".join(mesh.filename for mesh in written[:3]) + (", …" if len(written) > 3 else "")
+    return (f"whitted: note: wrote {names} ({size / 1e6:.1f} MB) beside {target.name}: the scene's "
+            f"{'giant sphere as a closed mesh' if len(written) == 1 else 'giant spheres as closed meshes'} "
+            f"for Mitsuba's path tracer, which float32 spheres that large would speckle "
+            f"(docs/numerics.md, hazard 14)")
+
+
 def convert_file(source: Path, target: Path, portable: bool = False) -> None:
     """Parse ``source`` and write its XML (``portable``: in stock plugins only) to ``target``
     atomically (nothing for an invalid scene), with the mesh files of its giant spheres
@@ -96,9 +107,12 @@ def convert_file(source: Path, target: Path, portable: bool = False) -> None:
         raise WhittedError(f"{target}: is a folder; give the output file's name")
     description = describe(scene, base_dir=target.parent, block=True)
     warn_precision(scene)
-    for mesh in meshes(description):   # giant spheres' meshes (.giants), before the XML that names them
+    written = meshes(description)
+    for mesh in written:   # giant spheres' meshes (.giants), before the XML that names them
         with atomic_path(target.parent / mesh.filename) as tmp:
             tmp.write_bytes(mesh.data)
+    if written:   # files the user did not ask for, some of them large: say what and why
+        print(mesh_note(target, written), file=sys.stderr)
     # atomic, written as it is made (a scene of a million spheres makes 150 MB of XML);
     # an OS error comes back as a one-line WhittedError
     with atomic_path(target) as tmp, open(tmp, "w", encoding="utf-8") as file:

@@ -16,10 +16,13 @@ import argparse
 import os
 import sys
 
-from .defaults import INTEGRATOR, INTEGRATORS, LIGHTING_MODES, VERSION
+from .defaults import INTEGRATOR, INTEGRATORS, LIGHTING_MODES, PATH_MIN_SPP, VERSION, VIEWS
 from .defaults import VARIANTS as SUPPORTED_VARIANTS
 from . import interrupt
 from .errors import EXIT_USER_ERROR, WhittedError, report
+
+#: Options a user may try from the scene format's keywords, and the option that does it.
+SCENE_KEYWORD_OPTIONS = {"--samples": "--spp", "--depth": "--max-depth", "--minweight": "--min-weight"}
 
 
 
@@ -71,7 +74,9 @@ def build_parser() -> argparse.ArgumentParser:
     render = sub.add_parser(
         "render", help="render a .scn or .xml scene to EXR or PNG",
         description="Render a scene with the article's Whitted model (default) or Mitsuba's "
-                    "path tracer. EXR stores linear RGB; PNG stores sRGB clipped to [0, 1].")
+                    "path tracer. EXR stores linear RGB as rendered; PNG stores what is displayed: "
+                    "8-bit sRGB after --exposure and a view transform (--view; the article's model: "
+                    "clipped to [0, 1], physically lit and path-traced images: tone-mapped).")
     render.add_argument("scene", help="the scene (.scn or converted .xml)")
     render.add_argument("-o", "--output", required=True, metavar="OUT",
                         help="output image, .exr (linear) or .png (sRGB)")
@@ -83,7 +88,9 @@ def build_parser() -> argparse.ArgumentParser:
     render.add_argument("--lighting", choices=LIGHTING_MODES, default=None,
                         help="how the whitted integrator lights the scene: the article's model "
                              "(default) or physically (inverse-square fall-off, albedo/pi, no ambient)")
-    render.add_argument("--spp", type=int, metavar="N", help="samples per pixel (default: the scene's)")
+    render.add_argument("--spp", type=int, metavar="N",
+                        help="samples per pixel (default: the scene's; the path tracer takes at least "
+                             f"{PATH_MIN_SPP})")
     render.add_argument("--max-depth", type=int, metavar="N",
                         help="maximum ray-tree depth; primary rays have depth 1 (default: the scene's)")
     render.add_argument("--ambient", type=float, metavar="A",
@@ -93,6 +100,13 @@ def build_parser() -> argparse.ArgumentParser:
                              "refracted rays untraced as long as together they cannot change a pixel "
                              "by more than W; --stats reports the bound reached (default: the "
                              "scene's, 1/255 unless it says; 0 traces the exact tree)")
+    render.add_argument("--exposure", type=float, default=0.0, metavar="EV",
+                        help="a PNG's exposure in stops: the image times 2^EV before the view "
+                             "(default 0; never applied to EXR)")
+    render.add_argument("--view", choices=VIEWS, default=None,
+                        help="a PNG's view transform: clip (sRGB clipped to [0, 1]; default for the "
+                             "article's model) or aces (OpenColorIO's ACES 2.0 SDR view, highlights "
+                             "rolled off; default for --lighting physical and --integrator path)")
     render.add_argument("--stats", metavar="FILE.json", help="write ray counts and timings as JSON")
     render.add_argument("-v", "--verbose", action="store_true", help="print a one-line summary")
     render.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
@@ -113,12 +127,30 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def suggestion(parser: argparse.ArgumentParser, unknown: list[str]) -> str:
+    """``(did you mean --spp?)`` for the first unknown option that resembles one of ``parser``'s
+    (a scene-format keyword as an option, or a near spelling), else ''."""
+    import difflib
+
+    options = [o for action in parser._actions for o in action.option_strings if o.startswith("--")]
+    for word in unknown:
+        name = word.split("=", 1)[0]
+        if not name.startswith("-"):
+            continue
+        if name.lower() in SCENE_KEYWORD_OPTIONS:
+            return f" (did you mean {SCENE_KEYWORD_OPTIONS[name.lower()]}?)"
+        close = difflib.get_close_matches(name, options, n=1, cutoff=0.6)
+        if close:
+            return f" (did you mean {close[0]}?)"
+    return ""
+
+
 def main(argv: list[str] | None = None) -> int:
     interrupt.install()
     parser = build_parser()
     args, unknown = parser.parse_known_args(argv)
     if unknown:   # the command's own usage, not the top-level one
-        args.parser.error(f"unrecognized arguments: {' '.join(unknown)}")
+        args.parser.error(f"unrecognized arguments: {' '.join(unknown)}{suggestion(args.parser, unknown)}")
     try:
         from .variant import check_environment
         check_environment()

@@ -87,8 +87,9 @@ def render_command(args) -> None:
     from .interrupt import deferred
     from .memory import peak_resident_bytes
     with deferred():   # numpy's C extension is not cut mid-import by a Ctrl-C (see deferred)
+        from .display import check_exposure, default_view
         from .imageio import image_format, write_image
-        from .rendering import check_settings, render
+        from .rendering import check_settings, render, whitted_settings
 
     output = Path(args.output)
     # Before the scene is loaded (seconds for a large one), though render checks them again.
@@ -99,16 +100,19 @@ def render_command(args) -> None:
         raise WhittedError(f"{args.stats}: the statistics would overwrite the image")
     check_writable(output, inputs=(args.scene,))   # what is wrong with the path first
     image_format(output)
+    exposure = check_exposure(getattr(args, "exposure", 0.0))
     if args.stats:
         check_writable(args.stats, inputs=(args.scene,))
 
     loaded = _load_quietly(args)   # the mi.Scene
     try:   # render checks the scene (a sensor; the article's materials) before it starts
         result = render(loaded, integrator=args.integrator, progress=not args.quiet,
-                        min_weight=args.min_weight)
+                        min_weight=args.min_weight, spp=args.spp)
     except WhittedError as error:
         raise WhittedError(f"{args.scene}: {error}") from None
-    write_image(output, result.image, progress=not args.quiet)
+    view = getattr(args, "view", None) or default_view(
+        args.integrator, args.lighting or whitted_settings(loaded)["lighting"])
+    write_image(output, result.image, progress=not args.quiet, exposure=exposure, view=view)
     result.stats["peak_resident_bytes"] = peak_resident_bytes()   # the writing included
     if args.stats:
         write_text(args.stats, json.dumps(result.stats, indent=2) + "\n")

@@ -63,6 +63,13 @@ LIGHTING = "article"
 #: the article's model, or Mitsuba's stock path tracer
 INTEGRATORS = ("whitted", "path")
 INTEGRATOR = "whitted"
+#: How an image is displayed (PNG, the compare page, notebooks; whitted/display.py): plain
+#: sRGB clipped to [0, 1], or OpenColorIO's ACES 2.0 SDR view (highlights rolled off)
+VIEWS = ("clip", "aces")
+#: The path tracer's samples per pixel when none are asked for and the scene asks for fewer:
+#: a scene's ``samples`` (1 by default) is anti-aliasing for the article's deterministic model;
+#: the path tracer at 1 spp is speckled noise.
+PATH_MIN_SPP = 64
 
 
 def user_cache_folder() -> "Path":

@@ -98,22 +98,17 @@ def load_scene(path: str | os.PathLike, variant: str | None = None, *, model=Non
     xml = path.suffix.lower() == ".xml"
     if xml or model is not None:
         check_scene_file(path)   # else parse_file checks it
+    if xml:
+        check_referenced_files(path)
     try:
         if xml:
             return mi.load_file(str(path), parallel=PARALLEL, **{k: str(v) for k, v in params.items()})
         from .converter import parse_file
-        from .converter.description import describe
         from .converter.frame import warn_precision
         if model is None:
             model = parse_file(path)
             warn_precision(model, integrator=integrator)
-        from . import sealed
-        grouping = None if ellipsoids is False else \
-            sealed.choose(model, min_group=1 if ellipsoids else sealed.MIN_GROUP,
-                          classes=sealed.MAX_LAYERS if integrator == "whitted" else 0)
-        if grouping is None:
-            return mi.load_dict(mitsuba_dict(describe(model, base_dir=None), params), parallel=PARALLEL)
-        return mi.load_dict(_sealed_dict(model, grouping, params), parallel=PARALLEL)
+        return _load_model(model, params, ellipsoids, integrator)
     except RuntimeError as error:
         unused = re.findall(r"^\s*- \$(\w+)=", str(error), re.M)
         if "unused parameters" in str(error) and unused:
@@ -121,6 +116,71 @@ def load_scene(path: str | os.PathLike, variant: str | None = None, *, model=Non
             raise WhittedError(f"{path}: the scene has no {' or '.join(unused)} to override") from None
         first = str(error).strip().splitlines()[0] if str(error).strip() else type(error).__name__
         raise WhittedError(f"{path}: Mitsuba could not load the scene: {first}") from None
+
+
+#: A file an XML scene names (a texture's image, a giant sphere's mesh): ``<string name="filename" value="…"/>``.
+_FILENAME = re.compile(rb'<string\s+name="filename"\s+value="([^"$]*)"')
+
+
+def check_referenced_files(path: Path) -> None:
+    """One clear error naming the path the XML gives when a file it names (a texture, a mesh)
+    is not where the XML says, relative to the XML's folder: Mitsuba would also look in the
+    current folder and quietly take a same-named file from there."""
+    import html
+
+    with open(path, "rb") as file:
+        data = file.read()
+    for match in dict.fromkeys(_FILENAME.findall(data)):
+        named = html.unescape(match.decode("utf-8", "replace"))
+        where = path.parent / named
+        if not where.is_file():
+            raise WhittedError(f"{path}: the file it names, {named}, does not exist (looked for {where})")
+
+
+def loads(text: str, variant: str | None = None, *, base_dir: str | os.PathLike = ".",
+          ellipsoids: bool | None = None, integrator: str = D.INTEGRATOR, **overrides):
+    """Load a scene from its text (what a ``.scn`` file holds) as a ``mi.Scene``: for notebooks
+    and scripts, ``whitted.loads("sphere 0 0 0 1\\nlight 5 5 5")``.
+
+    Texture paths are relative to ``base_dir`` (default: the current folder); errors name
+    the text as ``<text>:LINE``. ``variant``, ``ellipsoids``, ``integrator`` and
+    ``overrides`` (``spp``, ``max_depth``, ``ambient``, ``lighting``) are those of
+    :func:`load_scene`.
+    """
+    import mitsuba as mi  # noqa: F401  (the variant hook runs on import)
+
+    from .converter import parse_text
+    from .converter.frame import warn_precision
+    from .variant import set_variant
+    if not isinstance(text, str):
+        raise WhittedError(f"loads takes the scene's text as a str, got {type(text).__name__}")
+    set_variant(variant)
+    params = _checked(overrides)
+    model = parse_text(text, Path(base_dir) / TEXT_NAME)
+    warn_precision(model, integrator=integrator)
+    try:
+        return _load_model(model, params, ellipsoids, integrator)
+    except RuntimeError as error:
+        first = str(error).strip().splitlines()[0] if str(error).strip() else type(error).__name__
+        raise WhittedError(f"{TEXT_NAME}: Mitsuba could not load the scene: {first}") from None
+
+
+#: How :func:`loads` names scene text in messages (``<text>:3: ...``).
+TEXT_NAME = "<text>"
+
+
+def _load_model(model, params: dict, ellipsoids: bool | None, integrator: str):
+    """A parsed scene model as a ``mi.Scene`` (see :func:`load_scene`'s ``ellipsoids``)."""
+    import mitsuba as mi
+
+    from . import sealed
+    from .converter.description import describe
+    grouping = None if ellipsoids is False else \
+        sealed.choose(model, min_group=1 if ellipsoids else sealed.MIN_GROUP,
+                      classes=sealed.MAX_LAYERS if integrator == "whitted" else 0)
+    if grouping is None:
+        return mi.load_dict(mitsuba_dict(describe(model, base_dir=None), params), parallel=PARALLEL)
+    return mi.load_dict(_sealed_dict(model, grouping, params), parallel=PARALLEL)
 
 
 def _sealed_dict(model, grouping, params: dict) -> dict:

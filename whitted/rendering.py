@@ -181,7 +181,9 @@ def render(scene, integrator: str = D.INTEGRATOR, spp: int | None = None, max_de
     ``spp``, ``max_depth`` (the article's depth, primary rays being depth 1),
     ``lighting``, ``min_weight`` (the Whitted integrator's adaptive depth
     control, 0 = off) and ``ambient`` (the article's A, whitted only) default to
-    the scene's own settings. ``integrator="path"``
+    the scene's own settings; but the path tracer without ``spp`` takes at least
+    ``defaults.PATH_MIN_SPP`` (64) samples per pixel, not a scene's 1 (pass ``spp``
+    to choose: noise falls as 1/spp). ``integrator="path"``
     uses Mitsuba's ``path`` integrator with ``max_depth + 1`` (one more
     segment for the connection to a light); a scene whose own integrator is
     ``path`` (a portable scene) is rendered with it unless ``max_depth`` is given.
@@ -190,6 +192,7 @@ def render(scene, integrator: str = D.INTEGRATOR, spp: int | None = None, max_de
     import mitsuba as mi
 
     check_settings(spp, max_depth, lighting, integrator, min_weight)
+    spp_asked = spp
     if not scene.sensors():
         raise WhittedError("the scene has no sensor (camera) to render from")
     own = whitted_integrator(scene)
@@ -197,6 +200,8 @@ def render(scene, integrator: str = D.INTEGRATOR, spp: int | None = None, max_de
     depth = int(max_depth) if max_depth is not None else settings["max_depth"]
     sensor = scene.sensors()[0]
     spp = int(spp) if spp is not None else sensor.sampler().sample_count()
+    if integrator == "path" and spp_asked is None:
+        spp = max(spp, D.PATH_MIN_SPP)
     width, height = (int(c) for c in sensor.film().crop_size())
 
     if integrator == "whitted":

@@ -14,6 +14,7 @@ import time
 from pathlib import Path
 
 from ..defaults import VARIANTS as SUPPORTED_VARIANTS
+from ..defaults import VIEWS
 from .results import (DEFAULT_PATH_SPP, DEFAULT_REFERENCE_CHUNK_SPP,
                       DEFAULT_REFERENCE_SPP, DEFAULT_ROUNDS, DEFAULT_WHITTED_SPP, MAX_DEFAULT_DEPTH,
                       Options)
@@ -94,6 +95,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     where.add_argument("--scheduler", metavar="ADDRESS",
                        help="sweep on the Dask cluster of this scheduler, e.g. tcp://host:8786 "
                             "(workers started with whitted installed; see docs/cluster.md)")
+    parser.add_argument("--view", choices=VIEWS,
+                        help="how every image is displayed (PNGs, report page, contact sheet) and "
+                             "FLIP scores it: clip (sRGB clipped to [0, 1]) or aces (OpenColorIO's "
+                             "ACES 2.0 SDR view); default: per scene, clip unless that clips 1%% "
+                             "or more of the reference's pixels. The relative MSE reads linear values")
+    parser.add_argument("--exposure", type=float, default=0.0, metavar="EV",
+                        help="the displayed images' exposure in stops (default 0); FLIP scores them so")
     parser.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
 
 
@@ -108,7 +116,8 @@ def compare_command(args: argparse.Namespace) -> None:
                       rounds=args.rounds, budget=args.budget, levels=args.levels,
                       cache=Path(args.cache) if args.cache else None, variant=args.variant,
                       quiet=args.quiet, reference_chunk_spp=args.reference_chunk_spp,
-                      workers=args.workers, scheduler=args.scheduler)
+                      workers=args.workers, scheduler=args.scheduler, view=args.view,
+                      exposure=args.exposure)
     start = time.monotonic()
     entries = compare(args.scenes, options)
     skipped = sum(len(e.skipped) for e in entries)
@@ -127,5 +136,8 @@ def compare_command(args: argparse.Namespace) -> None:
               file=sys.stderr)
     if done == 0:
         print("whitted compare: no render was done (see the lines above for why)", file=sys.stderr)
-    print(f"\n{done} renders in {time.monotonic() - start:.1f} s; wrote {output_files(options.out)}",
+    # The progress bar counts every render, each Whitted method's limit too: so does this line.
+    limits = sum(len(e.limits) for e in entries)
+    counted = f"{done + limits} renders ({done} timed and scored, {limits} limits)" if limits else f"{done} renders"
+    print(f"\n{counted} in {time.monotonic() - start:.1f} s; wrote {output_files(options.out)}",
           file=sys.stderr)

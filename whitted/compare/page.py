@@ -22,11 +22,13 @@ from pathlib import Path
 
 from ..atomic import write_text
 from ..defaults import VERSION
+from ..display import view_text
 from .analysis import (METHOD_NAMES, TIMING, Analysis, equal_time_how, reach_text, speedup_text,
                        spread_text)
 from .curves import pareto_front
 from .errormaps import colorbar
 from .plot import COLORS
+from .verdict import verdict
 from .results import METHODS, WHITTED_LIGHTING, WHITTED_METHODS, Measurement, SceneResult, seconds_text
 from .timing import ratio_text
 
@@ -131,6 +133,8 @@ def scene_context(analysis: Analysis, plot: str, out: Path) -> dict:
         "methods": methods, "whitted": [WHITTED_LIGHTING[m] for m in whitted],
         "equal_quality": equal_quality, "equal_time": equal_time,
         "skipped": len(entry.skipped),
+        "verdict": verdict(analysis),
+        "view": view_text(entry.view, entry.exposure, entry.reference_clipped),
     }
 
 

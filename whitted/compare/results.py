@@ -216,6 +216,9 @@ class SceneResult:
                             :data:`IN_PROCESS` (every setting of a scene is rendered
                             by one worker, so its times compare)
     ``limits``              Whitted method -> its :class:`Limit` (absent: not rendered)
+    ``view``, ``exposure``  how every image of the scene is displayed (PNGs, page,
+                            contact sheet) and what FLIP scores (:mod:`whitted.display`)
+    ``reference_clipped``   the share of the reference's pixels plain sRGB would clip
     ======================= ===========================================================
     """
     name: str
@@ -240,6 +243,9 @@ class SceneResult:
     notes: list[str] = field(default_factory=list)
     worker: str = IN_PROCESS
     limits: dict[str, Limit] = field(default_factory=dict)
+    view: str = "clip"
+    exposure: float = 0.0
+    reference_clipped: float = math.nan
 
     def __post_init__(self):
         if not self.reference_requested:
@@ -281,6 +287,10 @@ class Options:
                             processes (None: in this process)
     ``scheduler``           sweep on the Dask cluster of this scheduler
                             (``tcp://host:port``; None: in this process)
+    ``view``                how every image is displayed and FLIP scores it ("clip" or
+                            "aces"; None: per scene, :func:`whitted.display.fitting_view`
+                            of its reference)
+    ``exposure``            the displayed images' exposure, in stops
     ======================= ==========================================================
     """
     out: Path
@@ -298,6 +308,8 @@ class Options:
     reference_chunk_spp: int = DEFAULT_REFERENCE_CHUNK_SPP
     workers: int | None = None
     scheduler: str | None = None
+    view: str | None = None
+    exposure: float = 0.0
 
     @property
     def cache_folder(self) -> Path:

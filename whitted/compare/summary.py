@@ -13,6 +13,7 @@ import math
 from .analysis import TIMING, Analysis, equal_time_how, reach_text, speedup_text
 from .results import WHITTED_LIGHTING, WHITTED_METHODS, seconds_text
 from .timing import ratio_text
+from .verdict import verdict
 
 SUMMARY_NAME = "summary.txt"
 FINDINGS_NAME = "findings.json"
@@ -68,6 +69,7 @@ def summary(analyses: list[Analysis], equal_time: bool = True,
         noise = f", its noise ≈ {entry.reference_noise:.3g}" if noisy else ""
         lines += ["", f"{entry.name} ({entry.width}×{entry.height}; reference: path tracer, "
                       f"{entry.reference_spp} spp{noise})"]
+        lines += [f"  {verdict(analysis)}"]
         lines += [f"  note: {note}" for note in entry.notes]
         lines += [f"  {floor.text}" for floor in analysis.floors]
         lines += [f"  {decomposition.text}" for decomposition in analysis.decompositions]

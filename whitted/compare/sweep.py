@@ -15,7 +15,10 @@ settings are timed together, in rounds (:mod:`.timing`: every setting once per
 round, so that what is compared is timed in the same moments of a busy machine).
 Kernel compilation is excluded (``result.seconds`` of the rendering API, and the
 scored render compiled every kernel before the rounds) and reported apart
-(``compile_seconds``). Error is measured on linear images (:mod:`whitted.metrics`).
+(``compile_seconds``). The relative MSE is measured on the linear images, FLIP on the
+images as displayed (:mod:`whitted.metrics`): every image of a scene is shown in one
+view, chosen from its reference (:func:`whitted.display.fitting_view`) unless ``--view``
+names one.
 
 After its renders, each Whitted method's limit is rendered (:mod:`.limits`) and every
 render of the method scored against it too.
@@ -37,6 +40,7 @@ from .. import imageio, metrics
 from .. import rendering  # rendering.render looked up at call time: tests count calls
 from ..defaults import (COMPARE_CLOCK, COMPARE_MAX_ROUNDS, COMPARE_ROUND_REPEATS, COMPARE_ROUND_SECONDS,
                         COMPARE_ROUNDS_SECONDS)
+from ..display import clipped_fraction, fitting_view, to_srgb
 from .analysis import analyse
 from .budget import Budget
 from .errormaps import write_render
@@ -73,17 +77,20 @@ def _work(setting: Setting, result) -> int:
 
 
 def measure(loaded, setting: Setting, reference: np.ndarray,
-            out: Path | None = None, folder: str = "") -> Measurement:
+            out: Path | None = None, folder: str = "", exposure: float = 0.0,
+            view: str = "clip") -> Measurement:
     """Render ``setting`` of ``loaded`` (an ``mi.Scene``) once and score the image against
     ``reference``; its time is that render's until :func:`time_rounds` times it. With
-    ``out``, the image and its error map are kept under ``out / folder``."""
+    ``out``, the image and its error map are kept under ``out / folder``. FLIP, the PNG and
+    the thumbnail see the image as displayed with ``exposure`` and ``view``."""
     result = _render(loaded, setting)
     image = np.asarray(result.image, dtype=np.float32)
-    error_map, flip = metrics.flip_map(image, reference)
-    files = write_render(out, f"{folder}/{setting.slug}", image, error_map) if out is not None else {}
+    error_map, flip = metrics.flip_map(image, reference, exposure, view)
+    files = (write_render(out, f"{folder}/{setting.slug}", image, error_map, exposure, view)
+             if out is not None else {})
     return Measurement(setting, _seconds(result), float(result.compile_seconds),
                        metrics.relative_mse(image, reference), flip, _work(setting, result),
-                       thumbnail(image), **files)
+                       thumbnail(image, exposure=exposure, view=view), **files)
 
 
 def time_rounds(loaded, entry: SceneResult, rounds: int, deadline: float = math.inf,
@@ -187,10 +194,14 @@ def sweep_scene(scene: SceneFile, entry: SceneResult, settings: list[Setting], o
         return entry
     if progress is not None:  # the estimate of the time left: from the renders' own rate
         progress.unpause()
-    entry.reference_thumbnail = thumbnail(reference)
+    # One view for every image of the scene, chosen from its reference (display.fitting_view)
+    entry.exposure = options.exposure
+    entry.reference_clipped = clipped_fraction(to_srgb(reference, entry.exposure, "clip"))
+    entry.view = options.view or fitting_view(reference, entry.exposure)
+    entry.reference_thumbnail = thumbnail(reference, exposure=entry.exposure, view=entry.view)
     entry.reference_png = f"{entry.folder}/reference.png"  # its EXR is the cache's
     (out / entry.folder).mkdir(parents=True, exist_ok=True)
-    imageio.write_image(out / entry.reference_png, reference)
+    imageio.write_image(out / entry.reference_png, reference, exposure=entry.exposure, view=entry.view)
     settings = _below_the_reference(entry, settings, progress)
     done: list[tuple[Setting, float, float]] = []
     overran = 0
@@ -203,7 +214,8 @@ def sweep_scene(scene: SceneFile, entry: SceneResult, settings: list[Setting], o
             overran += 1
         else:
             start = time.monotonic()
-            measurement = measure(loaded, setting, reference, out, entry.folder)
+            measurement = measure(loaded, setting, reference, out, entry.folder, entry.exposure,
+                                  entry.view)
             entry.measurements.append(measurement)
             done.append((setting, measurement.seconds, time.monotonic() - start))
         if progress is not None:
