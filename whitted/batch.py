@@ -28,8 +28,9 @@ servers on 127.0.0.1 only and stopped, each worker prepared once with its share 
 the cores, one render at a time, a stop ends the renders under way). Only paths and
 settings travel: a worker loads, renders and writes the scene itself (the outputs'
 folder must be shared), and returns its statistics. A worker that dies has its
-scenes rendered by another; an image depends on its scene and settings alone, so the
-images are those of a run in one process.
+scenes rendered by another (and the temporary file it was writing removed once every
+task has ended); an image depends on its scene and settings alone, so the images are
+those of a run in one process.
 """
 
 from __future__ import annotations
@@ -338,6 +339,7 @@ def _on_cluster(todo, settings: Settings, keep: bool, workers: int | None,
                                    tuple(str(Path(p).resolve()) for p in outputs), settings, keep,
                                    threads, key=f"whitted-render-{k}-{Path(scene).stem}-{run}", pure=False)
             tasks[future] = (scene, outputs)
+        finished = False
         try:
             for future in as_completed(list(tasks), loop=client.loop):
                 scene, outputs = tasks.pop(future)
@@ -348,12 +350,27 @@ def _on_cluster(todo, settings: Settings, keep: bool, workers: int | None,
                 else:
                     item.scene, item.outputs = scene, outputs   # the user's paths
                 yield item
+            finished = True
         except BaseException:
             if tasks:
                 client.cancel(list(tasks), force=True)
                 with contextlib.suppress(Exception):   # the renders under way end too
                     client.run(stop_rendering, wait=True)
             raise
+        finally:
+            if finished:   # every task has ended: what a killed worker was writing is litter
+                _remove_leftovers(outputs for _, outputs in todo)
+
+
+def _remove_leftovers(outputs) -> None:
+    """Delete the temporary files that workers killed while writing left beside ``outputs``
+    (:func:`whitted.atomic.leftovers`)."""
+    from .atomic import leftovers
+    for images in outputs:
+        for image in images:
+            for litter in leftovers(image):
+                with contextlib.suppress(OSError):
+                    litter.unlink()
 
 
 # --------------------------------------------------------------------------- the run's stats
