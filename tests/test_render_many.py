@@ -168,25 +168,31 @@ def test_render_scenes_yields_each_scene(tmp_path):
 
 
 def decoded(path: Path) -> tuple[int, tuple[int, int], np.ndarray]:
-    """(frames, (width, height), first frame) of a video, read back by imageio's FFmpeg."""
+    """(frames, (width, height), the frames) of a video, read back by imageio's FFmpeg."""
     import imageio.v3 as iio
     frames = iio.imread(path, plugin="FFMPEG", index=None)
-    return frames.shape[0], (frames.shape[2], frames.shape[1]), frames[0]
+    return frames.shape[0], (frames.shape[2], frames.shape[1]), frames
 
 
 def test_video_decodes_to_the_frames(tmp_path, capsys):
-    """--video after the render, and whitted video from the images: the file decodes to as
-    many frames as scenes, of the frames' size (odd sizes padded by one), showing the
-    first frame (H.264 is lossy: close, not equal)."""
+    """--video after a render that resumed (frames up to date and rendered mixed), and
+    whitted video from the images: the file decodes to as many frames as scenes, of the
+    frames' size (odd sizes padded by one), each showing its frame, in the scenes' order
+    (H.264 is lossy: the nearest of the images, not equal to it)."""
     write_frames(tmp_path / "frames", 5, width=41, height=27)
     out, video = tmp_path / "out", tmp_path / "film.mp4"
+    assert main(["render", str(tmp_path / "frames"), "-o", f"{out}/", "-q"]) == 0
+    (out / "frame002.png").unlink()
     assert main(["render", str(tmp_path / "frames"), "-o", f"{out}/", "--video", str(video),
                  "--fps", "5", "-q"]) == 0
-    assert f"wrote {video} (5 frames at 5 fps)" in capsys.readouterr().err
-    count, size, first = decoded(video)
+    err = capsys.readouterr().err
+    assert "rendered 1 of 5 scenes, 4 up to date" in err and f"wrote {video} (5 frames at 5 fps)" in err
+    count, size, frames = decoded(video)
     assert (count, size) == (5, (42, 28))
-    png = np.array(mi.Bitmap(str(out / "frame000.png")), dtype=np.float64)
-    assert np.abs(first[:27, :41].astype(np.float64) - png).mean() < 6   # of 255
+    pngs = [np.array(mi.Bitmap(str(out / f"frame{k:03d}.png")), dtype=np.float64) for k in range(5)]
+    for k, frame in enumerate(frames):
+        errors = [np.abs(frame[:27, :41].astype(np.float64) - png).mean() for png in pngs]
+        assert errors[k] < 6 and int(np.argmin(errors)) == k, errors   # of 255
 
     again = tmp_path / "again.mkv"
     assert main(["video", str(out), "-o", str(again), "--fps", "12", "-q"]) == 0

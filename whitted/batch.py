@@ -254,7 +254,7 @@ def render_scenes(scenes: Iterable[str | os.PathLike], out: str | os.PathLike | 
     """
     settings = settings if settings is not None else Settings(**options)
     settings.check()
-    skipped, todo = plan_batch(scenes, out, formats, force)
+    _, skipped, todo = plan_batch(scenes, out, formats, force)
     yield from skipped
     yield from render_planned(todo, settings, out is None if keep_images is None else keep_images,
                               workers, scheduler)
@@ -262,9 +262,10 @@ def render_scenes(scenes: Iterable[str | os.PathLike], out: str | os.PathLike | 
 
 def plan_batch(scenes: Iterable[str | os.PathLike], out: str | os.PathLike | None,
                formats: Iterable[str] = ("png",), force: bool = False):
-    """``(skipped, todo)``: the scenes whose images are up to date (as :class:`SceneRender`)
-    and the (scene, outputs) pairs to render, in the plan's order; the output folders are
-    checked, and the one ``out`` names created, before anything is rendered."""
+    """``(plan, skipped, todo)``: every (scene, outputs) pair in the order of the inputs
+    (a video's frame order), the scenes whose images are up to date (as
+    :class:`SceneRender`) and the pairs to render; the output folders are checked, and
+    the one ``out`` names created, before anything is rendered."""
     plan = plan_outputs([os.fspath(s) for s in scenes], out, formats)
     if out is not None:
         from .converter.batch import prepare_folders
@@ -275,7 +276,7 @@ def plan_batch(scenes: Iterable[str | os.PathLike], out: str | os.PathLike | Non
             skipped.append(SceneRender(scene, outputs, "skipped"))
         else:
             todo.append((scene, outputs))
-    return skipped, todo
+    return plan, skipped, todo
 
 
 def render_planned(todo: list[tuple[Path, tuple[Path, ...]]], settings: Settings, keep_images: bool = False,

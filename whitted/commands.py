@@ -135,8 +135,7 @@ def render_many_command(args) -> int:
         check_video_path(args.video)
         check_fps(args.fps)
     formats = args.format or ["png"]
-    skipped, todo = plan_batch(args.scenes, args.output, formats, args.force)
-    planned = [(item.scene, item.outputs) for item in skipped] + todo
+    planned, skipped, todo = plan_batch(args.scenes, args.output, formats, args.force)
     images = {Path(p).resolve() for _, outputs in planned for p in outputs}
     for extra in (args.stats, args.video):
         if extra and Path(extra).resolve() in images:
@@ -150,8 +149,9 @@ def render_many_command(args) -> int:
     interrupted = True
     bar = progress_bar(not args.quiet, len(planned), "render", unit="scene", unit_scale=False,
                        initial=len(skipped))
+    rendering = render_planned(todo, settings, workers=args.workers, scheduler=args.scheduler)
     try:
-        for item in render_planned(todo, settings, workers=args.workers, scheduler=args.scheduler):
+        for item in rendering:
             tally.add(item)
             if item.status == "failed":
                 report_failure(item, lambda line: bar.write(line, file=sys.stderr))
@@ -162,10 +162,11 @@ def render_many_command(args) -> int:
             bar.update(1)
         interrupted = False
     finally:
+        rendering.close()   # a cluster's tasks cancelled and the cluster stopped now, not later
         bar.close()
         if interrupted and interrupt.requested():
-            interrupt.tell(f"{tally.count('rendered') + tally.count('skipped')} of {len(planned)} "
-                           f"scenes' images in {args.output} are whole; rerun to go on")
+            interrupt.tell(f"the images of {tally.count('rendered') + tally.count('skipped')} of "
+                           f"{len(planned)} scenes are in {args.output}; run it again to render the rest")
             if args.stats:
                 with interrupt.deferred():
                     write_text(args.stats, json.dumps(tally.json(interrupted=True), indent=2) + "\n")

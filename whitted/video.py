@@ -20,6 +20,8 @@ from .errors import WhittedError
 
 #: the containers written (H.264 in each)
 VIDEO_SUFFIXES = (".mp4", ".mkv", ".mov")
+#: imageio-ffmpeg's quality, 0 to 10 (its default 5 blurs small frames: 5 levels of 255 off on 40x26)
+QUALITY = 8
 #: frames per second unless told
 DEFAULT_FPS = D.DEFAULT_FPS
 #: the images a folder of frames stands for, in this order of preference
@@ -105,7 +107,7 @@ def write_video(path: str | os.PathLike, frames: list[Path], fps: float = DEFAUL
             progress_bar(progress, len(frames), f"encoding {path.name}", unit="frame", unit_scale=False) as bar:
         try:
             writer = iio.get_writer(str(tmp), format="FFMPEG", mode="I", fps=fps, codec="libx264",
-                                    pixelformat="yuv420p", macro_block_size=1, ffmpeg_log_level="error",
+                                    quality=QUALITY, pixelformat="yuv420p", macro_block_size=1, ffmpeg_log_level="error",
                                     output_params=["-movflags", "+faststart"]
                                     if path.suffix.lower() in (".mp4", ".mov") else None)
         except (OSError, RuntimeError) as error:
