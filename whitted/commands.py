@@ -121,7 +121,7 @@ def render_many_command(args) -> int:
     skipped unless ``--force``; 2 if any scene failed (:mod:`whitted.batch`)."""
     from . import interrupt
     from .atomic import check_writable, write_text
-    from .batch import Settings, Tally, plan_batch, render_planned, report_failure
+    from .batch import IN_PROCESS, Settings, Tally, plan_batch, render_planned, report_failure
     from .progress import progress_bar
 
     settings = Settings(integrator=args.integrator, spp=args.spp, max_depth=args.max_depth,
@@ -156,7 +156,7 @@ def render_many_command(args) -> int:
             if item.status == "failed":
                 report_failure(item, lambda line: bar.write(line, file=sys.stderr))
             elif args.verbose:
-                where = f" on {item.worker}" if item.worker != "in-process" else ""
+                where = f" on {item.worker}" if item.worker != IN_PROCESS else ""
                 bar.write(f"whitted: wrote {', '.join(map(str, item.outputs))} "
                           f"({item.seconds:.2f} s{where})", file=sys.stderr)
             bar.update(1)

@@ -107,7 +107,8 @@ def write_video(path: str | os.PathLike, frames: list[Path], fps: float = DEFAUL
             progress_bar(progress, len(frames), f"encoding {path.name}", unit="frame", unit_scale=False) as bar:
         try:
             writer = iio.get_writer(str(tmp), format="FFMPEG", mode="I", fps=fps, codec="libx264",
-                                    quality=QUALITY, pixelformat="yuv420p", macro_block_size=1, ffmpeg_log_level="error",
+                                    quality=QUALITY, pixelformat="yuv420p", macro_block_size=1,
+                                    ffmpeg_log_level="error",
                                     output_params=["-movflags", "+faststart"]
                                     if path.suffix.lower() in (".mp4", ".mov") else None)
         except (OSError, RuntimeError) as error:
