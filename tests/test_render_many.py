@@ -306,3 +306,24 @@ def _session(sid: int) -> list[int]:
         except (ProcessLookupError, PermissionError):
             pass
     return left
+
+
+# --------------------------------------------------------------------------- giants, once per frame
+
+
+@pytest.mark.parametrize("name", ["floor", "wall"])
+def test_giants_stay_spheres_for_the_whitted_integrator_alone(variant, write_scene, name):
+    """A floor of radius 10^4 is a fine mesh for Mitsuba's own integrators (converter/giants.py):
+    its acceleration structure takes far longer to build than a small frame to render. The
+    whitted integrator intersects it in float64 and never traces its shape, so loading it
+    as a sphere (``meshes=False``, what ``whitted render`` does) gives the same image, bit
+    for bit, with no mesh in the scene."""
+    text = frame_text(1, 4).replace("sphere 0 -100 0 100", "sphere 0 -10000 0 10000")
+    if name == "wall":   # a giant that is not below the eye, and seen through glass
+        text += "sphere 0 0 -10010 10000 color 0.3 0.3 0.9 reflect 0.2\n"
+    scene = write_scene(text)
+    meshed, plain = whitted.load_scene(scene), whitted.load_scene(scene, meshes=False)
+    assert any(shape.is_mesh() for shape in meshed.shapes())   # the floor at least
+    assert not any(shape.is_mesh() for shape in plain.shapes())
+    assert len(plain.shapes()) == len(meshed.shapes())
+    np.testing.assert_array_equal(whitted.render(plain).image, whitted.render(meshed).image)

@@ -204,7 +204,8 @@ def render_one(scene: Path, outputs: tuple[Path, ...], settings: Settings,
     try:
         with quiet_mitsuba():
             loaded = load_scene(scene, variant=settings.variant, integrator=settings.integrator,
-                                spp=settings.spp, max_depth=settings.max_depth, ambient=settings.ambient,
+                                meshes=settings.integrator != "whitted", spp=settings.spp,
+                                max_depth=settings.max_depth, ambient=settings.ambient,
                                 lighting=settings.lighting)
         try:
             result = render(loaded, integrator=settings.integrator, min_weight=settings.min_weight)

@@ -62,7 +62,8 @@ def _load_quietly(args):
     from .loading import load_scene
     from .rendering import quiet_mitsuba
     with quiet_mitsuba():
-        return load_scene(args.scenes[0], variant=args.variant, integrator=args.integrator, spp=args.spp,
+        return load_scene(args.scenes[0], variant=args.variant, integrator=args.integrator,
+                          meshes=args.integrator != "whitted", spp=args.spp,
                           max_depth=args.max_depth, ambient=args.ambient, lighting=args.lighting)
 
 
