@@ -65,6 +65,19 @@ INTEGRATORS = ("whitted", "path")
 INTEGRATOR = "whitted"
 
 
+def user_cache_folder() -> "Path":
+    """Where whitted keeps what it may compute again but would rather not (the compare
+    command's path-traced references): ``$XDG_CACHE_HOME/whitted``, or
+    ``~/.cache/whitted`` where that variable is unset, empty or not an absolute path (as
+    the XDG base directory specification says to treat it). Deleting it is always safe."""
+    import os
+    from pathlib import Path
+    base = os.environ.get("XDG_CACHE_HOME", "")
+    if not os.path.isabs(base):
+        base = os.path.join(os.path.expanduser("~"), ".cache")
+    return Path(base) / "whitted"
+
+
 def path_depth(depth: int) -> int:
     """Mitsuba ``path``'s ``max_depth`` for the article's depth N: N + 1 (docs/radiometry.md,
     "Depth": N surface interactions, each connected to the lights by one more segment)."""
@@ -91,12 +104,19 @@ FALLBACK_VARIANT = "scalar_rgb"
 COMPARE_REFERENCE_SPP = 4096              #: the path-traced reference's samples per pixel
 COMPARE_WHITTED_SPP = (1, 4, 16)          #: the Whitted sweep's spp ladder
 COMPARE_PATH_SPP = (1, 4, 16, 64, 256, 1024)   #: the path tracer's spp ladder
-COMPARE_REPEATS = 3                       #: timed repeats of each render (the fastest is reported)
-#: Timing on a busy machine: other processes only ever add time, so a render's time is its
-#: fastest repeat; while the two fastest differ by more than this fraction, the fastest is
-#: not yet trusted and the render is timed again, at most COMPARE_MAX_EXTRA_REPEATS more times.
-COMPARE_SPREAD_LIMIT = 0.2
-COMPARE_MAX_EXTRA_REPEATS = 4
+#: Timing on a busy machine (whitted/compare/timing.py): once every setting of a scene is
+#: rendered and scored, each is timed once per round, the rounds interleaved, at least
+#: COMPARE_ROUNDS rounds; more while a headline ratio's interval (COMPARE_CONFIDENCE, for
+#: the median of its paired per-round ratios) is wider than 1 + COMPARE_SETTLED_WIDTH, up to
+#: COMPARE_MAX_ROUNDS rounds and COMPARE_ROUNDS_SECONDS of extra rounds per scene.
+COMPARE_ROUNDS = 5
+COMPARE_MAX_ROUNDS = 15
+COMPARE_ROUNDS_SECONDS = 60.0
+COMPARE_CONFIDENCE = 0.9
+COMPARE_SETTLED_WIDTH = 0.25
+#: The clock a render's time is read on: "cpu" (the process's CPU time, every thread's)
+#: or "wall"; docs/compare.md says which is steadier on a loaded machine, measured.
+COMPARE_CLOCK = "wall"
 #: The equal-quality table's levels, from the data: each method's floor times (1 + this
 #: tolerance), and this many levels spaced evenly on log axes between the best and worst
 #: errors measured (--levels replaces them all).

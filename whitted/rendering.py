@@ -76,6 +76,7 @@ class RenderResult:
     seconds: float           # render time, kernel compilation excluded
     compile_seconds: float   # kernel compilation (0 when every kernel was cached)
     stats: dict              # see the module docstring
+    cpu_seconds: float = float("nan")   # the process's CPU time (every thread's), compilation excluded
 
 
 def whitted_integrator(scene):
@@ -145,11 +146,13 @@ class _Clock:
             dr.detail.malloc_clear_statistics()
         reset_peak()
         self.start = time.perf_counter()
+        self.cpu_start = time.process_time()
         return self
 
     def __exit__(self, *exc):
         import drjit as dr
         self.wall = time.perf_counter() - self.start
+        self.cpu = time.process_time() - self.cpu_start
         self.compile = 0.0
         self.peak_resident = peak_resident_bytes()
         if self.jit:
@@ -164,6 +167,10 @@ class _Clock:
     @property
     def seconds(self) -> float:
         return max(0.0, self.wall - self.compile)
+
+    @property
+    def cpu_seconds(self) -> float:
+        return max(0.0, self.cpu - self.compile)   # compiling is one thread's work
 
 
 def render(scene, integrator: str = D.INTEGRATOR, spp: int | None = None, max_depth: int | None = None,
@@ -220,7 +227,7 @@ def render(scene, integrator: str = D.INTEGRATOR, spp: int | None = None, max_de
     stats = {"rays": stats_rays, "seconds": clock.seconds, "compile_seconds": clock.compile,
              "effects": effects, "peak_memory_bytes": clock.peak_memory,
              "peak_resident_bytes": clock.peak_resident, **adaptive}
-    return RenderResult(np.ascontiguousarray(image), clock.seconds, clock.compile, stats)
+    return RenderResult(np.ascontiguousarray(image), clock.seconds, clock.compile, stats, clock.cpu_seconds)
 
 
 def check_article_materials(scene, name: str | None = None) -> None:

@@ -15,7 +15,7 @@ from pathlib import Path
 
 from ..defaults import VARIANTS as SUPPORTED_VARIANTS
 from .results import (DEFAULT_PATH_SPP, DEFAULT_REFERENCE_CHUNK_SPP,
-                      DEFAULT_REFERENCE_SPP, DEFAULT_REPEATS, DEFAULT_WHITTED_SPP, MAX_DEFAULT_DEPTH,
+                      DEFAULT_REFERENCE_SPP, DEFAULT_ROUNDS, DEFAULT_WHITTED_SPP, MAX_DEFAULT_DEPTH,
                       Options)
 
 
@@ -69,16 +69,18 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              f"{','.join(map(str, DEFAULT_PATH_SPP))})")
     parser.add_argument("--path-depth", type=int, metavar="N",
                         help="the path tracer's max depth, for the reference too (default: the scene's)")
-    parser.add_argument("--repeats", type=int, default=DEFAULT_REPEATS, metavar="N",
-                        help="timed renders per setting; the fastest is kept, and a setting whose "
-                             f"two fastest disagree is timed a few more times (default {DEFAULT_REPEATS})")
+    parser.add_argument("--rounds", type=int, default=DEFAULT_ROUNDS, metavar="N",
+                        help="timed rounds over each scene's renders, at least: every render is "
+                             "timed once per round, so that methods are timed in the same moments; "
+                             f"more rounds while a headline ratio is unsettled (default {DEFAULT_ROUNDS})")
     parser.add_argument("--budget", type=float, metavar="SECONDS",
                         help="bound the whole command's time: renders that would overrun are skipped")
     parser.add_argument("--levels", type=float_list, metavar="LIST",
                         help="relative MSE levels of the equal-quality table, e.g. 0.1,0.03 "
                              "(default: from the data: each method's floor, and levels between "
                              "the best and worst errors measured)")
-    parser.add_argument("--cache", metavar="DIR", help="where references are cached (default DIR/references)")
+    parser.add_argument("--cache", metavar="DIR", help="where references are cached (default: ~/.cache/whitted/references, or "
+                             "$XDG_CACHE_HOME/whitted/references; shared by every run; safe to delete)")
     parser.add_argument("--variant", choices=SUPPORTED_VARIANTS,
                         help="Mitsuba variant (default as for render)")
     parser.add_argument("--reference-chunk-spp", type=int, default=DEFAULT_REFERENCE_CHUNK_SPP,
@@ -103,7 +105,7 @@ def compare_command(args: argparse.Namespace) -> None:
 
     options = Options(out=Path(args.out), reference_spp=args.reference_spp, depths=args.depths,
                       whitted_spp=args.spp, path_spp=args.path_spp, path_depth=args.path_depth,
-                      repeats=args.repeats, budget=args.budget, levels=args.levels,
+                      rounds=args.rounds, budget=args.budget, levels=args.levels,
                       cache=Path(args.cache) if args.cache else None, variant=args.variant,
                       quiet=args.quiet, reference_chunk_spp=args.reference_chunk_spp,
                       workers=args.workers, scheduler=args.scheduler)

@@ -2,8 +2,8 @@
 scene's own plot, for the page), with each front point labelled where its label fits.
 
 How to read it: relative MSE on the left and FLIP on the right, against the render
-time (the fastest repeat, compilation excluded; the bars reach to the slowest
-repeat), both axes logarithmic. Each method has one colour (:data:`COLORS`, the
+time (the median of its timed rounds, compilation excluded; the bars reach the fastest
+and slowest round), both axes logarithmic. Each method has one colour (:data:`COLORS`, the
 page's too); its faint dots are every setting that was rendered, and its line joins
 the settings that no faster setting of the same method beats (its Pareto front):
 the best error that method buys for a given time. Only the front's points are
@@ -133,7 +133,7 @@ def plot_error_vs_time(path: str | os.PathLike, entries: list[SceneResult]) -> N
             ax.set_xscale("log")
             ax.set_yscale("log")
             _time_axis(ax, [x for x, _ in points])
-            ax.set_xlabel("render time (fastest repeat; bars: to the slowest)")
+            ax.set_xlabel("render time (median of rounds; bars: fastest to slowest)")
             ax.set_ylabel(f"{name} vs reference")
             ax.grid(True, which="both", alpha=0.2)
             pending.append((ax, labels, points, lines))

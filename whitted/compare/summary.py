@@ -12,6 +12,7 @@ import math
 
 from .analysis import TIMING, Analysis, equal_time_how, reach_text, speedup_text
 from .results import WHITTED_LIGHTING, WHITTED_METHODS, seconds_text
+from .timing import ratio_text
 
 SUMMARY_NAME = "summary.txt"
 FINDINGS_NAME = "findings.json"
@@ -42,7 +43,7 @@ def equal_time_lines(analysis: Analysis) -> list[str]:
         compared = row.rel_mse is not None and row.outside is None
         rows.append([m.setting.method, m.setting.label, seconds_text(m.seconds), f"{m.rel_mse:.3g}",
                      f"{row.rel_mse.value:.3g}" if compared else "—",
-                     f"{row.ratio:.3g}" if math.isfinite(row.ratio) else "—", f"{m.flip:.3g}",
+                     ratio_text(row.interval) if math.isfinite(row.ratio) else "—", f"{m.flip:.3g}",
                      f"{row.flip.value:.3g}" if compared and row.flip else "—", equal_time_how(row)])
     return _table(rows)
 
