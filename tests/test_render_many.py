@@ -239,6 +239,8 @@ def test_ctrl_c_mid_sequence_leaves_whole_frames(tmp_path):
     assert 3 <= len(written) < frames
     for image in written:
         assert read_image(image).shape == (100, 160, 3)
+    assert err.strip().splitlines()[-1] == (f"whitted: interrupted; the images of {len(written)} of "
+                                            f"{frames} scenes are in out/; run it again to render the rest")
     stamps = {p.name: p.stat().st_mtime_ns for p in written}
     assert main(["render", str(tmp_path / "frames"), "-o", f"{out}/", "--format", "exr", "-q"]) == 0
     assert len(images(out)) == frames

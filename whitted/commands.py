@@ -166,8 +166,10 @@ def render_many_command(args) -> int:
         rendering.close()   # a cluster's tasks cancelled and the cluster stopped now, not later
         bar.close()
         if interrupted and interrupt.requested():
-            interrupt.tell(f"the images of {tally.count('rendered') + tally.count('skipped')} of "
-                           f"{len(planned)} scenes are in {args.output}; run it again to render the rest")
+            # counted on disk: a worker may have written a scene whose result had not come back
+            whole = sum(all(p.exists() for p in outputs) for _, outputs in planned)
+            interrupt.tell(f"the images of {whole} of {len(planned)} scenes are in {args.output}; "
+                           "run it again to render the rest")
             if args.stats:
                 with interrupt.deferred():
                     write_text(args.stats, json.dumps(tally.json(interrupted=True), indent=2) + "\n")
