@@ -80,12 +80,14 @@ povray: $(STAMP)
 	@$(PY) benchmarks/povray.py --install
 
 # Speed against Mitsuba's own integrators and the ray-casting floor, then against POV-Ray 3.7
-# on the sphereflake, levels 1-6 on floors of radius 10^3 and 10^4 (benchmarks/RESULTS.md); `make bench
-# BENCHFLAGS=--quick` for a short run (levels 1-3).
+# on the sphereflake, levels 1-6 on floors of radius 10^3 and 10^4 (benchmarks/RESULTS.md), then
+# a 48-frame sequence by POV-Ray and whitted a process per frame against `whitted render FRAMES/`
+# in one process (benchmarks/frames.py); `make bench BENCHFLAGS=--quick` for a short run.
 BENCHFLAGS ?=
 bench: setup povray
 	$(PY) benchmarks/run.py $(BENCHFLAGS)
 	$(PY) benchmarks/vs_povray.py $(BENCHFLAGS)
+	$(PY) benchmarks/frames.py $(BENCHFLAGS)
 
 clean:
 	rm -rf $(OUT) .pytest_cache .hypothesis

@@ -71,7 +71,8 @@ def shell_lines() -> list[str]:
 
 @pytest.fixture(scope="module")
 def workdir(tmp_path_factory):
-    """A folder like the repository's, its example scenes shrunk to 24x16 pixels."""
+    """A folder like a fresh clone of the repository (no out/), its example scenes shrunk to
+    24x16 pixels. The shell lines run in it one after the other, as a user types them."""
     root = tmp_path_factory.mktemp("readme")
     shutil.copytree(REPO / "scenes", root / "scenes",
                     ignore=shutil.ignore_patterns("*.xml", "__pycache__"))
@@ -85,7 +86,7 @@ def workdir(tmp_path_factory):
     for portable in ([], ["--portable"]):
         subprocess.run([sys.executable, "-m", "whitted", "convert", "scenes", "-o", "scenes_xml", *portable],
                        cwd=root, env=env, check=True)
-    (root / "out").mkdir()   # as `make demo`, the README's first command, leaves it
+    # No out/: the README's blocks must run from a fresh clone, before `make demo` makes it.
     # A checkout of its own, ignoring what the repository ignores: the README's commands
     # must leave `git status` clean (their outputs under out/ or ignored).
     shutil.copy(REPO / ".gitignore", root / ".gitignore")
@@ -141,18 +142,30 @@ def test_shell_command_runs_as_written(command, workdir):
     assert untracked(workdir) == "", command
 
 
+@pytest.fixture
+def fresh_clone(workdir, tmp_path):
+    """A copy of the clone as it was made: without out/ or anything else the shell lines
+    wrote (each Python block must run on its own, before `make demo`)."""
+    clone = tmp_path / "clone"
+    shutil.copytree(workdir, clone, symlinks=True, ignore=shutil.ignore_patterns("out"))
+    subprocess.run(["git", "clean", "-qfdx"], cwd=clone, check=True)
+    assert not (clone / "out").exists()
+    return clone
+
+
 @pytest.mark.parametrize("index", range(len(blocks("python"))))
-def test_python_block_runs_as_written(index, workdir):
+def test_python_block_runs_as_written(index, fresh_clone):
     code = blocks("python")[index]
-    run = subprocess.run([sys.executable, "-c", code], cwd=workdir, env=environment(),
+    run = subprocess.run([sys.executable, "-c", code], cwd=fresh_clone, env=environment(),
                          capture_output=True, text=True, timeout=600)
     assert run.returncode == 0, f"{code}\n{run.stderr}"
-    assert untracked(workdir) == "", code
+    assert untracked(fresh_clone) == "", code
 
 
 def test_documented_stats_have_the_real_keys(workdir):
     documented = next(block for block in map(json.loads, blocks("json")) if "rays" in block)
     out = workdir / "out" / "readme-stats.json"
+    out.parent.mkdir(exist_ok=True)
     subprocess.run([sys.executable, "-m", "whitted", "render", "scenes/tir.scn", "-o",
                     str(workdir / "out" / "readme-stats.png"), "--stats", str(out), "-q"],
                    cwd=workdir, env=environment(), check=True)

@@ -15,8 +15,9 @@ user needs still happens on its own, through Mitsuba's own hooks:
   (``mitsuba.detail.add_variant_callback``), so that ``mi.load_file`` reads
   XML files that name them.
 
-The rendering API (:func:`load_scene`, :func:`loads`, :func:`render`, :func:`write_image`,
-:func:`read_image`, :func:`to_srgb`, :func:`set_variant`) is loaded on first use.
+The rendering API (:func:`load_scene`, :func:`loads`, :func:`render`, :func:`render_scenes`
+for many scene files, :func:`write_image`, :func:`read_image`, :func:`to_srgb`,
+:func:`set_variant`) is loaded on first use.
 """
 
 from __future__ import annotations
@@ -36,6 +37,7 @@ _LAZY = {
     "load_scene": ("whitted.loading", "load_scene"),
     "loads": ("whitted.loading", "loads"),
     "render": ("whitted.rendering", "render"),
+    "render_scenes": ("whitted.batch", "render_scenes"),
     "RenderResult": ("whitted.rendering", "RenderResult"),
     "write_image": ("whitted.imageio", "write_image"),
     "read_image": ("whitted.imageio", "read_image"),

@@ -17,6 +17,7 @@ import os
 import sys
 
 from .defaults import INTEGRATOR, INTEGRATORS, LIGHTING_MODES, PATH_MIN_SPP, VERSION, VIEWS
+from .defaults import DEFAULT_FPS, IMAGE_FORMATS as FORMATS
 from .defaults import VARIANTS as SUPPORTED_VARIANTS
 from . import interrupt
 from .errors import EXIT_USER_ERROR, WhittedError, report
@@ -31,9 +32,14 @@ def _convert(args: argparse.Namespace) -> int:
     return convert_command(args)
 
 
-def _render(args: argparse.Namespace) -> None:
+def _render(args: argparse.Namespace) -> int:
     from .commands import render_command
-    render_command(args)
+    return render_command(args)
+
+
+def _video(args: argparse.Namespace) -> None:
+    from .video import video_command
+    video_command(args)
 
 
 def _compare(args: argparse.Namespace) -> None:
@@ -72,14 +78,38 @@ def build_parser() -> argparse.ArgumentParser:
     convert.set_defaults(run=_convert, parser=convert)
 
     render = sub.add_parser(
-        "render", help="render a .scn or .xml scene to EXR or PNG",
+        "render", help="render .scn or .xml scenes to EXR or PNG (one, or folders of them)",
         description="Render a scene with the article's Whitted model (default) or Mitsuba's "
                     "path tracer. EXR stores linear RGB as rendered; PNG stores what is displayed: "
                     "8-bit sRGB after --exposure and a view transform (--view; the article's model: "
-                    "clipped to [0, 1], physically lit and path-traced images: tone-mapped).")
-    render.add_argument("scene", help="the scene (.scn or converted .xml)")
+                    "clipped to [0, 1], physically lit and path-traced images: tone-mapped). "
+                    "Several scenes, or folders of them (their .scn files, else their .xml), "
+                    "render in one process into the folder -o OUT/ names, as convert names its "
+                    "outputs: OUT/X.png (or --format exr) per scene X, skipping scenes whose "
+                    "images are newer than the scene and its textures (--force renders them "
+                    "again). A bad scene is reported as FILE:LINE: message and the others go "
+                    "on; the exit status is then 2.")
+    render.add_argument("scenes", nargs="+", metavar="SCENE",
+                        help="the scene (.scn or converted .xml), or several, or folders of them")
     render.add_argument("-o", "--output", required=True, metavar="OUT",
-                        help="output image, .exr (linear) or .png (sRGB)")
+                        help="output image, .exr (linear) or .png (sRGB); for several scenes or a "
+                             "folder, the folder that receives every image (created when missing)")
+    render.add_argument("--format", action="append", choices=FORMATS, metavar="{png,exr}",
+                        help="the images written into an output folder: png (default) or exr; "
+                             "give it twice for both")
+    render.add_argument("--force", action="store_true",
+                        help="render every scene, even those whose images are up to date")
+    render.add_argument("--video", metavar="OUT.mp4",
+                        help="also encode the images, in the scenes' order, as an H.264 video "
+                             "(see whitted video)")
+    render.add_argument("--fps", type=float, default=DEFAULT_FPS, metavar="N",
+                        help=f"the video's frames per second (default {DEFAULT_FPS:g})")
+    where = render.add_mutually_exclusive_group()
+    where.add_argument("--workers", type=int, metavar="N",
+                       help="render the scenes on a local Dask cluster of N worker processes")
+    where.add_argument("--scheduler", metavar="ADDRESS",
+                       help="render the scenes on the Dask cluster of this scheduler, e.g. "
+                            "tcp://host:8786 (a shared file system; see docs/cluster.md)")
     render.add_argument("--variant", choices=SUPPORTED_VARIANTS,
                         help="Mitsuba variant (default: llvm_ad_rgb when a libLLVM >= 16 exists, "
                              "else scalar_rgb; or $WHITTED_VARIANT)")
@@ -107,10 +137,26 @@ def build_parser() -> argparse.ArgumentParser:
                         help="a PNG's view transform: clip (sRGB clipped to [0, 1]; default for the "
                              "article's model) or aces (OpenColorIO's ACES 2.0 SDR view, highlights "
                              "rolled off; default for --lighting physical and --integrator path)")
-    render.add_argument("--stats", metavar="FILE.json", help="write ray counts and timings as JSON")
+    render.add_argument("--stats", metavar="FILE.json",
+                        help="write ray counts and timings as JSON (for several scenes: one file, "
+                             "every scene's and the totals)")
     render.add_argument("-v", "--verbose", action="store_true", help="print a one-line summary")
     render.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     render.set_defaults(run=_render, parser=render)
+
+    video = sub.add_parser(
+        "video", help="encode PNG or EXR frames as an H.264 video",
+        description="Encode frames (image files, or folders of them: their PNG files sorted by "
+                    "name, else their EXR files) as an H.264 video through FFmpeg (imageio-ffmpeg). "
+                    "EXR frames are encoded to sRGB as PNG output is.")
+    video.add_argument("frames", nargs="+", metavar="FRAME", help="frames (.png or .exr), or folders of them")
+    video.add_argument("-o", "--output", required=True, metavar="OUT.mp4",
+                       help="the video (.mp4, .mkv or .mov)")
+    video.add_argument("--fps", type=float, default=DEFAULT_FPS, metavar="N",
+                       help=f"frames per second (default {DEFAULT_FPS:g})")
+    video.add_argument("-v", "--verbose", action="store_true", help="say what was written")
+    video.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
+    video.set_defaults(run=_video, parser=video)
 
     from .compare.cli import add_arguments as add_compare_arguments
     compare = sub.add_parser(

@@ -221,3 +221,11 @@ def check_integrator(integrator) -> str:
     if integrator not in INTEGRATORS:
         raise WhittedError(f"unknown integrator '{integrator}'; choose one of {', '.join(INTEGRATORS)}")
     return integrator
+
+# --------------------------------------------------------------------------- many scenes, video
+
+#: the image formats ``whitted render SCENES... -o OUT/`` writes per scene (``--format``; the first
+#: is the default)
+IMAGE_FORMATS = ("png", "exr")
+#: a video's frames per second unless ``--fps`` says (``whitted render --video``, ``whitted video``)
+DEFAULT_FPS = 24.0

@@ -66,7 +66,8 @@ def _checked(overrides: dict) -> dict:
 
 
 def load_scene(path: str | os.PathLike, variant: str | None = None, *, model=None,
-               ellipsoids: bool | None = None, integrator: str = D.INTEGRATOR, **overrides):
+               ellipsoids: bool | None = None, integrator: str = D.INTEGRATOR, meshes: bool = True,
+               **overrides):
     """Load a ``.scn`` or ``.xml`` scene as a ``mi.Scene``.
 
     ``variant`` selects a Mitsuba variant first (default: keep the current one).
@@ -83,6 +84,14 @@ def load_scene(path: str | os.PathLike, variant: str | None = None, *, model=Non
     ``.xml`` files are loaded as written.
     ``integrator`` ("whitted" or "path") is what the scene will be rendered with: a ``.scn``
     file read here is warned about as that integrator needs (converter/frame.py).
+    ``meshes=False`` (a ``.scn`` to be rendered by the whitted integrator only): the giant
+    spheres that Mitsuba misplaces, which the converter describes as fine meshes for
+    Mitsuba's own integrators (converter/giants.py), stay plain ``sphere`` shapes. The
+    whitted integrator intersects them itself in float64 and never traces their shapes
+    (plugins/shading/giants.py), so its image is the same, bit for bit; building a
+    mesh's acceleration structure costs about 0.4 s (a floor of radius 10^4: 170 000
+    triangles), far more than rendering a small frame. Mitsuba's path tracer would see
+    the float32 sphere. ``whitted render`` passes it for the whitted integrator.
     ``overrides`` replace the scene's ``spp``, ``max_depth``, ``ambient`` or
     ``lighting`` ("article" or "physical"). A portable ``.xml`` (stock plugins,
     ``whitted convert --portable``) has only ``spp`` and ``max_depth``, the latter
@@ -108,7 +117,7 @@ def load_scene(path: str | os.PathLike, variant: str | None = None, *, model=Non
         if model is None:
             model = parse_file(path)
             warn_precision(model, integrator=integrator)
-        return _load_model(model, params, ellipsoids, integrator)
+        return _load_model(model, params, ellipsoids, integrator, meshes)
     except RuntimeError as error:
         unused = re.findall(r"^\s*- \$(\w+)=", str(error), re.M)
         if "unused parameters" in str(error) and unused:
@@ -169,8 +178,9 @@ def loads(text: str, variant: str | None = None, *, base_dir: str | os.PathLike 
 TEXT_NAME = "<text>"
 
 
-def _load_model(model, params: dict, ellipsoids: bool | None, integrator: str):
-    """A parsed scene model as a ``mi.Scene`` (see :func:`load_scene`'s ``ellipsoids``)."""
+def _load_model(model, params: dict, ellipsoids: bool | None, integrator: str, meshes: bool = True):
+    """A parsed scene model as a ``mi.Scene`` (see :func:`load_scene`'s ``ellipsoids`` and
+    ``meshes``)."""
     import mitsuba as mi
 
     from . import sealed
@@ -179,8 +189,25 @@ def _load_model(model, params: dict, ellipsoids: bool | None, integrator: str):
         sealed.choose(model, min_group=1 if ellipsoids else sealed.MIN_GROUP,
                       classes=sealed.MAX_LAYERS if integrator == "whitted" else 0)
     if grouping is None:
-        return mi.load_dict(mitsuba_dict(describe(model, base_dir=None), params), parallel=PARALLEL)
-    return mi.load_dict(_sealed_dict(model, grouping, params), parallel=PARALLEL)
+        scene = mitsuba_dict(describe(model, base_dir=None), params)
+    else:
+        scene = _sealed_dict(model, grouping, params)
+    return mi.load_dict(scene if meshes else _giants_as_spheres(scene), parallel=PARALLEL)
+
+
+def _giants_as_spheres(scene: dict) -> dict:
+    """``scene`` (a ``mi.load_dict`` dict) with the meshes of the giant spheres that its
+    whitted integrator intersects itself (its ``exact_spheres``) made ``sphere`` shapes of
+    the listed center and radius again (see :func:`load_scene`'s ``meshes``)."""
+    from .converter.giants import parse_exact_spheres
+    listed = scene.get("integrator", {}).get("exact_spheres")
+    if not listed:
+        return scene
+    for key, center, radius in parse_exact_spheres(listed):
+        shape = scene.get(key)
+        if isinstance(shape, dict) and shape.get("type") == "ply":
+            scene[key] = {"type": "sphere", "center": center, "radius": radius, "bsdf": shape["bsdf"]}
+    return scene
 
 
 def _sealed_dict(model, grouping, params: dict) -> dict:
