@@ -18,8 +18,13 @@ measurements):
   Mitsuba's path tracer, whose ray offsets are absolute, is not quite. Spheres
   of other radii may be grouped too, by radius (``classes``): the Whitted
   integrator traces each such class in a frame of its own, scaled to make its
-  radius 1 (plugins/shading/layers.py); Mitsuba's own integrators would
-  intersect them inexactly, so they are grouped only for the Whitted integrator.
+  radius 1 (plugins/shading/layers.py), whatever the radius. Mitsuba's own
+  integrators intersect them with Mitsuba's test: it loses hits on spheres of
+  radius below 1, never above (its origin step falls short of the center plane
+  instead of past it; docs/numerics.md, "Mitsuba's own integrators on the grouped
+  scene"), so for them only radii above the commonest are grouped
+  (``smaller=False``). No ``shapegroup``/``instance`` form helps: an instance
+  scaled by r hands the unit ellipsoid the same ray as an ellipsoid of radius r.
 
 This module works on the scene model (numpy, no Mitsuba): :func:`sealed`
 says which spheres are sealed, :func:`choose` picks the radius and the
@@ -91,10 +96,13 @@ class Grouping:
     radii: tuple[float, ...] = ()
 
 
-def choose(scene: Scene, min_group: int = MIN_GROUP, classes: int = 0) -> Grouping | None:
+def choose(scene: Scene, min_group: int = MIN_GROUP, classes: int = 0,
+           smaller: bool = True) -> Grouping | None:
     """The sealed spheres of the most common radius, if at least ``min_group`` (≥ 1) share
     it (ties: the larger radius), else None; and those of up to ``classes`` other radii,
-    the ones most spheres share (ties: the larger radius).
+    the ones most spheres share (ties: the larger radius), radii below the commonest only
+    if ``smaller`` (the Whitted integrator's layers trace them exactly, Mitsuba's own
+    ellipsoid test does not).
 
     None too when scaling would change the image: a light at ``lookat`` (its physical
     intensity is then defined with d = 1, a length in the file's units), or a light of
@@ -118,7 +126,7 @@ def choose(scene: Scene, min_group: int = MIN_GROUP, classes: int = 0) -> Groupi
         return None
     radii = [r]
     if classes:   # other radii, but not spheres float32 places too coarsely (converter/giants.py)
-        fine = mask & ~_coarse(scene, spheres) & (spheres.radius != r)
+        fine = mask & ~_coarse(scene, spheres) & ((spheres.radius != r) if smaller else (spheres.radius > r))
         values, counts = np.unique(spheres.radius[fine], return_counts=True)
         order = np.lexsort((-values, -counts))[:classes]
         radii += [float(values[k]) for k in order]
