@@ -14,8 +14,9 @@ import numpy as np
 import pytest
 
 import whitted
-from test_layers import many_radii
+from test_layers import GLASS, many_radii
 from whitted import sealed
+from whitted.converter import Light, Material, Scene, Sphere
 from whitted.loading import _sealed_dict
 from whitted.metrics import relative_mse
 
@@ -122,3 +123,56 @@ def test_mitsubas_ellipsoid_test_loses_no_hit_at_radius_one_and_above(llvm, radi
     assert valid.all()
     assert np.quantile(np.abs(t - expected) / radius, 0.99) < (1e-3 if radius == 1.0 else 5e-2)
     assert not shoot(0.1)[0].all()
+
+
+
+def crowd(count: int = sealed.MIN_GROUP) -> Scene:
+    """``count`` small balls (radius 0.04) and 40 larger ones (0.12) of two materials on a
+    giant floor sphere, with a glass ball: a scene the loader groups by default."""
+    rng = np.random.default_rng(11)
+    matte, mirror = Material(color=(0.8, 0.35, 0.2)), Material(color=(0.9, 0.9, 0.9), reflect=0.6)
+    spheres = [Sphere((0.0, -1001.0, 0.0), 1000.0, Material(color=(0.8, 0.8, 0.75)))]
+    for radius, n in ((0.04, count), (0.12, 40)):
+        for k, (x, z) in enumerate(rng.uniform(-3, 3, (n, 2)).tolist()):
+            spheres.append(Sphere((x, -1.0 + radius, z), radius, mirror if k % 3 == 0 else matte))
+    spheres.append(Sphere((0.5, -0.2, 0.5), 0.8, GLASS))
+    return Scene(width=64, height=48, eye=(0.0, 1.5, 6.0), lookat=(0.0, -0.5, 0.0), depth=5,
+                 lights=[Light((3.0, 6.0, 4.0)), Light((-4.0, 3.0, 5.0), (0.4, 0.4, 0.4))], spheres=spheres)
+
+
+def test_the_portable_xml_groups_them_too_and_the_stock_mitsuba_command_renders_it(llvm, tmp_path):
+    """``whitted convert --portable`` writes the grouped spheres as ``ellipsoids`` shapes read
+    from PLY files (:func:`whitted.sealed.described`, in the loader's scaled frame): the stock
+    ``mitsuba`` command renders the file, and the renders match those of the portable file of
+    sphere shapes (the form before, still written when nothing is grouped) within noise."""
+    import mitsuba as mi
+
+    from test_portable import portable_file, stock_mitsuba
+    from whitted.converter.description import meshes
+    from whitted.converter.xml_writer import xml_of
+    from whitted.imageio import read_image
+    model = replace(crowd(), source=tmp_path / "crowd.scn")
+    description = sealed.described(model, tmp_path)
+    for mesh in meshes(description):
+        (tmp_path / mesh.filename).write_bytes(mesh.data)
+    grouped = tmp_path / "crowd.portable.xml"
+    grouped.write_text(xml_of(description, portable=True), encoding="utf-8")
+    (tmp_path / "plain").mkdir()
+    plain = portable_file(model, tmp_path / "plain", "crowd")
+    assert sealed.described(model, tmp_path, min_group=len(model.spheres)).scene.keys() == \
+        whitted.converter.describe(model, tmp_path, block=True).scene.keys()   # nothing grouped
+    stock_mitsuba("llvm_ad_rgb", [grouped], spp=16)
+    stock = np.asarray(read_image(grouped.with_suffix(".exr")), np.float64)[..., :3]
+
+    def render(path, seed):
+        scene = mi.load_file(str(path), spp=16)
+        return scene, np.array(mi.render(scene, seed=seed), np.float64)[..., :3]
+    scene, image = render(grouped, 0)
+    kinds = [shape.class_name() for shape in scene.shapes()]
+    assert kinds.count("Ellipsoids") == 4 and kinds.count("Sphere") == 1    # two radii × two materials; glass
+    _, one = render(plain, 0)
+    _, other = render(plain, 1)
+    noise = relative_mse(other, one)
+    assert noise > 0
+    assert relative_mse(image, other) < 1.2 * noise
+    assert relative_mse(stock, other) < 1.2 * noise
