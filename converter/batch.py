@@ -89,10 +89,10 @@ def plan(inputs: list[str | os.PathLike], output: str | os.PathLike | None = Non
 
 def convert_file(source: Path, target: Path, portable: bool = False) -> None:
     """Parse ``source`` and write its XML (``portable``: in stock plugins only, its sealed
-    spheres grouped in ``ellipsoids`` shapes as for the path tracer: :func:`whitted.sealed.described`)
+    spheres grouped in ``ellipsoids`` shapes as for the path tracer, :func:`_portable_description`)
     to ``target`` atomically (nothing for an invalid scene), with the mesh files of its giant
-    spheres (:mod:`.giants`) and the PLY files of its groups beside it; warn on stderr when float32 cannot hold the scene's detail
-    (:mod:`.frame`)."""
+    spheres (:mod:`.giants`) and the PLY files of its groups beside it; warn on stderr when
+    float32 cannot hold the scene's detail (:mod:`.frame`)."""
     scene = parse_file(source)
     if target.is_dir():
         raise WhittedError(f"{target}: is a folder; give the output file's name")

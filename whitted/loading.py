@@ -80,8 +80,9 @@ def load_scene(path: str | os.PathLike, variant: str | None = None, *, model=Non
     other radii as well, one shape per radius and material: for the whitted
     integrator any radius (it traces each in a frame of its own), for Mitsuba's
     own integrators (``integrator="path"``) only radii above the commonest,
-    where Mitsuba's ellipsoid test loses no hit. None (the default) does so when at least ``sealed.MIN_GROUP``
-    spheres share the commonest radius, True whenever one does, False never.
+    where Mitsuba's ellipsoid test loses no hit. None (the default) does so when
+    at least ``sealed.MIN_GROUP`` spheres share the commonest radius, True
+    whenever one does, False never.
     ``.xml`` files are loaded as written.
     ``integrator`` ("whitted" or "path") is what the scene will be rendered with: a ``.scn``
     file read here is warned about as that integrator needs (converter/frame.py).

@@ -87,9 +87,9 @@ class SceneFile:
     def load(self, variant: str | None = None):
         """The ``mi.Scene`` (``variant`` as for :func:`whitted.load_scene`).
 
-        Loaded as ``whitted render --integrator path`` loads it (sealed spheres
-        grouped in ``ellipsoids`` shapes where Mitsuba's own test is exact enough,
-        :mod:`whitted.sealed`): the reference and the path renders are those of that
+        Loaded as ``whitted render --integrator path`` loads it (the sealed spheres
+        of the commonest radius and of larger ones grouped in ``ellipsoids`` shapes,
+        where Mitsuba's own test finds every hit: :mod:`whitted.sealed`): the reference and the path renders are those of that
         command, and a scene of a million spheres loads in seconds and a few hundred
         MB instead of minutes and gigabytes. The Whitted renders see the same scene
         (its layers trace every grouped radius exactly).
