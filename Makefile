@@ -76,7 +76,8 @@ povray: $(STAMP)
 	@$(PY) benchmarks/povray.py --install
 
 # Speed against Mitsuba's own integrators and the ray-casting floor, then against POV-Ray 3.7
-# on the sphereflake, levels 1-6 on floors of radius 10^3 and 10^4 (benchmarks/RESULTS.md); `make bench
+# on the sphereflake, levels 1-6 on floors of radius 10^3 and 10^4, with Mitsuba's path tracer
+# (`whitted render --integrator path --spp 1`) beside whitted's render (benchmarks/RESULTS.md); `make bench
 # BENCHFLAGS=--quick` for a short run (levels 1-3).
 BENCHFLAGS ?=
 bench: setup povray
