@@ -21,7 +21,9 @@ from whitted.loading import _sealed_dict
 from whitted.metrics import relative_mse
 
 #: the counts of balls of radii 0.1, 0.25 and 0.05 (many_radii): the commonest is the
-#: smallest (every radius grouped), or the largest (the smaller two stay sphere shapes)
+#: smallest (every radius grouped), in between, or the largest (the smaller ones stay sphere
+#: shapes). Each ball has a color of its own, so each group is one ball; :func:`crowd` below
+#: puts a thousand balls in groups of two materials.
 CASES = {"commonest smallest": ((30, 12, 40), (0.05, 0.1, 0.25)),
          "commonest in between": ((40, 12, 30), (0.1, 0.25)),
          "commonest largest": ((30, 40, 12), (0.25,))}
