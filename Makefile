@@ -80,7 +80,8 @@ povray: $(STAMP)
 	@$(PY) benchmarks/povray.py --install
 
 # Speed against Mitsuba's own integrators and the ray-casting floor, then against POV-Ray 3.7
-# on the sphereflake, levels 1-6 on floors of radius 10^3 and 10^4 (benchmarks/RESULTS.md), then
+# on the sphereflake, levels 1-6 on floors of radius 10^3 and 10^4, with Mitsuba's path tracer
+# (`whitted render --integrator path --spp 1`) beside whitted's render (benchmarks/RESULTS.md), then
 # a 48-frame sequence by POV-Ray and whitted a process per frame against `whitted render FRAMES/`
 # in one process (benchmarks/frames.py); `make bench BENCHFLAGS=--quick` for a short run.
 BENCHFLAGS ?=

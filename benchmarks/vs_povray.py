@@ -8,7 +8,11 @@ each started as a user starts it:
   (the exact ray tree: adaptive depth control off);
 * ``povray +IflakeL.pov ... +WT<cores>`` on the same model written by
   povray.py (``max_trace_level 5``, ``adc_bailout 0``: no adaptive depth
-  control either; no anti-aliasing).
+  control either; no anti-aliasing);
+* ``whitted render flakeL.scn -o X.png --integrator path --spp 1`` beside
+  whitted's own render: Mitsuba's path tracer on the same scene (its rays cost
+  more; the table says what its scene costs: whitted/sealed.py groups the
+  spheres for it as for the Whitted integrator).
 
 Every level is rendered twice, on a floor sphere of radius 10³ and of 10⁴
 (its top at the same height): the larger, flatter floor is harder on 32-bit
@@ -40,7 +44,7 @@ Usage::
 
     python benchmarks/vs_povray.py [--quick] [--markdown benchmarks/RESULTS.md] [--plot PNG]
         [--levels 1 2 ...] [--floors 1000 10000] [--runs N] [--timeout 600]
-        [--programs whitted povray convert]
+        [--programs whitted povray path convert]
 
 Options of run.py that ``make bench BENCHFLAGS=...`` passes along are ignored.
 """
@@ -75,7 +79,7 @@ QUICK = {"levels": (1, 2, 3), "floors": FLOORS, "runs": {1: 1, 2: 1, 3: 1},
          "read_levels": (3,), "read_runs": {3: 1}}
 #: seconds after which a run is killed and reported as not finished
 TIMEOUT = 600.0
-PROGRAMS = ("whitted", "povray", "convert")
+PROGRAMS = ("whitted", "povray", "path", "convert")
 MIB = 2 ** 20
 
 
@@ -100,6 +104,11 @@ class Row:
     pov_rays: tuple = (0, 0)
     pov_failure: str = ""
     pov_failed_rss: int = 0
+    path_wall: list = field(default_factory=list)    # whitted render --integrator path --spp 1
+    path_render: list = field(default_factory=list)
+    path_rss: list = field(default_factory=list)
+    path_failure: str = ""
+    path_failed_rss: int = 0
     image_difference: float | None = None   # mean |whitted - POV-Ray|, 8-bit levels
     scn: Path | None = None
 
@@ -128,15 +137,24 @@ def _floor_name(radius: float) -> str:
     return f"10^{exponent:.0f}" if exponent == int(exponent) else f"{radius:g}"
 
 
-def run_whitted(scene: Path, image: Path, stats: Path, timeout: float | None) -> tuple[process.ProcessRun, dict]:
-    command = process.whitted_command() + ["render", str(scene), "-o", str(image), "--min-weight", "0",
+#: what each program is called in failure messages (``_attempt``)
+NAMES = {"whitted": "whitted", "path": "whitted (path)", "pov": "POV-Ray"}
+
+
+def run_whitted(scene: Path, image: Path, stats: Path, timeout: float | None,
+                path: bool = False) -> tuple[process.ProcessRun, dict]:
+    """``whitted render`` of ``scene``: the Whitted integrator's exact tree, or (``path``)
+    Mitsuba's path tracer at one sample per pixel."""
+    options = ["--integrator", "path", "--spp", "1"] if path else ["--min-weight", "0"]
+    command = process.whitted_command() + ["render", str(scene), "-o", str(image), *options,
                                            "--stats", str(stats), "-q"]
+    name = NAMES["path" if path else "whitted"]
     stats.unlink(missing_ok=True)
     result = process.run(command, timeout)
     if result.timed_out:
-        raise process.DidNotFinish("whitted", result)
+        raise process.DidNotFinish(name, result)
     if not result.ok:
-        raise RuntimeError(f"whitted failed ({result.failure()}) on {scene.name}: {result.stderr.strip()[-300:]}")
+        raise RuntimeError(f"{name} failed ({result.failure()}) on {scene.name}: {result.stderr.strip()[-300:]}")
     return result, json.loads(stats.read_text())
 
 
@@ -148,15 +166,14 @@ def image_difference(a: Path, b: Path) -> float:
 
 
 def _attempt(row: Row, program: str, run):
-    """``run()`` unless ``program`` ("whitted" or "pov") failed already on ``row``; None when it
-    fails now, the failure (a timeout with its memory) recorded on the row."""
+    """``run()`` unless ``program`` ("whitted", "path" or "pov") failed already on ``row``; None
+    when it fails now, the failure (a timeout with its memory) recorded on the row."""
     if getattr(row, f"{program}_failure"):
         return None
     try:
         return run()
     except process.DidNotFinish as error:
-        name = "whitted " if program == "whitted" else "POV-Ray "
-        setattr(row, f"{program}_failure", str(error).removeprefix(name))
+        setattr(row, f"{program}_failure", str(error).removeprefix(NAMES[program] + " "))
         setattr(row, f"{program}_failed_rss", error.run.peak_rss)
     except RuntimeError as error:
         setattr(row, f"{program}_failure", str(error))
@@ -174,15 +191,19 @@ def bench_level(level: int, floor: float, runs: int, folder: Path, pov_exe: str 
     width, height = model.width, model.height
     row = Row(level, floor, len(model.spheres), runs, scn=scn,
               whitted_failure="" if "whitted" in programs else "not run",
+              path_failure="" if "path" in programs else "not run",
               pov_failure=("" if "povray" in programs else "not run") if pov_exe else pov_missing)
     del model   # level 6: some 600 MB of Python objects
     w_image, p_image, stats = folder / f"whitted-{name}.png", folder / f"povray-{name}.png", folder / "stats.json"
     run_w = lambda: run_whitted(scn, w_image, stats, timeout)   # noqa: E731
     run_p = lambda: povray.run(pov_exe, pov, p_image, width, height, threads, timeout)   # noqa: E731
+    path_image = folder / f"path-{name}.png"
+    run_path = lambda: run_whitted(scn, path_image, stats, timeout, path=True)   # noqa: E731
     # One untimed run of each first: the kernels a scene needs depend on its radii (one layer
     # each: plugins/shading/layers.py), and Dr.Jit compiles them once, then reads its cache.
     _attempt(row, "whitted", run_w)
     _attempt(row, "pov", run_p)
+    _attempt(row, "path", run_path)
     for _ in range(runs):
         done = _attempt(row, "whitted", run_w)
         if done is not None:
@@ -200,6 +221,12 @@ def bench_level(level: int, floor: float, runs: int, folder: Path, pov_exe: str 
             row.pov_bounding.append(p.bounding_seconds)
             row.pov_rss.append(p.peak_rss)
             row.pov_rays = (p.shadow_rays, p.reflected_rays)
+        done = _attempt(row, "path", run_path)
+        if done is not None:
+            run, s = done
+            row.path_wall.append(run.wall_seconds)
+            row.path_rss.append(run.peak_rss)
+            row.path_render.append(s["seconds"])
     if row.whitted_wall and row.pov_wall and not (row.whitted_failure or row.pov_failure):
         row.image_difference = image_difference(w_image, p_image)
     w_text = (f"whitted {_median(row.whitted_wall):.2f} s (render {_median(row.whitted_render):.3f} s, "
@@ -208,10 +235,13 @@ def bench_level(level: int, floor: float, runs: int, folder: Path, pov_exe: str 
     p_text = (f"POV-Ray {_median(row.pov_wall):.2f} s (trace {_median(row.pov_trace):.3f} s, "
               f"{_median(row.pov_rss) / MIB:.0f} MiB)" if row.pov_wall else "POV-Ray: —"
               if row.pov_failure != "not run" else "POV-Ray not run")
+    path_text = (f", path {_median(row.path_wall):.2f} s (render {_median(row.path_render):.3f} s, "
+                 f"{_median(row.path_rss) / MIB:.0f} MiB)" if row.path_wall else "")
     failures = "".join(f"; {who}: {why}" for who, why in (("whitted", row.whitted_failure),
-                                                           ("POV-Ray", row.pov_failure)) if why and why != "not run")
-    print(f"level {level}, floor {_floor_name(floor)}: {row.spheres} spheres, {w_text}, {p_text}{failures}",
-          file=out, flush=True)
+                                                           ("POV-Ray", row.pov_failure),
+                                                           ("path", row.path_failure)) if why and why != "not run")
+    print(f"level {level}, floor {_floor_name(floor)}: {row.spheres} spheres, {w_text}, {p_text}{path_text}"
+          f"{failures}", file=out, flush=True)
     return row
 
 
@@ -281,6 +311,25 @@ def table_rows(rows: list[Row]) -> list[list[str]]:
     return out
 
 
+PATH_COLUMNS = ["level", "floor radius", "spheres", "runs", "whitted process s", "path process s",
+                "process path / whitted", "path render s", "whitted peak RSS MiB", "path peak RSS MiB",
+                "RSS path / whitted"]
+
+
+def path_rows(rows: list[Row]) -> list[list[str]]:
+    """The path tracer's runs (``--integrator path --spp 1``) beside the Whitted render's."""
+    out = []
+    for r in rows:
+        if r.path_failure == "not run":
+            continue
+        ww, pw, wm, pm = (_median(v) for v in (r.whitted_wall, r.path_wall, r.whitted_rss, r.path_rss))
+        w_process, w_rss = (_s(ww), _mib(wm)) if ww is not None else _failed(r.whitted_failure, r.whitted_failed_rss)
+        p_process, p_rss = (_s(pw), _mib(pm)) if pw is not None else _failed(r.path_failure, r.path_failed_rss)
+        out.append([str(r.level), _floor_name(r.floor), str(r.spheres), str(len(r.path_wall)), w_process,
+                    p_process, _ratio(pw, ww), _s(_median(r.path_render)), w_rss, p_rss, _ratio(pm, wm)])
+    return out
+
+
 READ_COLUMNS = ["level", "spheres", ".scn MB", "runs", "whitted convert process s", "convert peak RSS MiB",
                 "POV-Ray Parse Time s", "convert / POV-Ray parse", "POV-Ray Bounding Time s",
                 "POV-Ray process s", "whitted parse_text alone CPU s"]
@@ -304,7 +353,7 @@ def failures(rows: list[Row], reads: list[ReadRow], pov_missing: str = "") -> li
     """One line per program that failed or did not finish, with why (POV-Ray's absence is said apart)."""
     lines = []
     for r in rows:
-        for who, why in (("whitted", r.whitted_failure), ("POV-Ray", r.pov_failure)):
+        for who, why in (("whitted", r.whitted_failure), ("POV-Ray", r.pov_failure), ("path", r.path_failure)):
             if why and why not in ("not run", pov_missing):
                 lines.append(f"level {r.level}, floor {_floor_name(r.floor)}: {who}: {why}")
     for r in reads:
@@ -446,6 +495,11 @@ def main(argv=None) -> int:
     print(f"\n== whitted vs POV-Ray 3.7, sphereflake 512×512, depth 5, 1 ray per pixel, adaptive depth off; "
           f"{runs_note}; a run is killed after {timeout or math.inf:g} s")
     print(text_table(COLUMNS, table_rows(rows)))
+    paths = path_rows(rows)
+    if paths:
+        print("\n== Mitsuba's path tracer on the same scene: `whitted render --integrator path --spp 1` beside "
+              "the Whitted render (whole process, peak RSS)")
+        print(text_table(PATH_COLUMNS, paths))
     if reads:
         print("\n== reading the scene: the whole `whitted convert` process vs POV-Ray's Parse Time (floor 10^3)")
         print(text_table(READ_COLUMNS, read_rows(reads)))
@@ -465,6 +519,15 @@ def main(argv=None) -> int:
         if failed:
             note += "\n\nRuns that failed or did not finish:\n\n" + "\n".join(f"- {line}" for line in failed)
         levels = settings["levels"]
+        path_section = "" if not paths else f"""
+Mitsuba's path tracer on the same scenes: the whole `whitted render flakeL.scn -o X.png --integrator path
+--spp 1` process beside the Whitted render's above (same runs, alternating), and its peak resident memory.
+Its rays cost more (one sample of a path of up to 6 segments with a light sample at each, against the
+Whitted tree's); the scene it loads is as compact as the Whitted integrator's (whitted/sealed.py: the sealed
+spheres of the commonest radius and of the larger radii in one `ellipsoids` shape per radius and material).
+
+{markdown_table(PATH_COLUMNS, paths)}
+"""
         reading = "" if not reads else f"""
 Reading the scene, side by side: the whole `whitted convert flakeL.scn -o flakeL.xml` process (Python's
 start-up, parsing, writing the XML; wall time and peak resident memory, medians of the runs shown) against
@@ -498,7 +561,7 @@ untraced (whitted at `--max-depth 6` counts 115 779 reflected rays on level 2, P
 {markdown_table(COLUMNS, table_rows(rows))}
 
 ![time against sphere count, log-log, one panel per floor](cost_curve.png)
-{reading}
+{path_section}{reading}
 Reproduce: `make bench` (prints these tables; `BENCHFLAGS=--quick` for levels 1-3), or
 `.venv/bin/python benchmarks/vs_povray.py --markdown benchmarks/RESULTS.md` to rewrite this section.
 """

@@ -19,6 +19,7 @@ import sys
 from pathlib import Path
 
 from ..atomic import atomic_path, check_folder, check_folder_creatable, writable_folder
+from ..defaults import SEALED_MIN_GROUP
 from ..errors import WhittedError
 from .description import describe, meshes
 from .frame import warn_precision
@@ -129,14 +130,16 @@ def prepare_folders(targets: list[Path], output: str | os.PathLike | None) -> No
 
 
 def convert_file(source: Path, target: Path, portable: bool = False) -> None:
-    """Parse ``source`` and write its XML (``portable``: in stock plugins only) to ``target``
-    atomically (nothing for an invalid scene), with the mesh files of its giant spheres
-    beside it (:mod:`.giants`); warn on stderr when float32 cannot hold the scene's detail
-    (:mod:`.frame`)."""
+    """Parse ``source`` and write its XML (``portable``: in stock plugins only, its sealed
+    spheres grouped in ``ellipsoids`` shapes as for the path tracer, :func:`_portable_description`)
+    to ``target`` atomically (nothing for an invalid scene), with the mesh files of its giant
+    spheres (:mod:`.giants`) and the PLY files of its groups beside it; warn on stderr when
+    float32 cannot hold the scene's detail (:mod:`.frame`)."""
     scene = parse_file(source)
     if target.is_dir():
         raise WhittedError(f"{target}: is a folder; give the output file's name")
-    description = describe(scene, base_dir=target.parent, block=True)
+    description = _portable_description(scene, target.parent) if portable else \
+        describe(scene, base_dir=target.parent, block=True)
     warn_precision(scene)
     written = meshes(description)
     for mesh in written:   # giant spheres' meshes (.giants), before the XML that names them
@@ -148,3 +151,15 @@ def convert_file(source: Path, target: Path, portable: bool = False) -> None:
     # an OS error comes back as a one-line WhittedError
     with atomic_path(target) as tmp, open(tmp, "w", encoding="utf-8") as file:
         write_xml(description, file, portable)
+
+
+def _portable_description(scene, folder: Path):
+    """The description the portable XML is written from: the sealed spheres grouped as the path
+    tracer's loader groups them (:func:`whitted.sealed.described`) when the scene has enough
+    spheres for a group; a smaller scene is described without numpy."""
+    arrays = scene.held_sphere_arrays()
+    count = len(scene.spheres) if arrays is None else len(arrays)
+    if count < SEALED_MIN_GROUP:
+        return describe(scene, base_dir=folder, block=True)
+    from ..sealed import described
+    return described(scene, folder)

@@ -264,7 +264,7 @@ def describe(scene: Scene, base_dir: str | os.PathLike | None, smallest: float |
         mesh = None
         if i in meshed:
             data = mesh_bytes(sphere, origin, scene.eye, scene.lookat)
-            mesh = Mesh(str(cached(data)) if base_dir is None else f"{_stem(scene)}.sphere_{i}.ply", data)
+            mesh = Mesh(str(cached(data)) if base_dir is None else f"{file_stem(scene)}.sphere_{i}.ply", data)
         objects[f"sphere_{i}"] = _sphere(sphere, origin, material_id, mesh)
     return Description(objects, defaults, origin, scene.source.name)
 
@@ -298,12 +298,12 @@ def _describe_arrays(scene: Scene, spheres: SphereArrays, objects: dict, materia
         sphere = spheres.sphere(k)
         if k in meshed:
             data = mesh_bytes(sphere, origin, scene.eye, scene.lookat)
-            mesh = Mesh(str(cached(data)) if base_dir is None else f"{_stem(scene)}.sphere_{k}.ply", data)
+            mesh = Mesh(str(cached(data)) if base_dir is None else f"{file_stem(scene)}.sphere_{k}.ply", data)
         objects[f"sphere_{k}"] = _sphere(sphere, origin, ids[int(spheres.material[k])], mesh)
     return description
 
 
-def _stem(scene: Scene) -> str:
+def file_stem(scene: Scene) -> str:
     """The scene file's name without its suffix, as a safe file name ("memory" for a model
     that came from no file)."""
     return re.sub(r"[^A-Za-z0-9._-]+", "_", Path(scene.source).stem).strip("_.") or "scene"

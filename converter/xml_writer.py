@@ -48,6 +48,7 @@ _OBJECT_TAGS = {
     "hdrfilm": "film", "box": "rfilter", "constant": "emitter", "point": "emitter",
     "article": "bsdf", "bitmap": "texture", "sphere": "shape",
     "ply": "shape",   # giant spheres' meshes (converter/giants.py)
+    "ellipsoids": "shape",   # grouped spheres of the portable form (whitted/sealed.py)
     # the portable form's stock plugins (converter/portable.py)
     "path": "integrator", "diffuse": "bsdf", "conductor": "bsdf", "dielectric": "bsdf",
     "blendbsdf": "bsdf", "twosided": "bsdf",

@@ -128,3 +128,18 @@ def test_benchmark_table_has_both_floors_memory_and_says_what_did_not_finish():
     cell = dict(zip(vs_povray.READ_COLUMNS, vs_povray.read_rows([read])[0]))
     assert cell["whitted convert process s"] == "2.000" and cell["POV-Ray Parse Time s"] == "2.500"
     assert cell["convert / POV-Ray parse"] == "0.80" and cell["convert peak RSS MiB"] == "400"
+
+
+def test_path_tracer_rows_stand_beside_the_whitted_render():
+    done = vs_povray.Row(6, 1e3, 597872, 1, whitted_wall=[5.0], whitted_rss=[500 * 2 ** 20],
+                         path_wall=[12.5], path_render=[6.0], path_rss=[600 * 2 ** 20])
+    late = vs_povray.Row(6, 1e4, 597872, 1, whitted_wall=[5.0], whitted_rss=[500 * 2 ** 20],
+                         path_failure="did not finish in 600 s", path_failed_rss=3 * 2 ** 30)
+    left_out = vs_povray.Row(5, 1e3, 66431, 1, whitted_wall=[3.0], path_failure="not run")
+    cells = [dict(zip(vs_povray.PATH_COLUMNS, row)) for row in vs_povray.path_rows([done, late, left_out])]
+    assert len(cells) == 2
+    assert cells[0]["process path / whitted"] == "2.50" and cells[0]["RSS path / whitted"] == "1.20"
+    assert cells[0]["path render s"] == "6.000" and cells[0]["path peak RSS MiB"] == "600"
+    assert cells[1]["path process s"] == "did not finish in 600 s" and cells[1]["path peak RSS MiB"] == "≥ 3072"
+    assert cells[1]["process path / whitted"] == "—"
+    assert vs_povray.failures([done, late], []) == ["level 6, floor 10^4: path: did not finish in 600 s"]

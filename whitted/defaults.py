@@ -222,6 +222,7 @@ def check_integrator(integrator) -> str:
         raise WhittedError(f"unknown integrator '{integrator}'; choose one of {', '.join(INTEGRATORS)}")
     return integrator
 
+
 # --------------------------------------------------------------------------- many scenes, video
 
 #: the image formats ``whitted render SCENES... -o OUT/`` writes per scene (``--format``; the first
@@ -229,3 +230,9 @@ def check_integrator(integrator) -> str:
 IMAGE_FORMATS = ("png", "exr")
 #: a video's frames per second unless ``--fps`` says (``whitted render --video``, ``whitted video``)
 DEFAULT_FPS = 24.0
+
+#: the fewest spheres of one radius that the loader and the portable XML group in an
+#: ``ellipsoids`` shape by default (whitted/sealed.py, ``MIN_GROUP``): below this the load time
+#: saved (~0.1 ms a sphere) is below a render's noise, and the scene is left as written. Here,
+#: not in sealed.py, so that the converter can tell a scene too small to group without numpy.
+SEALED_MIN_GROUP = 1000

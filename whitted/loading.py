@@ -77,10 +77,13 @@ def load_scene(path: str | os.PathLike, variant: str | None = None, *, model=Non
     untextured, not holding the eye) of its commonest radius as Mitsuba
     ``ellipsoids`` shapes, in a frame scaled to make that radius 1
     (:mod:`whitted.sealed`: the same image; those spheres load a hundred times
-    faster than as ``sphere`` shapes), and for the whitted integrator those of up
-    to ``sealed.MAX_LAYERS`` other radii as well, which it traces in frames of
-    their own. None (the default) does so when at least ``sealed.MIN_GROUP``
-    spheres share the commonest radius, True whenever one does, False never.
+    faster than as ``sphere`` shapes), and those of up to ``sealed.MAX_LAYERS``
+    other radii as well, one shape per radius and material: for the whitted
+    integrator any radius (it traces each in a frame of its own), for Mitsuba's
+    own integrators (``integrator="path"``) only radii above the commonest,
+    where Mitsuba's ellipsoid test loses no hit. None (the default) does so when
+    at least ``sealed.MIN_GROUP`` spheres share the commonest radius, True
+    whenever one does, False never.
     ``.xml`` files are loaded as written.
     ``integrator`` ("whitted" or "path") is what the scene will be rendered with: a ``.scn``
     file read here is warned about as that integrator needs (converter/frame.py).
@@ -187,7 +190,7 @@ def _load_model(model, params: dict, ellipsoids: bool | None, integrator: str, m
     from .converter.description import describe
     grouping = None if ellipsoids is False else \
         sealed.choose(model, min_group=1 if ellipsoids else sealed.MIN_GROUP,
-                      classes=sealed.MAX_LAYERS if integrator == "whitted" else 0)
+                      classes=sealed.MAX_LAYERS, smaller=integrator == "whitted")
     if grouping is None:
         scene = mitsuba_dict(describe(model, base_dir=None), params)
     else:

@@ -18,13 +18,23 @@ measurements):
   Mitsuba's path tracer, whose ray offsets are absolute, is not quite. Spheres
   of other radii may be grouped too, by radius (``classes``): the Whitted
   integrator traces each such class in a frame of its own, scaled to make its
-  radius 1 (plugins/shading/layers.py); Mitsuba's own integrators would
-  intersect them inexactly, so they are grouped only for the Whitted integrator.
+  radius 1 (plugins/shading/layers.py), whatever the radius. Mitsuba's own
+  integrators intersect them with Mitsuba's test: below radius 1 it loses hits
+  (its origin step overshoots the center plane), above it finds every one, a
+  float32 cancellation misplacing them along the ray by up to a few hundredths
+  of the radius from 300 radii away (the step falls short; docs/numerics.md,
+  "Mitsuba's own integrators on the grouped scene"), so for them only radii
+  above the commonest are grouped (``smaller=False``). No ``shapegroup``/``instance`` form helps: an instance
+  scaled by r hands the unit ellipsoid the same ray as an ellipsoid of radius r.
 
 This module works on the scene model (numpy, no Mitsuba): :func:`sealed`
 says which spheres are sealed, :func:`choose` picks the radius and the
 scale, :func:`remaining` gives the rest of the scene in that frame and
-:func:`groups` the grouped spheres' centers, by material.
+:func:`groups` the grouped spheres' centers, by material. :func:`described`
+gives the converter's description with the groups as ``ellipsoids`` shapes
+read from PLY files, for the portable XML: the stock ``mitsuba`` command then
+loads a sphereflake of 597 872 spheres in seconds instead of minutes and
+gigabytes (docs/portable.md).
 """
 
 from __future__ import annotations
@@ -33,6 +43,8 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from . import defaults as D
+from .converter.description import Description, Mesh, describe, file_stem, material_dict
 from .converter.frame import farthest
 from .converter.giants import coarse_candidates
 from .converter.scene import Material, Scene, SphereArrays
@@ -49,9 +61,9 @@ MAX_REACH = 1e6
 #: traces each in a layer of its own (a traversal per ray each; a sphere left as a shape makes
 #: every shadow ray take the slower nearest-hit query instead): the classes of most spheres
 MAX_LAYERS = 8
-#: the fewest spheres of one radius worth an ``ellipsoids`` shape by default: below this the
-#: load time saved (~0.1 ms a sphere) is below a render's noise, and the scene is left as written
-MIN_GROUP = 1000
+#: the fewest spheres of one radius worth an ``ellipsoids`` shape by default (its reasons:
+#: whitted.defaults.SEALED_MIN_GROUP)
+MIN_GROUP = D.SEALED_MIN_GROUP
 
 
 def sealed(scene: Scene, spheres: SphereArrays | None = None) -> np.ndarray:
@@ -91,10 +103,13 @@ class Grouping:
     radii: tuple[float, ...] = ()
 
 
-def choose(scene: Scene, min_group: int = MIN_GROUP, classes: int = 0) -> Grouping | None:
+def choose(scene: Scene, min_group: int = MIN_GROUP, classes: int = 0,
+           smaller: bool = True) -> Grouping | None:
     """The sealed spheres of the most common radius, if at least ``min_group`` (≥ 1) share
     it (ties: the larger radius), else None; and those of up to ``classes`` other radii,
-    the ones most spheres share (ties: the larger radius).
+    the ones most spheres share (ties: the larger radius), radii below the commonest only
+    if ``smaller`` (the Whitted integrator's layers trace them exactly, Mitsuba's own
+    ellipsoid test does not).
 
     None too when scaling would change the image: a light at ``lookat`` (its physical
     intensity is then defined with d = 1, a length in the file's units), or a light of
@@ -118,7 +133,7 @@ def choose(scene: Scene, min_group: int = MIN_GROUP, classes: int = 0) -> Groupi
         return None
     radii = [r]
     if classes:   # other radii, but not spheres float32 places too coarsely (converter/giants.py)
-        fine = mask & ~_coarse(scene, spheres) & (spheres.radius != r)
+        fine = mask & ~_coarse(scene, spheres) & ((spheres.radius != r) if smaller else (spheres.radius > r))
         values, counts = np.unique(spheres.radius[fine], return_counts=True)
         order = np.lexsort((-values, -counts))[:classes]
         radii += [float(values[k]) for k in order]
@@ -182,3 +197,45 @@ def ellipsoids(centers: np.ndarray, bsdf, radius: float = 1.0) -> dict:
             "scales": mi.TensorXf(np.full((count, 3), radius, np.float32)),
             "quaternions": mi.TensorXf(np.tile(np.array([0.0, 0.0, 0.0, 1.0], np.float32), (count, 1))),
             "bsdf": bsdf}
+
+
+#: the fields of a vertex of Mitsuba's ``ellipsoids`` PLY file: center, normal (unused),
+#: the logarithms of the three scales, the rotation quaternion (real part first)
+PLY_FIELDS = ("x", "y", "z", "nx", "ny", "nz", "scale_0", "scale_1", "scale_2",
+              "rot_0", "rot_1", "rot_2", "rot_3")
+
+
+def ellipsoids_ply(centers: np.ndarray) -> bytes:
+    """A binary PLY file of unit spheres at ``centers`` (M×3) as Mitsuba's ``ellipsoids``
+    shape reads it: log-scales 0 (Mitsuba takes their exponential: exactly 1) and the identity
+    rotation; the shape's ``scale_factor`` gives the radius."""
+    rows = np.zeros((len(centers), len(PLY_FIELDS)), "<f4")
+    rows[:, :3] = centers
+    rows[:, 9] = 1.0
+    header = "".join(["ply\nformat binary_little_endian 1.0\n", f"element vertex {len(centers)}\n",
+                      *(f"property float {name}\n" for name in PLY_FIELDS), "end_header\n"])
+    return header.encode("ascii") + rows.tobytes()
+
+
+def described(scene: Scene, base_dir, min_group: int = MIN_GROUP) -> Description:
+    """The converter's description of ``scene`` (block form, for the XML writer) with the
+    spheres :func:`choose` groups for Mitsuba's own integrators (``smaller=False``) as one
+    ``ellipsoids`` shape per radius and material, read from a PLY file beside the XML
+    (``SCENE.sealed_K.ply``: a :class:`~whitted.converter.description.Mesh`, written as the
+    giant spheres' meshes are), in the frame that makes the commonest radius 1; the plain
+    description when nothing is grouped."""
+    grouping = choose(scene, min_group, classes=MAX_LAYERS, smaller=False)
+    if grouping is None:
+        return describe(scene, base_dir, block=True)
+    # the grouped radii are 1 and above in this frame: the smallest detail is 1 (as in the loader)
+    description = describe(remaining(scene, grouping), base_dir, smallest=1.0, block=True)
+    materials: dict[Material, str] = {}
+    stem = file_stem(scene)
+    for k, (material, radius, centers) in enumerate(groups(scene, grouping, description.origin)):
+        if material not in materials:
+            materials[material] = f"sealed_material_{len(materials)}"
+            description.scene[materials[material]] = material_dict(material, base_dir)
+        description.scene[f"sealed_{k}"] = {
+            "type": "ellipsoids", "filename": Mesh(f"{stem}.sealed_{k}.ply", ellipsoids_ply(centers)),
+            "scale_factor": float(radius), "extent": 1.0, "bsdf": {"type": "ref", "id": materials[material]}}
+    return description

@@ -57,8 +57,9 @@ from .scenes import SceneFile
 #: tracer; and the halves must be independent of each other, or their difference would
 #: understate the noise.
 REFERENCE_SEED = 0x5EED0000
-#: Bumped when the meaning of a cached reference changes (2: two halves, noise estimated).
-CACHE_FORMAT = "whitted-compare-reference/2"
+#: Bumped when the meaning of a cached reference changes (2: two halves, noise estimated;
+#: 3: rendered from the scene as ``--integrator path`` loads it, sealed spheres grouped).
+CACHE_FORMAT = "whitted-compare-reference/3"
 
 
 def chunk_seed(half: int, index: int) -> int:
