@@ -242,3 +242,20 @@ def test_rounds_stop_before_the_budget_runs_out(monkeypatch):
     assert all(m.rounds == 2 for m in entry.measurements)
     assert entry.notes == ["timed in 2 rounds, not 5: the next would have overrun the scene's "
                            "share of --budget"]
+
+
+def test_extra_rounds_time_the_quick_renders_only(monkeypatch):
+    """A 3 s render is timed in the rounds asked for; the extra rounds of an unsettled
+    headline leave it out and time the quick ones (a ratio pairs the rounds that timed both)."""
+    from whitted.compare.sweep import time_rounds
+    swing = random.Random(3)
+    _FakeRenders(lambda setting, call: 3.0 if setting[2] == 64 else 0.002 if setting[0] == "whitted"
+                 else 0.01 * setting[2] * 16 ** swing.random(), monkeypatch)
+    entry = _sweep_entry()
+    entry.measurements.append(_measurement("path", 6, 64, (), 0.02, 64))
+    time_rounds(None, entry, 3)
+    rounds = {m.setting.spp if m.setting.integrator == "path" else -m.setting.max_depth: m.rounds
+              for m in entry.measurements}
+    assert rounds[64] == 3 and min(rounds[-1], rounds[-2], rounds[1], rounds[4]) > 3
+    analysis = analyse(entry)
+    assert 3 < analysis.floors[0].interval.rounds <= rounds[1]

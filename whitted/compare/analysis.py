@@ -238,9 +238,10 @@ def _json_number(value: float) -> float | None:
 def _curve(measurements: list[Measurement], metric: str,
            round_: int | None = None) -> list[tuple[float, float, Measurement]]:
     """(time, error, render) of ``measurements``: their times (medians), or those of timed
-    round ``round_``."""
-    return [(m.seconds if round_ is None else m.seconds_in(round_), getattr(m, metric), m)
-            for m in measurements]
+    round ``round_`` (the renders that round did not time are left out)."""
+    points = [(m.seconds if round_ is None else m.seconds_in(round_), getattr(m, metric), m)
+              for m in measurements]
+    return [p for p in points if not math.isnan(p[0])]
 
 
 def rounds_of(entry: SceneResult) -> int:

@@ -38,8 +38,8 @@ import numpy as np
 
 from .. import imageio, metrics
 from .. import rendering  # rendering.render looked up at call time: tests count calls
-from ..defaults import (COMPARE_CLOCK, COMPARE_MAX_ROUNDS, COMPARE_ROUND_REPEATS, COMPARE_ROUND_SECONDS,
-                        COMPARE_ROUNDS_SECONDS)
+from ..defaults import (COMPARE_CLOCK, COMPARE_EXTRA_ROUND_RENDER, COMPARE_MAX_ROUNDS,
+                        COMPARE_ROUND_REPEATS, COMPARE_ROUND_SECONDS, COMPARE_ROUNDS_SECONDS)
 from ..display import clipped_fraction, fitting_view, to_srgb
 from .analysis import analyse
 from .budget import Budget
@@ -98,7 +98,9 @@ def time_rounds(loaded, entry: SceneResult, rounds: int, deadline: float = math.
     """Time every render of ``entry`` once per round, the rounds interleaved (forward, then
     backward), at least ``rounds`` rounds, then more while a headline ratio of the scene
     is unsettled (:mod:`.timing`), up to :data:`~whitted.defaults.COMPARE_MAX_ROUNDS`
-    rounds and :data:`~whitted.defaults.COMPARE_ROUNDS_SECONDS` of extra rounds; never
+    rounds and :data:`~whitted.defaults.COMPARE_ROUNDS_SECONDS` of extra rounds, which
+    time only the renders of at most :data:`~whitted.defaults.COMPARE_EXTRA_ROUND_RENDER`
+    (a ratio is paired over the rounds that timed both its renders); never
     past ``deadline`` (a round predicted, from the renders' times so far, to overrun
     either is not started). Each
     measurement's ``times`` and ``seconds`` (their median) are set in place."""
@@ -107,15 +109,23 @@ def time_rounds(loaded, entry: SceneResult, rounds: int, deadline: float = math.
         return
     times = {id(m): [] for m in measured}
     extra_until = math.inf
-    # what a round will take: the last one's wall time, or (before the first) each render's
-    # time, or the time it is repeated for when it is faster (:func:`_time_in_a_round`)
-    predicted = sum(max(m.seconds, COMPARE_ROUND_SECONDS) for m in measured)
+
+    def cost(ms):
+        """What a round of ``ms`` will take: each render's time, or the time it is repeated
+        for when it is faster (:func:`_time_in_a_round`)."""
+        return sum(max(m.seconds, COMPARE_ROUND_SECONDS) for m in ms)
+    predicted = cost(measured)
     for k in range(COMPARE_MAX_ROUNDS):
         started = time.monotonic()
         if k >= rounds:
             if k == rounds:
                 extra_until = started + COMPARE_ROUNDS_SECONDS
-            if not _unsettled(entry) or started + predicted > extra_until:
+                # the extra rounds time the quick renders only: a headline is read between
+                # renders of about its floor's time, and a round of the costliest renders
+                # (seconds each) would leave no room for more rounds
+                measured = [m for m in measured if m.seconds <= COMPARE_EXTRA_ROUND_RENDER]
+                predicted = cost(measured)
+            if not measured or not _unsettled(entry) or started + predicted > extra_until:
                 break
         if started + predicted > deadline:
             if k < rounds:
