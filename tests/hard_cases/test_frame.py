@@ -173,8 +173,11 @@ def test_convert_and_render_warn_in_one_line_and_still_work(tmp_path, capsys):
                       "sphere 0 -1e6 0 1e6\nsphere 0 0.3 0 0.3\n")
     assert main(["convert", str(source)]) == 0
     out, err = capsys.readouterr()
-    assert out == "" and err.count("\n") == 1
-    assert err.startswith(f"whitted: warning: {source}: the eye ") and "float32" in err
+    # the warning, then the one line that names the giant sphere's mesh file written beside the XML
+    warning, note = err.splitlines()
+    assert out == "" and err.count("\n") == 2
+    assert warning.startswith(f"whitted: warning: {source}: the eye ") and "float32" in warning
+    assert note.startswith("whitted: note: wrote planet.sphere_0.ply")
     assert source.with_suffix(".xml").is_file()
     assert main(["render", str(source), "-o", str(tmp_path / "planet.exr"), "-q"]) == 0
     out, err = capsys.readouterr()
