@@ -259,3 +259,16 @@ def test_extra_rounds_time_the_quick_renders_only(monkeypatch):
     assert rounds[64] == 3 and min(rounds[-1], rounds[-2], rounds[1], rounds[4]) > 3
     analysis = analyse(entry)
     assert 3 < analysis.floors[0].interval.rounds <= rounds[1]
+
+
+def test_a_render_missing_from_some_rounds_pairs_the_rounds_it_has():
+    """The extra rounds leave the slow renders out: a ratio with a render missing from a round
+    is not read there (no reading at an unknown time), and the others still are."""
+    entry = _entry(_steady_whitted, _steady_path)
+    for m in entry.measurements:
+        if m.setting.integrator == "whitted" and m.setting.max_depth >= 4:
+            m.times = m.times[:3]   # timed in 3 of the 7 rounds
+    analysis = analyse(entry)
+    assert analysis.floors[0].interval.rounds == 7          # d3 · 1 spp has all its rounds
+    rows = {r.whitted.setting.max_depth: r for r in analysis.equal_time if r.interval is not None}
+    assert rows[5].interval.rounds == rows[6].interval.rounds == 3   # within the path tracer's range

@@ -348,16 +348,18 @@ def _over(a: float, b: float) -> float:
 def _path_time_over_in(path: list[Measurement], floor: Floor[Measurement], round_: int) -> float:
     """In timed round ``round_``: the path tracer's time to the floor's error (read on its
     curve of that round's times) over the floor render's time in that round."""
-    reading = time_to_reach(_curve(path, "rel_mse", round_), floor.error)
+    own = floor.render.seconds_in(round_)
+    reading = time_to_reach(_curve(path, "rel_mse", round_), floor.error) if math.isfinite(own) else None
     if reading is None or reading.how == "nearest":
         return math.nan
-    return _over(reading.value, floor.render.seconds_in(round_))
+    return _over(reading.value, own)
 
 
 def _error_ratio_in(path: list[Measurement], m: Measurement, round_: int) -> float:
     """In timed round ``round_``: ``m``'s relative MSE over the path tracer's at ``m``'s time
     (read on its curve of that round's times)."""
-    reading = error_at_time(_curve(path, "rel_mse", round_), m.seconds_in(round_))
+    own = m.seconds_in(round_)
+    reading = error_at_time(_curve(path, "rel_mse", round_), own) if math.isfinite(own) else None
     if reading is None or reading.how == "nearest" or not reading.value > 0:
         return math.nan
     return m.rel_mse / reading.value
