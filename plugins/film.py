@@ -28,8 +28,14 @@ pixel's samples sit side by side), nothing else to develop, 12 bytes a pixel.
 It is the film's image up to the order of the additions (an ulp or so; none
 with one sample per pixel). It serves Mitsuba's ``hdrfilm`` with a box
 filter and RGB pixels in the JIT variants; :class:`FilmSplats` serves every
-other film, filter and pixel format, and the scalar variant, through the film. Unlike the film path, :class:`PixelMeans` leaves the film's own
-storage alone: read the image the render returns, not ``film.bitmap()``.
+other film, filter and pixel format, and the scalar variant, through the film.
+
+Either way the film holds the render: ``film.bitmap()``, ``film.write()`` and
+``film.develop()`` after ``mi.render`` give the image the render returned.
+:class:`PixelMeans` hands the film its image as the film's own storage (each
+pixel's RGB and a weight of 1, which the film divides by: the same values)
+through ``ImageBlock`` and ``put_block``, as a lazy Dr.Jit expression over the
+image: nothing is computed or copied unless the film is read.
 """
 
 from __future__ import annotations
@@ -99,11 +105,12 @@ class FilmSplats:
         self.block.set_coalesce(self.block.coalesce() and spp >= 4)
         self.alpha = mi.has_flag(film.flags(), mi.FilmFlags.Alpha)
 
-    def put(self, pixel, position, color) -> None:
-        """Add the sample ``color`` at film ``position`` (``pixel``: its linear index in the crop)."""
+    def put(self, pixel, position, color, alpha=None) -> None:
+        """Add the sample ``color`` at film ``position`` (``pixel``: its linear index in the
+        crop); ``alpha`` (Bool: whether the sample is opaque) for films with an alpha channel."""
         values = [color.x, color.y, color.z]
         if self.alpha:
-            values.append(mi.Float(1))
+            values.append(mi.Float(1) if alpha is None else dr.select(alpha, mi.Float(1), mi.Float(0)))
         values.append(mi.Float(1))   # the sample's weight: the film develops the mean
         self.block.put(position, values)
 
@@ -125,8 +132,12 @@ class PixelMeans:
                 and "pixel_format = rgb," in str(film))   # not xyz, which has three channels too
 
     takes_pixels = True
+    #: the film has no alpha channel: :meth:`put` takes no alpha
+    alpha = False
 
     def __init__(self, film, spp: int):
+        self.film = film
+        film.prepare([])   # the film's storage, cleared (a literal zero: nothing allocated yet)
         self.width, self.height = (int(c) for c in film.crop_size())
         self.spp = spp
         self.scale = dr.opaque(mi.Float, 1.0 / spp)
@@ -149,8 +160,9 @@ class PixelMeans:
                 dr.eval(image)
         return image
 
-    def put(self, pixel, position, color) -> None:
-        """Add ``color / spp`` to ``pixel`` (its linear index in the crop; ``position`` unused)."""
+    def put(self, pixel, position, color, alpha=None) -> None:
+        """Add ``color / spp`` to ``pixel`` (its linear index in the crop; ``position`` and
+        ``alpha`` unused)."""
         index = pixel * 3
         for channel in range(3):
             value = color[channel] * self.scale
@@ -174,5 +186,17 @@ class PixelMeans:
         dr.scatter(self.image, total / dr.opaque(mi.Float, self.spp), pixel)   # as the film divides
 
     def develop(self):
-        """The image as an ``mi.TensorXf`` (H, W, 3): the same array, no copy."""
+        """The image as an ``mi.TensorXf`` (H, W, 3): the same array, no copy. The film
+        receives it too (see the module docstring), at no cost until it is read."""
+        self.film.put_block(mi.ImageBlock(self._film_storage(), self.film.crop_offset(),
+                                          self.film.rfilter()))
         return mi.TensorXf(self.image, (self.height, self.width, 3))
+
+    def _film_storage(self):
+        """The image as the film stores it, (H, W, 4): R, G, B and the weight 1 per pixel,
+        a lazy expression (gathers from the image when the film is read)."""
+        index = dr.arange(mi.UInt32, 4 * self.width * self.height)
+        channel = index & 3
+        rgb = channel < 3
+        value = dr.select(rgb, dr.gather(mi.Float, self.image, (index >> 2) * 3 + channel, rgb), 1.0)
+        return mi.TensorXf(value, (self.height, self.width, 4))

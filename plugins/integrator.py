@@ -15,7 +15,8 @@ camera), placed in their pixels by :func:`.film.pixel_offset`, in passes
 of at most ``wavefront_size`` camera samples; each ray's tree is walked by
 :mod:`.tree` and shaded by :mod:`.shading`. Develop: the samples go straight
 into the developed image for a box-filtered RGB film, else into Mitsuba's
-image block, developed by the film (:mod:`.film`).
+image block, developed by the film (:mod:`.film`); either way the sensor's
+film holds the render afterwards (``film.bitmap()``, ``film.write()``).
 """
 
 from __future__ import annotations
@@ -100,6 +101,13 @@ class WhittedIntegrator(mi.SamplingIntegrator):
          and radius. The converter writes it where float32 cannot place a
          sphere finely enough (docs/numerics.md, hazard 14). (Default: none)
 
+     * - hide_emitters
+       - |bool|
+       - Hide directly visible emitters: camera rays that escape see black, not
+         the background, and have alpha 0 on a film with an alpha channel, as
+         in Mitsuba's own integrators (reflections and refractions still show
+         the background). (Default: no, i.e. |false|)
+
      * - wavefront_size
        - |int|
        - Camera samples per pass, and the widest wavefront the JIT variants
@@ -171,6 +179,7 @@ class WhittedIntegrator(mi.SamplingIntegrator):
         self.light_reference = mi.ScalarPoint3f(props.get("light_reference", mi.ScalarPoint3f(D.LOOKAT)))
         self.wavefront_size = int(props.get("wavefront_size", D.WAVEFRONT_SIZE))
         self.min_weight = D.check_min_weight(props.get("min_weight", D.MIN_WEIGHT), "whitted: min_weight")
+        self.hide_emitters = bool(props.get("hide_emitters", False))
         # Giant spheres' exact centers and radii, as the converter lists them (.giants).
         self.exact_spheres = parse_exact_spheres(str(props.get("exact_spheres", "")))
         if self.wavefront_size < 0:
@@ -214,7 +223,8 @@ class WhittedIntegrator(mi.SamplingIntegrator):
         analysis = analyse(scene_tables(scene), self.max_depth, self.light_reference)
         bright = brightest(analysis, self.lighting, self.ambient) if self.min_weight > 0 else None
         tally = Tally()
-        shader = Shader(scene, analysis, self.ambient, self.lighting, tally, self.exact_spheres)
+        shader = Shader(scene, analysis, self.ambient, self.lighting, tally, self.exact_spheres,
+                        hide_background=self.hide_emitters)
         tracer = tracer_for_variant(shader, allowance(self.min_weight, bright), tally,
                                     self.wavefront_size or SAMPLES_PER_PASS)
         return tracer, analysis, bright
@@ -238,6 +248,10 @@ class WhittedIntegrator(mi.SamplingIntegrator):
 
         tracer, analysis, bright = self._tracer(scene)
         image = image_for(film, spp)
+        # An alpha channel: opaque where a camera ray hits a surface or sees the background
+        # (as Mitsuba's own integrators do).
+        tracer.keep_camera_hit = image.alpha
+        background_seen = analysis.environment is not None and not self.hide_emitters
         # A single-level tree stores nothing between levels: then, where the image takes
         # whole pixels, each lane renders one pixel, looping over its samples in the kernel.
         by_pixel = analysis.depth == 1 and image.takes_pixels
@@ -249,12 +263,14 @@ class WhittedIntegrator(mi.SamplingIntegrator):
                 if progress is not None:
                     progress(count)
             else:
-                self._render_pass(tracer, sensor, image, first, count, width, spp, seed, progress)
+                self._render_pass(tracer, sensor, image, first, count, width, spp, seed, progress,
+                                  background_seen)
         rays = tracer.tally.read(camera=width * height * spp, max_depth_reached=tracer.deepest)
         error_bound = rays.sample_culled_weight * bright if rays.culled else 0.0
         return Rendering(image.develop(), rays, analysis.effects, analysis.depth, len(passes), error_bound)
 
-    def _render_pass(self, tracer, sensor, image, first, count, width, spp, seed, progress):
+    def _render_pass(self, tracer, sensor, image, first, count, width, spp, seed, progress,
+                     background_seen=False):
         """Samples first … first + count - 1 (of every pixel's spp, pixel after pixel), as
         ``tracer`` takes them: one wavefront, or one sample at a time."""
         # Counted from the pass's first pixel, so that 32-bit indices never overflow.
@@ -272,7 +288,9 @@ class WhittedIntegrator(mi.SamplingIntegrator):
             y = pixel // width_
             x = pixel - y * width_
             ray, ray_weight, position = self._camera_ray(sensor, x, y, pixel, sample, spp, seed)
-            image.put(pixel, position, tracer.trace(ray, progress) * ray_weight)
+            color = tracer.trace(ray, progress) * ray_weight
+            image.put(pixel, position, color,
+                      tracer.camera_hit | background_seen if image.alpha else None)
         tracer.finish_pass()
 
     def _render_pixels(self, tracer, sensor, image, first_pixel, pixels, width, spp, seed):
