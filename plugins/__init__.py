@@ -26,6 +26,10 @@ _PLUGINS = (
 )
 
 
+#: variants in which the plugins' names are registered to refuse with a clear error
+_refused: set = set()
+
+
 def register() -> None:
     """Register every plugin for Mitsuba's current variant (once per variant)."""
     import mitsuba as mi
@@ -39,6 +43,27 @@ def register() -> None:
             module = importlib.reload(module)
         cls = _classes[variant, plugin_name] = getattr(module, class_name)
         getattr(mi, function)(plugin_name, lambda props, cls=cls: cls(props))
+
+
+def refuse(supported) -> None:
+    """In Mitsuba's current variant, which the plugins do not run in (``supported`` lists
+    those they do), register their names so that a scene naming them fails with the reason
+    ("runs in ... only") rather than Mitsuba's ``Plugin "whitted" not found!``."""
+    import mitsuba as mi
+
+    from whitted.errors import WhittedError
+    variant = mi.variant()
+    if variant in _refused:
+        return
+    _refused.add(variant)
+    for _, function, plugin_name, _ in _PLUGINS:
+        kind = "integrator" if function == "register_integrator" else "BSDF"
+        message = (f"the {plugin_name!r} {kind} does not run in Mitsuba's variant {variant}; "
+                   f"call mi.set_variant() with one of {', '.join(supported)} first")
+
+        def refused(props, message=message):
+            raise WhittedError(message)
+        getattr(mi, function)(plugin_name, refused)
 
 
 def whitted_integrator(integrator):

@@ -180,6 +180,7 @@ class WhittedIntegrator(mi.SamplingIntegrator):
         self.wavefront_size = int(props.get("wavefront_size", D.WAVEFRONT_SIZE))
         self.min_weight = D.check_min_weight(props.get("min_weight", D.MIN_WEIGHT), "whitted: min_weight")
         self.hide_emitters = bool(props.get("hide_emitters", False))
+        self._seed_warned = False
         # Giant spheres' exact centers and radii, as the converter lists them (.giants).
         self.exact_spheres = parse_exact_spheres(str(props.get("exact_spheres", "")))
         if self.wavefront_size < 0:
@@ -241,8 +242,14 @@ class WhittedIntegrator(mi.SamplingIntegrator):
         """
         if isinstance(sensor, int):
             sensor = scene.sensors()[sensor]
-        seed = int(seed[0]) if dr.is_array_v(seed) else int(seed)   # mi.render may pass a UInt32
+        # mi.render may pass a UInt32; any integer up to 2^64 - 1 is folded to 32 bits
+        seed = D.check_seed(int(seed[0]) if dr.is_array_v(seed) else seed, "whitted: seed")
         spp = int(spp) or sensor.sampler().sample_count()
+        if spp == 1 and seed != 0 and not self._seed_warned:
+            self._seed_warned = True
+            mi.Log(mi.LogLevel.Warn, f"whitted: seed {seed} changes nothing at 1 sample per pixel: "
+                   "every camera ray passes through its pixel's center (the scene format's rule); "
+                   "render more samples per pixel for a seed to matter")
         film = sensor.film()
         width, height = (int(c) for c in film.crop_size())
 

@@ -189,3 +189,13 @@ def check_integrator(integrator) -> str:
     if integrator not in INTEGRATORS:
         raise WhittedError(f"unknown integrator '{integrator}'; choose one of {', '.join(INTEGRATORS)}")
     return integrator
+
+
+def check_seed(seed, what: str = "seed") -> int:
+    """A render's seed as Mitsuba takes it (32 bits): any integer from 0 to 2^64 - 1. Seeds
+    below 2^32 are themselves; a larger one folds its upper half into the lower (times
+    :data:`SEED_STRIDE`), so that seeds that differ above bit 32 still give other samples."""
+    seed = _integer(seed, what)
+    if not 0 <= seed < 2 ** 64:
+        raise WhittedError(f"{what} must be an integer from 0 to 2^64 - 1, got {seed}")
+    return (seed ^ (seed >> 32) * SEED_STRIDE) & 0xFFFFFFFF

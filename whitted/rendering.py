@@ -171,6 +171,9 @@ def render(scene, integrator: str = D.INTEGRATOR, spp: int | None = None, max_de
            min_weight: float | None = None, ambient: float | None = None) -> RenderResult:
     """Render ``scene`` (a ``mi.Scene``); see the module docstring and docs/CONTRACTS.md.
 
+    ``seed``: any integer from 0 to 2^64 - 1 (:func:`whitted.defaults.check_seed` folds it
+    to Mitsuba's 32 bits); with one sample per pixel the whitted integrator takes none (every
+    ray passes through its pixel's center: the scene format's rule).
     ``spp``, ``max_depth`` (the article's depth, primary rays being depth 1),
     ``lighting``, ``min_weight`` (the Whitted integrator's adaptive depth
     control, 0 = off) and ``ambient`` (the article's A, whitted only) default to
@@ -183,6 +186,7 @@ def render(scene, integrator: str = D.INTEGRATOR, spp: int | None = None, max_de
     import mitsuba as mi
 
     check_settings(spp, max_depth, lighting, integrator, min_weight)
+    seed = D.check_seed(seed)
     if not scene.sensors():
         raise WhittedError("the scene has no sensor (camera) to render from")
     own = whitted_integrator(scene)

@@ -149,10 +149,13 @@ def _set_variant(variant: str | None) -> str:
 
 
 def on_variant_changed(old: str | None, new: str | None) -> None:
-    """Mitsuba's variant callback: register the plugins for each variant the user sets."""
+    """Mitsuba's variant callback: register the plugins for each variant the user sets, and
+    in a variant they do not run in, names that refuse with the reason."""
+    from whitted import plugins
     if new in SUPPORTED_VARIANTS:
-        from whitted import plugins
         plugins.register()
+    elif new:
+        plugins.refuse(SUPPORTED_VARIANTS)
 
 
 def ensure_llvm(allow_install: bool = True) -> str | None:

@@ -110,9 +110,10 @@ class SceneTables:
         bsdfs = [shape.bsdf() for shape in shapes]
         for shape, bsdf in zip(shapes, bsdfs):
             if not getattr(bsdf, "is_article", False):
+                has = f"the BSDF {bsdf.class_name()}" if bsdf is not None else "no BSDF"
                 raise WhittedError(
-                    f"the whitted integrator needs the 'article' BSDF on every shape; shape "
-                    f"{shape.id()!r} has {bsdf.class_name() if bsdf is not None else 'none'}")
+                    f"the whitted integrator cannot render {has} of shape {shape.id()!r} "
+                    f"(a {shape.class_name()}): it renders the 'article' BSDF only")
         self.lights = point_lights(scene)
         self.environment = scene.environment()
         self.background = 0.0 if self.environment is None else largest_emission(self.environment)
