@@ -27,6 +27,7 @@ import drjit as dr
 import mitsuba as mi
 
 from whitted import defaults as D
+from whitted.errors import WhittedError
 from whitted.converter.giants import exact_spheres, parse_exact_spheres
 
 from .film import image_for, pixel_offset
@@ -106,13 +107,19 @@ class WhittedIntegrator(mi.SamplingIntegrator):
        - Hide directly visible emitters: camera rays that escape see black, not
          the background, and have alpha 0 on a film with an alpha channel, as
          in Mitsuba's own integrators (reflections and refractions still show
-         the background). (Default: no, i.e. |false|)
+         the background). (Default: false)
 
      * - wavefront_size
        - |int|
        - Camera samples per pass, and the widest wavefront the JIT variants
          trace at once: it bounds memory. 0 lets the tracer choose (2^20, or
          2^21 when the tree has a single level). (Default: 0)
+
+    ``mi.traverse(integrator)`` exposes ``max_depth``, ``ambient``, ``min_weight``
+    and ``light_reference`` (one- or three-value Dr.Jit arrays); ``params.update()``
+    checks an edit, refuses an invalid one whole, and the next render uses it.
+    ``lighting`` and ``exact_spheres`` are strings, which Mitsuba's scene
+    parameters cannot hold: load the scene again to change them.
 
     The article's ray tracer (docs/scene-format.md, "Shading"): a camera ray
     that hits a sphere gets ``(1 - KR - KT)·point + KR·reflected +
@@ -185,6 +192,47 @@ class WhittedIntegrator(mi.SamplingIntegrator):
         self.exact_spheres = parse_exact_spheres(str(props.get("exact_spheres", "")))
         if self.wavefront_size < 0:
             raise ValueError(f"whitted: wavefront_size must be >= 0, got {self.wavefront_size}")
+
+    # -- mi.traverse ------------------------------------------------------------------------------
+
+    #: what :meth:`traverse` exposes: name -> (Dr.Jit scalar type, check); ``lighting`` and
+    #: ``exact_spheres`` are strings, which Mitsuba's scene parameters cannot hold
+    TRAVERSED = {
+        "max_depth": (dr.scalar.Array1i, lambda v: D.check_depth(int(v), "whitted: max_depth")),
+        "ambient": (dr.scalar.Array1f64, lambda v: D.check_ambient(float(v), "whitted: ambient")),
+        "min_weight": (dr.scalar.Array1f64, lambda v: D.check_min_weight(float(v), "whitted: min_weight")),
+        "light_reference": (dr.scalar.Array3f64, lambda v: mi.ScalarPoint3f(*(float(c) for c in v))),
+    }
+
+    def traverse(self, callback):
+        # One-value (or three-value) float64/int Dr.Jit arrays, which SceneParameters writes
+        # into in place; :meth:`parameters_changed` reads them back.
+        if not hasattr(self, "_values"):
+            self._values = {name: tp(*self._traversed_value(name)) for name, (tp, _) in self.TRAVERSED.items()}
+        for name, value in self._values.items():
+            callback.put(name, value, mi.ParamFlags.NonDifferentiable)
+
+    def _traversed_value(self, name):
+        value = getattr(self, name)
+        return [float(c) for c in value] if name == "light_reference" else [value]
+
+    def parameters_changed(self, keys=[]):  # noqa: B006  (Mitsuba's own default)
+        """``params.update()`` wrote some of :data:`TRAVERSED`: take them (checked; an
+        invalid edit is undone and refused)."""
+        changed = {}
+        for name in (keys or self.TRAVERSED):
+            if name in self.TRAVERSED:
+                value = self._values[name]
+                raw = [value[k] for k in range(len(value))] if name == "light_reference" else value[0]
+                try:
+                    changed[name] = self.TRAVERSED[name][1](raw)
+                except WhittedError:
+                    for other in self.TRAVERSED:   # undo the whole edit
+                        for k, c in enumerate(self._traversed_value(other)):
+                            self._values[other][k] = c
+                    raise
+        for name, value in changed.items():
+            setattr(self, name, value)
 
     #: the settings :meth:`settings` reports and :meth:`with_settings` changes
     SETTINGS = ("max_depth", "ambient", "lighting", "light_reference", "min_weight", "exact_spheres")

@@ -157,6 +157,14 @@ def check_spp(spp, what: str = "spp") -> int:
     return spp
 
 
+def check_size(size, what: str = "width") -> int:
+    """An image's width or height, 1 ... :data:`MAX_SIZE` pixels (the scene format's range)."""
+    size = _integer(size, what)
+    if not 1 <= size <= MAX_SIZE:
+        raise WhittedError(f"{what} must be in 1…{MAX_SIZE} pixels, got {size}")
+    return size
+
+
 def _unit_interval(value, what: str) -> float:
     try:
         value = float(value)
