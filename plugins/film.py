@@ -7,7 +7,10 @@ cells (the most nearly square factorisation of N; a prime N gives N columns)
 and each sample is jittered uniformly inside its own cell: stratified
 sampling, unbiased, whatever N is (:func:`pixel_offset`). The jitter is a
 hash of (pixel, sample, seed) rather than a stream from a sampler, so an
-image does not depend on how the render is split into passes.
+image does not depend on how the render is split into passes. That is what
+the ``independent`` sampler (the one converted scenes name) gets; any other
+sampler type draws the samples itself, and a thin lens gets lens samples
+(:class:`CameraSamples`).
 
 Where its color goes: straight into the developed image, or through
 Mitsuba's film. Why two ways. Mitsuba's film accepts samples anywhere on the
@@ -76,6 +79,105 @@ def pixel_offset(pixel, sample, spp: int, seed: int):
     bits_x, bits_y = mi.sample_tea_32(mi.UInt32(pixel), salt)
     jitter = mi.Point2f(mi.Float(bits_x >> 8), mi.Float(bits_y >> 8)) * (1.0 / (1 << 24))
     return mi.Point2f((mi.Float(column) + jitter.x) / nx, (mi.Float(row) + jitter.y) / ny)
+
+
+def lens_offset(pixel, sample, seed: int):
+    """Where a camera sample crosses a thin lens, in [0, 1)^2 (Point2f): a hash of (pixel,
+    sample, seed) as in :func:`pixel_offset`, from another stream (its own salt)."""
+    seed_offset = (seed * SEED_STRIDE + LENS_SALT) & 0xFFFFFFFF
+    salt = (mi.UInt32(sample) + dr.opaque(mi.UInt32, seed_offset)) & 0xFFFFFFFF
+    # 8 rounds of TEA: with the default 4, a pixel's lens samples (consecutive salts) are
+    # visibly correlated (measured: twice path's noise on a defocused image at 48 spp)
+    bits_x, bits_y = mi.sample_tea_32(mi.UInt32(pixel), salt, LENS_ROUNDS)
+    return mi.Point2f(mi.Float(bits_x >> 8), mi.Float(bits_y >> 8)) * (1.0 / (1 << 24))
+
+
+#: what sets the lens's stream of hashes apart from the pixel's (any odd 32-bit constant)
+LENS_SALT = 0x85EBCA6B
+LENS_ROUNDS = 8
+
+
+class CameraSamples:
+    """The camera rays of a render: where each sample starts in its pixel and on the lens.
+
+    * One sample per pixel: the pixel's center and the lens's (the scene format's rule),
+      whatever the sampler, its seed or the lens (:attr:`unused` names what that leaves
+      unused, for the integrator to warn about).
+    * More, with the ``independent`` sampler (what converted scenes name): the stratified
+      jitter of :func:`pixel_offset`, and :func:`lens_offset` on a thin lens, hashes of
+      (pixel, sample, seed) that do not depend on how the render is split into passes.
+    * More, with any other sampler (``stratified``, ``multijitter``, ``ldsampler``,
+      ``orthogonal``): that sampler's own 2D samples, the pixel's then the lens's, as
+      Mitsuba's integrators draw them; each pass holds whole pixels and seeds the sampler
+      (the render's seed for the first pass), so the image depends on the seed and the
+      pass size.
+
+    Lens samples are drawn only for a sensor that needs them (``thinlens``): a pinhole
+    camera's kernels hold no lens code. With the film's ``sample_border`` the samples cover
+    the border the reconstruction filter reaches beyond the crop too (:attr:`border`
+    pixels on each side), as in Mitsuba's integrators.
+    """
+
+    def __init__(self, sensor, spp: int, seed: int):
+        self.sensor, self.spp, self.seed = sensor, spp, seed
+        film = sensor.film()
+        self.box = film.rfilter().is_box_filter()
+        self.border = int(film.rfilter().border_size()) if film.sample_border() else 0
+        width, height = (int(c) for c in film.crop_size())
+        #: the sample grid: the crop and its border
+        self.width, self.height = width + 2 * self.border, height + 2 * self.border
+        sampler = sensor.sampler()
+        independent = sampler.class_name() == "IndependentSampler"
+        self.lens = spp > 1 and sensor.needs_aperture_sample()
+        self.sampler = None
+        if spp > 1 and not independent:
+            self.sampler = sampler.clone()
+            self.sampler.set_sample_count(spp)
+            if dr.is_jit_v(mi.Float):   # a pixel's samples are consecutive lanes
+                self.sampler.set_samples_per_wavefront(spp)
+        unused = []
+        if spp == 1:
+            if seed != 0:
+                unused.append(f"seed {seed}")
+            if sensor.needs_aperture_sample():
+                unused.append("thin lens's aperture")
+            if not independent:
+                unused.append(f"{sampler.class_name()}")
+        self.unused = tuple(unused)
+        self.jit = dr.is_jit_v(mi.Float)
+        self.pass_seed = seed
+
+    def start_pass(self, index: int, count: int) -> None:
+        """A pass of ``count`` samples (whole pixels when a sampler is used) begins."""
+        if self.sampler is None:
+            return
+        self.pass_seed = self.seed if index == 0 else (self.seed * SEED_STRIDE + index) & 0xFFFFFFFF
+        if self.jit:
+            self.sampler.seed(self.pass_seed, count)
+
+    def ray(self, x, y, pixel, sample):
+        """The camera ray of a sample (in pixel ``(x, y)`` of the sample grid, linear index
+        ``pixel``), its weight, and where it lands on the film."""
+        if self.sampler is None:
+            offset = pixel_offset(pixel, sample, self.spp, self.seed)
+            aperture = lens_offset(pixel, sample, self.seed) if self.lens else mi.Point2f(0.5)
+        else:
+            if not self.jit and sample == 0:   # scalar: one pixel's samples at a time
+                self.sampler.seed(mi.sample_tea_32(self.pass_seed, pixel)[0])
+            offset = self.sampler.next_2d()
+            aperture = self.sampler.next_2d() if self.lens else mi.Point2f(0.5)
+            if not self.jit:
+                self.sampler.advance()
+        film = self.sensor.film()
+        corner = mi.Point2f(mi.Float(x), mi.Float(y))
+        if self.border:
+            corner = corner - self.border
+        crop_size = mi.ScalarVector2f(film.crop_size())
+        ray, weight = self.sensor.sample_ray(time=self.sensor.shutter_open(), sample1=0.5,
+                                             sample2=(corner + offset) / crop_size, sample3=aperture)
+        # Box filter: a sample belongs to its pixel alone (as Mitsuba's own integrators do).
+        position = corner if self.box else corner + offset
+        return ray, weight, position + mi.ScalarVector2f(film.crop_offset())
 
 
 # -- where its color goes ------------------------------------------------------------------------

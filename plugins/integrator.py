@@ -11,7 +11,8 @@ develops. Prepare: read the scene's tables (:mod:`.scene`: lights,
 materials, primitives, kept between renders while the scene is unchanged)
 and what the scene calls for (:mod:`.scene.effects`), and build a tracer.
 Sample: camera rays from the sensor's ``sample_ray`` (Mitsuba's perspective
-camera), placed in their pixels by :func:`.film.pixel_offset`, in passes
+or thin-lens camera), placed in their pixels and on the lens by
+:class:`.film.CameraSamples`, in passes
 of at most ``wavefront_size`` camera samples; each ray's tree is walked by
 :mod:`.tree` and shaded by :mod:`.shading`. Develop: the samples go straight
 into the developed image for a box-filtered RGB film, else into Mitsuba's
@@ -30,7 +31,7 @@ from whitted import defaults as D
 from whitted.errors import WhittedError
 from whitted.converter.giants import exact_spheres, parse_exact_spheres
 
-from .film import image_for, pixel_offset
+from .film import CameraSamples, image_for
 from .scene.effects import analyse
 from .scene.tables import scene_tables
 from .shading.shader import Shader
@@ -130,9 +131,13 @@ class WhittedIntegrator(mi.SamplingIntegrator):
     follows the mirror direction. A ray that escapes gets the background (a
     ``constant`` environment emitter), black without one. Every surface must
     carry the :ref:`article <bsdf-article>` BSDF, every emitter be a point
-    light or the environment. No sampling: one sample per pixel passes
-    through the pixel's center, so a render is deterministic; more samples
-    are stratified in the pixel.
+    light or the environment. No sampling at one sample per pixel: the ray
+    passes through the pixel's center (and a thin lens's), so a render is
+    deterministic, and the seed, the sampler and the lens change nothing (a
+    warning says so). More samples per pixel honour the sensor: the sampler's
+    type and the seed, a thin lens's depth of field, the film's filter and
+    ``sample_border``; the ``independent`` sampler (the converter's) is
+    stratified in the pixel (:class:`.film.CameraSamples`).
 
     Code for an effect the scene lacks is left out of the kernels: a scene
     without mirrors or glass is traced to depth 1 whatever ``max_depth``.
@@ -187,7 +192,7 @@ class WhittedIntegrator(mi.SamplingIntegrator):
         self.wavefront_size = int(props.get("wavefront_size", D.WAVEFRONT_SIZE))
         self.min_weight = D.check_min_weight(props.get("min_weight", D.MIN_WEIGHT), "whitted: min_weight")
         self.hide_emitters = bool(props.get("hide_emitters", False))
-        self._seed_warned = False
+        self._warned = ()   # what the last warning about 1 spp named (once per change)
         # Giant spheres' exact centers and radii, as the converter lists them (.giants).
         self.exact_spheres = parse_exact_spheres(str(props.get("exact_spheres", "")))
         if self.wavefront_size < 0:
@@ -293,13 +298,14 @@ class WhittedIntegrator(mi.SamplingIntegrator):
         # mi.render may pass a UInt32; any integer up to 2^64 - 1 is folded to 32 bits
         seed = D.check_seed(int(seed[0]) if dr.is_array_v(seed) else seed, "whitted: seed")
         spp = int(spp) or sensor.sampler().sample_count()
-        if spp == 1 and seed != 0 and not self._seed_warned:
-            self._seed_warned = True
-            mi.Log(mi.LogLevel.Warn, f"whitted: seed {seed} changes nothing at 1 sample per pixel: "
-                   "every camera ray passes through its pixel's center (the scene format's rule); "
-                   "render more samples per pixel for a seed to matter")
         film = sensor.film()
-        width, height = (int(c) for c in film.crop_size())
+        camera = CameraSamples(sensor, spp, seed)
+        if camera.unused and camera.unused != self._warned:
+            self._warned = camera.unused
+            mi.Log(mi.LogLevel.Warn, f"whitted: at 1 sample per pixel every camera ray passes through "
+                   f"its pixel's center and the lens's (the scene format's rule): the "
+                   f"{' and the '.join(camera.unused)} change nothing; render spp > 1 for them")
+        width, height = camera.width, camera.height
 
         tracer, analysis, bright = self._tracer(scene)
         image = image_for(film, spp)
@@ -309,25 +315,26 @@ class WhittedIntegrator(mi.SamplingIntegrator):
         background_seen = analysis.environment is not None and not self.hide_emitters
         # A single-level tree stores nothing between levels: then, where the image takes
         # whole pixels, each lane renders one pixel, looping over its samples in the kernel.
-        by_pixel = analysis.depth == 1 and image.takes_pixels
+        by_pixel = analysis.depth == 1 and image.takes_pixels and camera.sampler is None
+        whole_pixels = by_pixel or camera.sampler is not None
         per_pass = self.wavefront_size or tracer.samples_per_pass
-        passes = tracer.passes(width * height * spp, max(spp, per_pass // spp * spp) if by_pixel else per_pass)
-        for first, count in passes:
+        passes = tracer.passes(width * height * spp, max(spp, per_pass // spp * spp) if whole_pixels else per_pass)
+        for index, (first, count) in enumerate(passes):
             if by_pixel:
-                self._render_pixels(tracer, sensor, image, first // spp, count // spp, width, spp, seed)
+                self._render_pixels(tracer, camera, image, first // spp, count // spp)
                 if progress is not None:
                     progress(count)
             else:
-                self._render_pass(tracer, sensor, image, first, count, width, spp, seed, progress,
-                                  background_seen)
+                camera.start_pass(index, count)
+                self._render_pass(tracer, camera, image, first, count, progress, background_seen)
         rays = tracer.tally.read(camera=width * height * spp, max_depth_reached=tracer.deepest)
         error_bound = rays.sample_culled_weight * bright if rays.culled else 0.0
         return Rendering(image.develop(), rays, analysis.effects, analysis.depth, len(passes), error_bound)
 
-    def _render_pass(self, tracer, sensor, image, first, count, width, spp, seed, progress,
-                     background_seen=False):
+    def _render_pass(self, tracer, camera, image, first, count, progress, background_seen=False):
         """Samples first … first + count - 1 (of every pixel's spp, pixel after pixel), as
         ``tracer`` takes them: one wavefront, or one sample at a time."""
+        spp, width = camera.spp, camera.width
         # Counted from the pass's first pixel, so that 32-bit indices never overflow.
         first_pixel, first_sample = divmod(first, spp)
         spp_, first_sample_ = dr.opaque(mi.UInt32, spp), dr.opaque(mi.UInt32, first_sample)
@@ -342,39 +349,25 @@ class WhittedIntegrator(mi.SamplingIntegrator):
             pixel = pixel + first_pixel_
             y = pixel // width_
             x = pixel - y * width_
-            ray, ray_weight, position = self._camera_ray(sensor, x, y, pixel, sample, spp, seed)
+            ray, ray_weight, position = camera.ray(x, y, pixel, sample)
             color = tracer.trace(ray, progress) * ray_weight
             image.put(pixel, position, color,
                       tracer.camera_hit | background_seen if image.alpha else None)
         tracer.finish_pass()
 
-    def _render_pixels(self, tracer, sensor, image, first_pixel, pixels, width, spp, seed):
+    def _render_pixels(self, tracer, camera, image, first_pixel, pixels):
         """Pixels first_pixel … first_pixel + pixels - 1, one lane each, every sample of a
         pixel traced in a loop inside the kernel (single-level trees, :class:`.PixelMeans`)."""
         pixel = dr.arange(mi.UInt32, pixels) + dr.opaque(mi.UInt32, first_pixel)
-        width_ = dr.opaque(mi.UInt32, width)
+        width_ = dr.opaque(mi.UInt32, camera.width)
         y = pixel // width_
         x = pixel - y * width_
 
         def color(sample):
-            ray, ray_weight, _ = self._camera_ray(sensor, x, y, pixel, sample, spp, seed)
+            ray, ray_weight, _ = camera.ray(x, y, pixel, sample)
             return tracer.trace(ray) * ray_weight
         image.put_pixels(pixel, color)
         tracer.finish_pass()
-
-    @staticmethod
-    def _camera_ray(sensor, x, y, pixel, sample, spp, seed):
-        """The camera ray of a sample, its weight, and where it lands on the film."""
-        film = sensor.film()
-        offset = pixel_offset(pixel, sample, spp, seed)
-        corner = mi.Point2f(mi.Float(x), mi.Float(y))
-        crop_size = mi.ScalarVector2f(film.crop_size())
-        ray, weight = sensor.sample_ray(time=sensor.shutter_open(), sample1=0.5,
-                                        sample2=(corner + offset) / crop_size,
-                                        sample3=mi.Point2f(0.5))
-        # Box filter: a sample belongs to its pixel alone (as Mitsuba's own integrators do).
-        position = corner if film.rfilter().is_box_filter() else corner + offset
-        return ray, weight, position + mi.ScalarVector2f(film.crop_offset())
 
     def to_string(self):
         return (f"WhittedIntegrator[max_depth={self.max_depth}, ambient={self.ambient}, "
