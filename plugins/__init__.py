@@ -73,12 +73,13 @@ def whitted_integrator(integrator):
     return integrator if cls is not None and isinstance(integrator, cls) else None
 
 
-def check_scene(scene) -> None:
+def check_scene(scene):
     """Raise :class:`~whitted.errors.WhittedError` unless the ``whitted`` integrator can
     render ``scene``: every shape has the ``article`` BSDF and every emitter is a point
-    light or the environment. What it reads is kept for the render (:mod:`.scene.tables`)."""
+    light or the environment. Returns what it read (the scene's tables,
+    :mod:`.scene.tables`), for ``render_detailed(..., tables=)``: found once per render."""
     from .scene.tables import scene_tables
-    scene_tables(scene)
+    return scene_tables(scene)
 
 
 def scene_effects(scene, max_depth: int, light_reference=(0.0, 0.0, 0.0)) -> tuple[str, ...]:

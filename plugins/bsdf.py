@@ -57,7 +57,6 @@ import mitsuba as mi
 
 from whitted import defaults as D
 
-from .scene.tables import material_changed
 from .shading import optics
 
 DIFFUSE, REFLECTION, TRANSMISSION = 0, 1, 2
@@ -162,6 +161,9 @@ class ArticleBSDF(mi.BSDF):
         self.color = (props.get_texture("color") if "color" in props
                       else mi.load_dict({"type": "rgb", "value": D.COLOR}))
         self.m_components = list(COMPONENT_FLAGS)
+        #: how many times ``params.update()`` changed the BSDF: what the Whitted integrator's
+        #: tables compare (plugins/scene/tables.py) to see an edit, whoever made it
+        self.changes = 0
         self._set(float(props.get("reflect", D.REFLECT)), float(props.get("refract", D.REFRACT)),
                   float(props.get("ior", D.IOR)))
         # What mi.traverse hands out: Mitsuba values that SceneParameters writes into in
@@ -197,8 +199,9 @@ class ArticleBSDF(mi.BSDF):
 
     def parameters_changed(self, keys=[]):  # noqa: B006  (Mitsuba's own default)
         # A parameter was written (mi.SceneParameters.update, even through mi.traverse(bsdf),
-        # which no scene hears of): KR, KT and the IOR are taken back as floats (checked; an
-        # invalid edit is undone), and the Whitted integrator's tables are to be read again.
+        # which no scene hears of; Mitsuba calls this for an edit of the color texture too):
+        # KR, KT and the IOR are taken back as floats (checked; an invalid edit is undone),
+        # and the change is counted, which tells the Whitted integrator's tables.
         previous = (self.reflect, self.refract, self.ior)
         try:
             self._set(*(float(self._values[name][0]) for name in self.SCALARS))
@@ -206,7 +209,7 @@ class ArticleBSDF(mi.BSDF):
             for name, value in zip(self.SCALARS, previous):
                 self._values[name][0] = value
             raise
-        material_changed()
+        self.changes += 1
 
     @property
     def diffuse_weight(self) -> float:

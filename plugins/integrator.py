@@ -29,7 +29,7 @@ import mitsuba as mi
 
 from whitted import defaults as D
 from whitted.errors import WhittedError
-from whitted.converter.giants import exact_spheres, parse_exact_spheres
+from whitted.giant_list import parse_exact_spheres
 
 from .film import CameraSamples, image_for
 from .scene.effects import analyse
@@ -254,8 +254,11 @@ class WhittedIntegrator(mi.SamplingIntegrator):
         if all(current[name] == value for name, value in changes.items()):
             return self
         settings = {**current, **changes}
-        settings["exact_spheres"] = exact_spheres(settings["exact_spheres"])
-        return mi.load_dict({"type": "whitted", **settings})
+        giants = settings.pop("exact_spheres")   # data, handed over as it is (no text)
+        integrator = mi.load_dict({"type": "whitted", **settings, "hide_emitters": self.hide_emitters,
+                                   "wavefront_size": self.wavefront_size})
+        integrator.exact_spheres = list(giants)
+        return integrator
 
     # -- Mitsuba's entry points ------------------------------------------------------------------
 
@@ -271,10 +274,11 @@ class WhittedIntegrator(mi.SamplingIntegrator):
 
     # -- Rendering ------------------------------------------------------------------------------
 
-    def _tracer(self, scene):
+    def _tracer(self, scene, tables=None):
         """A tracer for ``scene`` (see :mod:`.tree`), the scene's analysis, and the
-        brightest color a ray can have in it (:func:`.tree.adaptive.brightest`; None: unknown)."""
-        analysis = analyse(scene_tables(scene), self.max_depth, self.light_reference)
+        brightest color a ray can have in it (:func:`.tree.adaptive.brightest`; None: unknown).
+        ``tables``: the scene's tables as :func:`whitted.plugins.check_scene` just found them."""
+        analysis = analyse(tables or scene_tables(scene), self.max_depth, self.light_reference)
         bright = brightest(analysis, self.lighting, self.ambient) if self.min_weight > 0 else None
         tally = Tally()
         shader = Shader(scene, analysis, self.ambient, self.lighting, tally, self.exact_spheres,
@@ -283,8 +287,11 @@ class WhittedIntegrator(mi.SamplingIntegrator):
                                     self.wavefront_size or SAMPLES_PER_PASS)
         return tracer, analysis, bright
 
-    def render_detailed(self, scene, sensor=0, seed=0, spp=0, progress=None) -> Rendering:
+    def render_detailed(self, scene, sensor=0, seed=0, spp=0, progress=None, tables=None) -> Rendering:
         """Render ``scene`` and report what was traced.
+
+        ``tables``: what :func:`whitted.plugins.check_scene` returned for ``scene`` just
+        before (else the render finds the scene's tables itself).
 
         ``progress``, when given, is called with the number of camera samples
         finished since its last call, as the trees are traced: after each level
@@ -307,7 +314,7 @@ class WhittedIntegrator(mi.SamplingIntegrator):
                    f"{' and the '.join(camera.unused)} change nothing; render spp > 1 for them")
         width, height = camera.width, camera.height
 
-        tracer, analysis, bright = self._tracer(scene)
+        tracer, analysis, bright = self._tracer(scene, tables)
         image = image_for(film, spp)
         # An alpha channel: opaque where a camera ray hits a surface or sees the background
         # (as Mitsuba's own integrators do).

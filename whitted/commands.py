@@ -88,10 +88,10 @@ def render_command(args) -> None:
     from .memory import peak_resident_bytes
     with deferred():   # numpy's C extension is not cut mid-import by a Ctrl-C (see deferred)
         from .imageio import image_format, write_image
-        from .rendering import check_settings, render
+        from .rendering import check_settings, render_checked
 
     output = Path(args.output)
-    # Before the scene is loaded (seconds for a large one), though render checks them again.
+    # Before the scene is loaded (seconds for a large one); once: render_checked trusts them.
     check_settings(args.spp, args.max_depth, args.lighting, args.integrator, args.min_weight)
     if args.ambient is not None:
         check_ambient(args.ambient)
@@ -104,8 +104,8 @@ def render_command(args) -> None:
 
     loaded = _load_quietly(args)   # the mi.Scene
     try:   # render checks the scene (a sensor; the article's materials) before it starts
-        result = render(loaded, integrator=args.integrator, progress=not args.quiet,
-                        min_weight=args.min_weight)
+        result = render_checked(loaded, integrator=args.integrator, progress=not args.quiet,
+                                min_weight=args.min_weight)
     except WhittedError as error:
         raise WhittedError(f"{args.scene}: {error}") from None
     write_image(output, result.image, progress=not args.quiet)
