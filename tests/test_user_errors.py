@@ -17,7 +17,8 @@ from conftest import REPO
 def scene(bsdf=None, emitter=None):
     description = {
         "type": "scene", "integrator": {"type": "whitted"},
-        "sensor": {"type": "perspective", "film": {"type": "hdrfilm", "width": 8, "height": 6},
+        "sensor": {"type": "perspective",
+                   "film": {"type": "hdrfilm", "width": 8, "height": 6, "rfilter": {"type": "box"}},
                    "to_world": mi.ScalarTransform4f().look_at(origin=[0, 0, 5], target=[0, 0, 0], up=[0, 1, 0])},
         "ball": {"type": "sphere", "bsdf": bsdf or {"type": "article"}},
         "light": emitter or {"type": "point", "position": [0, 3, 3]},
@@ -91,10 +92,11 @@ def test_large_seeds_render(variant, integrator):
     loaded = scene()
     spp = 4
     small = whitted.render(loaded, integrator=integrator, spp=spp, seed=5).image
-    assert np.array_equal(whitted.render(loaded, integrator=integrator, spp=spp,
-                                         seed=whitted_seed(5)).image, small)
+    # (the same seed, the same samples; Mitsuba's scalar path tracer may add in another order)
+    np.testing.assert_allclose(whitted.render(loaded, integrator=integrator, spp=spp,
+                                              seed=whitted_seed(5)).image, small, rtol=1e-5, atol=1e-7)
     large = whitted.render(loaded, integrator=integrator, spp=spp, seed=2 ** 33 + 5).image
-    assert np.isfinite(large).all() and not np.array_equal(large, small)
+    assert np.isfinite(large).all() and np.abs(large - small).max() > 1e-3
     with pytest.raises(whitted.WhittedError, match="seed must be an integer from 0 to 2"):
         whitted.render(loaded, integrator=integrator, seed=-1)
 
