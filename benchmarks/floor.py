@@ -27,7 +27,7 @@ HIT_FINDERS = ("ray_intersect", "sphere table")
 
 class RayCastingFloor:
     def __init__(self, scene, light_position, spp: int, hit_finder: str, seed: int = 0, film: bool = False):
-        from whitted.plugins.integrator import WhittedIntegrator
+        from whitted.plugins.film import CameraSamples
         from whitted.plugins.scene.tables import scene_tables
         from whitted.plugins.shading.hits import SphereHits
         if hit_finder not in HIT_FINDERS:
@@ -35,7 +35,8 @@ class RayCastingFloor:
         self.scene, self.spp, self.seed, self.film = scene, spp, seed, film
         self.light = mi.Point3f(light_position)
         self.table = SphereHits(scene, scene_tables(scene), need_uv=False) if hit_finder == "sphere table" else None
-        self.camera_ray = WhittedIntegrator._camera_ray
+        # the integrator's own camera rays (the same code, the same kernels)
+        self.camera = CameraSamples(scene.sensors()[0], spp, seed)
 
     def trace(self):
         """``(hit, shadow_ray_cast, value)`` per sample, not yet evaluated."""
@@ -49,7 +50,7 @@ class RayCastingFloor:
             sample = index - pixel * dr.opaque(mi.UInt32, self.spp)
         y = pixel // dr.opaque(mi.UInt32, width)
         x = pixel - y * dr.opaque(mi.UInt32, width)
-        ray, _, self.position = self.camera_ray(sensor, x, y, pixel, sample, self.spp, self.seed)
+        ray, _, self.position = self.camera.ray(x, y, pixel, sample)
         if self.table is not None:
             hit, si = self.table.intersect(ray, coherent=True)[:2]
         else:

@@ -215,7 +215,8 @@ def describe(scene: Scene, base_dir: str | os.PathLike | None, smallest: float |
     origin = scene_origin(scene)
     near, far = clip_range(scene)
     defaults = {"spp": int(scene.samples), "max_depth": int(scene.depth),
-                "ambient": float(scene.ambient), "lighting": D.LIGHTING}
+                "ambient": float(scene.ambient), "lighting": D.LIGHTING,
+                "width": int(scene.width), "height": int(scene.height)}
     integrator = {"type": "whitted", "max_depth": Param("max_depth"), "ambient": Param("ambient"),
                   "lighting": Param("lighting")}
     if scene.min_weight is not None:
@@ -238,7 +239,7 @@ def describe(scene: Scene, base_dir: str | os.PathLike | None, smallest: float |
         "near_clip": near, "far_clip": far,
         "to_world": LookAt(to_frame(scene.eye, origin), to_frame(scene.lookat, origin), normalize(scene.up)),
         "sampler": {"type": "independent", "sample_count": Param("spp")},
-        "film": {"type": "hdrfilm", "width": int(scene.width), "height": int(scene.height),
+        "film": {"type": "hdrfilm", "width": Param("width"), "height": Param("height"),
                  "pixel_format": "rgb", "rfilter": {"type": "box"}},
     }
     if any(c > 0 for c in scene.background):

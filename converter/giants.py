@@ -31,6 +31,7 @@ from pathlib import Path
 
 from ..atomic import atomic_path
 from ..float32 import UNIT_ROUNDOFF, hit_error
+from ..giant_list import exact_spheres, parse_exact_spheres  # noqa: F401  (the format, re-exported)
 from .scene import Scene, Sphere, SphereArrays, Vec3
 
 #: a sphere is giant when that bound exceeds this fraction of the scene's smallest radius.
@@ -171,34 +172,6 @@ def giant_spheres(scene: Scene, origin: Vec3, smallest: float | None = None,
                   spheres: SphereArrays | None = None) -> list[int]:
     """The giant spheres of :func:`coarse_spheres`."""
     return coarse_spheres(scene, origin, smallest, spheres)[0]
-
-
-def exact_spheres(entries) -> str:
-    """The ``exact_spheres`` property: ``id: x y z r`` per sphere, joined by ``"; "``, each
-    number as the shortest text that reads back as the same float64."""
-    return "; ".join(f"{key}: {' '.join(repr(float(v)) for v in (*center, radius))}"
-                     for key, center, radius in entries)
-
-
-def parse_exact_spheres(text: str) -> list[tuple[str, Vec3, float]]:
-    """``(id, center, radius)`` of each entry of an ``exact_spheres`` property (ValueError
-    when malformed)."""
-    entries = []
-    for part in (p.strip() for p in text.split(";")):
-        if not part:
-            continue
-        key, sep, numbers = part.rpartition(":")
-        values = numbers.split()
-        if not sep or not key.strip() or len(values) != 4:
-            raise ValueError(f"exact_spheres: expected 'id: x y z r', got {part!r}")
-        try:
-            x, y, z, r = (float(v) for v in values)
-        except ValueError:
-            raise ValueError(f"exact_spheres: expected four numbers in {part!r}") from None
-        if not r > 0:
-            raise ValueError(f"exact_spheres: the radius must be positive in {part!r}")
-        entries.append((key.strip(), (x, y, z), r))
-    return entries
 
 
 # -- a mesh of the sphere for Mitsuba's own integrators --------------------------------------------

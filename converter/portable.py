@@ -117,12 +117,10 @@ def portable(description: Description) -> tuple[Description, list[str]]:
     scene = copy.deepcopy(description.scene)
     integrator = scene["integrator"]
     depth = description.defaults["max_depth"]
+    # (the film's width and height are the description's parameters already)
     defaults = {"spp": description.defaults["spp"], "max_depth": D.path_depth(depth),
-                "width": 0, "height": 0}
+                "width": description.defaults["width"], "height": description.defaults["height"]}
     scene["integrator"] = {"type": "path", "max_depth": Param("max_depth")}
-    film = scene["sensor"]["film"]
-    for name in ("width", "height"):
-        defaults[name], film[name] = film[name], Param(name)
     notes = list(SUMMARY)
     notes.append(f"The article's depth is {depth}: max_depth = {defaults['max_depth']}.")
     if integrator.get("min_weight") is not None:

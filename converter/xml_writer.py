@@ -13,9 +13,11 @@ XML and ``mi.load_dict`` of the same description are the same scene.
 Output is deterministic: the same scene gives byte-identical XML. Objects at
 the top level carry their key as ``id``, nested ones as ``name``; each
 :class:`~.description.Param` becomes ``$name`` with a ``<default>``, which
-``mi.load_file(..., name=value)`` overrides. The frame's origin is written as
-a comment and as the ``<default name="world_origin">`` that no property
-uses: world coordinates = XML coordinates + ``world_origin``.
+``mi.load_file(..., name=value)`` overrides: the spp, the depth, the ambient
+term, the lighting, the image's width and height (and the minimum weight where
+the scene sets one). The frame's origin is written in a comment only (world
+coordinates = XML coordinates + that point): no property could use it, so it is
+no parameter, which overriding would silently ignore.
 
 A scene of a million spheres makes about 150 MB of XML. The spheres a description
 holds as arrays (:class:`~.description.SphereBlock`) are written a batch at a time,
@@ -159,12 +161,11 @@ def _pieces(description: Description, notes: list[str] = ()):
         out[-1] += " -->"
     out += [
         f'<!-- Positions are relative to the scene origin (its lookat), world point {vec(o, ", ")}:',
-        '     world coordinates = these coordinates + world_origin (docs/numerics.md) -->',
+        '     world coordinates = these coordinates + that point (docs/numerics.md) -->',
         f'<scene version="{FORMAT_VERSION}">',
     ]
     for name, value in description.defaults.items():
         out.append(f'{INDENT}<default name="{name}" value="{_value(value, {})[1]}"/>')
-    out.append(f'{INDENT}<default name="world_origin" value="{vec(o, ", ")}"/>')
     # each object comes after a blank line
     block = description.spheres
     later = set() if block is None else {f"sphere_{k}" for k in block.in_scene}

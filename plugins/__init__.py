@@ -26,6 +26,10 @@ _PLUGINS = (
 )
 
 
+#: variants in which the plugins' names are registered to refuse with a clear error
+_refused: set = set()
+
+
 def register() -> None:
     """Register every plugin for Mitsuba's current variant (once per variant)."""
     import mitsuba as mi
@@ -41,6 +45,27 @@ def register() -> None:
         getattr(mi, function)(plugin_name, lambda props, cls=cls: cls(props))
 
 
+def refuse(supported) -> None:
+    """In Mitsuba's current variant, which the plugins do not run in (``supported`` lists
+    those they do), register their names so that a scene naming them fails with the reason
+    ("runs in ... only") rather than Mitsuba's ``Plugin "whitted" not found!``."""
+    import mitsuba as mi
+
+    from whitted.errors import WhittedError
+    variant = mi.variant()
+    if variant in _refused:
+        return
+    _refused.add(variant)
+    for _, function, plugin_name, _ in _PLUGINS:
+        kind = "integrator" if function == "register_integrator" else "BSDF"
+        message = (f"the {plugin_name!r} {kind} does not run in Mitsuba's variant {variant}; "
+                   f"call mi.set_variant() with one of {', '.join(supported)} first")
+
+        def refused(props, message=message):
+            raise WhittedError(message)
+        getattr(mi, function)(plugin_name, refused)
+
+
 def whitted_integrator(integrator):
     """``integrator`` if it is the ``whitted`` plugin (of the current variant), else None."""
     import mitsuba as mi
@@ -48,12 +73,13 @@ def whitted_integrator(integrator):
     return integrator if cls is not None and isinstance(integrator, cls) else None
 
 
-def check_scene(scene) -> None:
+def check_scene(scene):
     """Raise :class:`~whitted.errors.WhittedError` unless the ``whitted`` integrator can
     render ``scene``: every shape has the ``article`` BSDF and every emitter is a point
-    light or the environment. What it reads is kept for the render (:mod:`.scene.tables`)."""
+    light or the environment. Returns what it read (the scene's tables,
+    :mod:`.scene.tables`), for ``render_detailed(..., tables=)``: found once per render."""
     from .scene.tables import scene_tables
-    scene_tables(scene)
+    return scene_tables(scene)
 
 
 def scene_effects(scene, max_depth: int, light_reference=(0.0, 0.0, 0.0)) -> tuple[str, ...]:

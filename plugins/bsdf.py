@@ -57,7 +57,6 @@ import mitsuba as mi
 
 from whitted import defaults as D
 
-from .scene.tables import material_changed
 from .shading import optics
 
 DIFFUSE, REFLECTION, TRANSMISSION = 0, 1, 2
@@ -107,17 +106,24 @@ class ArticleBSDF(mi.BSDF):
        - |float|
        - KR, the share of the color that comes from the mirror direction, in
          [0, 1]. (Default: 0)
+       - |exposed|
 
      * - refract
        - |float|
        - KT, the share that comes from the refracted direction, in [0, 1];
          KR + KT <= 1. (Default: 0)
+       - |exposed|
 
      * - ior
        - |float|
        - The sphere's index of refraction n2 (> 0; the outside's is 1). Below 1
          it reads as a bubble: rays from outside are totally reflected beyond
          the critical angle. (Default: 1)
+       - |exposed|
+
+    ``mi.traverse`` exposes ``reflect``, ``refract`` and ``ior`` as one-value
+    vectors (``params['…bsdf.reflect'] = 0.5`` writes one); ``params.update()``
+    refuses an edit that breaks the ranges above.
 
     A mixture of a Lambertian lobe (weight 1 − KR − KT, albedo B), a perfect
     mirror (KR) and a perfect refraction (KT), two-sided as the article shades
@@ -154,21 +160,34 @@ class ArticleBSDF(mi.BSDF):
         super().__init__(props)
         self.color = (props.get_texture("color") if "color" in props
                       else mi.load_dict({"type": "rgb", "value": D.COLOR}))
-        self.reflect = float(props.get("reflect", D.REFLECT))
-        self.refract = float(props.get("refract", D.REFRACT))
-        self.ior = float(props.get("ior", D.IOR))
-        if not (0.0 <= self.reflect <= 1.0 and 0.0 <= self.refract <= 1.0):
+        self.m_components = list(COMPONENT_FLAGS)
+        #: how many times ``params.update()`` changed the BSDF: what the Whitted integrator's
+        #: tables compare (plugins/scene/tables.py) to see an edit, whoever made it
+        self.changes = 0
+        self._set(float(props.get("reflect", D.REFLECT)), float(props.get("refract", D.REFRACT)),
+                  float(props.get("ior", D.IOR)))
+        # What mi.traverse hands out: Mitsuba values that SceneParameters writes into in
+        # place (a Python float cannot be; a one-value float64 Dr.Jit array can, in every variant).
+        self._values = {name: dr.scalar.Array1f64(getattr(self, name)) for name in self.SCALARS}
+
+    #: the parameters :meth:`traverse` exposes besides ``color``, kept as Python floats
+    #: (``self.reflect`` ...) and, for mi.traverse, as one-value Mitsuba vectors
+    SCALARS = ("reflect", "refract", "ior")
+
+    def _set(self, reflect: float, refract: float, ior: float) -> None:
+        """Check and take KR, KT and the IOR (a clean error when out of range)."""
+        if not (0.0 <= reflect <= 1.0 and 0.0 <= refract <= 1.0):
             raise ValueError(f"article BSDF: reflect and refract must lie in [0, 1], got "
-                             f"{self.reflect} and {self.refract}")
-        if self.reflect + self.refract > 1.0 + 1e-6:
+                             f"{reflect} and {refract}")
+        if reflect + refract > 1.0 + 1e-6:
             raise ValueError(f"article BSDF: reflect + refract must be <= 1, got "
-                             f"{self.reflect} + {self.refract}")
-        if not self.ior > 0.0:
-            raise ValueError(f"article BSDF: ior must be > 0, got {self.ior}")
+                             f"{reflect} + {refract}")
+        if not ior > 0.0:
+            raise ValueError(f"article BSDF: ior must be > 0, got {ior}")
+        self.reflect, self.refract, self.ior = reflect, refract, ior
         # Component indices are fixed (0 diffuse, 1 mirror, 2 refraction); the
         # material's flags name only the lobes it can actually use, so that
         # integrators skip light sampling on pure mirrors and glass.
-        self.m_components = list(COMPONENT_FLAGS)
         flags = mi.BSDFFlags.Empty
         if self.diffuse_weight > 0:
             flags |= COMPONENT_FLAGS[DIFFUSE]
@@ -179,9 +198,18 @@ class ArticleBSDF(mi.BSDF):
         self.m_flags = flags
 
     def parameters_changed(self, keys=[]):  # noqa: B006  (Mitsuba's own default)
-        # ``color`` was written (mi.SceneParameters.update, even through mi.traverse(bsdf),
-        # which no scene hears of): the Whitted integrator's tables are to be read again.
-        material_changed()
+        # A parameter was written (mi.SceneParameters.update, even through mi.traverse(bsdf),
+        # which no scene hears of; Mitsuba calls this for an edit of the color texture too):
+        # KR, KT and the IOR are taken back as floats (checked; an invalid edit is undone),
+        # and the change is counted, which tells the Whitted integrator's tables.
+        previous = (self.reflect, self.refract, self.ior)
+        try:
+            self._set(*(float(self._values[name][0]) for name in self.SCALARS))
+        except ValueError:
+            for name, value in zip(self.SCALARS, previous):
+                self._values[name][0] = value
+            raise
+        self.changes += 1
 
     @property
     def diffuse_weight(self) -> float:
@@ -280,9 +308,11 @@ class ArticleBSDF(mi.BSDF):
         return name in ("color", "reflect", "refract", "ior")
 
     def traverse(self, callback):
-        # KR, KT and the IOR are plain floats that the integrators may bake into
-        # their kernels: they are scene structure, not differentiable parameters.
         callback.put("color", self.color, mi.ParamFlags.Differentiable)
+        # KR, KT and the IOR are plain floats that the integrators bake into their
+        # kernels: editable (params.update() takes them), not differentiable.
+        for name in self.SCALARS:
+            callback.put(name, self._values[name], mi.ParamFlags.NonDifferentiable)
 
     def to_string(self):
         return (f"ArticleBSDF[\n  color = {self.color},\n  reflect = {self.reflect},\n"

@@ -7,7 +7,10 @@ cells (the most nearly square factorisation of N; a prime N gives N columns)
 and each sample is jittered uniformly inside its own cell: stratified
 sampling, unbiased, whatever N is (:func:`pixel_offset`). The jitter is a
 hash of (pixel, sample, seed) rather than a stream from a sampler, so an
-image does not depend on how the render is split into passes.
+image does not depend on how the render is split into passes. That is what
+the ``independent`` sampler (the one converted scenes name) gets; any other
+sampler type draws the samples itself, and a thin lens gets lens samples
+(:class:`CameraSamples`).
 
 Where its color goes: straight into the developed image, or through
 Mitsuba's film. Why two ways. Mitsuba's film accepts samples anywhere on the
@@ -28,8 +31,14 @@ pixel's samples sit side by side), nothing else to develop, 12 bytes a pixel.
 It is the film's image up to the order of the additions (an ulp or so; none
 with one sample per pixel). It serves Mitsuba's ``hdrfilm`` with a box
 filter and RGB pixels in the JIT variants; :class:`FilmSplats` serves every
-other film, filter and pixel format, and the scalar variant, through the film. Unlike the film path, :class:`PixelMeans` leaves the film's own
-storage alone: read the image the render returns, not ``film.bitmap()``.
+other film, filter and pixel format, and the scalar variant, through the film.
+
+Either way the film holds the render: ``film.bitmap()``, ``film.write()`` and
+``film.develop()`` after ``mi.render`` give the image the render returned.
+:class:`PixelMeans` hands the film its image as the film's own storage (each
+pixel's RGB and a weight of 1, which the film divides by: the same values)
+through ``ImageBlock`` and ``put_block``, as a lazy Dr.Jit expression over the
+image: nothing is computed or copied unless the film is read.
 """
 
 from __future__ import annotations
@@ -72,6 +81,105 @@ def pixel_offset(pixel, sample, spp: int, seed: int):
     return mi.Point2f((mi.Float(column) + jitter.x) / nx, (mi.Float(row) + jitter.y) / ny)
 
 
+def lens_offset(pixel, sample, seed: int):
+    """Where a camera sample crosses a thin lens, in [0, 1)^2 (Point2f): a hash of (pixel,
+    sample, seed) as in :func:`pixel_offset`, from another stream (its own salt)."""
+    seed_offset = (seed * SEED_STRIDE + LENS_SALT) & 0xFFFFFFFF
+    salt = (mi.UInt32(sample) + dr.opaque(mi.UInt32, seed_offset)) & 0xFFFFFFFF
+    # 8 rounds of TEA: with the default 4, a pixel's lens samples (consecutive salts) are
+    # visibly correlated (measured: twice path's noise on a defocused image at 48 spp)
+    bits_x, bits_y = mi.sample_tea_32(mi.UInt32(pixel), salt, LENS_ROUNDS)
+    return mi.Point2f(mi.Float(bits_x >> 8), mi.Float(bits_y >> 8)) * (1.0 / (1 << 24))
+
+
+#: what sets the lens's stream of hashes apart from the pixel's (any odd 32-bit constant)
+LENS_SALT = 0x85EBCA6B
+LENS_ROUNDS = 8
+
+
+class CameraSamples:
+    """The camera rays of a render: where each sample starts in its pixel and on the lens.
+
+    * One sample per pixel: the pixel's center and the lens's (the scene format's rule),
+      whatever the sampler, its seed or the lens (:attr:`unused` names what that leaves
+      unused, for the integrator to warn about).
+    * More, with the ``independent`` sampler (what converted scenes name): the stratified
+      jitter of :func:`pixel_offset`, and :func:`lens_offset` on a thin lens, hashes of
+      (pixel, sample, seed) that do not depend on how the render is split into passes.
+    * More, with any other sampler (``stratified``, ``multijitter``, ``ldsampler``,
+      ``orthogonal``): that sampler's own 2D samples, the pixel's then the lens's, as
+      Mitsuba's integrators draw them; each pass holds whole pixels and seeds the sampler
+      (the render's seed for the first pass), so the image depends on the seed and the
+      pass size.
+
+    Lens samples are drawn only for a sensor that needs them (``thinlens``): a pinhole
+    camera's kernels hold no lens code. With the film's ``sample_border`` the samples cover
+    the border the reconstruction filter reaches beyond the crop too (:attr:`border`
+    pixels on each side), as in Mitsuba's integrators.
+    """
+
+    def __init__(self, sensor, spp: int, seed: int):
+        self.sensor, self.spp, self.seed = sensor, spp, seed
+        film = sensor.film()
+        self.box = film.rfilter().is_box_filter()
+        self.border = int(film.rfilter().border_size()) if film.sample_border() else 0
+        width, height = (int(c) for c in film.crop_size())
+        #: the sample grid: the crop and its border
+        self.width, self.height = width + 2 * self.border, height + 2 * self.border
+        sampler = sensor.sampler()
+        independent = sampler.class_name() == "IndependentSampler"
+        self.lens = spp > 1 and sensor.needs_aperture_sample()
+        self.sampler = None
+        if spp > 1 and not independent:
+            self.sampler = sampler.clone()
+            self.sampler.set_sample_count(spp)
+            if dr.is_jit_v(mi.Float):   # a pixel's samples are consecutive lanes
+                self.sampler.set_samples_per_wavefront(spp)
+        unused = []
+        if spp == 1:
+            if seed != 0:
+                unused.append(f"seed {seed}")
+            if sensor.needs_aperture_sample():
+                unused.append("thin lens's aperture")
+            if not independent:
+                unused.append(f"{sampler.class_name()}")
+        self.unused = tuple(unused)
+        self.jit = dr.is_jit_v(mi.Float)
+        self.pass_seed = seed
+
+    def start_pass(self, index: int, count: int) -> None:
+        """A pass of ``count`` samples (whole pixels when a sampler is used) begins."""
+        if self.sampler is None:
+            return
+        self.pass_seed = self.seed if index == 0 else (self.seed * SEED_STRIDE + index) & 0xFFFFFFFF
+        if self.jit:
+            self.sampler.seed(self.pass_seed, count)
+
+    def ray(self, x, y, pixel, sample):
+        """The camera ray of a sample (in pixel ``(x, y)`` of the sample grid, linear index
+        ``pixel``), its weight, and where it lands on the film."""
+        if self.sampler is None:
+            offset = pixel_offset(pixel, sample, self.spp, self.seed)
+            aperture = lens_offset(pixel, sample, self.seed) if self.lens else mi.Point2f(0.5)
+        else:
+            if not self.jit and sample == 0:   # scalar: one pixel's samples at a time
+                self.sampler.seed(mi.sample_tea_32(self.pass_seed, pixel)[0])
+            offset = self.sampler.next_2d()
+            aperture = self.sampler.next_2d() if self.lens else mi.Point2f(0.5)
+            if not self.jit:
+                self.sampler.advance()
+        film = self.sensor.film()
+        corner = mi.Point2f(mi.Float(x), mi.Float(y))
+        if self.border:
+            corner = corner - self.border
+        crop_size = mi.ScalarVector2f(film.crop_size())
+        ray, weight = self.sensor.sample_ray(time=self.sensor.shutter_open(), sample1=0.5,
+                                             sample2=(corner + offset) / crop_size, sample3=aperture)
+        # Box filter: a sample belongs to its pixel alone (as Mitsuba's own integrators do).
+        position = corner if self.box else corner + offset
+        return ray, weight, position + mi.ScalarVector2f(film.crop_offset())
+
+
 # -- where its color goes ------------------------------------------------------------------------
 
 #: values zeroed per kernel when an image is cleared (64 MiB of float32): short enough
@@ -99,11 +207,12 @@ class FilmSplats:
         self.block.set_coalesce(self.block.coalesce() and spp >= 4)
         self.alpha = mi.has_flag(film.flags(), mi.FilmFlags.Alpha)
 
-    def put(self, pixel, position, color) -> None:
-        """Add the sample ``color`` at film ``position`` (``pixel``: its linear index in the crop)."""
+    def put(self, pixel, position, color, alpha=None) -> None:
+        """Add the sample ``color`` at film ``position`` (``pixel``: its linear index in the
+        crop); ``alpha`` (Bool: whether the sample is opaque) for films with an alpha channel."""
         values = [color.x, color.y, color.z]
         if self.alpha:
-            values.append(mi.Float(1))
+            values.append(mi.Float(1) if alpha is None else dr.select(alpha, mi.Float(1), mi.Float(0)))
         values.append(mi.Float(1))   # the sample's weight: the film develops the mean
         self.block.put(position, values)
 
@@ -125,8 +234,12 @@ class PixelMeans:
                 and "pixel_format = rgb," in str(film))   # not xyz, which has three channels too
 
     takes_pixels = True
+    #: the film has no alpha channel: :meth:`put` takes no alpha
+    alpha = False
 
     def __init__(self, film, spp: int):
+        self.film = film
+        film.prepare([])   # the film's storage, cleared (a literal zero: nothing allocated yet)
         self.width, self.height = (int(c) for c in film.crop_size())
         self.spp = spp
         self.scale = dr.opaque(mi.Float, 1.0 / spp)
@@ -149,8 +262,9 @@ class PixelMeans:
                 dr.eval(image)
         return image
 
-    def put(self, pixel, position, color) -> None:
-        """Add ``color / spp`` to ``pixel`` (its linear index in the crop; ``position`` unused)."""
+    def put(self, pixel, position, color, alpha=None) -> None:
+        """Add ``color / spp`` to ``pixel`` (its linear index in the crop; ``position`` and
+        ``alpha`` unused)."""
         index = pixel * 3
         for channel in range(3):
             value = color[channel] * self.scale
@@ -174,5 +288,17 @@ class PixelMeans:
         dr.scatter(self.image, total / dr.opaque(mi.Float, self.spp), pixel)   # as the film divides
 
     def develop(self):
-        """The image as an ``mi.TensorXf`` (H, W, 3): the same array, no copy."""
+        """The image as an ``mi.TensorXf`` (H, W, 3): the same array, no copy. The film
+        receives it too (see the module docstring), at no cost until it is read."""
+        self.film.put_block(mi.ImageBlock(self._film_storage(), self.film.crop_offset(),
+                                          self.film.rfilter()))
         return mi.TensorXf(self.image, (self.height, self.width, 3))
+
+    def _film_storage(self):
+        """The image as the film stores it, (H, W, 4): R, G, B and the weight 1 per pixel,
+        a lazy expression (gathers from the image when the film is read)."""
+        index = dr.arange(mi.UInt32, 4 * self.width * self.height)
+        channel = index & 3
+        rgb = channel < 3
+        value = dr.select(rgb, dr.gather(mi.Float, self.image, (index >> 2) * 3 + channel, rgb), 1.0)
+        return mi.TensorXf(value, (self.height, self.width, 4))

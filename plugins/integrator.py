@@ -11,11 +11,13 @@ develops. Prepare: read the scene's tables (:mod:`.scene`: lights,
 materials, primitives, kept between renders while the scene is unchanged)
 and what the scene calls for (:mod:`.scene.effects`), and build a tracer.
 Sample: camera rays from the sensor's ``sample_ray`` (Mitsuba's perspective
-camera), placed in their pixels by :func:`.film.pixel_offset`, in passes
+or thin-lens camera), placed in their pixels and on the lens by
+:class:`.film.CameraSamples`, in passes
 of at most ``wavefront_size`` camera samples; each ray's tree is walked by
 :mod:`.tree` and shaded by :mod:`.shading`. Develop: the samples go straight
 into the developed image for a box-filtered RGB film, else into Mitsuba's
-image block, developed by the film (:mod:`.film`).
+image block, developed by the film (:mod:`.film`); either way the sensor's
+film holds the render afterwards (``film.bitmap()``, ``film.write()``).
 """
 
 from __future__ import annotations
@@ -26,9 +28,10 @@ import drjit as dr
 import mitsuba as mi
 
 from whitted import defaults as D
-from whitted.converter.giants import exact_spheres, parse_exact_spheres
+from whitted.errors import WhittedError
+from whitted.giant_list import parse_exact_spheres
 
-from .film import image_for, pixel_offset
+from .film import CameraSamples, image_for
 from .scene.effects import analyse
 from .scene.tables import scene_tables
 from .shading.shader import Shader
@@ -100,11 +103,24 @@ class WhittedIntegrator(mi.SamplingIntegrator):
          and radius. The converter writes it where float32 cannot place a
          sphere finely enough (docs/numerics.md, hazard 14). (Default: none)
 
+     * - hide_emitters
+       - |bool|
+       - Hide directly visible emitters: camera rays that escape see black, not
+         the background, and have alpha 0 on a film with an alpha channel, as
+         in Mitsuba's own integrators (reflections and refractions still show
+         the background). (Default: false)
+
      * - wavefront_size
        - |int|
        - Camera samples per pass, and the widest wavefront the JIT variants
          trace at once: it bounds memory. 0 lets the tracer choose (2^20, or
          2^21 when the tree has a single level). (Default: 0)
+
+    ``mi.traverse(integrator)`` exposes ``max_depth``, ``ambient``, ``min_weight``
+    and ``light_reference`` (one- or three-value Dr.Jit arrays); ``params.update()``
+    checks an edit, refuses an invalid one whole, and the next render uses it.
+    ``lighting`` and ``exact_spheres`` are strings, which Mitsuba's scene
+    parameters cannot hold: load the scene again to change them.
 
     The article's ray tracer (docs/scene-format.md, "Shading"): a camera ray
     that hits a sphere gets ``(1 - KR - KT)·point + KR·reflected +
@@ -115,9 +131,13 @@ class WhittedIntegrator(mi.SamplingIntegrator):
     follows the mirror direction. A ray that escapes gets the background (a
     ``constant`` environment emitter), black without one. Every surface must
     carry the :ref:`article <bsdf-article>` BSDF, every emitter be a point
-    light or the environment. No sampling: one sample per pixel passes
-    through the pixel's center, so a render is deterministic; more samples
-    are stratified in the pixel.
+    light or the environment. No sampling at one sample per pixel: the ray
+    passes through the pixel's center (and a thin lens's), so a render is
+    deterministic, and the seed, the sampler and the lens change nothing (a
+    warning says so). More samples per pixel honour the sensor: the sampler's
+    type and the seed, a thin lens's depth of field, the film's filter and
+    ``sample_border``; the ``independent`` sampler (the converter's) is
+    stratified in the pixel (:class:`.film.CameraSamples`).
 
     Code for an effect the scene lacks is left out of the kernels: a scene
     without mirrors or glass is traced to depth 1 whatever ``max_depth``.
@@ -171,10 +191,53 @@ class WhittedIntegrator(mi.SamplingIntegrator):
         self.light_reference = mi.ScalarPoint3f(props.get("light_reference", mi.ScalarPoint3f(D.LOOKAT)))
         self.wavefront_size = int(props.get("wavefront_size", D.WAVEFRONT_SIZE))
         self.min_weight = D.check_min_weight(props.get("min_weight", D.MIN_WEIGHT), "whitted: min_weight")
+        self.hide_emitters = bool(props.get("hide_emitters", False))
+        self._warned = ()   # what the last warning about 1 spp named (once per change)
         # Giant spheres' exact centers and radii, as the converter lists them (.giants).
         self.exact_spheres = parse_exact_spheres(str(props.get("exact_spheres", "")))
         if self.wavefront_size < 0:
             raise ValueError(f"whitted: wavefront_size must be >= 0, got {self.wavefront_size}")
+
+    # -- mi.traverse ------------------------------------------------------------------------------
+
+    #: what :meth:`traverse` exposes: name -> (Dr.Jit scalar type, check); ``lighting`` and
+    #: ``exact_spheres`` are strings, which Mitsuba's scene parameters cannot hold
+    TRAVERSED = {
+        "max_depth": (dr.scalar.Array1i, lambda v: D.check_depth(int(v), "whitted: max_depth")),
+        "ambient": (dr.scalar.Array1f64, lambda v: D.check_ambient(float(v), "whitted: ambient")),
+        "min_weight": (dr.scalar.Array1f64, lambda v: D.check_min_weight(float(v), "whitted: min_weight")),
+        "light_reference": (dr.scalar.Array3f64, lambda v: mi.ScalarPoint3f(*(float(c) for c in v))),
+    }
+
+    def traverse(self, callback):
+        # One-value (or three-value) float64/int Dr.Jit arrays, which SceneParameters writes
+        # into in place; :meth:`parameters_changed` reads them back.
+        if not hasattr(self, "_values"):
+            self._values = {name: tp(*self._traversed_value(name)) for name, (tp, _) in self.TRAVERSED.items()}
+        for name, value in self._values.items():
+            callback.put(name, value, mi.ParamFlags.NonDifferentiable)
+
+    def _traversed_value(self, name):
+        value = getattr(self, name)
+        return [float(c) for c in value] if name == "light_reference" else [value]
+
+    def parameters_changed(self, keys=[]):  # noqa: B006  (Mitsuba's own default)
+        """``params.update()`` wrote some of :data:`TRAVERSED`: take them (checked; an
+        invalid edit is undone and refused)."""
+        changed = {}
+        for name in (keys or self.TRAVERSED):
+            if name in self.TRAVERSED:
+                value = self._values[name]
+                raw = [value[k] for k in range(len(value))] if name == "light_reference" else value[0]
+                try:
+                    changed[name] = self.TRAVERSED[name][1](raw)
+                except WhittedError:
+                    for other in self.TRAVERSED:   # undo the whole edit
+                        for k, c in enumerate(self._traversed_value(other)):
+                            self._values[other][k] = c
+                    raise
+        for name, value in changed.items():
+            setattr(self, name, value)
 
     #: the settings :meth:`settings` reports and :meth:`with_settings` changes
     SETTINGS = ("max_depth", "ambient", "lighting", "light_reference", "min_weight", "exact_spheres")
@@ -191,8 +254,11 @@ class WhittedIntegrator(mi.SamplingIntegrator):
         if all(current[name] == value for name, value in changes.items()):
             return self
         settings = {**current, **changes}
-        settings["exact_spheres"] = exact_spheres(settings["exact_spheres"])
-        return mi.load_dict({"type": "whitted", **settings})
+        giants = settings.pop("exact_spheres")   # data, handed over as it is (no text)
+        integrator = mi.load_dict({"type": "whitted", **settings, "hide_emitters": self.hide_emitters,
+                                   "wavefront_size": self.wavefront_size})
+        integrator.exact_spheres = list(giants)
+        return integrator
 
     # -- Mitsuba's entry points ------------------------------------------------------------------
 
@@ -208,19 +274,24 @@ class WhittedIntegrator(mi.SamplingIntegrator):
 
     # -- Rendering ------------------------------------------------------------------------------
 
-    def _tracer(self, scene):
+    def _tracer(self, scene, tables=None):
         """A tracer for ``scene`` (see :mod:`.tree`), the scene's analysis, and the
-        brightest color a ray can have in it (:func:`.tree.adaptive.brightest`; None: unknown)."""
-        analysis = analyse(scene_tables(scene), self.max_depth, self.light_reference)
+        brightest color a ray can have in it (:func:`.tree.adaptive.brightest`; None: unknown).
+        ``tables``: the scene's tables as :func:`whitted.plugins.check_scene` just found them."""
+        analysis = analyse(tables or scene_tables(scene), self.max_depth, self.light_reference)
         bright = brightest(analysis, self.lighting, self.ambient) if self.min_weight > 0 else None
         tally = Tally()
-        shader = Shader(scene, analysis, self.ambient, self.lighting, tally, self.exact_spheres)
+        shader = Shader(scene, analysis, self.ambient, self.lighting, tally, self.exact_spheres,
+                        hide_background=self.hide_emitters)
         tracer = tracer_for_variant(shader, allowance(self.min_weight, bright), tally,
                                     self.wavefront_size or SAMPLES_PER_PASS)
         return tracer, analysis, bright
 
-    def render_detailed(self, scene, sensor=0, seed=0, spp=0, progress=None) -> Rendering:
+    def render_detailed(self, scene, sensor=0, seed=0, spp=0, progress=None, tables=None) -> Rendering:
         """Render ``scene`` and report what was traced.
+
+        ``tables``: what :func:`whitted.plugins.check_scene` returned for ``scene`` just
+        before (else the render finds the scene's tables itself).
 
         ``progress``, when given, is called with the number of camera samples
         finished since its last call, as the trees are traced: after each level
@@ -231,32 +302,46 @@ class WhittedIntegrator(mi.SamplingIntegrator):
         """
         if isinstance(sensor, int):
             sensor = scene.sensors()[sensor]
-        seed = int(seed[0]) if dr.is_array_v(seed) else int(seed)   # mi.render may pass a UInt32
+        # mi.render may pass a UInt32; any integer up to 2^64 - 1 is folded to 32 bits
+        seed = D.check_seed(int(seed[0]) if dr.is_array_v(seed) else seed, "whitted: seed")
         spp = int(spp) or sensor.sampler().sample_count()
         film = sensor.film()
-        width, height = (int(c) for c in film.crop_size())
+        camera = CameraSamples(sensor, spp, seed)
+        if camera.unused and camera.unused != self._warned:
+            self._warned = camera.unused
+            mi.Log(mi.LogLevel.Warn, f"whitted: at 1 sample per pixel every camera ray passes through "
+                   f"its pixel's center and the lens's (the scene format's rule): the "
+                   f"{' and the '.join(camera.unused)} change nothing; render spp > 1 for them")
+        width, height = camera.width, camera.height
 
-        tracer, analysis, bright = self._tracer(scene)
+        tracer, analysis, bright = self._tracer(scene, tables)
         image = image_for(film, spp)
+        # An alpha channel: opaque where a camera ray hits a surface or sees the background
+        # (as Mitsuba's own integrators do).
+        tracer.keep_camera_hit = image.alpha
+        background_seen = analysis.environment is not None and not self.hide_emitters
         # A single-level tree stores nothing between levels: then, where the image takes
         # whole pixels, each lane renders one pixel, looping over its samples in the kernel.
-        by_pixel = analysis.depth == 1 and image.takes_pixels
+        by_pixel = analysis.depth == 1 and image.takes_pixels and camera.sampler is None
+        whole_pixels = by_pixel or camera.sampler is not None
         per_pass = self.wavefront_size or tracer.samples_per_pass
-        passes = tracer.passes(width * height * spp, max(spp, per_pass // spp * spp) if by_pixel else per_pass)
-        for first, count in passes:
+        passes = tracer.passes(width * height * spp, max(spp, per_pass // spp * spp) if whole_pixels else per_pass)
+        for index, (first, count) in enumerate(passes):
             if by_pixel:
-                self._render_pixels(tracer, sensor, image, first // spp, count // spp, width, spp, seed)
+                self._render_pixels(tracer, camera, image, first // spp, count // spp)
                 if progress is not None:
                     progress(count)
             else:
-                self._render_pass(tracer, sensor, image, first, count, width, spp, seed, progress)
+                camera.start_pass(index, count)
+                self._render_pass(tracer, camera, image, first, count, progress, background_seen)
         rays = tracer.tally.read(camera=width * height * spp, max_depth_reached=tracer.deepest)
         error_bound = rays.sample_culled_weight * bright if rays.culled else 0.0
         return Rendering(image.develop(), rays, analysis.effects, analysis.depth, len(passes), error_bound)
 
-    def _render_pass(self, tracer, sensor, image, first, count, width, spp, seed, progress):
+    def _render_pass(self, tracer, camera, image, first, count, progress, background_seen=False):
         """Samples first … first + count - 1 (of every pixel's spp, pixel after pixel), as
         ``tracer`` takes them: one wavefront, or one sample at a time."""
+        spp, width = camera.spp, camera.width
         # Counted from the pass's first pixel, so that 32-bit indices never overflow.
         first_pixel, first_sample = divmod(first, spp)
         spp_, first_sample_ = dr.opaque(mi.UInt32, spp), dr.opaque(mi.UInt32, first_sample)
@@ -271,37 +356,25 @@ class WhittedIntegrator(mi.SamplingIntegrator):
             pixel = pixel + first_pixel_
             y = pixel // width_
             x = pixel - y * width_
-            ray, ray_weight, position = self._camera_ray(sensor, x, y, pixel, sample, spp, seed)
-            image.put(pixel, position, tracer.trace(ray, progress) * ray_weight)
+            ray, ray_weight, position = camera.ray(x, y, pixel, sample)
+            color = tracer.trace(ray, progress) * ray_weight
+            image.put(pixel, position, color,
+                      tracer.camera_hit | background_seen if image.alpha else None)
         tracer.finish_pass()
 
-    def _render_pixels(self, tracer, sensor, image, first_pixel, pixels, width, spp, seed):
+    def _render_pixels(self, tracer, camera, image, first_pixel, pixels):
         """Pixels first_pixel … first_pixel + pixels - 1, one lane each, every sample of a
         pixel traced in a loop inside the kernel (single-level trees, :class:`.PixelMeans`)."""
         pixel = dr.arange(mi.UInt32, pixels) + dr.opaque(mi.UInt32, first_pixel)
-        width_ = dr.opaque(mi.UInt32, width)
+        width_ = dr.opaque(mi.UInt32, camera.width)
         y = pixel // width_
         x = pixel - y * width_
 
         def color(sample):
-            ray, ray_weight, _ = self._camera_ray(sensor, x, y, pixel, sample, spp, seed)
+            ray, ray_weight, _ = camera.ray(x, y, pixel, sample)
             return tracer.trace(ray) * ray_weight
         image.put_pixels(pixel, color)
         tracer.finish_pass()
-
-    @staticmethod
-    def _camera_ray(sensor, x, y, pixel, sample, spp, seed):
-        """The camera ray of a sample, its weight, and where it lands on the film."""
-        film = sensor.film()
-        offset = pixel_offset(pixel, sample, spp, seed)
-        corner = mi.Point2f(mi.Float(x), mi.Float(y))
-        crop_size = mi.ScalarVector2f(film.crop_size())
-        ray, weight = sensor.sample_ray(time=sensor.shutter_open(), sample1=0.5,
-                                        sample2=(corner + offset) / crop_size,
-                                        sample3=mi.Point2f(0.5))
-        # Box filter: a sample belongs to its pixel alone (as Mitsuba's own integrators do).
-        position = corner if film.rfilter().is_box_filter() else corner + offset
-        return ray, weight, position + mi.ScalarVector2f(film.crop_offset())
 
     def to_string(self):
         return (f"WhittedIntegrator[max_depth={self.max_depth}, ambient={self.ambient}, "

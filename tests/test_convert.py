@@ -336,7 +336,10 @@ def test_xml_contract_defaults_integrator_sensor():
     root = xml_of("size 32 24\nfov 60\nlookat 1 2 3\nambient 0.4\ndepth 7\nsamples 9\n")
     defaults = {d.get("name"): d.get("value") for d in root.findall("default")}
     assert defaults == {"spp": "9", "max_depth": "7", "ambient": "0.4", "lighting": "article",
-                        "world_origin": "1.0, 2.0, 3.0"}   # positions are relative to lookat
+                        "width": "32", "height": "24"}
+    # positions are relative to lookat, which a comment records (no parameter: nothing uses it)
+    assert "world point 1.0, 2.0, 3.0:" in scene_to_xml(parse_text(
+        "size 32 24\nfov 60\nlookat 1 2 3\nambient 0.4\ndepth 7\nsamples 9\n", Path("s.scn")), None)
     (integrator,) = root.findall("integrator")
     assert integrator.get("type") == "whitted"
     props = {e.get("name"): (e.tag, e.get("value")) for e in integrator}
@@ -350,7 +353,7 @@ def test_xml_contract_defaults_integrator_sensor():
     assert sensor.find("sampler").get("type") == "independent"
     assert sensor.find("sampler/integer").get("value") == "$spp"
     film = {e.get("name"): e.get("value") for e in sensor.find("film")}
-    assert (film["width"], film["height"]) == ("32", "24")
+    assert (film["width"], film["height"]) == ("$width", "$height")   # 32, 24: the defaults
     assert sensor.find("film/rfilter").get("type") == "box"
 
 

@@ -161,3 +161,20 @@ def test_converter_loads_neither_mitsuba_nor_drjit(tmp_path):
     assert (tmp_path / "tex.xml").is_file() and not (tmp_path / "bad.portable.xml").exists()
     assert f"bad.scn:2: sphere texture 'bad.png': {tmp_path / 'bad.png'} is not an image Mitsuba can read" \
         in run.stderr
+
+
+#: what the plugins may import of the package above them: leaf modules that import nothing
+#: of the package themselves (defaults, errors, float32 formulas, the giant spheres' text)
+PLUGIN_FOUNDATIONS = {"whitted.defaults", "whitted.errors", "whitted.float32", "whitted.giant_list"}
+
+
+def test_the_plugins_depend_on_nothing_above_them():
+    """No arrow from plugins/ to the loader, the converter, the rendering API or the CLI
+    (issue 28): the plugins are what those are built on, not the other way round."""
+    graph = import_graph()
+    for module, edges in graph.items():
+        if module.startswith("whitted.plugins"):
+            above = {m for m in edges if not m.startswith("whitted.plugins")}
+            assert above <= PLUGIN_FOUNDATIONS, (module, above - PLUGIN_FOUNDATIONS)
+    for module in PLUGIN_FOUNDATIONS:   # leaves: they import only each other
+        assert graph[module] <= PLUGIN_FOUNDATIONS, (module, graph[module])

@@ -227,14 +227,14 @@ def test_physical_lighting_has_inverse_square_falloff(tmp_path):
 
 def test_camera_is_the_spec_camera():
     """Mitsuba's perspective sensor, as the integrator drives it, gives the spec's rays."""
-    from whitted.plugins.integrator import WhittedIntegrator
+    from whitted.plugins.film import CameraSamples
     model = Scene(width=37, height=23, eye=(1.0, 2.0, 7.0), lookat=(-0.5, 0.3, -1.0), up=(0.2, 1.0, 0.1),
                   fov=70.0, spheres=[Sphere((0.0, 0.0, 0.0), 1.0)])
     scene_ = load(model, "llvm_ad_rgb")
     y, x = np.mgrid[0:model.height, 0:model.width]
     pixel = mi.UInt32((y * model.width + x).ravel())
-    ray, _, position = WhittedIntegrator._camera_ray(scene_.sensors()[0], mi.UInt32(x.ravel()),
-                                                     mi.UInt32(y.ravel()), pixel, mi.UInt32(0), 1, 0)
+    camera = CameraSamples(scene_.sensors()[0], spp=1, seed=0)
+    ray, _, position = camera.ray(mi.UInt32(x.ravel()), mi.UInt32(y.ravel()), pixel, mi.UInt32(0))
     got = np.array(ray.d).T
     expected = np.array([camera_ray(model, i + 0.5, j + 0.5)[1] for i, j in zip(x.ravel(), y.ravel())])
     np.testing.assert_allclose(got, expected, atol=2e-6)

@@ -76,7 +76,7 @@ def example(doc: str, language: str) -> str:
 DEFAULTS = {
     "whitted": {"max_depth": D.DEPTH, "ambient": D.AMBIENT, "lighting": D.LIGHTING,
                 "light_reference": D.LOOKAT, "min_weight": D.MIN_WEIGHT,
-                "wavefront_size": D.WAVEFRONT_SIZE, "exact_spheres": "none"},
+                "wavefront_size": D.WAVEFRONT_SIZE, "exact_spheres": "none", "hide_emitters": "false"},
     "article": {"color": D.COLOR, "reflect": D.REFLECT, "refract": D.REFRACT, "ior": D.IOR},
 }
 
@@ -87,7 +87,8 @@ def plugin_values(plugin) -> dict:
         return {"max_depth": plugin.max_depth, "ambient": plugin.ambient, "lighting": plugin.lighting,
                 "light_reference": tuple(float(x) for x in plugin.light_reference),
                 "min_weight": plugin.min_weight, "wavefront_size": plugin.wavefront_size,
-                "exact_spheres": "; ".join(key for key, _, _ in plugin.exact_spheres) or "none"}
+                "exact_spheres": "; ".join(key for key, _, _ in plugin.exact_spheres) or "none",
+                "hide_emitters": str(bool(plugin.hide_emitters)).lower()}
     color = plugin.color.eval(dr.zeros(mi.SurfaceInteraction3f))
     return {"color": tuple(float(dr.ravel(c)[0]) for c in color), "reflect": plugin.reflect,
             "refract": plugin.refract, "ior": plugin.ior}

@@ -233,3 +233,24 @@ def test_path_tracer_renders_in_passes_and_averages_them(scene_xml, monkeypatch)
               for n, s in zip((2, 2, 1), seeds)]
     expected = (2 * passes[0] + 2 * passes[1] + passes[2]) / 5
     np.testing.assert_allclose(result.image, expected, rtol=1e-5, atol=1e-6)
+
+
+def test_a_variant_given_is_set_once(scene_xml, tmp_path):
+    """``whitted render --variant scalar_rgb`` in a fresh process: Mitsuba's variant is set
+    once, to it (not to the default first, the plugins built, then switched and rebuilt)."""
+    program = (
+        "import sys\n"
+        "import whitted.variant as V\n"
+        "changes = []\n"
+        "V.on_variant_changed = lambda old, new, seen=V.on_variant_changed: (changes.append((old, new)), seen(old, new))\n"
+        "from whitted.cli import main\n"
+        "status = main(['render', sys.argv[1], '-o', sys.argv[2], '--variant', 'scalar_rgb', '--quiet'])\n"
+        "import mitsuba as mi\n"
+        "from whitted import plugins\n"
+        "print(status, changes, mi.variant(), sorted({v for v, _ in plugins._classes}))\n")
+    out = tmp_path / "once.exr"
+    run = subprocess.run([sys.executable, "-c", program, str(scene_xml), str(out)],
+                         capture_output=True, text=True, timeout=300)
+    assert run.returncode == 0, run.stderr
+    assert run.stdout.strip() == "0 [(None, 'scalar_rgb')] scalar_rgb ['scalar_rgb']", run.stdout
+    assert out.exists()

@@ -281,7 +281,8 @@ def test_random_valid_scenes_survive_parse_xml_and_load(folder, data):
     defaults = {d.get("name"): d.get("value") for d in root.iter("default")}
     assert (int(defaults["max_depth"]), float(defaults["ambient"])) == (g["depth"], g["ambient"])
     # Positions are written relative to the scene origin, the lookat point (docs/CONTRACTS.md).
-    origin = np.array([float(c) for c in defaults["world_origin"].split(",")])
+    text = target.read_text(encoding="utf-8")
+    origin = np.array([float(c) for c in re.search(r"world point ([^:]+):", text).group(1).split(",")])
     assert list(origin) == list(g["lookat"])
 
     def frame(p):

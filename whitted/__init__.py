@@ -69,6 +69,7 @@ def _mitsuba_ready(mi) -> None:
         set_variant(None)
     except WhittedError as error:   # e.g. a bad $WHITTED_VARIANT: the user's to fix, not a crash
         print(f"whitted: warning: {error}; no variant selected", file=sys.stderr)
+        on_variant_changed(None, mi.variant())   # a variant the plugins refuse to run in
 
 
 class _MitsubaHook:

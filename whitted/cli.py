@@ -198,8 +198,9 @@ def main(argv: list[str] | None = None) -> int:
     if unknown:   # the command's own usage, not the top-level one
         args.parser.error(f"unrecognized arguments: {' '.join(unknown)}{suggestion(args.parser, unknown)}")
     try:
-        from .variant import check_environment
+        from .variant import check_environment, request
         check_environment()
+        request(getattr(args, "variant", None))   # chosen once, when Mitsuba is imported
         status = args.run(args) or 0
     except WhittedError as error:
         if not interrupt.requested():

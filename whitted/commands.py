@@ -89,10 +89,10 @@ def render_single(args) -> None:
     with deferred():   # numpy's C extension is not cut mid-import by a Ctrl-C (see deferred)
         from .display import check_exposure, default_view
         from .imageio import image_format, write_image
-        from .rendering import check_settings, render, whitted_settings
+        from .rendering import check_settings, render_checked, whitted_settings
 
     output = Path(args.output)
-    # Before the scene is loaded (seconds for a large one), though render checks them again.
+    # Before the scene is loaded (seconds for a large one); once: render_checked trusts them.
     check_settings(args.spp, args.max_depth, args.lighting, args.integrator, args.min_weight)
     if args.ambient is not None:
         check_ambient(args.ambient)
@@ -106,8 +106,8 @@ def render_single(args) -> None:
 
     loaded = _load_quietly(args)   # the mi.Scene
     try:   # render checks the scene (a sensor; the article's materials) before it starts
-        result = render(loaded, integrator=args.integrator, progress=not args.quiet,
-                        min_weight=args.min_weight, spp=args.spp)
+        result = render_checked(loaded, integrator=args.integrator, progress=not args.quiet,
+                                min_weight=args.min_weight, spp=args.spp)
     except WhittedError as error:
         raise WhittedError(f"{args.scenes[0]}: {error}") from None
     view = getattr(args, "view", None) or default_view(

@@ -192,6 +192,14 @@ def check_spp(spp, what: str = "spp") -> int:
     return spp
 
 
+def check_size(size, what: str = "width") -> int:
+    """An image's width or height, 1 ... :data:`MAX_SIZE` pixels (the scene format's range)."""
+    size = _integer(size, what)
+    if not 1 <= size <= MAX_SIZE:
+        raise WhittedError(f"{what} must be in 1…{MAX_SIZE} pixels, got {size}")
+    return size
+
+
 def _unit_interval(value, what: str) -> float:
     try:
         value = float(value)
@@ -224,6 +232,16 @@ def check_integrator(integrator) -> str:
     if integrator not in INTEGRATORS:
         raise WhittedError(f"unknown integrator '{integrator}'; choose one of {', '.join(INTEGRATORS)}")
     return integrator
+
+
+def check_seed(seed, what: str = "seed") -> int:
+    """A render's seed as Mitsuba takes it (32 bits): any integer from 0 to 2^64 - 1. Seeds
+    below 2^32 are themselves; a larger one folds its upper half into the lower (times
+    :data:`SEED_STRIDE`), so that seeds that differ above bit 32 still give other samples."""
+    seed = _integer(seed, what)
+    if not 0 <= seed < 2 ** 64:
+        raise WhittedError(f"{what} must be an integer from 0 to 2^64 - 1, got {seed}")
+    return (seed ^ (seed >> 32) * SEED_STRIDE) & 0xFFFFFFFF
 
 
 # --------------------------------------------------------------------------- many scenes, video

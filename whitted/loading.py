@@ -23,7 +23,8 @@ from .errors import WhittedError
 #: Scene parameters that can be overridden at load time (``<default>`` entries of the XML),
 #: with the check each override goes through.
 OVERRIDES = {"spp": D.check_spp, "max_depth": D.check_depth, "ambient": D.check_ambient,
-             "lighting": check_lighting}
+             "lighting": check_lighting, "width": lambda v: D.check_size(v, "width"),
+             "height": lambda v: D.check_size(v, "height")}
 
 #: Mitsuba's parallel loading (``parallel=`` of ``mi.load_file``/``load_dict``): off. It
 #: cost 35-40 % more CPU time and more wall time on 2 cores at every size measured
@@ -95,10 +96,10 @@ def load_scene(path: str | os.PathLike, variant: str | None = None, *, model=Non
     mesh's acceleration structure costs about 0.4 s (a floor of radius 10^4: 170 000
     triangles), far more than rendering a small frame. Mitsuba's path tracer would see
     the float32 sphere. ``whitted render`` passes it for the whitted integrator.
-    ``overrides`` replace the scene's ``spp``, ``max_depth``, ``ambient`` or
-    ``lighting`` ("article" or "physical"). A portable ``.xml`` (stock plugins,
-    ``whitted convert --portable``) has only ``spp`` and ``max_depth``, the latter
-    in Mitsuba's sense (the article's depth + 1).
+    ``overrides`` replace the scene's ``spp``, ``max_depth``, ``ambient``,
+    ``lighting`` ("article" or "physical"), ``width`` or ``height``. A portable ``.xml``
+    (stock plugins, ``whitted convert --portable``) has only ``spp``, ``max_depth``,
+    ``width`` and ``height``, ``max_depth`` in Mitsuba's sense (the article's depth + 1).
     """
     import mitsuba as mi
 

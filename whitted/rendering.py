@@ -178,6 +178,9 @@ def render(scene, integrator: str = D.INTEGRATOR, spp: int | None = None, max_de
            min_weight: float | None = None, ambient: float | None = None) -> RenderResult:
     """Render ``scene`` (a ``mi.Scene``); see the module docstring and docs/CONTRACTS.md.
 
+    ``seed``: any integer from 0 to 2^64 - 1 (:func:`whitted.defaults.check_seed` folds it
+    to Mitsuba's 32 bits); with one sample per pixel the whitted integrator takes none (every
+    ray passes through its pixel's center: the scene format's rule).
     ``spp``, ``max_depth`` (the article's depth, primary rays being depth 1),
     ``lighting``, ``min_weight`` (the Whitted integrator's adaptive depth
     control, 0 = off) and ``ambient`` (the article's A, whitted only) default to
@@ -189,9 +192,17 @@ def render(scene, integrator: str = D.INTEGRATOR, spp: int | None = None, max_de
     ``path`` (a portable scene) is rendered with it unless ``max_depth`` is given.
     The whitted integrator refuses a scene without the ``article`` BSDF.
     """
-    import mitsuba as mi
-
     check_settings(spp, max_depth, lighting, integrator, min_weight)
+    return render_checked(scene, integrator, spp, max_depth, lighting, progress, seed, min_weight, ambient)
+
+
+def render_checked(scene, integrator: str = D.INTEGRATOR, spp: int | None = None,
+                   max_depth: int | None = None, lighting: str | None = None, progress: bool = False,
+                   seed: int = 0, min_weight: float | None = None,
+                   ambient: float | None = None) -> RenderResult:
+    """:func:`render` for settings :func:`check_settings` has passed already (the CLI checks
+    them before it loads the scene): checked once."""
+    seed = D.check_seed(seed)
     spp_asked = spp
     if not scene.sensors():
         raise WhittedError("the scene has no sensor (camera) to render from")
@@ -205,14 +216,15 @@ def render(scene, integrator: str = D.INTEGRATOR, spp: int | None = None, max_de
     width, height = (int(c) for c in sensor.film().crop_size())
 
     if integrator == "whitted":
-        check_article_materials(scene)
+        tables = check_article_materials(scene)   # found once: the render takes them
         min_weight = float(min_weight) if min_weight is not None else settings["min_weight"]
         ambient = D.check_ambient(ambient, "ambient") if ambient is not None else settings["ambient"]
         with quiet_mitsuba():
             whitted = own.with_settings(max_depth=depth, lighting=lighting or settings["lighting"],
                                         min_weight=min_weight, ambient=ambient)
         with progress_bar(progress, width * height * spp, "render") as bar, _Clock() as clock:
-            rendering = whitted.render_detailed(scene, sensor, seed=seed, spp=spp, progress=bar.update)
+            rendering = whitted.render_detailed(scene, sensor, seed=seed, spp=spp, progress=bar.update,
+                                               tables=tables)
             # The developed image's own memory, not a copy (a 16384² image is 3 GiB).
             image = np.asarray(rendering.image, dtype=np.float32)
         rays = rendering.rays
@@ -235,13 +247,14 @@ def render(scene, integrator: str = D.INTEGRATOR, spp: int | None = None, max_de
     return RenderResult(np.ascontiguousarray(image), clock.seconds, clock.compile, stats, clock.cpu_seconds)
 
 
-def check_article_materials(scene, name: str | None = None) -> None:
+def check_article_materials(scene, name: str | None = None):
     """One clean error (naming the scene file ``name`` when given) unless the whitted
     integrator can render ``scene`` (:func:`whitted.plugins.check_scene`: the ``article``
-    BSDF on every shape, point lights); this adds the file and what to do instead."""
+    BSDF on every shape, point lights); this adds the file and what to do instead.
+    Returns the scene's tables, for the render."""
     from .plugins import check_scene
     try:
-        check_scene(scene)
+        return check_scene(scene)
     except WhittedError as error:
         raise WhittedError(f"{name + ': ' if name else ''}{error} (Mitsuba's stock materials, a "
                            "portable scene? use the path integrator (--integrator path), or the "

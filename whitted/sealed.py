@@ -188,15 +188,10 @@ def groups(scene: Scene, grouping: Grouping, origin) -> list[tuple[Material, flo
 
 def ellipsoids(centers: np.ndarray, bsdf, radius: float = 1.0) -> dict:
     """The ``mi.load_dict`` entry of one ``ellipsoids`` shape of spheres of ``radius`` at
-    ``centers`` (M×3): equal scales, no rotation, and ``extent`` 1 (Mitsuba's default, 3,
-    would triple them)."""
-    import mitsuba as mi
-    count = len(centers)
-    return {"type": "ellipsoids", "extent": 1.0,
-            "centers": mi.TensorXf(np.ascontiguousarray(centers, np.float32).reshape(count, 3)),
-            "scales": mi.TensorXf(np.full((count, 3), radius, np.float32)),
-            "quaternions": mi.TensorXf(np.tile(np.array([0.0, 0.0, 0.0, 1.0], np.float32), (count, 1))),
-            "bsdf": bsdf}
+    ``centers`` (M×3): :func:`whitted.plugins.scene.layers.ellipsoids_shape`, which the
+    integrator's layers build too (the loader builds on the plugins, not the other way)."""
+    from .plugins.scene.layers import ellipsoids_shape
+    return ellipsoids_shape(centers, bsdf, radius)
 
 
 #: the fields of a vertex of Mitsuba's ``ellipsoids`` PLY file: center, normal (unused),

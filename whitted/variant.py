@@ -39,6 +39,9 @@ _VERSION_PATTERNS = (
     re.compile(r"^libLLVM\.(\d+)(?:\.\d+)*\.dylib$"),
 )
 _fallback_warned = False
+#: the variant a caller asked for before Mitsuba was imported: importing it (whose hook
+#: chooses a variant, whitted/__init__.py) then chooses this one, so it is set once
+_requested: str | None = None
 
 
 def llvm_version_of(path: str) -> int | None:
@@ -99,6 +102,8 @@ def check_environment() -> None:
 def default_variant() -> str:
     """``$WHITTED_VARIANT``, else llvm_ad_rgb when a good libLLVM exists, else scalar_rgb."""
     global _fallback_warned
+    if _requested is not None:
+        return _requested
     check_environment()
     requested = os.environ.get("WHITTED_VARIANT")
     if requested:
@@ -120,8 +125,19 @@ def set_variant(variant: str | None = None) -> str:
     A Ctrl-C meanwhile takes effect once it is done (:func:`whitted.interrupt.deferred`).
     """
     from .interrupt import deferred
+    request(variant)
     with deferred():
         return _set_variant(variant)
+
+
+def request(variant: str | None) -> None:
+    """Ask for ``variant`` before Mitsuba is imported (the CLI does so first thing): when
+    something imports Mitsuba, its hook chooses this variant, so that it is set once rather
+    than the default first and this one after. Does nothing once Mitsuba is imported, or
+    for a variant whitted does not run in (:func:`set_variant` refuses that one)."""
+    global _requested
+    if variant in SUPPORTED_VARIANTS and "mitsuba" not in sys.modules:
+        _requested = variant
 
 
 def _set_variant(variant: str | None) -> str:
@@ -149,10 +165,13 @@ def _set_variant(variant: str | None) -> str:
 
 
 def on_variant_changed(old: str | None, new: str | None) -> None:
-    """Mitsuba's variant callback: register the plugins for each variant the user sets."""
+    """Mitsuba's variant callback: register the plugins for each variant the user sets, and
+    in a variant they do not run in, names that refuse with the reason."""
+    from whitted import plugins
     if new in SUPPORTED_VARIANTS:
-        from whitted import plugins
         plugins.register()
+    elif new:
+        plugins.refuse(SUPPORTED_VARIANTS)
 
 
 def ensure_llvm(allow_install: bool = True) -> str | None:

@@ -65,11 +65,22 @@ def layers(shapes, types, primitives: Primitives) -> tuple[list[Layer], list[int
     return [_layer(radius, parts) for radius, parts in sorted(members.items())], held
 
 
+def ellipsoids_shape(centers: np.ndarray, bsdf, radius: float = 1.0) -> dict:
+    """The ``mi.load_dict`` entry of one ``ellipsoids`` shape of spheres of ``radius`` at
+    ``centers`` (M×3): equal scales, no rotation, and ``extent`` 1 (Mitsuba's default, 3,
+    would triple them). The loader's sealed spheres are made the same way (whitted/sealed.py)."""
+    count = len(centers)
+    return {"type": "ellipsoids", "extent": 1.0,
+            "centers": mi.TensorXf(np.ascontiguousarray(centers, np.float32).reshape(count, 3)),
+            "scales": mi.TensorXf(np.full((count, 3), radius, np.float32)),
+            "quaternions": mi.TensorXf(np.tile(np.array([0.0, 0.0, 0.0, 1.0], np.float32), (count, 1))),
+            "bsdf": bsdf}
+
+
 def _layer(radius: float, parts) -> Layer:
     """The layer of the spheres of ``radius`` in ``parts``: (shape, 3×M scene-frame centers)."""
-    from whitted.sealed import ellipsoids
     scale = 1.0 / radius
-    scene = mi.load_dict({"type": "scene", **{f"part_{i}": ellipsoids(centers.T * scale, shape.bsdf())
+    scene = mi.load_dict({"type": "scene", **{f"part_{i}": ellipsoids_shape(centers.T * scale, shape.bsdf())
                                                for i, (shape, centers) in enumerate(parts)}})
     center = np.concatenate([centers for _, centers in parts], axis=1)
     error = hit_error(radius, np.abs(center).max(axis=0, initial=0.0))

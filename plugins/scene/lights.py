@@ -51,8 +51,9 @@ def point_lights(scene) -> tuple[tuple, ...]:
         if emitter.is_environment():
             continue
         if emitter.class_name() != "PointLight":
-            raise WhittedError(f"the whitted integrator supports point lights and a background; "
-                               f"emitter {emitter.id()!r} is a {emitter.class_name()}")
+            raise WhittedError(f"the whitted integrator cannot render the emitter {emitter.id()!r} "
+                               f"(a {emitter.class_name()}): it renders point lights and a "
+                               "background only")
         lights.append(_point_light(emitter))
     return tuple(lights)
 

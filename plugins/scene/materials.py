@@ -58,6 +58,7 @@ class Materials:
     rows: np.ndarray                     # (n, 8)
     textures: dict
     largest_texel: float | None
+    bsdfs: list = None                   # the BSDF objects, in the rows' order
 
     @classmethod
     def of(cls, bsdfs) -> tuple["Materials", np.ndarray]:
@@ -76,7 +77,7 @@ class Materials:
         textures = {int(row[KEY]): bsdf.color for row, bsdf in zip(rows, objects) if row[TEXTURED]}
         texels = [_largest_texel(texture) for texture in textures.values()]
         materials = cls(rows[:, KEY].astype(np.int64), rows, textures,
-                        None if None in texels else max(texels, default=0.0))
+                        None if None in texels else max(texels, default=0.0), objects)
         return materials, shape_keys
 
     @property

@@ -10,9 +10,9 @@ of each one.
 The one way they are invalidated. :func:`scene_tables`, which every render
 calls first, reads what the tables were built from and what costs little to
 read: each shape's bounding box (a sphere's center and radius), each ``ellipsoids`` shape's data array, each textured
-sphere's ``to_world``, the lights and the background, and how many times an
-``article`` BSDF has changed (:func:`material_changed`, called by the BSDF's
-own ``parameters_changed``). Anything else the tables hold follows from
+sphere's ``to_world``, the lights and the background, and how many times each
+``article`` BSDF has changed (its ``changes``, which Mitsuba's own
+``parameters_changed`` counts: no BSDF knows of the tables). Anything else the tables hold follows from
 these. When one differs, the tables are built afresh. So an edit made the
 Mitsuba way (``params = mi.traverse(scene)``, ``params[...] = ...``,
 ``params.update()``) shows in the next render without the integrator being
@@ -50,13 +50,11 @@ SCENES = 8
 
 #: (variant, scene address) -> (witness, tables)
 _kept: OrderedDict = OrderedDict()
-_material_changes = 0
 
 
-def material_changed() -> None:
-    """An ``article`` BSDF's parameters changed: every scene's tables are checked afresh."""
-    global _material_changes
-    _material_changes += 1
+def _changes(bsdfs) -> tuple:
+    """How many times each ``article`` BSDF has been changed (``ArticleBSDF.changes``)."""
+    return tuple(bsdf.changes for bsdf in bsdfs)
 
 
 def _shape_types(scene, shapes) -> np.ndarray:
@@ -110,9 +108,10 @@ class SceneTables:
         bsdfs = [shape.bsdf() for shape in shapes]
         for shape, bsdf in zip(shapes, bsdfs):
             if not getattr(bsdf, "is_article", False):
+                has = f"the BSDF {bsdf.class_name()}" if bsdf is not None else "no BSDF"
                 raise WhittedError(
-                    f"the whitted integrator needs the 'article' BSDF on every shape; shape "
-                    f"{shape.id()!r} has {bsdf.class_name() if bsdf is not None else 'none'}")
+                    f"the whitted integrator cannot render {has} of shape {shape.id()!r} "
+                    f"(a {shape.class_name()}): it renders the 'article' BSDF only")
         self.lights = point_lights(scene)
         self.environment = scene.environment()
         self.background = 0.0 if self.environment is None else largest_emission(self.environment)
@@ -135,7 +134,7 @@ class SceneTables:
         self.layers, self.layered = layers(shapes, types, self.primitives)
         self._rest_scenes = {}
         # what the tables were built from (:meth:`describe`)
-        self._boxes, self._changes = boxes, _material_changes
+        self._boxes, self._changes = boxes, _changes(self.materials.bsdfs)
         ellipsoids = types == int(mi.ShapeType.Ellipsoids)
         self._ellipsoids = {k: _ellipsoid_data(shapes[k]) for k in np.flatnonzero(ellipsoids).tolist()}
         spheres = types == int(mi.ShapeType.Sphere)
@@ -144,7 +143,7 @@ class SceneTables:
     def describe(self, scene) -> bool:
         """Whether these tables are still those of ``scene`` (see the module docstring)."""
         shapes = scene.shapes()
-        return (_material_changes == self._changes and bounds(shapes) == self._boxes
+        return (_changes(self.materials.bsdfs) == self._changes and bounds(shapes) == self._boxes
                 and all(_same_data(_ellipsoid_data(shapes[k]), data) for k, data in self._ellipsoids.items())
                 and all(_to_world(shapes[k]) == matrix for k, matrix in self._frames.items())
                 and point_lights(scene) == self.lights

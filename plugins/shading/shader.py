@@ -46,6 +46,7 @@ class SecondaryRay:
 class Shaded:
     color: object   # mi.Color3f, already multiplied by the path weight
     children: list   # [SecondaryRay], empty when the tree ends at this level
+    hit: object = None   # mi.Bool: the rays that hit a surface
 
 
 def scene_hits(scene, tables, need_uv: bool, exact_spheres=()):
@@ -70,8 +71,11 @@ def scene_hits(scene, tables, need_uv: bool, exact_spheres=()):
 class Shader:
     """The article's model for one scene (see the module docstring)."""
 
-    def __init__(self, scene, analysis, ambient: float, lighting: str, tally, exact_spheres=()):
+    def __init__(self, scene, analysis, ambient: float, lighting: str, tally, exact_spheres=(),
+                 hide_background: bool = False):
         self.scene = scene
+        # Mitsuba's ``hide_emitters``: camera rays that escape see black, not the background
+        self.hide_background = hide_background
         self.physical = lighting == "physical"
         # Per-render constants are opaque: kernels are reused across scenes (plain numbers in scalar).
         self.ambient = dr.opaque(mi.Float, ambient)
@@ -100,14 +104,15 @@ class Shader:
         si.wi = -ray.d
         return self.environment.eval(si)
 
-    def shade(self, ray, weight, spawn: bool, coherent: bool = False) -> Shaded:
-        """One level of the tree for ``ray``; ``spawn`` is False at the last level."""
+    def shade(self, ray, weight, spawn: bool, coherent: bool = False, camera: bool = False) -> Shaded:
+        """One level of the tree for ``ray``; ``spawn`` is False at the last level, ``camera``
+        True at the first (camera rays)."""
         hit, si, bsdf, error = self.hits.intersect(ray, coherent)
         color = mi.Color3f(0)
-        if self.environment is not None:
+        if self.environment is not None and not (camera and self.hide_background):
             color = dr.select(hit, color, weight * self.background(ray))
         if off(hit):
-            return Shaded(color, [])   # a single ray that missed: no shape to ask for a material
+            return Shaded(color, [], hit)   # a single ray that missed: no shape to ask for a material
 
         v = ray.d
         n_facing, inside = optics.facing_normal(v, si.n)
@@ -133,7 +138,7 @@ class Shader:
                                       dr.select(hit, weight * kr, 0), merged))
             if self.refraction:
                 children.append(SecondaryRay("refraction", refracted, dr.select(hit, weight * kt, 0)))
-        return Shaded(color, children)
+        return Shaded(color, children, hit)
 
     def point_color(self, si, error, n_facing, base, active):
         """``B·(A + (1 - A)·Σ s·light)`` (article) or ``(B/π)·Σ I·max(0, N'·L)/r²`` (physical)."""

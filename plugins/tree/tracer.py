@@ -65,6 +65,10 @@ class Tracer:
         self.epsilon = epsilon
         self.tally = tally
         self.deepest = 0   # the deepest level that traced a ray
+        #: whether :attr:`camera_hit` is wanted (an alpha channel): then it is computed with
+        #: the camera rays' level, not again afterwards
+        self.keep_camera_hit = False
+        self.camera_hit = None   # mi.Bool: which camera rays of the last :meth:`trace` hit
 
     @staticmethod
     def passes(total: int, per_pass: int):
@@ -96,8 +100,13 @@ class Tracer:
         """Shade ``branch``: its color (already weighted), the weight culled below each ray
         (None when the tree is traced exactly) and its children."""
         self.deepest = max(self.deepest, branch.level)
+        camera = branch.level == 1
         shaded = self.shader.shade(branch.ray, branch.weight, spawn=branch.level < self.shader.depth,
-                                   coherent=branch.level == 1)
+                                   coherent=camera, camera=camera)
+        if camera and self.keep_camera_hit:
+            self.camera_hit = shaded.hit
+            if dr.is_jit_v(mi.Float):
+                dr.schedule(self.camera_hit)   # evaluated by the level's own kernel
         if not shaded.children:
             return shaded.color, None, []
         weights = [child.weight for child in shaded.children]
