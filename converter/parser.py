@@ -249,9 +249,13 @@ def _split_line(line: str, path, first: int) -> tuple[list[Token], bool]:
     return tokens, continued
 
 
-def parse_text(text: str, source: str | os.PathLike) -> Scene:
-    """Parse scene text; ``source`` names the file in messages and anchors relative textures."""
-    return _parse(text, source, fast=True)
+def parse_text(text: str, source: str | os.PathLike, *, careful: bool = False) -> Scene:
+    """Parse scene text; ``source`` names the file in messages and anchors relative textures.
+
+    ``careful=True`` reads every statement on the careful path, the one the
+    fast paths must agree with (the parser's benchmark times both).
+    """
+    return _parse(text, source, fast=not careful)
 
 
 def _parse(text: str, source: str | os.PathLike, *, fast: bool, arrays: bool | None = None) -> Scene:
