@@ -85,10 +85,10 @@ class Bench:
         model = scenes.diffuse_spheres(10, width, height, spp)
         scene, scene_direct = scenes.load(model), scenes.load_for_direct(model)
         light = model.lights[0].position
-        physical = scenes.whitted_integrator(model, lighting="physical")
+        physical = scenes.load_whitted(model, lighting="physical")
         contenders = {
             "whitted (physical lighting)": renderer(scene, physical, spp),
-            "whitted (article lighting)": renderer(scene, scenes.whitted_integrator(model), spp),
+            "whitted (article lighting)": renderer(scene, scenes.load_whitted(model), spp),
             "Mitsuba direct": renderer(scene_direct, scenes.direct_integrator(), spp),
             **{f"floor: {h} + ray_test": floor.RayCastingFloor(scene, light, spp, h)
                for h in floor.HIT_FINDERS},
@@ -129,7 +129,7 @@ class Bench:
         width, height, spp = 1024, 768, 4
         model = scenes.diffuse_spheres(10, width, height, spp)
         scene = scenes.load(model)
-        contenders = {f"depth {d}": renderer(scene, scenes.whitted_integrator(model, max_depth=d), spp)
+        contenders = {f"depth {d}": renderer(scene, scenes.load_whitted(model, max_depth=d), spp)
                       for d in (1, 16)}
         timing = self.measure(contenders, self.s["rounds"])
         ratio = timing["depth 16"].over(timing["depth 1"])
@@ -146,7 +146,7 @@ class Bench:
     def _whitted_and_direct(self, model, rounds, memory=True):
         label = f"{len(model.spheres)} spheres {model.width}×{model.height} {model.samples} spp "
         scene, scene_direct = scenes.load(model), scenes.load_for_direct(model)
-        whitted_run = renderer(scene, scenes.whitted_integrator(model, lighting="physical"), model.samples)
+        whitted_run = renderer(scene, scenes.load_whitted(model, lighting="physical"), model.samples)
         direct_run = renderer(scene_direct, scenes.direct_integrator(), model.samples)
         timing = self.measure({"whitted": whitted_run, "direct": direct_run}, rounds, label)
         if not memory:
@@ -204,7 +204,7 @@ class Bench:
         width, height, spp = 512, 384, 4
         model = scenes.every_effect(scenes.write_texture(folder / "checker.png"), width, height, spp)
         variants = {"every effect": model, **{f"without {e}": scenes.without(model, e) for e in scenes.EFFECTS}}
-        loaded = {name: (scenes.load(m), scenes.whitted_integrator(m)) for name, m in variants.items()}
+        loaded = {name: (scenes.load(m), scenes.load_whitted(m)) for name, m in variants.items()}
         timing = self.measure({name: renderer(s, i, spp) for name, (s, i) in loaded.items()}, self.s["rounds"])
         full = timing["every effect"]
         table = Table(f"With and without each effect ({width}×{height}, {spp} spp, max depth {model.depth})",
@@ -225,7 +225,7 @@ class Bench:
         model = scenes.every_effect(folder / "checker.png", width, height, spp, depth=16)
         scene = scenes.load(model)
         thresholds = (0.0, 0.001, 0.01, 0.05)
-        integrators = {w: scenes.whitted_integrator(model, min_weight=w) for w in thresholds}
+        integrators = {w: scenes.load_whitted(model, min_weight=w) for w in thresholds}
         timing = self.measure({f"min_weight {w:g}": renderer(scene, i, spp) for w, i in integrators.items()},
                               self.s["rounds"])
         base = timing["min_weight 0"]

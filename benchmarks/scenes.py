@@ -114,7 +114,7 @@ def load_for_direct(model: Scene):
     return mi.load_string(diffuse)
 
 
-def whitted_integrator(model: Scene, **properties):
+def load_whitted(model: Scene, **properties):
     """A ``whitted`` integrator with the scene's own settings, ``properties`` overriding them."""
     return mi.load_dict({"type": "whitted", "max_depth": model.depth, "ambient": model.ambient,
                          "light_reference": mi.ScalarPoint3f(model.lookat), **properties})

@@ -179,6 +179,14 @@ def _attempt(row: Row, program: str, run):
     return None
 
 
+def _record(done, walls: list, peaks: list, renders: list) -> None:
+    """A whitted process's run (``done``: the process, its ``--stats``) into a row's lists."""
+    run, stats = done
+    walls.append(run.wall_seconds)
+    peaks.append(run.peak_rss)
+    renders.append(stats["seconds"])
+
+
 def bench_level(level: int, floor: float, runs: int, folder: Path, pov_exe: str | None, pov_missing: str,
                 threads: int, out, timeout: float | None = TIMEOUT, programs=PROGRAMS) -> Row:
     name = f"flake{level}-{floor:g}"
@@ -206,12 +214,9 @@ def bench_level(level: int, floor: float, runs: int, folder: Path, pov_exe: str 
     for _ in range(runs):
         done = _attempt(row, "whitted", run_w)
         if done is not None:
-            run, s = done
-            row.whitted_wall.append(run.wall_seconds)
-            row.whitted_rss.append(run.peak_rss)
-            row.whitted_render.append(s["seconds"])
-            row.whitted_compile.append(s["compile_seconds"])
-            row.whitted_rays = s["rays"]
+            _record(done, row.whitted_wall, row.whitted_rss, row.whitted_render)
+            row.whitted_compile.append(done[1]["compile_seconds"])
+            row.whitted_rays = done[1]["rays"]
         p = _attempt(row, "pov", run_p)
         if p is not None:
             row.pov_wall.append(p.wall_seconds)
@@ -222,10 +227,7 @@ def bench_level(level: int, floor: float, runs: int, folder: Path, pov_exe: str 
             row.pov_rays = (p.shadow_rays, p.reflected_rays)
         done = _attempt(row, "path", run_path)
         if done is not None:
-            run, s = done
-            row.path_wall.append(run.wall_seconds)
-            row.path_rss.append(run.peak_rss)
-            row.path_render.append(s["seconds"])
+            _record(done, row.path_wall, row.path_rss, row.path_render)
     if row.whitted_wall and row.pov_wall and not (row.whitted_failure or row.pov_failure):
         row.image_difference = image_difference(w_image, p_image)
     w_text = (f"whitted {_median(row.whitted_wall):.2f} s (render {_median(row.whitted_render):.3f} s, "

@@ -43,13 +43,6 @@ from .scene import Scene, Sphere, SphereArrays, Vec3
 GIANT_FRACTION = 1e-2
 
 
-def float32_error(sphere: Sphere, origin: Vec3) -> float:
-    """The integrator's error bound of a float32 hit on ``sphere`` written in the frame whose
-    origin is the world point ``origin``."""
-    center = max(abs(c - o) for c, o in zip(sphere.center, origin))
-    return hit_error(sphere.radius, center)
-
-
 def _detail_near(scene: Scene, k: int) -> float:
     """The finest detail next to sphere ``k``'s surface: over the other spheres, the larger of
     a sphere's radius and its gap to that surface (a ball resting on it: its radius; one far

@@ -442,15 +442,15 @@ class _Parser:
         tokens, which decides exactly as if the whole file had gone the careful way.
         """
         self.spheres.numpy = True
-        ascii_ = data.isascii()
+        is_ascii = data.isascii()
         pos, line, n = 0, 1, len(data)
         while pos < n:
             end = data.find(b"\n", pos + _CHUNK) + 1 if pos + _CHUNK < n else n
             end = end or n
-            line = self.plain_chunk(data, pos, end, line, ascii_)
+            line = self.plain_chunk(data, pos, end, line, is_ascii)
             pos = end
 
-    def plain_chunk(self, data: bytes, pos: int, end: int, first: int, ascii_: bool) -> int:
+    def plain_chunk(self, data: bytes, pos: int, end: int, first: int, is_ascii: bool) -> int:
         """Parse the lines of ``data[pos:end]`` (whole lines; the first is line ``first``) and
         return the number of the line after them.
 
@@ -499,7 +499,7 @@ class _Parser:
         blank_codes = np.array(_BLANK_CODES, np.uint8)
         odd_control = np.isin(b[ctrl], blank_codes, invert=True).any()
         doubtful = np.zeros(lines, bool)
-        if not ascii_ or odd_control or data.find(b"_", pos, end) >= 0:
+        if not is_ascii or odd_control or data.find(b"_", pos, end) >= 0:
             odd = (b == 95) | (b >= 128)
             if odd_control:
                 odd |= ctrl & np.isin(b, blank_codes, invert=True)
@@ -585,8 +585,8 @@ class _Parser:
 
     def plain_line(self, number: int, line: str) -> None:
         """One line of a plain text, on the fast path if it can, else on the careful one."""
-        hash_ = line.find("#")
-        code = line if hash_ < 0 else line[:hash_]
+        comment_at = line.find("#")
+        code = line if comment_at < 0 else line[:comment_at]
         tokens = code.split(None, 5)
         if not tokens:
             if not code.isascii():  # blanks the format does not know may be tokens

@@ -214,10 +214,10 @@ def test_physical_lighting_has_inverse_square_falloff(tmp_path):
                       lights=[Light((0.0, 0.0, 1.0 + distance))],
                       spheres=[Sphere((0.0, 0.0, 0.0), 1.0, Material())])
         # the light's color is measured at lookat: keep its intensity fixed instead
-        scene_ = load(model, "llvm_ad_rgb")
+        loaded = load(model, "llvm_ad_rgb")
         integrator = mi.load_dict({"type": "whitted", "lighting": "physical",
                                    "light_reference": mi.ScalarPoint3f(0, 0, 0)})
-        image = np.array(integrator.render(scene_))
+        image = np.array(integrator.render(loaded))
         intensity = math.pi * (1.0 + distance) ** 2
         return image[4, 4, 0] / intensity
     assert brightness(4.0) / brightness(2.0) == pytest.approx((2.0 / 4.0) ** 2, rel=1e-3)
@@ -230,10 +230,10 @@ def test_camera_is_the_spec_camera():
     from whitted.plugins.integrator import WhittedIntegrator
     model = Scene(width=37, height=23, eye=(1.0, 2.0, 7.0), lookat=(-0.5, 0.3, -1.0), up=(0.2, 1.0, 0.1),
                   fov=70.0, spheres=[Sphere((0.0, 0.0, 0.0), 1.0)])
-    scene_ = load(model, "llvm_ad_rgb")
+    loaded = load(model, "llvm_ad_rgb")
     y, x = np.mgrid[0:model.height, 0:model.width]
     pixel = mi.UInt32((y * model.width + x).ravel())
-    ray, _, position = WhittedIntegrator._camera_ray(scene_.sensors()[0], mi.UInt32(x.ravel()),
+    ray, _, position = WhittedIntegrator._camera_ray(loaded.sensors()[0], mi.UInt32(x.ravel()),
                                                      mi.UInt32(y.ravel()), pixel, mi.UInt32(0), 1, 0)
     got = np.array(ray.d).T
     expected = np.array([camera_ray(model, i + 0.5, j + 0.5)[1] for i, j in zip(x.ravel(), y.ravel())])
@@ -297,13 +297,13 @@ def test_passes_and_split_wavefronts_give_the_same_image(tmp_path):
     """Memory is bounded by rendering in passes and splitting wide wavefronts: the image
     must not depend on either."""
     model = scene("everything", tmp_path)
-    scene_ = load(model, "llvm_ad_rgb")
+    loaded = load(model, "llvm_ad_rgb")
     whole = mi.load_dict({"type": "whitted", "max_depth": 6, "ambient": model.ambient,
                           "light_reference": mi.ScalarPoint3f(model.lookat)})
     pieces = mi.load_dict({"type": "whitted", "max_depth": 6, "ambient": model.ambient,
                            "light_reference": mi.ScalarPoint3f(model.lookat), "wavefront_size": 99})  # odd: passes split pixels
-    one = whole.render_detailed(scene_, spp=2, seed=4)
-    many = pieces.render_detailed(scene_, spp=2, seed=4)
+    one = whole.render_detailed(loaded, spp=2, seed=4)
+    many = pieces.render_detailed(loaded, spp=2, seed=4)
     assert one.passes == 1 and many.passes == math.ceil(W * H * 2 / 99)
     np.testing.assert_allclose(np.array(many.image), np.array(one.image), atol=1e-6)
     assert many.rays == one.rays
@@ -313,8 +313,8 @@ def test_passes_and_split_wavefronts_give_the_same_image(tmp_path):
 
 def test_mi_render_uses_the_integrator(suite):
     model = suite("mirror", "model")
-    scene_ = load(model, "llvm_ad_rgb")
-    image = np.array(mi.render(scene_))
+    loaded = load(model, "llvm_ad_rgb")
+    image = np.array(mi.render(loaded))
     np.testing.assert_array_equal(image, suite("mirror", "llvm_ad_rgb"))
 
 
@@ -322,13 +322,13 @@ def test_mi_render_uses_the_integrator(suite):
 def test_sample_traces_a_whole_tree(suite, variant):
     """``sample()`` (Mitsuba's per-ray entry point) gives a ray's full color."""
     model = suite("glass", "model")
-    scene_ = load(model, variant)
-    integrator = scene_.integrator()
+    loaded = load(model, variant)
+    integrator = loaded.integrator()
     expected = suite("glass", "reference")
     for i, j in ((W // 2, H // 2 - 3), (5, 5), (30, 20)):
         o, d = camera_ray(model, i + 0.5, j + 0.5)
         o = np.subtract(o, model.lookat)    # world -> the converter's frame (centered on lookat)
-        color, valid, aovs = integrator.sample(scene_, None, mi.Ray3f(mi.Point3f(o), mi.Vector3f(d)))
+        color, valid, aovs = integrator.sample(loaded, None, mi.Ray3f(mi.Point3f(o), mi.Vector3f(d)))
         assert np.abs(np.array(color).ravel() - expected[j, i]).max() < 0.02
 
 
