@@ -77,7 +77,7 @@ test: setup chromium
 # POV-Ray 3.7 for the side-by-side benchmark: Debian's povray, installed when missing and
 # allowed (root, or sudo without a password), like the llvm step; otherwise its rows say why.
 povray: $(STAMP)
-	@$(PY) benchmarks/povray.py --install
+	@$(PY) -m benchmarks.povray --install
 
 # Speed against Mitsuba's own integrators and the ray-casting floor, then against POV-Ray 3.7
 # on the sphereflake, levels 1-6 on floors of radius 10^3 and 10^4, with Mitsuba's path tracer
@@ -86,9 +86,9 @@ povray: $(STAMP)
 # in one process (benchmarks/frames.py); `make bench BENCHFLAGS=--quick` for a short run.
 BENCHFLAGS ?=
 bench: setup povray
-	$(PY) benchmarks/run.py $(BENCHFLAGS)
-	$(PY) benchmarks/vs_povray.py $(BENCHFLAGS)
-	$(PY) benchmarks/frames.py $(BENCHFLAGS)
+	$(PY) -m benchmarks.run $(BENCHFLAGS)
+	$(PY) -m benchmarks.vs_povray $(BENCHFLAGS)
+	$(PY) -m benchmarks.frames $(BENCHFLAGS)
 
 clean:
 	rm -rf $(OUT) .pytest_cache .hypothesis

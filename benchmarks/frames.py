@@ -25,7 +25,7 @@ one untimed warm-up frame of each (Dr.Jit's kernel cache on disk, the page cache
 
 Usage::
 
-    python benchmarks/frames.py [--quick] [--frames 48] [--size 320 200] [--rounds 1]
+    python -m benchmarks.frames [--quick] [--frames 48] [--size 320 200] [--rounds 1]
 
 ``--quick``: 6 frames of 160×100, for a check that it works. Options of run.py that
 ``make bench BENCHFLAGS=...`` passes along are ignored.
@@ -43,11 +43,7 @@ import tempfile
 import time
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-
-import povray  # noqa: E402
-import process  # noqa: E402
+from . import povray, process
 
 #: the issue's targets: the folder run's time over POV-Ray's, and over the per-frame loop's
 TARGET_POVRAY, TARGET_LOOP = 0.5, 0.25

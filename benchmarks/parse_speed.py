@@ -17,51 +17,36 @@ same scene, level 6 included.
 
 Usage::
 
-    python benchmarks/parse_speed.py [--rounds 5] [--level 5] [--convert]
+    python -m benchmarks.parse_speed [--rounds 5] [--level 5] [--convert]
 """
 
 from __future__ import annotations
 
 import argparse
-import random
 import statistics
 import sys
 import tempfile
-import time
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+from whitted.converter import Light, Scene, parse_text
 
-import process  # noqa: E402
-import sphereflake  # noqa: E402
-from whitted.converter.parser import _parse  # noqa: E402
+from . import process, scenes, sphereflake
+from .timing import cpu_seconds
 
 
-def random_spheres(count: int, seed: int = 1) -> str:
-    """``count`` spheres, each with its own color and reflection (no two attribute lists alike)."""
-    rng = random.Random(seed)
-    lines = ["size 64 64", "light 1 2 3"]
-    for _ in range(count):
-        x, y, z = (rng.uniform(-5, 5) for _ in range(3))
-        r, g, b = (rng.random() for _ in range(3))
-        lines.append(f"sphere {x!r} {y!r} {z!r} {rng.uniform(0.01, 1)!r} color {r!r} {g!r} {b!r} "
-                     f"reflect {rng.random() * 0.5!r}")
-    return "\n".join(lines) + "\n"
-
-
-def _cpu(run) -> float:
-    start = time.process_time()
-    run()
-    return time.process_time() - start
+def distinct_spheres(count: int) -> str:
+    """``count`` random spheres, each with its own color and reflection (no two attribute lists
+    alike), as ``.scn`` text."""
+    return scenes.to_scn(Scene(width=64, height=64, lights=[Light((1.0, 2.0, 3.0))],
+                               spheres=scenes.random_spheres(count, reflect=0.5)))
 
 
 def measure(text: str, rounds: int) -> dict:
     """Median CPU seconds of the careful and the fast path on ``text``, and their ratio."""
     fast, careful = [], []
     for _ in range(rounds):
-        fast.append(_cpu(lambda: _parse(text, "bench.scn", fast=True)))
-        careful.append(_cpu(lambda: _parse(text, "bench.scn", fast=False)))
+        fast.append(cpu_seconds(lambda: parse_text(text, "bench.scn")))
+        careful.append(cpu_seconds(lambda: parse_text(text, "bench.scn", careful=True)))
     lines = text.count("\n")
     f, c = statistics.median(fast), statistics.median(careful)
     return {"lines": lines, "fast_s": f, "careful_s": c, "speedup": c / f,
@@ -70,7 +55,7 @@ def measure(text: str, rounds: int) -> dict:
 
 def fast_seconds(text: str, rounds: int = 1) -> float:
     """Median CPU seconds of :func:`whitted.converter.parse_text`'s path (the fast one) on ``text``."""
-    return statistics.median(_cpu(lambda: _parse(text, "bench.scn", fast=True)) for _ in range(rounds))
+    return statistics.median(cpu_seconds(lambda: parse_text(text, "bench.scn")) for _ in range(rounds))
 
 
 def convert(scn: Path, xml: Path, runs: int = 1, timeout: float | None = None) -> list[process.ProcessRun]:
@@ -87,10 +72,10 @@ def convert(scn: Path, xml: Path, runs: int = 1, timeout: float | None = None) -
 
 def table(rounds: int = 5, level: int = 5, distinct: bool = True) -> list[tuple[str, dict]]:
     """The sphereflake at ``level``, and (``distinct``) 66 000 spheres of distinct attributes."""
-    flake = sphereflake.to_scn(sphereflake.scene(level))
+    flake = scenes.to_scn(sphereflake.scene(level))
     rows = [(f"sphereflake level {level} ({sphereflake.count(level) + 1} spheres)", measure(flake, rounds))]
     if distinct:
-        rows.append(("66 000 spheres, each with its own attributes", measure(random_spheres(66_000), rounds)))
+        rows.append(("66 000 spheres, each with its own attributes", measure(distinct_spheres(66_000), rounds)))
     return rows
 
 

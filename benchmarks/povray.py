@@ -32,8 +32,8 @@ is touched.
 
 Usage::
 
-    python benchmarks/povray.py --install          # install Debian's povray when root
-    python benchmarks/povray.py SCENE.scn -o SCENE.pov
+    python -m benchmarks.povray --install          # install Debian's povray when root
+    python -m benchmarks.povray SCENE.scn -o SCENE.pov
 """
 
 from __future__ import annotations
@@ -48,12 +48,10 @@ import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+from whitted.converter import parse_file
+from whitted.converter.scene import Scene
 
-import process  # noqa: E402
-from whitted.converter import parse_file  # noqa: E402
-from whitted.converter.scene import Scene  # noqa: E402
+from . import process
 
 
 def _v(v) -> str:

@@ -14,7 +14,7 @@ printed as a ratio against the fastest honest alternative doing the same work:
 
 Usage::
 
-    python benchmarks/run.py [--quick] [--markdown benchmarks/RESULTS.md] [--json FILE]
+    python -m benchmarks.run [--quick] [--markdown benchmarks/RESULTS.md] [--json FILE]
 
 The exit status is 1 when an acceptance target (issue 6) is missed.
 """
@@ -22,28 +22,23 @@ The exit status is 1 when an acceptance target (issue 6) is missed.
 from __future__ import annotations
 
 import argparse
-import datetime
 import json
-import os
-import platform
-import subprocess
 import sys
 import tempfile
 import time
 from dataclasses import replace
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
+import drjit as dr
+import mitsuba as mi
+import numpy as np
 
-import drjit as dr  # noqa: E402
-import mitsuba as mi  # noqa: E402
-import numpy as np  # noqa: E402
+import whitted  # (selects the variant, registers the plugins)
 
-import whitted  # noqa: E402  (selects the variant, registers the plugins)
-import floor  # noqa: E402
-import scenes  # noqa: E402
-import sections  # noqa: E402
-from timing import NOISY, measure, peak_memory  # noqa: E402
+from . import floor, scenes, sections
+from .machine import machine
+from .tables import Table, mib, ms
+from .timing import NOISY, measure, peak_memory
 
 #: acceptance targets of issue 6 (ratios of median times)
 TARGET_DEPTH = 1.15
@@ -62,35 +57,6 @@ def renderer(scene, integrator, spp: int):
         dr.eval(image)
         return image
     return run
-
-
-class Table:
-    def __init__(self, title: str, columns: list[str], note: str = ""):
-        self.title, self.columns, self.note, self.rows = title, columns, note, []
-
-    def add(self, *cells):
-        self.rows.append([c if isinstance(c, str) else f"{c:.3g}" if isinstance(c, float) else str(c)
-                          for c in cells])
-
-    def text(self) -> str:
-        widths = [max(len(r[i]) for r in [self.columns, *self.rows]) for i in range(len(self.columns))]
-        lines = [f"\n== {self.title}", "  ".join(c.ljust(w) for c, w in zip(self.columns, widths))]
-        lines += ["  ".join(c.ljust(w) for c, w in zip(row, widths)) for row in self.rows]
-        return "\n".join(lines + ([self.note] if self.note else []))
-
-    def markdown(self) -> str:
-        lines = [f"### {self.title}", "", "| " + " | ".join(self.columns) + " |",
-                 "|" + "---|" * len(self.columns)]
-        lines += ["| " + " | ".join(row) + " |" for row in self.rows]
-        return "\n".join(lines + (["", self.note] if self.note else []))
-
-
-def ms(seconds: float) -> str:
-    return f"{1000 * seconds:.1f}"
-
-
-def mib(n: int) -> str:
-    return f"{n / 2**20:.1f}"
 
 
 class Bench:
@@ -119,10 +85,10 @@ class Bench:
         model = scenes.diffuse_spheres(10, width, height, spp)
         scene, scene_direct = scenes.load(model), scenes.load_for_direct(model)
         light = model.lights[0].position
-        physical = scenes.whitted_integrator(model, lighting="physical")
+        physical = scenes.load_whitted(model, lighting="physical")
         contenders = {
             "whitted (physical lighting)": renderer(scene, physical, spp),
-            "whitted (article lighting)": renderer(scene, scenes.whitted_integrator(model), spp),
+            "whitted (article lighting)": renderer(scene, scenes.load_whitted(model), spp),
             "Mitsuba direct": renderer(scene_direct, scenes.direct_integrator(), spp),
             **{f"floor: {h} + ray_test": floor.RayCastingFloor(scene, light, spp, h)
                for h in floor.HIT_FINDERS},
@@ -163,7 +129,7 @@ class Bench:
         width, height, spp = 1024, 768, 4
         model = scenes.diffuse_spheres(10, width, height, spp)
         scene = scenes.load(model)
-        contenders = {f"depth {d}": renderer(scene, scenes.whitted_integrator(model, max_depth=d), spp)
+        contenders = {f"depth {d}": renderer(scene, scenes.load_whitted(model, max_depth=d), spp)
                       for d in (1, 16)}
         timing = self.measure(contenders, self.s["rounds"])
         ratio = timing["depth 16"].over(timing["depth 1"])
@@ -180,7 +146,7 @@ class Bench:
     def _whitted_and_direct(self, model, rounds, memory=True):
         label = f"{len(model.spheres)} spheres {model.width}×{model.height} {model.samples} spp "
         scene, scene_direct = scenes.load(model), scenes.load_for_direct(model)
-        whitted_run = renderer(scene, scenes.whitted_integrator(model, lighting="physical"), model.samples)
+        whitted_run = renderer(scene, scenes.load_whitted(model, lighting="physical"), model.samples)
         direct_run = renderer(scene_direct, scenes.direct_integrator(), model.samples)
         timing = self.measure({"whitted": whitted_run, "direct": direct_run}, rounds, label)
         if not memory:
@@ -238,7 +204,7 @@ class Bench:
         width, height, spp = 512, 384, 4
         model = scenes.every_effect(scenes.write_texture(folder / "checker.png"), width, height, spp)
         variants = {"every effect": model, **{f"without {e}": scenes.without(model, e) for e in scenes.EFFECTS}}
-        loaded = {name: (scenes.load(m), scenes.whitted_integrator(m)) for name, m in variants.items()}
+        loaded = {name: (scenes.load(m), scenes.load_whitted(m)) for name, m in variants.items()}
         timing = self.measure({name: renderer(s, i, spp) for name, (s, i) in loaded.items()}, self.s["rounds"])
         full = timing["every effect"]
         table = Table(f"With and without each effect ({width}×{height}, {spp} spp, max depth {model.depth})",
@@ -259,7 +225,7 @@ class Bench:
         model = scenes.every_effect(folder / "checker.png", width, height, spp, depth=16)
         scene = scenes.load(model)
         thresholds = (0.0, 0.001, 0.01, 0.05)
-        integrators = {w: scenes.whitted_integrator(model, min_weight=w) for w in thresholds}
+        integrators = {w: scenes.load_whitted(model, min_weight=w) for w in thresholds}
         timing = self.measure({f"min_weight {w:g}": renderer(scene, i, spp) for w, i in integrators.items()},
                               self.s["rounds"])
         base = timing["min_weight 0"]
@@ -280,81 +246,9 @@ class Bench:
         self.show(table)
 
 
-def machine() -> dict:
-    cpu = "unknown"
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                cpu = line.split(":", 1)[1].strip()
-                break
-    except OSError:
-        pass
-    llvm = dr.detail.llvm_version() if dr.backend_v(mi.Float) == dr.JitBackend.LLVM else None
-
-    def git(*args) -> str:
-        try:
-            return subprocess.run(["git", *args], capture_output=True, text=True, check=True,
-                                  cwd=Path(__file__).resolve().parent).stdout
-        except (OSError, subprocess.CalledProcessError):
-            return ""
-    source = git("describe", "--always", "--dirty").strip() or "unknown"
-    changed = [line[3:] for line in git("status", "--porcelain", "--untracked-files=no").splitlines() if line]
-    if changed:
-        source += f" (uncommitted changes in {', '.join(changed)})"
-    now = datetime.datetime.now(datetime.timezone.utc)
-    return {"source": source, "cpu": cpu, "cores": len(os.sched_getaffinity(0)),
-            "drjit_threads": dr.thread_count(), "variant": mi.variant(), "mitsuba": mi.__version__,
-            "drjit": dr.__version__, "llvm": ".".join(map(str, llvm)) if llvm else None,
-            "python": platform.python_version(), "os": platform.platform(),
-            "date": now.strftime("%Y-%m-%d %H:%M UTC")}
-
-
-REPRODUCE = """\
-## How to reproduce
-
-    make bench                                  # the full run (about a minute on 2 cores)
-    make bench BENCHFLAGS=--quick               # fewer rounds and sizes (about 20 s)
-    .venv/bin/python benchmarks/run.py --markdown benchmarks/RESULTS.md   # rewrite this file
-
-Each number is the median of interleaved runs in one process after two
-warm-up renders per contender (kernels compiled and cached; the "compile s"
-column confirms that nothing was left to compile). Renders are timed as a user
-runs them: `mi.render(scene, integrator, spp, seed=0)` and the developed image.
-Ratios below 1 mean the Whitted integrator is faster. Times vary by a few
-percent from run to run on a shared machine: compare ratios, not times.
-"""
-
-NOTES = """## What is compared
-
-- **Mitsuba `direct`** is configured to do a depth-1 Whitted render's work:
-  `emitter_samples=1, bsdf_samples=0`. For a point light (a delta emitter) its
-  one emitter sample is deterministic: one shadow ray to the light, MIS weight
-  1, one evaluation of Mitsuba's C++ `diffuse` BSDF; no BSDF rays. It runs on
-  the same XML with `diffuse` in place of each `article` BSDF (same
-  reflectance), the same sensor, film, spp and light. The Whitted integrator
-  is timed with physical lighting, which makes the two images the same (the
-  ratio of their mean pixel values is printed), and with the article's
-  lighting, its default. `direct` casts its shadow ray from every hit; Whitted
-  only from hits that face the light (a diffuse surface facing away is black
-  whatever the ray finds).
-- **The ray-casting floor** (floor.py) traces exactly Whitted's rays (the same
-  camera rays, the same facing test, so the same shadow-ray count, printed) in
-  one kernel with no shading and no film. It is timed with Mitsuba's
-  `ray_intersect` and with the integrator's sphere table; the faster is the
-  floor. What Whitted costs above it is shading plus accumulating the image in
-  Mitsuba's film; the row "floor + Mitsuba's film" adds the film alone (the
-  same `ImageBlock.put`, `put_block` and `develop` as the integrators), which
-  `direct` pays too.
-- **Depth 16 vs depth 1**: on a scene without mirrors or glass the effect
-  analysis traces the tree to depth 1 whatever `max_depth` says, and the very
-  same kernels run (tests/test_stats.py checks the kernel hashes).
-- **Effects**: "every effect / this" is the time of the scene with every effect
-  over the time without that one: what the effect costs. Reflection and
-  refraction cost most because they deepen the tree.
-- **Adaptive depth**: the same scene at max depth 16, with Hall and Greenberg's
-  minimum path weight; the error column is the mean absolute difference to
-  the render without it (the first row is run-to-run float noise).
-"""
+#: the prose of RESULTS.md between the acceptance table and the results: how to reproduce, what
+#: is compared
+NOTES = Path(__file__).with_name("run_notes.md")
 
 
 def markdown(bench: Bench, info: dict, mode: str, seconds: float) -> str:
@@ -375,7 +269,7 @@ def markdown(bench: Bench, info: dict, mode: str, seconds: float) -> str:
              f"| ≤ {TARGET_DIRECT} (stretch: < 1) |",
              f"| Whitted (article lighting) / `direct` | {bench.summary['whitted (article) / direct']:.3f} | |",
              f"| Whitted / ray-casting floor | {bench.summary['whitted / floor']:.3f} | (information) |",
-             "", REPRODUCE, NOTES, "## Results", ""]
+             "", NOTES.read_text(), "## Results", ""]
     for table in bench.tables:
         lines += [table.markdown(), ""]
     return "\n".join(lines)

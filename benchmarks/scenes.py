@@ -9,6 +9,7 @@ and light, and Mitsuba runs entirely in C++.
 
 from __future__ import annotations
 
+import math
 import re
 from dataclasses import replace
 from pathlib import Path
@@ -21,24 +22,44 @@ from whitted.converter import Light, Material, Scene, Sphere, scene_to_xml
 EFFECTS = ("lights", "reflection", "refraction", "textures", "background")
 
 
-def diffuse_spheres(count: int, width: int, height: int, spp: int, depth: int = 1, seed: int = 1) -> Scene:
-    """``count`` diffuse spheres (a ground sphere and ``count - 1`` balls) under one light.
+def random_spheres(count: int, seed: int = 1, *, materials: int | None = None, reflect: float = 0.0,
+                   low=(-5.0, -5.0, -5.0), high=(5.0, 5.0, 5.0)) -> list[Sphere]:
+    """``count`` non-overlapping spheres in the box from ``low`` to ``high``.
 
-    The balls are scattered at random in a fixed box in view; their radius
-    shrinks as ``count^(-1/3)`` so that they cover about as much of the image
-    whatever their number.
+    The box is cut into a grid of about ``count`` cells a side cubed; each
+    sphere takes a cell of its own, chosen at random, and is jittered inside it
+    (radius 0.2 to 0.45 of the cell's smallest side), so their radius shrinks
+    as ``count^(-1/3)`` and they cover about as much of a view whatever their
+    number. With ``materials`` a number, the spheres share that many materials
+    (random colors, every other one reflecting ``reflect``); with None each has
+    its own color and a reflection up to ``reflect`` (no two attribute lists
+    alike).
     """
     rng = np.random.default_rng(seed)
-    balls = count - 1
-    scale = (10 / max(balls, 1)) ** (1 / 3)
-    spheres = [Sphere((0.0, -1000.0, 0.0), 1000.0, Material(color=(0.8, 0.8, 0.75)))]
-    for _ in range(balls):
-        radius = float(rng.uniform(0.4, 0.8) * scale)
-        center = (float(rng.uniform(-5, 5)), float(radius + rng.uniform(0, 2.5)), float(rng.uniform(-6, 3)))
-        color = tuple(float(c) for c in rng.uniform(0.2, 0.9, 3))
-        spheres.append(Sphere(center, radius, Material(color=color)))
+    side = max(1, math.ceil(round(count ** (1 / 3), 9)))
+    low, high = np.asarray(low, float), np.asarray(high, float)
+    size = (high - low) / side
+    k = rng.permutation(side ** 3)[:count]
+    cell = np.stack([k % side, k // side % side, k // side ** 2], axis=1)
+    radius = rng.uniform(0.2, 0.45, count) * size.min()
+    center = low + (cell + 0.5) * size + rng.uniform(-1, 1, (count, 3)) * (size / 2 - radius[:, None])
+    if materials:
+        palette = [Material(color=tuple(rng.uniform(0.2, 0.9, 3).tolist()), reflect=reflect * (m % 2))
+                   for m in range(materials)]
+        chosen = [palette[m] for m in rng.integers(0, materials, count)]
+    else:
+        colors, reflects = rng.uniform(0.2, 0.9, (count, 3)).tolist(), (rng.random(count) * reflect).tolist()
+        chosen = [Material(color=tuple(c), reflect=r) for c, r in zip(colors, reflects)]
+    return [Sphere(tuple(c), r, m) for c, r, m in zip(center.tolist(), radius.tolist(), chosen)]
+
+
+def diffuse_spheres(count: int, width: int, height: int, spp: int, depth: int = 1, seed: int = 1) -> Scene:
+    """``count`` diffuse spheres (a ground sphere and ``count - 1`` :func:`random_spheres`, each
+    its own color, in a box above it) under one light."""
+    ground = Sphere((0.0, -1000.0, 0.0), 1000.0, Material(color=(0.8, 0.8, 0.75)))
+    balls = random_spheres(count - 1, seed, low=(-5.0, 0.0, -6.0), high=(5.0, 5.0, 3.0))
     return Scene(width=width, height=height, eye=(0.0, 3.0, 12.0), lookat=(0.0, 0.8, 0.0), fov=50.0,
-                 samples=spp, depth=depth, lights=[Light((6.0, 10.0, 8.0))], spheres=spheres)
+                 samples=spp, depth=depth, lights=[Light((6.0, 10.0, 8.0))], spheres=[ground, *balls])
 
 
 def every_effect(texture: Path, width: int, height: int, spp: int, depth: int = 5) -> Scene:
@@ -93,7 +114,7 @@ def load_for_direct(model: Scene):
     return mi.load_string(diffuse)
 
 
-def whitted_integrator(model: Scene, **properties):
+def load_whitted(model: Scene, **properties):
     """A ``whitted`` integrator with the scene's own settings, ``properties`` overriding them."""
     return mi.load_dict({"type": "whitted", "max_depth": model.depth, "ambient": model.ambient,
                          "light_reference": mi.ScalarPoint3f(model.lookat), **properties})
@@ -103,3 +124,43 @@ def direct_integrator():
     """Mitsuba's ``direct`` doing a Whitted render's work at depth 1: one emitter sample per
     hit (for a point light: one shadow ray to it, no random choice), no BSDF samples."""
     return mi.load_dict({"type": "direct", "emitter_samples": 1, "bsdf_samples": 0})
+
+
+# -- as .scn text -------------------------------------------------------------------------------
+
+def number(x: float) -> str:
+    """The shortest text that reads back as ``x`` ('-0.0' written as '0')."""
+    return "0" if x == 0 else repr(float(x)) if x != int(x) or abs(x) >= 1e15 else str(int(x))
+
+
+def numbers(values) -> str:
+    return " ".join(number(v) for v in values)
+
+
+def _material_text(m: Material) -> str:
+    """A sphere line's material part: ``color ...`` and its reflection and refraction."""
+    if m.texture is not None:
+        raise ValueError("to_scn writes untextured spheres only")
+    text = f"color {numbers(m.color)}"
+    if m.reflect:
+        text += f" reflect {number(m.reflect)}"
+    if m.refract:
+        text += f" refract {number(m.refract)} {number(m.ior)}"
+    return text
+
+
+def to_scn(model: Scene, title: str = "") -> str:
+    """``model`` as ``.scn`` text (colors, reflection and refraction; no textures)."""
+    lines = [f"# {title}" if title else "# written by benchmarks/scenes.py",
+             f"size {model.width} {model.height}", f"eye {numbers(model.eye)}",
+             f"lookat {numbers(model.lookat)}", f"up {numbers(model.up)}", f"fov {number(model.fov)}",
+             f"background {numbers(model.background)}", f"ambient {number(model.ambient)}",
+             f"depth {model.depth}", f"samples {model.samples}"]
+    lines += [f"light {numbers(light.position)} {numbers(light.color)}" for light in model.lights]
+    materials: dict[Material, str] = {}    # each material's text, written once
+    for s in model.spheres:
+        m = materials.get(s.material)
+        if m is None:
+            m = materials[s.material] = _material_text(s.material)
+        lines.append(f"sphere {numbers(s.center)} {number(s.radius)} {m}")
+    return "\n".join(lines) + "\n"

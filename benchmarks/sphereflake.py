@@ -31,7 +31,7 @@ Depth 5, one ray per pixel.
 
 Usage::
 
-    python benchmarks/sphereflake.py LEVEL [--floor-radius R] -o FILE.scn
+    python -m benchmarks.sphereflake LEVEL [--floor-radius R] -o FILE.scn
 """
 
 from __future__ import annotations
@@ -44,9 +44,9 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+from whitted.converter.scene import Light, Material, Scene, Sphere, Vec3
 
-from whitted.converter.scene import Light, Material, Scene, Sphere, Vec3  # noqa: E402
+from .scenes import number, to_scn
 
 #: the levels written here (0 is a lone sphere); 6, 597 871 spheres, is the benchmark's largest
 LEVELS = range(0, 7)
@@ -214,47 +214,9 @@ def scene(level: int, floor_radius: float = FLOOR_RADIUS) -> Scene:
                  spheres=spheres + [floor(floor_radius)])
 
 
-def _num(x: float) -> str:
-    """The shortest text that reads back as ``x`` ('-0.0' written as '0')."""
-    return "0" if x == 0 else repr(float(x)) if x != int(x) or abs(x) >= 1e15 else str(int(x))
-
-
-def _nums(values) -> str:
-    return " ".join(_num(v) for v in values)
-
-
-def _material_text(m: Material) -> str:
-    """A sphere line's material part: ``color ...`` and its reflection and refraction."""
-    if m.texture is not None:
-        raise ValueError("to_scn writes untextured spheres only")
-    text = f"color {_nums(m.color)}"
-    if m.reflect:
-        text += f" reflect {_num(m.reflect)}"
-    if m.refract:
-        text += f" refract {_num(m.refract)} {_num(m.ior)}"
-    return text
-
-
-def to_scn(model: Scene, title: str = "") -> str:
-    """``model`` as ``.scn`` text (colors, reflection and refraction; no textures)."""
-    lines = [f"# {title}" if title else "# written by benchmarks/sphereflake.py",
-             f"size {model.width} {model.height}", f"eye {_nums(model.eye)}",
-             f"lookat {_nums(model.lookat)}", f"up {_nums(model.up)}", f"fov {_num(model.fov)}",
-             f"background {_nums(model.background)}", f"ambient {_num(model.ambient)}",
-             f"depth {model.depth}", f"samples {model.samples}"]
-    lines += [f"light {_nums(light.position)} {_nums(light.color)}" for light in model.lights]
-    materials: dict[Material, str] = {}    # each material's text, written once
-    for s in model.spheres:
-        m = materials.get(s.material)
-        if m is None:
-            m = materials[s.material] = _material_text(s.material)
-        lines.append(f"sphere {_nums(s.center)} {_num(s.radius)} {m}")
-    return "\n".join(lines) + "\n"
-
-
 def title(level: int, floor_radius: float = FLOOR_RADIUS) -> str:
     """The first line's comment of the level-``level`` scene."""
-    floor_text = "" if floor_radius == FLOOR_RADIUS else f" of radius {_num(floor_radius)}"
+    floor_text = "" if floor_radius == FLOOR_RADIUS else f" of radius {number(floor_radius)}"
     return (f"Eric Haines' sphereflake (SPD 'balls'), level {level}: {count(level)} spheres "
             f"and a floor sphere{floor_text}; benchmarks/sphereflake.py")
 
@@ -272,7 +234,7 @@ def main(argv=None) -> int:
                         help=f"recursion level ({LEVELS.start}…{LEVELS.stop - 1})")
     parser.add_argument("--floor-radius", type=float, default=FLOOR_RADIUS, metavar="R",
                         help=f"the floor sphere's radius, its top {FLOOR_HEIGHT} below the flake's center "
-                             f"(default {_num(FLOOR_RADIUS)})")
+                             f"(default {number(FLOOR_RADIUS)})")
     parser.add_argument("-o", "--output", required=True, metavar="FILE.scn", help="the scene file to write")
     args = parser.parse_args(argv)
     if not args.floor_radius > 0:

@@ -108,6 +108,20 @@ def measure(contenders: dict[str, Callable[[], object]], rounds: int, warmup: in
     return result
 
 
+def cpu_seconds(run: Callable[[], object]) -> float:
+    """CPU seconds of this process during ``run()``."""
+    start = time.process_time()
+    run()
+    return time.process_time() - start
+
+
+def timed(make: Callable[[], object]) -> tuple[object, float, float]:
+    """``make()``'s result, wall seconds and CPU seconds."""
+    wall, cpu = time.perf_counter(), time.process_time()
+    result = make()
+    return result, time.perf_counter() - wall, time.process_time() - cpu
+
+
 def peak_memory(run: Callable[[], object]) -> int:
     """Dr.Jit's high-water mark of allocated bytes during ``run()`` (JIT variants; 0 in scalar).
 

@@ -42,7 +42,7 @@ drawn with matplotlib.
 
 Usage::
 
-    python benchmarks/vs_povray.py [--quick] [--markdown benchmarks/RESULTS.md] [--plot PNG]
+    python -m benchmarks.vs_povray [--quick] [--markdown benchmarks/RESULTS.md] [--plot PNG]
         [--levels 1 2 ...] [--floors 1000 10000] [--runs N] [--timeout 600]
         [--programs whitted povray path convert]
 
@@ -56,7 +56,6 @@ import datetime
 import json
 import math
 import os
-import platform
 import statistics
 import sys
 import tempfile
@@ -64,13 +63,14 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
+from . import parse_speed, povray, process, sections, sphereflake
+from .machine import machine, summary
+from .tables import MIB, markdown_table, mib, ratio, seconds, text_table
 
-import parse_speed  # noqa: E402
-import povray  # noqa: E402
-import process  # noqa: E402
-import sections  # noqa: E402
-import sphereflake  # noqa: E402
+
+def _mib(x: float | None) -> str:
+    return mib(x, decimals=0)
+
 
 FLOORS = (1000.0, 10000.0)
 FULL = {"levels": (1, 2, 3, 4, 5, 6), "floors": FLOORS, "runs": {1: 5, 2: 5, 3: 5, 4: 3, 5: 2, 6: 1},
@@ -80,7 +80,6 @@ QUICK = {"levels": (1, 2, 3), "floors": FLOORS, "runs": {1: 1, 2: 1, 3: 1},
 #: seconds after which a run is killed and reported as not finished
 TIMEOUT = 600.0
 PROGRAMS = ("whitted", "povray", "path", "convert")
-MIB = 2 ** 20
 
 
 @dataclass
@@ -180,6 +179,14 @@ def _attempt(row: Row, program: str, run):
     return None
 
 
+def _record(done, walls: list, peaks: list, renders: list) -> None:
+    """A whitted process's run (``done``: the process, its ``--stats``) into a row's lists."""
+    run, stats = done
+    walls.append(run.wall_seconds)
+    peaks.append(run.peak_rss)
+    renders.append(stats["seconds"])
+
+
 def bench_level(level: int, floor: float, runs: int, folder: Path, pov_exe: str | None, pov_missing: str,
                 threads: int, out, timeout: float | None = TIMEOUT, programs=PROGRAMS) -> Row:
     name = f"flake{level}-{floor:g}"
@@ -207,12 +214,9 @@ def bench_level(level: int, floor: float, runs: int, folder: Path, pov_exe: str 
     for _ in range(runs):
         done = _attempt(row, "whitted", run_w)
         if done is not None:
-            run, s = done
-            row.whitted_wall.append(run.wall_seconds)
-            row.whitted_rss.append(run.peak_rss)
-            row.whitted_render.append(s["seconds"])
-            row.whitted_compile.append(s["compile_seconds"])
-            row.whitted_rays = s["rays"]
+            _record(done, row.whitted_wall, row.whitted_rss, row.whitted_render)
+            row.whitted_compile.append(done[1]["compile_seconds"])
+            row.whitted_rays = done[1]["rays"]
         p = _attempt(row, "pov", run_p)
         if p is not None:
             row.pov_wall.append(p.wall_seconds)
@@ -223,10 +227,7 @@ def bench_level(level: int, floor: float, runs: int, folder: Path, pov_exe: str 
             row.pov_rays = (p.shadow_rays, p.reflected_rays)
         done = _attempt(row, "path", run_path)
         if done is not None:
-            run, s = done
-            row.path_wall.append(run.wall_seconds)
-            row.path_rss.append(run.peak_rss)
-            row.path_render.append(s["seconds"])
+            _record(done, row.path_wall, row.path_rss, row.path_render)
     if row.whitted_wall and row.pov_wall and not (row.whitted_failure or row.pov_failure):
         row.image_difference = image_difference(w_image, p_image)
     w_text = (f"whitted {_median(row.whitted_wall):.2f} s (render {_median(row.whitted_render):.3f} s, "
@@ -266,16 +267,7 @@ def bench_read(level: int, runs: int, rows: list[Row], folder: Path, timeout: fl
     return row
 
 
-def _s(x: float | None) -> str:
-    return "—" if x is None else f"{x:.3f}" if x < 10 else f"{x:.1f}"
 
-
-def _mib(x: float | None) -> str:
-    return "—" if x is None else f"{x / MIB:.0f}"
-
-
-def _ratio(a: float | None, b: float | None) -> str:
-    return "—" if a is None or b is None or b == 0 else f"{a / b:.2f}"
 
 
 COLUMNS = ["level", "floor radius", "spheres", "runs", "whitted process s", "POV-Ray process s",
@@ -300,13 +292,13 @@ def table_rows(rows: list[Row]) -> list[list[str]]:
         both = r.whitted_wall and r.pov_wall
         shadow = f"{r.whitted_rays.get('shadow', 0)} / {r.pov_rays[0]}" if both else "—"
         reflected = f"{r.whitted_rays.get('reflection', 0)} / {r.pov_rays[1]}" if both else "—"
-        w_process, w_rss = (_s(ww), _mib(wm)) if ww is not None else _failed(r.whitted_failure, r.whitted_failed_rss)
-        p_process, p_rss = (_s(pw), _mib(pm)) if pw is not None else _failed(r.pov_failure, r.pov_failed_rss)
+        w_process, w_rss = (seconds(ww), _mib(wm)) if ww is not None else _failed(r.whitted_failure, r.whitted_failed_rss)
+        p_process, p_rss = (seconds(pw), _mib(pm)) if pw is not None else _failed(r.pov_failure, r.pov_failed_rss)
         runs = {len(r.whitted_wall), len(r.pov_wall)} - {0}
         out.append([str(r.level), _floor_name(r.floor), str(r.spheres),
-                    "/".join(str(n) for n in sorted(runs)) or "0", w_process, p_process, _ratio(ww, pw),
-                    _s(wr), _s(pt), _ratio(wr, pt), w_rss, p_rss, _ratio(wm, pm),
-                    _s(_median(r.whitted_compile)), shadow, reflected,
+                    "/".join(str(n) for n in sorted(runs)) or "0", w_process, p_process, ratio(ww, pw),
+                    seconds(wr), seconds(pt), ratio(wr, pt), w_rss, p_rss, ratio(wm, pm),
+                    seconds(_median(r.whitted_compile)), shadow, reflected,
                     "—" if r.image_difference is None else f"{r.image_difference:.2f}"])
     return out
 
@@ -323,10 +315,10 @@ def path_rows(rows: list[Row]) -> list[list[str]]:
         if r.path_failure == "not run":
             continue
         ww, pw, wm, pm = (_median(v) for v in (r.whitted_wall, r.path_wall, r.whitted_rss, r.path_rss))
-        w_process, w_rss = (_s(ww), _mib(wm)) if ww is not None else _failed(r.whitted_failure, r.whitted_failed_rss)
-        p_process, p_rss = (_s(pw), _mib(pm)) if pw is not None else _failed(r.path_failure, r.path_failed_rss)
+        w_process, w_rss = (seconds(ww), _mib(wm)) if ww is not None else _failed(r.whitted_failure, r.whitted_failed_rss)
+        p_process, p_rss = (seconds(pw), _mib(pm)) if pw is not None else _failed(r.path_failure, r.path_failed_rss)
         out.append([str(r.level), _floor_name(r.floor), str(r.spheres), str(len(r.path_wall)), w_process,
-                    p_process, _ratio(pw, ww), _s(_median(r.path_render)), w_rss, p_rss, _ratio(pm, wm)])
+                    p_process, ratio(pw, ww), seconds(_median(r.path_render)), w_rss, p_rss, ratio(pm, wm)])
     return out
 
 
@@ -340,12 +332,12 @@ def read_rows(rows: list[ReadRow]) -> list[list[str]]:
     for r in rows:
         cw = _median(r.convert_wall)
         parse = _median(r.pov.pov_parse) if r.pov else None
-        process_cell = _s(cw) if cw is not None else \
+        process_cell = seconds(cw) if cw is not None else \
             (r.convert_failure if r.convert_failure.startswith("did not finish") else "failed (see below)")
         out.append([str(r.level), str(r.spheres), f"{r.megabytes:.1f}", str(len(r.convert_wall)), process_cell,
-                    _mib(_median(r.convert_rss)), _s(parse), _ratio(cw, parse),
-                    _s(_median(r.pov.pov_bounding)) if r.pov else "—",
-                    _s(_median(r.pov.pov_wall)) if r.pov else "—", _s(r.parse_cpu)])
+                    _mib(_median(r.convert_rss)), seconds(parse), ratio(cw, parse),
+                    seconds(_median(r.pov.pov_bounding)) if r.pov else "—",
+                    seconds(_median(r.pov.pov_wall)) if r.pov else "—", seconds(r.parse_cpu)])
     return out
 
 
@@ -360,17 +352,6 @@ def failures(rows: list[Row], reads: list[ReadRow], pov_missing: str = "") -> li
         if r.convert_failure:
             lines.append(f"level {r.level}: whitted convert: {r.convert_failure}")
     return lines
-
-
-def text_table(columns: list[str], cells: list[list[str]]) -> str:
-    cells = [columns] + cells
-    widths = [max(len(c[i]) for c in cells) for i in range(len(columns))]
-    return "\n".join("  ".join(c.ljust(w) for c, w in zip(row, widths)).rstrip() for row in cells)
-
-
-def markdown_table(columns: list[str], cells: list[list[str]]) -> str:
-    lines = ["| " + " | ".join(columns) + " |", "|" + "---|" * len(columns)]
-    return "\n".join(lines + ["| " + " | ".join(r) + " |" for r in cells])
 
 
 def plot(rows: list[Row], path: Path, title: str) -> None:
@@ -425,16 +406,6 @@ def _runs_note(runs: dict[int, int], why: str = "") -> str:
     return "medians of " + "; ".join(parts) + " per floor"
 
 
-def machine() -> str:
-    cpu = "unknown CPU"
-    try:
-        cpu = next(line.split(":", 1)[1].strip() for line in Path("/proc/cpuinfo").read_text().splitlines()
-                   if line.startswith("model name"))
-    except (OSError, StopIteration):
-        pass
-    return f"{cpu}, {len(os.sched_getaffinity(0))} cores, Python {platform.python_version()}, {platform.platform()}"
-
-
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--quick", action="store_true", help="levels 1-3 on both floors, one run each")
@@ -477,7 +448,7 @@ def main(argv=None) -> int:
     load = os.getloadavg()[0]
     started = datetime.datetime.now(datetime.timezone.utc)
     mode = "quick" if args.quick else "full"
-    print(f"whitted vs POV-Ray 3.7 on the sphereflake ({mode}): {machine()}; "
+    print(f"whitted vs POV-Ray 3.7 on the sphereflake ({mode}): {summary(machine())}; "
           f"POV-Ray: {pov_exe or pov_missing}", flush=True)
     start = time.perf_counter()
     with tempfile.TemporaryDirectory() as tmp:
@@ -487,7 +458,7 @@ def main(argv=None) -> int:
                 for level in settings["levels"] for floor in settings["floors"]]
         reads = [bench_read(level, read_runs[level], rows, folder, timeout, sys.stdout)
                  for level in settings["read_levels"]]
-    seconds = time.perf_counter() - start
+    total = time.perf_counter() - start
     load = max(load, os.getloadavg()[0])
     runs_note = _runs_note(runs, "--quick" if args.quick else "")
     failed = failures(rows, reads, pov_missing)
@@ -507,7 +478,7 @@ def main(argv=None) -> int:
         print(f"POV-Ray rows missing: {pov_missing}")
     for line in failed:
         print(line)
-    print(f"total {seconds:.0f} s; load average up to {load:.1f} on {threads} cores")
+    print(f"total {total:.0f} s; load average up to {load:.1f} on {threads} cores")
 
     plot_path = Path(args.plot) if args.plot else \
         (Path(args.markdown).parent / "cost_curve.png" if args.markdown else Path("out/bench/cost_curve.png"))
@@ -539,8 +510,8 @@ POV-Ray's own Parse Time of the same scene (floor 10³) in its render runs above
 """
         body = f"""## whitted vs POV-Ray 3.7 on the sphereflake (benchmarks/vs_povray.py)
 
-Measured {started:%Y-%m-%d %H:%M UTC} on {machine()}, {mode} mode, \
-{seconds:.0f} s in all; the one-minute load average reached {load:.1f} on {threads} cores.
+Measured {started:%Y-%m-%d %H:%M UTC} on {summary(machine())}, {mode} mode, \
+{total:.0f} s in all; the one-minute load average reached {load:.1f} on {threads} cores.
 Both programs render Eric Haines' sphereflake (benchmarks/sphereflake.py: the SPD's view, three lights,
 mirror spheres with reflection 0.5), levels {levels[0]} to {levels[-1]}, each on a floor sphere of radius
 {" and ".join(_floor_name(f) for f in settings["floors"])} (its top at the same height), at 512×512, depth 5,
@@ -563,7 +534,7 @@ untraced (whitted at `--max-depth 6` counts 115 779 reflected rays on level 2, P
 ![time against sphere count, log-log, one panel per floor](cost_curve.png)
 {path_section}{reading}
 Reproduce: `make bench` (prints these tables; `BENCHFLAGS=--quick` for levels 1-3), or
-`.venv/bin/python benchmarks/vs_povray.py --markdown benchmarks/RESULTS.md` to rewrite this section.
+`.venv/bin/python -m benchmarks.vs_povray --markdown benchmarks/RESULTS.md` to rewrite this section.
 """
         sections.replace(args.markdown, "sphereflake", body)
         print(f"recorded in {args.markdown}")

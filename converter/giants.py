@@ -22,14 +22,17 @@ readers of the XML. A scene without giant spheres has no ``exact_spheres``.
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import hashlib
 import math
 import os
 import tempfile
+import time
 from pathlib import Path
 
-from ..atomic import atomic_path
+from ..atomic import atomic_path, remove_stale_leftovers
+from ..defaults import MESH_CACHE_BYTES, STALE_SECONDS
 from ..float32 import UNIT_ROUNDOFF, hit_error
 from ..giant_list import exact_spheres, parse_exact_spheres  # noqa: F401  (the format, re-exported)
 from .scene import Scene, Sphere, SphereArrays, Vec3
@@ -39,13 +42,6 @@ from .scene import Scene, Sphere, SphereArrays, Vec3
 #: (bound 2.4e-3 of 0.3) renders from float32 as the float64 reference does; from 10^4
 #: (2.4e-2) on, pixels go wrong as the radius grows (0.65 %, 9 % at 10^5, 27 % at 10^6)
 GIANT_FRACTION = 1e-2
-
-
-def float32_error(sphere: Sphere, origin: Vec3) -> float:
-    """The integrator's error bound of a float32 hit on ``sphere`` written in the frame whose
-    origin is the world point ``origin``."""
-    center = max(abs(c - o) for c, o in zip(sphere.center, origin))
-    return hit_error(sphere.radius, center)
 
 
 def _detail_near(scene: Scene, k: int) -> float:
@@ -326,17 +322,46 @@ def _mesh_bytes(center: Vec3, radius: float, eye: Vec3, view: float) -> bytes:
 
 
 def cache_folder() -> Path:
-    """Where meshes of scenes loaded without an XML file live: named by their content, so
-    that every process finds the same file and none is ever rewritten."""
+    """Where meshes of scenes loaded without an XML file live: ``whitted-meshes-UID`` in the
+    temporary folder, each file named by its content, so that every process finds the same
+    file and none is ever rewritten. :func:`prune` bounds it."""
     return Path(tempfile.gettempdir()) / f"whitted-meshes-{os.getuid() if hasattr(os, 'getuid') else 0}"
 
 
 def cached(data: bytes) -> Path:
-    """The cached file holding ``data`` (written when missing, atomically)."""
+    """The cached file holding ``data``: written when missing (atomically, then the cache
+    pruned), its time of use renewed when present."""
     folder = cache_folder()
     path = folder / f"{hashlib.sha256(data).hexdigest()[:32]}.ply"
-    if not path.is_file():
-        folder.mkdir(parents=True, exist_ok=True)
-        with atomic_path(path) as tmp:
-            tmp.write_bytes(data)
+    if path.is_file():
+        with contextlib.suppress(OSError):
+            os.utime(path)   # used now: the last to go (prune)
+        return path
+    folder.mkdir(parents=True, exist_ok=True)
+    with atomic_path(path) as tmp:
+        tmp.write_bytes(data)
+    prune(folder, MESH_CACHE_BYTES, STALE_SECONDS)
     return path
+
+
+def prune(folder: Path, limit: int = MESH_CACHE_BYTES, stale: float = STALE_SECONDS) -> list[Path]:
+    """Bound the mesh cache ``folder``: remove the temporary files of killed writers, then
+    the meshes used least recently until at most ``limit`` bytes are left; return what was
+    removed. A mesh used in the last ``stale`` seconds stays whatever the size (a process may
+    be about to load it): the bound holds once the meshes are no longer in use."""
+    removed = remove_stale_leftovers(folder, stale)
+    meshes = []
+    for path in folder.glob("*.ply"):
+        with contextlib.suppress(OSError):
+            info = path.stat()
+            meshes.append((info.st_mtime, info.st_size, path))
+    total = sum(size for _, size, _ in meshes)
+    now = time.time()
+    for used, size, path in sorted(meshes):
+        if total <= limit or now - used <= stale:
+            break
+        with contextlib.suppress(OSError):
+            path.unlink()
+            total -= size
+            removed.append(path)
+    return removed

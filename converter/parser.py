@@ -13,21 +13,14 @@ layers, each small:
   continuations and ``"quoted paths"``;
 * :class:`_Parser` gives each statement its meaning, defaults and constraints.
 
-Scenes of up to millions of spheres (the sphereflake of ``make bench``) are
-read on a fast path: a text without quotes, continuations or odd separators is
-split line by line, and a plain ``light`` or ``sphere`` line is converted with
-``float`` and accepted when every number lies clearly inside its range (a float
-compared strictly with a bound decides as the exact decimal would; at a bound
-the text itself is checked). Plain sphere lines are read a megabyte at a
-time with numpy (:meth:`_Parser.plain_chunk`): their tokens are found in the
-bytes, their four numbers converted in one pass and their attribute texts
-looked up once each, and the spheres go into arrays (:class:`_SphereList`),
-one object per sphere never being made; a text below :data:`ARRAYS_FROM` bytes
-is read line by line in plain Python, which spares loading numpy. Every other
-line, and every doubt,
-goes to the careful path above, so both paths accept, reject and word their
-messages alike (tests/test_parser.py checks it), and only valid input needs to
-be fast.
+Scenes of up to millions of spheres are read on the fast paths of
+:mod:`.plain` (plain ``light`` and ``sphere`` lines with ``float``, a megabyte
+at a time with numpy into arrays, :class:`_SphereList`); they hand every other
+line, and every doubt, to the one statement reader here
+(:meth:`_Parser.careful_line`, :meth:`_Parser.statement`), so that every path
+accepts, rejects and words its messages alike (tests/test_parser.py checks it).
+The three ways of reading a text (careful, plain lines, numpy chunks) are
+chosen in :func:`_parse` and :func:`parse_file`.
 
 Beyond the format's own constraints, numbers are kept where Mitsuba's 32-bit
 floats stay finite and meaningful (see :data:`MAX_MAGNITUDE` and
@@ -38,7 +31,6 @@ divide by zero or overflow.
 from __future__ import annotations
 
 import difflib
-import math
 import os
 import re
 import stat
@@ -51,6 +43,8 @@ from .. import defaults
 from ..defaults import MAX_DEPTH, MAX_SAMPLES, MAX_SIZE, PARALLEL_SINE
 from ..errors import SceneError
 from .images import image_problem
+from .plain import (ARRAYS_FROM, EQUATOR, LINE_BREAK, NORTH, NOT_PLAIN_BYTES, NOT_PLAIN_CHARACTERS,
+                    PlainReader)
 from .scene import Distinct, Light, Material, Scene, Sphere, SphereArrays, Vec3, first_use
 from .vectors import cross, length, normalize
 
@@ -73,27 +67,8 @@ ATTRIBUTES = {
 _NUMBER = re.compile(r"[+-]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][+-]?[0-9]+)?")
 _INTEGER = re.compile(r"[+-]?[0-9]+")
 _NON_FINITE = re.compile(r"[+-]?(?:nan|inf|infinity)", re.IGNORECASE)
-_LINE_BREAK = re.compile(r"\r\n|\r|\n")
 _BLANKS = " \t\f\v"
 
-# The fast path (_Parser.parse_plain). A text holding none of these characters splits into
-# the careful tokenizer's tokens with str.split(): no quotes, no continuations, no NUL, and
-# none of the ASCII separators that str.split() takes for blanks but the format does not.
-_NOT_PLAIN_CHARACTERS = ('"', "\\", "\x00", "\x1c", "\x1d", "\x1e", "\x1f")
-_NOT_PLAIN_BYTES = tuple(c.encode() for c in _NOT_PLAIN_CHARACTERS)
-#: the bytes :meth:`_Parser.plain_bytes` reads at a time (a chunk ends at a line break)
-_CHUNK = 1 << 20
-#: texts from this many bytes on are read with numpy into arrays (:meth:`_Parser.plain_chunk`)
-ARRAYS_FROM = 1 << 20
-_PLAIN_ATTRIBUTES = ("color", "reflect", "refract")
-_MAX = float(defaults.MAX_MAGNITUDE)        # |x| < this: inside the magnitude limit
-_MIN = float(defaults.MIN_POSITIVE)         # x > this: at least MIN_POSITIVE
-_BELOW_ONE = 1.0 - 1e-12                    # reflect + refract clearly <= 1
-_WHITE = (1.0, 1.0, 1.0)
-_PLAIN = Material(_WHITE, 0.0, 0.0, 1.0, None)   # a sphere without attributes
-_UNKNOWN = object()
-_NORTH = tuple(float(c) for c in defaults.NORTH)
-_EQUATOR = tuple(float(c) for c in defaults.EQUATOR)
 
 
 # --------------------------------------------------------------------------- text
@@ -103,10 +78,10 @@ def parse_file(path: str | os.PathLike) -> Scene:
     """Read and parse a ``.scn`` file; errors name ``path`` as given."""
     path = Path(path)
     data = read_scene_file(path)
-    if len(data) >= ARRAYS_FROM and data.isascii() and not any(c in data for c in _NOT_PLAIN_BYTES):
+    if len(data) >= ARRAYS_FROM and data.isascii() and not any(c in data for c in NOT_PLAIN_BYTES):
         # the fast path straight from the bytes: ASCII is UTF-8 without a BOM
         parser = _Parser(path)
-        parser.plain_bytes(data)
+        PlainReader(parser).read_bytes(data)
         return parser.finish()
     return parse_text(decode(data, path), path)
 
@@ -154,7 +129,7 @@ def decode(data: bytes, path: str | os.PathLike) -> str:
 def _line_of(data: bytes, offset: int) -> int:
     """1-based line of byte ``offset``; the bytes before it may be any encoding."""
     head = data[:offset].decode("utf-8", errors="replace")
-    return len(_LINE_BREAK.findall(head)) + 1
+    return len(LINE_BREAK.findall(head)) + 1
 
 
 @dataclass(frozen=True)
@@ -185,7 +160,7 @@ def _statements(text: str, path, errors: list) -> list[tuple[int, list[Token]]]:
     tokens: list[Token] = []
     first = 0
     skipping = False  # the continuation lines of a statement that could not be split
-    lines = _LINE_BREAK.split(text)
+    lines = LINE_BREAK.split(text)
     if len(lines) > 1 and lines[-1] == "":
         lines.pop()  # the final line break ends the last line; no empty line follows it
     for number, line in enumerate(lines, start=1):
@@ -249,9 +224,13 @@ def _split_line(line: str, path, first: int) -> tuple[list[Token], bool]:
     return tokens, continued
 
 
-def parse_text(text: str, source: str | os.PathLike) -> Scene:
-    """Parse scene text; ``source`` names the file in messages and anchors relative textures."""
-    return _parse(text, source, fast=True)
+def parse_text(text: str, source: str | os.PathLike, *, careful: bool = False) -> Scene:
+    """Parse scene text; ``source`` names the file in messages and anchors relative textures.
+
+    ``careful=True`` reads every statement on the careful path, the one the
+    fast paths must agree with (the parser's benchmark times both).
+    """
+    return _parse(text, source, fast=not careful)
 
 
 def _parse(text: str, source: str | os.PathLike, *, fast: bool, arrays: bool | None = None) -> Scene:
@@ -261,8 +240,8 @@ def _parse(text: str, source: str | os.PathLike, *, fast: bool, arrays: bool | N
     if text.startswith("\ufeff"):
         text = text[1:]
     parser = _Parser(source)
-    if fast and not any(c in text for c in _NOT_PLAIN_CHARACTERS):
-        parser.parse_plain(text, arrays)
+    if fast and not any(c in text for c in NOT_PLAIN_CHARACTERS):
+        PlainReader(parser).read_text(text, arrays)
     else:
         parser.parse(_statements(text, source, parser.errors))
     return parser.finish()
@@ -294,9 +273,6 @@ class _Parser:
         self.failed: set[str] = set()         # the statements (names) that had a problem
         self.line = 0
         self._images: dict[Path, str | None] = {}
-        self.exact: set[str] = set()                          # fast path: tokens exactly 0 or 1
-        self._materials: dict[str, Material | None] = {}     # fast path: attribute text -> material
-        self._tails: dict[bytes, int] = {}    # fast path: attribute bytes -> material index, or -1
         self.spheres = _SphereList()          # the spheres read so far
 
     def fail(self, message: str):
@@ -413,296 +389,11 @@ class _Parser:
             self.seen[name] = line
         getattr(self, f"statement_{name}")(args)
 
-    # ---- the fast path: plain lights and spheres
-
-    def parse_plain(self, text: str, arrays: bool | None = None) -> None:
-        """Parse a text free of quotes, continuations and odd separators (see :data:`_NOT_PLAIN_CHARACTERS`):
-        :meth:`plain_bytes` of its UTF-8 bytes when it is large (or ``arrays``), else line
-        by line (:meth:`plain_line`)."""
-        if arrays or arrays is None and len(text) >= ARRAYS_FROM:
-            self.plain_bytes(text.encode("utf-8", "surrogatepass"))
-            return
-        lines = _LINE_BREAK.split(text) if "\r" in text else text.split("\n")
-        if len(lines) > 1 and lines[-1] == "":
-            lines.pop()  # the final line break ends the last line; no empty line follows it
-        for number, line in enumerate(lines, start=1):
-            self.plain_line(number, line)
-
-    def plain_bytes(self, data: bytes) -> None:
-        """Parse the UTF-8 bytes of a text free of quotes, continuations and odd separators.
-
-        Every line is split on blanks; a plain ``light`` or ``sphere`` statement
-        whose numbers all lie clearly inside their ranges is taken as it is
-        (:meth:`plain_chunk`, :meth:`plain_light`, :meth:`plain_sphere`). Any other
-        line, or any doubt, goes to :meth:`statement` with the careful tokenizer's
-        tokens, which decides exactly as if the whole file had gone the careful way.
-        """
-        self.spheres.numpy = True
-        ascii_ = data.isascii()
-        pos, line, n = 0, 1, len(data)
-        while pos < n:
-            end = data.find(b"\n", pos + _CHUNK) + 1 if pos + _CHUNK < n else n
-            end = end or n
-            line = self.plain_chunk(data, pos, end, line, ascii_)
-            pos = end
-
-    def plain_chunk(self, data: bytes, pos: int, end: int, first: int, ascii_: bool) -> int:
-        """Parse the lines of ``data[pos:end]`` (whole lines; the first is line ``first``) and
-        return the number of the line after them.
-
-        The plain sphere lines are read here, with numpy on the bytes: a line whose code
-        (the text before a ``#``) holds only ASCII without ``_`` and no control character
-        but the blanks splits on blanks as ``str.split`` would split it, and when its
-        first token is ``sphere`` (in any case), it has at least five tokens, its four
-        numbers are clearly in range and its attributes are a plain material
-        (:meth:`plain_material`), it is the sphere :meth:`plain_sphere` would make of it.
-        Every other line goes to :meth:`plain_line`, in file order.
-        """
-        import numpy as np
-        b = np.frombuffer(data, np.uint8, end - pos, pos)
-        m = len(b)
-        ctrl = b < 32
-        # line breaks: \n, \r\n or \r; line k spans starts[k]:ends[k]
-        if data.find(b"\r", pos, end) < 0:
-            ends = np.flatnonzero(b == 10)
-            nexts = ends + 1
-        else:
-            cr = b == 13
-            lf_alone = b == 10
-            lf_alone[1:] &= ~cr[:-1]
-            ends = np.flatnonzero(cr | lf_alone)
-            nexts = ends + 1
-            nexts[cr[ends] & (b[np.minimum(nexts, m - 1)] == 10) & (nexts < m)] += 1
-        breaks = len(ends)
-        starts = np.concatenate(([0], nexts))
-        ends = np.concatenate((ends, [m]))
-        if starts[-1] == m:       # the chunk ends with a line break: no line after it
-            starts, ends = starts[:-1], ends[:-1]
-        lines = len(starts)
-        sep = ctrl | (b == 32)
-        code_end = ends
-        hashes = np.flatnonzero(b == 35) if data.find(b"#", pos, end) >= 0 else None
-        if hashes is not None:    # a comment runs from a line's first '#' to its end
-            holder, first_hash = np.unique(np.searchsorted(ends, hashes, "right"), return_index=True)
-            code_end = ends.copy()
-            code_end[holder] = hashes[first_hash]
-            edges = np.zeros(m + 1, np.int8)
-            edges[hashes[first_hash]] = 1
-            edges[ends[holder]] -= 1
-            sep |= np.cumsum(edges[:m], dtype=np.int8).view(bool)
-        # lines whose code holds what str.split and float() read otherwise: non-ASCII bytes,
-        # '_' or a control character that is no blank
-        blank_codes = np.array(_BLANK_CODES, np.uint8)
-        odd_control = np.isin(b[ctrl], blank_codes, invert=True).any()
-        doubtful = np.zeros(lines, bool)
-        if not ascii_ or odd_control or data.find(b"_", pos, end) >= 0:
-            odd = (b == 95) | (b >= 128)
-            if odd_control:
-                odd |= ctrl & np.isin(b, blank_codes, invert=True)
-            where = np.flatnonzero(odd)
-            holder = np.searchsorted(ends, where, "right")
-            doubtful[holder[where < code_end[holder]]] = True
-        # tokens: token k spans token_start[k]:token_end[k]
-        edges = np.diff((~sep).view(np.int8), prepend=np.int8(0), append=np.int8(0))
-        token_start = np.flatnonzero(edges == 1)
-        token_end = np.flatnonzero(edges == -1)
-        first_token = np.searchsorted(token_start, starts)
-        counts = np.diff(np.append(first_token, len(token_start)))
-        # the plain sphere lines: 'sphere' and at least four more tokens
-        candidates = np.flatnonzero((counts >= 5) & ~doubtful)
-        keyword = first_token[candidates]
-        at = token_start[keyword]
-        is_sphere = token_end[keyword] - at == 6
-        for k, c in enumerate(b"sphere"):
-            is_sphere &= (b[np.minimum(at + k, m - 1)] | 0x20) == c
-        candidates, keyword = candidates[is_sphere], keyword[is_sphere]
-        accepted = np.zeros(lines, bool)
-        if len(candidates):
-            accepted[candidates] = self.plain_spheres(data, pos, b, candidates + first, keyword,
-                                                      counts[candidates], token_start, token_end)
-        rest = np.flatnonzero(((counts > 0) | doubtful) & ~accepted)
-        for k, a, z in zip(rest.tolist(), starts[rest].tolist(), ends[rest].tolist()):
-            self.plain_line(first + k, data[pos + a:pos + z].decode("utf-8", "surrogatepass"))
-        return first + breaks
-
-    def plain_spheres(self, data, pos, b, lines, keyword, counts, token_start, token_end) -> np.ndarray:
-        """Add the spheres of the sphere lines ``lines`` (numbers) of the chunk ``b`` at ``pos``
-        of ``data`` whose first tokens are ``keyword`` (indices into ``token_start`` and
-        ``token_end``) and that have ``counts`` tokens; return which were taken."""
-        import numpy as np
-        m = len(b)
-        # the four numbers of every line as one text, each line's followed by a blank
-        first, fourth = token_start[keyword + 1], token_end[keyword + 4]
-        last = np.minimum(fourth + 1, m)
-        edges = np.zeros(m + 1, np.int8)
-        edges[first] = 1
-        edges[last] -= 1
-        text = b[np.cumsum(edges[:m], dtype=np.int8).view(bool)]
-        text[(np.cumsum(last - first) - 1)[last > fourth]] = 32   # the byte after: a blank or '#'
-        tokens = text.tobytes().split()
-        try:
-            numbers = np.fromiter(map(float, tokens), np.float64, len(tokens))
-        except ValueError:
-            numbers = np.array([_float_or_nan(t) for t in tokens], np.float64)
-        numbers = numbers.reshape(-1, 4)
-        ok = (np.abs(numbers[:, :3]) < _MAX).all(axis=1)
-        radius = numbers[:, 3]
-        ok &= (radius > _MIN) & (radius < _MAX)
-        # the attributes, read once per distinct text: lines whose attribute texts have the
-        # same length are compared as rows of bytes
-        material = np.full(len(lines), self.spheres.material(_PLAIN), np.int64)
-        tails = np.flatnonzero(counts > 5)
-        if len(tails):
-            start = token_start[keyword[tails] + 5]
-            size = token_end[keyword[tails] + counts[tails] - 1] - start
-            for length in np.unique(size).tolist():
-                group = tails[size == length] if len(tails) > 1 else tails
-                rows = b[start[size == length][:, None] + np.arange(length)]
-                if (rows == rows[0]).all():
-                    material[group] = self.plain_tail(rows[0].tobytes())
-                else:
-                    texts, which = np.unique(rows.view(f"S{length}").ravel(), return_inverse=True)
-                    material[group] = np.array([self.plain_tail(t) for t in texts.tolist()])[which]
-            ok &= material >= 0
-        if ok.all():
-            self.spheres.add_arrays(lines, numbers[:, :3], radius, material)
-        else:
-            self.spheres.add_arrays(lines[ok], numbers[ok, :3], radius[ok], material[ok])
-        return ok
-
-    def plain_tail(self, text: bytes) -> int:
-        """The material index of a plain sphere's attributes ``text``, or -1 when they are
-        not plain (:meth:`plain_material`)."""
-        index = self._tails.get(text)
-        if index is None:
-            found = self.plain_material(text.decode("ascii").split())
-            index = self._tails[text] = -1 if found is None else self.spheres.material(found)
-        return index
-
-    def plain_line(self, number: int, line: str) -> None:
-        """One line of a plain text, on the fast path if it can, else on the careful one."""
-        hash_ = line.find("#")
-        code = line if hash_ < 0 else line[:hash_]
-        tokens = code.split(None, 5)
-        if not tokens:
-            if not code.isascii():  # blanks the format does not know may be tokens
-                self.careful_line(number, line)
-            return
-        # Python's float() reads exactly the format's numbers in ASCII text without '_'
-        # (and nan/inf, which fail every range check).
-        if code.isascii() and "_" not in code:
-            keyword = tokens[0]
-            if keyword == "sphere" or keyword.lower() == "sphere":
-                if self.plain_sphere(number, tokens):
-                    return
-            elif keyword == "light" or keyword.lower() == "light":
-                if self.plain_light(number, code.split()):
-                    return
-        self.careful_line(number, line)
-
     def careful_line(self, number: int, line: str) -> None:
+        """Read one physical line (the fast paths' every doubt) as the careful path would."""
         tokens, _ = _split_line(line, self.source, number)
         if tokens:
             self.statement(number, tokens)
-
-    def bound(self, token: str, value: float) -> bool:
-        """Whether ``token``, which reads as the float ``value``, is exactly ``value``.
-
-        For a float equal to a bound (0, 1): the text may lie a little beyond it
-        ("1.00000000000000001"). Exact tokens are remembered in :attr:`exact`.
-        """
-        if Decimal(token) == Decimal(value):
-            self.exact.add(token)
-            return True
-        return False
-
-    def plain_light(self, line: int, tokens: list[str]) -> bool:
-        """Add ``light X Y Z [R G B]`` and return True, or False to leave it to :meth:`statement`."""
-        n = len(tokens)
-        if n != 4 and n != 7:
-            return False
-        try:
-            x, y, z = position = tuple(map(float, tokens[1:4]))
-            r, g, b = color = _WHITE if n == 4 else tuple(map(float, tokens[4:7]))
-        except ValueError:
-            return False
-        if not (-_MAX < x < _MAX and -_MAX < y < _MAX and -_MAX < z < _MAX):
-            return False
-        if not (0.0 < r < _MAX and 0.0 < g < _MAX and 0.0 < b < _MAX):
-            for c, token in zip(color, tokens[4:]):
-                if not (0.0 < c < _MAX or token in self.exact or c == 0.0 and self.bound(token, c)):
-                    return False
-        self.scene.lights.append(Light(position, color, line=line))
-        return True
-
-    def plain_sphere(self, line: int, tokens: list[str]) -> bool:
-        """Add ``sphere CX CY CZ R [attributes]`` and return True, or False to leave it to
-        :meth:`statement`. ``tokens`` are the line split at its first five blanks: the
-        attributes come as one text, :meth:`plain_material` reads them (once per text).
-
-        A float compared strictly with a bound decides as the exact decimal would
-        (correctly rounded conversion is monotonic); a float equal to a bound is
-        accepted only when its text is exactly that bound (:meth:`bound`).
-        """
-        if len(tokens) < 5:
-            return False
-        try:
-            x, y, z, radius = map(float, tokens[1:5])
-        except ValueError:
-            return False
-        if not (-_MAX < x < _MAX and -_MAX < y < _MAX and -_MAX < z < _MAX and _MIN < radius < _MAX):
-            return False
-        if len(tokens) == 5:
-            material = _PLAIN
-        else:
-            material = self._materials.get(tokens[5], _UNKNOWN)
-            if material is _UNKNOWN:
-                material = self._materials[tokens[5]] = self.plain_material(tokens[5].split())
-            if material is None:
-                return False
-        self.spheres.add(Sphere((x, y, z), radius, material, _NORTH, _EQUATOR, line=line))
-        return True
-
-    def plain_material(self, tokens: list[str]) -> Material | None:
-        """The material of the attributes ``[color R G B] [reflect KR] [refract KT IOR]``
-        in any order, or None when they are anything else or not clearly valid."""
-        exact = self.exact
-        color = kr = kt = None
-        ior = 1.0
-        i, n = 0, len(tokens)
-        try:
-            while i < n:
-                name = tokens[i].lower()
-                if name == "color" and color is None and i + 3 < n:
-                    r, g, b = color = tuple(map(float, tokens[i + 1:i + 4]))
-                    if not (0.0 < r < 1.0 and 0.0 < g < 1.0 and 0.0 < b < 1.0):
-                        for c, token in zip(color, tokens[i + 1:i + 4]):
-                            if not (0.0 < c < 1.0 or token in exact
-                                    or (c == 0.0 or c == 1.0) and self.bound(token, c)):
-                                return None
-                    i += 4
-                elif name == "reflect" and kr is None and i + 1 < n:
-                    kr = float(tokens[i + 1])
-                    if not (0.0 < kr < 1.0 or tokens[i + 1] in exact
-                            or (kr == 0.0 or kr == 1.0) and self.bound(tokens[i + 1], kr)):
-                        return None
-                    i += 2
-                elif name == "refract" and kt is None and i + 2 < n:
-                    kt, ior = float(tokens[i + 1]), float(tokens[i + 2])
-                    if not (0.0 < kt < 1.0 or tokens[i + 1] in exact
-                            or (kt == 0.0 or kt == 1.0) and self.bound(tokens[i + 1], kt)):
-                        return None
-                    if not _MIN < ior < _MAX:
-                        return None
-                    i += 3
-                else:
-                    return None
-        except ValueError:
-            return None
-        if kr and kt and not kr + kt <= _BELOW_ONE:  # the float sum's error is far below this margin
-            return None
-        return Material(_WHITE if color is None else color, 0.0 if kr is None else kr,
-                        0.0 if kt is None else kt, ior, None)
 
     def statement_size(self, args):
         self.count("size", args, "W H", 2)
@@ -917,17 +608,6 @@ class _Parser:
 # ------------------------------------------------------------------------- helpers
 
 
-#: the control characters that are blanks or line breaks (the format's and str.split's alike)
-_BLANK_CODES = (9, 10, 11, 12, 13)
-
-
-def _float_or_nan(token: bytes) -> float:
-    try:
-        return float(token)
-    except ValueError:
-        return math.nan
-
-
 class _SphereList:
     """The spheres of a file as they are read: arrays of many (the fast path) and single
     :class:`Sphere` objects, each with its line; :meth:`arrays` puts them in file order."""
@@ -959,7 +639,7 @@ class _SphereList:
         import numpy as np
         blocks = list(self.blocks)
         orientations = Distinct()
-        orientations.index((_NORTH, _EQUATOR))
+        orientations.index((NORTH, EQUATOR))
         if self.singles:
             singles = self.singles
             n = len(singles)

@@ -123,15 +123,27 @@ def test_physical_whitted_error_does_not_grow_with_depth(sweep, spp):
     assert all(b <= a * 1.001 for a, b in zip(errors, errors[1:])), errors
 
 
-def test_plot_and_contact_sheet_are_png_images(sweep):
-    out, _ = sweep
+def _colors(pixels: np.ndarray) -> np.ndarray:
+    """The distinct 8-bit RGB colors of an image, each as one integer."""
+    rgb = np.asarray(pixels)[..., :3].astype(np.uint32).reshape(-1, 3)
+    return np.unique(rgb[:, 0] << 16 | rgb[:, 1] << 8 | rgb[:, 2])
+
+
+def test_the_contact_sheet_shows_every_render(sweep):
+    """Each render's thumbnail (and the reference's) is drawn on the sheet: nearly all of its
+    colors, exact to the 8-bit level, are among the sheet's (thumbnails are drawn by nearest
+    neighbor; a missing, blank or wrong image shows few of them)."""
+    import mitsuba as mi
+    out, entries = sweep
     for name in ("error_vs_time.png", "contact_sheet.png"):
-        path = out / name
-        assert path.read_bytes()[:8] == PNG_SIGNATURE
-        import mitsuba as mi
-        bitmap = mi.Bitmap(str(path))
-        assert min(bitmap.size()) > 100
-        assert np.array(bitmap).std() > 0  # not a blank canvas
+        assert (out / name).read_bytes()[:8] == PNG_SIGNATURE
+    sheet = _colors(np.array(mi.Bitmap(str(out / "contact_sheet.png"))))
+    thumbnails = [e.reference_thumbnail for e in entries] + [m.thumbnail for e in entries
+                                                             for m in e.measurements]
+    assert len(thumbnails) == 1 + len(PATH_SPP) + 2 * len(DEPTHS) * len(WHITTED_SPP)
+    for thumbnail in thumbnails:
+        colors = _colors(thumbnail)
+        assert np.isin(colors, sheet).mean() > 0.9, len(colors)
     assert not [p for p in out.iterdir() if p.name.startswith(".")]  # no leftover temporaries
 
 

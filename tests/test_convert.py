@@ -387,8 +387,17 @@ def test_numbers_are_written_exactly():
 # ------------------------------------------------------------ example scenes
 
 
-def test_there_are_example_scenes():
-    assert {p.stem for p in SCENES} >= {"spheres", "globe", "mirrors", "tir"}
+def test_the_example_scenes_show_every_effect_of_the_format():
+    """Together the examples call for every effect the article's model has (and the
+    parametrized tests below have scenes to run on)."""
+    models = {p.stem: parse_file(p) for p in SCENES}
+    assert set(models) >= {"spheres", "globe", "mirrors", "tir"}
+    spheres = [s for m in models.values() for s in m.spheres]
+    assert any(s.material.reflect > 0 for s in spheres), "no mirror"
+    assert any(s.material.refract > 0 and s.material.ior != 1 for s in spheres), "no glass"
+    assert any(s.material.texture is not None for s in spheres), "no texture"
+    assert any(len(m.lights) > 1 for m in models.values()), "no scene with several lights"
+    assert any(any(m.background) for m in models.values()), "no background color"
 
 
 @pytest.mark.parametrize("portable", [False, True], ids=["default", "portable"])

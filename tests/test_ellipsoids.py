@@ -3,8 +3,6 @@
 
 from __future__ import annotations
 
-import importlib.util
-import sys
 from dataclasses import replace
 
 import drjit as dr
@@ -13,16 +11,11 @@ import numpy as np
 import pytest
 
 import whitted
-from conftest import REPO
-from reference import assert_matches, render_reference
+from benchmarks import sphereflake
+from benchmarks.reference import assert_matches, render_reference
 from whitted import float32, sealed
 from whitted.converter import Light, Material, Scene, Sphere
 
-if "sphereflake" not in sys.modules:
-    _spec = importlib.util.spec_from_file_location("sphereflake", REPO / "benchmarks" / "sphereflake.py")
-    sys.modules["sphereflake"] = importlib.util.module_from_spec(_spec)
-    _spec.loader.exec_module(sys.modules["sphereflake"])
-sphereflake = sys.modules["sphereflake"]
 
 
 def article(color, reflect=0.0):

@@ -1,4 +1,4 @@
-"""The Whitted integrator against the float64 reference renderer (tests/reference.py).
+"""The Whitted integrator against the float64 reference renderer (benchmarks/reference.py).
 
 Scenes are built with the scene model and converted with the XML writer (no
 parser involved), rendered at 1 spp in llvm_ad_rgb and scalar_rgb, and must
@@ -20,7 +20,7 @@ import pytest
 
 import whitted
 import whitted.rendering
-from reference import Reference, assert_matches, camera_ray, render_reference
+from benchmarks.reference import Reference, assert_matches, camera_ray, render_reference
 from whitted.converter import Light, Material, Scene, Sphere, scene_to_xml
 
 from conftest import VARIANTS
@@ -214,10 +214,10 @@ def test_physical_lighting_has_inverse_square_falloff(tmp_path):
                       lights=[Light((0.0, 0.0, 1.0 + distance))],
                       spheres=[Sphere((0.0, 0.0, 0.0), 1.0, Material())])
         # the light's color is measured at lookat: keep its intensity fixed instead
-        scene_ = load(model, "llvm_ad_rgb")
+        loaded = load(model, "llvm_ad_rgb")
         integrator = mi.load_dict({"type": "whitted", "lighting": "physical",
                                    "light_reference": mi.ScalarPoint3f(0, 0, 0)})
-        image = np.array(integrator.render(scene_))
+        image = np.array(integrator.render(loaded))
         intensity = math.pi * (1.0 + distance) ** 2
         return image[4, 4, 0] / intensity
     assert brightness(4.0) / brightness(2.0) == pytest.approx((2.0 / 4.0) ** 2, rel=1e-3)
@@ -230,10 +230,10 @@ def test_camera_is_the_spec_camera():
     from whitted.plugins.film import CameraSamples
     model = Scene(width=37, height=23, eye=(1.0, 2.0, 7.0), lookat=(-0.5, 0.3, -1.0), up=(0.2, 1.0, 0.1),
                   fov=70.0, spheres=[Sphere((0.0, 0.0, 0.0), 1.0)])
-    scene_ = load(model, "llvm_ad_rgb")
+    loaded = load(model, "llvm_ad_rgb")
     y, x = np.mgrid[0:model.height, 0:model.width]
     pixel = mi.UInt32((y * model.width + x).ravel())
-    camera = CameraSamples(scene_.sensors()[0], spp=1, seed=0)
+    camera = CameraSamples(loaded.sensors()[0], spp=1, seed=0)
     ray, _, position = camera.ray(mi.UInt32(x.ravel()), mi.UInt32(y.ravel()), pixel, mi.UInt32(0))
     got = np.array(ray.d).T
     expected = np.array([camera_ray(model, i + 0.5, j + 0.5)[1] for i, j in zip(x.ravel(), y.ravel())])
@@ -243,11 +243,16 @@ def test_camera_is_the_spec_camera():
     np.testing.assert_array_equal(np.array(position).T, np.stack([x.ravel(), y.ravel()], axis=1))
 
 
-def test_one_sample_is_deterministic(tmp_path):
-    model = scene("glass", tmp_path)
+def test_the_seed_moves_the_samples_and_a_render_repeats_bit_for_bit(tmp_path):
+    """At several samples per pixel the seed places each sample in its stratum: the same seed
+    gives the same image bit for bit, another seed another image of the same scene (at 1 spp
+    the one sample sits at the pixel's center whatever the seed: see the test below)."""
+    model = dataclasses.replace(scene("glass", tmp_path), samples=4)
     a = render(model, "llvm_ad_rgb", seed=1)
+    np.testing.assert_array_equal(render(model, "llvm_ad_rgb", seed=1), a)
     b = render(model, "llvm_ad_rgb", seed=2)
-    np.testing.assert_array_equal(a, b)
+    assert not np.array_equal(a, b)
+    assert np.abs(a - b).mean() < 0.02   # other samples of the same pixels, not another scene
 
 
 @pytest.mark.parametrize("spp", (1, 2, 4, 6, 7, 16))
@@ -292,13 +297,13 @@ def test_passes_and_split_wavefronts_give_the_same_image(tmp_path):
     """Memory is bounded by rendering in passes and splitting wide wavefronts: the image
     must not depend on either."""
     model = scene("everything", tmp_path)
-    scene_ = load(model, "llvm_ad_rgb")
+    loaded = load(model, "llvm_ad_rgb")
     whole = mi.load_dict({"type": "whitted", "max_depth": 6, "ambient": model.ambient,
                           "light_reference": mi.ScalarPoint3f(model.lookat)})
     pieces = mi.load_dict({"type": "whitted", "max_depth": 6, "ambient": model.ambient,
                            "light_reference": mi.ScalarPoint3f(model.lookat), "wavefront_size": 99})  # odd: passes split pixels
-    one = whole.render_detailed(scene_, spp=2, seed=4)
-    many = pieces.render_detailed(scene_, spp=2, seed=4)
+    one = whole.render_detailed(loaded, spp=2, seed=4)
+    many = pieces.render_detailed(loaded, spp=2, seed=4)
     assert one.passes == 1 and many.passes == math.ceil(W * H * 2 / 99)
     np.testing.assert_allclose(np.array(many.image), np.array(one.image), atol=1e-6)
     assert many.rays == one.rays
@@ -308,8 +313,8 @@ def test_passes_and_split_wavefronts_give_the_same_image(tmp_path):
 
 def test_mi_render_uses_the_integrator(suite):
     model = suite("mirror", "model")
-    scene_ = load(model, "llvm_ad_rgb")
-    image = np.array(mi.render(scene_))
+    loaded = load(model, "llvm_ad_rgb")
+    image = np.array(mi.render(loaded))
     np.testing.assert_array_equal(image, suite("mirror", "llvm_ad_rgb"))
 
 
@@ -317,13 +322,13 @@ def test_mi_render_uses_the_integrator(suite):
 def test_sample_traces_a_whole_tree(suite, variant):
     """``sample()`` (Mitsuba's per-ray entry point) gives a ray's full color."""
     model = suite("glass", "model")
-    scene_ = load(model, variant)
-    integrator = scene_.integrator()
+    loaded = load(model, variant)
+    integrator = loaded.integrator()
     expected = suite("glass", "reference")
     for i, j in ((W // 2, H // 2 - 3), (5, 5), (30, 20)):
         o, d = camera_ray(model, i + 0.5, j + 0.5)
         o = np.subtract(o, model.lookat)    # world -> the converter's frame (centered on lookat)
-        color, valid, aovs = integrator.sample(scene_, None, mi.Ray3f(mi.Point3f(o), mi.Vector3f(d)))
+        color, valid, aovs = integrator.sample(loaded, None, mi.Ray3f(mi.Point3f(o), mi.Vector3f(d)))
         assert np.abs(np.array(color).ravel() - expected[j, i]).max() < 0.02
 
 

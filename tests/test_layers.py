@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 import whitted
-from reference import assert_matches, render_reference
+from benchmarks.reference import assert_matches, render_reference
 from whitted import sealed
 from whitted.converter import Light, Material, Scene, Sphere
 

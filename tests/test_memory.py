@@ -1,4 +1,4 @@
-"""Memory of a large render (issue 11): what a pixel costs, measured as the operating system sees it.
+"""Memory of a large render: what a pixel costs, measured as the operating system sees it.
 
 A render and the writing of its PNG and EXR run in a fresh process; its peak
 resident set size (``VmHWM``, reset after the scene is loaded) less its

@@ -530,14 +530,15 @@ def test_parse_text_names_the_source_given():
 
 # ------------------------------------------------- the fast path = the careful path
 #
-# parse_text reads plain lights and spheres on a fast path (converter/parser.py,
-# _Parser.parse_plain) and leaves every other statement, and every doubt, to the
+# parse_text reads plain lights and spheres on a fast path (converter/plain.py,
+# PlainReader) and leaves every other statement, and every doubt, to the
 # careful path. Both must give the same scene, or the same errors, for any text.
 
 from hypothesis import HealthCheck, given, settings  # noqa: E402
 from hypothesis import strategies as st  # noqa: E402
 
 from whitted.converter import parser as parser_module  # noqa: E402
+from whitted.converter import plain  # noqa: E402
 
 #: numbers at and around every bound the format checks, and numbers it rejects
 BOUNDARY_NUMBERS = [
@@ -624,7 +625,7 @@ def test_fast_path_with_numpy_and_careful_path_agree(lines, ending, final_break)
 
 def test_fast_path_with_numpy_across_chunks(monkeypatch):
     """Lines are read a chunk at a time; spheres from both paths come back in file order."""
-    monkeypatch.setattr(parser_module, "_CHUNK", 40)
+    monkeypatch.setattr(plain, "_CHUNK", 40)
     lines = ["# chunks", "size 8 8"]
     for i in range(60):
         lines.append([f"sphere {i} 0 0 0.5 color 1 0.9 0.7 reflect 0.5", f"Sphere {i} 1 0 1  # c",

@@ -11,7 +11,6 @@ time limit must be killed and said, and the table must say so.
 
 from __future__ import annotations
 
-import importlib.util
 import re
 import shutil
 import sys
@@ -20,19 +19,10 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from conftest import REPO
+from benchmarks import povray, process, sphereflake, vs_povray
 from whitted.converter.scene import Light, Material, Scene, Sphere
 
 
-def _load(name):
-    spec = importlib.util.spec_from_file_location(name, REPO / "benchmarks" / f"{name}.py")
-    module = sys.modules[name] = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
-sphereflake = _load("sphereflake")
-povray = _load("povray")
 
 
 def test_finish_carries_the_articles_weights():
@@ -73,8 +63,6 @@ def test_povray_renders_the_image_whitted_renders(tmp_path):
     assert run.shadow_rays == result.stats["rays"]["shadow"]
 
 
-process = povray.process   # the module povray.py runs POV-Ray with (its DidNotFinish)
-vs_povray = _load("vs_povray")
 
 
 def test_a_programs_peak_memory_is_its_own_not_the_benchmarks():

@@ -8,19 +8,14 @@ equator and three above it, no two siblings overlapping; the scene written as
 
 from __future__ import annotations
 
-import importlib.util
 import itertools
 import math
-import sys
 
 import pytest
 
-from conftest import REPO
+from benchmarks import sphereflake
 from whitted.converter import parse_text
 
-_spec = importlib.util.spec_from_file_location("sphereflake", REPO / "benchmarks" / "sphereflake.py")
-sphereflake = sys.modules["sphereflake"] = importlib.util.module_from_spec(_spec)
-_spec.loader.exec_module(sphereflake)
 
 
 def _sub(a, b):

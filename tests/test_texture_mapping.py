@@ -1,7 +1,7 @@
 """Texture mapping: Mitsuba's UV on the converted sphere is the article's lat/long mapping,
 and the integrator shows the texel the row/column rule picks, on every face and at the poles.
 
-Expectations come from the spec's formulas as written in tests/reference.py (float64).
+Expectations come from the spec's formulas as written in benchmarks/reference.py (float64).
 Scenes use ambient 1 and no lights, so a pixel's color is its texel B.
 """
 
@@ -15,7 +15,7 @@ import pytest
 
 import whitted
 import whitted.rendering
-from reference import camera_ray, cross, lat_long, load_texels, nearest_hit, normalize, srgb_to_linear, sub, texel
+from benchmarks.reference import camera_ray, cross, lat_long, load_texels, nearest_hit, normalize, srgb_to_linear, sub, texel
 from whitted.converter import Material, Scene, Sphere, scene_to_xml
 
 from conftest import VARIANTS
@@ -68,17 +68,17 @@ def face_camera(direction, size=17):
 
 # -- Mitsuba's (u, v) ----------------------------------------------------------------------------
 
-def hit_uv(scene_, directions: np.ndarray) -> np.ndarray:
+def hit_uv(loaded, directions: np.ndarray) -> np.ndarray:
     """Mitsuba's si.uv where rays aimed at the center from ``directions`` hit the sphere."""
     origins = np.array(CENTER) + directions * (RADIUS + 5.0)
     if dr_is_jit():
         ray = mi.Ray3f(mi.Point3f(origins.T.astype(np.float32)), mi.Vector3f((-directions).T.astype(np.float32)))
-        si = scene_.ray_intersect(ray)
+        si = loaded.ray_intersect(ray)
         assert np.all(np.array(si.is_valid()))
         return np.array(si.uv).T
     uvs = []
     for o, d in zip(origins, directions):
-        si = scene_.ray_intersect(mi.Ray3f(mi.Point3f(*o), mi.Vector3f(*(-d))))
+        si = loaded.ray_intersect(mi.Ray3f(mi.Point3f(*o), mi.Vector3f(*(-d))))
         assert si.is_valid()
         uvs.append((si.uv.x, si.uv.y))
     return np.array(uvs)
@@ -96,8 +96,8 @@ def test_mitsuba_uv_is_the_article_mapping(texture, variant):
     random = rng.normal(size=(300, 3))
     named = np.array(list(faces().values()))
     directions = np.concatenate([named, random / np.linalg.norm(random, axis=1, keepdims=True)])
-    scene_ = load(globe(texture, width=4, height=4), variant)
-    uv = hit_uv(scene_, directions)
+    loaded = load(globe(texture, width=4, height=4), variant)
+    uv = hit_uv(loaded, directions)
     assert np.all(np.isfinite(uv))
     _, _, vn = frame()
     for (u_m, v_m), d in zip(uv, directions):

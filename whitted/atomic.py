@@ -9,7 +9,9 @@ from __future__ import annotations
 import contextlib
 import errno
 import os
+import re
 import tempfile
+import time
 from pathlib import Path
 
 from .errors import WhittedError
@@ -54,6 +56,34 @@ def leftovers(target: str | os.PathLike) -> list[Path]:
                 and len(p.name) > len(prefix) + len(suffix)]
     except OSError:
         return []
+
+
+#: the name :func:`atomic_path` gives a temporary file: ``.TARGET.XXXXXXXX`` + the target's
+#: suffix (``.tmp`` for a target without one), the X from :func:`tempfile.mkstemp`
+_TEMPORARY = re.compile(r"\.(?P<target>.+)\.[a-z0-9_]{8}(?P<suffix>\.[^.]+)")
+
+
+def remove_stale_leftovers(folder: str | os.PathLike, older_than: float) -> list[Path]:
+    """Remove from ``folder`` the temporary files of :func:`atomic_path` that nobody has
+    touched for ``older_than`` seconds, and return them. A writer fills its temporary file
+    and renames it within moments, so one that old was left by a writer killed outright; a
+    live writer's file is never that old. For folders whitted alone writes (its caches)."""
+    removed = []
+    now = time.time()
+    try:
+        names = os.listdir(folder)
+    except OSError:
+        return removed
+    for name in names:
+        match = _TEMPORARY.fullmatch(name)
+        if not match or not (match["target"].endswith(match["suffix"]) or match["suffix"] == ".tmp"):
+            continue
+        path = Path(folder) / name
+        with contextlib.suppress(OSError):
+            if now - path.stat().st_mtime > older_than:
+                path.unlink()
+                removed.append(path)
+    return removed
 
 
 def check_writable(target: str | os.PathLike, inputs: tuple = ()) -> Path:

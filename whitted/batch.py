@@ -328,7 +328,7 @@ def _on_cluster(todo, settings: Settings, keep: bool, workers: int | None,
     import uuid
     from dataclasses import replace
 
-    from .compare.cluster import _result, available_cores, connect, stop_rendering, worker_threads
+    from .compare.cluster import _result, available_cores, cancel, connect, worker_threads
     from .variant import default_variant
 
     if workers is not None and scheduler is not None:
@@ -363,10 +363,7 @@ def _on_cluster(todo, settings: Settings, keep: bool, workers: int | None,
                 yield item
             finished = True
         except BaseException:
-            if tasks:
-                client.cancel(list(tasks), force=True)
-                with contextlib.suppress(Exception):   # the renders under way end too
-                    client.run(stop_rendering, wait=True)
+            cancel(client, tasks)
             raise
         finally:
             if finished:   # every task has ended: what a killed worker was writing is litter

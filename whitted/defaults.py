@@ -257,3 +257,13 @@ DEFAULT_FPS = 24.0
 #: saved (~0.1 ms a sphere) is below a render's noise, and the scene is left as written. Here,
 #: not in sealed.py, so that the converter can tell a scene too small to group without numpy.
 SEALED_MIN_GROUP = 1000
+
+
+#: The mesh cache (converter/giants.py: the meshes of giant spheres in scenes loaded without
+#: an XML file, in the temporary folder) keeps at most this many bytes: beyond it, the meshes
+#: used least recently go first (smallpt's box alone is 40 MB).
+MESH_CACHE_BYTES = 256 * 2 ** 20
+#: A cached file or a writer's temporary file untouched for this many seconds is in use by no
+#: running process (a mesh is written and loaded in seconds, a cache entry written in
+#: seconds): only such files are removed from a cache.
+STALE_SECONDS = 600.0

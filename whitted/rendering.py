@@ -72,6 +72,18 @@ PATH_SAMPLES_PER_PASS = 1 << 20
 
 @dataclass
 class RenderResult:
+    """What :func:`render` returns (the integrator's own account of a render, which this is
+    made from, is ``plugins/integrator.py``'s ``Rendering``).
+
+    =================== ==============================================================
+    ``image``           float32 (H, W, 3), linear RGB
+    ``seconds``         render time, kernel compilation excluded
+    ``compile_seconds`` kernel compilation (0 when every kernel was cached)
+    ``stats``           see the module docstring
+    ``cpu_seconds``     the process's CPU time (every thread's), compilation excluded
+    =================== ==============================================================
+    """
+
     image: np.ndarray        # float32 (H, W, 3), linear RGB
     seconds: float           # render time, kernel compilation excluded
     compile_seconds: float   # kernel compilation (0 when every kernel was cached)
@@ -79,7 +91,7 @@ class RenderResult:
     cpu_seconds: float = float("nan")   # the process's CPU time (every thread's), compilation excluded
 
 
-def whitted_integrator(scene):
+def integrator_of(scene):
     """The scene's own ``whitted`` integrator, else one with the default settings."""
     import mitsuba as mi
 
@@ -93,7 +105,7 @@ def whitted_integrator(scene):
 
 def whitted_settings(scene) -> dict:
     """The scene's own Whitted settings (its integrator's properties), else the defaults."""
-    return whitted_integrator(scene).settings()
+    return integrator_of(scene).settings()
 
 
 @contextlib.contextmanager
@@ -206,7 +218,7 @@ def render_checked(scene, integrator: str = D.INTEGRATOR, spp: int | None = None
     spp_asked = spp
     if not scene.sensors():
         raise WhittedError("the scene has no sensor (camera) to render from")
-    own = whitted_integrator(scene)
+    own = integrator_of(scene)
     settings = own.settings()
     depth = int(max_depth) if max_depth is not None else settings["max_depth"]
     sensor = scene.sensors()[0]

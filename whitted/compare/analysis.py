@@ -59,7 +59,7 @@ class EqualTime:
 
     ============= ===================================================================
     ``whitted``   the Whitted render
-    ``rel_mse``   the path tracer's relative MSE at ``whitted.seconds`` (None: no
+    ``rel_mse``   the path tracer's relative MSE at the Whitted render's time (None: no
                   path render was done)
     ``flip``      the same for FLIP
     ``outside``   ``"faster"`` or ``"slower"`` when the Whitted render is faster than

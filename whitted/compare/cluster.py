@@ -135,6 +135,14 @@ def _ignore_stopped(unraisable) -> None:
         sys.__unraisablehook__(unraisable)
 
 
+def cancel(client, tasks) -> None:
+    """On an error or Ctrl-C: cancel ``tasks`` and end the renders under way on every worker."""
+    if tasks:
+        client.cancel(list(tasks), force=True)
+        with contextlib.suppress(Exception):   # the tasks running now end too
+            client.run(stop_rendering, wait=True)
+
+
 async def stop_rendering() -> bool:
     """On a worker (through ``client.run``, on its event loop): end the task rendering there.
 
@@ -419,10 +427,7 @@ def sweep_on_cluster(client, scenes: list[SceneFile], entries: list[SceneResult]
                 _result(future, name)  # raises the chunk's error
             bar.update(1)
     except BaseException:
-        if tasks:
-            client.cancel(list(tasks), force=True)
-            with contextlib.suppress(Exception):   # the tasks running now end too
-                client.run(stop_rendering, wait=True)
+        cancel(client, tasks)
         raise
     finally:
         bar.close()

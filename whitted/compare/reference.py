@@ -144,6 +144,17 @@ class ReferenceCache:
 
     def __init__(self, folder: Path):
         self.folder = Path(folder)
+        self._cleaned = False
+
+    def clean(self) -> None:
+        """Once per cache object: remove the hidden temporary files that writers killed
+        outright left in the folder (:func:`whitted.atomic.remove_stale_leftovers`)."""
+        if not self._cleaned:
+            from ..atomic import remove_stale_leftovers
+            from ..defaults import STALE_SECONDS
+
+            remove_stale_leftovers(self.folder, STALE_SECONDS)
+            self._cleaned = True
 
     @staticmethod
     def key(scene: SceneFile, settings: dict) -> str:
@@ -182,6 +193,7 @@ class ReferenceCache:
         entry is missing, damaged or of another key."""
         from .. import imageio
 
+        self.clean()
         image_file, info_file = self.entry(name, key)
         try:
             info = json.loads(info_file.read_text(encoding="utf-8"))
@@ -200,6 +212,7 @@ class ReferenceCache:
         from ..atomic import write_text
 
         self.folder.mkdir(parents=True, exist_ok=True)
+        self.clean()
         image_file, info_file = self.entry(name, key)
         imageio.write_image(image_file, image)
         write_text(info_file, json.dumps({**info, "key": key}, indent=2, sort_keys=True) + "\n")

@@ -4,7 +4,7 @@ render after ``params.update()`` moved one sphere.
 
 Usage::
 
-    python benchmarks/scene_setup.py [SPHERES]      # default 66 000
+    python -m benchmarks.studies.scene_setup [SPHERES]      # default 66 000
 
 The integrator builds these tables once per scene state and checks them at every render
 (plugins/scene/tables.py); this prints the time of that check or build, :func:`analyse`
@@ -17,19 +17,17 @@ from __future__ import annotations
 import statistics
 import sys
 import time
-from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
+import drjit as dr
+import mitsuba as mi
 
-import drjit as dr  # noqa: E402
-import mitsuba as mi  # noqa: E402
+import whitted  # noqa: F401  (selects the variant, registers the plugins)
+from whitted.plugins.scene.effects import analyse
+from whitted.plugins.scene.tables import scene_tables
+from whitted.plugins.shading.shader import Shader
+from whitted.plugins.tree.counts import Tally
 
-import whitted  # noqa: E402,F401  (selects the variant, registers the plugins)
-import scenes  # noqa: E402
-from whitted.plugins.scene.effects import analyse  # noqa: E402
-from whitted.plugins.scene.tables import scene_tables  # noqa: E402
-from whitted.plugins.shading.shader import Shader  # noqa: E402
-from whitted.plugins.tree.counts import Tally  # noqa: E402
+from .. import scenes
 
 
 def main(count: int) -> None:

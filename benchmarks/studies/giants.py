@@ -9,7 +9,7 @@ giant spheres have no ``exact_spheres``: their kernels are the ones the
 integrator traced before (compare with another checkout's ``whitted render
 --stats``, interleaved: ``--compare-with``).
 
-    .venv/bin/python benchmarks/giants.py [--rounds 7] [SCENE.scn ...]
+    .venv/bin/python -m benchmarks.studies.giants [--rounds 7] [SCENE.scn ...]
 """
 
 from __future__ import annotations
@@ -30,7 +30,7 @@ from whitted.converter import parse_file
 from whitted.converter.description import describe
 from whitted.loading import mitsuba_dict
 
-HERE = Path(__file__).resolve().parent
+REPO = Path(__file__).resolve().parents[2]
 
 
 def _scene(model, exact: bool):
@@ -88,7 +88,7 @@ def main(argv=None) -> int:
     parser.add_argument("--compare-with", type=Path, help="another checkout's whitted command")
     args = parser.parse_args(argv)
     whitted.set_variant("llvm_ad_rgb")
-    for path in args.scenes or sorted((HERE.parent / "scenes").glob("*.scn")):
+    for path in args.scenes or sorted((REPO / "scenes").glob("*.scn")):
         if args.compare_with:
             print(json.dumps(interleaved(path, args.compare_with, args.rounds)), flush=True)
         else:

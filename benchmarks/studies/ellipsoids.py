@@ -40,7 +40,7 @@ Three measurements (``--only`` picks some):
 
 Usage::
 
-    python benchmarks/ellipsoids.py [--only accuracy,load,scene] [--counts 1000,10000,66000] [--scene F.scn]
+    python -m benchmarks.studies.ellipsoids [--only accuracy,load,scene] [--counts 1000,10000,66000] [--scene F.scn]
 
 Timings are wall-clock on whatever machine runs this; on a shared machine they
 are noisy (the CPU seconds column is less so).
@@ -56,12 +56,15 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
+import drjit as dr
+import mitsuba as mi
 
-import drjit as dr  # noqa: E402
-import mitsuba as mi  # noqa: E402
+import whitted  # noqa: F401  (selects the variant, registers the plugins)
 
-import whitted  # noqa: E402,F401  (selects the variant, registers the plugins)
+from .. import scenes
+from ..timing import measure, timed
+
+REPO = Path(__file__).resolve().parents[2]
 
 F32 = np.float32
 #: float32's unit round-off (whitted/float32.py)
@@ -250,15 +253,12 @@ MATERIALS = 4
 
 
 def random_spheres(count: int, seed: int = 1):
-    """``count`` non-overlapping spheres in a cube (centers 3×N, radii N, material index N):
-    a jittered grid, radii up to 0.4 of the cell."""
-    rng = np.random.default_rng(seed)
-    side = int(np.ceil(count ** (1 / 3)))
-    cells = np.stack(np.meshgrid(*[np.arange(side)] * 3, indexing="ij")).reshape(3, -1)[:, :count]
-    radius = rng.uniform(0.1, 0.4, count)
-    jitter = rng.uniform(-1, 1, (3, count)) * (0.5 - radius)
-    center = (cells + 0.5 + jitter) * (10.0 / side) - 5.0
-    return center, radius * (10.0 / side), rng.integers(0, MATERIALS, count)
+    """``count`` non-overlapping spheres in a cube (:func:`benchmarks.scenes.random_spheres`) as
+    arrays: centers 3×N, radii N, material index N."""
+    spheres = scenes.random_spheres(count, seed, materials=MATERIALS)
+    index: dict = {}
+    material = np.array([index.setdefault(s.material, len(index)) for s in spheres])
+    return (np.array([s.center for s in spheres]).T, np.array([s.radius for s in spheres]), material)
 
 
 def bsdfs():
@@ -285,12 +285,6 @@ def ellipsoids_dict(center, radius, material):
                           "quaternions": mi.TensorXf(np.tile(np.array([0, 0, 0, 1], F32), (count, 1))),
                           "bsdf": {"type": "ref", "id": f"m{m}"}}
     return scene
-
-
-def timed(make):
-    wall, cpu = time.perf_counter(), time.process_time()
-    result = make()
-    return result, time.perf_counter() - wall, time.process_time() - cpu
 
 
 def camera_rays(size: int):
@@ -320,7 +314,6 @@ def load_and_cast(counts, size: int = 512, rounds: int = 5):
     next is loaded: Dr.Jit traces a ``ray_intersect`` once for every shape *registered*, in
     every scene alive, so a 66 000-sphere scene would slow the other's interactions too."""
     import gc
-    from timing import measure
     rows = []
     ray = camera_rays(size)
     for count in counts:
@@ -400,15 +393,15 @@ def end_to_end(path: str, ways=WAYS):
     import json
     import subprocess
     import tempfile
-    rows, images = {}, {}
+    rows, images, path = {}, {}, str(Path(path).resolve())
     with tempfile.TemporaryDirectory() as folder:
         for k, way in enumerate(ways):
             out = str(Path(folder) / f"{k}.npy")
-            code = ("import json, sys; sys.path.insert(0, %r); import ellipsoids; "
-                    "print(json.dumps(ellipsoids.one_process(%r, %r, %r)))"
-                    % (str(Path(__file__).resolve().parent), path, way, out))
+            code = ("import json; from benchmarks.studies import ellipsoids; "
+                    "print(json.dumps(ellipsoids.one_process(%r, %r, %r)))" % (path, way, out))
             wall = time.perf_counter()
-            done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+            done = subprocess.run([sys.executable, "-c", code], cwd=REPO, capture_output=True, text=True,
+                                  check=True)
             rows[way] = json.loads(done.stdout.strip().splitlines()[-1])
             rows[way]["process s"] = time.perf_counter() - wall
             images[way] = np.load(out).astype(np.float64)
@@ -421,11 +414,10 @@ def off(a, b) -> np.ndarray:
 
 
 def reference_at(path: str, pixels) -> dict:
-    """The float64 reference (tests/reference.py) of ``pixels`` ((row, column) pairs) of the
+    """The float64 reference (benchmarks/reference.py) of ``pixels`` ((row, column) pairs) of the
     scene at ``path``: its own formulas, with the loop over the spheres of its nearest-hit
     and shadow tests done by numpy (the same stable discriminant, the same skip rule)."""
-    sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests"))
-    import reference as R
+    from .. import reference as R
     from whitted.converter import parse_file
     model = parse_file(path)
     center = np.array([s.center for s in model.spheres])
@@ -482,7 +474,7 @@ def text_end_to_end(path, rows, images, reference=None):
                      f"{off(images[a], images[b]).mean():.3%} |")
     if reference is not None:
         pixels, values = reference
-        lines += ["", f"Against the float64 reference (tests/reference.py) at the {len(pixels)} pixels where "
+        lines += ["", f"Against the float64 reference (benchmarks/reference.py) at the {len(pixels)} pixels where "
                   "the images differ by more than 0.02 (elsewhere they agree):", "",
                   "| loaded as | pixels off the reference by > 0.02 | mean abs. difference there |",
                   "|---|---|---|"]
@@ -533,9 +525,9 @@ def main(argv=None):
             print(texts[-1])
     if args.markdown:
         import sections
-        body = "## Mitsuba's ellipsoids shape as a fast path for spheres (benchmarks/ellipsoids.py)\n\n" + \
+        body = "## Mitsuba's ellipsoids shape as a fast path for spheres (benchmarks/studies/ellipsoids.py)\n\n" + \
             "\n".join(texts).replace("\n== ", "\n### ") + \
-            "\n\nRun `.venv/bin/python benchmarks/ellipsoids.py --reference --markdown benchmarks/RESULTS.md` " \
+            "\n\nRun `.venv/bin/python -m benchmarks.studies.ellipsoids --reference --markdown benchmarks/RESULTS.md` " \
             "to rewrite this section."
         sections.replace(args.markdown, "ellipsoids", body)
 

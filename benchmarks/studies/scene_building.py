@@ -17,7 +17,7 @@ directly as a scene model.
 
 Usage::
 
-    .venv/bin/python benchmarks/scene_building.py [--counts 1000 10000 66000] [--rounds 3]
+    .venv/bin/python -m benchmarks.studies.scene_building [--counts 1000 10000 66000] [--rounds 3]
         [--variant llvm_ad_rgb] [--markdown benchmarks/RESULTS.md]
 
 Each time is the median of ``--rounds`` interleaved rounds (every method once
@@ -35,7 +35,6 @@ import datetime
 import gc
 import os
 import platform
-import random
 import statistics
 import subprocess
 import sys
@@ -46,36 +45,28 @@ from pathlib import Path
 import mitsuba as mi
 import numpy as np
 
-import sections
 import whitted
 import whitted.rendering
-from whitted.converter import Light, Material, Scene, Sphere
+from whitted.converter import Light, Scene
 from whitted.converter.description import describe
 from whitted.converter.xml_writer import description_to_xml
 from whitted.loading import mitsuba_dict
+
+from .. import scenes, sections
+
+REPO = Path(__file__).resolve().parents[2]
 
 SECTION = "## Scene building"
 #: this script's marked section of RESULTS.md (benchmarks/sections.py; run.py keeps it)
 SECTION_NAME = "scene-building"
 
 
-def random_spheres(count: int, materials: int = 8, seed: int = 1) -> Scene:
-    """``count`` non-overlapping spheres, one per unit cell of a cubic grid, jittered in it."""
-    rng = random.Random(seed)
-    palette = [Material(color=(rng.uniform(0.2, 0.9), rng.uniform(0.2, 0.9), rng.uniform(0.2, 0.9)),
-                        reflect=0.3 * (k % 2)) for k in range(materials)]
-    side = max(1, round(count ** (1 / 3) + 0.5))
-    spheres = []
-    for k in range(count):
-        cell = (k % side, k // side % side, k // side ** 2)
-        radius = rng.uniform(0.1, 0.45)
-        center = tuple(c + rng.uniform(radius - 0.5, 0.5 - radius) for c in cell)
-        spheres.append(Sphere(center, radius, palette[rng.randrange(materials)]))
-    middle = (side - 1) / 2
-    return Scene(width=64, height=48, eye=(middle + 1.6 * side, middle + 1.1 * side, middle + 2.0 * side),
-                 lookat=(middle, middle, middle), fov=50.0, depth=2,
-                 lights=[Light((middle + 3.0 * side, middle + 4.0 * side, middle + 1.0 * side))],
-                 spheres=spheres)
+def random_spheres(count: int) -> Scene:
+    """``count`` non-overlapping spheres in 8 shared materials (:func:`benchmarks.scenes.random_spheres`)
+    seen from above one corner of their cube."""
+    return Scene(width=64, height=48, eye=(16.0, 11.0, 20.0), lookat=(0.0, 0.0, 0.0), fov=50.0, depth=2,
+                 lights=[Light((30.0, 40.0, 10.0))],
+                 spheres=scenes.random_spheres(count, materials=8, reflect=0.3))
 
 
 # -- the methods: scene model -> mi.Scene -------------------------------------------------------------
@@ -195,8 +186,9 @@ def measure(counts, rounds: int, variant: str, folder: Path) -> tuple[dict, dict
         runs = {name: [] for name in names}
         for r in range(rounds):
             for name in (names if r % 2 == 0 else names[::-1]):
-                out = subprocess.run([sys.executable, __file__, "--one", name, str(count), "--variant", variant],
-                                     capture_output=True, text=True, check=True).stdout.split()
+                out = subprocess.run([sys.executable, "-m", "benchmarks.studies.scene_building", "--one", name, str(count),
+                                      "--variant", variant], cwd=REPO, capture_output=True, text=True,
+                                     check=True).stdout.split()
                 runs[name].append(tuple(float(x) for x in out[-3:]))
             print(f"{count} spheres, round {r + 1}/{rounds}, CPU s: " +
                   ", ".join(f"{runs[n][-1][1]:.2f}" for n in names), file=sys.stderr, flush=True)
@@ -223,7 +215,7 @@ def markdown(seconds: dict, cpu: dict, mitsuba_cpu: dict, exact: dict, parts: di
     lines = [
         SECTION, "",
         f"Measured on {datetime.datetime.now(datetime.timezone.utc):%Y-%m-%d %H:%M} UTC by "
-        f"`benchmarks/scene_building.py --counts {' '.join(map(str, counts))} --rounds {rounds} "
+        f"`python -m benchmarks.studies.scene_building --counts {' '.join(map(str, counts))} --rounds {rounds} "
         f"--variant {variant}` ({wall:.0f} s): {platform.processor() or platform.machine()}, "
         f"{os.cpu_count()} cores, Mitsuba {mi.__version__}, {variant}. The machine was shared with "
         f"other engineers' jobs (load average {load[0]:.1f} before, {load[1]:.1f} after, on 2 "

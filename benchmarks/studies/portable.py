@@ -15,7 +15,7 @@ BSDFs (``scalar_rgb``): the mirror lobe of a 50/50 mirror–diffuse ``blendbsdf`
 (B = 0.5) and of the same blend with a ``roughconductor`` (alpha 10⁻³) instead.
 docs/portable.md has the results.
 
-    python benchmarks/portable.py [--spp 1024] [--scale 0.5] [--rough]
+    python -m benchmarks.studies.portable [--spp 1024] [--scale 0.5] [--rough]
 
 ``--rough`` also renders each portable scene with ``roughconductor`` (alpha 10⁻³) in
 place of the ``conductor`` mirrors, the stock construction that avoids the weighting.
@@ -36,7 +36,7 @@ import numpy as np
 from whitted.converter.description import material_dict
 from whitted.converter.portable import inexact
 
-REPO = Path(__file__).resolve().parent.parent
+REPO = Path(__file__).resolve().parents[2]
 SCENES = ("globe", "mirrors", "spheres", "tir")
 
 

@@ -1,0 +1,64 @@
+"""Numbers and tables as the benchmarks print and record them (text and Markdown).
+
+A missing number (a run that failed or was left out) is a dash in every format.
+"""
+
+from __future__ import annotations
+
+DASH = "—"
+MIB = 2 ** 20
+
+
+def ms(seconds: float | None) -> str:
+    """Milliseconds, one decimal."""
+    return DASH if seconds is None else f"{1000 * seconds:.1f}"
+
+
+def seconds(x: float | None) -> str:
+    """Seconds: three decimals below 10 s, one above."""
+    return DASH if x is None else f"{x:.3f}" if x < 10 else f"{x:.1f}"
+
+
+def mib(n: float | None, decimals: int = 1) -> str:
+    """Bytes in MiB."""
+    return DASH if n is None else f"{n / MIB:.{decimals}f}"
+
+
+def ratio(a: float | None, b: float | None) -> str:
+    """``a / b``, two decimals."""
+    return DASH if a is None or b is None or b == 0 else f"{a / b:.2f}"
+
+
+def cell(value) -> str:
+    """A table cell: strings as they are, floats to three significant digits."""
+    return value if isinstance(value, str) else f"{value:.3g}" if isinstance(value, float) else str(value)
+
+
+def text_table(columns: list[str], cells: list[list[str]]) -> str:
+    """Columns padded to their widest cell, two spaces apart."""
+    cells = [columns] + cells
+    widths = [max(len(c[i]) for c in cells) for i in range(len(columns))]
+    return "\n".join("  ".join(c.ljust(w) for c, w in zip(row, widths)).rstrip() for row in cells)
+
+
+def markdown_table(columns: list[str], cells: list[list[str]]) -> str:
+    lines = ["| " + " | ".join(columns) + " |", "|" + "---|" * len(columns)]
+    return "\n".join(lines + ["| " + " | ".join(r) + " |" for r in cells])
+
+
+class Table:
+    """A titled table of results, with a note under it, printed as text and recorded as Markdown."""
+
+    def __init__(self, title: str, columns: list[str], note: str = ""):
+        self.title, self.columns, self.note, self.rows = title, columns, note, []
+
+    def add(self, *cells):
+        self.rows.append([cell(c) for c in cells])
+
+    def text(self) -> str:
+        return "\n".join([f"\n== {self.title}", text_table(self.columns, self.rows)]
+                         + ([self.note] if self.note else []))
+
+    def markdown(self) -> str:
+        return "\n".join([f"### {self.title}", "", markdown_table(self.columns, self.rows)]
+                         + (["", self.note] if self.note else []))

@@ -1,0 +1,64 @@
+"""benchmarks/ is a small library that its programs and the tests import as the package
+``benchmarks``: no program changes ``sys.path`` or imports from tests/, and every program
+(what ``make bench`` runs and the one-off studies) starts as ``python -m benchmarks.NAME``."""
+
+from __future__ import annotations
+
+import ast
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from benchmarks import scenes
+
+REPO = Path(__file__).resolve().parent.parent
+SOURCES = sorted((REPO / "benchmarks").rglob("*.py"))
+
+
+@pytest.mark.parametrize("path", SOURCES, ids=lambda p: str(p.relative_to(REPO)))
+def test_no_path_hacks_and_nothing_from_tests(path):
+    module = ast.parse(path.read_text(encoding="utf-8"))
+    for node in ast.walk(module):
+        if isinstance(node, ast.Attribute) and node.attr == "path" and \
+                isinstance(node.value, ast.Name) and node.value.id == "sys":
+            pytest.fail(f"{path.name}:{node.lineno}: sys.path")
+        if isinstance(node, ast.Import):
+            modules = [a.name for a in node.names]
+        elif isinstance(node, ast.ImportFrom):
+            modules = [node.module or ""]
+            if node.level == 0:   # nothing private of the package's (whitted's _parse and the like)
+                assert not [a.name for a in node.names if a.name.startswith("_")], \
+                    f"{path.name}:{node.lineno}: imports private names of {node.module}"
+        else:
+            continue
+        assert not any(m.split(".")[0] in ("tests", "conftest", "reference") for m in modules), \
+            f"{path.name}:{node.lineno}: imports {modules}"
+
+
+STUDIES = sorted(p.stem for p in (REPO / "benchmarks" / "studies").glob("*.py") if p.stem != "__init__")
+
+
+@pytest.mark.parametrize("name", ["run", "vs_povray", "frames"] + [f"studies.{s}" for s in STUDIES
+                                                                   if s != "scene_setup"])
+def test_every_program_starts_as_a_module(name):
+    done = subprocess.run([sys.executable, "-m", f"benchmarks.{name}", "--help"], cwd=REPO,
+                          capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert done.stdout.startswith("usage:")
+
+
+def test_random_spheres_do_not_overlap_and_stay_in_their_box():
+    spheres = scenes.random_spheres(500, seed=3, low=(-5.0, 0.0, -6.0), high=(5.0, 5.0, 3.0))
+    assert len(spheres) == 500
+    for s in spheres:
+        assert all(lo <= c - s.radius and c + s.radius <= hi
+                   for c, lo, hi in zip(s.center, (-5.0, 0.0, -6.0), (5.0, 5.0, 3.0)))
+    for a_index, a in enumerate(spheres):
+        for b in spheres[a_index + 1:]:
+            gap = sum((x - y) ** 2 for x, y in zip(a.center, b.center)) ** 0.5
+            assert gap >= a.radius + b.radius
+    shared = scenes.random_spheres(200, materials=4, reflect=0.3)
+    assert len({s.material for s in shared}) <= 4
+    assert {s.material.reflect for s in shared} == {0.0, 0.3}
