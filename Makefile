@@ -10,7 +10,7 @@ STAMP   := $(VENV)/.installed
 SCENES  := $(wildcard scenes/*.scn)
 OUT     := out
 
-.PHONY: all demo test bench scenes setup llvm povray chromium clean
+.PHONY: all demo test bench scenes setup llvm povray chromium clean images
 
 all: demo
 
@@ -54,6 +54,10 @@ demo: scenes
 	done
 	@echo "demo images in $(OUT)/demo/: NAME.png and NAME.exr (the article's model), NAME-path.png (Mitsuba's path tracer, 64 spp)"
 
+# The README's first picture: scenes/spheres.scn with the article's model and the path tracer.
+images: setup
+	$(PY) docs/images/first_look.py
+
 # Debian's Chromium, for the browser test of `whitted compare`'s report page
 # (tests/test_compare_page.py skips it without one): installed when missing and
 # allowed (root, apt-get, no $WHITTED_NO_APT), as the llvm step installs libllvm19.
@@ -76,12 +80,14 @@ povray: $(STAMP)
 	@$(PY) benchmarks/povray.py --install
 
 # Speed against Mitsuba's own integrators and the ray-casting floor, then against POV-Ray 3.7
-# on the sphereflake, levels 1-6 on floors of radius 10^3 and 10^4 (benchmarks/RESULTS.md); `make bench
-# BENCHFLAGS=--quick` for a short run (levels 1-3).
+# on the sphereflake, levels 1-6 on floors of radius 10^3 and 10^4 (benchmarks/RESULTS.md), then
+# a 48-frame sequence by POV-Ray and whitted a process per frame against `whitted render FRAMES/`
+# in one process (benchmarks/frames.py); `make bench BENCHFLAGS=--quick` for a short run.
 BENCHFLAGS ?=
 bench: setup povray
 	$(PY) benchmarks/run.py $(BENCHFLAGS)
 	$(PY) benchmarks/vs_povray.py $(BENCHFLAGS)
+	$(PY) benchmarks/frames.py $(BENCHFLAGS)
 
 clean:
 	rm -rf $(OUT) .pytest_cache .hypothesis

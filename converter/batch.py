@@ -6,14 +6,19 @@ what failed, and leave nothing half-written. This module decides the pairs
 same XML, an output that would overwrite its input) is reported before any
 file is touched, and converts each pair atomically. It imports neither
 Mitsuba nor Dr.Jit: conversion is text in, text out.
+
+``whitted render SCENE|FOLDER ... -o OUT/`` names its images by the same rules
+(:func:`plan` with the image's suffix, :func:`prepare_folders`): what a user
+learnt of one command holds for the other.
 """
 
 from __future__ import annotations
 
 import os
+import sys
 from pathlib import Path
 
-from ..atomic import atomic_path
+from ..atomic import atomic_path, check_folder, check_folder_creatable, writable_folder
 from ..errors import WhittedError
 from .description import describe, meshes
 from .frame import warn_precision
@@ -42,31 +47,40 @@ def folder_scenes(folder: Path, accepted: tuple[str, ...] = (SCENE_SUFFIX,)) -> 
     return []
 
 
-def plan(inputs: list[str | os.PathLike], output: str | os.PathLike | None = None,
-         suffix: str = XML_SUFFIX) -> list[tuple[Path, Path]]:
-    """The (source, target) pairs of a conversion.
+def names_folder(inputs: list[str | os.PathLike], output: str | os.PathLike | None) -> bool:
+    """Whether ``output`` (``-o``) names the folder that receives every output, rather than
+    the one output file: several inputs, a folder among them, an existing folder, or a
+    trailing path separator."""
+    if output is None:
+        return False
+    return (len(inputs) != 1 or Path(inputs[0]).is_dir() or Path(output).is_dir()
+            or str(output).endswith(("/", os.sep)))
 
-    Each input is a ``.scn`` file or a folder (its ``.scn`` files). Without
+
+def plan(inputs: list[str | os.PathLike], output: str | os.PathLike | None = None,
+         suffix: str = XML_SUFFIX, accepted: tuple[str, ...] = (SCENE_SUFFIX,)) -> list[tuple[Path, Path]]:
+    """The (source, target) pairs of a conversion (or of a render: ``suffix`` ".png").
+
+    Each input is a ``.scn`` file or a folder (its ``.scn`` files; ``accepted``: the
+    suffixes a folder is searched for, see :func:`folder_scenes`). Without
     ``output`` every ``X.scn`` becomes ``X.xml`` (``X`` + ``suffix``) beside it.
     With one input file, ``output`` names the XML file, unless it is an existing
-    folder or ends with a path separator; otherwise it is the folder that
-    receives every ``X.xml``.
+    folder or ends with a path separator (:func:`names_folder`); otherwise it is the
+    folder that receives every ``X.xml``.
     """
     if not inputs:
-        raise WhittedError("no scene given: name .scn files or folders")
+        raise WhittedError("no scene given: name scene files or folders")
     sources: list[Path] = []
-    single_file = len(inputs) == 1
     for item in map(Path, inputs):
         if item.is_dir():
-            found = folder_scenes(item)
+            found = folder_scenes(item, accepted)
             if not found:
-                raise WhittedError(f"{item}: no {SCENE_SUFFIX} files in this folder")
+                raise WhittedError(f"{item}: no {' or '.join(accepted)} files in this folder")
             sources.extend(found)
-            single_file = False
         else:
             sources.append(item)   # a missing or unreadable file is reported when converted
     out = None if output is None else Path(output)
-    into_folder = out is not None and (not single_file or out.is_dir() or str(output).endswith(("/", os.sep)))
+    into_folder = names_folder(inputs, output)
     pairs, seen = [], {}
     for source in sources:
         if out is None:
@@ -78,12 +92,40 @@ def plan(inputs: list[str | os.PathLike], output: str | os.PathLike | None = Non
         key = os.path.abspath(target)
         if key in seen and os.path.abspath(seen[key]) != os.path.abspath(source):
             raise WhittedError(f"{target}: both {seen[key]} and {source} would be written here; "
-                               "convert them into separate folders")
+                               "give them separate output folders")
         if os.path.abspath(source) == key:
             raise WhittedError(f"{source}: output would overwrite the input; choose another with -o")
         seen[key] = source
         pairs.append((source, target))
     return pairs
+
+
+def mesh_note(target: Path, written: list) -> str:
+    """The one line that names the mesh files written beside ``target``, and why."""
+    size = sum(len(mesh.data) for mesh in written)
+    names = ", ".join(mesh.filename for mesh in written[:3]) + (", …" if len(written) > 3 else "")
+    return (f"whitted: note: wrote {names} ({size / 1e6:.1f} MB) beside {target.name}: the scene's "
+            f"{'giant sphere as a closed mesh' if len(written) == 1 else 'giant spheres as closed meshes'} "
+            f"for Mitsuba's path tracer, which float32 spheres that large would speckle "
+            f"(docs/numerics.md, hazard 14)")
+
+
+def prepare_folders(targets: list[Path], output: str | os.PathLike | None) -> None:
+    """Check every folder the ``targets`` go to before the first is written, creating the
+    one ``output`` (``-o``) names. One rule: an -o that names a folder (several inputs, or
+    a trailing /) is created when missing; the folder of an -o that names a file must
+    exist. Errors name the user's paths."""
+    named_folder = Path(output) if output else None
+    folders = sorted({target.parent for target in targets})
+    for folder in folders:
+        inside = [target for target in targets if target.parent == folder]
+        named = inside[0] if len(inside) == 1 else folder
+        if folder == named_folder and not folder.exists():
+            check_folder_creatable(folder)
+        else:
+            check_folder(folder, named)
+    if named_folder in folders:
+        writable_folder(named_folder)
 
 
 def convert_file(source: Path, target: Path, portable: bool = False) -> None:
@@ -96,9 +138,12 @@ def convert_file(source: Path, target: Path, portable: bool = False) -> None:
         raise WhittedError(f"{target}: is a folder; give the output file's name")
     description = describe(scene, base_dir=target.parent, block=True)
     warn_precision(scene)
-    for mesh in meshes(description):   # giant spheres' meshes (.giants), before the XML that names them
+    written = meshes(description)
+    for mesh in written:   # giant spheres' meshes (.giants), before the XML that names them
         with atomic_path(target.parent / mesh.filename) as tmp:
             tmp.write_bytes(mesh.data)
+    if written:   # files the user did not ask for, some of them large: say what and why
+        print(mesh_note(target, written), file=sys.stderr)
     # atomic, written as it is made (a scene of a million spheres makes 150 MB of XML);
     # an OS error comes back as a one-line WhittedError
     with atomic_path(target) as tmp, open(tmp, "w", encoding="utf-8") as file:

@@ -22,6 +22,7 @@ readers of the XML. A scene without giant spheres has no ``exact_spheres``.
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import math
 import os
@@ -333,12 +334,22 @@ def ply_bytes(positions, normals, faces) -> bytes:
     return header.encode("ascii") + vertices.tobytes() + face_records.tobytes()
 
 
+#: meshes kept in memory (each a few MB): the frames of an animation rendered in one process
+#: (``whitted render FRAMES/ -o OUT/``) mostly share their floor, eye and lookat
+MESH_MEMORY = 4
+
+
 def mesh_bytes(sphere: Sphere, origin: Vec3, eye: Vec3, lookat: Vec3) -> bytes:
     """The PLY file of ``sphere``'s mesh (:func:`sphere_mesh`) in the frame of ``origin``."""
-    center = tuple(c - o for c, o in zip(sphere.center, origin))
-    eye = tuple(c - o for c, o in zip(eye, origin))
+    center = tuple(float(c - o) for c, o in zip(sphere.center, origin))
+    eye = tuple(float(c - o) for c, o in zip(eye, origin))
     view = sum((a - b) ** 2 for a, b in zip(eye, (c - o for c, o in zip(lookat, origin)))) ** 0.5
-    return ply_bytes(*sphere_mesh(center, sphere.radius, eye, view))
+    return _mesh_bytes(center, float(sphere.radius), eye, float(view))
+
+
+@functools.lru_cache(maxsize=MESH_MEMORY)
+def _mesh_bytes(center: Vec3, radius: float, eye: Vec3, view: float) -> bytes:
+    return ply_bytes(*sphere_mesh(center, radius, eye, view))
 
 
 def cache_folder() -> Path:

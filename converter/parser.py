@@ -281,6 +281,10 @@ def suggest(word: str, known) -> str:
     return "; known names: " + ", ".join(known)
 
 
+class _PartsFailed(Exception):
+    """A statement failed in parts whose errors :meth:`_Parser.part` has noted already."""
+
+
 class _Parser:
     def __init__(self, source: Path):
         self.source = source
@@ -297,6 +301,22 @@ class _Parser:
 
     def fail(self, message: str):
         raise SceneError(self.source, self.line, message)
+
+    def part(self, check, *args):
+        """``check(*args)``, one independent part of a statement (a sphere's center, its
+        radius, one attribute's values): its problem is noted and None returned, so that
+        the statement's other parts are still checked and one line reports every error
+        (:meth:`settle` then fails the statement)."""
+        try:
+            return check(*args)
+        except SceneError as error:
+            self.errors.append((error.line, error.message))
+            return None
+
+    def settle(self, errors_before: int) -> None:
+        """Fail the statement (its errors already noted) if a :meth:`part` of it failed."""
+        if len(self.errors) > errors_before:
+            raise _PartsFailed
 
     # ---- values
 
@@ -375,6 +395,8 @@ class _Parser:
             self._statement(line, tokens)
         except SceneError as error:
             self.errors.append((error.line, error.message))
+            self.failed.add(tokens[0].text.lower())
+        except _PartsFailed:   # its errors are noted already
             self.failed.add(tokens[0].text.lower())
 
     def _statement(self, line: int, tokens: list[Token]) -> None:
@@ -741,11 +763,22 @@ class _Parser:
 
     def statement_light(self, args):
         self.count("light", args, "X Y Z [R G B]", 3, 6)
-        position = self.vector(args[:3], "light position")
-        color = self.vector(args[3:], "light color") if len(args) == 6 else (1, 1, 1)
-        for value, token in zip(color, args[3:]):
-            self.in_range(value, token.text, "light color", 0, None)
+        errors = len(self.errors)
+        position = self.part(self.vector, args[:3], "light position")
+        color = self.part(self.light_color, args[3:]) if len(args) == 6 else (1, 1, 1)
+        self.settle(errors)
         self.scene.lights.append(Light(_floats(position), _floats(color), line=self.line))
+
+    def light_color(self, args):
+        color = self.vector(args, "light color")
+        for value, token in zip(color, args):
+            self.in_range(value, token.text, "light color", 0, None)
+        return color
+
+    def sphere_radius(self, token):
+        radius = self.number(token, "sphere radius")
+        self.positive(radius, token.text, "sphere radius")
+        return radius
 
     def statement_sphere(self, args):
         numbers = 0
@@ -757,10 +790,11 @@ class _Parser:
             self.fail(f"sphere takes 4 numbers (CX CY CZ RADIUS), got {numbers}")
         if numbers > 4:
             self.fail(f"sphere takes 4 numbers (CX CY CZ RADIUS) before its attributes, got {numbers}")
-        center = self.vector(args[:3], "sphere center")
-        radius = self.number(args[3], "sphere radius")
-        self.positive(radius, args[3].text, "sphere radius")
+        errors = len(self.errors)
+        center = self.part(self.vector, args[:3], "sphere center")
+        radius = self.part(self.sphere_radius, args[3])
         values = self.attributes(args[4:])
+        self.settle(errors)
 
         kr, kt = values.get("reflect", (0,))[0], values.get("refract", (0, 1))[0]
         if kr + kt > 1:
@@ -811,7 +845,7 @@ class _Parser:
                 self.fail(f"sphere {name} takes {len(names)} "
                           f"{'value' if len(names) == 1 else 'values'} ({' '.join(names)}), "
                           f"got {len(given)}")
-            values[name] = getattr(self, f"attribute_{name}")(given)
+            values[name] = self.part(getattr(self, f"attribute_{name}"), given)
             i += 1 + len(names)
         return values
 

@@ -14,6 +14,28 @@ REPO = Path(__file__).resolve().parent.parent
 VARIANTS = ("scalar_rgb", "llvm_ad_rgb")
 
 
+@pytest.fixture(scope="session", autouse=True)
+def user_cache(tmp_path_factory):
+    """The tests' user cache folder ($XDG_CACHE_HOME: where ``whitted compare`` keeps its
+    references by default), never the real one: a session's own, which module fixtures
+    share; each test then gets one of its own (:func:`own_user_cache`)."""
+    import os
+    before = os.environ.get("XDG_CACHE_HOME")
+    os.environ["XDG_CACHE_HOME"] = str(tmp_path_factory.mktemp("xdg-cache"))
+    yield
+    if before is None:
+        os.environ.pop("XDG_CACHE_HOME", None)
+    else:
+        os.environ["XDG_CACHE_HOME"] = before
+
+
+@pytest.fixture(autouse=True)
+def own_user_cache(tmp_path_factory, monkeypatch):
+    """Each test starts with an empty user cache, so that a reference is rendered unless the
+    test itself cached it (subprocesses inherit the variable)."""
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path_factory.mktemp("xdg-cache")))
+
+
 @pytest.fixture(autouse=True)
 def restore_variant():
     """Every test leaves Mitsuba's variant as it found it."""

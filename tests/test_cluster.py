@@ -56,9 +56,10 @@ sphere 0 -101 0 100 color 0.8 0.8 0.8
 }
 #: One reference is 4 chunks of 64 spp: on a cluster they run on several workers.
 OPTIONS = ["--reference-spp", "256", "--reference-chunk-spp", "64", "--depths", "1,2",
-           "--spp", "1", "--path-spp", "1,16", "--repeats", "1", "-q"]
-#: the columns that may differ between runs: times, and who rendered
-VARYING = {"seconds", "seconds_min", "seconds_max", "seconds_each", "compile_seconds", "worker"}
+           "--spp", "1", "--path-spp", "1,16", "--rounds", "1", "-q"]
+#: the columns that may differ between runs: times, how many rounds timed them (more while a
+#: headline is unsettled), and who rendered
+VARYING = {"seconds", "seconds_min", "seconds_max", "seconds_each", "compile_seconds", "repeats", "worker"}
 
 
 def read_rows(path: Path) -> list[dict]:
@@ -95,7 +96,7 @@ def scenes(tmp_path_factory) -> Path:
 def in_process(scenes, tmp_path_factory) -> Path:
     """The expectation: the comparison run in this process, as without a cluster."""
     out = tmp_path_factory.mktemp("in-process")
-    assert main(["compare", str(scenes), "--out", str(out), *OPTIONS]) == 0
+    assert main(["compare", str(scenes), "--out", str(out), "--cache", str(out / "references"), *OPTIONS]) == 0
     return out
 
 
@@ -224,7 +225,7 @@ def test_threads_are_the_host_cores_shared_among_its_workers():
 def test_local_cluster_writes_the_in_process_results(scenes, in_process, tmp_path):
     out = tmp_path / "out"
     before = children()
-    assert main(["compare", str(scenes), "--out", str(out), "--workers", "2", *OPTIONS]) == 0
+    assert main(["compare", str(scenes), "--out", str(out), "--cache", str(out / "references"), "--workers", "2", *OPTIONS]) == 0
     rows, expected = read_rows(out / "results.csv"), read_rows(in_process / "results.csv")
     assert comparable(rows) == comparable(expected)
     assert {r["worker"] for r in expected} == {"in-process"}
@@ -245,7 +246,7 @@ def test_local_cluster_chunks_a_reference_under_a_budget(scenes, tmp_path):
     import json
     out = tmp_path / "out"
     before = children()
-    assert main(["compare", str(scenes), "--out", str(out), "--workers", "2", "--budget", "300",
+    assert main(["compare", str(scenes), "--out", str(out), "--cache", str(out / "references"), "--workers", "2", "--budget", "300",
                  *OPTIONS]) == 0
     assert {r["scene"] for r in read_rows(out / "results.csv")} == set(SCENES)
     infos = [json.loads(p.read_text()) for p in (out / "references").glob("*.json")]
@@ -306,7 +307,7 @@ def test_cluster_with_a_worker_killed_mid_run_writes_the_in_process_results(
 
     address, workers = dask_cluster
     out = tmp_path / "out"
-    run = subprocess.Popen([sys.executable, "-m", "whitted", "compare", str(scenes), "--out", str(out),
+    run = subprocess.Popen([sys.executable, "-m", "whitted", "compare", str(scenes), "--out", str(out), "--cache", str(out / "references"),
                             "--scheduler", address, *OPTIONS],
                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     killed = sweep = None
@@ -366,8 +367,8 @@ def test_ctrl_c_stops_the_local_cluster_in_one_line(attempt, scenes, tmp_path, b
         (folder / scene.name).write_text(scene.read_text())
     (folder / "slow.scn").write_text(SLOW_SCENE)
     out = tmp_path / "out"
-    run = subprocess.Popen([sys.executable, "-m", "whitted", "compare", str(folder), "--out", str(out),
-                            "--workers", "2", *OPTIONS[:-1], "--path-spp", "1,64", "--repeats", "3",
+    run = subprocess.Popen([sys.executable, "-m", "whitted", "compare", str(folder), "--out", str(out), "--cache", str(out / "references"),
+                            "--workers", "2", *OPTIONS[:-1], "--path-spp", "1,64", "--rounds", "3",
                             "-q"],
                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                            start_new_session=True)
@@ -413,7 +414,7 @@ def test_unreachable_scheduler_is_one_line_before_any_work(scenes, tmp_path, cap
     for address, message in [(f"tcp://127.0.0.1:{free_port()}", "cannot reach the Dask scheduler"),
                              ("127.0.0.1", "not a Dask scheduler address")]:
         out = tmp_path / "out"
-        assert main(["compare", str(scenes), "--out", str(out), "--scheduler", address, "-q"]) == 2
+        assert main(["compare", str(scenes), "--out", str(out), "--cache", str(out / "references"), "--scheduler", address, "-q"]) == 2
         err = capsys.readouterr().err
         assert err.startswith(f"whitted: error: {address}: {message}") and err.count("\n") == 1
         assert not out.exists()

@@ -469,3 +469,30 @@ def test_cli_names_file_and_line_for_each_error_class(write_scene, capsys, conte
     err = capsys.readouterr().err
     assert f"{scene}:{line}: " in err and err.count("\n") == 1
     assert not scene.with_suffix(".xml").exists()
+
+
+def test_convert_names_the_mesh_files_it_writes_and_why(write_scene, tmp_path, capsys):
+    scene = write_scene("light 5 5 5\nsphere 0 -100000 0 100000 color 0.5 0.5 0.5\nsphere 0 0 0 1\n",
+                        "floor.scn")
+    assert convert(scene) == 0
+    err = capsys.readouterr().err.strip().splitlines()
+    meshes = sorted(p.name for p in tmp_path.glob("floor.sphere_*.ply"))
+    assert meshes == ["floor.sphere_0.ply"]
+    size = (tmp_path / meshes[0]).stat().st_size
+    assert len(err) == 1 and "floor.sphere_0.ply" in err[0] and f"{size / 1e6:.1f} MB" in err[0]
+    assert "giant sphere" in err[0] and "path tracer" in err[0]
+
+
+def test_a_converted_scene_s_missing_texture_is_not_taken_from_the_current_folder(
+        write_scene, texture_png, tmp_path, monkeypatch, capsys):
+    texture_png("scenes/earth.png")
+    scene = write_scene("light 5 5 5\nsphere 0 0 0 1 texture earth.png\n", "scenes/t.scn")
+    assert convert(scene) == 0
+    (tmp_path / "scenes" / "earth.png").rename(tmp_path / "earth.png")   # now only in the current folder
+    monkeypatch.chdir(tmp_path)
+    capsys.readouterr()
+    assert main(["render", "scenes/t.xml", "-o", "out.png", "-q"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err == ("whitted: error: scenes/t.xml: the file it names, earth.png, does not exist "
+                   f"(looked for {Path('scenes') / 'earth.png'})")
+    assert not (tmp_path / "out.png").exists()

@@ -143,8 +143,8 @@ def test_compare_keeps_what_finished_and_says_it_is_partial(small_scene, tmp_pat
     import json
 
     out = tmp_path / "cmp"
-    process = start(["compare", str(small_scene), "--out", str(out), "--reference-spp", "16",
-                     "--repeats", "30", "--depths", "1-8", "--spp", "1,4,16", "--path-spp", "1"], tmp_path)
+    process = start(["compare", str(small_scene), "--out", str(out), "--cache", str(out / "references"), "--reference-spp", "16",
+                     "--rounds", "30", "--depths", "1-8", "--spp", "1,4,16", "--path-spp", "1"], tmp_path)
     err = Lines(process.stderr)
     renders = out / "renders" / "small"
     # a render's files are written before it is counted: a fourth render's files mean that
@@ -178,7 +178,7 @@ def test_compare_interrupted_during_the_reference_says_nothing_was_measured(smal
 
     out = tmp_path / "cmp"
     # a reference of 4M spp in chunks of 1024: minutes of work, interrupted in its first chunks
-    process = start(["compare", str(small_scene), "--out", str(out), "--reference-spp", str(1 << 22),
+    process = start(["compare", str(small_scene), "--out", str(out), "--cache", str(out / "references"), "--reference-spp", str(1 << 22),
                      "--depths", "1", "--spp", "1", "--path-spp", "1"], tmp_path)
     err = Lines(process.stderr)
     wait_for(process, lambda: any("rendering the reference" in line for line in err.lines),

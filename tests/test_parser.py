@@ -799,3 +799,21 @@ def test_minweight_reaches_the_integrator_through_the_xml():
     plain = mi.load_string(scene_to_xml(parse("size 4 4\n"), base_dir=None))
     assert plain.integrator().min_weight == defaults.MIN_WEIGHT
     assert 'name="min_weight"' not in scene_to_xml(parse("size 4 4\n"), base_dir=None)
+
+
+def test_every_error_of_a_statement_is_reported():
+    """A bad radius does not hide a bad color on the same line: each independent part of a
+    statement (center, radius, each attribute; a light's position and color) is checked."""
+    error = error_of("light 5 5 5 -1 0 0\n"
+                     "sphere 0 0 0 -0.5 color 1.2 0 0 reflect 2\n"
+                     "sphere 0 0 0 1 refract 0.5 0 north 0 0 0\n")
+    assert [(line, message) for _, line, message in error.errors] == [
+        (1, "light color must be >= 0, got -1"),
+        (2, "sphere radius must be > 0, got -0.5"),
+        (2, "sphere color must be >= 0 and <= 1, got 1.2"),
+        (2, "sphere reflect must be >= 0 and <= 1, got 2"),
+        (3, "sphere refract IOR must be > 0, got 0"),
+    ]
+    # the checks across a statement's parts run once its parts are good
+    assert_error("sphere 0 0 0 1 reflect 0.6 refract 0.6 1.5\n", 1,
+                 "sphere reflect + refract must be <= 1, got 0.6 + 0.6")

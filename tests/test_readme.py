@@ -1,16 +1,23 @@
-"""Every command and code block in README.md runs as written.
+"""Every command and code block in README.md and docs/*.md runs as written.
 
-The README is what a new user tries first, so each of its blocks is executed
-here, in a fresh process, from a folder laid out like the repository
-(``scenes/`` and ``scenes_xml/``, default and portable XML) whose scenes are the project's examples shrunk
-to a few pixels, so that the whole README runs in seconds:
+The README is what a new user tries first, and docs/ where they go next, so each
+of their blocks is executed here, in a fresh process, from a folder laid out like
+the repository (``scenes/`` and ``scenes_xml/``, default and portable XML) whose
+scenes are the project's examples shrunk to a few pixels, so that it all runs in
+seconds (README first, then docs/ by name):
 
 * ``sh`` blocks: every line is run by the shell as written (``make`` lines are
   the suite's own entry point and are checked with ``make -n`` instead);
 * ``python`` blocks: run by the project's interpreter;
 * ``json`` blocks: the documented ``--stats`` file has exactly the keys a real
   ``--stats`` file has;
-* untagged blocks: scene files, which must parse.
+* untagged blocks: scene files, which must parse;
+* ``text`` blocks: listings (signatures, a command's synopsis, JSON with comments),
+  shown and not run; no other kind of block is allowed.
+
+The README's first screen, up to its first link into docs/, is at most
+:data:`FIRST_SCREEN` lines: what whitted is, a picture, the two commands, a few
+command lines and a Python block.
 """
 
 from __future__ import annotations
@@ -29,14 +36,27 @@ from whitted.converter import parse_text
 
 REPO = Path(__file__).resolve().parent.parent
 README = REPO / "README.md"
+#: Every file whose blocks must run: the README, then docs/ by name.
+DOCUMENTS = [README, *sorted((REPO / "docs").glob("*.md"))]
 SMALL = "size 24 16"
+#: The most lines the README may take before its first link into docs/.
+FIRST_SCREEN = 80
+KINDS = ("sh", "python", "json", "", "text")
+
+
+def all_blocks() -> list[tuple[str, str, str]]:
+    """Every fenced code block of :data:`DOCUMENTS` as (file name, language, text)."""
+    found = []
+    for document in DOCUMENTS:
+        text = document.read_text(encoding="utf-8")
+        found += [(document.relative_to(REPO).as_posix(), m.group(1), m.group(2))
+                  for m in re.finditer(r"^```(\w*)\n(.*?)^```", text, re.S | re.M)]
+    return found
 
 
 def blocks(kind: str) -> list[str]:
-    """The README's fenced code blocks of language ``kind`` ('' for untagged ones)."""
-    text = README.read_text(encoding="utf-8")
-    return [m.group(2) for m in re.finditer(r"^```(\w*)\n(.*?)^```", text, re.S | re.M)
-            if m.group(1) == kind]
+    """The fenced code blocks of language ``kind`` ('' for untagged ones), README first."""
+    return [text for _, language, text in all_blocks() if language == kind]
 
 
 def shell_lines() -> list[str]:
@@ -51,7 +71,8 @@ def shell_lines() -> list[str]:
 
 @pytest.fixture(scope="module")
 def workdir(tmp_path_factory):
-    """A folder like the repository's, its example scenes shrunk to 24x16 pixels."""
+    """A folder like a fresh clone of the repository (no out/), its example scenes shrunk to
+    24x16 pixels. The shell lines run in it one after the other, as a user types them."""
     root = tmp_path_factory.mktemp("readme")
     shutil.copytree(REPO / "scenes", root / "scenes",
                     ignore=shutil.ignore_patterns("*.xml", "__pycache__"))
@@ -65,7 +86,7 @@ def workdir(tmp_path_factory):
     for portable in ([], ["--portable"]):
         subprocess.run([sys.executable, "-m", "whitted", "convert", "scenes", "-o", "scenes_xml", *portable],
                        cwd=root, env=env, check=True)
-    (root / "out").mkdir()   # as `make demo`, the README's first command, leaves it
+    # No out/: the README's blocks must run from a fresh clone, before `make demo` makes it.
     # A checkout of its own, ignoring what the repository ignores: the README's commands
     # must leave `git status` clean (their outputs under out/ or ignored).
     shutil.copy(REPO / ".gitignore", root / ".gitignore")
@@ -87,8 +108,23 @@ def environment() -> dict:
     return env
 
 
-def test_the_readme_has_blocks_of_every_kind():
+def test_the_documents_have_blocks_of_every_kind_and_no_other():
     assert shell_lines() and blocks("python") and blocks("json") and blocks("")
+    assert {(name, language) for name, language, _ in all_blocks() if language not in KINDS} == set()
+
+
+def test_the_readme_s_first_screen_starts_a_newcomer():
+    """Up to its first link into docs/ (a link, not the picture), the README says what
+    whitted is, shows a render, gives the two commands, command lines and Python."""
+    lines = README.read_text(encoding="utf-8").splitlines()
+    first = next(i for i, line in enumerate(lines) if re.search(r"(?<!!)\[[^\]]*\]\(docs/", line))
+    screen = "\n".join(lines[:first])
+    assert first <= FIRST_SCREEN, f"the first link into docs/ is on line {first + 1}"
+    picture = re.search(r"!\[[^\]]*\]\((docs/images/[^)]+\.png)\)", screen)
+    assert picture and (REPO / picture.group(1)).is_file()
+    assert "make demo" in screen and "make test" in screen
+    commands = [line for line in screen.splitlines() if line.startswith("whitted ")]
+    assert len(commands) >= 5 and "```python" in screen
 
 
 @pytest.mark.parametrize("command", [c for c in shell_lines() if c.startswith("make ")])
@@ -106,18 +142,30 @@ def test_shell_command_runs_as_written(command, workdir):
     assert untracked(workdir) == "", command
 
 
+@pytest.fixture
+def fresh_clone(workdir, tmp_path):
+    """A copy of the clone as it was made: without out/ or anything else the shell lines
+    wrote (each Python block must run on its own, before `make demo`)."""
+    clone = tmp_path / "clone"
+    shutil.copytree(workdir, clone, symlinks=True, ignore=shutil.ignore_patterns("out"))
+    subprocess.run(["git", "clean", "-qfdx"], cwd=clone, check=True)
+    assert not (clone / "out").exists()
+    return clone
+
+
 @pytest.mark.parametrize("index", range(len(blocks("python"))))
-def test_python_block_runs_as_written(index, workdir):
+def test_python_block_runs_as_written(index, fresh_clone):
     code = blocks("python")[index]
-    run = subprocess.run([sys.executable, "-c", code], cwd=workdir, env=environment(),
+    run = subprocess.run([sys.executable, "-c", code], cwd=fresh_clone, env=environment(),
                          capture_output=True, text=True, timeout=600)
     assert run.returncode == 0, f"{code}\n{run.stderr}"
-    assert untracked(workdir) == "", code
+    assert untracked(fresh_clone) == "", code
 
 
 def test_documented_stats_have_the_real_keys(workdir):
-    documented = json.loads(blocks("json")[0])
+    documented = next(block for block in map(json.loads, blocks("json")) if "rays" in block)
     out = workdir / "out" / "readme-stats.json"
+    out.parent.mkdir(exist_ok=True)
     subprocess.run([sys.executable, "-m", "whitted", "render", "scenes/tir.scn", "-o",
                     str(workdir / "out" / "readme-stats.png"), "--stats", str(out), "-q"],
                    cwd=workdir, env=environment(), check=True)
@@ -128,5 +176,5 @@ def test_documented_stats_have_the_real_keys(workdir):
 
 @pytest.mark.parametrize("index", range(len(blocks(""))))
 def test_scene_blocks_parse(index):
-    scene = parse_text(blocks("")[index], "README.md")
+    scene = parse_text(blocks("")[index], "a scene block")
     assert scene.spheres or scene.lights

@@ -161,7 +161,6 @@ def test_bad_input_fails_cleanly_and_writes_nothing(case, scene_xml, tmp_path, c
 
 
 @pytest.mark.parametrize("output, message", [
-    ("{tmp}", "{tmp}: is a folder; give a file name"),
     ("/dev/full", "/dev/full: is not a regular file"),
     ("/proc/x.png", "/proc/x.png: cannot write in /proc"),
     ("{tmp}/no/x.png", "{tmp}/no/x.png: output folder {tmp}/no does not exist"),
@@ -172,6 +171,16 @@ def test_output_path_errors_say_what_is_wrong_with_the_path(output, message, sce
     err = capsys.readouterr().err
     assert err.startswith("whitted: error: " + message.format(tmp=tmp_path)) and err.count("\n") == 1
     assert files(tmp_path) == before
+
+
+def test_an_existing_folder_receives_the_image_named_after_the_scene(scene_xml, tmp_path, capsys):
+    """-o naming a folder means what it means to convert: the image goes into it, as
+    FOLDER/NAME.png (it used to be an error: "is a folder")."""
+    folder = tmp_path / "images"
+    folder.mkdir()
+    assert render(scene_xml, "-o", folder, "-q") == 0
+    assert files(folder) == ["scene.png"]
+    assert capsys.readouterr().err.startswith("whitted: rendered 1 of 1 scenes")
 
 
 def test_an_unknown_option_shows_the_commands_own_usage(scene_xml, tmp_path):

@@ -15,8 +15,9 @@ user needs still happens on its own, through Mitsuba's own hooks:
   (``mitsuba.detail.add_variant_callback``), so that ``mi.load_file`` reads
   XML files that name them.
 
-The rendering API (:func:`load_scene`, :func:`render`, :func:`write_image`,
-:func:`read_image`, :func:`set_variant`) is loaded on first use.
+The rendering API (:func:`load_scene`, :func:`loads`, :func:`render`, :func:`render_scenes`
+for many scene files, :func:`write_image`, :func:`read_image`, :func:`to_srgb`,
+:func:`set_variant`) is loaded on first use.
 """
 
 from __future__ import annotations
@@ -34,10 +35,13 @@ _prepare_llvm()  # only sets an environment variable: Dr.Jit reads it when it st
 #: public name -> (module, attribute): the API, imported on first use
 _LAZY = {
     "load_scene": ("whitted.loading", "load_scene"),
+    "loads": ("whitted.loading", "loads"),
     "render": ("whitted.rendering", "render"),
+    "render_scenes": ("whitted.batch", "render_scenes"),
     "RenderResult": ("whitted.rendering", "RenderResult"),
     "write_image": ("whitted.imageio", "write_image"),
     "read_image": ("whitted.imageio", "read_image"),
+    "to_srgb": ("whitted.display", "to_srgb"),
     "set_variant": ("whitted.variant", "set_variant"),
 }
 

@@ -41,6 +41,21 @@ def atomic_path(target: str | os.PathLike):
         raise
 
 
+def leftovers(target: str | os.PathLike) -> list[Path]:
+    """The temporary files of :func:`atomic_path` for ``target`` that a writer killed
+    outright (SIGKILL, a lost machine) left beside it; a writer that is stopped any other
+    way removes its own. Only whoever knows that no writer of ``target`` is running may
+    delete them (``whitted render`` on a cluster, once every task has ended)."""
+    target = Path(target)
+    folder = target.parent if str(target.parent) else Path(".")
+    prefix, suffix = f".{target.name}.", target.suffix or ".tmp"
+    try:
+        return [p for p in folder.iterdir() if p.name.startswith(prefix) and p.name.endswith(suffix)
+                and len(p.name) > len(prefix) + len(suffix)]
+    except OSError:
+        return []
+
+
 def check_writable(target: str | os.PathLike, inputs: tuple = ()) -> Path:
     """Fail now, with one clear line naming ``target``, if it could not be written later.
 

@@ -16,10 +16,14 @@ import argparse
 import os
 import sys
 
-from .defaults import INTEGRATOR, INTEGRATORS, LIGHTING_MODES, VERSION
+from .defaults import INTEGRATOR, INTEGRATORS, LIGHTING_MODES, PATH_MIN_SPP, VERSION, VIEWS
+from .defaults import DEFAULT_FPS, IMAGE_FORMATS as FORMATS
 from .defaults import VARIANTS as SUPPORTED_VARIANTS
 from . import interrupt
 from .errors import EXIT_USER_ERROR, WhittedError, report
+
+#: Options a user may try from the scene format's keywords, and the option that does it.
+SCENE_KEYWORD_OPTIONS = {"--samples": "--spp", "--depth": "--max-depth", "--minweight": "--min-weight"}
 
 
 
@@ -28,9 +32,14 @@ def _convert(args: argparse.Namespace) -> int:
     return convert_command(args)
 
 
-def _render(args: argparse.Namespace) -> None:
+def _render(args: argparse.Namespace) -> int:
     from .commands import render_command
-    render_command(args)
+    return render_command(args)
+
+
+def _video(args: argparse.Namespace) -> None:
+    from .video import video_command
+    video_command(args)
 
 
 def _compare(args: argparse.Namespace) -> None:
@@ -69,12 +78,38 @@ def build_parser() -> argparse.ArgumentParser:
     convert.set_defaults(run=_convert, parser=convert)
 
     render = sub.add_parser(
-        "render", help="render a .scn or .xml scene to EXR or PNG",
+        "render", help="render .scn or .xml scenes to EXR or PNG (one, or folders of them)",
         description="Render a scene with the article's Whitted model (default) or Mitsuba's "
-                    "path tracer. EXR stores linear RGB; PNG stores sRGB clipped to [0, 1].")
-    render.add_argument("scene", help="the scene (.scn or converted .xml)")
+                    "path tracer. EXR stores linear RGB as rendered; PNG stores what is displayed: "
+                    "8-bit sRGB after --exposure and a view transform (--view; the article's model: "
+                    "clipped to [0, 1], physically lit and path-traced images: tone-mapped). "
+                    "Several scenes, or folders of them (their .scn files, else their .xml), "
+                    "render in one process into the folder -o OUT/ names, as convert names its "
+                    "outputs: OUT/X.png (or --format exr) per scene X, skipping scenes whose "
+                    "images are newer than the scene and its textures (--force renders them "
+                    "again). A bad scene is reported as FILE:LINE: message and the others go "
+                    "on; the exit status is then 2.")
+    render.add_argument("scenes", nargs="+", metavar="SCENE",
+                        help="the scene (.scn or converted .xml), or several, or folders of them")
     render.add_argument("-o", "--output", required=True, metavar="OUT",
-                        help="output image, .exr (linear) or .png (sRGB)")
+                        help="output image, .exr (linear) or .png (sRGB); for several scenes or a "
+                             "folder, the folder that receives every image (created when missing)")
+    render.add_argument("--format", action="append", choices=FORMATS, metavar="{png,exr}",
+                        help="the images written into an output folder: png (default) or exr; "
+                             "give it twice for both")
+    render.add_argument("--force", action="store_true",
+                        help="render every scene, even those whose images are up to date")
+    render.add_argument("--video", metavar="OUT.mp4",
+                        help="also encode the images, in the scenes' order, as an H.264 video "
+                             "(see whitted video)")
+    render.add_argument("--fps", type=float, default=DEFAULT_FPS, metavar="N",
+                        help=f"the video's frames per second (default {DEFAULT_FPS:g})")
+    where = render.add_mutually_exclusive_group()
+    where.add_argument("--workers", type=int, metavar="N",
+                       help="render the scenes on a local Dask cluster of N worker processes")
+    where.add_argument("--scheduler", metavar="ADDRESS",
+                       help="render the scenes on the Dask cluster of this scheduler, e.g. "
+                            "tcp://host:8786 (a shared file system; see docs/cluster.md)")
     render.add_argument("--variant", choices=SUPPORTED_VARIANTS,
                         help="Mitsuba variant (default: llvm_ad_rgb when a libLLVM >= 16 exists, "
                              "else scalar_rgb; or $WHITTED_VARIANT)")
@@ -83,7 +118,9 @@ def build_parser() -> argparse.ArgumentParser:
     render.add_argument("--lighting", choices=LIGHTING_MODES, default=None,
                         help="how the whitted integrator lights the scene: the article's model "
                              "(default) or physically (inverse-square fall-off, albedo/pi, no ambient)")
-    render.add_argument("--spp", type=int, metavar="N", help="samples per pixel (default: the scene's)")
+    render.add_argument("--spp", type=int, metavar="N",
+                        help="samples per pixel (default: the scene's; the path tracer takes at least "
+                             f"{PATH_MIN_SPP})")
     render.add_argument("--max-depth", type=int, metavar="N",
                         help="maximum ray-tree depth; primary rays have depth 1 (default: the scene's)")
     render.add_argument("--ambient", type=float, metavar="A",
@@ -93,10 +130,33 @@ def build_parser() -> argparse.ArgumentParser:
                              "refracted rays untraced as long as together they cannot change a pixel "
                              "by more than W; --stats reports the bound reached (default: the "
                              "scene's, 1/255 unless it says; 0 traces the exact tree)")
-    render.add_argument("--stats", metavar="FILE.json", help="write ray counts and timings as JSON")
+    render.add_argument("--exposure", type=float, default=0.0, metavar="EV",
+                        help="a PNG's exposure in stops: the image times 2^EV before the view "
+                             "(default 0; never applied to EXR)")
+    render.add_argument("--view", choices=VIEWS, default=None,
+                        help="a PNG's view transform: clip (sRGB clipped to [0, 1]; default for the "
+                             "article's model) or aces (OpenColorIO's ACES 2.0 SDR view, highlights "
+                             "rolled off; default for --lighting physical and --integrator path)")
+    render.add_argument("--stats", metavar="FILE.json",
+                        help="write ray counts and timings as JSON (for several scenes: one file, "
+                             "every scene's and the totals)")
     render.add_argument("-v", "--verbose", action="store_true", help="print a one-line summary")
     render.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     render.set_defaults(run=_render, parser=render)
+
+    video = sub.add_parser(
+        "video", help="encode PNG or EXR frames as an H.264 video",
+        description="Encode frames (image files, or folders of them: their PNG files sorted by "
+                    "name, else their EXR files) as an H.264 video through FFmpeg (imageio-ffmpeg). "
+                    "EXR frames are encoded to sRGB as PNG output is.")
+    video.add_argument("frames", nargs="+", metavar="FRAME", help="frames (.png or .exr), or folders of them")
+    video.add_argument("-o", "--output", required=True, metavar="OUT.mp4",
+                       help="the video (.mp4, .mkv or .mov)")
+    video.add_argument("--fps", type=float, default=DEFAULT_FPS, metavar="N",
+                       help=f"frames per second (default {DEFAULT_FPS:g})")
+    video.add_argument("-v", "--verbose", action="store_true", help="say what was written")
+    video.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
+    video.set_defaults(run=_video, parser=video)
 
     from .compare.cli import add_arguments as add_compare_arguments
     compare = sub.add_parser(
@@ -113,12 +173,30 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def suggestion(parser: argparse.ArgumentParser, unknown: list[str]) -> str:
+    """``(did you mean --spp?)`` for the first unknown option that resembles one of ``parser``'s
+    (a scene-format keyword as an option, or a near spelling), else ''."""
+    import difflib
+
+    options = [o for action in parser._actions for o in action.option_strings if o.startswith("--")]
+    for word in unknown:
+        name = word.split("=", 1)[0]
+        if not name.startswith("-"):
+            continue
+        if name.lower() in SCENE_KEYWORD_OPTIONS:
+            return f" (did you mean {SCENE_KEYWORD_OPTIONS[name.lower()]}?)"
+        close = difflib.get_close_matches(name, options, n=1, cutoff=0.6)
+        if close:
+            return f" (did you mean {close[0]}?)"
+    return ""
+
+
 def main(argv: list[str] | None = None) -> int:
     interrupt.install()
     parser = build_parser()
     args, unknown = parser.parse_known_args(argv)
     if unknown:   # the command's own usage, not the top-level one
-        args.parser.error(f"unrecognized arguments: {' '.join(unknown)}")
+        args.parser.error(f"unrecognized arguments: {' '.join(unknown)}{suggestion(args.parser, unknown)}")
     try:
         from .variant import check_environment
         check_environment()

@@ -19,25 +19,11 @@ from .errors import EXIT_USER_ERROR, WhittedError, report
 def convert_command(args) -> int:
     """``whitted convert SCENE... [-o OUT] [--portable]``: every file converted that can be;
     2 if any failed."""
-    from .atomic import check_folder, check_folder_creatable, writable_folder
-    from .converter.batch import PORTABLE_SUFFIX, XML_SUFFIX, convert_file, plan
+    from .converter.batch import PORTABLE_SUFFIX, XML_SUFFIX, convert_file, plan, prepare_folders
 
     portable = getattr(args, "portable", False)
     pairs = plan(args.scenes, args.output, PORTABLE_SUFFIX if portable else XML_SUFFIX)
-    # One rule: an -o that names a folder (several inputs, or a trailing /) is created
-    # when missing; the folder of an -o that names a file must exist. Every folder
-    # is checked before the first file is converted; errors name the user's paths.
-    named_folder = Path(args.output) if args.output else None
-    folders = sorted({target.parent for _, target in pairs})
-    for folder in folders:
-        targets = [target for _, target in pairs if target.parent == folder]
-        named = targets[0] if len(targets) == 1 else folder
-        if folder == named_folder and not folder.exists():
-            check_folder_creatable(folder)
-        else:
-            check_folder(folder, named)
-    if named_folder in folders:
-        writable_folder(named_folder)
+    prepare_folders([target for _, target in pairs], args.output)
     failed = 0
     for source, target in pairs:
         try:
@@ -76,19 +62,34 @@ def _load_quietly(args):
     from .loading import load_scene
     from .rendering import quiet_mitsuba
     with quiet_mitsuba():
-        return load_scene(args.scene, variant=args.variant, integrator=args.integrator, spp=args.spp,
+        return load_scene(args.scenes[0], variant=args.variant, integrator=args.integrator,
+                          meshes=args.integrator != "whitted", spp=args.spp,
                           max_depth=args.max_depth, ambient=args.ambient, lighting=args.lighting)
 
 
-def render_command(args) -> None:
+def render_command(args) -> int:
+    """``whitted render SCENE -o OUT``, or several scenes into a folder (:func:`render_many_command`)."""
+    from .converter.batch import names_folder
+    if names_folder(args.scenes, args.output):
+        return render_many_command(args)
+    for given, option in ((args.format, "--format"), (args.video, "--video"), (args.workers, "--workers"),
+                          (args.scheduler, "--scheduler")):
+        if given is not None:
+            raise WhittedError(f"{option} renders scenes into a folder: give -o OUT/ (with a trailing /)")
+    render_single(args)
+    return 0
+
+
+def render_single(args) -> None:
     """``whitted render SCENE -o OUT``: everything is checked before anything is written."""
     from .atomic import check_writable, write_text
     from .defaults import check_ambient
     from .interrupt import deferred
     from .memory import peak_resident_bytes
     with deferred():   # numpy's C extension is not cut mid-import by a Ctrl-C (see deferred)
+        from .display import check_exposure, default_view
         from .imageio import image_format, write_image
-        from .rendering import check_settings, render
+        from .rendering import check_settings, render, whitted_settings
 
     output = Path(args.output)
     # Before the scene is loaded (seconds for a large one), though render checks them again.
@@ -97,20 +98,97 @@ def render_command(args) -> None:
         check_ambient(args.ambient)
     if args.stats and Path(args.stats).resolve() == output.resolve():
         raise WhittedError(f"{args.stats}: the statistics would overwrite the image")
-    check_writable(output, inputs=(args.scene,))   # what is wrong with the path first
+    check_writable(output, inputs=(args.scenes[0],))   # what is wrong with the path first
     image_format(output)
+    exposure = check_exposure(getattr(args, "exposure", 0.0))
     if args.stats:
-        check_writable(args.stats, inputs=(args.scene,))
+        check_writable(args.stats, inputs=(args.scenes[0],))
 
     loaded = _load_quietly(args)   # the mi.Scene
     try:   # render checks the scene (a sensor; the article's materials) before it starts
         result = render(loaded, integrator=args.integrator, progress=not args.quiet,
-                        min_weight=args.min_weight)
+                        min_weight=args.min_weight, spp=args.spp)
     except WhittedError as error:
-        raise WhittedError(f"{args.scene}: {error}") from None
-    write_image(output, result.image, progress=not args.quiet)
+        raise WhittedError(f"{args.scenes[0]}: {error}") from None
+    view = getattr(args, "view", None) or default_view(
+        args.integrator, args.lighting or whitted_settings(loaded)["lighting"])
+    write_image(output, result.image, progress=not args.quiet, exposure=exposure, view=view)
     result.stats["peak_resident_bytes"] = peak_resident_bytes()   # the writing included
     if args.stats:
         write_text(args.stats, json.dumps(result.stats, indent=2) + "\n")
     if args.verbose:
         print(_summary(args, result, loaded.sensors()[0]), file=sys.stderr)
+
+
+def render_many_command(args) -> int:
+    """``whitted render SCENE|FOLDER... -o OUT/``: every scene rendered that can be, in one
+    process (or on a Dask cluster), with a progress bar over the scenes; up-to-date images
+    skipped unless ``--force``; 2 if any scene failed (:mod:`whitted.batch`)."""
+    from . import interrupt
+    from .atomic import check_writable, write_text
+    from .batch import IN_PROCESS, Settings, Tally, plan_batch, render_planned, report_failure
+    from .progress import progress_bar
+
+    settings = Settings(integrator=args.integrator, spp=args.spp, max_depth=args.max_depth,
+                        ambient=args.ambient, lighting=args.lighting, min_weight=args.min_weight,
+                        variant=args.variant, exposure=getattr(args, "exposure", 0.0),
+                        view=getattr(args, "view", None))
+    settings.check()
+    if args.workers is not None and args.workers < 1:
+        raise WhittedError(f"--workers must be >= 1, got {args.workers}")
+    if args.video:
+        from .video import check_fps, check_video_path
+        check_video_path(args.video)
+        check_fps(args.fps)
+    formats = args.format or ["png"]
+    planned, skipped, todo = plan_batch(args.scenes, args.output, formats, args.force)
+    images = {Path(p).resolve() for _, outputs in planned for p in outputs}
+    for extra in (args.stats, args.video):
+        if extra and Path(extra).resolve() in images:
+            raise WhittedError(f"{extra}: would overwrite an image of the render")
+    if args.stats:
+        check_writable(args.stats, inputs=tuple(scene for scene, _ in planned))
+
+    tally = Tally(planned=len(planned))
+    for item in skipped:
+        tally.add(item)
+    interrupted = True
+    bar = progress_bar(not args.quiet, len(planned), "render", unit="scene", unit_scale=False,
+                       initial=len(skipped))
+    rendering = render_planned(todo, settings, workers=args.workers, scheduler=args.scheduler)
+    try:
+        for item in rendering:
+            tally.add(item)
+            if item.status == "failed":
+                report_failure(item, lambda line: bar.write(line, file=sys.stderr))
+            elif args.verbose:
+                where = f" on {item.worker}" if item.worker != IN_PROCESS else ""
+                bar.write(f"whitted: wrote {', '.join(map(str, item.outputs))} "
+                          f"({item.seconds:.2f} s{where})", file=sys.stderr)
+            bar.update(1)
+        interrupted = False
+    finally:
+        rendering.close()   # a cluster's tasks cancelled and the cluster stopped now, not later
+        bar.close()
+        if interrupted and interrupt.requested():
+            # counted on disk: a worker may have written a scene whose result had not come back
+            whole = sum(all(p.exists() for p in outputs) for _, outputs in planned)
+            interrupt.tell(f"the images of {whole} of {len(planned)} scenes are in {args.output}; "
+                           "run it again to render the rest")
+            if args.stats:
+                with interrupt.deferred():
+                    write_text(args.stats, json.dumps(tally.json(interrupted=True), indent=2) + "\n")
+    failed = tally.count("failed")
+    if args.stats:
+        write_text(args.stats, json.dumps(tally.json(), indent=2) + "\n")
+    print(tally.line(args.output), file=sys.stderr)
+    if args.video:
+        if failed:
+            print(f"whitted: no video: {failed} scene{'s' if failed > 1 else ''} failed", file=sys.stderr)
+        else:
+            from .video import write_video
+            write_video(args.video, [outputs[0] for _, outputs in planned], args.fps,
+                        progress=not args.quiet)
+            print(f"whitted: wrote {args.video} ({len(planned)} frames at {args.fps:g} fps)",
+                  file=sys.stderr)
+    return EXIT_USER_ERROR if failed else 0

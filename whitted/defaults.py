@@ -63,6 +63,26 @@ LIGHTING = "article"
 #: the article's model, or Mitsuba's stock path tracer
 INTEGRATORS = ("whitted", "path")
 INTEGRATOR = "whitted"
+#: How an image is displayed (PNG, the compare page, notebooks; whitted/display.py): plain
+#: sRGB clipped to [0, 1], or OpenColorIO's ACES 2.0 SDR view (highlights rolled off)
+VIEWS = ("clip", "aces")
+#: The path tracer's samples per pixel when none are asked for and the scene asks for fewer:
+#: a scene's ``samples`` (1 by default) is anti-aliasing for the article's deterministic model;
+#: the path tracer at 1 spp is speckled noise.
+PATH_MIN_SPP = 64
+
+
+def user_cache_folder() -> "Path":
+    """Where whitted keeps what it may compute again but would rather not (the compare
+    command's path-traced references): ``$XDG_CACHE_HOME/whitted``, or
+    ``~/.cache/whitted`` where that variable is unset, empty or not an absolute path (as
+    the XDG base directory specification says to treat it). Deleting it is always safe."""
+    import os
+    from pathlib import Path
+    base = os.environ.get("XDG_CACHE_HOME", "")
+    if not os.path.isabs(base):
+        base = os.path.join(os.path.expanduser("~"), ".cache")
+    return Path(base) / "whitted"
 
 
 def path_depth(depth: int) -> int:
@@ -91,12 +111,24 @@ FALLBACK_VARIANT = "scalar_rgb"
 COMPARE_REFERENCE_SPP = 4096              #: the path-traced reference's samples per pixel
 COMPARE_WHITTED_SPP = (1, 4, 16)          #: the Whitted sweep's spp ladder
 COMPARE_PATH_SPP = (1, 4, 16, 64, 256, 1024)   #: the path tracer's spp ladder
-COMPARE_REPEATS = 3                       #: timed repeats of each render (the fastest is reported)
-#: Timing on a busy machine: other processes only ever add time, so a render's time is its
-#: fastest repeat; while the two fastest differ by more than this fraction, the fastest is
-#: not yet trusted and the render is timed again, at most COMPARE_MAX_EXTRA_REPEATS more times.
-COMPARE_SPREAD_LIMIT = 0.2
-COMPARE_MAX_EXTRA_REPEATS = 4
+#: Timing on a busy machine (whitted/compare/timing.py): once every setting of a scene is
+#: rendered and scored, each is timed once per round, the rounds interleaved, at least
+#: COMPARE_ROUNDS rounds; more while a headline ratio's interval (COMPARE_CONFIDENCE, for
+#: the median of its paired per-round ratios) is wider than 1 + COMPARE_SETTLED_WIDTH, up to
+#: COMPARE_MAX_ROUNDS rounds and COMPARE_ROUNDS_SECONDS of extra rounds per scene.
+COMPARE_ROUNDS = 3
+COMPARE_MAX_ROUNDS = 9
+COMPARE_ROUNDS_SECONDS = 20.0
+COMPARE_CONFIDENCE = 0.9
+#: Within a round, a render faster than COMPARE_ROUND_SECONDS is repeated back to back until
+#: its renders add up to that (at most COMPARE_ROUND_REPEATS), the fastest kept: a render of a
+#: few milliseconds is at the mercy of one scheduler tick.
+COMPARE_ROUND_SECONDS = 0.05
+COMPARE_ROUND_REPEATS = 8
+COMPARE_SETTLED_WIDTH = 0.25
+#: The clock a render's time is read on: "cpu" (the process's CPU time, every thread's)
+#: or "wall"; docs/compare.md says which is steadier on a loaded machine, measured.
+COMPARE_CLOCK = "wall"
 #: The equal-quality table's levels, from the data: each method's floor times (1 + this
 #: tolerance), and this many levels spaced evenly on log axes between the best and worst
 #: errors measured (--levels replaces them all).
@@ -207,3 +239,12 @@ def check_seed(seed, what: str = "seed") -> int:
     if not 0 <= seed < 2 ** 64:
         raise WhittedError(f"{what} must be an integer from 0 to 2^64 - 1, got {seed}")
     return (seed ^ (seed >> 32) * SEED_STRIDE) & 0xFFFFFFFF
+
+
+# --------------------------------------------------------------------------- many scenes, video
+
+#: the image formats ``whitted render SCENES... -o OUT/`` writes per scene (``--format``; the first
+#: is the default)
+IMAGE_FORMATS = ("png", "exr")
+#: a video's frames per second unless ``--fps`` says (``whitted render --video``, ``whitted video``)
+DEFAULT_FPS = 24.0

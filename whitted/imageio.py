@@ -1,15 +1,16 @@
 """Reading and writing images with Mitsuba's ``Bitmap``.
 
 Images in the program are ``float32`` arrays of shape (H, W, 3) holding linear
-RGB. EXR files store those values as they are; PNG files store them
-sRGB-encoded and clipped to [0, 1] (8 bits per channel), as the scene format's
-"Output" section asks. Writing is atomic (:mod:`whitted.atomic`): a failed
+RGB. EXR files store those values as they are; PNG files store what is displayed
+(8-bit sRGB): by default the values clipped to [0, 1] and sRGB-encoded, as the
+scene format's "Output" section asks, or with an exposure and a view transform
+(:mod:`whitted.display`). Writing is atomic (:mod:`whitted.atomic`): a failed
 write leaves no file behind.
 
 Memory. An image of 16384² pixels is 3 GiB of float32, so writing makes no
 whole-image temporary it can avoid: EXR costs one copy (Mitsuba's bitmap),
 PNG a quarter of one (the 8-bit image and its bitmap), converted band by band
-(:data:`PNG_BAND_ROWS` rows at a time, with Mitsuba's own sRGB conversion).
+(:data:`whitted.display.BAND_ROWS` rows at a time).
 """
 
 from __future__ import annotations
@@ -22,8 +23,6 @@ import numpy as np
 from .errors import WhittedError
 
 FORMATS = (".exr", ".png")
-#: rows of a PNG converted to 8-bit sRGB at a time: bounds the conversion's temporaries
-PNG_BAND_ROWS = 256
 
 
 def image_format(path: str | os.PathLike) -> str:
@@ -35,9 +34,12 @@ def image_format(path: str | os.PathLike) -> str:
     return suffix
 
 
-def write_image(path: str | os.PathLike, image, progress: bool = False) -> None:
-    """Write a linear RGB image (H, W, 3) as EXR (linear float) or PNG (8-bit sRGB);
-    ``progress`` shows the conversion's rows and the writing's time on stderr."""
+def write_image(path: str | os.PathLike, image, progress: bool = False, exposure: float = 0.0,
+                view: str = "clip") -> None:
+    """Write a linear RGB image (H, W, 3) as EXR (linear float, as it is) or PNG (8-bit sRGB,
+    as displayed: ``exposure`` in stops and ``view``, "clip" or "aces", see
+    :mod:`whitted.display`; an EXR ignores both); ``progress`` shows the conversion's rows
+    and the writing's time on stderr."""
     import mitsuba as mi
 
     from .atomic import atomic_path
@@ -50,7 +52,7 @@ def write_image(path: str | os.PathLike, image, progress: bool = False) -> None:
     name = Path(path).name
     if suffix == ".png":
         with progress_bar(progress, pixels.shape[0], f"encoding {name}", unit="row", unit_scale=False) as bar:
-            data = srgb8(pixels, bar.update)
+            data = srgb8(pixels, bar.update, exposure=exposure, view=view)
     else:
         data = np.ascontiguousarray(pixels)
     bitmap = mi.Bitmap(data, pixel_format=mi.Bitmap.PixelFormat.RGB)
@@ -62,22 +64,12 @@ def write_image(path: str | os.PathLike, image, progress: bool = False) -> None:
             raise WhittedError(f"{path}: could not write the image: {_first_line(error)}") from None
 
 
-def srgb8(pixels: np.ndarray, rows_done=None) -> np.ndarray:
-    """A linear RGB image as 8-bit sRGB (H, W, 3), as PNG files hold it: clipped to [0, 1]
-    first (the 8-bit conversion must not wrap or round out-of-range values; NaN is 0),
-    then Mitsuba's sRGB conversion, band by band (``rows_done(n)`` after each)."""
-    import mitsuba as mi
+def srgb8(pixels: np.ndarray, rows_done=None, exposure: float = 0.0, view: str = "clip") -> np.ndarray:
+    """A linear RGB image as 8-bit sRGB (H, W, 3), as PNG files hold it
+    (:func:`whitted.display.to_srgb`; ``rows_done(n)`` after each band of rows)."""
+    from .display import to_srgb
 
-    out = np.empty(pixels.shape, np.uint8)
-    for start in range(0, pixels.shape[0], PNG_BAND_ROWS):
-        band = np.nan_to_num(pixels[start:start + PNG_BAND_ROWS])
-        np.clip(band, 0.0, 1.0, out=band)
-        band = mi.Bitmap(band, pixel_format=mi.Bitmap.PixelFormat.RGB)
-        out[start:start + PNG_BAND_ROWS] = np.asarray(
-            band.convert(mi.Bitmap.PixelFormat.RGB, mi.Struct.Type.UInt8, srgb_gamma=True))
-        if rows_done is not None:
-            rows_done(min(PNG_BAND_ROWS, pixels.shape[0] - start))
-    return out
+    return to_srgb(pixels, exposure=exposure, view=view, rows_done=rows_done)
 
 
 def read_image(path: str | os.PathLike) -> np.ndarray:

@@ -67,7 +67,8 @@ def _checked(overrides: dict) -> dict:
 
 
 def load_scene(path: str | os.PathLike, variant: str | None = None, *, model=None,
-               ellipsoids: bool | None = None, integrator: str = D.INTEGRATOR, **overrides):
+               ellipsoids: bool | None = None, integrator: str = D.INTEGRATOR, meshes: bool = True,
+               **overrides):
     """Load a ``.scn`` or ``.xml`` scene as a ``mi.Scene``.
 
     ``variant`` selects a Mitsuba variant first (default: keep the current one).
@@ -84,6 +85,14 @@ def load_scene(path: str | os.PathLike, variant: str | None = None, *, model=Non
     ``.xml`` files are loaded as written.
     ``integrator`` ("whitted" or "path") is what the scene will be rendered with: a ``.scn``
     file read here is warned about as that integrator needs (converter/frame.py).
+    ``meshes=False`` (a ``.scn`` to be rendered by the whitted integrator only): the giant
+    spheres that Mitsuba misplaces, which the converter describes as fine meshes for
+    Mitsuba's own integrators (converter/giants.py), stay plain ``sphere`` shapes. The
+    whitted integrator intersects them itself in float64 and never traces their shapes
+    (plugins/shading/giants.py), so its image is the same, bit for bit; building a
+    mesh's acceleration structure costs about 0.4 s (a floor of radius 10^4: 170 000
+    triangles), far more than rendering a small frame. Mitsuba's path tracer would see
+    the float32 sphere. ``whitted render`` passes it for the whitted integrator.
     ``overrides`` replace the scene's ``spp``, ``max_depth``, ``ambient``,
     ``lighting`` ("article" or "physical"), ``width`` or ``height``. A portable ``.xml``
     (stock plugins, ``whitted convert --portable``) has only ``spp``, ``max_depth``,
@@ -99,22 +108,17 @@ def load_scene(path: str | os.PathLike, variant: str | None = None, *, model=Non
     xml = path.suffix.lower() == ".xml"
     if xml or model is not None:
         check_scene_file(path)   # else parse_file checks it
+    if xml:
+        check_referenced_files(path)
     try:
         if xml:
             return mi.load_file(str(path), parallel=PARALLEL, **{k: str(v) for k, v in params.items()})
         from .converter import parse_file
-        from .converter.description import describe
         from .converter.frame import warn_precision
         if model is None:
             model = parse_file(path)
             warn_precision(model, integrator=integrator)
-        from . import sealed
-        grouping = None if ellipsoids is False else \
-            sealed.choose(model, min_group=1 if ellipsoids else sealed.MIN_GROUP,
-                          classes=sealed.MAX_LAYERS if integrator == "whitted" else 0)
-        if grouping is None:
-            return mi.load_dict(mitsuba_dict(describe(model, base_dir=None), params), parallel=PARALLEL)
-        return mi.load_dict(_sealed_dict(model, grouping, params), parallel=PARALLEL)
+        return _load_model(model, params, ellipsoids, integrator, meshes)
     except RuntimeError as error:
         unused = re.findall(r"^\s*- \$(\w+)=", str(error), re.M)
         if "unused parameters" in str(error) and unused:
@@ -122,6 +126,89 @@ def load_scene(path: str | os.PathLike, variant: str | None = None, *, model=Non
             raise WhittedError(f"{path}: the scene has no {' or '.join(unused)} to override") from None
         first = str(error).strip().splitlines()[0] if str(error).strip() else type(error).__name__
         raise WhittedError(f"{path}: Mitsuba could not load the scene: {first}") from None
+
+
+#: A file an XML scene names (a texture's image, a giant sphere's mesh): ``<string name="filename" value="…"/>``.
+_FILENAME = re.compile(rb'<string\s+name="filename"\s+value="([^"$]*)"')
+
+
+def check_referenced_files(path: Path) -> None:
+    """One clear error naming the path the XML gives when a file it names (a texture, a mesh)
+    is not where the XML says, relative to the XML's folder: Mitsuba would also look in the
+    current folder and quietly take a same-named file from there."""
+    import html
+
+    with open(path, "rb") as file:
+        data = file.read()
+    for match in dict.fromkeys(_FILENAME.findall(data)):
+        named = html.unescape(match.decode("utf-8", "replace"))
+        where = path.parent / named
+        if not where.is_file():
+            raise WhittedError(f"{path}: the file it names, {named}, does not exist (looked for {where})")
+
+
+def loads(text: str, variant: str | None = None, *, base_dir: str | os.PathLike = ".",
+          ellipsoids: bool | None = None, integrator: str = D.INTEGRATOR, **overrides):
+    """Load a scene from its text (what a ``.scn`` file holds) as a ``mi.Scene``: for notebooks
+    and scripts, ``whitted.loads("sphere 0 0 0 1\\nlight 5 5 5")``.
+
+    Texture paths are relative to ``base_dir`` (default: the current folder); errors name
+    the text as ``<text>:LINE``. ``variant``, ``ellipsoids``, ``integrator`` and
+    ``overrides`` (``spp``, ``max_depth``, ``ambient``, ``lighting``) are those of
+    :func:`load_scene`.
+    """
+    import mitsuba as mi  # noqa: F401  (the variant hook runs on import)
+
+    from .converter import parse_text
+    from .converter.frame import warn_precision
+    from .variant import set_variant
+    if not isinstance(text, str):
+        raise WhittedError(f"loads takes the scene's text as a str, got {type(text).__name__}")
+    set_variant(variant)
+    params = _checked(overrides)
+    model = parse_text(text, Path(base_dir) / TEXT_NAME)
+    warn_precision(model, integrator=integrator)
+    try:
+        return _load_model(model, params, ellipsoids, integrator)
+    except RuntimeError as error:
+        first = str(error).strip().splitlines()[0] if str(error).strip() else type(error).__name__
+        raise WhittedError(f"{TEXT_NAME}: Mitsuba could not load the scene: {first}") from None
+
+
+#: How :func:`loads` names scene text in messages (``<text>:3: ...``).
+TEXT_NAME = "<text>"
+
+
+def _load_model(model, params: dict, ellipsoids: bool | None, integrator: str, meshes: bool = True):
+    """A parsed scene model as a ``mi.Scene`` (see :func:`load_scene`'s ``ellipsoids`` and
+    ``meshes``)."""
+    import mitsuba as mi
+
+    from . import sealed
+    from .converter.description import describe
+    grouping = None if ellipsoids is False else \
+        sealed.choose(model, min_group=1 if ellipsoids else sealed.MIN_GROUP,
+                      classes=sealed.MAX_LAYERS if integrator == "whitted" else 0)
+    if grouping is None:
+        scene = mitsuba_dict(describe(model, base_dir=None), params)
+    else:
+        scene = _sealed_dict(model, grouping, params)
+    return mi.load_dict(scene if meshes else _giants_as_spheres(scene), parallel=PARALLEL)
+
+
+def _giants_as_spheres(scene: dict) -> dict:
+    """``scene`` (a ``mi.load_dict`` dict) with the meshes of the giant spheres that its
+    whitted integrator intersects itself (its ``exact_spheres``) made ``sphere`` shapes of
+    the listed center and radius again (see :func:`load_scene`'s ``meshes``)."""
+    from .converter.giants import parse_exact_spheres
+    listed = scene.get("integrator", {}).get("exact_spheres")
+    if not listed:
+        return scene
+    for key, center, radius in parse_exact_spheres(listed):
+        shape = scene.get(key)
+        if isinstance(shape, dict) and shape.get("type") == "ply":
+            scene[key] = {"type": "sphere", "center": center, "radius": radius, "bsdf": shape["bsdf"]}
+    return scene
 
 
 def _sealed_dict(model, grouping, params: dict) -> dict:

@@ -9,9 +9,11 @@ reference second, and are asymmetric: the reference sets the scale.
   by zero. It is the error measure of Monte Carlo rendering papers: for an
   unbiased renderer it falls as 1/spp.
 * **FLIP** (NVIDIA's perceptual difference, the ``flip-evaluator`` package) in
-  its LDR mode, on the linear images clipped to [0, 1]: what a viewer compares
-  on screen, the same as comparing the PNG outputs (FLIP applies the sRGB
-  transfer itself). 0 is identical, 1 maximally different. HDR-FLIP was
+  its LDR mode, on the images as displayed (:func:`whitted.display.to_display`:
+  an exposure and a view, by default plain sRGB clipped to [0, 1]): what a
+  viewer compares on screen, the same as comparing the PNG outputs. 0 is
+  identical, 1 maximally different. Exposure and view change FLIP and nothing
+  else: the relative MSE reads the linear values. HDR-FLIP was
   measured and not used: on a black background (the scene format's default)
   its exposure range, set by the reference's median luminance, runs to 2^24
   and one 640×400 evaluation takes 7 s, twenty times the LDR one; differences
@@ -32,19 +34,24 @@ def relative_mse(image: np.ndarray, reference: np.ndarray) -> float:
     return float(np.mean((a - b) ** 2 / (b * b + EPSILON)))
 
 
-def flip(image: np.ndarray, reference: np.ndarray) -> float:
-    """Mean LDR-FLIP error of ``image`` against ``reference`` (both linear RGB)."""
-    return flip_map(image, reference)[1]
+def flip(image: np.ndarray, reference: np.ndarray, exposure: float = 0.0, view: str = "clip") -> float:
+    """Mean LDR-FLIP error of ``image`` against ``reference`` (both linear RGB), as displayed
+    with ``exposure`` and ``view`` (:mod:`whitted.display`)."""
+    return flip_map(image, reference, exposure, view)[1]
 
 
-def flip_map(image: np.ndarray, reference: np.ndarray) -> tuple[np.ndarray, float]:
+def flip_map(image: np.ndarray, reference: np.ndarray, exposure: float = 0.0,
+             view: str = "clip") -> tuple[np.ndarray, float]:
     """LDR-FLIP's per-pixel error map (H, W) in [0, 1] and its mean (what :func:`flip`
-    returns), from one evaluation: where the image differs from the reference, as seen."""
+    returns), from one evaluation: where the image differs from the reference, as seen
+    (both displayed with ``exposure`` and ``view``)."""
     import flip_evaluator
 
-    a, b = (np.ascontiguousarray(np.clip(np.nan_to_num(x, nan=0.0), 0.0, 1.0), np.float32)
+    from .display import to_display
+
+    a, b = (np.ascontiguousarray(to_display(x, exposure, view), np.float32)
             for x in _pair(image, reference))
-    error_map, mean, _ = flip_evaluator.evaluate(b, a, "LDR", inputsRGB=False, applyMagma=False)
+    error_map, mean, _ = flip_evaluator.evaluate(b, a, "LDR", inputsRGB=True, applyMagma=False)
     return np.asarray(error_map, dtype=np.float32).reshape(a.shape[:2]), float(mean)
 
 

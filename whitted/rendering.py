@@ -76,6 +76,7 @@ class RenderResult:
     seconds: float           # render time, kernel compilation excluded
     compile_seconds: float   # kernel compilation (0 when every kernel was cached)
     stats: dict              # see the module docstring
+    cpu_seconds: float = float("nan")   # the process's CPU time (every thread's), compilation excluded
 
 
 def whitted_integrator(scene):
@@ -145,11 +146,13 @@ class _Clock:
             dr.detail.malloc_clear_statistics()
         reset_peak()
         self.start = time.perf_counter()
+        self.cpu_start = time.process_time()
         return self
 
     def __exit__(self, *exc):
         import drjit as dr
         self.wall = time.perf_counter() - self.start
+        self.cpu = time.process_time() - self.cpu_start
         self.compile = 0.0
         self.peak_resident = peak_resident_bytes()
         if self.jit:
@@ -165,6 +168,10 @@ class _Clock:
     def seconds(self) -> float:
         return max(0.0, self.wall - self.compile)
 
+    @property
+    def cpu_seconds(self) -> float:
+        return max(0.0, self.cpu - self.compile)   # compiling is one thread's work
+
 
 def render(scene, integrator: str = D.INTEGRATOR, spp: int | None = None, max_depth: int | None = None,
            lighting: str | None = None, progress: bool = False, seed: int = 0,
@@ -177,7 +184,9 @@ def render(scene, integrator: str = D.INTEGRATOR, spp: int | None = None, max_de
     ``spp``, ``max_depth`` (the article's depth, primary rays being depth 1),
     ``lighting``, ``min_weight`` (the Whitted integrator's adaptive depth
     control, 0 = off) and ``ambient`` (the article's A, whitted only) default to
-    the scene's own settings. ``integrator="path"``
+    the scene's own settings; but the path tracer without ``spp`` takes at least
+    ``defaults.PATH_MIN_SPP`` (64) samples per pixel, not a scene's 1 (pass ``spp``
+    to choose: noise falls as 1/spp). ``integrator="path"``
     uses Mitsuba's ``path`` integrator with ``max_depth + 1`` (one more
     segment for the connection to a light); a scene whose own integrator is
     ``path`` (a portable scene) is rendered with it unless ``max_depth`` is given.
@@ -187,6 +196,7 @@ def render(scene, integrator: str = D.INTEGRATOR, spp: int | None = None, max_de
 
     check_settings(spp, max_depth, lighting, integrator, min_weight)
     seed = D.check_seed(seed)
+    spp_asked = spp
     if not scene.sensors():
         raise WhittedError("the scene has no sensor (camera) to render from")
     own = whitted_integrator(scene)
@@ -194,6 +204,8 @@ def render(scene, integrator: str = D.INTEGRATOR, spp: int | None = None, max_de
     depth = int(max_depth) if max_depth is not None else settings["max_depth"]
     sensor = scene.sensors()[0]
     spp = int(spp) if spp is not None else sensor.sampler().sample_count()
+    if integrator == "path" and spp_asked is None:
+        spp = max(spp, D.PATH_MIN_SPP)
     width, height = (int(c) for c in sensor.film().crop_size())
 
     if integrator == "whitted":
@@ -224,7 +236,7 @@ def render(scene, integrator: str = D.INTEGRATOR, spp: int | None = None, max_de
     stats = {"rays": stats_rays, "seconds": clock.seconds, "compile_seconds": clock.compile,
              "effects": effects, "peak_memory_bytes": clock.peak_memory,
              "peak_resident_bytes": clock.peak_resident, **adaptive}
-    return RenderResult(np.ascontiguousarray(image), clock.seconds, clock.compile, stats)
+    return RenderResult(np.ascontiguousarray(image), clock.seconds, clock.compile, stats, clock.cpu_seconds)
 
 
 def check_article_materials(scene, name: str | None = None) -> None:

@@ -30,13 +30,12 @@ class Branch:
     """Rays of one level of the tree, with their path weights: a wavefront (JIT variants)
     or a single ray (scalar). ``allowance`` is the path weight that may still be left
     untraced below each ray (:mod:`.adaptive`; None when the tree is traced exactly).
-    ``owner`` is each lane's camera sample within its pass and ``total`` the sum of the
-    weights, for progress reports (the wavefront tracer's business)."""
+    ``total`` is the sum of the weights, for progress reports (the wavefront tracer's
+    business)."""
     ray: object      # mi.Ray3f
     weight: object   # mi.Float
     level: int       # primary rays have level 1
     allowance: object = None   # mi.Float
-    owner: object = None       # mi.UInt32; None for camera rays, lane i being sample i
     total: float = 0.0
 
 

@@ -1,13 +1,15 @@
 """The ray tree walked level by level, a wavefront at a time (JIT variants).
 
 A *wavefront* is a :class:`~.tracer.Branch` whose fields are Dr.Jit arrays:
-rays of one level of the tree with their path weights and the camera sample
-each belongs to (``owner``). The tracer keeps a stack of them. Shading a
-wavefront adds its colors to their camera samples and pushes one wavefront
-of children, holding only the lanes that are really traced (``dr.compress``):
-one kernel shades a level, and a small one packs its children. Wavefronts
-wider than ``lanes`` are split, so that trees which double at each level still
-run in bounded memory. No Python runs per ray.
+rays of one level of the tree with their path weights. Shading a wavefront
+gives each lane's own color and one wavefront of children, holding only the
+lanes that are really traced (``dr.compress``), each with the lane of its
+parent: one kernel shades a level, and a small one packs its children. The
+walk goes down a wavefront's children before adding their colors back up to
+their parents, each parent's first child and then its second, in a fixed
+order: the image is the same bits run after run and at any thread count.
+Wavefronts wider than ``lanes`` are split, so that trees which double at each
+level still run in bounded memory. No Python runs per ray.
 """
 
 from __future__ import annotations
@@ -42,45 +44,64 @@ class WavefrontTracer(Tracer):
 
     def trace(self, ray, progress=None):
         count = dr.width(ray.d)
-        color = culled = None
         camera = self.camera_branch(ray)
         camera.total = float(count)
-        stack, done, scattered = [camera], 0.0, False
-        while stack:
-            front = stack.pop()
-            if front.owner is not None and dr.width(front.weight) > self.lanes:
-                stack.extend(reversed(self._split(front, progress is not None)))
-                continue
-            front_color, front_culled, children = self.step(front)
-            if front.owner is None:   # the camera rays: lane i is sample i
-                color, culled = front_color, front_culled
-            else:
-                scattered = True
-                dr.scatter_reduce(dr.ReduceOp.Add, color, front_color, front.owner)
-                if front_culled is not None:
-                    dr.scatter_reduce(dr.ReduceOp.Add, culled, front_culled, front.owner)
-            if children:
-                stack.extend(self._next_level(front, children, (color, culled), progress is not None))
-            if progress is not None:
-                # A level is done (packing its children waited for its kernels) and Python
-                # has control: Ctrl-C lands here, between levels, and progress is told.
-                finished = count - sum(branch.total for branch in stack)
-                if finished > done:
-                    progress(finished - done)
-                    done = finished
-        if progress is not None and count > done:
-            progress(count - done)
-        if scattered:
-            dr.eval(color, culled)   # finish the last scatters before anything reads the sums
+        walk = _Walk(count, progress)
+        color, culled = self._subtree(camera, walk)
+        walk.finish()
         if culled is not None:
             self.tally.note_max("sample_culled_weight", culled)
         return color
 
+    def _subtree(self, front, walk):
+        """The color of each lane's tree below and including ``front`` and the weight culled
+        from it (None: traced exactly).
+
+        A ray's color is its own plus its first child's tree plus its second child's, added in
+        that order, as :class:`~.depth_first.DepthFirstTracer` adds them: each sum has a fixed
+        order, so the image is the same bits however many threads trace it (an atomic add of
+        every level into its camera sample would add in the order the threads finish)."""
+        if front.level > 1 and dr.width(front.ray.d) > self.lanes:   # a pass's camera rays fit
+            return self._pieces(front, walk)
+        color, culled, children = self.step(front)
+        below = self._next_level(front, children, (color, culled), walk.reports) if children else None
+        walk.shaded(front, below)
+        if below is not None:
+            child, parent, second = below
+            child_color, child_culled = self._subtree(child, walk)
+            width = dr.width(front.ray.d)   # (a camera wavefront's weight is one literal 1)
+            color = color + _to_parents(child_color, parent, second, False, mi.Color3f, width) \
+                + _to_parents(child_color, parent, second, True, mi.Color3f, width)
+            if child_culled is not None:
+                culled = culled + _to_parents(child_culled, parent, second, False, mi.Float, width) \
+                    + _to_parents(child_culled, parent, second, True, mi.Float, width)
+            dr.eval(color, culled)   # (a single-level tree is left lazy: it may be traced in a loop)
+        return color, culled
+
+    def _pieces(self, front, walk):
+        """:meth:`_subtree` of a wavefront too wide for one, a piece of ``lanes`` at a time."""
+        pieces = self._split(front, walk.reports)
+        walk.replaced(front, pieces)
+        n = dr.width(front.ray.d)
+        color, culled = dr.zeros(mi.Color3f, n), None
+        for start, piece in pieces:
+            lane = dr.arange(mi.UInt32, dr.width(piece.weight)) + dr.opaque(mi.UInt32, start)
+            piece_color, piece_culled = self._subtree(piece, walk)
+            dr.scatter(color, piece_color, lane)
+            if piece_culled is not None:
+                if culled is None:
+                    culled = dr.zeros(mi.Float, n)
+                dr.scatter(culled, piece_culled, lane)
+            dr.eval(color, culled)
+        return color, culled
+
     def _next_level(self, front, children, sums, with_total: bool):
-        """The wavefront of ``children``: only their traced lanes, siblings side by side."""
-        # One kernel shades this level, adds its color, and stores the children ...
-        dr.eval(sums, front.owner, [(c.branch.ray.o, c.branch.ray.d, c.branch.weight, c.branch.allowance,
-                                     c.traced) for c in children])
+        """The wavefront of ``children``: only their traced lanes, siblings side by side;
+        with the lane of ``front`` each came from and whether it is the second child
+        (None: there is one kind of child). None when no child is traced."""
+        # One kernel shades this level, computes its color, and stores the children ...
+        dr.eval(sums, [(c.branch.ray.o, c.branch.ray.d, c.branch.weight, c.branch.allowance,
+                        c.traced) for c in children])
         # ... then the traced children of every kind are packed into one wavefront,
         # interleaved so that siblings stay next to each other.
         if len(children) == 1:
@@ -91,7 +112,7 @@ class WavefrontTracer(Tracer):
                                          dr.gather(mi.Bool, children[1].traced, slot >> 1),
                                          dr.gather(mi.Bool, children[0].traced, slot >> 1)))
         if dr.width(lane) == 0:
-            return []
+            return None
         parent, second = (lane, None) if len(children) == 1 else (lane >> 1, (lane & 1) == 1)
 
         def gather(tp, field):
@@ -105,21 +126,65 @@ class WavefrontTracer(Tracer):
         weight = gather(mi.Float, lambda c: c.branch.weight)
         # the allowance is the same for both children of a ray (see .adaptive.split)
         allowance = None if front.allowance is None else dr.gather(mi.Float, children[0].branch.allowance, parent)
-        owner = parent if front.owner is None else dr.gather(mi.UInt32, front.owner, parent)
-        return [Branch(ray, weight, front.level + 1, allowance, owner,
-                       float(dr.sum(weight)[0]) if with_total else 0.0)]
+        dr.eval(parent, second)
+        child = Branch(ray, weight, front.level + 1, allowance, float(dr.sum(weight)[0]) if with_total else 0.0)
+        return child, parent, second
 
     def _split(self, front, with_total: bool):
-        """``front`` cut into wavefronts of at most ``lanes`` lanes."""
-        dr.eval(front.ray, front.weight, front.allowance, front.owner)
+        """``front`` cut into wavefronts of at most ``lanes`` lanes, each with its first lane."""
+        dr.eval(front.ray, front.weight, front.allowance)
         n = dr.width(front.weight)
         pieces = []
         for start in range(0, n, self.lanes):
             lane = dr.arange(mi.UInt32, min(self.lanes, n - start)) + dr.opaque(mi.UInt32, start)
             weight = dr.gather(mi.Float, front.weight, lane)
-            pieces.append(Branch(
+            pieces.append((start, Branch(
                 mi.Ray3f(dr.gather(mi.Point3f, front.ray.o, lane), dr.gather(mi.Vector3f, front.ray.d, lane)),
                 weight, front.level,
                 None if front.allowance is None else dr.gather(mi.Float, front.allowance, lane),
-                dr.gather(mi.UInt32, front.owner, lane), float(dr.sum(weight)[0]) if with_total else 0.0))
+                float(dr.sum(weight)[0]) if with_total else 0.0)))
         return pieces
+
+
+def _to_parents(value, parent, second, which: bool, tp, width: int):
+    """``value`` of each child lane at its parent's lane (0 where that parent has no such
+    child): the first children's (``which`` False) or the second children's. A parent has at
+    most one child of each kind, so each is a plain scatter, with no order to depend on."""
+    out = dr.zeros(tp, width)
+    if second is None:
+        if not which:
+            dr.scatter(out, value, parent)
+        return out
+    dr.scatter(out, value, parent, second if which else ~second)
+    return out
+
+
+class _Walk:
+    """Progress of one pass's trees, reported to ``progress`` (when given) as the camera
+    samples' path weight still to be shaded shrinks: a wavefront shaded takes its weight off
+    and adds its children's. Python has control between levels: Ctrl-C lands there."""
+
+    def __init__(self, count: int, progress):
+        self.count, self.progress = count, progress
+        self.reports = progress is not None
+        self.pending, self.done = float(count), 0.0
+
+    def shaded(self, front, below) -> None:
+        if self.reports:
+            self.pending -= front.total - (below[0].total if below is not None else 0.0)
+            self._report()
+
+    def replaced(self, front, pieces) -> None:
+        if self.reports:
+            self.pending -= front.total - sum(piece.total for _, piece in pieces)
+            self._report()
+
+    def _report(self) -> None:
+        finished = self.count - self.pending
+        if finished > self.done:
+            self.progress(finished - self.done)
+            self.done = finished
+
+    def finish(self) -> None:
+        if self.reports and self.count > self.done:
+            self.progress(self.count - self.done)

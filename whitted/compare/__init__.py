@@ -31,6 +31,7 @@ The modules, in the order the work flows (each imports only those above it;
 ``csvfile``     results.csv: one row per render
 ``plot``        error_vs_time.png, its label placement, and each method's colour
 ``sheet``       contact_sheet.png, and the thumbnails it is made of
+``verdict``     the verdict in plain words that opens the page and the summary
 ``summary``     summary.txt and findings.json: the conclusions in words and as JSON
 ``page``        report.html, from its Jinja2 template (``templates/``)
 ``report``      every output written in one go (:func:`write_all`)

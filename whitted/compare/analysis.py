@@ -35,6 +35,7 @@ from dataclasses import dataclass, field
 from ..defaults import COMPARE_DATA_LEVELS, COMPARE_FLOOR_TOLERANCE
 from .curves import Floor, Reading, error_at_time, error_floor, error_levels, time_to_reach
 from .results import METHODS, WHITTED_METHODS, Limit, Measurement, SceneResult, seconds_text
+from .timing import Interval, faster_text, paired, ratio_text
 
 #: How the prose names each method.
 METHOD_NAMES = {"whitted-article": "the article's model",
@@ -42,9 +43,10 @@ METHOD_NAMES = {"whitted-article": "the article's model",
                 "path": "the path tracer"}
 POSSESSIVES = {"whitted-article": "the article model's",
                "whitted-physical": "the physically lit ray tree's"}
-#: What the equal-time tables say the renders' times are.
-TIMING = ("the fastest of the repeats (other processes only ever add time), kernel "
-          "compilation excluded")
+#: What the reports say the renders' times are.
+TIMING = ("the median of timed rounds in which every render of a scene is timed once (so that "
+          "what is compared is timed in the same moments), kernel compilation excluded; a ratio "
+          "of times is the median of its per-round ratios, with its 90% interval")
 
 
 def _capital(text: str) -> str:
@@ -64,12 +66,15 @@ class EqualTime:
                   the path tracer's fastest render or slower than its slowest: the path
                   tracer was not measured at that time, so nothing is compared (None:
                   within its range)
+    ``interval``  :attr:`ratio` per timed round (each round's times), its median and
+                  interval (None: nothing compared)
     ============= ===================================================================
     """
     whitted: Measurement
     rel_mse: Reading[Measurement] | None
     flip: Reading[Measurement] | None
     outside: str | None = None
+    interval: Interval | None = None
 
     @property
     def ratio(self) -> float:
@@ -103,12 +108,13 @@ class EqualQuality:
     ``level``    the relative MSE level
     ``reach``    method -> :class:`Reach`, for every method that rendered anything
     ``speedups`` Whitted method -> the path tracer's time over its time at this level
-                 (> 1: the Whitted method is faster); only where both reach it
+                 (> 1: the Whitted method is faster), per timed round: its median and
+                 interval; only where both reach it
     ============ ====================================================================
     """
     level: float
     reach: dict[str, Reach]
-    speedups: dict[str, float] = field(default_factory=dict)
+    speedups: dict[str, Interval] = field(default_factory=dict)
 
     @property
     def fastest_method(self) -> str | None:
@@ -127,6 +133,9 @@ class FloorStatement:
     ``path``      the path tracer's time to reach the floor's error (None: it never does)
     ``path_best`` the path tracer's most accurate render (None: no path render)
     ``text``      the statement in words
+    ``interval``  the path tracer's time to the floor's error over the floor render's,
+                  per timed round: the headline ratio, its median and interval (None:
+                  the path tracer does not reach it within its rendered range)
     ============= ====================================================================
     """
     method: str
@@ -134,6 +143,7 @@ class FloorStatement:
     path: Reading[Measurement] | None
     path_best: Measurement | None
     text: str
+    interval: Interval | None = None
 
     @property
     def render(self) -> Measurement:
@@ -194,7 +204,10 @@ class Analysis:
                                "settled": statement.floor.settled},
                      "best_rel_mse": statement.floor.best,
                      "path_seconds_to_floor": statement.path.value if statement.path else None,
-                     "path_seconds_how": statement.path.how if statement.path else None}
+                     "path_seconds_how": statement.path.how if statement.path else None,
+                     "path_time_over_floor_time": (statement.interval.as_dict()
+                                                   if statement.interval else None),
+                     "floor_text": statement.text}
             decomposition = decompositions.get(statement.method)
             if decomposition is not None:
                 limit = decomposition.limit
@@ -212,15 +225,37 @@ class Analysis:
         return {"levels": list(self.levels), "reference_spp": entry.reference_spp,
                 "reference_noise": _json_number(entry.reference_noise),
                 "renders": len(entry.measurements), "skipped": len(entry.skipped),
-                "methods": methods}
+                "timed_rounds": rounds_of(entry), "methods": methods,
+                "equal_quality": [{"rel_mse": row.level,
+                                   "path_time_over": {m: i.as_dict() for m, i in row.speedups.items()}}
+                                  for row in self.equal_quality]}
 
 
 def _json_number(value: float) -> float | None:
     return value if math.isfinite(value) else None
 
 
-def _curve(measurements: list[Measurement], metric: str) -> list[tuple[float, float, Measurement]]:
-    return [(m.seconds, getattr(m, metric), m) for m in measurements]
+def _curve(measurements: list[Measurement], metric: str,
+           round_: int | None = None) -> list[tuple[float, float, Measurement]]:
+    """(time, error, render) of ``measurements``: their times (medians), or those of timed
+    round ``round_``."""
+    return [(m.seconds if round_ is None else m.seconds_in(round_), getattr(m, metric), m)
+            for m in measurements]
+
+
+def rounds_of(entry: SceneResult) -> int:
+    """How many timed rounds the scene's renders have (1 when untimed: their one time)."""
+    return max([m.rounds for m in entry.measurements] + [1])
+
+
+def _work(m: Measurement) -> float:
+    """What chooses a render among those good enough: its work, not its time."""
+    return m.work if m.work > 0 else m.setting.spp * m.setting.max_depth
+
+
+def _cheapest(ms: list[Measurement]) -> Measurement:
+    """The render of least work (ties: the faster)."""
+    return min(ms, key=lambda m: (_work(m), m.seconds))
 
 
 def data_levels(entry: SceneResult, tolerance: float = COMPARE_FLOOR_TOLERANCE) -> tuple[float, ...]:
@@ -234,7 +269,7 @@ def data_levels(entry: SceneResult, tolerance: float = COMPARE_FLOOR_TOLERANCE) 
     floors = []
     for method in METHODS:
         floor = error_floor(_curve([m for m in entry.measurements if m.setting.method == method],
-                                   "rel_mse"), tolerance)
+                                   "rel_mse"), tolerance, _work)
         if floor is not None:
             floors.append(floor.error)
     return error_levels(floors, min(errors), max(errors), COMPARE_DATA_LEVELS, tolerance)
@@ -250,6 +285,7 @@ def analyse(entry: SceneResult, levels: tuple[float, ...] | None = None,
     path = by_method["path"]
     path_mse, path_flip = _curve(path, "rel_mse"), _curve(path, "flip")
 
+    rounds = rounds_of(entry)
     equal_time = []
     for method in WHITTED_METHODS:
         for m in sorted(by_method[method], key=lambda m: (m.setting.max_depth, m.setting.spp)):
@@ -257,7 +293,10 @@ def analyse(entry: SceneResult, levels: tuple[float, ...] | None = None,
             outside = None
             if reading is not None and reading.how == "nearest":
                 outside = "faster" if m.seconds < reading.between[0].seconds else "slower"
-            equal_time.append(EqualTime(m, reading, error_at_time(path_flip, m.seconds), outside))
+            interval = None
+            if reading is not None and outside is None:
+                interval = paired(rounds, lambda r, m=m: _error_ratio_in(path, m, r))
+            equal_time.append(EqualTime(m, reading, error_at_time(path_flip, m.seconds), outside, interval))
 
     equal_quality = []
     for level in levels:
@@ -266,42 +305,71 @@ def analyse(entry: SceneResult, levels: tuple[float, ...] | None = None,
             if not ms:
                 continue
             hits = [m for m in ms if m.rel_mse <= level]
-            reach[method] = Reach(method, min(hits, key=lambda m: m.seconds) if hits else None,
+            reach[method] = Reach(method, _cheapest(hits) if hits else None,
                                   min(ms, key=lambda m: m.rel_mse))
         speedups = {}
         path_reach = reach.get("path")
         for method in WHITTED_METHODS:
             own = reach.get(method)
-            if own and own.fastest and path_reach and path_reach.fastest and own.fastest.seconds > 0:
-                speedups[method] = path_reach.fastest.seconds / own.fastest.seconds
+            if own and own.fastest and path_reach and path_reach.fastest:
+                a, b = path_reach.fastest, own.fastest
+                speedups[method] = paired(rounds, lambda r, a=a, b=b: _over(a.seconds_in(r), b.seconds_in(r)))
         equal_quality.append(EqualQuality(level, reach, speedups))
 
     floors, decompositions = [], []
     path_best = min(path, key=lambda m: m.rel_mse) if path else None
     for method in WHITTED_METHODS:
         ms = by_method[method]
-        floor = error_floor(_curve(ms, "rel_mse"), tolerance)
+        floor = error_floor(_curve(ms, "rel_mse"), tolerance, _work)
         if floor is None:
             continue
         reading = time_to_reach(path_mse, floor.error) if path else None
+        interval = None
+        if reading is not None and reading.how != "nearest":
+            interval = paired(rounds, lambda r, floor=floor: _path_time_over_in(path, floor, r))
         floors.append(FloorStatement(method, floor, reading, path_best,
                                      floor_text(method, floor, reading, path_best,
-                                                entry.reference_noise, tolerance)))
+                                                entry.reference_noise, tolerance, interval), interval))
         limit = entry.limits.get(method)
         if limit is not None:
             gone = [m for m in ms if m.rel_mse_limit <= tolerance * limit.rel_mse]
-            gone = min(gone, key=lambda m: m.seconds) if gone else None
+            gone = _cheapest(gone) if gone else None
             decompositions.append(Decomposition(method, floor, limit, gone,
                                                 decomposition_text(method, floor, limit, gone,
                                                                    entry.reference_noise, tolerance)))
     return Analysis(entry, tuple(levels), equal_time, equal_quality, floors, decompositions)
 
 
+def _over(a: float, b: float) -> float:
+    return a / b if b > 0 and math.isfinite(a) and math.isfinite(b) else math.nan
+
+
+def _path_time_over_in(path: list[Measurement], floor: Floor[Measurement], round_: int) -> float:
+    """In timed round ``round_``: the path tracer's time to the floor's error (read on its
+    curve of that round's times) over the floor render's time in that round."""
+    reading = time_to_reach(_curve(path, "rel_mse", round_), floor.error)
+    if reading is None or reading.how == "nearest":
+        return math.nan
+    return _over(reading.value, floor.render.seconds_in(round_))
+
+
+def _error_ratio_in(path: list[Measurement], m: Measurement, round_: int) -> float:
+    """In timed round ``round_``: ``m``'s relative MSE over the path tracer's at ``m``'s time
+    (read on its curve of that round's times)."""
+    reading = error_at_time(_curve(path, "rel_mse", round_), m.seconds_in(round_))
+    if reading is None or reading.how == "nearest" or not reading.value > 0:
+        return math.nan
+    return m.rel_mse / reading.value
+
+
 def floor_text(method: str, floor: Floor[Measurement], path: Reading | None,
-               path_best: Measurement | None, reference_noise: float, tolerance: float) -> str:
+               path_best: Measurement | None, reference_noise: float, tolerance: float,
+               interval: Interval | None = None) -> str:
     """The floor in words, e.g. "The article's model's best error is 0.175 ...: its
     cheapest render within 5% of it is d5 · 1 spp (12.3 ms) at 0.180, which the path
-    tracer reaches in 18.6 ms ...; the article's model gets there 1.51× faster"."""
+    tracer reaches in 18.6 ms ...; the article's model gets there 1.51× faster (1.4–1.6×
+    over 5 rounds)". The cheapest render is the one of least work (rays traced), so that
+    the choice does not follow timing noise."""
     name = METHOD_NAMES[method]
     render = floor.render
     cheapest = (f"{render.setting.label} ({seconds_text(render.seconds)}) at {floor.error:.3g}")
@@ -324,9 +392,10 @@ def floor_text(method: str, floor: Floor[Measurement], path: Reading | None,
         how = (f"its {path.between[0].setting.label} render" if path.how == "rendered" else
                f"interpolated between its {path.between[0].setting.label} and "
                f"{path.between[1].setting.label} renders")
-        ratio = path.value / render.seconds if render.seconds > 0 else math.nan
-        faster = (f"{name} gets there {ratio:.3g}× faster" if ratio >= 1 else
-                  f"the path tracer gets there {1 / ratio:.3g}× faster")
+        if interval is None or not interval.known:
+            ratio = path.value / render.seconds if render.seconds > 0 else math.nan
+            interval = Interval(ratio, ratio, ratio, 1)
+        faster = faster_text(interval, name, "the path tracer")
         text += (f". The path tracer reaches that error in {seconds_text(path.value)} ({how}): "
                  f"{faster}.")
     return text + _noise_caution(floor, reference_noise)
@@ -381,8 +450,8 @@ def decomposition_text(method: str, floor: Floor[Measurement], limit: Limit,
 
 
 def spread_text(m: Measurement) -> str:
-    """A render's time (its fastest repeat) and the spread of its repeats: ``11.9 ms
-    (11.9–13.0 ms)``."""
+    """A render's time (the median of its timed rounds) and their range: ``11.9 ms
+    (11.2–13.0 ms)``."""
     if len(m.times) < 2:
         return seconds_text(m.seconds)
     low, high = m.seconds_min, m.seconds_max
@@ -403,7 +472,7 @@ def reach_text(reach: Reach | None) -> str:
 def speedup_text(row: EqualQuality, method: str) -> str:
     """How many times faster ``method`` reaches the row's level than the path tracer."""
     if method in row.speedups:
-        return f"{row.speedups[method]:.3g}×"
+        return ratio_text(row.speedups[method])
     own, path = row.reach.get(method), row.reach.get("path")
     own_hit = own is not None and own.fastest is not None
     path_hit = path is not None and path.fastest is not None

@@ -84,16 +84,18 @@ class Budget:
         return None
 
     @staticmethod
-    def predict(setting: Setting, done: list[tuple[Setting, float, float]], repeats: int) -> float:
-        """Seconds the setting will take, from ``done`` = [(setting, seconds, wall)];
-        0 when this method has not run yet (its first render is always tried)."""
+    def predict(setting: Setting, done: list[tuple[Setting, float, float]], renders: int) -> float:
+        """Seconds the setting will take if rendered ``renders`` times (its scored render and
+        its timed rounds), from ``done`` = [(setting, seconds of its scored render, wall time
+        of it with scoring)]; 0 when this method has not run yet (its first render is always
+        tried)."""
         estimates = []
         for other, seconds, wall in done:
             if other.method != setting.method:
                 continue
             scale = setting.spp / other.spp * max(1.0, setting.max_depth / other.max_depth)
-            overhead = max(0.0, wall - repeats * seconds)  # compilation, scoring
-            estimates.append(repeats * seconds * scale + overhead)
+            overhead = max(0.0, wall - seconds)  # compilation, scoring
+            estimates.append(renders * seconds * scale + overhead)
         return max(estimates, default=0.0)
 
 

@@ -14,8 +14,9 @@ import time
 from pathlib import Path
 
 from ..defaults import VARIANTS as SUPPORTED_VARIANTS
+from ..defaults import VIEWS
 from .results import (DEFAULT_PATH_SPP, DEFAULT_REFERENCE_CHUNK_SPP,
-                      DEFAULT_REFERENCE_SPP, DEFAULT_REPEATS, DEFAULT_WHITTED_SPP, MAX_DEFAULT_DEPTH,
+                      DEFAULT_REFERENCE_SPP, DEFAULT_ROUNDS, DEFAULT_WHITTED_SPP, MAX_DEFAULT_DEPTH,
                       Options)
 
 
@@ -69,16 +70,18 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              f"{','.join(map(str, DEFAULT_PATH_SPP))})")
     parser.add_argument("--path-depth", type=int, metavar="N",
                         help="the path tracer's max depth, for the reference too (default: the scene's)")
-    parser.add_argument("--repeats", type=int, default=DEFAULT_REPEATS, metavar="N",
-                        help="timed renders per setting; the fastest is kept, and a setting whose "
-                             f"two fastest disagree is timed a few more times (default {DEFAULT_REPEATS})")
+    parser.add_argument("--rounds", type=int, default=DEFAULT_ROUNDS, metavar="N",
+                        help="timed rounds over each scene's renders, at least: every render is "
+                             "timed once per round, so that methods are timed in the same moments; "
+                             f"more rounds while a headline ratio is unsettled (default {DEFAULT_ROUNDS})")
     parser.add_argument("--budget", type=float, metavar="SECONDS",
                         help="bound the whole command's time: renders that would overrun are skipped")
     parser.add_argument("--levels", type=float_list, metavar="LIST",
                         help="relative MSE levels of the equal-quality table, e.g. 0.1,0.03 "
                              "(default: from the data: each method's floor, and levels between "
                              "the best and worst errors measured)")
-    parser.add_argument("--cache", metavar="DIR", help="where references are cached (default DIR/references)")
+    parser.add_argument("--cache", metavar="DIR", help="where references are cached (default: ~/.cache/whitted/references, or "
+                             "$XDG_CACHE_HOME/whitted/references; shared by every run; safe to delete)")
     parser.add_argument("--variant", choices=SUPPORTED_VARIANTS,
                         help="Mitsuba variant (default as for render)")
     parser.add_argument("--reference-chunk-spp", type=int, default=DEFAULT_REFERENCE_CHUNK_SPP,
@@ -92,6 +95,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     where.add_argument("--scheduler", metavar="ADDRESS",
                        help="sweep on the Dask cluster of this scheduler, e.g. tcp://host:8786 "
                             "(workers started with whitted installed; see docs/cluster.md)")
+    parser.add_argument("--view", choices=VIEWS,
+                        help="how every image is displayed (PNGs, report page, contact sheet) and "
+                             "FLIP scores it: clip (sRGB clipped to [0, 1]) or aces (OpenColorIO's "
+                             "ACES 2.0 SDR view); default: per scene, clip unless that clips 1%% "
+                             "or more of the reference's pixels. The relative MSE reads linear values")
+    parser.add_argument("--exposure", type=float, default=0.0, metavar="EV",
+                        help="the displayed images' exposure in stops (default 0); FLIP scores them so")
     parser.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
 
 
@@ -103,10 +113,11 @@ def compare_command(args: argparse.Namespace) -> None:
 
     options = Options(out=Path(args.out), reference_spp=args.reference_spp, depths=args.depths,
                       whitted_spp=args.spp, path_spp=args.path_spp, path_depth=args.path_depth,
-                      repeats=args.repeats, budget=args.budget, levels=args.levels,
+                      rounds=args.rounds, budget=args.budget, levels=args.levels,
                       cache=Path(args.cache) if args.cache else None, variant=args.variant,
                       quiet=args.quiet, reference_chunk_spp=args.reference_chunk_spp,
-                      workers=args.workers, scheduler=args.scheduler)
+                      workers=args.workers, scheduler=args.scheduler, view=args.view,
+                      exposure=args.exposure)
     start = time.monotonic()
     entries = compare(args.scenes, options)
     skipped = sum(len(e.skipped) for e in entries)
@@ -125,5 +136,8 @@ def compare_command(args: argparse.Namespace) -> None:
               file=sys.stderr)
     if done == 0:
         print("whitted compare: no render was done (see the lines above for why)", file=sys.stderr)
-    print(f"\n{done} renders in {time.monotonic() - start:.1f} s; wrote {output_files(options.out)}",
+    # The progress bar counts every render, each Whitted method's limit too: so does this line.
+    limits = sum(len(e.limits) for e in entries)
+    counted = f"{done + limits} renders ({done} timed and scored, {limits} limits)" if limits else f"{done} renders"
+    print(f"\n{counted} in {time.monotonic() - start:.1f} s; wrote {output_files(options.out)}",
           file=sys.stderr)

@@ -1,7 +1,9 @@
 """``results.csv``: one row per render that was done, for spreadsheets and scripts.
 
 Its columns are :data:`CSV_COLUMNS`, new ones added at the end so that readers of
-the old keep working. It is rewritten (atomically, whitted.atomic) after every
+the old keep working (``repeats`` counts a render's timed rounds, ``seconds_each`` lists
+them, ``work`` is what chose the floor: rays traced, or the path tracer's samples).
+It is rewritten (atomically, whitted.atomic) after every
 scene, so an interrupted run keeps the rows of the scenes that finished.
 """
 
@@ -19,7 +21,7 @@ from .results import Measurement, SceneResult
 CSV_COLUMNS = ("scene", "method", "integrator", "lighting", "spp", "max_depth", "seconds",
                "compile_seconds", "rel_mse", "flip", "repeats", "width", "height", "variant",
                "reference_spp", "seconds_min", "seconds_max", "seconds_each", "image", "image_png",
-               "error_map", "reference_noise", "worker", "rel_mse_limit")
+               "error_map", "reference_noise", "worker", "rel_mse_limit", "work")
 CSV_NAME = "results.csv"
 
 
@@ -28,14 +30,15 @@ def _row(entry: SceneResult, m: Measurement) -> dict:
     return {"scene": entry.name, "method": s.method, "integrator": s.integrator,
             "lighting": s.lighting, "spp": s.spp, "max_depth": s.max_depth,
             "seconds": f"{m.seconds:.6g}", "compile_seconds": f"{m.compile_seconds:.6g}",
-            "rel_mse": f"{m.rel_mse:.6g}", "flip": f"{m.flip:.6g}", "repeats": m.repeats,
+            "rel_mse": f"{m.rel_mse:.6g}", "flip": f"{m.flip:.6g}", "repeats": m.rounds,
             "width": entry.width, "height": entry.height, "variant": entry.variant,
             "reference_spp": entry.reference_spp, "seconds_min": f"{m.seconds_min:.6g}",
             "seconds_max": f"{m.seconds_max:.6g}",
             "seconds_each": ";".join(f"{t:.6g}" for t in m.times),
             "image": m.image or "", "image_png": m.image_png or "", "error_map": m.error_map or "",
             "reference_noise": f"{entry.reference_noise:.6g}", "worker": entry.worker,
-            "rel_mse_limit": f"{m.rel_mse_limit:.6g}" if math.isfinite(m.rel_mse_limit) else ""}
+            "rel_mse_limit": f"{m.rel_mse_limit:.6g}" if math.isfinite(m.rel_mse_limit) else "",
+            "work": m.work}
 
 
 def write_csv(path: str | os.PathLike, entries: list[SceneResult]) -> None:

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Generic, TypeVar
+from typing import Callable, Generic, TypeVar
 
 import numpy as np
 
@@ -124,17 +124,25 @@ class Floor(Generic[T]):
     settled: bool
 
 
-def error_floor(curve: list[tuple[float, float, T]], tolerance: float) -> Floor[T] | None:
+def error_floor(curve: list[tuple[float, float, T]], tolerance: float,
+                work: Callable[[T], float] | None = None) -> Floor[T] | None:
     """The floor of a method's renders (time, error, payload): with e* the least error of
-    them all, the fastest render whose error is at most e* · (1 + ``tolerance``) (the
-    more accurate of two equally fast). None when no render has a finite error."""
+    them all, the cheapest render whose error is at most e* · (1 + ``tolerance``). With
+    ``work`` (payload -> what the render does, e.g. its rays), the cheapest is the one of
+    least work, whatever the clock said (ties: the faster, then the more accurate), so
+    that timing noise cannot choose; without it, the fastest (the more accurate of two
+    equally fast). None when no render has a finite error."""
     usable = [p for p in curve if math.isfinite(p[1]) and math.isfinite(p[0])]
     if not usable:
         return None
     best = min(e for _, e, _ in usable)
-    seconds, error, render = min((p for p in usable if p[1] <= best * (1.0 + tolerance)),
-                                 key=lambda p: (p[0], p[1]))
-    return Floor(render, seconds, error, best, any(s > seconds for s, _, _ in usable))
+
+    def cost(p):
+        return (work(p[2]), p[0], p[1]) if work is not None else (p[0], p[1])
+    chosen = min((p for p in usable if p[1] <= best * (1.0 + tolerance)), key=cost)
+    seconds, error, render = chosen
+    costlier = any(cost(p) > cost(chosen) for p in usable)
+    return Floor(render, seconds, error, best, costlier)
 
 
 def error_levels(floors: list[float], lowest: float, highest: float, count: int,

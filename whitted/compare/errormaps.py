@@ -48,16 +48,17 @@ def write_display_png(path: str | os.PathLike, pixels: np.ndarray) -> None:
         bitmap.write(str(tmp))
 
 
-def write_render(out: Path, stem: str, image: np.ndarray, error_map: np.ndarray | None) -> dict:
-    """Keep one render under ``out``: ``STEM.exr`` (linear), ``STEM.png`` (sRGB) and, with an
-    error map, ``STEM-flip.png``; returns their paths relative to ``out`` by kind
-    (``image``, ``image_png``, ``error_map``)."""
+def write_render(out: Path, stem: str, image: np.ndarray, error_map: np.ndarray | None,
+                 exposure: float = 0.0, view: str = "clip") -> dict:
+    """Keep one render under ``out``: ``STEM.exr`` (linear), ``STEM.png`` (as displayed, with
+    ``exposure`` and ``view``) and, with an error map, ``STEM-flip.png``; returns their paths
+    relative to ``out`` by kind (``image``, ``image_png``, ``error_map``)."""
     from ..imageio import write_image
 
     (out / stem).parent.mkdir(parents=True, exist_ok=True)
     files = {"image": f"{stem}.exr", "image_png": f"{stem}.png"}
     write_image(out / files["image"], image)
-    write_image(out / files["image_png"], image)
+    write_image(out / files["image_png"], image, exposure=exposure, view=view)
     if error_map is not None:
         files["error_map"] = f"{stem}-flip.png"
         write_display_png(out / files["error_map"], colorize(error_map))

@@ -22,12 +22,15 @@ from pathlib import Path
 
 from ..atomic import write_text
 from ..defaults import VERSION
+from ..display import view_text
 from .analysis import (METHOD_NAMES, TIMING, Analysis, equal_time_how, reach_text, speedup_text,
                        spread_text)
 from .curves import pareto_front
 from .errormaps import colorbar
 from .plot import COLORS
+from .verdict import verdict
 from .results import METHODS, WHITTED_LIGHTING, WHITTED_METHODS, Measurement, SceneResult, seconds_text
+from .timing import ratio_text
 
 PAGE_NAME = "report.html"
 TEMPLATE = "report.html.j2"
@@ -57,7 +60,7 @@ def _render(m: Measurement, index: str, card: bool) -> dict:
     limit = (f", {_number(m.rel_mse_limit)} from its limit" if math.isfinite(m.rel_mse_limit) else "")
     return {"id": index, "method": s.method, "method_name": METHOD_NAMES[s.method],
             "label": s.label, "depth": s.max_depth, "spp": s.spp, "time": spread_text(m),
-            "rel_mse": _number(m.rel_mse), "flip": _number(m.flip), "repeats": m.repeats,
+            "rel_mse": _number(m.rel_mse), "flip": _number(m.flip), "rounds": m.rounds,
             "png": m.image_png, "exr": m.image or "", "map": m.error_map or m.image_png,
             "title": f"{s.method} {s.label}", "card": card,
             "caption": f"{METHOD_NAMES[s.method]} ({s.method}), {s.label}: {spread_text(m)}, "
@@ -107,8 +110,9 @@ def scene_context(analysis: Analysis, plot: str, out: Path) -> dict:
             "method": row.whitted.setting.method, "label": row.whitted.setting.label,
             "time": spread_text(row.whitted), "rel_mse": _number(row.whitted.rel_mse),
             "path_rel_mse": _number(row.rel_mse.value) if compared else "—",
-            "ratio": _number(row.ratio),
-            "winner": ("whitted" if row.ratio < 1 else "path") if math.isfinite(row.ratio) else "",
+            "ratio": ratio_text(row.interval) if compared else "—",
+            "winner": (("" if row.interval is not None and row.interval.straddles_one
+                        else "whitted" if row.ratio < 1 else "path") if math.isfinite(row.ratio) else ""),
             "flip": _number(row.whitted.flip),
             "path_flip": _number(row.flip.value) if compared and row.flip else "—",
             "how": equal_time_how(row), "outside": row.outside is not None})
@@ -129,6 +133,8 @@ def scene_context(analysis: Analysis, plot: str, out: Path) -> dict:
         "methods": methods, "whitted": [WHITTED_LIGHTING[m] for m in whitted],
         "equal_quality": equal_quality, "equal_time": equal_time,
         "skipped": len(entry.skipped),
+        "verdict": verdict(analysis),
+        "view": view_text(entry.view, entry.exposure, entry.reference_clipped),
     }
 
 

@@ -2,8 +2,8 @@
 scene's own plot, for the page), with each front point labelled where its label fits.
 
 How to read it: relative MSE on the left and FLIP on the right, against the render
-time (the fastest repeat, compilation excluded; the bars reach to the slowest
-repeat), both axes logarithmic. Each method has one colour (:data:`COLORS`, the
+time (the median of its timed rounds, compilation excluded; the bars reach the fastest
+and slowest round), both axes logarithmic. Each method has one colour (:data:`COLORS`, the
 page's too); its faint dots are every setting that was rendered, and its line joins
 the settings that no faster setting of the same method beats (its Pareto front):
 the best error that method buys for a given time. Only the front's points are
@@ -96,12 +96,24 @@ def place_labels(fig, ax, labels: list[tuple[float, float, str, str]], taken: li
 
 def plot_error_vs_time(path: str | os.PathLike, entries: list[SceneResult]) -> None:
     """Error against time, log–log; one row of two panels (rel. MSE, FLIP) per scene."""
+    save_figure(error_vs_time_figure(entries), path, dpi=FIGURE_DPI)
+
+
+#: The plot's resolution: its labels are placed at it, so it is saved at it.
+FIGURE_DPI = 100
+#: Room left above and below the data on the log error axes, as a fraction of their span:
+#: the Whitted methods' points sit at the top, and their labels need a place to go.
+Y_MARGIN = 0.12
+
+
+def error_vs_time_figure(entries: list[SceneResult]):
+    """The figure of :func:`plot_error_vs_time`, its labels placed (a matplotlib ``Figure``)."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
     from matplotlib.transforms import Bbox
 
     rows = max(1, len(entries))
-    fig = Figure(figsize=(10.0, 4.4 * rows), layout="constrained")
+    fig = Figure(figsize=(10.0, 4.4 * rows), layout="constrained", dpi=FIGURE_DPI)
     FigureCanvasAgg(fig)
     if not entries:
         fig.suptitle("nothing rendered within the budget")
@@ -127,18 +139,22 @@ def plot_error_vs_time(path: str | os.PathLike, entries: list[SceneResult]) -> N
                 labels += [(x, y, by_point[(x, y)].short_label, color) for x, y in front]
                 points += list(zip(xs, ys))
                 lines.append(front)
+                # the timing bars too: a label over one would read as part of it
+                lines += [[(m.seconds_min, y), (m.seconds_max, y)] for m, y in zip(ms, ys)
+                          if m.seconds_max > m.seconds_min]
             if metric == "rel_mse" and _usable(entry.reference_noise):
                 ax.axhline(entry.reference_noise, color="0.35", linestyle="--", linewidth=0.9,
                            label=f"reference noise ({entry.reference_spp} spp, est. from two halves)")
             ax.set_xscale("log")
             ax.set_yscale("log")
+            ax.margins(x=0.06, y=Y_MARGIN)
             _time_axis(ax, [x for x, _ in points])
-            ax.set_xlabel("render time (fastest repeat; bars: to the slowest)")
+            ax.set_xlabel("render time (median of rounds; bars: fastest to slowest)")
             ax.set_ylabel(f"{name} vs reference")
             ax.grid(True, which="both", alpha=0.2)
             pending.append((ax, labels, points, lines))
         ax_mse.set_title(f"{entry.name} ({entry.width}×{entry.height}): relative MSE", fontsize=9)
-        ax_flip.set_title(f"{entry.name}: FLIP (as displayed, [0, 1] sRGB)", fontsize=9)
+        ax_flip.set_title(f"{entry.name}: FLIP (as displayed: {entry.view} view)", fontsize=9)
         if entry.measurements:
             subfig.legend(*ax_mse.get_legend_handles_labels(), loc="outside lower center", ncols=2,
                           fontsize=7, title="labels: dDEPTH·SPP (Whitted), SPP (path tracer); "
@@ -153,7 +169,7 @@ def plot_error_vs_time(path: str | os.PathLike, entries: list[SceneResult]) -> N
                  for px, py in (ax.transData.transform(p) for p in points)]
         taken += [box for line in lines for box in line_boxes(ax, line)]
         place_labels(fig, ax, labels, taken)
-    save_figure(fig, path, dpi=100)
+    return fig
 
 
 def _time_axis(ax, seconds: list[float]) -> None:

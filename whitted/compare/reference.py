@@ -45,6 +45,7 @@ import numpy as np
 
 from .. import rendering  # rendering.render looked up at call time: tests count calls
 from ..defaults import COMPARE_MIN_REFERENCE_SPP, COMPARE_PROBE_SECONDS, COMPARE_REFERENCE_SHARE
+from ..progress import progress_bar
 from .budget import Budget, fit_cost, render_cost
 from .curves import reference_noise
 from .results import IN_PROCESS, Options, SceneResult, seconds_text
@@ -380,9 +381,13 @@ def reference_image(scene: SceneFile, loaded, entry: SceneResult, cache: Referen
         if not options.quiet:
             print(f"whitted compare: {entry.name}: rendering the reference "
                   f"(path tracer, {plan.spp} spp in two halves)", file=sys.stderr)
-        if chunks is None:
-            chunks = [render_chunk(loaded, *chunk, entry.path_depth, progress=not options.quiet)
-                      for chunk in planned]
+        if chunks is None:   # one bar for the whole reference, not one per chunk
+            with progress_bar(not options.quiet, sum(c[0] for c in planned), f"{entry.name}: reference",
+                              unit="spp", unit_scale=False) as bar:
+                chunks = []
+                for chunk in planned:
+                    chunks.append(render_chunk(loaded, *chunk, entry.path_depth))
+                    bar.update(chunk[0])
         if [c.planned for c in chunks] != planned:
             raise ValueError("the reference's chunks are not those its plan makes")
         chunks = plan.probes + chunks

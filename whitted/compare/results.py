@@ -20,8 +20,8 @@ from ..defaults import (COMPARE_MAX_DEFAULT_DEPTH as MAX_DEFAULT_DEPTH,
                         COMPARE_PATH_SPP as DEFAULT_PATH_SPP,
                         COMPARE_REFERENCE_CHUNK_SPP as DEFAULT_REFERENCE_CHUNK_SPP,
                         COMPARE_REFERENCE_SPP as DEFAULT_REFERENCE_SPP,
-                        COMPARE_REPEATS as DEFAULT_REPEATS, COMPARE_WHITTED_SPP as DEFAULT_WHITTED_SPP,
-                        LIGHTING_MODES, MAX_DEPTH)
+                        COMPARE_ROUNDS as DEFAULT_ROUNDS, COMPARE_WHITTED_SPP as DEFAULT_WHITTED_SPP,
+                        LIGHTING_MODES, MAX_DEPTH, user_cache_folder)
 
 if TYPE_CHECKING:
     import numpy as np
@@ -45,7 +45,7 @@ METHODS = WHITTED_METHODS + ("path",)
 IN_PROCESS = "in-process"
 
 __all__ = ["DEFAULT_PATH_SPP", "DEFAULT_REFERENCE_CHUNK_SPP", "DEFAULT_REFERENCE_SPP",
-           "DEFAULT_REPEATS", "DEFAULT_WHITTED_SPP", "IN_PROCESS", "MAX_DEFAULT_DEPTH", "MAX_DEPTH",
+           "DEFAULT_ROUNDS", "DEFAULT_WHITTED_SPP", "IN_PROCESS", "MAX_DEFAULT_DEPTH", "MAX_DEPTH",
            "METHODS", "WHITTED_LIGHTING", "WHITTED_METHODS", "Comparison", "Limit", "Measurement",
            "Options", "SceneResult", "Setting", "method_of", "seconds_text"]
 
@@ -93,18 +93,22 @@ class Setting:
 
 @dataclass
 class Measurement:
-    """One setting, rendered and scored against the reference.
+    """One setting, rendered and scored against the reference, then timed in rounds.
 
     =================== ===============================================================
     ``setting``         what was rendered
-    ``seconds``         the fastest repeat's render time, compilation excluded (other
-                        processes only ever add time, so the fastest is the estimate)
-    ``compile_seconds`` kernel compilation (the largest over the repeats)
+    ``seconds``         its render time, compilation excluded: the median of its timed
+                        rounds (:mod:`~whitted.compare.timing`), or its scored render's
+                        time until it has rounds
+    ``compile_seconds`` kernel compilation (its scored render's: the first)
     ``rel_mse``         relative MSE against the reference (:mod:`whitted.metrics`)
     ``flip``            LDR-FLIP against the reference
-    ``repeats``         how many times it was rendered
+    ``work``            what the render does, independent of timing: the rays traced
+                        (Whitted: camera, shadow, reflected and refracted, merged rays
+                        once) or, for the path tracer, its camera samples
     ``thumbnail``       a small sRGB uint8 copy of the image (for the contact sheet)
-    ``times``           every repeat's render time (``seconds`` is the fastest)
+    ``times``           its time in each timed round, in round order (the rounds of a
+                        scene are the same moments for all its settings)
     ``image``           the render, linear EXR, relative to the output folder (None:
                         not kept)
     ``image_png``       the same as an sRGB PNG (for the report page)
@@ -118,13 +122,25 @@ class Measurement:
     compile_seconds: float
     rel_mse: float
     flip: float
-    repeats: int
+    work: int = 0
     thumbnail: np.ndarray | None = field(default=None, repr=False)
     times: tuple[float, ...] = ()
     image: str | None = None
     image_png: str | None = None
     error_map: str | None = None
     rel_mse_limit: float = math.nan
+
+    @property
+    def rounds(self) -> int:
+        """How many timed rounds it has."""
+        return len(self.times)
+
+    def seconds_in(self, round_: int) -> float:
+        """Its time in round ``round_`` (its :attr:`seconds` when it has no rounds; NaN
+        when it missed that round)."""
+        if not self.times:
+            return self.seconds
+        return self.times[round_] if round_ < len(self.times) else math.nan
 
     @property
     def seconds_min(self) -> float:
@@ -200,6 +216,9 @@ class SceneResult:
                             :data:`IN_PROCESS` (every setting of a scene is rendered
                             by one worker, so its times compare)
     ``limits``              Whitted method -> its :class:`Limit` (absent: not rendered)
+    ``view``, ``exposure``  how every image of the scene is displayed (PNGs, page,
+                            contact sheet) and what FLIP scores (:mod:`whitted.display`)
+    ``reference_clipped``   the share of the reference's pixels plain sRGB would clip
     ======================= ===========================================================
     """
     name: str
@@ -224,6 +243,9 @@ class SceneResult:
     notes: list[str] = field(default_factory=list)
     worker: str = IN_PROCESS
     limits: dict[str, Limit] = field(default_factory=dict)
+    view: str = "clip"
+    exposure: float = 0.0
+    reference_clipped: float = math.nan
 
     def __post_init__(self):
         if not self.reference_requested:
@@ -248,12 +270,14 @@ class Options:
     ``path_spp``            the path tracer's spp ladder
     ``path_depth``          the path tracer's and reference's max depth (None: the
                             scene's)
-    ``repeats``             renders per setting; the fastest time is kept (more
-                            repeats when the two fastest disagree)
+    ``rounds``              timed rounds over a scene's settings, at least
+                            (:mod:`~whitted.compare.timing`; more while a headline
+                            is unsettled)
     ``budget``              seconds for the whole command (None: unbounded)
     ``levels``              relative MSE levels of the equal-quality table (None: from
                             the data, :func:`~whitted.compare.analysis.data_levels`)
-    ``cache``               the reference cache's folder (None: ``out/references``)
+    ``cache``               the reference cache's folder (None: the user's cache,
+                            ``~/.cache/whitted/references``: shared by every run)
     ``variant``             the Mitsuba variant (None: as for ``whitted render``)
     ``quiet``               no progress bar or messages
     ``reference_chunk_spp`` the reference is rendered in chunks of at most this many
@@ -263,6 +287,10 @@ class Options:
                             processes (None: in this process)
     ``scheduler``           sweep on the Dask cluster of this scheduler
                             (``tcp://host:port``; None: in this process)
+    ``view``                how every image is displayed and FLIP scores it ("clip" or
+                            "aces"; None: per scene, :func:`whitted.display.fitting_view`
+                            of its reference)
+    ``exposure``            the displayed images' exposure, in stops
     ======================= ==========================================================
     """
     out: Path
@@ -271,7 +299,7 @@ class Options:
     whitted_spp: tuple[int, ...] = DEFAULT_WHITTED_SPP
     path_spp: tuple[int, ...] = DEFAULT_PATH_SPP
     path_depth: int | None = None
-    repeats: int = DEFAULT_REPEATS
+    rounds: int = DEFAULT_ROUNDS
     budget: float | None = None
     levels: tuple[float, ...] | None = None
     cache: Path | None = None
@@ -280,11 +308,15 @@ class Options:
     reference_chunk_spp: int = DEFAULT_REFERENCE_CHUNK_SPP
     workers: int | None = None
     scheduler: str | None = None
+    view: str | None = None
+    exposure: float = 0.0
 
     @property
     def cache_folder(self) -> Path:
-        """Where references are cached."""
-        return Path(self.cache) if self.cache is not None else Path(self.out) / "references"
+        """Where references are cached: ``cache``, or the user's cache folder
+        (:func:`whitted.defaults.user_cache_folder`), so that a second run of the same scene
+        into another output folder renders no reference again."""
+        return Path(self.cache) if self.cache is not None else user_cache_folder() / "references"
 
 
 class Comparison(list):

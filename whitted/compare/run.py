@@ -37,8 +37,8 @@ def check_options(options: Options) -> None:
     if out.exists() and not out.is_dir():
         raise WhittedError(f"{out}: exists and is not a folder")
     check_folder_creatable(out)
-    if options.repeats < 1 or options.reference_spp < 1:
-        raise WhittedError("--repeats and --reference-spp must be >= 1")
+    if options.rounds < 1 or options.reference_spp < 1:
+        raise WhittedError("--rounds and --reference-spp must be >= 1")
     if options.budget is not None and not options.budget > 0:
         raise WhittedError(f"--budget must be a positive number of seconds, got {options.budget}")
     for depth in options.depths or ():
@@ -56,6 +56,10 @@ def check_options(options: Options) -> None:
                            "give one of them")
     if options.workers is not None and options.workers < 1:
         raise WhittedError(f"--workers must be >= 1, got {options.workers}")
+    from ..display import check_exposure, check_view
+    if options.view is not None:
+        check_view(options.view)
+    check_exposure(options.exposure)
 
 
 def compare(scenes: list[str | os.PathLike], options: Options) -> Comparison:

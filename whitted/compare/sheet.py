@@ -17,10 +17,12 @@ SHEET_NAME = "contact_sheet.png"
 THUMBNAIL_WIDTH = 160
 
 
-def thumbnail(image: np.ndarray, width: int = THUMBNAIL_WIDTH) -> np.ndarray:
+def thumbnail(image: np.ndarray, width: int = THUMBNAIL_WIDTH, exposure: float = 0.0,
+              view: str = "clip") -> np.ndarray:
     """A small sRGB uint8 copy of a linear image: box-averaged by an integer factor so
-    that noise shows as it would at full size on average, then encoded by Mitsuba."""
-    from ..imageio import srgb8
+    that noise shows as it would at full size on average, then displayed with
+    ``exposure`` and ``view`` (:mod:`whitted.display`)."""
+    from ..display import to_srgb
 
     image = np.nan_to_num(np.asarray(image, dtype=np.float32), nan=0.0, posinf=0.0, neginf=0.0)
     factor = max(1, math.ceil(image.shape[1] / width))
@@ -28,7 +30,7 @@ def thumbnail(image: np.ndarray, width: int = THUMBNAIL_WIDTH) -> np.ndarray:
         h, w = image.shape[0] // factor * factor, image.shape[1] // factor * factor
         h, w = max(h, factor), max(w, factor)
         image = image[:h, :w].reshape(h // factor, factor, w // factor, factor, 3).mean(axis=(1, 3))
-    return srgb8(np.ascontiguousarray(image, dtype=np.float32))
+    return to_srgb(np.ascontiguousarray(image, dtype=np.float32), exposure, view)
 
 
 def _sheet_rows(entry: SceneResult) -> list[list[tuple[str, np.ndarray | None, str]]]:

@@ -12,6 +12,8 @@ import math
 
 from .analysis import TIMING, Analysis, equal_time_how, reach_text, speedup_text
 from .results import WHITTED_LIGHTING, WHITTED_METHODS, seconds_text
+from .timing import ratio_text
+from .verdict import verdict
 
 SUMMARY_NAME = "summary.txt"
 FINDINGS_NAME = "findings.json"
@@ -42,7 +44,7 @@ def equal_time_lines(analysis: Analysis) -> list[str]:
         compared = row.rel_mse is not None and row.outside is None
         rows.append([m.setting.method, m.setting.label, seconds_text(m.seconds), f"{m.rel_mse:.3g}",
                      f"{row.rel_mse.value:.3g}" if compared else "—",
-                     f"{row.ratio:.3g}" if math.isfinite(row.ratio) else "—", f"{m.flip:.3g}",
+                     ratio_text(row.interval) if math.isfinite(row.ratio) else "—", f"{m.flip:.3g}",
                      f"{row.flip.value:.3g}" if compared and row.flip else "—", equal_time_how(row)])
     return _table(rows)
 
@@ -67,6 +69,7 @@ def summary(analyses: list[Analysis], equal_time: bool = True,
         noise = f", its noise ≈ {entry.reference_noise:.3g}" if noisy else ""
         lines += ["", f"{entry.name} ({entry.width}×{entry.height}; reference: path tracer, "
                       f"{entry.reference_spp} spp{noise})"]
+        lines += [f"  {verdict(analysis)}"]
         lines += [f"  note: {note}" for note in entry.notes]
         lines += [f"  {floor.text}" for floor in analysis.floors]
         lines += [f"  {decomposition.text}" for decomposition in analysis.decompositions]

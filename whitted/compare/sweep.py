@@ -9,13 +9,16 @@ reference cache by its folder, and returns a
 :class:`~whitted.compare.results.SceneResult` (images reduced to thumbnails). No
 Mitsuba object goes in or out unless the caller shares its process.
 
-Timing is honest on a busy machine: each render is repeated and its fastest repeat is
-kept (other processes only ever add time, so the fastest is the best estimate of the
-render's own cost; every repeat's time is kept too, for the spread); while the two
-fastest repeats differ by more than :data:`~whitted.defaults.COMPARE_SPREAD_LIMIT`, the
-fastest is not trusted yet and the render is timed again, a bounded number of times.
-Kernel compilation is excluded (``result.seconds`` of the rendering API) and reported
-apart (``compile_seconds``). Error is measured on linear images (:mod:`whitted.metrics`).
+Each setting is rendered once and scored (the same seed gives the same image
+whenever it is rendered: :mod:`whitted.plugins.tree.wavefront`); then the scene's
+settings are timed together, in rounds (:mod:`.timing`: every setting once per
+round, so that what is compared is timed in the same moments of a busy machine).
+Kernel compilation is excluded (``result.seconds`` of the rendering API, and the
+scored render compiled every kernel before the rounds) and reported apart
+(``compile_seconds``). The relative MSE is measured on the linear images, FLIP on the
+images as displayed (:mod:`whitted.metrics`): every image of a scene is shown in one
+view, chosen from its reference (:func:`whitted.display.fitting_view`) unless ``--view``
+names one.
 
 After its renders, each Whitted method's limit is rendered (:mod:`.limits`) and every
 render of the method scored against it too.
@@ -35,7 +38,10 @@ import numpy as np
 
 from .. import imageio, metrics
 from .. import rendering  # rendering.render looked up at call time: tests count calls
-from ..defaults import COMPARE_MAX_EXTRA_REPEATS, COMPARE_SPREAD_LIMIT
+from ..defaults import (COMPARE_CLOCK, COMPARE_MAX_ROUNDS, COMPARE_ROUND_REPEATS, COMPARE_ROUND_SECONDS,
+                        COMPARE_ROUNDS_SECONDS)
+from ..display import clipped_fraction, fitting_view, to_srgb
+from .analysis import analyse
 from .budget import Budget
 from .errormaps import write_render
 from .limits import render_limit
@@ -44,43 +50,107 @@ from .reference import Chunk, ReferenceCache, ReferencePlan, reference_image
 from .results import Measurement, Options, SceneResult, Setting
 from .scenes import SceneFile
 from .sheet import thumbnail
+from .timing import median
 
 #: The seed of every render of the sweep (the reference has its own).
 SWEEP_SEED = 0
 
 
-def spread(times: list[float]) -> float:
-    """How far the second fastest of ``times`` lies above the fastest, as a fraction of
-    it (0 for fewer than two): small when the fastest can be trusted."""
-    if len(times) < 2:
-        return 0.0
-    fastest, second = sorted(times)[:2]
-    return second / fastest - 1.0 if fastest > 0 else math.inf
+def _render(loaded, setting: Setting):
+    """One render of ``setting``, with the sweep's seed."""
+    return rendering.render(loaded, integrator=setting.integrator, spp=setting.spp,
+                            max_depth=setting.max_depth,
+                            lighting=setting.lighting if setting.integrator == "whitted" else None,
+                            seed=SWEEP_SEED, progress=False)
 
 
-def measure(loaded, setting: Setting, reference: np.ndarray, repeats: int,
-            out: Path | None = None, folder: str = "") -> Measurement:
-    """Render ``setting`` of ``loaded`` (an ``mi.Scene``) ``repeats`` times, and up to
-    :data:`~whitted.defaults.COMPARE_MAX_EXTRA_REPEATS` more while the two fastest differ
-    by more than :data:`~whitted.defaults.COMPARE_SPREAD_LIMIT`, and score the image
-    against ``reference``; the fastest render time is kept, and every repeat's. With
-    ``out``, the image and its error map are kept under ``out / folder``."""
-    seconds, compile_seconds, image = [], [], None
-    while (len(seconds) < repeats or (spread(seconds) > COMPARE_SPREAD_LIMIT
-                                      and len(seconds) < repeats + COMPARE_MAX_EXTRA_REPEATS)):
-        result = rendering.render(loaded, integrator=setting.integrator, spp=setting.spp,
-                                  max_depth=setting.max_depth,
-                                  lighting=setting.lighting if setting.integrator == "whitted" else None,
-                                  seed=SWEEP_SEED, progress=False)
-        seconds.append(float(result.seconds))
-        compile_seconds.append(float(result.compile_seconds))
-        if image is None:  # same seed, same image: score the first
-            image = np.asarray(result.image, dtype=np.float32)
-    error_map, flip = metrics.flip_map(image, reference)
-    files = write_render(out, f"{folder}/{setting.slug}", image, error_map) if out is not None else {}
-    return Measurement(setting, min(seconds), max(compile_seconds),
-                       metrics.relative_mse(image, reference), flip, len(seconds), thumbnail(image),
-                       times=tuple(seconds), **files)
+def _seconds(result) -> float:
+    """A render's time on the :data:`~whitted.defaults.COMPARE_CLOCK`."""
+    return float(result.cpu_seconds if COMPARE_CLOCK == "cpu" else result.seconds)
+
+
+def _work(setting: Setting, result) -> int:
+    """What a render did, whatever the clock says: the rays it traced (Whitted), or its
+    camera samples (the path tracer, which counts nothing else)."""
+    rays = result.stats["rays"]
+    return int(sum(rays.values()) - result.stats.get("merged_rays", 0))
+
+
+def measure(loaded, setting: Setting, reference: np.ndarray,
+            out: Path | None = None, folder: str = "", exposure: float = 0.0,
+            view: str = "clip") -> Measurement:
+    """Render ``setting`` of ``loaded`` (an ``mi.Scene``) once and score the image against
+    ``reference``; its time is that render's until :func:`time_rounds` times it. With
+    ``out``, the image and its error map are kept under ``out / folder``. FLIP, the PNG and
+    the thumbnail see the image as displayed with ``exposure`` and ``view``."""
+    result = _render(loaded, setting)
+    image = np.asarray(result.image, dtype=np.float32)
+    error_map, flip = metrics.flip_map(image, reference, exposure, view)
+    files = (write_render(out, f"{folder}/{setting.slug}", image, error_map, exposure, view)
+             if out is not None else {})
+    return Measurement(setting, _seconds(result), float(result.compile_seconds),
+                       metrics.relative_mse(image, reference), flip, _work(setting, result),
+                       thumbnail(image, exposure=exposure, view=view), **files)
+
+
+def time_rounds(loaded, entry: SceneResult, rounds: int, deadline: float = math.inf,
+                progress=None) -> None:
+    """Time every render of ``entry`` once per round, the rounds interleaved (forward, then
+    backward), at least ``rounds`` rounds, then more while a headline ratio of the scene
+    is unsettled (:mod:`.timing`), up to :data:`~whitted.defaults.COMPARE_MAX_ROUNDS`
+    rounds and :data:`~whitted.defaults.COMPARE_ROUNDS_SECONDS` of extra rounds; never
+    past ``deadline`` (a round predicted, from the renders' times so far, to overrun
+    either is not started). Each
+    measurement's ``times`` and ``seconds`` (their median) are set in place."""
+    measured = list(entry.measurements)
+    if not measured:
+        return
+    times = {id(m): [] for m in measured}
+    extra_until = math.inf
+    # what a round will take: the last one's wall time, or (before the first) each render's
+    # time, or the time it is repeated for when it is faster (:func:`_time_in_a_round`)
+    predicted = sum(max(m.seconds, COMPARE_ROUND_SECONDS) for m in measured)
+    for k in range(COMPARE_MAX_ROUNDS):
+        started = time.monotonic()
+        if k >= rounds:
+            if k == rounds:
+                extra_until = started + COMPARE_ROUNDS_SECONDS
+            if not _unsettled(entry) or started + predicted > extra_until:
+                break
+        if started + predicted > deadline:
+            if k < rounds:
+                entry.notes.append(f"timed in {k} rounds, not {rounds}: the next would have overrun "
+                                   f"the scene's share of --budget")
+            break
+        if progress is not None:
+            progress.set_postfix_str(f"{entry.name}: timing, round {k + 1}", refresh=True)
+        for m in (measured if k % 2 == 0 else reversed(measured)):
+            times[id(m)].append(_time_in_a_round(loaded, m.setting))
+        for m in measured:
+            m.times = tuple(times[id(m)])
+            m.seconds = median(m.times)
+        predicted = time.monotonic() - started
+
+
+def _time_in_a_round(loaded, setting: Setting) -> float:
+    """A setting's time in one round: its render, repeated back to back while they add up to
+    less than :data:`~whitted.defaults.COMPARE_ROUND_SECONDS` (at most
+    :data:`~whitted.defaults.COMPARE_ROUND_REPEATS` renders), and the fastest kept. A render
+    of a few milliseconds is at the mercy of one scheduler tick; a few of them in one
+    moment are not all delayed (another program only ever adds time)."""
+    fastest, start = math.inf, time.monotonic()
+    for _ in range(COMPARE_ROUND_REPEATS):
+        fastest = min(fastest, _seconds(_render(loaded, setting)))
+        if time.monotonic() - start >= COMPARE_ROUND_SECONDS:
+            break
+    return fastest
+
+
+def _unsettled(entry: SceneResult) -> bool:
+    """Whether a headline of the scene (a Whitted method's floor against the path tracer)
+    has an interval too wide to quote yet."""
+    return any(floor.interval is not None and not floor.interval.settled
+               for floor in analyse(entry).floors)
 
 
 def sweep_scene(scene: SceneFile, entry: SceneResult, settings: list[Setting], options: Options,
@@ -94,7 +164,7 @@ def sweep_scene(scene: SceneFile, entry: SceneResult, settings: list[Setting], o
                  filled in place as renders finish, so an interruption keeps them,
                  and returned
     ``settings`` what to render, cheapest first
-    ``options``  the command's options (repeats, reference spp, cache folder, quiet)
+    ``options``  the command's options (rounds, reference spp, cache folder, quiet)
     ``seconds``  the time this scene may take (``math.inf``: no budget); a reference
                  that is not cached is probed and scaled down to fit (or refused: the
                  scene is skipped), a render predicted to overrun is skipped, and
@@ -124,27 +194,33 @@ def sweep_scene(scene: SceneFile, entry: SceneResult, settings: list[Setting], o
         return entry
     if progress is not None:  # the estimate of the time left: from the renders' own rate
         progress.unpause()
-    entry.reference_thumbnail = thumbnail(reference)
+    # One view for every image of the scene, chosen from its reference (display.fitting_view)
+    entry.exposure = options.exposure
+    entry.reference_clipped = clipped_fraction(to_srgb(reference, entry.exposure, "clip"))
+    entry.view = options.view or fitting_view(reference, entry.exposure)
+    entry.reference_thumbnail = thumbnail(reference, exposure=entry.exposure, view=entry.view)
     entry.reference_png = f"{entry.folder}/reference.png"  # its EXR is the cache's
     (out / entry.folder).mkdir(parents=True, exist_ok=True)
-    imageio.write_image(out / entry.reference_png, reference)
+    imageio.write_image(out / entry.reference_png, reference, exposure=entry.exposure, view=entry.view)
     settings = _below_the_reference(entry, settings, progress)
     done: list[tuple[Setting, float, float]] = []
     overran = 0
     for setting in settings:
         if progress is not None:
             progress.set_postfix_str(f"{entry.name}: {setting.method} {setting.label}", refresh=False)
-        predicted = Budget.predict(setting, done, options.repeats)
+        predicted = Budget.predict(setting, done, 1 + options.rounds)
         if time.monotonic() + predicted > deadline:
             entry.skipped.append(setting)
             overran += 1
         else:
             start = time.monotonic()
-            measurement = measure(loaded, setting, reference, options.repeats, out, entry.folder)
+            measurement = measure(loaded, setting, reference, out, entry.folder, entry.exposure,
+                                  entry.view)
             entry.measurements.append(measurement)
             done.append((setting, measurement.seconds, time.monotonic() - start))
         if progress is not None:
             progress.update(1)
+    time_rounds(loaded, entry, options.rounds, deadline, progress)
     _limits(loaded, entry, settings, reference, out, deadline, progress)
     if settings and not entry.measurements:
         took = ("was read from the cache" if entry.reference_cached

@@ -1,0 +1,191 @@
+"""A frame sequence three ways: what one process for many scenes saves (``make bench``).
+
+Legacy ray tracers rendered animations as a scene file per frame, the renderer run
+once per file. This benchmark generates such a sequence (48 frames by default,
+320×200, depth 6: six balls orbiting a glass ball above a floor sphere of radius 10⁴,
+with a mirror) and renders it, side by side:
+
+* **POV-Ray 3.7, a process per frame**: each frame written as a POV-Ray scene by
+  povray.py (the same ray trees: ``max_trace_level 6``, ``adc_bailout 0``), with as
+  many threads as cores;
+* **whitted, a process per frame**: ``whitted render frameK.scn -o frameK.exr
+  --min-weight 0`` (the exact tree, as POV-Ray's), a process each;
+* **whitted, one process for the folder**: ``whitted render FRAMES/ -o OUT/ --format
+  exr --min-weight 0 --force``.
+
+Each is timed as a user waits for it (the wall time of the whole loop, or of the one
+process). The targets of issue 30: the folder run takes at most 0.5× POV-Ray's time and
+0.25× the per-frame loop's. And each frame of the folder run must equal the frame
+rendered alone, bit for bit (the EXR files are compared): the exit status is 1 if one
+differs.
+
+On a shared machine a render's time moves 2-3× between runs minutes apart: the three
+ways run in rounds, each round all three one after the other (``--rounds``), after
+one untimed warm-up frame of each (Dr.Jit's kernel cache on disk, the page cache).
+
+Usage::
+
+    python benchmarks/frames.py [--quick] [--frames 48] [--size 320 200] [--rounds 1]
+
+``--quick``: 6 frames of 160×100, for a check that it works. Options of run.py that
+``make bench BENCHFLAGS=...`` passes along are ignored.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import statistics
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+
+import povray  # noqa: E402
+import process  # noqa: E402
+
+#: the issue's targets: the folder run's time over POV-Ray's, and over the per-frame loop's
+TARGET_POVRAY, TARGET_LOOP = 0.5, 0.25
+COLORS = [(0.9, 0.2, 0.2), (0.2, 0.8, 0.3), (0.2, 0.3, 0.9), (0.9, 0.8, 0.2), (0.8, 0.3, 0.8),
+          (0.2, 0.8, 0.8)]
+
+
+def frame_scene(k: int, frames: int, width: int = 320, height: int = 200, depth: int = 6) -> str:
+    """Frame ``k`` of ``frames``: six balls orbit a glass ball once over the sequence,
+    bobbing, above a floor sphere of radius 10⁴ (its top at y = 0), beside a mirror."""
+    lines = [f"# frame {k + 1} of {frames} (benchmarks/frames.py)", f"size {width} {height}",
+             "eye 0 3.5 12", "lookat 0 0.8 0", "fov 50", f"depth {depth}", "background 0.25 0.35 0.55",
+             "light 8 14 10", "light -10 9 4 0.4 0.4 0.5",
+             "sphere 0 -10000 0 10000 color 0.75 0.75 0.7",
+             "sphere 0 1.3 0 1.3 color 1 1 1 refract 0.9 1.5",
+             "sphere -4 2.2 -5 2.2 color 0.9 0.9 0.9 reflect 0.85"]
+    for j, (r, g, b) in enumerate(COLORS):
+        a = 2 * math.pi * (k / frames + j / len(COLORS))
+        x, z, y = 3.2 * math.cos(a), 3.2 * math.sin(a), 0.5 + 0.35 * (1 + math.sin(2 * a))
+        lines.append(f"sphere {x:.6f} {y:.6f} {z:.6f} 0.5 color {r} {g} {b} reflect 0.2")
+    return "\n".join(lines) + "\n"
+
+
+def write_sequence(folder: Path, frames: int, width: int, height: int) -> list[Path]:
+    from whitted.converter import parse_file
+    folder.mkdir(parents=True, exist_ok=True)
+    scenes = []
+    for k in range(frames):
+        scene = folder / f"frame{k + 1:03d}.scn"
+        scene.write_text(frame_scene(k, frames, width, height))
+        scenes.append(scene)
+        (folder.parent / "pov").mkdir(exist_ok=True)
+        (folder.parent / "pov" / f"{scene.stem}.pov").write_text(povray.scene_to_pov(parse_file(scene)))
+    return scenes
+
+
+def cores() -> int:
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:
+        return os.cpu_count() or 1
+
+
+def povray_loop(exe: str, root: Path, scenes: list[Path], width: int, height: int) -> float:
+    out = root / "povray"
+    out.mkdir(exist_ok=True)
+    start = time.perf_counter()
+    for scene in scenes:
+        povray.run(exe, root / "pov" / f"{scene.stem}.pov", out / f"{scene.stem}.png", width, height,
+                   threads=cores())
+    return time.perf_counter() - start
+
+
+def whitted_loop(root: Path, scenes: list[Path]) -> float:
+    out = root / "single"
+    out.mkdir(exist_ok=True)
+    start = time.perf_counter()
+    for scene in scenes:
+        run = process.run(process.whitted_command() + ["render", str(scene), "-o", str(out / f"{scene.stem}.exr"),
+                                                       "--min-weight", "0", "-q"])
+        if not run.ok:
+            raise RuntimeError(f"whitted render {scene.name} failed ({run.failure()}): {run.stderr.strip()[-300:]}")
+    return time.perf_counter() - start
+
+
+def whitted_folder(root: Path) -> float:
+    start = time.perf_counter()
+    run = process.run(process.whitted_command() + ["render", str(root / "frames"), "-o", str(root / "folder") + "/",
+                                                   "--format", "exr", "--min-weight", "0", "--force", "-q",
+                                                   "--stats", str(root / "folder-stats.json")])
+    if not run.ok:
+        raise RuntimeError(f"whitted render FRAMES/ failed ({run.failure()}): {run.stderr.strip()[-300:]}")
+    return time.perf_counter() - start
+
+
+def differing(root: Path, scenes: list[Path]) -> list[str]:
+    """The frames whose folder-run image differs from the frame rendered alone."""
+    import numpy as np
+
+    from whitted.imageio import read_image
+    return [scene.stem for scene in scenes
+            if not np.array_equal(read_image(root / "folder" / f"{scene.stem}.exr"),
+                                  read_image(root / "single" / f"{scene.stem}.exr"))]
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--quick", action="store_true", help="6 frames of 160x100")
+    parser.add_argument("--frames", type=int, metavar="N", help="frames in the sequence (default 48)")
+    parser.add_argument("--size", type=int, nargs=2, metavar=("W", "H"), help="frame size (default 320 200)")
+    parser.add_argument("--rounds", type=int, default=1, metavar="N", help="rounds of the three (default 1)")
+    args, _ = parser.parse_known_args(argv)
+    frames = args.frames or (6 if args.quick else 48)
+    width, height = args.size or ((160, 100) if args.quick else (320, 200))
+    exe, why = povray.find()
+    times: dict[str, list[float]] = {"povray": [], "loop": [], "folder": []}
+    with tempfile.TemporaryDirectory(prefix="whitted-frames-") as folder:
+        root = Path(folder)
+        scenes = write_sequence(root / "frames", frames, width, height)
+        print(f"{frames} frames of {width}x{height}, depth 6, a floor sphere of radius 1e4; "
+              f"{cores()} cores; POV-Ray: {exe or why}", flush=True)
+        # warm-up, untimed: a frame each (kernel cache on disk, page cache)
+        whitted_loop(root, scenes[:1])
+        if exe:
+            povray_loop(exe, root, scenes[:1], width, height)
+        for k in range(args.rounds):
+            if exe:
+                times["povray"].append(povray_loop(exe, root, scenes, width, height))
+            times["loop"].append(whitted_loop(root, scenes))
+            times["folder"].append(whitted_folder(root))
+            print(f"round {k + 1}: " + ", ".join(f"{name} {t[-1]:.1f} s" for name, t in times.items() if t),
+                  flush=True)
+        wrong = differing(root, scenes)
+        totals = json.loads((root / "folder-stats.json").read_text())["totals"]
+    best = {name: statistics.median(t) for name, t in times.items() if t}
+    rows = [("POV-Ray 3.7, a process per frame", best.get("povray")),
+            ("whitted render, a process per frame", best["loop"]),
+            ("whitted render FRAMES/ -o OUT/, one process", best["folder"])]
+    print(f"\n| how | {frames} frames | per frame |\n|---|---|---|")
+    for name, seconds in rows:
+        print(f"| {name} | " + ("not run |  |" if seconds is None else
+                                f"{seconds:.1f} s | {seconds / frames:.3f} s |"))
+    print(f"folder run, last round: {totals['wall_seconds']:.1f} s in its loop over the scenes, of "
+          f"which {totals['render_seconds']:.1f} s rendering and {totals['compile_seconds']:.1f} s "
+          f"compiling kernels; the rest loading scenes and writing images; start-up "
+          f"{times['folder'][-1] - totals['wall_seconds']:.1f} s")
+    checks = [("the per-frame loop", best["loop"], TARGET_LOOP)]
+    if "povray" in best:
+        checks.insert(0, ("POV-Ray", best["povray"], TARGET_POVRAY))
+    for name, seconds, target in checks:
+        ratio = best["folder"] / seconds
+        print(f"folder run / {name}: {ratio:.2f} (target <= {target}): {'met' if ratio <= target else 'MISSED'}")
+    if wrong:
+        print(f"FRAMES DIFFER between the folder run and the single renders: {', '.join(wrong)}")
+        return 1
+    print(f"every frame of the folder run equals its single render ({frames} EXR files, bit for bit)")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,244 @@
+"""Timing whose conclusions reproduce (whitted/compare/timing.py): renders timed in
+interleaved rounds, ratios paired by round with an interval, floors chosen by work.
+
+No render here: the sweep's renders are stand-ins whose times the test sets, and the
+reports are made from hand-built results.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import random
+
+import numpy as np
+import pytest
+
+import whitted.compare as cmp
+from whitted.compare.analysis import analyse
+from whitted.compare.results import Measurement, SceneResult, Setting
+from whitted.compare.summary import findings, summary
+from whitted.compare.timing import Interval, _order_rank, faster_text, ratio_text
+from whitted.defaults import COMPARE_MAX_ROUNDS, COMPARE_SETTLED_WIDTH
+
+
+# --------------------------------------------------------------------------- the interval
+
+def _binomial_tail(n: int, k: int) -> float:
+    """P(Binomial(n, ½) < k), summed term by term."""
+    return sum(math.comb(n, i) for i in range(k)) / 2 ** n
+
+
+@pytest.mark.parametrize("n", range(1, 30))
+def test_the_interval_is_the_widest_order_statistics_of_90_percent(n):
+    """[x(k), x(n+1-k)] holds the median with probability 1 - 2·P(X < k): k is the largest
+    rank whose two tails stay within 10% (1 where even the extremes do not)."""
+    k = _order_rank(n, 0.9)
+    if k > 1:
+        assert 2 * _binomial_tail(n, k) <= 0.1
+    assert k == (n + 1) // 2 or 2 * _binomial_tail(n, k + 1) > 0.1
+
+
+def test_interval_of_known_values():
+    # n = 9: k = 2 (P(X < 2) = 10/512 ≈ 0.0195; P(X < 3) ≈ 0.0898 > 0.05)
+    interval = Interval.of([5, 1, 9, 3, 7, 2, 8, 4, 6])
+    assert (interval.value, interval.low, interval.high, interval.rounds) == (5, 2, 8, 9)
+    # NaN (a round where nothing was compared) is left out
+    assert Interval.of([2.0, math.nan, 2.2, 1.8]).rounds == 3
+
+
+def test_an_interval_holding_one_is_no_measurable_difference():
+    even = Interval.of([0.9, 1.05, 1.1, 0.95, 1.2])
+    assert even.straddles_one
+    assert faster_text(even, "the article's model", "the path tracer").startswith(
+        "no measurable difference in time between the article's model and the path tracer")
+    assert ratio_text(even).startswith("≈ 1 (0.9–1.2)")
+    clear = Interval.of([2.0, 2.1, 1.9, 2.2, 2.05])
+    assert not clear.straddles_one and clear.settled
+    assert faster_text(clear, "A", "B") == "A gets there 2.05× faster (1.9–2.2× over 5 rounds)"
+    slower = Interval.of([0.5, 0.5, 0.5])
+    assert faster_text(slower, "A", "B") == "B gets there 2× faster (2–2× over 3 rounds)"
+
+
+def test_a_wide_interval_is_unsettled_and_says_so():
+    wide = Interval.of([1.5, 3.0, 2.0, 4.0, 1.6])
+    assert wide.high / wide.low > 1 + COMPARE_SETTLED_WIDTH and not wide.settled
+    assert "unsettled" in faster_text(wide, "A", "B")
+    assert ratio_text(wide).endswith("?")
+
+
+# --------------------------------------------------------------------------- made-up results
+
+def _measurement(method: str, depth: int, spp: int, times, rel_mse: float, work: int) -> Measurement:
+    integrator, lighting = ("path", "physical") if method == "path" else ("whitted", method.split("-")[1])
+    times = tuple(times)
+    return Measurement(Setting(integrator, lighting, spp, depth), float(np.median(times)) if times else 0.01, 0.0,
+                       rel_mse, rel_mse / 10, work, times=times)
+
+
+def _entry(whitted_times, path_times, rounds: int = 7) -> SceneResult:
+    """The article's model at depths 1–6, 1 spp (errors 0.3, 0.15, 0.102, 0.1, 0.101, 0.1:
+    four renders within 5% of the best), each depth costing more rays; the path tracer at
+    1, 4, 16 spp (errors 0.4, 0.1, 0.025). ``*_times(setting, round)`` give the times."""
+    entry = SceneResult("made-up", None, 32, 24, "test", 1024, 6)
+    for depth, error in zip(range(1, 7), (0.3, 0.15, 0.102, 0.1, 0.101, 0.1)):
+        setting = (depth, 1)
+        entry.measurements.append(_measurement("whitted-article", depth, 1,
+                                               [whitted_times(setting, r) for r in range(rounds)],
+                                               error, 1000 * depth))
+    for spp, error in ((1, 0.4), (4, 0.1), (16, 0.025)):
+        entry.measurements.append(_measurement("path", 6, spp, [path_times(spp, r) for r in range(rounds)],
+                                               error, spp * 768))
+    return entry
+
+
+def _steady_whitted(setting, r):
+    return 0.002 * setting[0]
+
+
+def _steady_path(spp, r):
+    return 0.01 * spp
+
+
+def test_the_floor_is_the_render_of_least_work_whatever_the_timings(tmp_path):
+    """Depths 3–6 are within 5% of the best error: the floor is depth 3 (fewest rays), and
+    stays so when every time is perturbed (up to 3× either way, per render and round), where
+    the fastest of them would follow the noise."""
+    baseline = analyse(_entry(_steady_whitted, _steady_path)).floors[0].render.setting
+    assert baseline == Setting("whitted", "article", 1, 3)
+    rng = random.Random(5)
+    chosen = set()
+    for _ in range(50):
+        noise = {}
+
+        def noisy(setting, r, base=_steady_whitted):
+            return base(setting, r) * noise.setdefault((setting, r), 3 ** rng.uniform(-1, 1))
+        entry = _entry(noisy, lambda spp, r: _steady_path(spp, r) * 3 ** rng.uniform(-1, 1))
+        chosen.add(analyse(entry).floors[0].render.setting)
+    assert chosen == {baseline}
+
+
+def test_a_load_shared_by_a_round_leaves_the_headline_alone():
+    """Each round is slowed by its own factor (1–4×, as another program comes and goes): the
+    median times move, but the ratios paired by round do not."""
+    load = [1.0, 3.7, 1.4, 2.2, 4.0, 1.1, 2.9]
+    steady = analyse(_entry(_steady_whitted, _steady_path)).floors[0]
+    loaded = analyse(_entry(lambda s, r: _steady_whitted(s, r) * load[r],
+                            lambda spp, r: _steady_path(spp, r) * load[r])).floors[0]
+    assert loaded.interval.value == pytest.approx(steady.interval.value)
+    assert loaded.interval.low == pytest.approx(loaded.interval.high)   # every round agrees
+    assert loaded.interval.settled and loaded.interval.rounds == 7
+    # unpaired, the same times would give anything from a quarter to four times the ratio
+    assert max(load) / min(load) == 4.0
+
+
+def test_interval_and_unsettled_flag_reach_findings_summary_and_page(tmp_path):
+    """A path tracer whose times jump by round while the Whitted renders' do not: the headline
+    never settles, and every report says so, with the interval."""
+    jumpy = [1.0, 2.5, 0.8, 3.0, 1.2, 2.8, 0.9]
+    entry = _entry(_steady_whitted, lambda spp, r: _steady_path(spp, r) * jumpy[r])
+    analysis = analyse(entry)
+    (floor,) = analysis.floors
+    assert not floor.interval.settled
+
+    found = findings([analysis])["scenes"]["made-up"]["methods"]["whitted-article"]
+    headline = found["path_time_over_floor_time"]
+    assert headline["rounds"] == 7 and headline["settled"] is False
+    assert headline["low"] < headline["value"] < headline["high"]
+    assert json.loads(json.dumps(found))   # plain JSON
+    assert "over 7 rounds" in found["floor_text"] and "unsettled" in found["floor_text"]
+
+    text = summary([analysis])
+    assert "unsettled" in text and f"{headline['low']:.3g}–{headline['high']:.3g}× over 7 rounds" in text
+
+    from whitted.compare.page import write_page
+    page = tmp_path / "report.html"
+    write_page(page, [analysis], {"made-up": "plot.png"},
+               {"csv": "results.csv", "plot": "plot.png", "sheet": "sheet.png",
+                "summary": "summary.txt", "findings": "findings.json"})
+    html = page.read_text(encoding="utf-8")
+    assert "unsettled" in html and "over 7 rounds" in html
+
+
+# --------------------------------------------------------------------------- the rounds
+
+class _FakeRenders:
+    """Stands in for whitted.rendering.render: ``seconds(setting, call)`` is each render's
+    time, by which it advances the sweep's clock (``monotonic``, installed as the sweep
+    module's ``time``); the calls are kept, in order."""
+
+    def __init__(self, seconds, monkeypatch):
+        import whitted.compare.sweep as sweep_module
+        import whitted.rendering as render_module
+        self.seconds, self.calls, self.now = seconds, [], 1000.0
+        monkeypatch.setattr(render_module, "render", self)
+        monkeypatch.setattr(sweep_module, "time", self)
+
+    def monotonic(self) -> float:
+        return self.now
+
+    def __call__(self, scene, **kwargs):
+        from whitted.rendering import RenderResult
+        setting = (kwargs["integrator"], kwargs["max_depth"], kwargs["spp"])
+        t = self.seconds(setting, len(self.calls))
+        self.calls.append(setting)
+        self.now += t
+        return RenderResult(np.zeros((4, 4, 3), np.float32), t, 0.0, {"rays": {"camera": 16}}, t)
+
+
+def _sweep_entry() -> SceneResult:
+    entry = SceneResult("made-up", None, 4, 4, "test", 1024, 6)
+    for depth, error in ((1, 0.3), (2, 0.2)):
+        entry.measurements.append(_measurement("whitted-article", depth, 1, (), error, depth))
+    for spp, error in ((1, 0.4), (4, 0.1)):
+        entry.measurements.append(_measurement("path", 6, spp, (), error, spp))
+    return entry
+
+
+def test_rounds_interleave_the_settings_forward_then_backward(monkeypatch):
+    """Every setting once per round, in order, then in reverse; within a round a render under
+    50 ms is repeated until its renders add up to 50 ms (at most 8) and the fastest kept."""
+    import itertools
+
+    from whitted.compare.sweep import time_rounds
+    base = {("whitted", 1, 1): 0.001, ("whitted", 2, 1): 0.002, ("path", 6, 1): 0.012, ("path", 6, 4): 0.04}
+    # every third render is slowed 1.5×: the fastest of a round's repeats is the base time
+    renders = _FakeRenders(lambda setting, call: base[setting] * (1.5 if call % 3 == 0 else 1.0), monkeypatch)
+    entry = _sweep_entry()
+    time_rounds(None, entry, 3)
+    order = [(m.setting.integrator, m.setting.max_depth, m.setting.spp) for m in entry.measurements]
+    runs = [(setting, len(list(group))) for setting, group in itertools.groupby(renders.calls)]
+    # (a round's last setting is the next round's first: their renders run together)
+    expected = [setting for setting, _ in itertools.groupby(order + order[::-1] + order)]
+    assert [setting for setting, _ in runs] == expected   # three rounds: settled at once
+    repeats = dict(runs[:len(order)])
+    assert repeats[("whitted", 1, 1)] == 8                   # 8 ms < 50 ms: the cap
+    assert repeats[("path", 6, 1)] == 4                      # 12, 12, 18 or 12·4 ≥ 50 ms
+    # (40 ms: one or two renders a round; its first round's run together with the second's)
+    for m in entry.measurements:
+        setting = (m.setting.integrator, m.setting.max_depth, m.setting.spp)
+        assert m.rounds == 3 and m.seconds == float(np.median(m.times))
+        if repeats[setting] > 1:
+            assert m.times == (base[setting],) * 3
+
+
+def test_more_rounds_while_the_headline_is_unsettled_up_to_the_cap(monkeypatch):
+    from whitted.compare.sweep import time_rounds
+    # the path tracer's times swing up to 16× from one call to the next: never settles
+    swing = random.Random(3)
+    _FakeRenders(lambda setting, call: 0.002 if setting[0] == "whitted"
+                 else 0.01 * setting[2] * 16 ** swing.random(), monkeypatch)
+    entry = _sweep_entry()
+    time_rounds(None, entry, 3)
+    assert {m.rounds for m in entry.measurements} == {COMPARE_MAX_ROUNDS}
+    assert not analyse(entry).floors[0].interval.settled
+
+
+def test_rounds_stop_before_the_budget_runs_out(monkeypatch):
+    from whitted.compare.sweep import time_rounds
+    clock = _FakeRenders(lambda setting, call: 0.01, monkeypatch)
+    entry = _sweep_entry()
+    time_rounds(None, entry, 5, deadline=clock.now + 0.5)   # a round: 4 × 50 ms; 2 fit
+    assert all(m.rounds == 2 for m in entry.measurements)
+    assert entry.notes == ["timed in 2 rounds, not 5: the next would have overrun the scene's "
+                           "share of --budget"]

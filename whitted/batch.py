@@ -1,0 +1,438 @@
+"""Rendering many scenes in one go: ``whitted render SCENE|FOLDER ... -o OUT/`` and
+:func:`render_scenes`.
+
+Why. Legacy ray tracers rendered collections and animations: a script wrote a scene
+file per frame and the renderer ran once per file. A ``whitted render`` process spends
+about a second importing Mitsuba, setting the variant and compiling (or finding) its
+kernels, for a small frame's tenth of a second of tracing; one process that renders
+every scene pays that once, and Dr.Jit's in-memory kernel cache serves every frame
+after the first.
+
+Which scene writes which image is the converter's rule (:func:`whitted.converter.batch.plan`
+with the image's suffix, :func:`~whitted.converter.batch.prepare_folders`): ``X.scn``
+(or ``X.xml``) becomes ``OUT/X.png`` and/or ``OUT/X.exr``, a folder stands for its
+``.scn`` files (its ``.xml`` files when it has none), clashes are errors before any
+work, and the folder ``-o`` names is created.
+
+Resuming. A scene whose every image is newer than the scene file and the files it
+reads (textures, meshes) is skipped (``force`` renders it again), so a run stopped by
+Ctrl-C goes on where it stopped. Images are written atomically: a stop leaves every
+finished frame and no partial file.
+
+Failures. A scene that cannot be rendered (a bad file: ``FILE:LINE: message``) is
+reported and the others go on; the caller counts the failures.
+
+Where. In this process, or spread over a Dask cluster (``workers`` / ``scheduler``),
+with the machinery of ``whitted compare``'s cluster (:mod:`whitted.compare.cluster`:
+servers on 127.0.0.1 only and stopped, each worker prepared once with its share of
+the cores, one render at a time, a stop ends the renders under way). Only paths and
+settings travel: a worker loads, renders and writes the scene itself (the outputs'
+folder must be shared), and returns its statistics. A worker that dies has its
+scenes rendered by another (and the temporary file it was writing removed once every
+task has ended); an image depends on its scene and settings alone, so the images are
+those of a run in one process.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import re
+import sys
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Iterable, Iterator
+
+from . import defaults as D
+from .errors import WhittedError
+
+#: the scene files a render takes, and those a folder argument stands for (in that order)
+SCENE_SUFFIXES = (".scn", ".xml")
+#: the image formats of a render into a folder
+FORMATS = D.IMAGE_FORMATS
+#: what runs in the command's own process, in :attr:`SceneRender.worker`
+IN_PROCESS = "in-process"
+
+
+@dataclass(frozen=True)
+class Settings:
+    """How every scene of a batch is rendered: ``whitted render``'s options (None: the
+    scene's own), plain data for the workers of a cluster.
+
+    ============== ==================================================================
+    ``integrator`` ``"whitted"`` (the article's model) or ``"path"``
+    ``spp``        samples per pixel
+    ``max_depth``  the article's maximum depth (primary rays: 1)
+    ``ambient``    the article's ambient coefficient
+    ``lighting``   ``"article"`` or ``"physical"`` (whitted only)
+    ``min_weight`` the adaptive depth control's bound (whitted only; 0: exact tree)
+    ``variant``    Mitsuba's variant (None: the default, see :mod:`whitted.variant`)
+    ``exposure``   a PNG's exposure in stops (:mod:`whitted.display`; never in EXR)
+    ``view``       a PNG's view transform (None: as for one scene, :func:`~whitted.display.default_view`)
+    ============== ==================================================================
+    """
+    integrator: str = D.INTEGRATOR
+    spp: int | None = None
+    max_depth: int | None = None
+    ambient: float | None = None
+    lighting: str | None = None
+    min_weight: float | None = None
+    variant: str | None = None
+    exposure: float = 0.0
+    view: str | None = None
+
+    def check(self) -> None:
+        """Every option validated before any scene is read."""
+        from .display import check_exposure
+        from .rendering import check_settings
+        check_settings(self.spp, self.max_depth, self.lighting, self.integrator, self.min_weight)
+        check_exposure(self.exposure)
+        if self.ambient is not None:
+            D.check_ambient(self.ambient)
+
+
+@dataclass
+class SceneRender:
+    """What became of one scene of a batch.
+
+    =========== =====================================================================
+    ``scene``   the scene file
+    ``outputs`` the images written for it (none when rendering to memory)
+    ``status``  ``"rendered"``, ``"skipped"`` (its images are up to date) or ``"failed"``
+    ``error``   why it failed (one or more lines, ``FILE:LINE: message``), else None
+    ``image``   the linear RGB image (H, W, 3) when kept (see :func:`render_scenes`)
+    ``stats``   the render's statistics (:mod:`whitted.rendering`), else None
+    ``seconds`` wall time spent on the scene: loading, rendering, writing
+    ``worker``  who rendered it: ``"in-process"`` or a Dask worker's address
+    =========== =====================================================================
+    """
+    scene: Path
+    outputs: tuple[Path, ...] = ()
+    status: str = "rendered"
+    error: str | None = None
+    image: object = None
+    stats: dict | None = None
+    seconds: float = 0.0
+    worker: str = IN_PROCESS
+
+    def summary(self) -> dict:
+        """The scene's entry of the run's ``--stats`` JSON."""
+        entry = {"scene": str(self.scene), "outputs": [str(p) for p in self.outputs],
+                 "status": self.status, "seconds": self.seconds, "worker": self.worker}
+        if self.error is not None:
+            entry["error"] = self.error
+        if self.stats is not None:
+            entry["stats"] = self.stats
+        return entry
+
+
+# --------------------------------------------------------------------------- planning
+
+
+def plan_outputs(inputs: list[str | os.PathLike], out: str | os.PathLike | None,
+                 formats: Iterable[str] = ("png",)) -> list[tuple[Path, tuple[Path, ...]]]:
+    """Each scene file of ``inputs`` (files, or folders of them) with the images it is to
+    write into the folder ``out``, one per format (none when ``out`` is None)."""
+    from .converter.batch import folder_scenes, plan
+    formats = tuple(dict.fromkeys(formats))
+    for name in formats:
+        if name not in FORMATS:
+            raise WhittedError(f"unknown image format '{name}'; choose from {', '.join(FORMATS)}")
+    if out is None:
+        scenes: list[Path] = []
+        for item in map(Path, inputs):
+            found = folder_scenes(item, SCENE_SUFFIXES) if item.is_dir() else [item]
+            if not found:
+                raise WhittedError(f"{item}: no .scn or .xml files in this folder")
+            scenes.extend(found)
+        return [(scene, ()) for scene in scenes]
+    folder = str(out) if str(out).endswith(("/", os.sep)) else f"{out}{os.sep}"
+    plans = [plan(list(inputs), folder, f".{name}", SCENE_SUFFIXES) for name in formats]
+    return [(pairs[0][0], tuple(target for _, target in pairs)) for pairs in zip(*plans)]
+
+
+def scene_inputs(scene: Path, model=None) -> list[Path]:
+    """The files a scene's image depends on: the scene file, its textures, and for an
+    ``.xml`` the files it names (textures, meshes)."""
+    files = [scene]
+    if scene.suffix.lower() == ".xml":
+        try:
+            text = scene.read_text(encoding="utf-8", errors="replace")
+        except OSError:
+            return files
+        for name in re.findall(r'name="filename"\s+value="([^"]*)"', text):
+            files.append(scene.parent / name)
+    elif model is not None:
+        arrays = model.held_sphere_arrays()
+        materials = arrays.materials if arrays is not None else [s.material for s in model.spheres]
+        files.extend(sorted({Path(m.texture) for m in materials if m.texture is not None}))
+    return files
+
+
+def up_to_date(scene: Path, outputs: tuple[Path, ...]) -> bool:
+    """Whether every image of ``scene`` exists and is newer than the scene and what it reads
+    (a ``.scn`` is parsed for its textures; a bad one is never up to date)."""
+    if not outputs:
+        return False
+    try:
+        oldest = min(p.stat().st_mtime_ns for p in outputs)
+    except OSError:
+        return False
+    model = None
+    if scene.suffix.lower() != ".xml":
+        from .converter import parse_file
+        try:
+            model = parse_file(scene)
+        except WhittedError:
+            return False
+    try:
+        return all(p.stat().st_mtime_ns < oldest for p in scene_inputs(scene, model))
+    except OSError:
+        return False
+
+
+# --------------------------------------------------------------------------- rendering one
+
+
+def render_one(scene: Path, outputs: tuple[Path, ...], settings: Settings,
+               keep_image: bool = False) -> SceneRender:
+    """Load, render and write one scene in this process; a user error is returned as a
+    failed :class:`SceneRender`, not raised (an interruption is raised)."""
+    from . import interrupt
+    from .display import default_view
+    from .imageio import write_image
+    from .loading import load_scene
+    from .memory import peak_resident_bytes
+    from .rendering import quiet_mitsuba, render, whitted_settings
+
+    start = time.perf_counter()
+    item = SceneRender(scene, outputs)
+    try:
+        with quiet_mitsuba():
+            loaded = load_scene(scene, variant=settings.variant, integrator=settings.integrator,
+                                meshes=settings.integrator != "whitted", spp=settings.spp,
+                                max_depth=settings.max_depth, ambient=settings.ambient,
+                                lighting=settings.lighting)
+        try:
+            result = render(loaded, integrator=settings.integrator, min_weight=settings.min_weight)
+        except WhittedError as error:
+            raise WhittedError(f"{scene}: {error}") from None
+        view = settings.view or default_view(settings.integrator,
+                                             settings.lighting or whitted_settings(loaded)["lighting"])
+        del loaded
+        for output in outputs:
+            write_image(output, result.image, exposure=settings.exposure, view=view)
+    except WhittedError as error:
+        item.status, item.error = "failed", str(error)
+    except RuntimeError as error:   # Mitsuba's or Dr.Jit's, for this scene
+        if interrupt.requested(error):
+            raise
+        first = str(error).strip().splitlines()[0] if str(error).strip() else type(error).__name__
+        item.status, item.error = "failed", f"{scene}: {first}"
+    else:
+        result.stats["peak_resident_bytes"] = peak_resident_bytes()
+        item.stats = result.stats
+        item.image = result.image if keep_image else None
+    item.seconds = time.perf_counter() - start
+    return item
+
+
+# --------------------------------------------------------------------------- many
+
+
+def render_scenes(scenes: Iterable[str | os.PathLike], out: str | os.PathLike | None = None,
+                  formats: Iterable[str] = ("png",), *, force: bool = False,
+                  keep_images: bool | None = None, workers: int | None = None,
+                  scheduler: str | None = None, settings: Settings | None = None,
+                  **options) -> Iterator[SceneRender]:
+    """Render scene files (``.scn`` or ``.xml``; a folder stands for its scenes), yielding a
+    :class:`SceneRender` for each as it is done.
+
+    ``out``: the folder that receives ``NAME.png`` and/or ``NAME.exr`` per scene
+    (``formats``), created when missing; scenes whose images are up to date are
+    skipped unless ``force``. Without ``out`` nothing is written and each result keeps
+    its image (``keep_images`` decides either way). ``options`` are :class:`Settings`'
+    fields (``integrator``, ``spp``, ``max_depth``, ``ambient``, ``lighting``,
+    ``min_weight``, ``variant``), or give ``settings``. ``workers`` (a local Dask cluster
+    of that many processes) or ``scheduler`` (a running one's address) spread the scenes
+    over a cluster; results then come in the order they finish. A scene that fails is
+    yielded with ``status == "failed"`` and its error; the others go on::
+
+        for done in whitted.render_scenes(["frames/"], "out/frames"):
+            print(done.scene, done.status, done.seconds)
+    """
+    settings = settings if settings is not None else Settings(**options)
+    settings.check()
+    _, skipped, todo = plan_batch(scenes, out, formats, force)
+    yield from skipped
+    yield from render_planned(todo, settings, out is None if keep_images is None else keep_images,
+                              workers, scheduler)
+
+
+def plan_batch(scenes: Iterable[str | os.PathLike], out: str | os.PathLike | None,
+               formats: Iterable[str] = ("png",), force: bool = False):
+    """``(plan, skipped, todo)``: every (scene, outputs) pair in the order of the inputs
+    (a video's frame order), the scenes whose images are up to date (as
+    :class:`SceneRender`) and the pairs to render; the output folders are checked, and
+    the one ``out`` names created, before anything is rendered."""
+    plan = plan_outputs([os.fspath(s) for s in scenes], out, formats)
+    if out is not None:
+        from .converter.batch import prepare_folders
+        prepare_folders([target for _, targets in plan for target in targets], out)
+    skipped, todo = [], []
+    for scene, outputs in plan:
+        if not force and up_to_date(scene, outputs):
+            skipped.append(SceneRender(scene, outputs, "skipped"))
+        else:
+            todo.append((scene, outputs))
+    return plan, skipped, todo
+
+
+def render_planned(todo: list[tuple[Path, tuple[Path, ...]]], settings: Settings, keep_images: bool = False,
+                   workers: int | None = None, scheduler: str | None = None) -> Iterator[SceneRender]:
+    """Render the (scene, outputs) pairs of ``todo`` here, or on a cluster (see
+    :func:`render_scenes`), yielding each as it is done."""
+    if workers is not None or scheduler is not None:
+        yield from _on_cluster(todo, settings, keep_images, workers, scheduler)
+    else:
+        for scene, outputs in todo:
+            yield render_one(scene, outputs, settings, keep_images)
+
+
+# --------------------------------------------------------------------------- on a cluster
+
+
+def render_task(scene: str, outputs: tuple[str, ...], settings: Settings, keep_image: bool,
+                threads: dict[str, int]) -> SceneRender:
+    """On a Dask worker: one scene (:func:`render_one`), the worker prepared once for the
+    variant and its share of the cores (:func:`whitted.compare.cluster._prepare`)."""
+    from .compare.cluster import _prepare, _rendering
+    with _rendering():
+        worker = _prepare(settings.variant, threads)
+        item = render_one(Path(scene), tuple(map(Path, outputs)), settings, keep_image)
+        item.worker = worker
+        return item
+
+
+@dataclass
+class _Where:
+    """The two fields of compare's ``Options`` that :func:`whitted.compare.cluster.connect` reads."""
+    workers: int | None = None
+    scheduler: str | None = None
+
+
+def _on_cluster(todo, settings: Settings, keep: bool, workers: int | None,
+                scheduler: str | None) -> Iterator[SceneRender]:
+    """The scenes of ``todo`` rendered on a Dask cluster, yielded as they finish."""
+    import uuid
+    from dataclasses import replace
+
+    from .compare.cluster import _result, available_cores, connect, stop_rendering, worker_threads
+    from .variant import default_variant
+
+    if workers is not None and scheduler is not None:
+        raise WhittedError("--workers starts a local cluster, --scheduler uses a running one: "
+                           "give one of them")
+    if workers is not None and workers < 1:
+        raise WhittedError(f"--workers must be >= 1, got {workers}")
+    if not todo:
+        return
+    # The workers may start elsewhere: paths absolute, the variant decided here.
+    settings = replace(settings, variant=settings.variant or default_variant())
+    with connect(_Where(workers, scheduler)) as client:
+        from distributed import as_completed
+        threads = worker_threads(client.run(available_cores))
+        run = uuid.uuid4().hex[:8]
+        tasks = {}
+        for k, (scene, outputs) in enumerate(todo):
+            future = client.submit(render_task, str(Path(scene).resolve()),
+                                   tuple(str(Path(p).resolve()) for p in outputs), settings, keep,
+                                   threads, key=f"whitted-render-{k}-{Path(scene).stem}-{run}", pure=False)
+            tasks[future] = (scene, outputs)
+        finished = False
+        try:
+            for future in as_completed(list(tasks), loop=client.loop):
+                scene, outputs = tasks.pop(future)
+                try:
+                    item = _result(future, str(scene))
+                except WhittedError as error:   # every worker that tried it died
+                    item = SceneRender(scene, outputs, "failed", str(error))
+                else:
+                    item.scene, item.outputs = scene, outputs   # the user's paths
+                yield item
+            finished = True
+        except BaseException:
+            if tasks:
+                client.cancel(list(tasks), force=True)
+                with contextlib.suppress(Exception):   # the renders under way end too
+                    client.run(stop_rendering, wait=True)
+            raise
+        finally:
+            if finished:   # every task has ended: what a killed worker was writing is litter
+                _remove_leftovers(outputs for _, outputs in todo)
+
+
+def _remove_leftovers(outputs) -> None:
+    """Delete the temporary files that workers killed while writing left beside ``outputs``
+    (:func:`whitted.atomic.leftovers`)."""
+    from .atomic import leftovers
+    for images in outputs:
+        for image in images:
+            for litter in leftovers(image):
+                with contextlib.suppress(OSError):
+                    litter.unlink()
+
+
+# --------------------------------------------------------------------------- the run's stats
+
+
+@dataclass
+class Tally:
+    """A batch's counts and times, for the summary line and the ``--stats`` JSON."""
+    planned: int = 0
+    items: list = field(default_factory=list)
+    start: float = field(default_factory=time.perf_counter)
+
+    def add(self, item: SceneRender) -> None:
+        self.items.append(item)
+
+    def count(self, status: str) -> int:
+        return sum(item.status == status for item in self.items)
+
+    def line(self, out, interrupted: bool = False) -> str:
+        """One line: what was rendered, skipped and failed, in how long, where."""
+        rendered, skipped, failed = self.count("rendered"), self.count("skipped"), self.count("failed")
+        parts = [f"rendered {rendered} of {self.planned} scenes"]
+        if skipped:
+            parts.append(f"{skipped} up to date")
+        if failed:
+            parts.append(f"{failed} failed")
+        if interrupted:
+            parts.append(f"{self.planned - len(self.items)} not done")
+        where = f" into {out}" if out is not None else ""
+        return f"whitted: {', '.join(parts)} in {time.perf_counter() - self.start:.1f} s{where}"
+
+    def json(self, interrupted: bool = False) -> dict:
+        """The run's statistics: every scene's entry, and totals."""
+        rendered = [item for item in self.items if item.stats is not None]
+        rays: dict[str, int] = {}
+        for item in rendered:
+            for kind, count in item.stats.get("rays", {}).items():
+                rays[kind] = rays.get(kind, 0) + count
+        totals = {"scenes": self.planned, "rendered": self.count("rendered"),
+                  "skipped": self.count("skipped"), "failed": self.count("failed"),
+                  "not_done": self.planned - len(self.items), "interrupted": interrupted,
+                  "wall_seconds": time.perf_counter() - self.start,
+                  "render_seconds": sum(item.stats["seconds"] for item in rendered),
+                  "compile_seconds": sum(item.stats["compile_seconds"] for item in rendered),
+                  "scene_seconds": sum(item.seconds for item in self.items),
+                  "rays": rays}
+        return {"scenes": [item.summary() for item in self.items], "totals": totals}
+
+
+def report_failure(item: SceneRender, write=None) -> None:
+    """A failed scene's lines, as the CLI prints user errors (``whitted: error: ...``)."""
+    write = write or (lambda line: print(line, file=sys.stderr))
+    for line in (item.error or f"{item.scene}: failed").splitlines():
+        write(f"whitted: error: {line}")

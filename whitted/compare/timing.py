@@ -1,0 +1,139 @@
+"""Render times that compare on a busy machine: rounds, paired ratios, intervals.
+
+On a shared machine a render's time moves 2–3× between moments minutes apart, but
+only ~1.2× within one moment. A ratio of two times taken minutes apart (a slow path
+render against a Whitted render timed while another program ran) says more about
+the machine than about the methods. So the sweep times what it compares *in the
+same moments*: once every setting of a scene has been rendered and scored, each is
+timed once per **round**, the rounds passing over all settings in turn (forward,
+then backward, so that a drift within a round falls on both ends alike). A change
+of load then falls on every method of a round alike.
+
+A render's time is the median of its rounds. A ratio of times (how many times
+faster one method is than another) is computed **per round**, from that round's
+times only, and reported as the median of those paired ratios with a
+distribution-free confidence interval for the median (order statistics: no
+assumption on how the machine's load is distributed), e.g. "2.1× (1.9–2.4× over 9
+rounds)". An interval that contains 1 is "no measurable difference"; one wider than
+:data:`~whitted.defaults.COMPARE_SETTLED_WIDTH` after the last round is *unsettled*
+and said to be. The sweep keeps timing rounds while a headline is unsettled, up to
+:data:`~whitted.defaults.COMPARE_MAX_ROUNDS` rounds or
+:data:`~whitted.defaults.COMPARE_ROUNDS_SECONDS` of extra rounds.
+
+Which clock: :data:`~whitted.defaults.COMPARE_CLOCK` (docs/compare.md says how the
+two were measured against each other).
+"""
+
+from __future__ import annotations
+
+import math
+import statistics
+from dataclasses import dataclass
+from typing import Callable
+
+from ..defaults import COMPARE_CONFIDENCE, COMPARE_SETTLED_WIDTH
+
+
+def median(values) -> float:
+    """The median of the finite ``values`` (NaN: none)."""
+    finite = [v for v in values if math.isfinite(v)]
+    return statistics.median(finite) if finite else math.nan
+
+
+def _order_rank(n: int, confidence: float) -> int:
+    """The 1-based rank k of the order statistics that bound a two-sided ``confidence``
+    interval for the median of n values: [x(k), x(n+1-k)] holds the median with
+    probability 1 - 2·P(Binomial(n, ½) < k); the largest k whose tail is within
+    (1 - confidence) / 2, and 1 (the extremes) where n is too small for any."""
+    tail = (1.0 - confidence) / 2.0
+    k = 1
+    while k + 1 <= (n + 1) // 2 and sum(math.comb(n, i) for i in range(k + 1)) / 2.0 ** n <= tail:
+        k += 1
+    return k
+
+
+@dataclass(frozen=True)
+class Interval:
+    """A ratio measured in paired rounds.
+
+    =========== =======================================================================
+    ``value``   the median of the per-round ratios
+    ``low``     the lower end of its confidence interval (:data:`COMPARE_CONFIDENCE`)
+    ``high``    the upper end
+    ``rounds``  how many rounds gave a ratio
+    =========== =======================================================================
+    """
+    value: float
+    low: float
+    high: float
+    rounds: int
+
+    @classmethod
+    def of(cls, values) -> "Interval":
+        """The median of ``values`` (the finite ones) and its interval."""
+        finite = sorted(v for v in values if math.isfinite(v))
+        if not finite:
+            return cls(math.nan, math.nan, math.nan, 0)
+        k = _order_rank(len(finite), COMPARE_CONFIDENCE)
+        return cls(statistics.median(finite), finite[k - 1], finite[-k], len(finite))
+
+    @property
+    def known(self) -> bool:
+        return self.rounds > 0 and math.isfinite(self.value)
+
+    @property
+    def settled(self) -> bool:
+        """Whether the interval is narrow enough to be quoted: high / low at most
+        1 + :data:`COMPARE_SETTLED_WIDTH`, over at least two rounds."""
+        return (self.rounds >= 2 and self.low > 0
+                and self.high / self.low <= 1.0 + COMPARE_SETTLED_WIDTH)
+
+    @property
+    def straddles_one(self) -> bool:
+        """Whether the interval holds 1: no measurable difference."""
+        return self.known and self.low <= 1.0 <= self.high
+
+    def range_text(self) -> str:
+        """``1.9–2.4× over 9 rounds`` (``1 round``: no interval)."""
+        if self.rounds < 2:
+            return "1 round"
+        return f"{self.low:.3g}–{self.high:.3g}× over {self.rounds} rounds"
+
+    def as_dict(self) -> dict:
+        """For findings.json."""
+        def number(v):
+            return v if math.isfinite(v) else None
+        return {"value": number(self.value), "low": number(self.low), "high": number(self.high),
+                "rounds": self.rounds, "confidence": COMPARE_CONFIDENCE, "settled": self.settled,
+                "no_measurable_difference": self.straddles_one}
+
+
+def paired(rounds: int, ratio_in_round: Callable[[int], float]) -> Interval:
+    """The :class:`Interval` of ``ratio_in_round(r)`` over rounds r = 0 … rounds - 1."""
+    return Interval.of(ratio_in_round(r) for r in range(rounds))
+
+
+def faster_text(interval: Interval, name: str, other: str) -> str:
+    """Which of two methods is faster, in words, from the interval of ``other``'s time over
+    ``name``'s: "the article's model gets there 2.1× faster (1.9–2.4× over 9 rounds)", or
+    "no measurable difference ..." where the interval holds 1."""
+    if interval.straddles_one and interval.rounds >= 2:
+        return (f"no measurable difference in time between {name} and {other} "
+                f"({interval.value:.3g}×, {interval.range_text()})")
+    if interval.value < 1:
+        name, other = other, name
+        interval = Interval(1 / interval.value, 1 / interval.high, 1 / interval.low, interval.rounds)
+    flag = "" if interval.settled or interval.rounds < 2 else "; unsettled: the machine's load kept changing"
+    return f"{name} gets there {interval.value:.3g}× faster ({interval.range_text()}{flag})"
+
+
+def ratio_text(interval: Interval | None) -> str:
+    """A table cell: ``2.1× (1.9–2.4)``, ``≈ 1 (0.9–1.2)`` where the interval holds 1,
+    flagged ``?`` when unsettled; ``—`` when nothing was compared."""
+    if interval is None or not interval.known:
+        return "—"
+    if interval.rounds < 2:
+        return f"{interval.value:.3g}×"
+    flag = "" if interval.settled else " ?"
+    value = "≈ 1" if interval.straddles_one else f"{interval.value:.3g}×"
+    return f"{value} ({interval.low:.3g}–{interval.high:.3g}){flag}"

@@ -1,0 +1,180 @@
+"""What a render looks like on screen: an exposure and a view transform.
+
+Why a module of its own: a render is linear radiance, and that is what EXR files keep
+and what the relative MSE reads; but everything a person *looks at* (PNG files, the
+compare page and its contact sheet, an array shown in a notebook) needs those values
+turned into display colors, and there is more than one sensible way to do it:
+
+* ``clip`` — plain sRGB: values clipped to [0, 1], then the sRGB transfer curve. This is
+  the article's own output, and right for the article's model: its colors,
+  B·(A + (1 − A)·Σ s·light), are meant as display values and rarely exceed 1.
+* ``aces`` — OpenColorIO's built-in CG config (:data:`OCIO_CONFIG`), display
+  ``sRGB - Display``, view ``ACES 2.0 - SDR 100 nits (Rec.709)``: a filmic tone curve
+  that rolls highlights off towards white instead of clipping them. Physically lit
+  images (``--lighting physical``, the path tracer) fall off as 1/d² from each light, so
+  the surfaces near a light run far above 1 while those far away stay dim: clipped,
+  they show a white foreground over black shadows.
+
+An exposure of EV stops multiplies the linear image by 2^EV before the view.
+:func:`default_view` chooses the view from how the image was lit: ``clip`` for the
+article's model, ``aces`` for physical lighting and the path tracer. ``whitted compare``
+shows every image of a scene in one view, so that they compare: ``clip`` while its
+path-traced reference fits in [0, 1] (plain sRGB clips under 1 % of its pixels), else
+``aces`` (:func:`fitting_view`); FLIP, which scores images as displayed, scores them in
+that view (:func:`whitted.metrics.flip_map`). The relative MSE never sees a view.
+
+Images are processed in bands of rows (:data:`BAND_ROWS`), so that a 16384² render
+costs no whole-image float temporary.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+
+import numpy as np
+
+from .defaults import VIEWS
+from .errors import WhittedError
+
+#: OpenColorIO's built-in config (in the ``opencolorio`` package since 2.5), pinned by
+#: version so that an image looks the same whatever OpenColorIO is installed.
+OCIO_CONFIG = "cg-config-v4.0.0_aces-v2.0_ocio-v2.5"
+OCIO_SOURCE = "Linear Rec.709 (sRGB)"     #: the working space of Mitsuba's RGB variants
+OCIO_DISPLAY = "sRGB - Display"
+OCIO_VIEW = "ACES 2.0 - SDR 100 nits (Rec.709)"
+#: What each view is, in words (CLI help, the compare page).
+VIEW_NAMES = {"clip": "plain sRGB, clipped to [0, 1]",
+              "aces": f"tone-mapped sRGB (OpenColorIO's “{OCIO_VIEW}” view)"}
+#: Linear values are capped here before a view (infinity included): no view tells brighter apart.
+BRIGHTEST = 1e6
+#: The share of pixels a view may clip before :func:`fitting_view` tone-maps instead.
+MOST_CLIPPED = 0.01
+#: rows converted at a time: bounds the conversion's temporaries
+BAND_ROWS = 256
+
+
+def default_view(integrator: str = "whitted", lighting: str | None = None) -> str:
+    """``clip`` for the article's model (its colors are display values), ``aces`` for
+    physically lit images (the path tracer, or ``lighting="physical"``)."""
+    return "aces" if integrator == "path" or lighting == "physical" else "clip"
+
+
+def fitting_view(reference, exposure: float = 0.0) -> str:
+    """The view that shows every image of a comparison against ``reference`` (linear RGB):
+    ``clip`` while plain sRGB clips less than :data:`MOST_CLIPPED` of the reference's
+    pixels (its colors then stay as they are), else ``aces``."""
+    return "clip" if clipped_fraction(to_srgb(reference, exposure, "clip")) < MOST_CLIPPED else "aces"
+
+
+def view_text(view: str, exposure: float = 0.0, clipped: float = math.nan) -> str:
+    """How images are shown, in words, and (given the share of a reference's pixels plain
+    sRGB clips) why."""
+    text = VIEW_NAMES[view] + (f", exposure {exposure:+g} EV" if exposure else "")
+    if math.isfinite(clipped) and view == "aces" and clipped >= MOST_CLIPPED:
+        text += f", as plain sRGB would clip {clipped:.0%} of the reference's pixels"
+    elif math.isfinite(clipped) and view == "clip":
+        text += ", as the reference fits in it" if clipped < MOST_CLIPPED else ""
+    return text
+
+
+def check_view(view) -> str:
+    if view not in VIEWS:
+        raise WhittedError(f"unknown view '{view}'; choose one of {', '.join(VIEWS)}")
+    return view
+
+
+def check_exposure(exposure) -> float:
+    try:
+        value = float(exposure)
+    except (TypeError, ValueError):
+        raise WhittedError(f"exposure must be a number of stops, got {exposure!r}") from None
+    if not (math.isfinite(value) and abs(value) <= 64):
+        raise WhittedError(f"exposure must be a number of stops in [-64, 64], got {exposure}")
+    return value
+
+
+@functools.lru_cache(maxsize=None)
+def _aces_processor():
+    """OpenColorIO's CPU processor for the ``aces`` view (built once per process)."""
+    import PyOpenColorIO as ocio
+
+    config = ocio.Config.CreateFromBuiltinConfig(OCIO_CONFIG)
+    transform = ocio.DisplayViewTransform(src=OCIO_SOURCE, display=OCIO_DISPLAY, view=OCIO_VIEW)
+    return config.getProcessor(transform).getDefaultCPUProcessor()
+
+
+def _exposed(band: np.ndarray, exposure: float) -> np.ndarray:
+    """A band of linear RGB (a float32 copy, changed in place) times 2^exposure, NaN and
+    negative values 0 (no negative light; OpenColorIO's curve expects none either), and
+    values above :data:`BRIGHTEST` (infinity too) that."""
+    np.nan_to_num(band, copy=False, nan=0.0)
+    if exposure:
+        band *= np.float32(2.0 ** exposure)
+    return np.clip(band, 0.0, BRIGHTEST, out=band)
+
+
+def _clipped(band: np.ndarray, exposure: float) -> np.ndarray:
+    """The ``clip`` view's linear values: exposed, then clipped to [0, 1]."""
+    return np.minimum(_exposed(band, exposure), 1.0, out=band)
+
+
+def _display_band(band: np.ndarray, exposure: float, view: str) -> np.ndarray:
+    """One band of linear RGB (a float32 copy, changed in place) as display values in [0, 1],
+    sRGB-encoded."""
+    if view == "aces":
+        _aces_processor().applyRGB(_exposed(band, exposure))
+        return np.clip(band, 0.0, 1.0, out=band)
+    return _srgb_encoded(_clipped(band, exposure), "Float32")
+
+
+def _srgb_encoded(band: np.ndarray, kind: str) -> np.ndarray:
+    """Linear values in [0, 1] sRGB-encoded by Mitsuba's own ``Bitmap`` conversion, as
+    ``kind`` ("Float32", or "UInt8": what PNG files hold, which Mitsuba dithers)."""
+    import mitsuba as mi
+
+    bitmap = mi.Bitmap(band, pixel_format=mi.Bitmap.PixelFormat.RGB)
+    return np.asarray(bitmap.convert(mi.Bitmap.PixelFormat.RGB, getattr(mi.Struct.Type, kind),
+                                     srgb_gamma=True))
+
+
+def _checked(image) -> np.ndarray:
+    pixels = np.asarray(image, dtype=np.float32)
+    if pixels.ndim != 3 or pixels.shape[2] != 3:
+        raise WhittedError(f"expected an (H, W, 3) RGB image, got shape {pixels.shape}")
+    return pixels
+
+
+def to_display(image, exposure: float = 0.0, view: str = "clip") -> np.ndarray:
+    """A linear RGB image (H, W, 3) as float32 display values in [0, 1], sRGB-encoded:
+    what FLIP scores and what :func:`to_srgb` rounds to 8 bits."""
+    pixels, exposure, view = _checked(image), check_exposure(exposure), check_view(view)
+    out = np.empty(pixels.shape, np.float32)
+    for start in range(0, pixels.shape[0], BAND_ROWS):
+        out[start:start + BAND_ROWS] = _display_band(
+            np.array(pixels[start:start + BAND_ROWS], dtype=np.float32), exposure, view)
+    return out
+
+
+def to_srgb(image, exposure: float = 0.0, view: str = "clip", rows_done=None) -> np.ndarray:
+    """A linear RGB image (H, W, 3) as the 8-bit sRGB colors (uint8, H×W×3) a PNG holds and a
+    notebook shows (``plt.imshow(whitted.to_srgb(result.image, view="aces"))``).
+
+    ``exposure`` in stops (the image times 2^exposure), ``view`` one of :data:`VIEWS`;
+    ``rows_done(n)`` is called after each band of rows."""
+    pixels, exposure, view = _checked(image), check_exposure(exposure), check_view(view)
+    out = np.empty(pixels.shape, np.uint8)
+    for start in range(0, pixels.shape[0], BAND_ROWS):
+        band = np.array(pixels[start:start + BAND_ROWS], dtype=np.float32)
+        if view == "clip":   # Mitsuba's own 8-bit sRGB encoding, as PNGs were always written
+            out[start:start + BAND_ROWS] = _srgb_encoded(_clipped(band, exposure), "UInt8")
+        else:
+            out[start:start + BAND_ROWS] = np.rint(_display_band(band, exposure, view) * 255.0)
+        if rows_done is not None:
+            rows_done(band.shape[0])
+    return out
+
+
+def clipped_fraction(srgb8: np.ndarray) -> float:
+    """The share of pixels with a channel at full scale (255): what a view has clipped."""
+    return float(np.mean(np.any(np.asarray(srgb8) >= 255, axis=-1)))

@@ -1,0 +1,138 @@
+"""Frames to a video: ``whitted render FRAMES/ -o OUT/ --video OUT.mp4`` and ``whitted video``.
+
+A frame sequence is most often wanted as a film. The encoding is FFmpeg's, through
+imageio's ffmpeg plugin (imageio-ffmpeg ships the ``ffmpeg`` binary, so nothing is
+needed from the system): H.264 in yuv420p, which every player reads. yuv420p needs
+even sizes: a frame of odd width or height is padded by repeating its last column or
+row (never scaled). PNG frames are sent as their 8-bit sRGB bytes; EXR frames are
+encoded to sRGB as PNG output is (:func:`whitted.imageio.srgb8`). The file is written
+beside its target and renamed into place (:mod:`whitted.atomic`): an interruption
+leaves no partial video.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+from . import defaults as D
+from .errors import WhittedError
+
+#: the containers written (H.264 in each)
+VIDEO_SUFFIXES = (".mp4", ".mkv", ".mov")
+#: imageio-ffmpeg's quality, 0 to 10 (its default 5 blurs small frames: 5 levels of 255 off on 40x26)
+QUALITY = 8
+#: frames per second unless told
+DEFAULT_FPS = D.DEFAULT_FPS
+#: the images a folder of frames stands for, in this order of preference
+FRAME_SUFFIXES = (".png", ".exr")
+
+
+def check_video_path(path: str | os.PathLike) -> Path:
+    """A clean error unless ``path`` can receive a video (its suffix, its folder)."""
+    from .atomic import check_writable
+    path = Path(path)
+    if path.suffix.lower() not in VIDEO_SUFFIXES:
+        raise WhittedError(f"{path}: unsupported video format '{path.suffix or '(none)'}'; "
+                           f"use {', '.join(VIDEO_SUFFIXES)}")
+    return check_writable(path)
+
+
+def check_fps(fps: float) -> float:
+    import math
+    if not (math.isfinite(fps) and 0 < fps <= 1000):
+        raise WhittedError(f"--fps must be a number of frames per second in (0, 1000], got {fps:g}")
+    return float(fps)
+
+
+def video_frames(inputs: list[str | os.PathLike]) -> list[Path]:
+    """The frames that ``inputs`` name, in order: image files as given, a folder's PNG
+    files sorted by name (its EXR files when it has no PNG)."""
+    from .converter.batch import folder_scenes
+    frames: list[Path] = []
+    for item in map(Path, inputs):
+        if item.is_dir():
+            found = folder_scenes(item, FRAME_SUFFIXES)
+            if not found:
+                raise WhittedError(f"{item}: no .png or .exr frames in this folder")
+            frames.extend(found)
+        elif item.suffix.lower() not in FRAME_SUFFIXES:
+            raise WhittedError(f"{item}: not a frame (.png or .exr)")
+        elif not item.is_file():
+            raise WhittedError(f"{item}: no such frame")
+        else:
+            frames.append(item)
+    if not frames:
+        raise WhittedError("no frames given: name .png or .exr files or folders")
+    return frames
+
+
+def frame_pixels(path: Path):
+    """A frame as 8-bit sRGB (H, W, 3): a PNG's own bytes, an EXR encoded as PNGs are."""
+    import mitsuba as mi
+    import numpy as np
+
+    from .imageio import read_image, srgb8
+    if path.suffix.lower() == ".exr":
+        return srgb8(read_image(path))
+    try:
+        bitmap = mi.Bitmap(str(path)).convert(mi.Bitmap.PixelFormat.RGB, mi.Struct.Type.UInt8,
+                                              srgb_gamma=True)
+    except RuntimeError as error:
+        raise WhittedError(f"{path}: could not read the frame: {str(error).strip().splitlines()[0]}") from None
+    return np.array(bitmap, dtype=np.uint8).reshape(bitmap.height(), bitmap.width(), 3)
+
+
+def _even(pixels):
+    """Pad an odd width or height by one repeated column or row (yuv420p needs even sizes)."""
+    import numpy as np
+    height, width = pixels.shape[:2]
+    if height % 2 == 0 and width % 2 == 0:
+        return pixels
+    return np.pad(pixels, ((0, height % 2), (0, width % 2), (0, 0)), mode="edge")
+
+
+def write_video(path: str | os.PathLike, frames: list[Path], fps: float = DEFAULT_FPS,
+                progress: bool = False) -> None:
+    """Encode ``frames`` (image files, all of one size) as an H.264 video at ``fps``."""
+    import imageio.v2 as iio
+
+    from .atomic import atomic_path
+    from .progress import progress_bar
+
+    path = check_video_path(path)
+    fps = check_fps(fps)
+    size = None
+    with atomic_path(path) as tmp, \
+            progress_bar(progress, len(frames), f"encoding {path.name}", unit="frame", unit_scale=False) as bar:
+        try:
+            writer = iio.get_writer(str(tmp), format="FFMPEG", mode="I", fps=fps, codec="libx264",
+                                    quality=QUALITY, pixelformat="yuv420p", macro_block_size=1,
+                                    ffmpeg_log_level="error",
+                                    output_params=["-movflags", "+faststart"]
+                                    if path.suffix.lower() in (".mp4", ".mov") else None)
+        except (OSError, RuntimeError) as error:
+            raise WhittedError(f"{path}: cannot start FFmpeg: {error}") from None
+        try:
+            for frame in frames:
+                pixels = frame_pixels(frame)
+                if size is None:
+                    size = pixels.shape
+                elif pixels.shape != size:
+                    raise WhittedError(f"{frame}: a {pixels.shape[1]}x{pixels.shape[0]} frame among "
+                                       f"{size[1]}x{size[0]} ones; a video's frames share one size")
+                writer.append_data(_even(pixels))
+                bar.update(1)
+        finally:
+            writer.close()
+
+
+def video_command(args) -> None:
+    """``whitted video FRAMES... -o OUT.mp4 [--fps N]``."""
+    check_video_path(args.output)
+    check_fps(args.fps)
+    frames = video_frames(args.frames)
+    write_video(args.output, frames, args.fps, progress=not args.quiet)
+    if args.verbose:
+        import sys
+        print(f"whitted: wrote {args.output}: {len(frames)} frames at {args.fps:g} fps", file=sys.stderr)
