@@ -248,3 +248,12 @@ def check_seed(seed, what: str = "seed") -> int:
 IMAGE_FORMATS = ("png", "exr")
 #: a video's frames per second unless ``--fps`` says (``whitted render --video``, ``whitted video``)
 DEFAULT_FPS = 24.0
+
+# --------------------------------------------------------------------------- fitting (whitted fit)
+
+#: gradient descent steps of a fit (``whitted fit``, compare's "the article's model fitted")
+FIT_ITERATIONS = 150
+#: the widest image a fit renders (the target is box-filtered down to it)
+FIT_WIDTH = 80
+#: Adam's learning rate at the first and at the last step (it falls geometrically between)
+FIT_RATE = (0.03, 1e-4)
