@@ -13,7 +13,7 @@ import pytest
 import whitted
 from whitted.compare.curves import best_ambient
 from whitted.converter import parse_file, parse_text
-from whitted.fit import fit, fitted_model, material_ids, write_fitted
+from whitted.fitting import fit, fitted_model, material_ids, write_fitted
 from whitted.imageio import write_image
 from whitted.loading import _load_model
 

@@ -48,7 +48,7 @@ def _compare(args: argparse.Namespace) -> None:
 
 
 def _fit(args: argparse.Namespace) -> None:
-    from .fit import fit_command
+    from .fitting import fit_command
     fit_command(args)
 
 
