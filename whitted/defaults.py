@@ -255,5 +255,7 @@ DEFAULT_FPS = 24.0
 FIT_ITERATIONS = 150
 #: the widest image a fit renders (the target is box-filtered down to it)
 FIT_WIDTH = 80
+#: the most samples per pixel compare's fit renders with (as many as the limit has, up to this)
+FIT_SPP = 16
 #: Adam's learning rate at the first and at the last step (it falls geometrically between)
 FIT_RATE = (0.03, 1e-4)

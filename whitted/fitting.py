@@ -98,13 +98,15 @@ def _light_scale(model, light) -> float:
 
 
 def fit(scene, target, *, free=FREE, iterations: int = D.FIT_ITERATIONS, width: int = D.FIT_WIDTH,
-        rate=D.FIT_RATE, progress: bool = False, on_step=None, target_name: str = "the target") -> FitResult:
+        rate=D.FIT_RATE, spp: int | None = None, progress: bool = False, on_step=None,
+        target_name: str = "the target") -> FitResult:
     """Fit the article's model of ``scene`` (a ``.scn`` path or a ``whitted.converter.Scene``)
     to ``target`` (an EXR/PNG path or a linear (H, W, 3) array) by gradient descent.
 
     ``free``: which of ``"ambient"``, ``"colors"``, ``"lights"`` move. ``iterations`` Adam
     steps at a resolution at most ``width`` wide, the learning rate falling from ``rate[0]``
-    to ``rate[1]``; ``progress`` shows a tqdm bar with the loss; ``on_step(k, loss)`` is called
+    to ``rate[1]``; ``spp``: samples per pixel of the fit's renders (default: the scene's; more
+    match an anti-aliased target better; the same samples at every step); ``progress`` shows a tqdm bar with the loss; ``on_step(k, loss)`` is called
     after each step. Runs in ``llvm_ad_rgb`` (or the current AD variant)."""
     import drjit as dr
     import mitsuba as mi
@@ -133,7 +135,7 @@ def fit(scene, target, *, free=FREE, iterations: int = D.FIT_ITERATIONS, width: 
     size = fit_size((model.width, model.height), target.shape[1::-1], width, target_name)
     reference = resampled(target, size)
 
-    loaded = _load_model(model, _checked({"width": size[0], "height": size[1]}), False, "whitted", False)
+    loaded = _load_model(model, _checked({"width": size[0], "height": size[1], "spp": spp}), False, "whitted", False)
     params = mi.traverse(loaded)
     params["integrator.min_weight"] = 0.0   # the exact tree: the loss is smooth
     params.update()
