@@ -18,7 +18,6 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, replace
-from pathlib import Path
 
 import numpy as np
 
@@ -39,23 +38,23 @@ class Fitted:
     size: tuple
 
 
-def fit_to_reference(scene_path, reference: np.ndarray, depth: int, spp: int, seed: int,
+def fit_to_reference(model, reference: np.ndarray, depth: int, spp: int, seed: int,
                      start_ambient: float = math.nan, deadline: float = math.inf) -> Fitted | None:
-    """Fit the article's model of the ``.scn`` scene at ``scene_path`` to ``reference`` (full
-    resolution) and score the fitted scene there at ``depth`` and ``spp`` (the exact tree,
-    ``seed``). None for a scene that is not a ``.scn`` file, or when the fit's first steps
-    show it would run past ``deadline`` (a ``time.monotonic`` reading)."""
-    from ..converter import parse_file
+    """Fit the article's model of the scene ``model`` (a parsed ``.scn``:
+    ``whitted.converter.Scene``) to ``reference`` (full resolution) and score the fitted scene
+    there at ``depth`` and ``spp`` (the exact tree, ``seed``). None without a model (an XML
+    scene), or when the fit's first steps show it would run past ``deadline`` (a
+    ``time.monotonic`` reading)."""
     from ..defaults import FIT_ITERATIONS, FIT_SPP
     from ..fitting import fit
     from ..loading import _load_model
 
     import drjit as dr
     import mitsuba as mi
-    if Path(scene_path).suffix.lower() != ".scn" or not dr.is_diff_v(mi.Float):
+    if model is None or not dr.is_diff_v(mi.Float):
         return None   # (gradients need an AD variant: the sweep's is kept)
     start = time.monotonic()
-    model = replace(parse_file(scene_path), depth=depth)
+    model = replace(model, depth=depth)
     if math.isfinite(start_ambient):
         model = replace(model, ambient=start_ambient)
     steps = []
@@ -71,7 +70,7 @@ def fit_to_reference(scene_path, reference: np.ndarray, depth: int, spp: int, se
         return None
     loaded = _load_model(result.model, {}, False, "whitted", False)
     image = rendering.render(loaded, integrator="whitted", spp=spp, max_depth=depth, lighting="article",
-                             seed=seed, min_weight=0.0).image
+                             seed=seed, min_weight=0.0, ambient=result.ambient).image
     error = metrics.relative_mse(np.asarray(image, np.float64), reference)
     return Fitted(error, result.ambient, result.colors, list(result.lights), time.monotonic() - start,
                   result.error, result.size)

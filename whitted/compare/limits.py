@@ -59,11 +59,12 @@ def _halves(loaded, lighting: str, depth: int, spp: int, ambient: float | None) 
 
 
 def render_limit(loaded, entry: SceneResult, method: str, measured: list[tuple[Measurement, np.ndarray]],
-                 reference: np.ndarray, out: Path, deadline: float = math.inf) -> Limit | None:
+                 reference: np.ndarray, out: Path, deadline: float = math.inf, model=None) -> Limit | None:
     """The limit of ``method`` (a Whitted method) on ``entry``'s scene (``loaded``: its
     ``mi.Scene``), scored against ``reference``; every render of ``measured`` (each with
     its image) gets its ``rel_mse_limit``. None when ``measured`` is empty or not even
-    the first halves fit before ``deadline`` (a ``time.monotonic`` reading)."""
+    the first halves fit before ``deadline`` (a ``time.monotonic`` reading). ``model``: the
+    scene's parsed model (a ``.scn`` scene's, for the fit; None: no fit)."""
     if not measured:
         return None
     lighting = WHITTED_LIGHTING[method]
@@ -103,7 +104,7 @@ def render_limit(loaded, entry: SceneResult, method: str, measured: list[tuple[M
         spp *= 2
     if limit is not None and lighting == "article":
         # the article's model at its best: its colors, ambient and light colors fitted
-        limit.fitted = fit_to_reference(entry.path, reference, depth, limit.spp, LIMIT_SEED,
+        limit.fitted = fit_to_reference(model, reference, depth, limit.spp, LIMIT_SEED,
                                         limit.best_ambient, deadline)
     if limit is not None:
         limit.image = f"{entry.folder}/{method}-limit-d{depth}-{limit.spp}spp.exr"
