@@ -349,7 +349,8 @@ class WhittedIntegrator(mi.SamplingIntegrator):
         spp = int(spp) or sensor.sampler().sample_count()
         film = sensor.film()
         camera = CameraSamples(sensor, spp, seed)
-        if camera.unused and camera.unused != self._warned:
+        # (not for a gradient: mi.render derives the seed of render_forward/backward itself)
+        if camera.unused and camera.unused != self._warned and not attached:
             self._warned = camera.unused
             mi.Log(mi.LogLevel.Warn, f"whitted: at 1 sample per pixel every camera ray passes through "
                    f"its pixel's center and the lens's (the scene format's rule): the "
