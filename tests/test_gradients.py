@@ -48,20 +48,30 @@ KINDS = [
 ]
 
 
-@pytest.fixture(scope="module")
-def scene():
+def load(**overrides):
     whitted.set_variant("llvm_ad_rgb")
     # Mitsuba keeps an 8-bit image's texels as 8-bit integers (format "auto"), which carry
     # no gradient: a texture to differentiate is stored as floats (format "variant").
     xml = scene_to_xml(parse_text(SCENE, REPO / "scenes" / "test.scn"), base_dir=None)
     xml = xml.replace('<string name="filename" value="', '<string name="format" value="variant"/>\n'
                       '<string name="filename" value="')
-    scene = mi.load_string(xml)
+    scene = mi.load_string(xml, **overrides)
     assert isinstance(mi.traverse(scene)["material_3.color.data"], mi.TensorXf)
     params = mi.traverse(scene)
     params["integrator.min_weight"] = 0.0   # the exact tree: no culling that a step could flip
     params.update()
     return scene
+
+
+@pytest.fixture(scope="module")
+def scene():
+    return load()
+
+
+@pytest.fixture(scope="module")
+def physical_scene():
+    """Physical lighting: the lights' intensities fall off as 1/r² from their positions."""
+    return load(lighting="physical")
 
 
 def as_numpy(value) -> np.ndarray:
@@ -172,3 +182,19 @@ def test_scalar_refuses_gradients_in_one_line():
     assert "\n" not in str(error.value) and "scalar_rgb" in str(error.value)
     with pytest.raises(WhittedError, match="render_forward needs gradients"):
         scene.integrator().render_forward(scene, mi.traverse(scene))
+
+
+@pytest.mark.parametrize("key,step", [("light_1.intensity.value", 10.0), ("light_0.position", 2e-3),
+                                      ("material_1.color.value", 1e-2)])
+def test_physical_lighting_gradients_equal_finite_differences(physical_scene, key, step):
+    params, direction, weights = setup(physical_scene, key)
+    theta, base = moved(params, key, direction)
+    try:
+        image = mi.render(physical_scene, params)
+        dr.backward(dr.sum(image * mi.TensorXf(weights.astype(np.float32)), axis=None))
+        gradient = float(dr.grad(theta)[0])
+    finally:
+        write(params, key, base)
+    expected = finite_difference(physical_scene, key, step, direction, weights)
+    assert abs(expected) > 1e-4, key
+    assert gradient == pytest.approx(expected, rel=0.02), key
