@@ -106,13 +106,13 @@ class ArticleBSDF(mi.BSDF):
        - |float|
        - KR, the share of the color that comes from the mirror direction, in
          [0, 1]. (Default: 0)
-       - |exposed|
+       - |exposed|, |differentiable|
 
      * - refract
        - |float|
        - KT, the share that comes from the refracted direction, in [0, 1];
          KR + KT <= 1. (Default: 0)
-       - |exposed|
+       - |exposed|, |differentiable|
 
      * - ior
        - |float|
@@ -122,8 +122,9 @@ class ArticleBSDF(mi.BSDF):
        - |exposed|
 
     ``mi.traverse`` exposes ``reflect``, ``refract`` and ``ior`` as one-value
-    vectors (``params['…bsdf.reflect'] = 0.5`` writes one); ``params.update()``
-    refuses an edit that breaks the ranges above.
+    float64 vectors (Dr.Jit ``Float64`` in the JIT variants, which the ``whitted``
+    integrator differentiates: KR and KT); ``params['…bsdf.reflect'] = 0.5``
+    writes one, and ``params.update()`` refuses an edit that breaks the ranges above.
 
     A mixture of a Lambertian lobe (weight 1 − KR − KT, albedo B), a perfect
     mirror (KR) and a perfect refraction (KT), two-sided as the article shades
@@ -168,7 +169,10 @@ class ArticleBSDF(mi.BSDF):
                   float(props.get("ior", D.IOR)))
         # What mi.traverse hands out: Mitsuba values that SceneParameters writes into in
         # place (a Python float cannot be; a one-value float64 Dr.Jit array can, in every variant).
-        self._values = {name: dr.scalar.Array1f64(getattr(self, name)) for name in self.SCALARS}
+        # In the JIT variants they are Dr.Jit Float64 arrays, which can carry gradients:
+        # KR and KT are differentiable (the Whitted integrator's render_forward/backward).
+        one_value = mi.Float64 if dr.is_jit_v(mi.Float) else dr.scalar.Array1f64
+        self._values = {name: one_value(getattr(self, name)) for name in self.SCALARS}
 
     #: the parameters :meth:`traverse` exposes besides ``color``, kept as Python floats
     #: (``self.reflect`` ...) and, for mi.traverse, as one-value Mitsuba vectors
@@ -307,12 +311,18 @@ class ArticleBSDF(mi.BSDF):
     def has_attribute(self, name, active=True):
         return name in ("color", "reflect", "refract", "ior")
 
+    #: the parameters the Whitted integrator differentiates (JIT AD variants); the IOR
+    #: bends rays, which would move what they hit (visibility: not differentiated)
+    DIFFERENTIABLE = ("reflect", "refract")
+
     def traverse(self, callback):
         callback.put("color", self.color, mi.ParamFlags.Differentiable)
-        # KR, KT and the IOR are plain floats that the integrators bake into their
-        # kernels: editable (params.update() takes them), not differentiable.
+        # KR, KT and the IOR: editable (params.update() takes them); KR and KT differentiable
+        # in the AD variants (the Whitted integrator reads their Dr.Jit values in a gradient).
         for name in self.SCALARS:
-            callback.put(name, self._values[name], mi.ParamFlags.NonDifferentiable)
+            differentiable = name in self.DIFFERENTIABLE and dr.is_diff_v(mi.Float)
+            callback.put(name, self._values[name], mi.ParamFlags.Differentiable if differentiable
+                         else mi.ParamFlags.NonDifferentiable)
 
     def to_string(self):
         return (f"ArticleBSDF[\n  color = {self.color},\n  reflect = {self.reflect},\n"

@@ -31,7 +31,9 @@ from whitted import defaults as D
 from whitted.errors import WhittedError
 from whitted.giant_list import parse_exact_spheres
 
+from . import gradients
 from .film import CameraSamples, image_for
+from .gradients import require_gradients
 from .scene.effects import analyse
 from .scene.tables import scene_tables
 from .shading.shader import Shader
@@ -162,6 +164,19 @@ class WhittedIntegrator(mi.SamplingIntegrator):
     :meth:`render_detailed` also returns the rays traced and the bound
     (``whitted render --stats``).
 
+    Gradients (JIT AD variants, e.g. ``llvm_ad_rgb``): :meth:`render_forward` and
+    :meth:`render_backward`, so ``mi.render(scene, params)`` then ``dr.backward`` or
+    ``dr.forward``, differentiate the image with respect to every ``article`` color and
+    bitmap texture (stored as floats: ``format="variant"``), KR and KT, the ``ambient``,
+    the point lights' intensities and positions, and the background's radiance. The
+    render is recorded whole as an AD graph (its memory grows with the tree: see
+    benchmarks/RESULTS.md). Visibility is not differentiated: what each ray hits, the
+    shadows' edges and the refracted directions are held fixed, as in Mitsuba's ``prb``
+    (a parameter that moves an edge gets only the smooth part of its gradient); a
+    ``prb_reparam``-style reparameterisation of the rays, or ``direct_projective``'s
+    sampling of silhouette edges, is what it would take. ``scalar_rgb`` has no gradients
+    and refuses them in one line. :mod:`.gradients` has the details.
+
     .. tabs::
 
         .. code-tab:: xml
@@ -212,10 +227,18 @@ class WhittedIntegrator(mi.SamplingIntegrator):
     def traverse(self, callback):
         # One-value (or three-value) float64/int Dr.Jit arrays, which SceneParameters writes
         # into in place; :meth:`parameters_changed` reads them back.
+        # The ambient is a Dr.Jit Float64 in the JIT variants, differentiable in the AD ones
+        # (:meth:`render_forward`, :meth:`render_backward`).
         if not hasattr(self, "_values"):
-            self._values = {name: tp(*self._traversed_value(name)) for name, (tp, _) in self.TRAVERSED.items()}
+            self._values = {name: (mi.Float64 if name in self.DIFFERENTIABLE and dr.is_jit_v(mi.Float) else tp)(
+                *self._traversed_value(name)) for name, (tp, _) in self.TRAVERSED.items()}
         for name, value in self._values.items():
-            callback.put(name, value, mi.ParamFlags.NonDifferentiable)
+            differentiable = name in self.DIFFERENTIABLE and dr.is_diff_v(mi.Float)
+            callback.put(name, value, mi.ParamFlags.Differentiable if differentiable
+                         else mi.ParamFlags.NonDifferentiable)
+
+    #: what :meth:`render_forward` and :meth:`render_backward` differentiate among :data:`TRAVERSED`
+    DIFFERENTIABLE = ("ambient",)
 
     def _traversed_value(self, name):
         value = getattr(self, name)
@@ -272,22 +295,47 @@ class WhittedIntegrator(mi.SamplingIntegrator):
         tracer, _, _ = self._tracer(scene)
         return tracer.trace(mi.Ray3f(ray)), mi.Bool(True), []
 
+    def render_forward(self, scene, params=None, sensor=0, seed=0, spp=0):
+        """The image's derivative along the gradients set on the parameters (forward mode; what
+        ``dr.forward`` after ``mi.render(scene, params)`` calls). Visibility is held fixed
+        (:mod:`.gradients`)."""
+        require_gradients("render_forward")
+        with dr.resume_grad():
+            image = self.render_detailed(scene, sensor, seed, spp, attached=True).image
+            dr.forward_to(image)
+        return dr.grad(image)
+
+    def render_backward(self, scene, params, grad_in, sensor=0, seed=0, spp=0):
+        """Add ``grad_in`` (the loss's gradient with respect to the image) times the image's
+        derivatives to the parameters' gradients (reverse mode; what ``dr.backward`` after
+        ``mi.render(scene, params)`` calls). Visibility is held fixed (:mod:`.gradients`)."""
+        require_gradients("render_backward")
+        with dr.resume_grad():
+            image = self.render_detailed(scene, sensor, seed, spp, attached=True).image
+            dr.set_grad(image, grad_in)
+            dr.enqueue(dr.ADMode.Backward, image)
+            dr.traverse(dr.ADMode.Backward)
+
     # -- Rendering ------------------------------------------------------------------------------
 
-    def _tracer(self, scene, tables=None):
+    def _tracer(self, scene, tables=None, attached=False):
         """A tracer for ``scene`` (see :mod:`.tree`), the scene's analysis, and the
         brightest color a ray can have in it (:func:`.tree.adaptive.brightest`; None: unknown).
-        ``tables``: the scene's tables as :func:`whitted.plugins.check_scene` just found them."""
-        analysis = analyse(tables or scene_tables(scene), self.max_depth, self.light_reference)
+        ``tables``: the scene's tables as :func:`whitted.plugins.check_scene` just found them;
+        ``attached``: shaded from the parameters' own Dr.Jit values (:mod:`.gradients`)."""
+        tables = tables or scene_tables(scene)
+        analysis = analyse(tables, self.max_depth, self.light_reference)
         bright = brightest(analysis, self.lighting, self.ambient) if self.min_weight > 0 else None
         tally = Tally()
         shader = Shader(scene, analysis, self.ambient, self.lighting, tally, self.exact_spheres,
-                        hide_background=self.hide_emitters)
+                        hide_background=self.hide_emitters,
+                        attached=gradients.attached(scene, tables, self) if attached else None)
         tracer = tracer_for_variant(shader, allowance(self.min_weight, bright), tally,
                                     self.wavefront_size or SAMPLES_PER_PASS)
         return tracer, analysis, bright
 
-    def render_detailed(self, scene, sensor=0, seed=0, spp=0, progress=None, tables=None) -> Rendering:
+    def render_detailed(self, scene, sensor=0, seed=0, spp=0, progress=None, tables=None,
+                        attached=False) -> Rendering:
         """Render ``scene`` and report what was traced.
 
         ``tables``: what :func:`whitted.plugins.check_scene` returned for ``scene`` just
@@ -299,6 +347,9 @@ class WhittedIntegrator(mi.SamplingIntegrator):
         proportion of its path weight already shaded or culled), after each
         sample in the scalar ones. Between levels Python has control, so a
         ``KeyboardInterrupt`` (Ctrl-C) stops the render there.
+
+        ``attached`` (JIT AD variants): the image is computed from the parameters' own Dr.Jit
+        values (:mod:`.gradients`), so that gradients reach them.
         """
         if isinstance(sensor, int):
             sensor = scene.sensors()[sensor]
@@ -307,14 +358,15 @@ class WhittedIntegrator(mi.SamplingIntegrator):
         spp = int(spp) or sensor.sampler().sample_count()
         film = sensor.film()
         camera = CameraSamples(sensor, spp, seed)
-        if camera.unused and camera.unused != self._warned:
+        # (not for a gradient: mi.render derives the seed of render_forward/backward itself)
+        if camera.unused and camera.unused != self._warned and not attached:
             self._warned = camera.unused
             mi.Log(mi.LogLevel.Warn, f"whitted: at 1 sample per pixel every camera ray passes through "
                    f"its pixel's center and the lens's (the scene format's rule): the "
                    f"{' and the '.join(camera.unused)} change nothing; render spp > 1 for them")
         width, height = camera.width, camera.height
 
-        tracer, analysis, bright = self._tracer(scene, tables)
+        tracer, analysis, bright = self._tracer(scene, tables, attached)
         image = image_for(film, spp)
         # An alpha channel: opaque where a camera ray hits a surface or sees the background
         # (as Mitsuba's own integrators do).
@@ -322,7 +374,8 @@ class WhittedIntegrator(mi.SamplingIntegrator):
         background_seen = analysis.environment is not None and not self.hide_emitters
         # A single-level tree stores nothing between levels: then, where the image takes
         # whole pixels, each lane renders one pixel, looping over its samples in the kernel.
-        by_pixel = analysis.depth == 1 and image.takes_pixels and camera.sampler is None
+        # (Not in a differentiable render: Dr.Jit differentiates no loop in a kernel backwards.)
+        by_pixel = analysis.depth == 1 and image.takes_pixels and camera.sampler is None and not attached
         whole_pixels = by_pixel or camera.sampler is not None
         per_pass = self.wavefront_size or tracer.samples_per_pass
         passes = tracer.passes(width * height * spp, max(spp, per_pass // spp * spp) if whole_pixels else per_pass)

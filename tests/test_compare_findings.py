@@ -129,6 +129,19 @@ def test_best_ambient_does_at_least_as_well_as_the_scenes_own(run, scene):
     assert article["text"].startswith("Of the article model's")
 
 
+@pytest.mark.parametrize("scene", SCENES)
+def test_the_fitted_model_does_at_least_as_well_as_the_best_ambient(run, scene):
+    """Issue 33: the article's model fitted to the reference (colors, ambient, light colors)
+    scores, at full resolution, no worse than the best ambient alone, and the text says both."""
+    _, findings, _ = run
+    article = findings["scenes"][scene]["methods"]["whitted-article"]
+    fitted = article["fitted"]
+    assert fitted["rel_mse"] <= article["rel_mse_at_best_ambient"] * (1 + 1e-3)
+    assert 0 <= fitted["ambient"] <= 1 and all(0 <= c <= 1 for rgb in fitted["colors"].values() for c in rgb)
+    assert f"fitted, the article's model reaches {fitted['rel_mse']:.3g}" in article["text"]
+    assert f"brings it to {article['rel_mse_at_best_ambient']:.3g}" in article["text"]
+
+
 def test_close_and_far_scenes_tell_the_models_bias_apart(run):
     """The article's model draws the direct light of the lone ball as the path tracer does,
     up to the distance fall-off across the ball; under the sky most of the light is

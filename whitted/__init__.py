@@ -43,6 +43,7 @@ _LAZY = {
     "read_image": ("whitted.imageio", "read_image"),
     "to_srgb": ("whitted.display", "to_srgb"),
     "set_variant": ("whitted.variant", "set_variant"),
+    "fit": ("whitted.fitting", "fit"),
 }
 
 __all__ = ["SceneError", "WhittedError", "__version__", *_LAZY]

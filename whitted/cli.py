@@ -47,6 +47,11 @@ def _compare(args: argparse.Namespace) -> None:
     compare_command(args)
 
 
+def _fit(args: argparse.Namespace) -> None:
+    from .fitting import fit_command
+    fit_command(args)
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="whitted",
@@ -157,6 +162,25 @@ def build_parser() -> argparse.ArgumentParser:
     video.add_argument("-v", "--verbose", action="store_true", help="say what was written")
     video.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     video.set_defaults(run=_video, parser=video)
+
+    from .defaults import FIT_ITERATIONS, FIT_WIDTH
+    fit = sub.add_parser(
+        "fit", help="fit a scene's colors, ambient and light colors to an image",
+        description="Fit the article's model of a legacy scene to a target image (a path-traced "
+                    "reference, a photograph of the same view) by gradient descent (Mitsuba's Adam "
+                    "on the relative MSE, at low resolution): every untextured material's color, the "
+                    "ambient and the lights' colors. Writes the fitted scene as a .scn file and prints "
+                    "the loss of each step.")
+    fit.add_argument("scene", metavar="SCENE.scn", help="the legacy scene to fit")
+    fit.add_argument("--to", required=True, metavar="IMAGE.exr", dest="target",
+                     help="the target image (EXR or PNG), of the scene's view (its aspect ratio)")
+    fit.add_argument("-o", "--output", required=True, metavar="FITTED.scn", help="the fitted scene to write")
+    fit.add_argument("--iterations", type=int, default=FIT_ITERATIONS, metavar="N",
+                     help=f"gradient steps (default {FIT_ITERATIONS})")
+    fit.add_argument("--width", type=int, default=FIT_WIDTH, metavar="W",
+                     help=f"the widest image the fit renders (default {FIT_WIDTH})")
+    fit.add_argument("-q", "--quiet", action="store_true", help="no progress bar, no losses")
+    fit.set_defaults(run=_fit, parser=fit)
 
     from .compare.cli import add_arguments as add_compare_arguments
     compare = sub.add_parser(

@@ -267,3 +267,15 @@ MESH_CACHE_BYTES = 256 * 2 ** 20
 #: running process (a mesh is written and loaded in seconds, a cache entry written in
 #: seconds): only such files are removed from a cache.
 STALE_SECONDS = 600.0
+
+
+# --------------------------------------------------------------------------- fitting (whitted fit)
+
+#: gradient descent steps of a fit (``whitted fit``, compare's "the article's model fitted")
+FIT_ITERATIONS = 150
+#: the widest image a fit renders (the target is box-filtered down to it)
+FIT_WIDTH = 80
+#: the most samples per pixel compare's fit renders with (as many as the limit has, up to this)
+FIT_SPP = 16
+#: Adam's learning rate at the first and at the last step (it falls geometrically between)
+FIT_RATE = (0.03, 1e-4)

@@ -72,13 +72,15 @@ class Shader:
     """The article's model for one scene (see the module docstring)."""
 
     def __init__(self, scene, analysis, ambient: float, lighting: str, tally, exact_spheres=(),
-                 hide_background: bool = False):
+                 hide_background: bool = False, attached=None):
         self.scene = scene
         # Mitsuba's ``hide_emitters``: camera rays that escape see black, not the background
         self.hide_background = hide_background
         self.physical = lighting == "physical"
         # Per-render constants are opaque: kernels are reused across scenes (plain numbers in scalar).
-        self.ambient = dr.opaque(mi.Float, ambient)
+        # A differentiable render reads the parameters' own values (``attached``:
+        # :class:`whitted.plugins.gradients.Attached`), so that the AD graph reaches them.
+        self.ambient = dr.opaque(mi.Float, ambient) if attached is None else attached.ambient
         # Article lighting uses the light's color; physical lighting its intensity (divided by r^2).
         # Giant spheres listed with their exact values are intersected in float64 (.giants).
         need_uv = analysis.has("textures")
@@ -86,15 +88,18 @@ class Shader:
         self.hits = scene_hits(scene, tables, need_uv, exact_spheres)
         # (position, strength, (error bound, normal) of a sphere the light sits on)
         self.lights = []
-        for light in analysis.lights:
+        for k, light in enumerate(analysis.lights):
             error, normal = self.hits.surface_at(light.position)
-            self.lights.append((dr.opaque(mi.Point3f, light.position),
-                                dr.opaque(mi.Color3f, light.intensity if self.physical else light.color),
+            position, strength = (dr.opaque(mi.Point3f, light.position),
+                                  dr.opaque(mi.Color3f, light.intensity if self.physical else light.color)) \
+                if attached is None else attached.lights[k]
+            self.lights.append((position, strength,
                                 (dr.opaque(mi.Float, error), dr.opaque(mi.Vector3f, normal)) if error else None))
         self.environment = analysis.environment
         self.reflection = analysis.has("reflection")
         self.refraction = analysis.has("refraction")
-        self.surfaces = SurfaceLookup(tables.materials, tables.material_table, need_ior=self.refraction)
+        self.surfaces = SurfaceLookup(tables.materials, tables.material_table if attached is None
+                                      else attached.material_table, need_ior=self.refraction)
         self.tally = tally   # counts the shadow rays (:class:`~whitted.plugins.tree.counts.Tally`)
         self.depth = analysis.depth
 
@@ -165,7 +170,9 @@ class Shader:
         if off(facing):
             return mi.Color3f(0)
         self.tally.add("shadow", facing)
-        shadowed = self.hits.blocked(spawn_ray_to(si, error, position, *(on_surface or ())), facing)
+        # (visibility is not differentiated: the shadow ray is detached from the light's position)
+        shadowed = self.hits.blocked(spawn_ray_to(si, error, dr.detach(position),
+                                                  *(on_surface or ())), facing)
         if self.physical:
             strength = strength * dr.rcp(dr.maximum(dist2, TINY))
         return dr.select(shadowed, 0, dr.select(facing, cos * strength, 0))

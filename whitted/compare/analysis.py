@@ -33,6 +33,7 @@ import math
 from dataclasses import dataclass, field
 
 from ..defaults import COMPARE_DATA_LEVELS, COMPARE_FLOOR_TOLERANCE
+from .fitted import fitted_text
 from .curves import Floor, Reading, error_at_time, error_floor, error_levels, time_to_reach
 from .results import METHODS, WHITTED_METHODS, Limit, Measurement, SceneResult, seconds_text
 from .timing import Interval, faster_text, paired, ratio_text
@@ -219,6 +220,13 @@ class Analysis:
                     found["scene_ambient"] = _json_number(limit.ambient)
                     found["best_ambient"] = _json_number(limit.best_ambient)
                     found["rel_mse_at_best_ambient"] = _json_number(limit.rel_mse_at_best_ambient)
+                    if limit.fitted is not None:
+                        fitted = limit.fitted
+                        found["fitted"] = {"rel_mse": _json_number(fitted.rel_mse), "ambient": fitted.ambient,
+                                           "colors": {k: list(v) for k, v in fitted.colors.items()},
+                                           "lights": [list(c) for c in fitted.lights],
+                                           "fit_size": list(fitted.size), "fit_rel_mse": fitted.fit_rel_mse,
+                                           "seconds": fitted.seconds}
                 found["text"] = decomposition.text
             methods[statement.method] = found
         entry = self.entry
@@ -433,7 +441,14 @@ def decomposition_text(method: str, floor: Floor[Measurement], limit: Limit,
                 f"measurable is its depth and sampling: its limit ({how}) scores {limit.rel_mse:.3g}")
     article = method == "whitted-article"
     rest = limit.rel_mse_at_best_ambient if article and math.isfinite(limit.best_ambient) else limit.rel_mse
-    if article and math.isfinite(limit.best_ambient):
+    fitted = limit.fitted if article else None
+    if fitted is not None:
+        best = (f"the best ambient ({limit.best_ambient:.2g} instead of {limit.ambient:.2g}) brings it "
+                f"to {limit.rel_mse_at_best_ambient:.3g}; " if math.isfinite(limit.best_ambient) else "")
+        rest = fitted.rel_mse
+        text += (f"; {best}fitted, the article's model reaches {rest:.3g} ({fitted_text(fitted)}); "
+                 f"the remaining {rest:.2g}")
+    elif article and math.isfinite(limit.best_ambient):
         text += (f"; the best ambient ({limit.best_ambient:.2g} instead of {limit.ambient:.2g}) "
                  f"brings it to {rest:.3g}; the remaining {rest:.2g}")
     elif article:

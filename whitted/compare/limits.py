@@ -20,7 +20,9 @@ In the article's lighting the image is affine in the ambient A (a lit point is
 B·(A + (1 − A)·Σ s·light), and reflected and refracted light add linearly), so the
 limit is rendered at A = 0 and A = 1 with the same seeds: the limit at the scene's A,
 and at the A that fits the reference best (:func:`~whitted.compare.curves.best_ambient`),
-follow exactly, with no further render.
+follow exactly, with no further render. Then the article's model is fitted to the
+reference, every color, the ambient and the light colors (:mod:`.fitted`), and scored as the
+limit is: what the model reaches with its numbers at their best.
 """
 
 from __future__ import annotations
@@ -35,6 +37,7 @@ from .. import imageio, metrics
 from .. import rendering  # rendering.render looked up at call time: tests count calls
 from ..defaults import COMPARE_LIMIT_MAX_SPP, COMPARE_LIMIT_NOISE_SHARE, COMPARE_LIMIT_SPP_FACTOR
 from .curves import best_ambient, reference_noise
+from .fitted import fit_to_reference
 from .results import WHITTED_LIGHTING, Limit, Measurement, SceneResult
 
 #: The seeds of a limit's halves: this, and this plus one. Independent of the sweep's
@@ -56,11 +59,12 @@ def _halves(loaded, lighting: str, depth: int, spp: int, ambient: float | None) 
 
 
 def render_limit(loaded, entry: SceneResult, method: str, measured: list[tuple[Measurement, np.ndarray]],
-                 reference: np.ndarray, out: Path, deadline: float = math.inf) -> Limit | None:
+                 reference: np.ndarray, out: Path, deadline: float = math.inf, model=None) -> Limit | None:
     """The limit of ``method`` (a Whitted method) on ``entry``'s scene (``loaded``: its
     ``mi.Scene``), scored against ``reference``; every render of ``measured`` (each with
     its image) gets its ``rel_mse_limit``. None when ``measured`` is empty or not even
-    the first halves fit before ``deadline`` (a ``time.monotonic`` reading)."""
+    the first halves fit before ``deadline`` (a ``time.monotonic`` reading). ``model``: the
+    scene's parsed model (a ``.scn`` scene's, for the fit; None: no fit)."""
     if not measured:
         return None
     lighting = WHITTED_LIGHTING[method]
@@ -98,6 +102,10 @@ def render_limit(loaded, entry: SceneResult, method: str, measured: list[tuple[M
         if converged or 4 * spp > COMPARE_LIMIT_MAX_SPP:
             break
         spp *= 2
+    if limit is not None and lighting == "article":
+        # the article's model at its best: its colors, ambient and light colors fitted
+        limit.fitted = fit_to_reference(model, reference, depth, limit.spp, LIMIT_SEED,
+                                        limit.best_ambient, deadline)
     if limit is not None:
         limit.image = f"{entry.folder}/{method}-limit-d{depth}-{limit.spp}spp.exr"
         imageio.write_image(Path(out) / limit.image, image.astype(np.float32))

@@ -172,6 +172,9 @@ class Limit:
                                 (article lighting; NaN otherwise)
     ``rel_mse_at_best_ambient`` that limit's relative MSE against the reference
     ``image``                   the limit, linear EXR, relative to the output folder
+    ``fitted``                  the article's model fitted to the reference (colors,
+                                ambient, light colors: :class:`.fitted.Fitted`; None:
+                                not fitted)
     =========================== =====================================================
     """
     method: str
@@ -185,6 +188,7 @@ class Limit:
     best_ambient: float = math.nan
     rel_mse_at_best_ambient: float = math.nan
     image: str | None = None
+    fitted: object = None
 
 
 @dataclass

@@ -231,7 +231,7 @@ def sweep_scene(scene: SceneFile, entry: SceneResult, settings: list[Setting], o
         if progress is not None:
             progress.update(1)
     time_rounds(loaded, entry, options.rounds, deadline, progress)
-    _limits(loaded, entry, settings, reference, out, deadline, progress)
+    _limits(loaded, entry, settings, reference, out, deadline, progress, scene.model)
     if settings and not entry.measurements:
         took = ("was read from the cache" if entry.reference_cached
                 else f"took {entry.reference_seconds:.1f} s")
@@ -261,7 +261,7 @@ def _below_the_reference(entry: SceneResult, settings: list[Setting], progress) 
 
 
 def _limits(loaded, entry: SceneResult, settings: list[Setting], reference: np.ndarray, out: Path,
-            deadline: float, progress) -> None:
+            deadline: float, progress, model=None) -> None:
     """Each Whitted method's limit (:func:`~whitted.compare.limits.render_limit`), its
     renders read back from their kept EXRs and scored against it."""
     for method in limit_methods(settings):
@@ -269,7 +269,7 @@ def _limits(loaded, entry: SceneResult, settings: list[Setting], reference: np.n
             progress.set_postfix_str(f"{entry.name}: {method} limit", refresh=False)
         measured = [(m, imageio.read_image(out / m.image)) for m in entry.measurements
                     if m.setting.method == method and m.image]
-        limit = render_limit(loaded, entry, method, measured, reference, out, deadline)
+        limit = render_limit(loaded, entry, method, measured, reference, out, deadline, model)
         if limit is not None:
             entry.limits[method] = limit
         elif measured:

@@ -1,0 +1,117 @@
+"""``whitted fit`` and :func:`whitted.fit.fit` (issue 33): the article's model fitted to an
+image by gradient descent through the whitted integrator's gradients."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import mitsuba as mi
+import numpy as np
+import pytest
+
+import whitted
+from whitted.compare.curves import best_ambient
+from whitted.converter import parse_file, parse_text
+from whitted.fitting import fit, fitted_model, material_ids, write_fitted
+from whitted.imageio import write_image
+from whitted.loading import _load_model
+
+#: shadows, a mirror, glass, four materials, two lights
+SCENE = """size 40 25
+eye 0 1.5 6.5
+lookat 0 0.9 0
+fov 50
+background 0.1 0.1 0.15
+ambient 0.15
+depth 5
+light 0 10 6
+light 5 4 -6   0.4 0.4 0.4
+sphere 0 -1000 0 1000     color 0.6 0.65 0.6
+sphere -1.9 1.3 0 1.3     color 0.9 0.9 0.95  reflect 0.6
+sphere 1.9 1.3 0 1.3      color 0.9 0.5 0.3  refract 0.7 1.5  reflect 0.1
+sphere 0 0.5 1 0.5        color 0.3 0.5 0.8
+"""
+
+
+def render(model, **overrides) -> np.ndarray:
+    return np.array(mi.render(_load_model(model, overrides, False, "whitted", False)), np.float64)
+
+
+@pytest.fixture
+def truth(llvm):
+    return parse_text(SCENE, "truth.scn")
+
+
+def perturbed(truth, ambient=0.25, seed=0):
+    rng = np.random.default_rng(seed)
+    colors = {mid: tuple(float(c) for c in np.clip(np.array(m.color) + rng.uniform(-0.1, 0.1, 3), 0, 1))
+              for m, mid in material_ids(truth).items()}
+    return fitted_model(truth, ambient, colors, [light.color for light in truth.lights])
+
+
+def test_a_fit_recovers_perturbed_colors_and_ambient(truth):
+    target = render(truth)
+    start = perturbed(truth)
+    assert start.ambient != truth.ambient
+    result = fit(start, target, free=("ambient", "colors"), iterations=200, rate=(0.03, 1e-4))
+    assert result.size == (40, 25)
+    assert result.losses[0] > 1e-3 and result.error < 1e-6
+    assert result.ambient == pytest.approx(truth.ambient, abs=1e-3)
+    for material, mid in material_ids(truth).items():
+        np.testing.assert_allclose(result.colors[mid], material.color, atol=1e-3)
+
+
+def test_the_fitted_scene_parses_and_renders_to_the_fitted_image(truth, tmp_path):
+    target = render(truth) * np.array([1.1, 0.95, 0.9])   # off the model's reach a little
+    result = fit(perturbed(truth, seed=3), target, iterations=30)
+    path = tmp_path / "fitted.scn"
+    write_fitted(result, path, "truth.scn")
+    again = parse_file(path)
+    assert again.ambient == result.ambient
+    assert [light.color for light in again.lights] == [tuple(c) for c in result.lights]
+    np.testing.assert_allclose(render(again), result.image, rtol=1e-5, atol=1e-6)
+
+
+def test_the_fit_with_only_the_ambient_free_lands_on_the_best_ambient(truth):
+    """The one-parameter case has a closed form (compare's best_ambient): the fit finds it."""
+    target = render(truth, lighting="physical") * 0.5 + render(perturbed(truth, 0.4, seed=5)) * 0.5
+    dark, lit = render(fitted_model(truth, 0.0, {}, [l.color for l in truth.lights])), \
+        render(fitted_model(truth, 1.0, {}, [l.color for l in truth.lights]))
+    expected, error = best_ambient(dark, lit, target)
+    assert 0.05 < expected < 0.95
+    result = fit(truth, target, free=("ambient",), iterations=150)
+    assert result.ambient == pytest.approx(expected, abs=2e-3)
+    assert result.error == pytest.approx(error, rel=1e-3)
+
+
+def whitted_cli(*args):
+    return subprocess.run([sys.executable, "-m", "whitted", *map(str, args)], capture_output=True, text=True)
+
+
+def test_fit_command_writes_a_fitted_scene(truth, tmp_path):
+    scene = tmp_path / "scene.scn"
+    scene.write_text(SCENE.replace("ambient 0.15", "ambient 0.3"))
+    target = tmp_path / "target.exr"
+    write_image(target, render(truth).astype(np.float32))
+    out = tmp_path / "fitted.scn"
+    run = whitted_cli("fit", scene, "--to", target, "-o", out, "--iterations", "40")
+    assert run.returncode == 0, run.stderr
+    assert "step 40: relative MSE" in run.stderr and "wrote" in run.stderr
+    fitted = parse_file(out)
+    assert abs(fitted.ambient - 0.15) < abs(0.3 - 0.15)
+
+
+@pytest.mark.parametrize("problem", ["size", "unwritable"])
+def test_fit_command_errors_are_one_line(truth, tmp_path, problem):
+    scene = tmp_path / "scene.scn"
+    scene.write_text(SCENE)
+    target = tmp_path / "target.exr"
+    image = render(truth).astype(np.float32)
+    write_image(target, image[:, :20] if problem == "size" else image)
+    out = tmp_path / ("missing/fitted.scn" if problem == "unwritable" else "fitted.scn")
+    run = whitted_cli("fit", scene, "--to", target, "-o", out)
+    assert run.returncode == 2
+    assert len(run.stderr.strip().splitlines()) == 1 and "Traceback" not in run.stderr, run.stderr
+    assert (str(target) if problem == "size" else "fitted.scn") in run.stderr
+    assert not out.exists()

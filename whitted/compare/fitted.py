@@ -1,0 +1,92 @@
+"""The article's model fitted to the reference: what it reaches with its numbers at their best.
+
+Why. The article model's limit against the path-traced reference is its bias,
+and the bias mixes numbers that are off (an ambient guessed by the scene's
+author, colors chosen by eye) with light the model does not transport (light
+bounced between diffuse surfaces, sky light). The best ambient separates a
+first part in closed form (:func:`.curves.best_ambient`: the image is affine in
+A). With the whitted integrator's gradients the whole fit follows: every
+untextured material's color, the ambient and the lights' colors, by gradient
+descent (:func:`whitted.fitting.fit`: Adam, a fixed budget of steps, at low
+resolution), starting from the best ambient, then scored at full resolution as
+the limit is (the exact tree at the limit's depth and samples per pixel). What
+remains is the model's own limit on the scene.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from .. import metrics
+from .. import rendering
+
+
+@dataclass
+class Fitted:
+    """The fit of one scene: its relative MSE against the reference at full resolution, the
+    fitted ambient, colors (material id -> RGB) and light colors, and what it took."""
+    rel_mse: float
+    ambient: float
+    colors: dict
+    lights: list
+    seconds: float
+    fit_rel_mse: float      # at the fit's resolution
+    size: tuple
+
+
+def fit_to_reference(model, reference: np.ndarray, depth: int, spp: int, seed: int,
+                     start_ambient: float = math.nan, deadline: float = math.inf) -> Fitted | None:
+    """Fit the article's model of the scene ``model`` (a parsed ``.scn``:
+    ``whitted.converter.Scene``) to ``reference`` (full resolution) and score the fitted scene
+    there at ``depth`` and ``spp`` (the exact tree, ``seed``). None without a model (an XML
+    scene), or when the fit's first steps show it would run past ``deadline`` (a
+    ``time.monotonic`` reading)."""
+    from ..defaults import FIT_ITERATIONS, FIT_SPP
+    from ..fitting import fit
+    from ..loading import _load_model
+
+    import drjit as dr
+    import mitsuba as mi
+    if model is None or not dr.is_diff_v(mi.Float):
+        return None   # (gradients need an AD variant: the sweep's is kept)
+    start = time.monotonic()
+    model = replace(model, depth=depth)
+    if math.isfinite(start_ambient):
+        model = replace(model, ambient=start_ambient)
+    steps = []
+
+    def on_step(k, loss):
+        steps.append(time.monotonic())
+        if k == 1 and time.monotonic() + (steps[1] - steps[0]) * FIT_ITERATIONS > deadline:
+            raise _OutOfTime
+    try:
+        # anti-aliased as the limit is (its samples, up to FIT_SPP): the reference is
+        result = fit(model, reference, on_step=on_step, spp=min(spp, FIT_SPP))
+    except _OutOfTime:
+        return None
+    loaded = _load_model(result.model, {}, False, "whitted", False)
+    image = rendering.render(loaded, integrator="whitted", spp=spp, max_depth=depth, lighting="article",
+                             seed=seed, min_weight=0.0, ambient=result.ambient).image
+    error = metrics.relative_mse(np.asarray(image, np.float64), reference)
+    return Fitted(error, result.ambient, result.colors, list(result.lights), time.monotonic() - start,
+                  result.error, result.size)
+
+
+class _OutOfTime(Exception):
+    pass
+
+
+def fitted_text(fitted: Fitted) -> str:
+    """"ambient 0.31, colors material_0 (0.52, 0.6, 0.55), …; lights (0.9, 0.9, 0.9), …"."""
+    def rgb(c):
+        return "(" + ", ".join(f"{v:.2g}" for v in c) + ")"
+    parts = [f"ambient {fitted.ambient:.2g}"]
+    if fitted.colors:
+        parts.append("colors " + ", ".join(f"{mid} {rgb(c)}" for mid, c in fitted.colors.items()))
+    if fitted.lights:
+        parts.append("lights " + ", ".join(rgb(c) for c in fitted.lights))
+    return "; ".join(parts)

@@ -1,0 +1,246 @@
+"""The article's model fitted to an image: its colors, ambient and light colors by gradient descent.
+
+Why. The article's model has few numbers: each material's base color B, the
+ambient A and each light's color. A path-traced reference (or a photograph
+of the same view) says what the image should be; how far the model is from
+it mixes two things, numbers that are off and light the model does not
+transport. Fitting the numbers separates them: what remains after the fit is
+the model's own limit. The Whitted integrator's gradients
+(:mod:`whitted.plugins.gradients`) make the fit a plain gradient descent:
+Mitsuba's ``mi.ad.Adam`` on the relative MSE (:func:`whitted.metrics.relative_mse`,
+the error ``compare`` reports) of a low-resolution render, a fixed budget of
+steps with a learning rate falling geometrically. Colors are kept in [0, 1], the
+ambient in [0, 1] and light colors >= 0 (the format's ranges). What the fit
+leaves alone: reflection and refraction weights, textures, geometry, the background.
+
+Which parameters are free: ``free`` names them, ``"ambient"``, ``"colors"``
+(every untextured material) and ``"lights"``. With only the ambient free the
+fit is the one-parameter case :func:`whitted.compare.curves.best_ambient` solves
+in closed form. (With both the lights and the ambient free the fit has a
+one-parameter family of equal optima: B·A and B·(1 − A)·light can trade scale.)
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import sys
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+
+import numpy as np
+
+from . import defaults as D
+from .errors import WhittedError
+
+FREE = ("ambient", "colors", "lights")
+
+
+@dataclass
+class FitResult:
+    """What :func:`fit` found.
+
+    ========== ============================================================================
+    model      the fitted scene model (``whitted.converter.Scene``), at the scene's own size
+    losses     the relative MSE at each step, before it (low resolution)
+    error      the fitted parameters' relative MSE at the fit's resolution
+    size       the fit's resolution (width, height)
+    ambient    the fitted ambient; ``colors``: each material's fitted color (by its id);
+               ``lights``: each light's fitted color
+    ========== ============================================================================
+    """
+    model: object
+    losses: list
+    error: float
+    size: tuple
+    ambient: float
+    colors: dict = field(default_factory=dict)
+    lights: list = field(default_factory=list)
+    image: object = None   # the fitted render at the fit's resolution (numpy)
+
+
+def fit_size(scene_size, target_size, width: int = D.FIT_WIDTH, source: str = "the target") -> tuple[int, int]:
+    """The resolution a fit renders at: the target's, or its shape at most ``width`` wide.
+    The target must show the scene's view: its aspect ratio (within a pixel's rounding)."""
+    (w, h), (tw, th) = scene_size, target_size
+    if abs(tw * h - th * w) > max(w, h, tw, th):
+        raise WhittedError(f"{source} is {tw}x{th}, but the scene renders {w}x{h}: give an image of the "
+                           f"scene's view (the same aspect ratio)")
+    if tw <= width:
+        return tw, th
+    return width, max(1, round(th * width / tw))
+
+
+def resampled(image: np.ndarray, size) -> np.ndarray:
+    """``image`` (H, W, 3) at ``size`` (width, height): Mitsuba's Bitmap resampling (a box filter
+    when shrinking)."""
+    import mitsuba as mi
+    if image.shape[1::-1] == tuple(size):
+        return image
+    bitmap = mi.Bitmap(np.ascontiguousarray(image, np.float32), pixel_format=mi.Bitmap.PixelFormat.RGB)
+    return np.array(bitmap.resample([int(size[0]), int(size[1])]), np.float32).reshape(size[1], size[0], 3)
+
+
+def material_ids(model) -> dict:
+    """Each distinct (shared) material of ``model`` -> its id in the converted scene
+    (``material_k``, in order of first use: as :func:`whitted.converter.description.describe`)."""
+    from .converter.description import _shared
+    ids = {}
+    for sphere in model.spheres:
+        ids.setdefault(_shared(sphere.material), f"material_{len(ids)}")
+    return ids
+
+
+def _light_scale(model, light) -> float:
+    """``π d²``: a light's intensity over its article color (see converter.description.light_intensity)."""
+    from .converter.description import light_intensity
+    return light_intensity(model, light.position, (1.0, 1.0, 1.0))[0]
+
+
+def fit(scene, target, *, free=FREE, iterations: int = D.FIT_ITERATIONS, width: int = D.FIT_WIDTH,
+        rate=D.FIT_RATE, spp: int | None = None, progress: bool = False, on_step=None,
+        target_name: str = "the target") -> FitResult:
+    """Fit the article's model of ``scene`` (a ``.scn`` path or a ``whitted.converter.Scene``)
+    to ``target`` (an EXR/PNG path or a linear (H, W, 3) array) by gradient descent.
+
+    ``free``: which of ``"ambient"``, ``"colors"``, ``"lights"`` move. ``iterations`` Adam
+    steps at a resolution at most ``width`` wide, the learning rate falling from ``rate[0]``
+    to ``rate[1]``; ``spp``: samples per pixel of the fit's renders (default: the scene's; more
+    match an anti-aliased target better; the same samples at every step); ``progress`` shows a tqdm bar with the loss; ``on_step(k, loss)`` is called
+    after each step. Runs in ``llvm_ad_rgb`` (or the current AD variant)."""
+    import drjit as dr
+    import mitsuba as mi
+
+    from .converter import parse_file
+    from .imageio import read_image
+    from .loading import _checked, _load_model
+    from .metrics import EPSILON, relative_mse
+    from .progress import progress_bar
+    from .variant import set_variant
+
+    unknown = sorted(set(free) - set(FREE))
+    if unknown:
+        raise WhittedError(f"fit: unknown free parameter(s) {', '.join(unknown)}; choose from {', '.join(FREE)}")
+    if not (isinstance(iterations, int) and iterations >= 1):
+        raise WhittedError(f"fit: iterations must be an integer >= 1, got {iterations}")
+    if not dr.is_diff_v(mi.Float):
+        set_variant("llvm_ad_rgb")
+    model = parse_file(scene) if isinstance(scene, (str, os.PathLike)) else scene
+    if isinstance(target, (str, os.PathLike)):
+        target_name = str(target)
+        target = read_image(target)
+    target = np.asarray(target, np.float32)
+    if target.ndim != 3 or target.shape[2] != 3:
+        raise WhittedError(f"{target_name}: the target must be an RGB image, got an array of shape {target.shape}")
+    size = fit_size((model.width, model.height), target.shape[1::-1], width, target_name)
+    reference = resampled(target, size)
+
+    loaded = _load_model(model, _checked({"width": size[0], "height": size[1], "spp": spp}), False, "whitted", False)
+    params = mi.traverse(loaded)
+    params["integrator.min_weight"] = 0.0   # the exact tree: the loss is smooth
+    params.update()
+    ids = material_ids(model)
+    fitted_ids = [mid for material, mid in ids.items() if material.texture is None]
+    scales = [_light_scale(model, light) for light in model.lights]
+
+    opt = mi.ad.Adam(lr=rate[0])
+    if "ambient" in free:
+        opt["ambient"] = mi.Float(float(params["integrator.ambient"][0]))
+    if "colors" in free:
+        for mid in fitted_ids:
+            opt[mid] = mi.Color3f(params[f"{mid}.color.value"])
+    if "lights" in free:
+        for k, scale in enumerate(scales):
+            opt[f"light_{k}"] = mi.Color3f(params[f"light_{k}.intensity.value"]) / scale
+
+    def write_parameters():
+        if "ambient" in opt:
+            params["integrator.ambient"] = mi.Float64(opt["ambient"])
+        for mid in fitted_ids if "colors" in free else ():
+            params[f"{mid}.color.value"] = opt[mid]
+        for k, scale in enumerate(scales if "lights" in free else ()):
+            params[f"light_{k}.intensity.value"] = opt[f"light_{k}"] * scale
+        params.update()
+
+    reference_ = mi.TensorXf(reference)
+    weight = mi.TensorXf(1.0 / (reference * reference + EPSILON))
+    losses = []
+    bar = progress_bar(progress, iterations, "fit", unit="step", unit_scale=False)
+    try:
+        for k in range(iterations):
+            opt.set_learning_rate(rate[0] * (rate[1] / rate[0]) ** (k / max(1, iterations - 1)))
+            write_parameters()
+            image = mi.render(loaded, params)
+            loss = dr.mean(dr.ravel(weight * dr.square(image - reference_)))
+            dr.backward(loss)
+            opt.step()
+            for name in list(opt.keys()):   # the format's ranges
+                opt[name] = dr.clip(opt[name], 0.0, 1.0) if not name.startswith("light_") \
+                    else dr.maximum(opt[name], 0.0)
+            losses.append(float(loss[0]))
+            bar.set_postfix(loss=f"{losses[-1]:.3g}", refresh=False)
+            bar.update(1)
+            if on_step is not None:
+                on_step(k, losses[-1])
+    finally:
+        bar.close()
+
+    # the fitted values, as the format writes them (float32 values, exact in a float64)
+    ambient = float(opt["ambient"][0]) if "ambient" in opt else model.ambient
+    colors = {mid: tuple(float(c[0]) for c in opt[mid]) for mid in fitted_ids if mid in opt}
+    lights = [tuple(float(c[0]) for c in opt[f"light_{k}"]) if f"light_{k}" in opt else light.color
+              for k, light in enumerate(model.lights)]
+    with dr.suspend_grad():
+        write_parameters()
+    final = np.array(mi.render(loaded), np.float32)
+    fitted = fitted_model(model, ambient, colors, lights)
+    return FitResult(fitted, losses, relative_mse(final, reference), size, ambient, colors, lights, final)
+
+
+def fitted_model(model, ambient: float, colors: dict, lights: list):
+    """``model`` with the ambient, the materials' colors (by id) and the lights' colors replaced."""
+    from .converter.description import _shared
+    ids = material_ids(model)
+    new_material = {material: replace(material, color=colors[mid])
+                    for material, mid in ids.items() if mid in colors}
+    spheres = [replace(sphere, material=new_material.get(_shared(sphere.material), sphere.material))
+               for sphere in model.spheres]
+    return replace(model, ambient=ambient, spheres=spheres,
+                   lights=[replace(light, color=tuple(color)) for light, color in zip(model.lights, lights)])
+
+
+def write_fitted(result: FitResult, path, source_name: str = "") -> None:
+    """Write the fitted model as a ``.scn`` file (atomically)."""
+    from .atomic import write_text
+    from .converter.scn_writer import scene_to_scn
+    note = (f"fitted by whitted fit{' from ' + source_name if source_name else ''}: relative MSE "
+            f"{result.error:.4g} at {result.size[0]}x{result.size[1]} after {len(result.losses)} steps")
+    write_text(path, scene_to_scn(result.model, Path(path).resolve().parent, note))
+
+
+def fit_command(args) -> None:
+    """``whitted fit SCENE --to IMAGE -o FITTED.scn``: everything checked before the fit."""
+    from .atomic import check_writable
+    from .converter import parse_file
+    from .imageio import read_image
+    if not Path(args.output).suffix.lower() == ".scn":
+        raise WhittedError(f"{args.output}: the fitted scene is a .scn file")
+    if args.iterations < 1:
+        raise WhittedError(f"--iterations must be >= 1, got {args.iterations}")
+    if args.width < 1:
+        raise WhittedError(f"--width must be >= 1, got {args.width}")
+    check_writable(args.output, inputs=(args.scene, args.target))
+    model = parse_file(args.scene)
+    target = read_image(args.target)
+    fit_size((model.width, model.height), target.shape[1::-1], args.width, args.target)
+
+    def step(k, loss):   # one line per step, above the progress bar
+        if not args.quiet:
+            from tqdm import tqdm
+            tqdm.write(f"step {k + 1}: relative MSE {loss:.6g}", file=sys.stderr)
+    result = fit(model, target, iterations=args.iterations, width=args.width, progress=not args.quiet,
+                 on_step=step, target_name=args.target)
+    write_fitted(result, args.output, Path(args.scene).name)
+    if not args.quiet:
+        print(f"whitted: wrote {args.output}: relative MSE {result.losses[0]:.4g} -> {result.error:.4g} "
+              f"at {result.size[0]}x{result.size[1]} (ambient {result.ambient:.4g})", file=sys.stderr)
