@@ -417,7 +417,7 @@ class WhittedIntegrator(mi.SamplingIntegrator):
 
     def _render_pixels(self, tracer, camera, image, first_pixel, pixels):
         """Pixels first_pixel … first_pixel + pixels - 1, one lane each, every sample of a
-        pixel traced in a loop inside the kernel (single-level trees, :class:`.PixelMeans`)."""
+        pixel traced in a loop inside the kernel (single-level trees, :class:`.film.PixelMeans`)."""
         pixel = dr.arange(mi.UInt32, pixels) + dr.opaque(mi.UInt32, first_pixel)
         width_ = dr.opaque(mi.UInt32, camera.width)
         y = pixel // width_

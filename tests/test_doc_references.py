@@ -202,14 +202,7 @@ def problems_in_text(text: str, where: str, anchor: Path | None = None) -> list[
 
 #: Dangling references inside plugins/, left for now to whoever changes plugins/ (issue 31):
 #: each must still be found (fixing one means taking it off this list).
-PENDING = {
-    "plugins/integrator.py:279: no :class:`.PixelMeans`",
-    "plugins/shading/hits.py:134: no :class:`SceneTables`",
-    "plugins/shading/shader.py:52: no :class:`SceneTables`",
-    "plugins/tree/counts.py:18: no :mod:`.shading`",
-    "plugins/tree/tracer.py:1: no :mod:`.shading`",
-    "plugins/tree/tracer.py:51: no :class:`~.shading.Shader`",
-}
+PENDING: set[str] = set()
 
 
 def test_the_documents_cite_what_exists():

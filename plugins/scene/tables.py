@@ -127,7 +127,7 @@ class SceneTables:
         self._types = types
         self.spheres_only = bool(len(shapes)) and bool(self.primitives.sphere.all())
         self.sphere_shapes = bool((types == int(mi.ShapeType.Sphere)).any())
-        if jit:   # with every primitive's sphere (a mesh's is its bounding sphere): see :meth:`part`
+        if jit:   # with every primitive's sphere (a mesh's is its bounding sphere): see :meth:`_part`
             self.hit_tables = self.primitives.tables(spheres=True)
         else:
             self.hit_tables = self.primitives.scalar_tables(shapes)

@@ -131,7 +131,7 @@ def no_blocker():
 
 
 def hit_finder(scene, tables, need_uv: bool, sphere_table: bool = True):
-    """The fastest exact way to intersect ``scene`` (whose :class:`SceneTables` are ``tables``)
+    """The fastest exact way to intersect ``scene`` (whose :class:`..scene.tables.SceneTables` are ``tables``)
     in the current variant; ``sphere_table=False`` keeps to Mitsuba's surface interactions."""
     if sphere_table and dr.is_jit_v(mi.Float) and tables.spheres_only:
         return SphereHits(scene, tables, need_uv)

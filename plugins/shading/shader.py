@@ -50,7 +50,7 @@ class Shaded:
 
 
 def scene_hits(scene, tables, need_uv: bool, exact_spheres=()):
-    """How rays meet ``scene`` (whose :class:`SceneTables` are ``tables``): Mitsuba's ray
+    """How rays meet ``scene`` (whose :class:`..scene.tables.SceneTables` are ``tables``): Mitsuba's ray
     tracing (:func:`.hits.hit_finder`) for the shapes it intersects exactly, layers for
     spheres it intersects exactly only in frames of their own (:mod:`.layers`), and the
     float64 test for the giant spheres listed in ``exact_spheres`` (:mod:`.giants`)."""

@@ -20,7 +20,7 @@ class RayCounts:
     A refracted share sent along the mirror direction by total internal
     reflection still counts as a refraction ray: it is the ray the refraction
     term spawns. When the surface also reflects, that ray and the reflected one
-    are the same, and are traced once (see :mod:`.shading`): it counts as one
+    are the same, and are traced once (see :mod:`..shading`): it counts as one
     of each kind, and ``merged`` counts such rays, so that the rays traced are
     ``camera + shadow + reflection + refraction - merged``.
     ``max_depth_reached`` is the deepest level that traced a ray.

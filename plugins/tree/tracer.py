@@ -3,7 +3,7 @@
 The article's ``trace`` is recursive, but its result is linear in the
 children's colors, so the color of a camera ray is a sum over its tree's
 rays of ``w·contribution``, ``w`` being the product of the KR and KT factors
-on the way down (see :mod:`.shading`). Which rays make up the tree, how they
+on the way down (see :mod:`..shading`). Which rays make up the tree, how they
 are shaded and counted, is the same however the tree is walked, and is written
 once, here (:meth:`Tracer.step`). The walk itself differs with the variant,
 and the integrator picks one when it starts a render:
@@ -48,7 +48,7 @@ class Child:
 
 
 class Tracer:
-    """Walks the trees of camera rays through one scene's :class:`~.shading.Shader`.
+    """Walks the trees of camera rays through one scene's :class:`~..shading.shader.Shader`.
 
     ``epsilon`` is each camera ray's allowance, the path weight that the
     adaptive depth control may leave untraced in its tree (:mod:`.adaptive`;

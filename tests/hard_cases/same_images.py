@@ -5,11 +5,12 @@ the images bit for bit.
 Why: a change that is meant to leave the article's images alone (issue 28: the film,
 the sensors, the refactor) is checked by rendering everything before and after it::
 
-    python benchmarks/same_images.py save BEFORE.npz     # at the branch point
-    python benchmarks/same_images.py compare BEFORE.npz  # at the final commit
+    python tests/hard_cases/same_images.py save BEFORE.npz     # at the branch point
+    python tests/hard_cases/same_images.py compare BEFORE.npz  # at the final commit
 
-One Dr.Jit thread (multi-threaded multi-level renders vary in the last bits until
-the wavefront sum is made deterministic). Both variants, each scene at its own spp
+It lives beside the hard cases it renders (run as a script, its folder is on the import
+path). One Dr.Jit thread, as it was written before renders were the same bits at any
+thread count (tests/hard_cases/test_determinism.py). Both variants, each scene at its own spp
 through ``whitted.render`` and ``mi.render``, and the examples at 4 spp as well.
 """
 
@@ -22,9 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-REPO = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(REPO / "tests" / "hard_cases"))
-sys.path.insert(0, str(REPO / "tests"))
+REPO = Path(__file__).resolve().parents[2]
 
 
 def renders(variants, quick=False):
