@@ -223,14 +223,18 @@ def test_rounds_interleave_the_settings_forward_then_backward(monkeypatch):
 
 
 def test_more_rounds_while_the_headline_is_unsettled_up_to_the_cap(monkeypatch):
+    """The path tracer's times swing up to 16× from one call to the next: the headline never
+    settles, and its renders (the floor, d2 · 1 spp, and the path renders at 1 and 4 spp
+    around its error) are timed up to the cap; d1 · 1 spp only in the rounds asked for."""
     from whitted.compare.sweep import time_rounds
-    # the path tracer's times swing up to 16× from one call to the next: never settles
     swing = random.Random(3)
     _FakeRenders(lambda setting, call: 0.002 if setting[0] == "whitted"
                  else 0.01 * setting[2] * 16 ** swing.random(), monkeypatch)
     entry = _sweep_entry()
     time_rounds(None, entry, 3)
-    assert {m.rounds for m in entry.measurements} == {COMPARE_MAX_ROUNDS}
+    rounds = {m.setting.label: m.rounds for m in entry.measurements}
+    assert rounds == {"d1 · 1 spp": 3, "d2 · 1 spp": COMPARE_MAX_ROUNDS, "1 spp": COMPARE_MAX_ROUNDS,
+                      "4 spp": COMPARE_MAX_ROUNDS}
     assert not analyse(entry).floors[0].interval.settled
 
 
@@ -244,9 +248,10 @@ def test_rounds_stop_before_the_budget_runs_out(monkeypatch):
                            "share of --budget"]
 
 
-def test_extra_rounds_time_the_quick_renders_only(monkeypatch):
-    """A 3 s render is timed in the rounds asked for; the extra rounds of an unsettled
-    headline leave it out and time the quick ones (a ratio pairs the rounds that timed both)."""
+def test_extra_rounds_time_the_unsettled_headline_s_renders_only(monkeypatch):
+    """A 3 s path render is timed in the rounds asked for only: the headline is read between
+    the path tracer's 1 and 4 spp renders, which the extra rounds time with the floor render;
+    the ratio pairs the rounds that timed all three."""
     from whitted.compare.sweep import time_rounds
     swing = random.Random(3)
     _FakeRenders(lambda setting, call: 3.0 if setting[2] == 64 else 0.002 if setting[0] == "whitted"
@@ -254,11 +259,10 @@ def test_extra_rounds_time_the_quick_renders_only(monkeypatch):
     entry = _sweep_entry()
     entry.measurements.append(_measurement("path", 6, 64, (), 0.02, 64))
     time_rounds(None, entry, 3)
-    rounds = {m.setting.spp if m.setting.integrator == "path" else -m.setting.max_depth: m.rounds
-              for m in entry.measurements}
-    assert rounds[64] == 3 and min(rounds[-1], rounds[-2], rounds[1], rounds[4]) > 3
-    analysis = analyse(entry)
-    assert 3 < analysis.floors[0].interval.rounds <= rounds[1]
+    rounds = {m.setting.label: m.rounds for m in entry.measurements}
+    assert rounds["64 spp"] == rounds["d1 · 1 spp"] == 3
+    assert rounds["d2 · 1 spp"] == rounds["1 spp"] == rounds["4 spp"] > 3
+    assert 3 < analyse(entry).floors[0].interval.rounds <= rounds["1 spp"]
 
 
 def test_a_render_missing_from_some_rounds_pairs_the_rounds_it_has():

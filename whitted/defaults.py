@@ -116,12 +116,11 @@ COMPARE_PATH_SPP = (1, 4, 16, 64, 256, 1024)   #: the path tracer's spp ladder
 #: COMPARE_ROUNDS rounds; more while a headline ratio's interval (COMPARE_CONFIDENCE, for
 #: the median of its paired per-round ratios) is wider than 1 + COMPARE_SETTLED_WIDTH, up to
 #: COMPARE_MAX_ROUNDS rounds and COMPARE_ROUNDS_SECONDS of extra rounds per scene.
+#: The extra rounds time only the unsettled headlines' renders (their floor renders and the
+#: path renders their ratios are read between).
 COMPARE_ROUNDS = 3
-COMPARE_MAX_ROUNDS = 9
+COMPARE_MAX_ROUNDS = 25
 COMPARE_ROUNDS_SECONDS = 20.0
-#: The extra rounds time only the renders of at most this many seconds (a round of a
-#: 1024-spp path render would leave no time for another).
-COMPARE_EXTRA_ROUND_RENDER = 1.0
 COMPARE_CONFIDENCE = 0.9
 #: Within a round, a render faster than COMPARE_ROUND_SECONDS is repeated back to back until
 #: its renders add up to that (at most COMPARE_ROUND_REPEATS), the fastest kept: a render of a

@@ -38,7 +38,7 @@ import numpy as np
 
 from .. import imageio, metrics
 from .. import rendering  # rendering.render looked up at call time: tests count calls
-from ..defaults import (COMPARE_CLOCK, COMPARE_EXTRA_ROUND_RENDER, COMPARE_MAX_ROUNDS,
+from ..defaults import (COMPARE_CLOCK, COMPARE_MAX_ROUNDS,
                         COMPARE_ROUND_REPEATS, COMPARE_ROUND_SECONDS, COMPARE_ROUNDS_SECONDS)
 from ..display import clipped_fraction, fitting_view, to_srgb
 from .analysis import analyse
@@ -99,8 +99,8 @@ def time_rounds(loaded, entry: SceneResult, rounds: int, deadline: float = math.
     backward), at least ``rounds`` rounds, then more while a headline ratio of the scene
     is unsettled (:mod:`.timing`), up to :data:`~whitted.defaults.COMPARE_MAX_ROUNDS`
     rounds and :data:`~whitted.defaults.COMPARE_ROUNDS_SECONDS` of extra rounds, which
-    time only the renders of at most :data:`~whitted.defaults.COMPARE_EXTRA_ROUND_RENDER`
-    (a ratio is paired over the rounds that timed both its renders); never
+    time only the renders of the headlines unsettled after the rounds asked for (a ratio is
+    paired over the rounds that timed both its renders); never
     past ``deadline`` (a round predicted, from the renders' times so far, to overrun
     either is not started). Each
     measurement's ``times`` and ``seconds`` (their median) are set in place."""
@@ -120,12 +120,12 @@ def time_rounds(loaded, entry: SceneResult, rounds: int, deadline: float = math.
         if k >= rounds:
             if k == rounds:
                 extra_until = started + COMPARE_ROUNDS_SECONDS
-                # the extra rounds time the quick renders only: a headline is read between
-                # renders of about its floor's time, and a round of the costliest renders
-                # (seconds each) would leave no room for more rounds
-                measured = [m for m in measured if m.seconds <= COMPARE_EXTRA_ROUND_RENDER]
+                # the extra rounds time the renders of the unsettled headlines only (a floor
+                # render and the path renders its ratio is read between: a few, quick), the
+                # same ones in every extra round, so that a round's index is one moment for all
+                measured = _unsettled_renders(entry)
                 predicted = cost(measured)
-            if not measured or not _unsettled(entry) or started + predicted > extra_until:
+            if not measured or not _unsettled_renders(entry) or started + predicted > extra_until:
                 break
         if started + predicted > deadline:
             if k < rounds:
@@ -156,11 +156,16 @@ def _time_in_a_round(loaded, setting: Setting) -> float:
     return fastest
 
 
-def _unsettled(entry: SceneResult) -> bool:
-    """Whether a headline of the scene (a Whitted method's floor against the path tracer)
-    has an interval too wide to quote yet."""
-    return any(floor.interval is not None and not floor.interval.settled
-               for floor in analyse(entry).floors)
+def _unsettled_renders(entry: SceneResult) -> list[Measurement]:
+    """The renders of the scene's headlines (a Whitted method's floor against the path
+    tracer) whose interval is still too wide to quote: each floor render and the path
+    renders its ratio is read between; none when every headline is settled."""
+    renders = {}
+    for floor in analyse(entry).floors:
+        if floor.interval is not None and not floor.interval.settled and floor.path is not None:
+            for m in (floor.render, *floor.path.between):
+                renders[id(m)] = m
+    return [m for m in entry.measurements if id(m) in renders]
 
 
 def sweep_scene(scene: SceneFile, entry: SceneResult, settings: list[Setting], options: Options,
