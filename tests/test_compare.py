@@ -365,7 +365,9 @@ def test_budget_bounds_the_sweep(sweep, mirror_scene, tmp_path):
     done = {m.setting.spp for m in entries[0].measurements if m.setting.integrator == "path"}
     assert 1 in done and ladder[-1] not in done
     assert {s.spp for s in entries[0].skipped} >= {ladder[-1]}
-    assert elapsed < budget + 4.0  # the plotting after the sweep and one misjudged render
+    # the plotting after the sweep and one misjudged render; all of the ladder would take minutes.
+    # (The margin is for a loaded 2-core machine: 9–11 s were measured at load 10, old code and new.)
+    assert elapsed < budget + 10.0
     assert len(read_rows(tmp_path / "results.csv")) == len(entries[0].measurements)
 
 
@@ -399,7 +401,9 @@ def test_budget_scales_an_unaffordable_reference_down_and_says_so(mirror_scene, 
                    "1,4,16", "--rounds", "1", "-q"])
     elapsed = time.monotonic() - start
     assert status == 0
-    assert elapsed < budget + 4.0  # loading Mitsuba and one misjudged render
+    # loading Mitsuba and one misjudged render (the margin for a loaded 2-core machine); the whole
+    # reference would take an hour
+    assert elapsed < budget + 10.0
     (info,) = [line for line in capsys.readouterr().err.splitlines() if "scaled down" in line]
     assert f"from {asked} to " in info and "--budget 6 s" in info
     rows = read_rows(tmp_path / "results.csv")
