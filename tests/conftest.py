@@ -30,10 +30,19 @@ def user_cache(tmp_path_factory):
 
 
 @pytest.fixture(autouse=True)
-def own_user_cache(tmp_path_factory, monkeypatch):
+def own_user_cache(tmp_path_factory):
     """Each test starts with an empty user cache, so that a reference is rendered unless the
-    test itself cached it (subprocesses inherit the variable)."""
-    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path_factory.mktemp("xdg-cache")))
+    test itself cached it (subprocesses inherit the variable). Not through ``monkeypatch``:
+    an autouse fixture that asked for it would undo a test's own patches only after the
+    other autouse fixtures' teardown (restore_variant's, which must see the real libLLVM)."""
+    import os
+    before = os.environ.get("XDG_CACHE_HOME")
+    os.environ["XDG_CACHE_HOME"] = str(tmp_path_factory.mktemp("xdg-cache"))
+    yield
+    if before is None:
+        os.environ.pop("XDG_CACHE_HOME", None)
+    else:
+        os.environ["XDG_CACHE_HOME"] = before
 
 
 @pytest.fixture(autouse=True)
