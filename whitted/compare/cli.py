@@ -74,6 +74,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="timed rounds over each scene's renders, at least: every render is "
                              "timed once per round, so that methods are timed in the same moments; "
                              f"more rounds while a headline ratio is unsettled (default {DEFAULT_ROUNDS})")
+    # the former name (each render repeated back to back): old scripts keep working
+    parser.add_argument("--repeats", dest="rounds", type=int, help=argparse.SUPPRESS)
     parser.add_argument("--budget", type=float, metavar="SECONDS",
                         help="bound the whole command's time: renders that would overrun are skipped")
     parser.add_argument("--levels", type=float_list, metavar="LIST",
