@@ -14,11 +14,9 @@ REPO = Path(__file__).resolve().parent.parent
 VARIANTS = ("scalar_rgb", "llvm_ad_rgb")
 
 
-@pytest.fixture(scope="session", autouse=True)
-def user_cache(tmp_path_factory):
-    """The tests' user cache folder ($XDG_CACHE_HOME: where ``whitted compare`` keeps its
-    references by default), never the real one: a session's own, which module fixtures
-    share; each test then gets one of its own (:func:`own_user_cache`)."""
+def _fresh_user_cache(tmp_path_factory):
+    """$XDG_CACHE_HOME (where ``whitted compare`` keeps its references by default) set to a
+    new empty folder while the caller's fixture lasts, then put back."""
     import os
     before = os.environ.get("XDG_CACHE_HOME")
     os.environ["XDG_CACHE_HOME"] = str(tmp_path_factory.mktemp("xdg-cache"))
@@ -27,6 +25,13 @@ def user_cache(tmp_path_factory):
         os.environ.pop("XDG_CACHE_HOME", None)
     else:
         os.environ["XDG_CACHE_HOME"] = before
+
+
+@pytest.fixture(scope="session", autouse=True)
+def user_cache(tmp_path_factory):
+    """The tests' user cache folder, never the real one: a session's own, which module
+    fixtures share; each test then gets one of its own (:func:`own_user_cache`)."""
+    yield from _fresh_user_cache(tmp_path_factory)
 
 
 @pytest.fixture(autouse=True)
@@ -35,14 +40,7 @@ def own_user_cache(tmp_path_factory):
     test itself cached it (subprocesses inherit the variable). Not through ``monkeypatch``:
     an autouse fixture that asked for it would undo a test's own patches only after the
     other autouse fixtures' teardown (restore_variant's, which must see the real libLLVM)."""
-    import os
-    before = os.environ.get("XDG_CACHE_HOME")
-    os.environ["XDG_CACHE_HOME"] = str(tmp_path_factory.mktemp("xdg-cache"))
-    yield
-    if before is None:
-        os.environ.pop("XDG_CACHE_HOME", None)
-    else:
-        os.environ["XDG_CACHE_HOME"] = before
+    yield from _fresh_user_cache(tmp_path_factory)
 
 
 @pytest.fixture(autouse=True)
