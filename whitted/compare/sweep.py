@@ -123,9 +123,11 @@ def time_rounds(loaded, entry: SceneResult, rounds: int, deadline: float = math.
                 # the extra rounds time the renders of the unsettled headlines only (a floor
                 # render and the path renders its ratio is read between: a few, quick), the
                 # same ones in every extra round, so that a round's index is one moment for all
-                measured = _unsettled_renders(entry)
+                measured = unsettled = _unsettled_renders(entry)
                 predicted = cost(measured)
-            if not measured or not _unsettled_renders(entry) or started + predicted > extra_until:
+            else:
+                unsettled = _unsettled_renders(entry)
+            if not unsettled or started + predicted > extra_until:
                 break
         if started + predicted > deadline:
             if k < rounds:
