@@ -128,9 +128,15 @@ COMPARE_CONFIDENCE = 0.9
 COMPARE_ROUND_SECONDS = 0.05
 COMPARE_ROUND_REPEATS = 8
 COMPARE_SETTLED_WIDTH = 0.25
-#: The clock a render's time is read on: "cpu" (the process's CPU time, every thread's)
-#: or "wall"; docs/compare.md says which is steadier on a loaded machine, measured.
-COMPARE_CLOCK = "wall"
+#: The timed rounds run Dr.Jit's LLVM backend on this many threads (None: as many as the
+#: process has), and read a render's time on COMPARE_CLOCK: "cpu" (the process's CPU time)
+#: or "wall". One thread and CPU time is the cost of a render's work on one core, which a
+#: busy machine hardly changes: on a quiet machine it equals the one-thread wall time;
+#: two threads beside two CPU-bound programs made a Whitted render 5x slower and a path
+#: render 3.5x (docs/compare.md, "Timing", has the measurements). CUDA variants read the
+#: wall clock whatever this says (the CPU only waits for the GPU).
+COMPARE_TIMING_THREADS = 1
+COMPARE_CLOCK = "cpu"
 #: The equal-quality table's levels, from the data: each method's floor times (1 + this
 #: tolerance), and this many levels spaced evenly on log axes between the best and worst
 #: errors measured (--levels replaces them all).

@@ -141,7 +141,11 @@ def check_settings(spp, max_depth, lighting, integrator, min_weight=None) -> Non
 
 
 class _Clock:
-    """Wall time and kernel compilation time of a block of work."""
+    """Wall time, CPU time and kernel compilation time of a block of work; its peak memory
+    from a freshly emptied allocator cache when ``fresh_memory``."""
+
+    def __init__(self, fresh_memory: bool = True):
+        self.fresh_memory = fresh_memory
 
     def __enter__(self):
         import drjit as dr
@@ -154,7 +158,8 @@ class _Clock:
             dr.eval()
             dr.sync_thread()
             dr.kernel_history_clear()
-            dr.flush_malloc_cache()
+            if self.fresh_memory:
+                dr.flush_malloc_cache()
             dr.detail.malloc_clear_statistics()
         reset_peak()
         self.start = time.perf_counter()
@@ -187,7 +192,8 @@ class _Clock:
 
 def render(scene, integrator: str = D.INTEGRATOR, spp: int | None = None, max_depth: int | None = None,
            lighting: str | None = None, progress: bool = False, seed: int = 0,
-           min_weight: float | None = None, ambient: float | None = None) -> RenderResult:
+           min_weight: float | None = None, ambient: float | None = None, *,
+           fresh_memory: bool = True) -> RenderResult:
     """Render ``scene`` (a ``mi.Scene``); see the module docstring and docs/CONTRACTS.md.
 
     ``seed``: any integer from 0 to 2^64 - 1 (:func:`whitted.defaults.check_seed` folds it
@@ -203,15 +209,19 @@ def render(scene, integrator: str = D.INTEGRATOR, spp: int | None = None, max_de
     segment for the connection to a light); a scene whose own integrator is
     ``path`` (a portable scene) is rendered with it unless ``max_depth`` is given.
     The whitted integrator refuses a scene without the ``article`` BSDF.
+    ``fresh_memory``: hand Dr.Jit's cached memory back to the system first, so that the
+    peak memory figures are this render's own (True); False keeps the cache, as a program
+    rendering again and again would (``whitted compare`` times renders so).
     """
     check_settings(spp, max_depth, lighting, integrator, min_weight)
-    return render_checked(scene, integrator, spp, max_depth, lighting, progress, seed, min_weight, ambient)
+    return render_checked(scene, integrator, spp, max_depth, lighting, progress, seed, min_weight, ambient,
+                          fresh_memory=fresh_memory)
 
 
 def render_checked(scene, integrator: str = D.INTEGRATOR, spp: int | None = None,
                    max_depth: int | None = None, lighting: str | None = None, progress: bool = False,
                    seed: int = 0, min_weight: float | None = None,
-                   ambient: float | None = None) -> RenderResult:
+                   ambient: float | None = None, *, fresh_memory: bool = True) -> RenderResult:
     """:func:`render` for settings :func:`check_settings` has passed already (the CLI checks
     them before it loads the scene): checked once."""
     seed = D.check_seed(seed)
@@ -234,7 +244,7 @@ def render_checked(scene, integrator: str = D.INTEGRATOR, spp: int | None = None
         with quiet_mitsuba():
             whitted = own.with_settings(max_depth=depth, lighting=lighting or settings["lighting"],
                                         min_weight=min_weight, ambient=ambient)
-        with progress_bar(progress, width * height * spp, "render") as bar, _Clock() as clock:
+        with progress_bar(progress, width * height * spp, "render") as bar, _Clock(fresh_memory) as clock:
             rendering = whitted.render_detailed(scene, sensor, seed=seed, spp=spp, progress=bar.update,
                                                tables=tables)
             # The developed image's own memory, not a copy (a 16384² image is 3 GiB).
@@ -246,7 +256,7 @@ def render_checked(scene, integrator: str = D.INTEGRATOR, spp: int | None = None
                     "error_bound": rendering.error_bound}
     else:
         path = _path_integrator(scene, max_depth, depth)
-        with progress_bar(progress, width * height * spp, "path tracing") as bar, _Clock() as clock:
+        with progress_bar(progress, width * height * spp, "path tracing") as bar, _Clock(fresh_memory) as clock:
             image = _render_path(scene, path, sensor, spp, seed, bar.update)
         # Mitsuba's path tracer counts nothing: only what the caller knows is reported.
         stats_rays, effects = {"camera": width * height * spp}, _effects_or_none(scene, depth)

@@ -32,7 +32,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-from ..defaults import COMPARE_DATA_LEVELS, COMPARE_FLOOR_TOLERANCE
+from ..defaults import COMPARE_CLOCK, COMPARE_DATA_LEVELS, COMPARE_FLOOR_TOLERANCE, COMPARE_TIMING_THREADS
 from .fitted import fitted_text
 from .curves import Floor, Reading, error_at_time, error_floor, error_levels, time_to_reach
 from .results import METHODS, WHITTED_METHODS, Limit, Measurement, SceneResult, seconds_text
@@ -44,10 +44,14 @@ METHOD_NAMES = {"whitted-article": "the article's model",
                 "path": "the path tracer"}
 POSSESSIVES = {"whitted-article": "the article model's",
                "whitted-physical": "the physically lit ray tree's"}
+_THREADS = {None: "the process's threads", 1: "one thread"}.get(COMPARE_TIMING_THREADS,
+                                                                f"{COMPARE_TIMING_THREADS} threads")
 #: What the reports say the renders' times are.
 TIMING = ("the median of timed rounds in which every render of a scene is timed once (so that "
-          "what is compared is timed in the same moments), kernel compilation excluded; a ratio "
-          "of times is the median of its per-round ratios, with its 90% interval")
+          "what is compared is timed in the same moments), each render's "
+          f"{'CPU' if COMPARE_CLOCK == 'cpu' else 'wall'} time on {_THREADS} (wall time on a GPU), "
+          "kernel compilation excluded; a ratio of times is the median of its per-round ratios, "
+          "with its 90% interval")
 
 
 def _capital(text: str) -> str:

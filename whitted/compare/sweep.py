@@ -30,6 +30,7 @@ it: a worker process must share the output folder's file system.
 
 from __future__ import annotations
 
+import contextlib
 import math
 import time
 from pathlib import Path
@@ -38,8 +39,8 @@ import numpy as np
 
 from .. import imageio, metrics
 from .. import rendering  # rendering.render looked up at call time: tests count calls
-from ..defaults import (COMPARE_CLOCK, COMPARE_MAX_ROUNDS,
-                        COMPARE_ROUND_REPEATS, COMPARE_ROUND_SECONDS, COMPARE_ROUNDS_SECONDS)
+from ..defaults import (COMPARE_CLOCK, COMPARE_MAX_ROUNDS, COMPARE_ROUND_REPEATS,
+                        COMPARE_ROUND_SECONDS, COMPARE_ROUNDS_SECONDS, COMPARE_TIMING_THREADS)
 from ..display import clipped_fraction, fitting_view, to_srgb
 from .analysis import analyse
 from .budget import Budget
@@ -56,17 +57,46 @@ from .timing import median
 SWEEP_SEED = 0
 
 
-def _render(loaded, setting: Setting):
-    """One render of ``setting``, with the sweep's seed."""
+def _render(loaded, setting: Setting, timed: bool = False):
+    """One render of ``setting``, with the sweep's seed; ``timed`` (a timed round's):
+    Dr.Jit's memory cache kept, as a program rendering again and again keeps it."""
     return rendering.render(loaded, integrator=setting.integrator, spp=setting.spp,
                             max_depth=setting.max_depth,
                             lighting=setting.lighting if setting.integrator == "whitted" else None,
-                            seed=SWEEP_SEED, progress=False)
+                            seed=SWEEP_SEED, progress=False, fresh_memory=not timed)
+
+
+def _on_gpu() -> bool:
+    import mitsuba as mi
+    return mi.variant().startswith("cuda")
 
 
 def _seconds(result) -> float:
-    """A render's time on the :data:`~whitted.defaults.COMPARE_CLOCK`."""
-    return float(result.cpu_seconds if COMPARE_CLOCK == "cpu" else result.seconds)
+    """A timed round's render time on the :data:`~whitted.defaults.COMPARE_CLOCK` (the wall
+    clock on a GPU, where the CPU only waits)."""
+    cpu = COMPARE_CLOCK == "cpu" and not _on_gpu()
+    return float(result.cpu_seconds if cpu else result.seconds)
+
+
+@contextlib.contextmanager
+def timing_threads():
+    """Dr.Jit's LLVM backend on :data:`~whitted.defaults.COMPARE_TIMING_THREADS` threads
+    while rounds are timed, the process's own count restored after (even on Ctrl-C). On one
+    thread a render's CPU time is its work on one core: no thread of it waits at a kernel's
+    end for a sibling that another program pushed off its core (docs/compare.md,
+    "Timing"). A render's bits do not depend on the thread count. Yields how many times
+    slower a parallel render may be on them."""
+    import drjit as dr
+    import mitsuba as mi
+    if COMPARE_TIMING_THREADS is None or not mi.variant().startswith("llvm"):
+        yield 1.0
+        return
+    before = dr.thread_count()
+    dr.set_thread_count(COMPARE_TIMING_THREADS)
+    try:
+        yield max(1.0, before / COMPARE_TIMING_THREADS)
+    finally:
+        dr.set_thread_count(before)
 
 
 def _work(setting: Setting, result) -> int:
@@ -88,7 +118,7 @@ def measure(loaded, setting: Setting, reference: np.ndarray,
     error_map, flip = metrics.flip_map(image, reference, exposure, view)
     files = (write_render(out, f"{folder}/{setting.slug}", image, error_map, exposure, view)
              if out is not None else {})
-    return Measurement(setting, _seconds(result), float(result.compile_seconds),
+    return Measurement(setting, float(result.seconds), float(result.compile_seconds),
                        metrics.relative_mse(image, reference), flip, _work(setting, result),
                        thumbnail(image, exposure=exposure, view=view), **files)
 
@@ -107,14 +137,23 @@ def time_rounds(loaded, entry: SceneResult, rounds: int, deadline: float = math.
     measured = list(entry.measurements)
     if not measured:
         return
+    with timing_threads() as slower:
+        # the scored renders' times (all threads): a round on fewer threads takes longer
+        _rounds(loaded, entry, measured, rounds, deadline, progress, _cost(measured) * slower)
+
+
+def _cost(ms: list[Measurement]) -> float:
+    """What a round of ``ms`` will take: each render's time, or the time it is repeated for
+    when it is faster (:func:`_time_in_a_round`)."""
+    return sum(max(m.seconds, COMPARE_ROUND_SECONDS) for m in ms)
+
+
+def _rounds(loaded, entry: SceneResult, measured: list[Measurement], rounds: int, deadline: float,
+            progress, predicted: float) -> None:
+    """:func:`time_rounds`' loop (on the timing threads); ``predicted``: the first round's
+    time."""
     times = {id(m): [] for m in measured}
     extra_until = math.inf
-
-    def cost(ms):
-        """What a round of ``ms`` will take: each render's time, or the time it is repeated
-        for when it is faster (:func:`_time_in_a_round`)."""
-        return sum(max(m.seconds, COMPARE_ROUND_SECONDS) for m in ms)
-    predicted = cost(measured)
     for k in range(COMPARE_MAX_ROUNDS):
         started = time.monotonic()
         if k >= rounds:
@@ -124,7 +163,7 @@ def time_rounds(loaded, entry: SceneResult, rounds: int, deadline: float = math.
                 # render and the path renders its ratio is read between: a few, quick), the
                 # same ones in every extra round, so that a round's index is one moment for all
                 measured = unsettled = _unsettled_renders(entry)
-                predicted = cost(measured)
+                predicted = _cost(measured)
             else:
                 unsettled = _unsettled_renders(entry)
             if not unsettled or started + predicted > extra_until:
@@ -152,7 +191,7 @@ def _time_in_a_round(loaded, setting: Setting) -> float:
     moment are not all delayed (another program only ever adds time)."""
     fastest, start = math.inf, time.monotonic()
     for _ in range(COMPARE_ROUND_REPEATS):
-        fastest = min(fastest, _seconds(_render(loaded, setting)))
+        fastest = min(fastest, _seconds(_render(loaded, setting, timed=True)))
         if time.monotonic() - start >= COMPARE_ROUND_SECONDS:
             break
     return fastest
