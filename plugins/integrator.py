@@ -44,7 +44,7 @@ from .tree.wavefront import SAMPLES_PER_PASS
 
 
 @dataclass
-class Rendering:
+class DetailedRender:
     """What :meth:`WhittedIntegrator.render_detailed` returns."""
     image: object          # mi.TensorXf (H, W, channels), developed by the film
     rays: RayCounts
@@ -335,7 +335,7 @@ class WhittedIntegrator(mi.SamplingIntegrator):
         return tracer, analysis, bright
 
     def render_detailed(self, scene, sensor=0, seed=0, spp=0, progress=None, tables=None,
-                        attached=False) -> Rendering:
+                        attached=False) -> DetailedRender:
         """Render ``scene`` and report what was traced.
 
         ``tables``: what :func:`whitted.plugins.check_scene` returned for ``scene`` just
@@ -389,7 +389,7 @@ class WhittedIntegrator(mi.SamplingIntegrator):
                 self._render_pass(tracer, camera, image, first, count, progress, background_seen)
         rays = tracer.tally.read(camera=width * height * spp, max_depth_reached=tracer.deepest)
         error_bound = rays.sample_culled_weight * bright if rays.culled else 0.0
-        return Rendering(image.develop(), rays, analysis.effects, analysis.depth, len(passes), error_bound)
+        return DetailedRender(image.develop(), rays, analysis.effects, analysis.depth, len(passes), error_bound)
 
     def _render_pass(self, tracer, camera, image, first, count, progress, background_seen=False):
         """Samples first … first + count - 1 (of every pixel's spp, pixel after pixel), as
@@ -397,18 +397,18 @@ class WhittedIntegrator(mi.SamplingIntegrator):
         spp, width = camera.spp, camera.width
         # Counted from the pass's first pixel, so that 32-bit indices never overflow.
         first_pixel, first_sample = divmod(first, spp)
-        spp_, first_sample_ = dr.opaque(mi.UInt32, spp), dr.opaque(mi.UInt32, first_sample)
-        first_pixel_, width_ = dr.opaque(mi.UInt32, first_pixel), dr.opaque(mi.UInt32, width)
+        opaque_spp, opaque_first_sample = dr.opaque(mi.UInt32, spp), dr.opaque(mi.UInt32, first_sample)
+        opaque_first_pixel, opaque_width = dr.opaque(mi.UInt32, first_pixel), dr.opaque(mi.UInt32, width)
         for index in tracer.samples(count):
             if spp == 1:
                 pixel, sample = index, mi.UInt32(0)
             else:
-                index = index + first_sample_
-                pixel = index // spp_
-                sample = index - pixel * spp_
-            pixel = pixel + first_pixel_
-            y = pixel // width_
-            x = pixel - y * width_
+                index = index + opaque_first_sample
+                pixel = index // opaque_spp
+                sample = index - pixel * opaque_spp
+            pixel = pixel + opaque_first_pixel
+            y = pixel // opaque_width
+            x = pixel - y * opaque_width
             ray, ray_weight, position = camera.ray(x, y, pixel, sample)
             color = tracer.trace(ray, progress) * ray_weight
             image.put(pixel, position, color,
@@ -419,9 +419,9 @@ class WhittedIntegrator(mi.SamplingIntegrator):
         """Pixels first_pixel … first_pixel + pixels - 1, one lane each, every sample of a
         pixel traced in a loop inside the kernel (single-level trees, :class:`.film.PixelMeans`)."""
         pixel = dr.arange(mi.UInt32, pixels) + dr.opaque(mi.UInt32, first_pixel)
-        width_ = dr.opaque(mi.UInt32, camera.width)
-        y = pixel // width_
-        x = pixel - y * width_
+        opaque_width = dr.opaque(mi.UInt32, camera.width)
+        y = pixel // opaque_width
+        x = pixel - y * opaque_width
 
         def color(sample):
             ray, ray_weight, _ = camera.ray(x, y, pixel, sample)

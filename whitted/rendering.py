@@ -73,7 +73,7 @@ PATH_SAMPLES_PER_PASS = 1 << 20
 @dataclass
 class RenderResult:
     """What :func:`render` returns (the integrator's own account of a render, which this is
-    made from, is ``plugins/integrator.py``'s ``Rendering``).
+    made from, is ``plugins/integrator.py``'s ``DetailedRender``).
 
     =================== ==============================================================
     ``image``           float32 (H, W, 3), linear RGB
@@ -95,8 +95,8 @@ def integrator_of(scene):
     """The scene's own ``whitted`` integrator, else one with the default settings."""
     import mitsuba as mi
 
-    from .plugins import whitted_integrator as as_whitted
-    own = as_whitted(scene.integrator())
+    from .plugins import whitted_or_none
+    own = whitted_or_none(scene.integrator())
     if own is not None:
         return own
     with quiet_mitsuba():

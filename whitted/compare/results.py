@@ -135,12 +135,12 @@ class Measurement:
         """How many timed rounds it has."""
         return len(self.times)
 
-    def seconds_in(self, round_: int) -> float:
-        """Its time in round ``round_`` (its :attr:`seconds` when it has no rounds; NaN
+    def seconds_in(self, timed_round: int) -> float:
+        """Its time in round ``timed_round`` (its :attr:`seconds` when it has no rounds; NaN
         when it missed that round)."""
         if not self.times:
             return self.seconds
-        return self.times[round_] if round_ < len(self.times) else math.nan
+        return self.times[timed_round] if timed_round < len(self.times) else math.nan
 
     @property
     def seconds_min(self) -> float:
