@@ -142,18 +142,18 @@ class WhittedIntegrator(mi.SamplingIntegrator):
 
             <integrator type="whitted">
                 <integer name="max_depth" value="10"/>
+                <point name="light_reference" x="0" y="0.2" z="0"/>
                 <float name="ambient" value="0.3"/>
                 <string name="lighting" value="article"/>
-                <point name="light_reference" value="0, 0.2, 0"/>
             </integrator>
 
         .. code-tab:: python
 
             'type': 'whitted',
             'max_depth': 10,
+            'light_reference': [0, 0.2, 0],
             'ambient': 0.3,
-            'lighting': 'article',
-            'light_reference': [0, 0.2, 0]
+            'lighting': 'article'
     """
 
     def __init__(self, props: mi.Properties):

@@ -25,7 +25,7 @@ from __future__ import annotations
 import math
 import os
 import sys
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -54,9 +54,9 @@ class FitResult:
     error: float
     size: tuple
     ambient: float
-    colors: dict = field(default_factory=dict)
-    lights: list = field(default_factory=list)
-    image: object = None   # the fitted render at the fit's resolution (numpy)
+    colors: dict
+    lights: list
+    image: object   # the fitted render at the fit's resolution (numpy)
 
 
 def fit_size(scene_size, target_size, width: int = D.FIT_WIDTH, source: str = "the target") -> tuple[int, int]:
