@@ -48,6 +48,26 @@ def folder_scenes(folder: Path, accepted: tuple[str, ...] = (SCENE_SUFFIX,)) -> 
     return []
 
 
+def expand_folders(inputs: list[str | os.PathLike], accepted: tuple[str, ...], what: str,
+                   check_file=None) -> list[Path]:
+    """The files that ``inputs`` name, in order: a folder stands for its files of the
+    ``accepted`` suffixes (:func:`folder_scenes`; none is an error that names ``what`` is
+    looked for), any other input is a file, handed to ``check_file`` (which raises for a bad
+    one) when given, else kept as it is."""
+    files: list[Path] = []
+    for item in map(Path, inputs):
+        if item.is_dir():
+            found = folder_scenes(item, accepted)
+            if not found:
+                raise WhittedError(f"{item}: no {what} in this folder")
+            files.extend(found)
+        else:
+            if check_file is not None:
+                check_file(item)
+            files.append(item)
+    return files
+
+
 def names_folder(inputs: list[str | os.PathLike], output: str | os.PathLike | None) -> bool:
     """Whether ``output`` (``-o``) names the folder that receives every output, rather than
     the one output file: several inputs, a folder among them, an existing folder, or a
@@ -71,15 +91,8 @@ def plan(inputs: list[str | os.PathLike], output: str | os.PathLike | None = Non
     """
     if not inputs:
         raise WhittedError("no scene given: name scene files or folders")
-    sources: list[Path] = []
-    for item in map(Path, inputs):
-        if item.is_dir():
-            found = folder_scenes(item, accepted)
-            if not found:
-                raise WhittedError(f"{item}: no {' or '.join(accepted)} files in this folder")
-            sources.extend(found)
-        else:
-            sources.append(item)   # a missing or unreadable file is reported when converted
+    # a missing or unreadable file is reported when converted
+    sources = expand_folders(inputs, accepted, f"{' or '.join(accepted)} files")
     out = None if output is None else Path(output)
     into_folder = names_folder(inputs, output)
     pairs, seen = [], {}

@@ -66,7 +66,7 @@ def refuse(supported) -> None:
         getattr(mi, function)(plugin_name, refused)
 
 
-def whitted_integrator(integrator):
+def whitted_or_none(integrator):
     """``integrator`` if it is the ``whitted`` plugin (of the current variant), else None."""
     import mitsuba as mi
     cls = _classes.get((mi.variant(), "whitted"))

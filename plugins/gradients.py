@@ -31,6 +31,11 @@ that the moving discontinuities contribute their boundary term.
 A weight that is 0 on every material leaves its effect out of the kernels
 (:mod:`.scene.effects`): a scene without mirrors has no reflected rays, and
 the gradient of KR there is 0 (render the scene with a small KR to get it).
+
+Costs and limits. A bitmap texture is differentiated when it is stored as
+floats (``format="variant"``). The render is recorded whole as an AD graph,
+so its memory grows with the tree (benchmarks/RESULTS.md). ``scalar_rgb``
+has no gradients: :func:`require_gradients` refuses them in one line.
 """
 
 from __future__ import annotations

@@ -44,7 +44,7 @@ from .tree.wavefront import SAMPLES_PER_PASS
 
 
 @dataclass
-class Rendering:
+class DetailedRender:
     """What :meth:`WhittedIntegrator.render_detailed` returns."""
     image: object          # mi.TensorXf (H, W, channels), developed by the film
     rays: RayCounts
@@ -91,11 +91,9 @@ class WhittedIntegrator(mi.SamplingIntegrator):
      * - min_weight
        - |float|
        - The adaptive depth control (Hall and Greenberg's; POV-Ray's
-         ``adc_bailout``): reflected and refracted rays are left untraced as
-         long as together they cannot change any pixel by more than this, in
-         [0, 1]; their path weights (products of the KR and KT factors above
-         them) times the brightest color a ray can have bound the change.
-         0 traces the exact tree. (Default: 1/255)
+         ``adc_bailout``), in [0, 1]: reflected and refracted rays are left
+         untraced as long as together they cannot change any pixel by more than
+         this (:mod:`.tree.adaptive`). 0 traces the exact tree. (Default: 1/255)
 
      * - exact_spheres
        - |string|
@@ -124,58 +122,18 @@ class WhittedIntegrator(mi.SamplingIntegrator):
     ``lighting`` and ``exact_spheres`` are strings, which Mitsuba's scene
     parameters cannot hold: load the scene again to change them.
 
-    The article's ray tracer (docs/scene-format.md, "Shading"): a camera ray
-    that hits a sphere gets ``(1 - KR - KT)·point + KR·reflected +
-    KT·refracted``, where ``point`` is the sphere's base color B lit by the
-    point lights it sees (every sphere casts shadows, transparent ones too)
-    and the reflected and refracted colors are traced the same way, to
-    ``max_depth``; under total internal reflection the refracted share
-    follows the mirror direction. A ray that escapes gets the background (a
-    ``constant`` environment emitter), black without one. Every surface must
-    carry the :ref:`article <bsdf-article>` BSDF, every emitter be a point
-    light or the environment. No sampling at one sample per pixel: the ray
-    passes through the pixel's center (and a thin lens's), so a render is
-    deterministic, and the seed, the sampler and the lens change nothing (a
-    warning says so). More samples per pixel honour the sensor: the sampler's
-    type and the seed, a thin lens's depth of field, the film's filter and
-    ``sample_border``; the ``independent`` sampler (the converter's) is
-    stratified in the pixel (:class:`.film.CameraSamples`).
+    The article's ray tracer (docs/scene-format.md, "Shading"; :mod:`.shading.shader`): a
+    point's color is ``B·(A + (1 - A)·Σ s·light)``, mixed with the reflected and refracted
+    colors by KR and KT, to ``max_depth``. Every surface must carry the
+    :ref:`article <bsdf-article>` BSDF, every emitter be a point light or the environment.
 
-    Code for an effect the scene lacks is left out of the kernels: a scene
-    without mirrors or glass is traced to depth 1 whatever ``max_depth``.
-    Under total internal reflection the reflected and the refracted ray are
-    the same ray, which is traced once with both weights.
-
-    The adaptive depth control bounds the tree: a branch is not traced while
-    the branches left out of its camera sample's tree could, all together, add
-    at most ``min_weight`` to the sample's color in any channel. Each branch's
-    share is its path weight ``w`` times ``L``, the brightest color any ray
-    can have (in article lighting ``max B·(A + (1 - A)·Σ max light)``, in
-    physical lighting ``(max B/π)·Σ max I/d²`` with d the distance from the
-    light to the nearest surface; the background if brighter): a ray's color
-    mixes point colors and the background with weights summing to at most 1,
-    so it never exceeds ``L``. Culling only removes such terms, so no pixel
-    changes by more than ``min_weight``; the render reports the bound it
-    reached (``error_bound``: the largest weight culled from one sample times
-    ``L``). Where ``L`` is not known (a light on a surface in physical
-    lighting, an environment other than a constant one, a texture other than a
-    bitmap) the tree is traced exactly. :mod:`.tree.adaptive` has the rule.
-
-    :meth:`render_detailed` also returns the rays traced and the bound
-    (``whitted render --stats``).
-
-    Gradients (JIT AD variants, e.g. ``llvm_ad_rgb``): :meth:`render_forward` and
-    :meth:`render_backward`, so ``mi.render(scene, params)`` then ``dr.backward`` or
-    ``dr.forward``, differentiate the image with respect to every ``article`` color and
-    bitmap texture (stored as floats: ``format="variant"``), KR and KT, the ``ambient``,
-    the point lights' intensities and positions, and the background's radiance. The
-    render is recorded whole as an AD graph (its memory grows with the tree: see
-    benchmarks/RESULTS.md). Visibility is not differentiated: what each ray hits, the
-    shadows' edges and the refracted directions are held fixed, as in Mitsuba's ``prb``
-    (a parameter that moves an edge gets only the smooth part of its gradient); a
-    ``prb_reparam``-style reparameterisation of the rays, or ``direct_projective``'s
-    sampling of silhouette edges, is what it would take. ``scalar_rgb`` has no gradients
-    and refuses them in one line. :mod:`.gradients` has the details.
+    At one sample per pixel every ray passes through its pixel's center (and a thin lens's),
+    so the seed, the sampler and the lens change nothing (a warning says so); more samples
+    honour the sensor (:class:`.film.CameraSamples`). Code for an effect the scene lacks is
+    left out of the kernels (:mod:`.scene.effects`). :meth:`render_detailed` also returns
+    the rays traced and the adaptive depth control's error bound (``whitted render --stats``).
+    Gradients (JIT AD variants): :meth:`render_forward` and :meth:`render_backward`, with
+    visibility held fixed (:mod:`.gradients` says what is differentiated).
 
     .. tabs::
 
@@ -184,18 +142,18 @@ class WhittedIntegrator(mi.SamplingIntegrator):
 
             <integrator type="whitted">
                 <integer name="max_depth" value="10"/>
+                <point name="light_reference" x="0" y="0.2" z="0"/>
                 <float name="ambient" value="0.3"/>
                 <string name="lighting" value="article"/>
-                <point name="light_reference" value="0, 0.2, 0"/>
             </integrator>
 
         .. code-tab:: python
 
             'type': 'whitted',
             'max_depth': 10,
+            'light_reference': [0, 0.2, 0],
             'ambient': 0.3,
-            'lighting': 'article',
-            'light_reference': [0, 0.2, 0]
+            'lighting': 'article'
     """
 
     def __init__(self, props: mi.Properties):
@@ -335,7 +293,7 @@ class WhittedIntegrator(mi.SamplingIntegrator):
         return tracer, analysis, bright
 
     def render_detailed(self, scene, sensor=0, seed=0, spp=0, progress=None, tables=None,
-                        attached=False) -> Rendering:
+                        attached=False) -> DetailedRender:
         """Render ``scene`` and report what was traced.
 
         ``tables``: what :func:`whitted.plugins.check_scene` returned for ``scene`` just
@@ -389,7 +347,7 @@ class WhittedIntegrator(mi.SamplingIntegrator):
                 self._render_pass(tracer, camera, image, first, count, progress, background_seen)
         rays = tracer.tally.read(camera=width * height * spp, max_depth_reached=tracer.deepest)
         error_bound = rays.sample_culled_weight * bright if rays.culled else 0.0
-        return Rendering(image.develop(), rays, analysis.effects, analysis.depth, len(passes), error_bound)
+        return DetailedRender(image.develop(), rays, analysis.effects, analysis.depth, len(passes), error_bound)
 
     def _render_pass(self, tracer, camera, image, first, count, progress, background_seen=False):
         """Samples first … first + count - 1 (of every pixel's spp, pixel after pixel), as
@@ -397,18 +355,18 @@ class WhittedIntegrator(mi.SamplingIntegrator):
         spp, width = camera.spp, camera.width
         # Counted from the pass's first pixel, so that 32-bit indices never overflow.
         first_pixel, first_sample = divmod(first, spp)
-        spp_, first_sample_ = dr.opaque(mi.UInt32, spp), dr.opaque(mi.UInt32, first_sample)
-        first_pixel_, width_ = dr.opaque(mi.UInt32, first_pixel), dr.opaque(mi.UInt32, width)
+        opaque_spp, opaque_first_sample = dr.opaque(mi.UInt32, spp), dr.opaque(mi.UInt32, first_sample)
+        opaque_first_pixel, opaque_width = dr.opaque(mi.UInt32, first_pixel), dr.opaque(mi.UInt32, width)
         for index in tracer.samples(count):
             if spp == 1:
                 pixel, sample = index, mi.UInt32(0)
             else:
-                index = index + first_sample_
-                pixel = index // spp_
-                sample = index - pixel * spp_
-            pixel = pixel + first_pixel_
-            y = pixel // width_
-            x = pixel - y * width_
+                index = index + opaque_first_sample
+                pixel = index // opaque_spp
+                sample = index - pixel * opaque_spp
+            pixel = pixel + opaque_first_pixel
+            y = pixel // opaque_width
+            x = pixel - y * opaque_width
             ray, ray_weight, position = camera.ray(x, y, pixel, sample)
             color = tracer.trace(ray, progress) * ray_weight
             image.put(pixel, position, color,
@@ -419,9 +377,9 @@ class WhittedIntegrator(mi.SamplingIntegrator):
         """Pixels first_pixel … first_pixel + pixels - 1, one lane each, every sample of a
         pixel traced in a loop inside the kernel (single-level trees, :class:`.film.PixelMeans`)."""
         pixel = dr.arange(mi.UInt32, pixels) + dr.opaque(mi.UInt32, first_pixel)
-        width_ = dr.opaque(mi.UInt32, camera.width)
-        y = pixel // width_
-        x = pixel - y * width_
+        opaque_width = dr.opaque(mi.UInt32, camera.width)
+        y = pixel // opaque_width
+        x = pixel - y * opaque_width
 
         def color(sample):
             ray, ray_weight, _ = camera.ray(x, y, pixel, sample)

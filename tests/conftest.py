@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import mitsuba as mi
@@ -12,6 +13,22 @@ import whitted  # selects the default variant and registers the plugins
 REPO = Path(__file__).resolve().parent.parent
 #: the variants every rendering test runs in (cuda_ad_rgb needs a GPU, which CI lacks)
 VARIANTS = ("scalar_rgb", "llvm_ad_rgb")
+
+
+#: the body of a small .scn scene, without its size and its last sphere: shadows (two lights,
+#: spheres on a floor), a mirror and a glass ball (the fit's and the gradients' scenes)
+MIRROR_AND_GLASS = """eye 0 1.5 6.5
+lookat 0 0.9 0
+fov 50
+background 0.1 0.1 0.15
+ambient 0.15
+depth 5
+light 0 10 6
+light 5 4 -6   0.4 0.4 0.4
+sphere 0 -1000 0 1000     color 0.6 0.65 0.6
+sphere -1.9 1.3 0 1.3     color 0.9 0.9 0.95  reflect 0.6
+sphere 1.9 1.3 0 1.3      color 0.9 0.5 0.3  refract 0.7 1.5  reflect 0.1
+"""
 
 
 def _fresh_user_cache(tmp_path_factory):
@@ -93,3 +110,40 @@ def texture_png(tmp_path):
         mi.Bitmap(pixels, pixel_format=mi.Bitmap.PixelFormat.RGB).write(str(path))
         return path
     return make
+
+
+def session_left(sid: int, seconds: float = 30.0) -> list[int]:
+    """The processes still in session ``sid`` (a ``start_new_session`` child's pid) once
+    they have all ended or ``seconds`` have passed: what a finished command left behind."""
+    import time
+
+    import psutil
+
+    def left() -> list[int]:
+        pids = []
+        for process in psutil.process_iter():
+            try:
+                if os.getsid(process.pid) == sid:
+                    pids.append(process.pid)
+            except (ProcessLookupError, PermissionError):
+                pass
+        return pids
+    deadline = time.monotonic() + seconds
+    while time.monotonic() < deadline and left():
+        time.sleep(0.1)
+    return left()
+
+
+def aimed_rays(rng, centers, radius: float, impact: float, distance: float = 300.0):
+    """``(origin, direction)``, float32 arrays (N, 3): a ray at each of the N ``centers``,
+    from a random direction, ``distance`` radii away, passing the center at a random impact
+    parameter below ``impact``·``radius`` (drawn from ``rng`` in that order)."""
+    import numpy as np
+    count = len(centers)
+    toward = rng.normal(size=(count, 3))
+    toward /= np.linalg.norm(toward, axis=1)[:, None]
+    side = np.cross(toward, rng.normal(size=(count, 3)))
+    side /= np.linalg.norm(side, axis=1)[:, None]
+    b = rng.uniform(0.0, impact, count) * radius
+    origin = (centers + side * b[:, None] - toward * distance * radius).astype(np.float32)
+    return origin, toward.astype(np.float32)

@@ -32,6 +32,7 @@ pytest.importorskip("distributed")
 psutil = pytest.importorskip("psutil")  # a dependency of distributed
 
 from test_compare import MIRROR_SCENE  # noqa: E402  (the same small scene as the in-process tests)
+from conftest import session_left  # noqa: E402
 
 DASK = Path(sys.executable).parent / "dask"
 
@@ -390,22 +391,8 @@ def test_ctrl_c_stops_the_local_cluster_in_one_line(attempt, scenes, tmp_path, b
     assert len(lines) == 1 and "interrupted" in lines[0], stderr
     rows = read_rows(out / "results.csv")
     assert rows and {r["scene"] for r in rows} < set(SCENES) | {"slow"}
-    deadline = time.monotonic() + 30
-    while time.monotonic() < deadline and _session(run.pid):
-        time.sleep(0.1)
-    assert not _session(run.pid)
+    assert not session_left(run.pid)
 
-
-def _session(sid: int) -> list[int]:
-    """The processes still in session ``sid``."""
-    left = []
-    for process in psutil.process_iter():
-        try:
-            if os.getsid(process.pid) == sid:
-                left.append(process.pid)
-        except (ProcessLookupError, PermissionError):
-            pass
-    return left
 
 
 def test_unreachable_scheduler_is_one_line_before_any_work(scenes, tmp_path, capsys, monkeypatch):

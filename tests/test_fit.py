@@ -1,4 +1,4 @@
-"""``whitted fit`` and :func:`whitted.fit.fit` (issue 33): the article's model fitted to an
+"""``whitted fit`` and :func:`whitted.fitting.fit` (issue 33): the article's model fitted to an
 image by gradient descent through the whitted integrator's gradients."""
 
 from __future__ import annotations
@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 import whitted
+from conftest import MIRROR_AND_GLASS
 from whitted.compare.curves import best_ambient
 from whitted.converter import parse_file, parse_text
 from whitted.fitting import fit, fitted_model, material_ids, write_fitted
@@ -18,20 +19,7 @@ from whitted.imageio import write_image
 from whitted.loading import _load_model
 
 #: shadows, a mirror, glass, four materials, two lights
-SCENE = """size 40 25
-eye 0 1.5 6.5
-lookat 0 0.9 0
-fov 50
-background 0.1 0.1 0.15
-ambient 0.15
-depth 5
-light 0 10 6
-light 5 4 -6   0.4 0.4 0.4
-sphere 0 -1000 0 1000     color 0.6 0.65 0.6
-sphere -1.9 1.3 0 1.3     color 0.9 0.9 0.95  reflect 0.6
-sphere 1.9 1.3 0 1.3      color 0.9 0.5 0.3  refract 0.7 1.5  reflect 0.1
-sphere 0 0.5 1 0.5        color 0.3 0.5 0.8
-"""
+SCENE = "size 40 25\n" + MIRROR_AND_GLASS + "sphere 0 0.5 1 0.5        color 0.3 0.5 0.8\n"
 
 
 def render(model, **overrides) -> np.ndarray:

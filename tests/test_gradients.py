@@ -15,25 +15,12 @@ import numpy as np
 import pytest
 
 import whitted
-from conftest import REPO
+from conftest import MIRROR_AND_GLASS, REPO
 from whitted.converter import parse_text, scene_to_xml
 from whitted.errors import WhittedError
 
 #: shadows (two lights, four spheres on a floor), a mirror, a glass ball, a textured globe
-SCENE = """size 32 24
-eye 0 1.5 6.5
-lookat 0 0.9 0
-fov 50
-background 0.1 0.1 0.15
-ambient 0.15
-depth 5
-light 0 10 6
-light 5 4 -6   0.4 0.4 0.4
-sphere 0 -1000 0 1000     color 0.6 0.65 0.6
-sphere -1.9 1.3 0 1.3     color 0.9 0.9 0.95  reflect 0.6
-sphere 1.9 1.3 0 1.3      color 0.9 0.5 0.3  refract 0.7 1.5  reflect 0.1
-sphere 0 0.5 1 0.5        texture earth.png  reflect 0.1
-"""
+SCENE = "size 32 24\n" + MIRROR_AND_GLASS + "sphere 0 0.5 1 0.5        texture earth.png  reflect 0.1\n"
 
 #: (parameter, finite-difference step): one per kind
 KINDS = [
@@ -132,8 +119,9 @@ def moved(params, key, direction):
     return theta, base
 
 
-@pytest.mark.parametrize("key,step", KINDS)
-def test_backward_gradients_equal_finite_differences(scene, key, step):
+def backward_and_finite_difference(scene, key, step) -> tuple[float, float]:
+    """The derivative of a weighted sum of the image along a random direction of ``key``:
+    by ``dr.backward``, and by central differences of plain renders (``step``)."""
     params, direction, weights = setup(scene, key)
     theta, base = moved(params, key, direction)
     try:
@@ -142,7 +130,12 @@ def test_backward_gradients_equal_finite_differences(scene, key, step):
         gradient = float(dr.grad(theta)[0])
     finally:
         write(params, key, base)
-    expected = finite_difference(scene, key, step, direction, weights)
+    return gradient, finite_difference(scene, key, step, direction, weights)
+
+
+@pytest.mark.parametrize("key,step", KINDS)
+def test_backward_gradients_equal_finite_differences(scene, key, step):
+    gradient, expected = backward_and_finite_difference(scene, key, step)
     assert abs(expected) > 1e-3, key   # the parameter does change the image
     assert gradient == pytest.approx(expected, rel=0.02), key
 
@@ -187,14 +180,6 @@ def test_scalar_refuses_gradients_in_one_line():
 @pytest.mark.parametrize("key,step", [("light_1.intensity.value", 10.0), ("light_0.position", 2e-3),
                                       ("material_1.color.value", 1e-2)])
 def test_physical_lighting_gradients_equal_finite_differences(physical_scene, key, step):
-    params, direction, weights = setup(physical_scene, key)
-    theta, base = moved(params, key, direction)
-    try:
-        image = mi.render(physical_scene, params)
-        dr.backward(dr.sum(image * mi.TensorXf(weights.astype(np.float32)), axis=None))
-        gradient = float(dr.grad(theta)[0])
-    finally:
-        write(params, key, base)
-    expected = finite_difference(physical_scene, key, step, direction, weights)
+    gradient, expected = backward_and_finite_difference(physical_scene, key, step)
     assert abs(expected) > 1e-4, key
     assert gradient == pytest.approx(expected, rel=0.02), key

@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 import whitted
+from conftest import aimed_rays
 from benchmarks.reference import assert_matches, render_reference
 from whitted import sealed
 from whitted.converter import Light, Material, Scene, Sphere
@@ -97,13 +98,7 @@ def test_layers_find_the_hits_mitsubas_ellipsoid_test_loses(llvm):
     scene = mi.load_dict({"type": "scene", "balls": sealed.ellipsoids(
         centers, {"type": "article"}, radius)})
     # from a random direction, 300 r away, at a random impact parameter b below 0.9 r
-    toward = rng.normal(size=(count, 3))
-    toward /= np.linalg.norm(toward, axis=1)[:, None]
-    side = np.cross(toward, rng.normal(size=(count, 3)))
-    side /= np.linalg.norm(side, axis=1)[:, None]
-    b = rng.uniform(0.0, 0.9, count) * radius
-    origin = (centers + side * b[:, None] - toward * 300 * radius).astype(np.float32)
-    direction = toward.astype(np.float32)
+    origin, direction = aimed_rays(rng, centers, radius, 0.9)
     ray = mi.Ray3f(mi.Point3f(origin.T), mi.Vector3f(direction.T))
     # the float64 distance along each float32 ray to the nearest sphere (another may be in front)
     o, d = origin.astype(np.float64), direction.astype(np.float64) / np.linalg.norm(direction, axis=1)[:, None]

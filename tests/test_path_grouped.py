@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 import whitted
+from conftest import aimed_rays
 from test_layers import GLASS, many_radii
 from whitted import sealed
 from whitted.converter import Light, Material, Scene, Sphere
@@ -105,13 +106,7 @@ def test_mitsubas_ellipsoid_test_loses_no_hit_at_radius_one_and_above(llvm, radi
     def shoot(r: float, count: int = 2000):
         centers = np.c_[rng.uniform(-1, 1, (count, 2)) * 1e3 * r, np.zeros(count)]
         scene = mi.load_dict({"type": "scene", "balls": sealed.ellipsoids(centers, {"type": "diffuse"}, r)})
-        toward = rng.normal(size=(count, 3))
-        toward /= np.linalg.norm(toward, axis=1)[:, None]
-        side = np.cross(toward, rng.normal(size=(count, 3)))
-        side /= np.linalg.norm(side, axis=1)[:, None]
-        b = rng.uniform(0.0, 0.99, count) * r
-        origin = (centers + side * b[:, None] - toward * 300 * r).astype(np.float32)
-        direction = toward.astype(np.float32)
+        origin, direction = aimed_rays(rng, centers, r, 0.99)
         found = scene.ray_intersect_preliminary(mi.Ray3f(mi.Point3f(origin.T), mi.Vector3f(direction.T)))
         # the float64 distance along each float32 ray to its own sphere (the spheres lie
         # 10³ radii apart in a plane, rays come from 300 radii: a rare other hit is nearer)

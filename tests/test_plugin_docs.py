@@ -132,7 +132,7 @@ def test_the_examples_load_and_set_what_they_say(llvm, name):
     xml = example(doc, "xml")
     from_xml = mi.load_string(xml.replace(f'type="{name}"', f'version="3.0.0" type="{name}"', 1))
     from_dict = mi.load_dict(ast.literal_eval("{" + example(doc, "python") + "}"))
-    said = {name_: xml_value(value) for name_, value in re.findall(r'name="(\w+)" value="([^"]*)"', xml)}
+    said = {key: xml_value(value) for key, value in re.findall(r'name="(\w+)" value="([^"]*)"', xml)}
     assert said
     assert_values(plugin_values(from_xml), said)
     assert_values(plugin_values(from_dict), plugin_values(from_xml))

@@ -26,6 +26,7 @@ import whitted
 from whitted.cli import main
 from whitted.imageio import read_image
 
+from conftest import session_left
 from test_interrupt import start  # noqa: E402  (signals are sent once the process handles them)
 
 W, H = 40, 26
@@ -291,23 +292,8 @@ def test_workers_with_one_killed_mid_run_give_the_plain_images(tmp_path):
     entries = json.loads((tmp_path / "stats.json").read_text())["scenes"]
     assert len(entries) == frames and all(e["status"] == "rendered" for e in entries)
     assert all(e["worker"].startswith("tcp://127.0.0.1:") for e in entries)   # on the cluster
-    deadline = time.monotonic() + 30
-    while time.monotonic() < deadline and _session(run.pid):
-        time.sleep(0.1)
-    assert not _session(run.pid)
+    assert not session_left(run.pid)
 
-
-def _session(sid: int) -> list[int]:
-    """The processes still in session ``sid``."""
-    import psutil
-    left = []
-    for process in psutil.process_iter():
-        try:
-            if os.getsid(process.pid) == sid:
-                left.append(process.pid)
-        except (ProcessLookupError, PermissionError):
-            pass
-    return left
 
 
 # --------------------------------------------------------------------------- giants, once per frame

@@ -52,24 +52,33 @@ def _fit(args: argparse.Namespace) -> None:
     fit_command(args)
 
 
+def _command(sub, name: str, run, help: str, description: str) -> argparse.ArgumentParser:
+    """The subcommand ``name``'s parser, which runs ``run`` with the parsed arguments (its
+    own parser at hand, to report a bad option in its terms)."""
+    command = sub.add_parser(name, help=help, description=description)
+    command.set_defaults(run=run, parser=command)
+    return command
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="whitted",
-        description="The classic Whitted sphere ray tracer of 'Ray Tracing: Graphics for the "
-                    "Masses', inside Mitsuba 3: convert legacy .scn scenes to Mitsuba XML and "
-                    "render them with the article's model or Mitsuba's path tracer.")
+        description="""\
+        The classic Whitted sphere ray tracer of 'Ray Tracing: Graphics for the Masses', inside
+        Mitsuba 3: convert legacy .scn scenes to Mitsuba XML and render them with the article's
+        model or Mitsuba's path tracer.""")
     parser.add_argument("--version", action="version", version=f"whitted {VERSION}")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
-    convert = sub.add_parser(
-        "convert", help="convert legacy .scn scenes to Mitsuba 3 XML",
-        description="Convert legacy .scn scenes to Mitsuba 3 XML (format 3.0.0): each X.scn "
-                    "becomes X.xml beside it, or in the folder given with -o. The XML loads in "
-                    "Mitsuba's Python once 'import whitted' has registered the project's plugins; "
-                    "with --portable, X.portable.xml names only Mitsuba's stock plugins and loads "
-                    "in any Mitsuba 3 (the mitsuba command too), as the path tracer renders it. "
-                    "A bad file is reported as FILE:LINE: message and nothing is written for it; "
-                    "the others are still converted, and the exit status is 2.")
+    convert = _command(
+        sub, "convert", _convert, help="convert legacy .scn scenes to Mitsuba 3 XML",
+        description="""\
+        Convert legacy .scn scenes to Mitsuba 3 XML (format 3.0.0): each X.scn becomes X.xml beside
+        it, or in the folder given with -o. The XML loads in Mitsuba's Python once 'import whitted'
+        has registered the project's plugins; with --portable, X.portable.xml names only Mitsuba's
+        stock plugins and loads in any Mitsuba 3 (the mitsuba command too), as the path tracer
+        renders it. A bad file is reported as FILE:LINE: message and nothing is written for it; the
+        others are still converted, and the exit status is 2.""")
     convert.add_argument("scenes", nargs="+", metavar="SCENE",
                          help="legacy scene files (.scn), or folders holding them")
     convert.add_argument("-o", "--output", metavar="OUT",
@@ -80,20 +89,18 @@ def build_parser() -> argparse.ArgumentParser:
                               "stock BSDFs): the scene read physically, for any Mitsuba 3 tool; a "
                               "comment at its top says what differs from the article's model")
     convert.add_argument("-v", "--verbose", action="store_true", help="say what was written")
-    convert.set_defaults(run=_convert, parser=convert)
 
-    render = sub.add_parser(
-        "render", help="render .scn or .xml scenes to EXR or PNG (one, or folders of them)",
-        description="Render a scene with the article's Whitted model (default) or Mitsuba's "
-                    "path tracer. EXR stores linear RGB as rendered; PNG stores what is displayed: "
-                    "8-bit sRGB after --exposure and a view transform (--view; the article's model: "
-                    "clipped to [0, 1], physically lit and path-traced images: tone-mapped). "
-                    "Several scenes, or folders of them (their .scn files, else their .xml), "
-                    "render in one process into the folder -o OUT/ names, as convert names its "
-                    "outputs: OUT/X.png (or --format exr) per scene X, skipping scenes whose "
-                    "images are newer than the scene and its textures (--force renders them "
-                    "again). A bad scene is reported as FILE:LINE: message and the others go "
-                    "on; the exit status is then 2.")
+    render = _command(
+        sub, "render", _render, help="render .scn or .xml scenes to EXR or PNG (one, or folders of them)",
+        description="""\
+        Render a scene with the article's Whitted model (default) or Mitsuba's path tracer. EXR
+        stores linear RGB as rendered; PNG stores what is displayed: 8-bit sRGB after --exposure and
+        a view transform (--view; the article's model: clipped to [0, 1], physically lit and
+        path-traced images: tone-mapped). Several scenes, or folders of them (their .scn files, else
+        their .xml), render in one process into the folder -o OUT/ names, as convert names its
+        outputs: OUT/X.png (or --format exr) per scene X, skipping scenes whose images are newer
+        than the scene and its textures (--force renders them again). A bad scene is reported as
+        FILE:LINE: message and the others go on; the exit status is then 2.""")
     render.add_argument("scenes", nargs="+", metavar="SCENE",
                         help="the scene (.scn or converted .xml), or several, or folders of them")
     render.add_argument("-o", "--output", required=True, metavar="OUT",
@@ -147,13 +154,13 @@ def build_parser() -> argparse.ArgumentParser:
                              "every scene's and the totals)")
     render.add_argument("-v", "--verbose", action="store_true", help="print a one-line summary")
     render.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
-    render.set_defaults(run=_render, parser=render)
 
-    video = sub.add_parser(
-        "video", help="encode PNG or EXR frames as an H.264 video",
-        description="Encode frames (image files, or folders of them: their PNG files sorted by "
-                    "name, else their EXR files) as an H.264 video through FFmpeg (imageio-ffmpeg). "
-                    "EXR frames are encoded to sRGB as PNG output is.")
+    video = _command(
+        sub, "video", _video, help="encode PNG or EXR frames as an H.264 video",
+        description="""\
+        Encode frames (image files, or folders of them: their PNG files sorted by name, else their
+        EXR files) as an H.264 video through FFmpeg (imageio-ffmpeg). EXR frames are encoded to sRGB
+        as PNG output is.""")
     video.add_argument("frames", nargs="+", metavar="FRAME", help="frames (.png or .exr), or folders of them")
     video.add_argument("-o", "--output", required=True, metavar="OUT.mp4",
                        help="the video (.mp4, .mkv or .mov)")
@@ -161,16 +168,15 @@ def build_parser() -> argparse.ArgumentParser:
                        help=f"frames per second (default {DEFAULT_FPS:g})")
     video.add_argument("-v", "--verbose", action="store_true", help="say what was written")
     video.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
-    video.set_defaults(run=_video, parser=video)
 
     from .defaults import FIT_ITERATIONS, FIT_WIDTH
-    fit = sub.add_parser(
-        "fit", help="fit a scene's colors, ambient and light colors to an image",
-        description="Fit the article's model of a legacy scene to a target image (a path-traced "
-                    "reference, a photograph of the same view) by gradient descent (Mitsuba's Adam "
-                    "on the relative MSE, at low resolution): every untextured material's color, the "
-                    "ambient and the lights' colors. Writes the fitted scene as a .scn file and prints "
-                    "the loss of each step.")
+    fit = _command(
+        sub, "fit", _fit, help="fit a scene's colors, ambient and light colors to an image",
+        description="""\
+        Fit the article's model of a legacy scene to a target image (a path-traced reference, a
+        photograph of the same view) by gradient descent (Mitsuba's Adam on the relative MSE, at low
+        resolution): every untextured material's color, the ambient and the lights' colors. Writes
+        the fitted scene as a .scn file and prints the loss of each step.""")
     fit.add_argument("scene", metavar="SCENE.scn", help="the legacy scene to fit")
     fit.add_argument("--to", required=True, metavar="IMAGE.exr", dest="target",
                      help="the target image (EXR or PNG), of the scene's view (its aspect ratio)")
@@ -180,20 +186,18 @@ def build_parser() -> argparse.ArgumentParser:
     fit.add_argument("--width", type=int, default=FIT_WIDTH, metavar="W",
                      help=f"the widest image the fit renders (default {FIT_WIDTH})")
     fit.add_argument("-q", "--quiet", action="store_true", help="no progress bar, no losses")
-    fit.set_defaults(run=_fit, parser=fit)
 
     from .compare.cli import add_arguments as add_compare_arguments
-    compare = sub.add_parser(
-        "compare", help="what accuracy costs in time: sweep the methods against a path-traced reference",
-        description="Render a converged path-traced reference (cached), then sweep the Whitted "
-                    "integrator (max depth x spp, article and physical lighting) and the path "
-                    "tracer (spp) and score each render's relative MSE and FLIP against it. Writes "
-                    "DIR/report.html (the comparison as a page: open it from disk), DIR/summary.txt "
-                    "(its conclusions in text), DIR/findings.json (the same for scripts), "
-                    "DIR/results.csv (one row per render), DIR/error_vs_time.png, "
-                    "DIR/contact_sheet.png and every render under DIR/renders/.")
+    compare = _command(
+        sub, "compare", _compare, help="what accuracy costs in time: sweep the methods against a path-traced reference",
+        description="""\
+        Render a converged path-traced reference (cached), then sweep the Whitted integrator (max
+        depth x spp, article and physical lighting) and the path tracer (spp) and score each
+        render's relative MSE and FLIP against it. Writes DIR/report.html (the comparison as a page:
+        open it from disk), DIR/summary.txt (its conclusions in text), DIR/findings.json (the same
+        for scripts), DIR/results.csv (one row per render), DIR/error_vs_time.png,
+        DIR/contact_sheet.png and every render under DIR/renders/.""")
     add_compare_arguments(compare)
-    compare.set_defaults(run=_compare, parser=compare)
     return parser
 
 

@@ -25,7 +25,7 @@ from __future__ import annotations
 import math
 import os
 import sys
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -54,9 +54,9 @@ class FitResult:
     error: float
     size: tuple
     ambient: float
-    colors: dict = field(default_factory=dict)
-    lights: list = field(default_factory=list)
-    image: object = None   # the fitted render at the fit's resolution (numpy)
+    colors: dict
+    lights: list
+    image: object   # the fitted render at the fit's resolution (numpy)
 
 
 def fit_size(scene_size, target_size, width: int = D.FIT_WIDTH, source: str = "the target") -> tuple[int, int]:
@@ -162,7 +162,7 @@ def fit(scene, target, *, free=FREE, iterations: int = D.FIT_ITERATIONS, width: 
             params[f"light_{k}.intensity.value"] = opt[f"light_{k}"] * scale
         params.update()
 
-    reference_ = mi.TensorXf(reference)
+    reference_tensor = mi.TensorXf(reference)
     weight = mi.TensorXf(1.0 / (reference * reference + EPSILON))
     losses = []
     bar = progress_bar(progress, iterations, "fit", unit="step", unit_scale=False)
@@ -171,7 +171,7 @@ def fit(scene, target, *, free=FREE, iterations: int = D.FIT_ITERATIONS, width: 
             opt.set_learning_rate(rate[0] * (rate[1] / rate[0]) ** (k / max(1, iterations - 1)))
             write_parameters()
             image = mi.render(loaded, params)
-            loss = dr.mean(dr.ravel(weight * dr.square(image - reference_)))
+            loss = dr.mean(dr.ravel(weight * dr.square(image - reference_tensor)))
             dr.backward(loss)
             opt.step()
             for name in list(opt.keys()):   # the format's ranges

@@ -25,14 +25,10 @@ refracted share (total internal reflection sends the refracted share along
 the mirror direction: one ray, traced once, counted in both ``reflection``
 and ``refraction``); the rays traced are the sum of ``rays`` minus it.
 
-``min_weight`` is the adaptive depth control's setting (1/255 by default, 0:
-off; see plugins/tree/adaptive.py): the most the branches it leaves untraced may
-change a pixel. ``culled_rays`` counts the reflected and refracted rays it left
-untraced and ``culled_weight`` sums their path weights; ``error_bound`` is the
-most it can have changed any pixel, in any channel (linear radiance): the
-largest weight culled from one camera sample's tree times the brightest color
-a ray can have in the scene. It is at most ``min_weight``, and 0 when nothing
-was culled.
+``min_weight`` is the adaptive depth control's setting (0: off), ``culled_rays`` the
+reflected and refracted rays it left untraced, ``culled_weight`` their path weights' sum
+and ``error_bound`` the most it can have changed any pixel (plugins/tree/adaptive.py
+derives the bound).
 
 ``peak_memory_bytes`` is, in the JIT variants, the high-water mark of Dr.Jit's
 memory allocator during the render (every array Dr.Jit holds: the scene's
@@ -73,7 +69,7 @@ PATH_SAMPLES_PER_PASS = 1 << 20
 @dataclass
 class RenderResult:
     """What :func:`render` returns (the integrator's own account of a render, which this is
-    made from, is ``plugins/integrator.py``'s ``Rendering``).
+    made from, is ``plugins/integrator.py``'s ``DetailedRender``).
 
     =================== ==============================================================
     ``image``           float32 (H, W, 3), linear RGB
@@ -95,8 +91,8 @@ def integrator_of(scene):
     """The scene's own ``whitted`` integrator, else one with the default settings."""
     import mitsuba as mi
 
-    from .plugins import whitted_integrator as as_whitted
-    own = as_whitted(scene.integrator())
+    from .plugins import whitted_or_none
+    own = whitted_or_none(scene.integrator())
     if own is not None:
         return own
     with quiet_mitsuba():

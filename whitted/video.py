@@ -48,23 +48,19 @@ def check_fps(fps: float) -> float:
 def video_frames(inputs: list[str | os.PathLike]) -> list[Path]:
     """The frames that ``inputs`` name, in order: image files as given, a folder's PNG
     files sorted by name (its EXR files when it has no PNG)."""
-    from .converter.batch import folder_scenes
-    frames: list[Path] = []
-    for item in map(Path, inputs):
-        if item.is_dir():
-            found = folder_scenes(item, FRAME_SUFFIXES)
-            if not found:
-                raise WhittedError(f"{item}: no .png or .exr frames in this folder")
-            frames.extend(found)
-        elif item.suffix.lower() not in FRAME_SUFFIXES:
-            raise WhittedError(f"{item}: not a frame (.png or .exr)")
-        elif not item.is_file():
-            raise WhittedError(f"{item}: no such frame")
-        else:
-            frames.append(item)
+    from .converter.batch import expand_folders
+    frames = expand_folders(inputs, FRAME_SUFFIXES, ".png or .exr frames", _check_frame)
     if not frames:
         raise WhittedError("no frames given: name .png or .exr files or folders")
     return frames
+
+
+def _check_frame(path: Path) -> None:
+    """Refuse a frame argument that is not an existing .png or .exr file."""
+    if path.suffix.lower() not in FRAME_SUFFIXES:
+        raise WhittedError(f"{path}: not a frame (.png or .exr)")
+    if not path.is_file():
+        raise WhittedError(f"{path}: no such frame")
 
 
 def frame_pixels(path: Path):

@@ -133,14 +133,14 @@ class SceneTables:
             self.hit_tables = self.primitives.scalar_tables(shapes)
         self.layers, self.layered = layers(shapes, types, self.primitives)
         self._rest_scenes = {}
-        # what the tables were built from (:meth:`describe`)
+        # what the tables were built from (:meth:`matches`)
         self._boxes, self._changes = boxes, _changes(self.materials.bsdfs)
         ellipsoids = types == int(mi.ShapeType.Ellipsoids)
         self._ellipsoids = {k: _ellipsoid_data(shapes[k]) for k in np.flatnonzero(ellipsoids).tolist()}
         spheres = types == int(mi.ShapeType.Sphere)
         self._frames = {k: _to_world(shapes[k]) for k in np.flatnonzero(textured & spheres).tolist()}
 
-    def describe(self, scene) -> bool:
+    def matches(self, scene) -> bool:
         """Whether these tables are still those of ``scene`` (see the module docstring)."""
         shapes = scene.shapes()
         return (_changes(self.materials.bsdfs) == self._changes and bounds(shapes) == self._boxes
@@ -200,7 +200,7 @@ def scene_tables(scene) -> SceneTables:
         return SceneTables(scene)
     address = (scene.variant_name(), scene.ptr)
     kept = _kept.get(address)
-    if kept is not None and _same(kept[0], witness) and kept[1].describe(scene):
+    if kept is not None and _same(kept[0], witness) and kept[1].matches(scene):
         _kept.move_to_end(address)
         return kept[1]
     _kept.pop(address, None)

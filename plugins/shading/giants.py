@@ -79,10 +79,10 @@ class _Giant:
         self.size = radius + max(abs(c) for c in center)
         if jit:
             self.center = dr.opaque(mi.Point3d, center)
-            self.radius_ = dr.opaque(mi.Float64, radius)
+            self.radius64 = dr.opaque(mi.Float64, radius)
             self.bsdf = dr.opaque(mi.UInt32, bsdf_key(shape.bsdf()))
         else:
-            self.center, self.radius_, self.bsdf = mi.Point3d(center), radius, shape.bsdf()
+            self.center, self.radius64, self.bsdf = mi.Point3d(center), radius, shape.bsdf()
         self.frame = None
         if shape.bsdf().color.is_spatially_varying():   # a textured sphere: Mitsuba's UV frame
             matrix = np.array(mi.traverse(shape)["to_world"].matrix, np.float64).reshape(4, 4)
@@ -93,7 +93,7 @@ class _Giant:
 class GiantHits:
     """Nearest hits, shadow tests and light surfaces for a scene with giant spheres: the
     ``inner`` finder's answer for the other shapes (None: there are none), the float64 test
-    for the giant ones (see the module docstring)."""
+    for the giant ones (see the module docstring). A :class:`.hits.HitFinder`."""
 
     def __init__(self, scene, inner, need_uv: bool, giants):
         """``giants``: ``(shape index, center, radius)`` of each giant sphere."""
@@ -106,7 +106,7 @@ class GiantHits:
     # -- lights on surfaces ----------------------------------------------------------------------
 
     def surface_at(self, point):
-        """As :meth:`.hits.MitsubaHits.surface_at`; a giant sphere's bound is the point's."""
+        """As :meth:`.hits.HitFinder.surface_at`; a giant sphere's bound is the point's."""
         p = np.asarray(point, np.float64).reshape(-1)
         for giant in self.giants:
             offset = p - np.asarray(giant.center_tuple)
@@ -119,20 +119,20 @@ class GiantHits:
     # -- shadow segments -------------------------------------------------------------------------
 
     def blocked(self, ray, active):
-        """Whether a surface crosses the segment ``ray`` (origin to ``ray.maxt``)."""
+        """Whether a surface crosses the segment ``ray`` (:meth:`.hits.HitFinder.blocked`)."""
         shadowed = self.inner.blocked(ray, active) if self.inner is not None else no_blocker()
         if not self.jit and (shadowed or not active):
             return shadowed
         o, d, maxt = mi.Point3d(ray.o), mi.Vector3d(ray.d), mi.Float64(ray.maxt) if self.jit else float(ray.maxt)
         for giant in self.giants:
-            t, valid = _roots(o, d, giant.center, giant.radius_)
+            t, valid = _roots(o, d, giant.center, giant.radius64)
             shadowed = shadowed | (valid & (t < maxt))
         return shadowed & active
 
     # -- nearest hits ----------------------------------------------------------------------------
 
     def intersect(self, ray, coherent: bool):
-        """``(hit, si, bsdf, error)`` as :meth:`.hits.MitsubaHits.intersect`."""
+        """``(hit, si, bsdf, error)`` (:meth:`.hits.HitFinder.intersect`)."""
         hit, si, bsdf, error = self.inner.intersect(ray, coherent) if self.inner is not None else no_hits()
         o, d = mi.Point3d(ray.o), mi.Vector3d(ray.d)
         if not self.jit:
@@ -140,7 +140,7 @@ class GiantHits:
         best = dr.select(hit, mi.Float64(si.t), dr.inf)
         which = mi.Int32(-1)
         for k, giant in enumerate(self.giants):
-            t, valid = _roots(o, d, giant.center, giant.radius_)
+            t, valid = _roots(o, d, giant.center, giant.radius64)
             nearer = valid & (t < best)
             best, which = dr.select(nearer, t, best), dr.select(nearer, k, which)
         giant_hit = which >= 0
@@ -151,7 +151,7 @@ class GiantHits:
         for k, giant in enumerate(self.giants):
             this = which == k
             center = dr.select(this, giant.center, center)
-            radius = dr.select(this, giant.radius_, radius)
+            radius = dr.select(this, giant.radius64, radius)
             size = dr.select(this, giant.size, size)
             bsdf_giant = dr.select(this, giant.bsdf, bsdf_giant)
         p = dr.fma(d, best, o)
@@ -168,7 +168,7 @@ class GiantHits:
     def _scalar(self, ray, o, d, hit, si, bsdf, error):
         best, nearest = (float(si.t) if hit else float("inf")), None
         for giant in self.giants:
-            t, valid = _roots(o, d, giant.center, giant.radius_)
+            t, valid = _roots(o, d, giant.center, giant.radius64)
             if valid and t < best:
                 best, nearest = t, giant
         if nearest is None:

@@ -22,9 +22,14 @@ Both return each hit's error bound (:func:`whitted.float32.hit_error`), by
 which :func:`offset_origin` moves secondary and shadow rays off the surface,
 and tell which sphere a light sits on (``surface_at``). docs/numerics.md
 catalogues the hazards.
+
+Every finder, these two and the ones that wrap them (:class:`.layers.LayeredHits`,
+:class:`.giants.GiantHits`), implements :class:`HitFinder`: the shader asks nothing else.
 """
 
 from __future__ import annotations
+
+from typing import Protocol
 
 import drjit as dr
 import mitsuba as mi
@@ -117,6 +122,42 @@ def blocked(scene, ray, active, spheres: bool = True):
 
 # -- finding hits ----------------------------------------------------------------------------------
 
+class HitFinder(Protocol):
+    """What the shader (:class:`.shader.Shader`) asks of a hit finder.
+
+    One finder serves both kinds of variant. In the JIT variants a ray is a wavefront
+    (``mi.Ray3f`` of Dr.Jit arrays) and masks are ``mi.Bool`` arrays; in the scalar ones a
+    ray is one ray and masks are Python bools, and a finder must not touch a ray's
+    shape where it missed (:func:`whitted.plugins.shading.off`).
+    """
+
+    def intersect(self, ray, coherent: bool):
+        """``(hit, si, bsdf, error)``: the nearest hit along ``ray`` (up to ``ray.maxt``).
+
+        ``hit``: whether there is one (a mask). ``si``: an ``mi.SurfaceInteraction3f`` with
+        ``t`` (inf where nothing was hit), ``p``, ``n`` (the geometric normal, unit), and
+        ``uv`` when the finder was made with ``need_uv``. ``bsdf``: the hit shape's BSDF as
+        its instance ID (JIT: ``mi.UInt32``) or the BSDF itself (scalar; None or anything
+        where nothing was hit). ``error``: how far ``si.p`` may lie off the true surface
+        (``mi.Float``, or a float), by which rays leave it (:func:`offset_origin`).
+        ``coherent``: Mitsuba's hint that the rays are coherent (camera rays).
+        """
+        ...
+
+    def blocked(self, ray, active):
+        """Whether a surface crosses the segment ``ray`` from its origin to ``ray.maxt``
+        (a shadow test), on the lanes of ``active``: a mask like ``active`` (``False``
+        wherever ``active`` is; a scalar finder may return as soon as it knows)."""
+        ...
+
+    def surface_at(self, point) -> tuple[float, tuple[float, float, float]]:
+        """``(error, normal)`` of the sphere that the scene point ``point`` (three floats, a
+        light's position) lies on, within twice its error bound, ``(0.0, (0, 0, 0))`` if
+        none: where a light sits on a surface, its shadow segments end off that surface
+        (:func:`spawn_ray_to`). Plain Python, called once per light and render."""
+        ...
+
+
 def no_hits():
     """``(hit, si, bsdf, error)`` of rays that hit nothing (where a finder has no shapes)."""
     jit = dr.is_jit_v(mi.Float)
@@ -138,32 +179,42 @@ def hit_finder(scene, tables, need_uv: bool, sphere_table: bool = True):
     return MitsubaHits(scene, tables, need_uv)
 
 
-class MitsubaHits:
-    """Surface interactions from Mitsuba's own ``ray_intersect`` (any shape).
-
-    Textured spheres get their UV from :func:`lat_long_uv` rather than from
-    Mitsuba, whose UV goes through the inverse of ``to_world`` and so misses the
-    poles and the seam by a rounding error.
-    """
+class _SceneHits:
+    """What :class:`MitsubaHits` and :class:`SphereHits` share: the scene they intersect,
+    its tables, its shadow test (:func:`blocked`) and its lights' surfaces."""
 
     def __init__(self, scene, tables, need_uv: bool):
         self.scene = scene
         self.need_uv = need_uv
-        self.flags = mi.RayFlags.Minimal | (mi.RayFlags.UV if need_uv else mi.RayFlags.Empty)
-        self.vectorized = dr.is_jit_v(mi.Float)
-        self.surface_at = tables.primitives.surface_at
+        self.primitives = tables.primitives
         self.spheres = tables.sphere_shapes
         self.tables = tables.hit_tables
-        self._errors = None if self.vectorized else tables.primitives.error.tolist()
+
+    def surface_at(self, point):
+        """As :meth:`HitFinder.surface_at` (:meth:`~whitted.plugins.scene.primitives.Primitives.surface_at`)."""
+        return self.primitives.surface_at(point)
 
     def blocked(self, ray, active):
         """Whether a surface crosses the segment ``ray`` (:func:`blocked`)."""
         return blocked(self.scene, ray, active, self.spheres)
 
+
+class MitsubaHits(_SceneHits):
+    """Surface interactions from Mitsuba's own ``ray_intersect`` (any shape).
+
+    Textured spheres get their UV from :func:`lat_long_uv` rather than from
+    Mitsuba, whose UV goes through the inverse of ``to_world`` and so misses the
+    poles and the seam by a rounding error. A :class:`HitFinder`.
+    """
+
+    def __init__(self, scene, tables, need_uv: bool):
+        super().__init__(scene, tables, need_uv)
+        self.flags = mi.RayFlags.Minimal | (mi.RayFlags.UV if need_uv else mi.RayFlags.Empty)
+        self.vectorized = dr.is_jit_v(mi.Float)
+        self._errors = None if self.vectorized else tables.primitives.error.tolist()
+
     def intersect(self, ray, coherent: bool):
-        """``(hit, si, bsdf, error)``; ``bsdf`` is the BSDF's instance ID (JIT) or the BSDF
-        itself (scalar, only meaningful where ``hit``); ``error`` bounds how far ``si.p``
-        lies off the surface."""
+        """``(hit, si, bsdf, error)`` (:meth:`HitFinder.intersect`)."""
         si = self.scene.ray_intersect(ray, ray_flags=self.flags, coherent=coherent)
         hit = si.is_valid()
         if not self.vectorized:
@@ -182,23 +233,13 @@ class MitsubaHits:
         return hit, si, dr.reinterpret_array(mi.UInt32, si.bsdf()), dr.gather(mi.Float, tables.error, slot, hit)
 
 
-class SphereHits:
+class SphereHits(_SceneHits):
     """Nearest hits on a scene of spheres without Mitsuba's per-shape call (JIT variants):
-    ``sphere`` shapes, and ``ellipsoids`` shapes whose every primitive is a sphere."""
-
-    def __init__(self, scene, tables, need_uv: bool):
-        self.scene = scene
-        self.need_uv = need_uv
-        self.surface_at = tables.primitives.surface_at
-        self.spheres = tables.sphere_shapes
-        self.tables = tables.hit_tables
-
-    def blocked(self, ray, active):
-        """Whether a surface crosses the segment ``ray`` (:func:`blocked`)."""
-        return blocked(self.scene, ray, active, self.spheres)
+    ``sphere`` shapes, and ``ellipsoids`` shapes whose every primitive is a sphere. A
+    :class:`HitFinder`."""
 
     def intersect(self, ray, coherent: bool):
-        """``(hit, si, bsdf, error)`` as :meth:`MitsubaHits.intersect`, ``bsdf`` an instance ID."""
+        """``(hit, si, bsdf, error)`` (:meth:`HitFinder.intersect`), ``bsdf`` an instance ID."""
         tables = self.tables
         pi = self.scene.ray_intersect_preliminary(ray, coherent=coherent)
         hit = pi.is_valid()

@@ -27,7 +27,7 @@ class LayeredHits:
 
     The layers are traced first, largest spheres first, each bounded by the nearest hit so
     far (``maxt``), and the inner finder last, bounded the same way: Embree skips what lies
-    beyond. A shadow segment already blocked is not traced again.
+    beyond. A shadow segment already blocked is not traced again. A :class:`.hits.HitFinder`.
     """
 
     def __init__(self, inner, tables, need_uv: bool):
@@ -35,7 +35,7 @@ class LayeredHits:
         self.inner = inner
         self.layers = sorted(tables.layers, key=lambda layer: -layer.radius)
         self.need_uv = need_uv
-        self.surface_at = tables.primitives.surface_at
+        self.primitives = tables.primitives
         # per-render constants are opaque: one kernel serves every scale
         self.scales = [dr.opaque(mi.Float, layer.scale) if self.jit else layer.scale for layer in self.layers]
         self.radii = [dr.opaque(mi.Float, layer.radius) if self.jit else layer.radius for layer in self.layers]
@@ -46,8 +46,12 @@ class LayeredHits:
         scaled.maxt = maxt * self.scales[k]
         return scaled
 
+    def surface_at(self, point):
+        """As :meth:`.hits.HitFinder.surface_at`: the layers' spheres are the scene's primitives."""
+        return self.primitives.surface_at(point)
+
     def blocked(self, ray, active):
-        """Whether a surface crosses the segment ``ray`` (origin to ``ray.maxt``)."""
+        """Whether a surface crosses the segment ``ray`` (:meth:`.hits.HitFinder.blocked`)."""
         tests = [lambda mask, k=k, layer=layer: blocked(layer.scene, self._ray(k, ray, ray.maxt), mask,
                                                         spheres=False)
                  for k, layer in enumerate(self.layers)]
@@ -64,7 +68,7 @@ class LayeredHits:
         return shadowed & active
 
     def intersect(self, ray, coherent: bool):
-        """``(hit, si, bsdf, error)`` as :meth:`.hits.MitsubaHits.intersect`."""
+        """``(hit, si, bsdf, error)`` (:meth:`.hits.HitFinder.intersect`)."""
         if not self.jit:
             return self._scalar(ray, coherent)
         best, which, slot = mi.Float(ray.maxt), mi.Int32(-1), mi.UInt32(0)

@@ -26,10 +26,10 @@ class RayCounts:
     ``max_depth_reached`` is the deepest level that traced a ray.
 
     ``culled`` counts the reflected and refracted rays that the adaptive depth
-    control left untraced (:mod:`.adaptive`; a ray that would have carried
-    both shares counts twice), ``culled_weight`` sums their path weights, and
-    ``sample_culled_weight`` is the largest sum of them in one camera sample's
-    tree, which bounds the error (see :mod:`.adaptive`).
+    control left untraced (a ray that would have carried both shares counts
+    twice), ``culled_weight`` sums their path weights, and ``sample_culled_weight``
+    is the largest sum of them in one camera sample's tree (the error bound's
+    factor: :mod:`.adaptive`).
     """
     camera: int = 0
     shadow: int = 0

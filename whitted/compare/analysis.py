@@ -248,10 +248,10 @@ def _json_number(value: float) -> float | None:
 
 
 def _curve(measurements: list[Measurement], metric: str,
-           round_: int | None = None) -> list[tuple[float, float, Measurement]]:
+           timed_round: int | None = None) -> list[tuple[float, float, Measurement]]:
     """(time, error, render) of ``measurements``: their times (medians), or those of timed
-    round ``round_`` (the renders that round did not time are left out)."""
-    points = [(m.seconds if round_ is None else m.seconds_in(round_), getattr(m, metric), m)
+    round ``timed_round`` (the renders that round did not time are left out)."""
+    points = [(m.seconds if timed_round is None else m.seconds_in(timed_round), getattr(m, metric), m)
               for m in measurements]
     return [p for p in points if not math.isnan(p[0])]
 
@@ -357,21 +357,21 @@ def _over(a: float, b: float) -> float:
     return a / b if b > 0 and math.isfinite(a) and math.isfinite(b) else math.nan
 
 
-def _path_time_over_in(path: list[Measurement], floor: Floor[Measurement], round_: int) -> float:
-    """In timed round ``round_``: the path tracer's time to the floor's error (read on its
+def _path_time_over_in(path: list[Measurement], floor: Floor[Measurement], timed_round: int) -> float:
+    """In timed round ``timed_round``: the path tracer's time to the floor's error (read on its
     curve of that round's times) over the floor render's time in that round."""
-    own = floor.render.seconds_in(round_)
-    reading = time_to_reach(_curve(path, "rel_mse", round_), floor.error) if math.isfinite(own) else None
+    own = floor.render.seconds_in(timed_round)
+    reading = time_to_reach(_curve(path, "rel_mse", timed_round), floor.error) if math.isfinite(own) else None
     if reading is None or reading.how == "nearest":
         return math.nan
     return _over(reading.value, own)
 
 
-def _error_ratio_in(path: list[Measurement], m: Measurement, round_: int) -> float:
-    """In timed round ``round_``: ``m``'s relative MSE over the path tracer's at ``m``'s time
+def _error_ratio_in(path: list[Measurement], m: Measurement, timed_round: int) -> float:
+    """In timed round ``timed_round``: ``m``'s relative MSE over the path tracer's at ``m``'s time
     (read on its curve of that round's times)."""
-    own = m.seconds_in(round_)
-    reading = error_at_time(_curve(path, "rel_mse", round_), own) if math.isfinite(own) else None
+    own = m.seconds_in(timed_round)
+    reading = error_at_time(_curve(path, "rel_mse", timed_round), own) if math.isfinite(own) else None
     if reading is None or reading.how == "nearest" or not reading.value > 0:
         return math.nan
     return m.rel_mse / reading.value

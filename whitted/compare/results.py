@@ -74,9 +74,7 @@ class Setting:
     @property
     def label(self) -> str:
         """A short caption: ``d3 · 4 spp``, or ``64 spp`` for the path tracer."""
-        if self.integrator == "path":
-            return f"{self.spp} spp"
-        return f"d{self.max_depth} · {self.spp} spp"
+        return f"{self.spp} spp" if self.integrator == "path" else f"d{self.max_depth} · {self.spp} spp"
 
     @property
     def short_label(self) -> str:
@@ -86,9 +84,7 @@ class Setting:
     @property
     def slug(self) -> str:
         """A file name stem: ``whitted-article-d3-4spp``, ``path-64spp``."""
-        if self.integrator == "path":
-            return f"path-{self.spp}spp"
-        return f"{self.method}-d{self.max_depth}-{self.spp}spp"
+        return f"path-{self.spp}spp" if self.integrator == "path" else f"{self.method}-d{self.max_depth}-{self.spp}spp"
 
 
 @dataclass
@@ -135,12 +131,12 @@ class Measurement:
         """How many timed rounds it has."""
         return len(self.times)
 
-    def seconds_in(self, round_: int) -> float:
-        """Its time in round ``round_`` (its :attr:`seconds` when it has no rounds; NaN
+    def seconds_in(self, timed_round: int) -> float:
+        """Its time in round ``timed_round`` (its :attr:`seconds` when it has no rounds; NaN
         when it missed that round)."""
         if not self.times:
             return self.seconds
-        return self.times[round_] if round_ < len(self.times) else math.nan
+        return self.times[timed_round] if timed_round < len(self.times) else math.nan
 
     @property
     def seconds_min(self) -> float:
