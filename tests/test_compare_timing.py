@@ -222,6 +222,48 @@ def test_rounds_interleave_the_settings_forward_then_backward(monkeypatch):
             assert m.times == (base[setting],) * 3
 
 
+class _Recording(_FakeRenders):
+    """:class:`_FakeRenders` that notes Dr.Jit's thread count and ``fresh_memory`` at each
+    render, reports half its wall time as CPU time, and is interrupted at render ``stop``."""
+
+    def __init__(self, seconds, monkeypatch, stop: int | None = None):
+        super().__init__(seconds, monkeypatch)
+        self.seen, self.stop = [], stop
+
+    def __call__(self, scene, **kwargs):
+        import drjit as dr
+
+        from whitted.rendering import RenderResult
+        if len(self.calls) == self.stop:
+            raise KeyboardInterrupt
+        self.seen.append((dr.thread_count(), kwargs["fresh_memory"]))
+        wall = super().__call__(scene, **kwargs)
+        return RenderResult(wall.image, wall.seconds, 0.0, wall.stats, wall.seconds / 2)
+
+
+def test_rounds_time_one_thread_s_cpu_time_with_the_memory_cache_kept(monkeypatch):
+    """The rounds run Dr.Jit on COMPARE_TIMING_THREADS (1) and read CPU time (COMPARE_CLOCK),
+    Dr.Jit's memory cache kept; the process's thread count comes back after, and after a
+    Ctrl-C in a round too."""
+    import drjit as dr
+    import mitsuba as mi
+
+    from whitted.compare.sweep import time_rounds
+    if not mi.variant().startswith("llvm"):
+        pytest.skip("Dr.Jit's thread count is the LLVM backend's")
+    before = dr.thread_count()
+    renders = _Recording(lambda setting, call: 0.1, monkeypatch)
+    entry = _sweep_entry()
+    time_rounds(None, entry, 3)
+    assert renders.seen and set(renders.seen) == {(1, False)}
+    assert dr.thread_count() == before
+    assert all(m.times == (0.05,) * 3 and m.seconds == 0.05 for m in entry.measurements)
+    _Recording(lambda setting, call: 0.1, monkeypatch, stop=2)
+    with pytest.raises(KeyboardInterrupt):
+        time_rounds(None, _sweep_entry(), 3)
+    assert dr.thread_count() == before
+
+
 def test_more_rounds_while_the_headline_is_unsettled_up_to_the_cap(monkeypatch):
     """The path tracer's times swing up to 16× from one call to the next: the headline never
     settles, and its renders (the floor, d2 · 1 spp, and the path renders at 1 and 4 spp
