@@ -200,7 +200,9 @@ def test_rounds_interleave_the_settings_forward_then_backward(monkeypatch):
     50 ms is repeated until its renders add up to 50 ms (at most 8) and the fastest kept."""
     import itertools
 
+    import whitted.compare.sweep as sweep_module
     from whitted.compare.sweep import time_rounds
+    monkeypatch.setattr(sweep_module, "COMPARE_HEADLINE_ROUNDS", 0)   # the regular rounds alone
     base = {("whitted", 1, 1): 0.001, ("whitted", 2, 1): 0.002, ("path", 6, 1): 0.012, ("path", 6, 4): 0.04}
     # every third render is slowed 1.5×: the fastest of a round's repeats is the base time
     renders = _FakeRenders(lambda setting, call: base[setting] * (1.5 if call % 3 == 0 else 1.0), monkeypatch)
@@ -262,6 +264,28 @@ def test_rounds_time_one_thread_s_cpu_time_with_the_memory_cache_kept(monkeypatc
     with pytest.raises(KeyboardInterrupt):
         time_rounds(None, _sweep_entry(), 3)
     assert dr.thread_count() == before
+
+
+def test_the_headline_s_renders_get_extra_rounds_of_their_own(monkeypatch):
+    """After the regular rounds, COMPARE_HEADLINE_ROUNDS more of the headline's renders alone
+    (the floor, d2, and the path renders its error lies between), even when every headline
+    is settled: its ratio is read from renders timed back to back."""
+    from whitted.compare.sweep import time_rounds
+    from whitted.defaults import COMPARE_HEADLINE_ROUNDS as EXTRA
+    base = {("whitted", 1, 1): 0.03, ("whitted", 2, 1): 0.06, ("path", 6, 1): 0.07, ("path", 6, 4): 0.2}
+    renders = _FakeRenders(lambda setting, call: base[setting], monkeypatch)
+    entry = _sweep_entry()
+    time_rounds(None, entry, 3)
+    assert EXTRA >= 1
+    assert {(m.setting.integrator, m.setting.max_depth, m.setting.spp): m.rounds
+            for m in entry.measurements} == {("whitted", 1, 1): 3, ("whitted", 2, 1): 3 + EXTRA,
+                                             ("path", 6, 1): 3 + EXTRA, ("path", 6, 4): 3 + EXTRA}
+    last_regular = max(k for k, setting in enumerate(renders.calls) if setting == ("whitted", 1, 1))
+    extra = renders.calls[last_regular + 1:]
+    assert set(extra) == {("whitted", 2, 1), ("path", 6, 1), ("path", 6, 4)}
+    assert len(extra) == 3 * (EXTRA + 1)   # the extra rounds, and the rest of the third round
+    floor = analyse(entry).floors[0]
+    assert floor.interval.rounds == 3 + EXTRA and floor.interval.settled
 
 
 def test_more_rounds_while_the_headline_is_unsettled_up_to_the_cap(monkeypatch):

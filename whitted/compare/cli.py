@@ -73,7 +73,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--rounds", type=int, default=DEFAULT_ROUNDS, metavar="N",
                         help="timed rounds over each scene's renders, at least: every render is "
                              "timed once per round, so that methods are timed in the same moments; "
-                             f"more rounds while a headline ratio is unsettled (default {DEFAULT_ROUNDS})")
+                             f"then rounds of the headlines' renders alone (default {DEFAULT_ROUNDS})")
     # the former name (each render repeated back to back): old scripts keep working
     parser.add_argument("--repeats", dest="rounds", type=int, help=argparse.SUPPRESS)
     parser.add_argument("--budget", type=float, metavar="SECONDS",

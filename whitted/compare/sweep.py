@@ -39,8 +39,9 @@ import numpy as np
 
 from .. import imageio, metrics
 from .. import rendering  # rendering.render looked up at call time: tests count calls
-from ..defaults import (COMPARE_CLOCK, COMPARE_MAX_ROUNDS, COMPARE_ROUND_REPEATS,
-                        COMPARE_ROUND_SECONDS, COMPARE_ROUNDS_SECONDS, COMPARE_TIMING_THREADS)
+from ..defaults import (COMPARE_CLOCK, COMPARE_HEADLINE_ROUNDS, COMPARE_MAX_ROUNDS,
+                        COMPARE_ROUND_REPEATS, COMPARE_ROUND_SECONDS, COMPARE_ROUNDS_SECONDS,
+                        COMPARE_TIMING_THREADS)
 from ..display import clipped_fraction, fitting_view, to_srgb
 from .analysis import analyse
 from .budget import Budget
@@ -126,14 +127,15 @@ def measure(loaded, setting: Setting, reference: np.ndarray,
 def time_rounds(loaded, entry: SceneResult, rounds: int, deadline: float = math.inf,
                 progress=None) -> None:
     """Time every render of ``entry`` once per round, the rounds interleaved (forward, then
-    backward), at least ``rounds`` rounds, then more while a headline ratio of the scene
-    is unsettled (:mod:`.timing`), up to :data:`~whitted.defaults.COMPARE_MAX_ROUNDS`
-    rounds and :data:`~whitted.defaults.COMPARE_ROUNDS_SECONDS` of extra rounds, which
-    time only the renders of the headlines unsettled after the rounds asked for (a ratio is
-    paired over the rounds that timed both its renders); never
-    past ``deadline`` (a round predicted, from the renders' times so far, to overrun
-    either is not started). Each
-    measurement's ``times`` and ``seconds`` (their median) are set in place."""
+    backward), ``rounds`` rounds; then extra rounds of the headlines' renders alone (each
+    Whitted method's floor render and the path renders its ratio is read between, back to
+    back), :data:`~whitted.defaults.COMPARE_HEADLINE_ROUNDS` of them and more while a
+    headline ratio is unsettled (:mod:`.timing`), up to
+    :data:`~whitted.defaults.COMPARE_MAX_ROUNDS` rounds in all and
+    :data:`~whitted.defaults.COMPARE_ROUNDS_SECONDS` of extra rounds (a ratio is paired over
+    the rounds that timed both its renders); never past ``deadline`` (a round predicted,
+    from the renders' times so far, to overrun either is not started). Each measurement's
+    ``times`` and ``seconds`` (their median) are set in place."""
     measured = list(entry.measurements)
     if not measured:
         return
@@ -159,14 +161,14 @@ def _rounds(loaded, entry: SceneResult, measured: list[Measurement], rounds: int
         if k >= rounds:
             if k == rounds:
                 extra_until = started + COMPARE_ROUNDS_SECONDS
-                # the extra rounds time the renders of the unsettled headlines only (a floor
-                # render and the path renders its ratio is read between: a few, quick), the
-                # same ones in every extra round, so that a round's index is one moment for all
-                measured = unsettled = _unsettled_renders(entry)
+                # then the headlines' renders alone (each floor render and the path renders
+                # its ratio is read between: a few, quick), back to back, so that a ratio's
+                # renders are timed within a fraction of a second of each other; the same
+                # ones in every extra round, so that a round's index is one moment for all
+                measured = _headline_renders(entry)
                 predicted = _cost(measured)
-            else:
-                unsettled = _unsettled_renders(entry)
-            if not unsettled or started + predicted > extra_until:
+            wanted = k < rounds + COMPARE_HEADLINE_ROUNDS or _headline_renders(entry, unsettled=True)
+            if not measured or not wanted or started + predicted > extra_until:
                 break
         if started + predicted > deadline:
             if k < rounds:
@@ -197,13 +199,15 @@ def _time_in_a_round(loaded, setting: Setting) -> float:
     return fastest
 
 
-def _unsettled_renders(entry: SceneResult) -> list[Measurement]:
+def _headline_renders(entry: SceneResult, unsettled: bool = False) -> list[Measurement]:
     """The renders of the scene's headlines (a Whitted method's floor against the path
-    tracer) whose interval is still too wide to quote: each floor render and the path
-    renders its ratio is read between; none when every headline is settled."""
+    tracer): each floor render and the path renders its ratio is read between; with
+    ``unsettled``, those of headlines whose interval is still too wide to quote only (none
+    when every headline is settled)."""
     renders = {}
     for floor in analyse(entry).floors:
-        if floor.interval is not None and not floor.interval.settled and floor.path is not None:
+        if floor.interval is not None and floor.path is not None and \
+                not (unsettled and floor.interval.settled):
             for m in (floor.render, *floor.path.between):
                 renders[id(m)] = m
     return [m for m in entry.measurements if id(m) in renders]
