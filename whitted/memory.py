@@ -8,7 +8,15 @@ render"). Linux keeps the peak resident set size (``VmHWM`` in
 ``/proc/self/status``) and lets a process reset it (writing ``5`` to
 ``/proc/self/clear_refs``), so the peak of one stretch of work can be
 measured. Elsewhere the peak is that of the process's whole life
-(``getrusage``), which :func:`reset_peak` cannot reset.
+(``getrusage``).
+
+Beware: on Linux the reset also resets what ``getrusage``, a parent's ``wait4`` and
+GNU ``time`` report as the process's peak (checked: 500 MB touched, then a reset, and
+``time`` says 26 MB). Each render resets it, so a whole ``whitted render`` process's
+reported peak is its render's peak, not its loading's when that is higher. For the
+sphereflake the render's is the higher (level 6: VmRSS polled every 0.5 s peaked at
+469 MB, ``time`` reported 482 MB), which the whole-process figures of
+benchmarks/RESULTS.md rely on.
 """
 
 from __future__ import annotations
