@@ -20,8 +20,9 @@ and said to be. The sweep keeps timing rounds while a headline is unsettled, up 
 :data:`~whitted.defaults.COMPARE_MAX_ROUNDS` rounds or
 :data:`~whitted.defaults.COMPARE_ROUNDS_SECONDS` of extra rounds.
 
-Which clock: :data:`~whitted.defaults.COMPARE_CLOCK` (docs/compare.md says how the
-two were measured against each other).
+Which clock: the rounds run on :data:`~whitted.defaults.COMPARE_TIMING_THREADS` threads
+and read :data:`~whitted.defaults.COMPARE_CLOCK` (one thread's CPU time: a render's work,
+which another program hardly changes; docs/compare.md, "Timing", has the measurements).
 """
 
 from __future__ import annotations
