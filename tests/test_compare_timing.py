@@ -39,6 +39,22 @@ def test_the_interval_is_the_widest_order_statistics_of_90_percent(n):
     assert k == (n + 1) // 2 or 2 * _binomial_tail(n, k + 1) > 0.1
 
 
+def test_coverage_is_the_binomial_probability_of_the_interval():
+    """coverage(n): 1 - 2 P(Bin(n, 1/2) < k) for the interval's rank k; 75% over three rounds
+    (their extremes), 90% or more from five rounds on (checked by simulation too)."""
+    from whitted.compare.timing import coverage
+    assert coverage(1) == 0.0 and coverage(2) == 0.5 and coverage(3) == 0.75
+    assert all(coverage(n) >= 0.9 for n in range(5, 30))
+    rng = random.Random(3)
+    for n in (3, 7, 11):
+        inside = 0
+        for _ in range(4000):
+            values = [rng.gauss(0.0, 1.0) for _ in range(n)]   # true median 0
+            interval = Interval.of(values)
+            inside += interval.low <= 0.0 <= interval.high
+        assert abs(inside / 4000 - coverage(n)) < 0.025, (n, inside / 4000, coverage(n))
+
+
 def test_interval_of_known_values():
     # n = 9: k = 2 (P(X < 2) = 10/512 ≈ 0.0195; P(X < 3) ≈ 0.0898 > 0.05)
     interval = Interval.of([5, 1, 9, 3, 7, 2, 8, 4, 6])

@@ -51,7 +51,7 @@ TIMING = ("the median of timed rounds in which every render of a scene is timed 
           "what is compared is timed in the same moments), each render's "
           f"{'CPU' if COMPARE_CLOCK == 'cpu' else 'wall'} time on {_THREADS} (wall time on a GPU), "
           "kernel compilation excluded; a ratio of times is the median of its per-round ratios, "
-          "with its 90% interval")
+          "with its interval (90% confidence over 5 rounds or more; over 3, its extremes: 75%)")
 
 
 def _capital(text: str) -> str:

@@ -53,13 +53,25 @@ def _order_rank(n: int, confidence: float) -> int:
     return k
 
 
+def coverage(n: int) -> float:
+    """How surely the interval :meth:`Interval.of` gives for n values holds their median:
+    1 - 2·P(Binomial(n, ½) < k) for its rank k. :data:`COMPARE_CONFIDENCE` or more where n
+    allows it (n ≥ 5 for 90%); less over fewer rounds, whose interval is their extremes
+    (75% over 3 rounds, 50% over 2)."""
+    if n < 2:
+        return 0.0
+    k = _order_rank(n, COMPARE_CONFIDENCE)
+    return 1.0 - 2.0 * sum(math.comb(n, i) for i in range(k)) / 2.0 ** n
+
+
 @dataclass(frozen=True)
 class Interval:
     """A ratio measured in paired rounds.
 
     =========== =======================================================================
     ``value``   the median of the per-round ratios
-    ``low``     the lower end of its confidence interval (:data:`COMPARE_CONFIDENCE`)
+    ``low``     the lower end of its confidence interval (:data:`COMPARE_CONFIDENCE`
+                where the rounds allow it: :func:`coverage`)
     ``high``    the upper end
     ``rounds``  how many rounds gave a ratio
     =========== =======================================================================
@@ -105,7 +117,7 @@ class Interval:
         def number(v):
             return v if math.isfinite(v) else None
         return {"value": number(self.value), "low": number(self.low), "high": number(self.high),
-                "rounds": self.rounds, "confidence": COMPARE_CONFIDENCE, "settled": self.settled,
+                "rounds": self.rounds, "confidence": coverage(self.rounds), "settled": self.settled,
                 "no_measurable_difference": self.straddles_one}
 
 
