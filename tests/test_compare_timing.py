@@ -304,6 +304,26 @@ def test_the_headline_s_renders_get_extra_rounds_of_their_own(monkeypatch):
     assert floor.interval.rounds == 3 + EXTRA and floor.interval.settled
 
 
+def test_the_memory_cache_is_handed_back_above_the_bound(monkeypatch):
+    """After each setting of a round, Dr.Jit's memory cache is flushed when the process holds
+    more than COMPARE_KEPT_MEMORY bytes, and kept below it."""
+    import drjit as dr
+
+    import whitted.compare.sweep as sweep_module
+    from whitted.compare.sweep import time_rounds
+    from whitted.defaults import COMPARE_KEPT_MEMORY
+    flushes = []
+    monkeypatch.setattr(dr, "flush_malloc_cache", lambda: flushes.append(1))
+    _FakeRenders(lambda setting, call: 0.1, monkeypatch)
+    monkeypatch.setattr(sweep_module.memory, "resident_bytes", lambda: COMPARE_KEPT_MEMORY // 2)
+    time_rounds(None, _sweep_entry(), 3)
+    assert not flushes
+    monkeypatch.setattr(sweep_module.memory, "resident_bytes", lambda: COMPARE_KEPT_MEMORY + 1)
+    entry = _sweep_entry()
+    time_rounds(None, entry, 3)
+    assert len(flushes) == sum(m.rounds for m in entry.measurements)   # once per setting and round
+
+
 def test_more_rounds_while_the_headline_is_unsettled_up_to_the_cap(monkeypatch):
     """The path tracer's times swing up to 16× from one call to the next: the headline never
     settles, and its renders (the floor, d2 · 1 spp, and the path renders at 1 and 4 spp

@@ -37,11 +37,11 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import imageio, metrics
+from .. import imageio, memory, metrics
 from .. import rendering  # rendering.render looked up at call time: tests count calls
-from ..defaults import (COMPARE_CLOCK, COMPARE_HEADLINE_ROUNDS, COMPARE_MAX_ROUNDS,
-                        COMPARE_ROUND_REPEATS, COMPARE_ROUND_SECONDS, COMPARE_ROUNDS_SECONDS,
-                        COMPARE_TIMING_THREADS)
+from ..defaults import (COMPARE_CLOCK, COMPARE_HEADLINE_ROUNDS, COMPARE_KEPT_MEMORY,
+                        COMPARE_MAX_ROUNDS, COMPARE_ROUND_REPEATS, COMPARE_ROUND_SECONDS,
+                        COMPARE_ROUNDS_SECONDS, COMPARE_TIMING_THREADS)
 from ..display import clipped_fraction, fitting_view, to_srgb
 from .analysis import analyse
 from .budget import Budget
@@ -179,10 +179,19 @@ def _rounds(loaded, entry: SceneResult, measured: list[Measurement], rounds: int
             progress.set_postfix_str(f"{entry.name}: timing, round {k + 1}", refresh=True)
         for m in (measured if k % 2 == 0 else reversed(measured)):
             times[id(m)].append(_time_in_a_round(loaded, m.setting))
+            _bound_memory()
         for m in measured:
             m.times = tuple(times[id(m)])
             m.seconds = median(m.times)
         predicted = time.monotonic() - started
+
+
+def _bound_memory() -> None:
+    """Dr.Jit's memory cache handed back when the process holds more than
+    :data:`~whitted.defaults.COMPARE_KEPT_MEMORY` bytes."""
+    if (memory.resident_bytes() or 0) > COMPARE_KEPT_MEMORY:
+        import drjit as dr
+        dr.flush_malloc_cache()
 
 
 def _time_in_a_round(loaded, setting: Setting) -> float:
