@@ -137,8 +137,9 @@ def check_settings(spp, max_depth, lighting, integrator, min_weight=None) -> Non
 
 
 class _Clock:
-    """Wall time, CPU time and kernel compilation time of a block of work; its peak memory
-    from a freshly emptied allocator cache when ``fresh_memory``."""
+    """Wall time, CPU time and kernel compilation time of a block of work; with
+    ``fresh_memory``, its own peak memory, from a freshly emptied allocator cache (without,
+    the process's peak so far: a timed render skips the flush and the reset)."""
 
     def __init__(self, fresh_memory: bool = True):
         self.fresh_memory = fresh_memory
@@ -157,7 +158,8 @@ class _Clock:
             if self.fresh_memory:
                 dr.flush_malloc_cache()
             dr.detail.malloc_clear_statistics()
-        reset_peak()
+        if self.fresh_memory:   # else the peak stays the process's (nothing asks for it)
+            reset_peak()
         self.start = time.perf_counter()
         self.cpu_start = time.process_time()
         return self
@@ -207,7 +209,8 @@ def render(scene, integrator: str = D.INTEGRATOR, spp: int | None = None, max_de
     The whitted integrator refuses a scene without the ``article`` BSDF.
     ``fresh_memory``: hand Dr.Jit's cached memory back to the system first, so that the
     peak memory figures are this render's own (True); False keeps the cache, as a program
-    rendering again and again would (``whitted compare`` times renders so).
+    rendering again and again would (``whitted compare`` times renders so), and the peak
+    figures are then the process's so far.
     """
     check_settings(spp, max_depth, lighting, integrator, min_weight)
     return render_checked(scene, integrator, spp, max_depth, lighting, progress, seed, min_weight, ambient,

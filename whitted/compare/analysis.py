@@ -32,11 +32,12 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-from ..defaults import COMPARE_CLOCK, COMPARE_DATA_LEVELS, COMPARE_FLOOR_TOLERANCE, COMPARE_TIMING_THREADS
+from ..defaults import (COMPARE_CLOCK, COMPARE_CONFIDENCE, COMPARE_DATA_LEVELS, COMPARE_FLOOR_TOLERANCE,
+                        COMPARE_ROUNDS, COMPARE_TIMING_THREADS)
 from .fitted import fitted_text
 from .curves import Floor, Reading, error_at_time, error_floor, error_levels, time_to_reach
 from .results import METHODS, WHITTED_METHODS, Limit, Measurement, SceneResult, seconds_text
-from .timing import Interval, faster_text, paired, ratio_text
+from .timing import Interval, coverage, faster_text, paired, ratio_text
 
 #: How the prose names each method.
 METHOD_NAMES = {"whitted-article": "the article's model",
@@ -51,7 +52,8 @@ TIMING = ("the median of timed rounds in which every render of a scene is timed 
           "what is compared is timed in the same moments), each render's "
           f"{'CPU' if COMPARE_CLOCK == 'cpu' else 'wall'} time on {_THREADS} (wall time on a GPU), "
           "kernel compilation excluded; a ratio of times is the median of its per-round ratios, "
-          "with its interval (90% confidence over 5 rounds or more; over 3, its extremes: 75%)")
+          f"with its interval ({COMPARE_CONFIDENCE:.0%} confidence over 5 rounds or more; over "
+          f"{COMPARE_ROUNDS}, its extremes: {coverage(COMPARE_ROUNDS):.0%})")
 
 
 def _capital(text: str) -> str:
