@@ -16,7 +16,7 @@ from whitted.compare.curves import best_ambient
 from whitted.converter import parse_file, parse_text
 from whitted.fitting import fit, fitted_model, material_ids, write_fitted
 from whitted.imageio import write_image
-from whitted.loading import _load_model
+from whitted.loading import _load_model, load_model_parts
 
 #: shadows, a mirror, glass, four materials, two lights
 SCENE = "size 40 25\n" + MIRROR_AND_GLASS + "sphere 0 0.5 1 0.5        color 0.3 0.5 0.8\n"
@@ -103,3 +103,36 @@ def test_fit_command_errors_are_one_line(truth, tmp_path, problem):
     assert len(run.stderr.strip().splitlines()) == 1 and "Traceback" not in run.stderr, run.stderr
     assert (str(target) if problem == "size" else "fitted.scn") in run.stderr
     assert not out.exists()
+
+
+def _crowd() -> str:
+    """A scene of 1 024 small balls in two colors (grouped into ``ellipsoids`` shapes when
+    loaded: whitted.sealed), one of them the floor's too (a giant sphere: a shape of its own)."""
+    balls = "".join(f"sphere {-1.55 + 0.1 * i:.2f} 0.05 {-1.55 + 0.1 * j:.2f} 0.05  "
+                    f"color {'0.8 0.3 0.2' if (i + j) % 2 else '0.2 0.5 0.8'}\n"
+                    for i in range(32) for j in range(32))
+    floor = "sphere 0 -1000 0 1000     color 0.6 0.65 0.6\n"
+    assert floor in MIRROR_AND_GLASS
+    return "size 40 25\n" + MIRROR_AND_GLASS.replace(floor, floor.replace("0.6 0.65 0.6", "0.2 0.5 0.8")) + balls
+
+
+def test_a_fit_of_a_scene_with_grouped_spheres_writes_every_bsdf_of_a_material(llvm):
+    """Grouped spheres (whitted.sealed: an ellipsoids shape per material, in a scaled frame) keep
+    their own BSDFs: a fit must write each material's color into all of them, and the lights'
+    colors through the scaled frame's distances; the target is rendered from sphere shapes."""
+    from whitted import sealed
+    truth = parse_text(_crowd(), "crowd.scn")
+    assert sealed.choose(truth, sealed.MIN_GROUP, sealed.MAX_LAYERS, smaller=True) is not None
+    _, bsdfs, _ = load_model_parts(truth, {}, None, "whitted", False)
+    assert sorted(map(len, bsdfs.values())) == [1, 1, 1, 2]   # the floor's and a group's color
+    target = render(truth)
+    result = fit(perturbed(truth, seed=7), target, free=("ambient", "colors"), iterations=200)
+    assert result.losses[0] > 1e-3 and result.error < 1e-5
+    assert result.ambient == pytest.approx(truth.ambient, abs=1e-3)
+    for material, mid in material_ids(truth).items():
+        np.testing.assert_allclose(result.colors[mid], material.color, atol=2e-3)
+    dimmed = [tuple(0.7 * c for c in light.color) for light in truth.lights]
+    result = fit(fitted_model(truth, truth.ambient, {}, dimmed), target, free=("lights",), iterations=200)
+    assert result.error < 1e-5
+    for light, color in zip(truth.lights, result.lights):
+        np.testing.assert_allclose(color, light.color, atol=2e-3)

@@ -41,7 +41,7 @@ def _load(tmp_path, counts):
     grouped = whitted.load_scene(path, model=model, ellipsoids=True, integrator="path")
     grouping = sealed.choose(model, 1, sealed.MAX_LAYERS, smaller=False)
     unmoved = replace(grouping, member=np.zeros_like(grouping.member))
-    return grouped, mi.load_dict(_sealed_dict(model, unmoved, {})), model, grouping
+    return grouped, mi.load_dict(_sealed_dict(sealed.remaining(model, unmoved), model, unmoved, {})[0]), model, grouping
 
 
 def _render(scene, integrator: str, spp: int, seed: int) -> np.ndarray:

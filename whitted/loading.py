@@ -185,18 +185,52 @@ TEXT_NAME = "<text>"
 def _load_model(model, params: dict, ellipsoids: bool | None, integrator: str, meshes: bool = True):
     """A parsed scene model as a ``mi.Scene`` (see :func:`load_scene`'s ``ellipsoids`` and
     ``meshes``)."""
+    return load_model_parts(model, params, ellipsoids, integrator, meshes)[0]
+
+
+def load_model_parts(model, params: dict, ellipsoids: bool | None, integrator: str, meshes: bool = True):
+    """:func:`_load_model`, and where the model's numbers went: ``(scene, bsdfs, described)``.
+
+    ``bsdfs``: each material of ``model`` (as the converter shares them:
+    ``converter.description._shared``) -> where its ``article`` BSDFs are: the ids of
+    BSDFs (``material_K``) and of the ``ellipsoids`` shapes of its grouped spheres
+    (``sealed_K``), whose BSDF is their own (``shape.bsdf()``: Mitsuba's ``ellipsoids``
+    does not traverse it); a material can have both; ``described``: the model as the scene shows it (with the
+    grouped spheres, lengths scaled: its lights' positions are the scene's). What a fit
+    (:mod:`whitted.fitting`) needs to write a material's color or a light's into the scene."""
     import mitsuba as mi
 
     from . import sealed
-    from .converter.description import describe
+    from .converter.description import _shared, describe
     grouping = None if ellipsoids is False else \
         sealed.choose(model, min_group=1 if ellipsoids else sealed.MIN_GROUP,
                       classes=sealed.MAX_LAYERS, smaller=integrator == "whitted")
+    described = model if grouping is None else sealed.remaining(model, grouping)
     if grouping is None:
-        scene = mitsuba_dict(describe(model, base_dir=None), params)
+        description = describe(model, base_dir=None)
+        scene, grouped = mitsuba_dict(description, params), []
     else:
-        scene = _sealed_dict(model, grouping, params)
-    return mi.load_dict(scene if meshes else _giants_as_spheres(scene), parallel=PARALLEL)
+        scene, grouped = _sealed_dict(described, model, grouping, params)
+    bsdfs = _materials_of(described, [name for name, value in scene.items()
+                                      if isinstance(value, dict) and value.get("type") == "article"])
+    for k, material in enumerate(grouped):
+        bsdfs.setdefault(_shared(material), []).append(f"sealed_{k}")
+    loaded = mi.load_dict(scene if meshes else _giants_as_spheres(scene), parallel=PARALLEL)
+    return loaded, bsdfs, described
+
+
+def _materials_of(model, names: list[str]) -> dict:
+    """Each shared material of ``model`` -> ``[its id]``, the ids the converter gives
+    (``material_K`` in order of first use), checked against the ``names`` the scene has."""
+    from .converter.description import _shared
+    ids: dict = {}
+    for sphere in model.spheres:
+        material = _shared(sphere.material)
+        if material not in ids:
+            ids[material] = [f"material_{len(ids)}"]
+    if sorted(n for [n] in ids.values()) != sorted(names):
+        raise AssertionError(f"the scene's materials {names} are not the converter's {ids}")
+    return ids
 
 
 def _giants_as_spheres(scene: dict) -> dict:
@@ -214,17 +248,20 @@ def _giants_as_spheres(scene: dict) -> dict:
     return scene
 
 
-def _sealed_dict(model, grouping, params: dict) -> dict:
+def _sealed_dict(remaining, model, grouping, params: dict) -> tuple[dict, list]:
     """The ``mi.load_dict`` form of ``model`` with its grouped spheres
     (:func:`whitted.sealed.choose`) in ``ellipsoids`` shapes, one per material: the
-    description of the rest of the scene in the scaled frame, plus those shapes."""
+    description of the rest of the scene (``remaining``: :func:`whitted.sealed.remaining`)
+    in the scaled frame, plus those shapes (``sealed_K``); and the material of each."""
     from . import sealed
     from .converter.description import describe, material_dict
     # The grouped spheres (the commonest of radius 1 in the scaled frame) count among the
     # scene's details.
     smallest = min([1.0, *(radius * grouping.scale for radius in grouping.radii)])
-    description = describe(sealed.remaining(model, grouping), base_dir=None, smallest=smallest)
+    description = describe(remaining, base_dir=None, smallest=smallest)
     scene = mitsuba_dict(description, params)
+    materials = []
     for k, (material, radius, centers) in enumerate(sealed.groups(model, grouping, description.origin)):
         scene[f"sealed_{k}"] = sealed.ellipsoids(centers, material_dict(material, base_dir=None), radius)
-    return scene
+        materials.append(material)
+    return scene, materials

@@ -68,7 +68,7 @@ def fit_to_reference(model, reference: np.ndarray, depth: int, spp: int, seed: i
         result = fit(model, reference, on_step=on_step, spp=min(spp, FIT_SPP))
     except _OutOfTime:
         return None
-    loaded = _load_model(result.model, {}, False, "whitted", False)
+    loaded = _load_model(result.model, {}, None, "whitted", False)   # grouped, as the sweep's scene
     image = rendering.render(loaded, integrator="whitted", spp=spp, max_depth=depth, lighting="article",
                              seed=seed, min_weight=0.0, ambient=result.ambient).image
     error = metrics.relative_mse(np.asarray(image, np.float64), reference)
