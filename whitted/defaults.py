@@ -117,8 +117,9 @@ COMPARE_PATH_SPP = (1, 4, 16, 64, 256, 1024)   #: the path tracer's spp ladder
 #: the median of its paired per-round ratios) is wider than 1 + COMPARE_SETTLED_WIDTH, up to
 #: COMPARE_MAX_ROUNDS rounds and COMPARE_ROUNDS_SECONDS of extra rounds per scene.
 #: The extra rounds time only the headlines' renders (their floor renders and the path
-#: renders their ratios are read between), back to back: at least COMPARE_HEADLINE_ROUNDS of
-#: them, then more while a headline is unsettled.
+#: renders their ratios are read between), back to back: COMPARE_HEADLINE_ROUNDS of them,
+#: then more while a headline is unsettled, all within COMPARE_ROUNDS_SECONDS (fewer where a
+#: headline round takes longer than COMPARE_ROUNDS_SECONDS / COMPARE_HEADLINE_ROUNDS).
 COMPARE_ROUNDS = 3
 COMPARE_HEADLINE_ROUNDS = 8
 COMPARE_MAX_ROUNDS = 25
