@@ -168,6 +168,19 @@ def _shared(material: Material) -> Material:
     return material if material.texture is None else replace(material, color=Material.color)
 
 
+def material_ids(scene: Scene) -> dict:
+    """Each distinct material of ``scene`` as written (:func:`_shared`) -> its id in the
+    description: ``material_K`` in order of first use, as :func:`describe` numbers them
+    (from the sphere arrays when the scene holds them: no sphere objects made)."""
+    spheres = scene.held_sphere_arrays()
+    materials = ((spheres.materials[k] for k in first_use(spheres.material).tolist()) if spheres is not None
+                 else (sphere.material for sphere in scene.spheres))
+    ids: dict[Material, str] = {}
+    for material in materials:
+        ids.setdefault(_shared(material), f"material_{len(ids)}")
+    return ids
+
+
 def material_dict(material: Material, base_dir: Path | None) -> dict:
     """The ``article`` BSDF of ``material`` (the loader's ellipsoids take it too)."""
     if material.texture is None:

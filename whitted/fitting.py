@@ -31,6 +31,7 @@ from pathlib import Path
 import numpy as np
 
 from . import defaults as D
+from .converter.description import material_ids
 from .errors import WhittedError
 
 FREE = ("ambient", "colors", "lights")
@@ -79,16 +80,6 @@ def resampled(image: np.ndarray, size) -> np.ndarray:
         return image
     bitmap = mi.Bitmap(np.ascontiguousarray(image, np.float32), pixel_format=mi.Bitmap.PixelFormat.RGB)
     return np.array(bitmap.resample([int(size[0]), int(size[1])]), np.float32).reshape(size[1], size[0], 3)
-
-
-def material_ids(model) -> dict:
-    """Each distinct (shared) material of ``model`` -> its id in the converted scene
-    (``material_k``, in order of first use: as :func:`whitted.converter.description.describe`)."""
-    from .converter.description import _shared
-    ids = {}
-    for sphere in model.spheres:
-        ids.setdefault(_shared(sphere.material), f"material_{len(ids)}")
-    return ids
 
 
 def _light_scale(model, light) -> float:
@@ -143,20 +134,20 @@ def fit(scene, target, *, free=FREE, iterations: int = D.FIT_ITERATIONS, width: 
     params = mi.traverse(loaded)
     params["integrator.min_weight"] = 0.0   # the exact tree: the loss is smooth
     params.update()
-    ids = material_ids(model)
-    fitted_ids = [mid for material, mid in ids.items() if material.texture is None]
-    names = {mid: bsdfs[material] for material, mid in ids.items()}
+    # each fitted color's places: BSDFs among the scene's parameters, or a group's own
+    fitted = {mid: bsdfs[material] for material, mid in material_ids(model).items() if material.texture is None}
+    fitted_ids = list(fitted)
     scales = [_light_scale(described, light) for light in described.lights]
     shapes = {shape.id(): shape for shape in loaded.shapes()}
-    color_slots = {mid: [(mi.traverse(shapes[name].bsdf()), "color.value") if name in shapes
-                         else (params, f"{name}.color.value") for name in names[mid]] for mid in fitted_ids}
+    own = {name: mi.traverse(shapes[name].bsdf()) for names in fitted.values() for name in names if name in shapes}
+    color_slots = {mid: [(own[name], "color.value") if name in own else (params, f"{name}.color.value")
+                         for name in names] for mid, names in fitted.items()}
     # Only what the fit writes: mi.render and params.update() walk every kept parameter
     # at each step (seconds per step with 66 431 grouped spheres' centers otherwise).
     params.keep(["integrator.ambient", *(key for slots in color_slots.values() for table, key in slots
                                          if table is params),
                  *(f"light_{k}.intensity.value" for k in range(len(scales)))])
-    tables = [params, *{id(table): table for slots in color_slots.values() for table, _ in slots
-                        if table is not params}.values()]
+    tables = [params, *own.values()]
 
     opt = mi.ad.Adam(lr=rate[0])
     if "ambient" in free:

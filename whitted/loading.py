@@ -185,7 +185,8 @@ TEXT_NAME = "<text>"
 def _load_model(model, params: dict, ellipsoids: bool | None, integrator: str, meshes: bool = True):
     """A parsed scene model as a ``mi.Scene`` (see :func:`load_scene`'s ``ellipsoids`` and
     ``meshes``)."""
-    return load_model_parts(model, params, ellipsoids, integrator, meshes)[0]
+    scene, _, _ = _scene_dict(model, params, ellipsoids, integrator)
+    return _loaded(scene, meshes)
 
 
 def load_model_parts(model, params: dict, ellipsoids: bool | None, integrator: str, meshes: bool = True):
@@ -195,42 +196,37 @@ def load_model_parts(model, params: dict, ellipsoids: bool | None, integrator: s
     ``converter.description._shared``) -> where its ``article`` BSDFs are: the ids of
     BSDFs (``material_K``) and of the ``ellipsoids`` shapes of its grouped spheres
     (``sealed_K``), whose BSDF is their own (``shape.bsdf()``: Mitsuba's ``ellipsoids``
-    does not traverse it); a material can have both; ``described``: the model as the scene shows it (with the
-    grouped spheres, lengths scaled: its lights' positions are the scene's). What a fit
-    (:mod:`whitted.fitting`) needs to write a material's color or a light's into the scene."""
-    import mitsuba as mi
+    does not traverse it); a material can have both. ``described``: the model as the scene
+    shows it (with the grouped spheres, lengths scaled: its lights' positions are the
+    scene's). What a fit (:mod:`whitted.fitting`) needs to write a material's color or a
+    light's into the scene."""
+    from .converter.description import _shared, material_ids
+    scene, described, grouped = _scene_dict(model, params, ellipsoids, integrator)
+    bsdfs = {material: [mid] for material, mid in material_ids(described).items()}
+    for k, material in enumerate(grouped):
+        bsdfs.setdefault(_shared(material), []).append(f"sealed_{k}")
+    return _loaded(scene, meshes), bsdfs, described
 
+
+def _scene_dict(model, params: dict, ellipsoids: bool | None, integrator: str) -> tuple[dict, object, list]:
+    """The ``mi.load_dict`` form of ``model``, the model it describes (the rest of the
+    scene, scaled, when spheres are grouped) and the material of each group (``sealed_K``)."""
     from . import sealed
-    from .converter.description import _shared, describe
+    from .converter.description import describe
     grouping = None if ellipsoids is False else \
         sealed.choose(model, min_group=1 if ellipsoids else sealed.MIN_GROUP,
                       classes=sealed.MAX_LAYERS, smaller=integrator == "whitted")
-    described = model if grouping is None else sealed.remaining(model, grouping)
     if grouping is None:
-        description = describe(model, base_dir=None)
-        scene, grouped = mitsuba_dict(description, params), []
-    else:
-        scene, grouped = _sealed_dict(described, model, grouping, params)
-    bsdfs = _materials_of(described, [name for name, value in scene.items()
-                                      if isinstance(value, dict) and value.get("type") == "article"])
-    for k, material in enumerate(grouped):
-        bsdfs.setdefault(_shared(material), []).append(f"sealed_{k}")
-    loaded = mi.load_dict(scene if meshes else _giants_as_spheres(scene), parallel=PARALLEL)
-    return loaded, bsdfs, described
+        return mitsuba_dict(describe(model, base_dir=None), params), model, []
+    described = sealed.remaining(model, grouping)
+    scene, grouped = _sealed_dict(described, model, grouping, params)
+    return scene, described, grouped
 
 
-def _materials_of(model, names: list[str]) -> dict:
-    """Each shared material of ``model`` -> ``[its id]``, the ids the converter gives
-    (``material_K`` in order of first use), checked against the ``names`` the scene has."""
-    from .converter.description import _shared
-    ids: dict = {}
-    for sphere in model.spheres:
-        material = _shared(sphere.material)
-        if material not in ids:
-            ids[material] = [f"material_{len(ids)}"]
-    if sorted(n for [n] in ids.values()) != sorted(names):
-        raise AssertionError(f"the scene's materials {names} are not the converter's {ids}")
-    return ids
+def _loaded(scene: dict, meshes: bool):
+    """``mi.load_dict`` of ``scene`` (its giant spheres' meshes made spheres again unless ``meshes``)."""
+    import mitsuba as mi
+    return mi.load_dict(scene if meshes else _giants_as_spheres(scene), parallel=PARALLEL)
 
 
 def _giants_as_spheres(scene: dict) -> dict:
