@@ -22,7 +22,7 @@ where they start, so that a hit's slot is ``base[row] + prim_index`` for them
 from __future__ import annotations
 
 import itertools
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import drjit as dr
 import mitsuba as mi
@@ -116,6 +116,15 @@ class Primitives:
             return 0.0, (0.0, 0.0, 0.0)
         k = near[np.argmax(error[near])]
         return float(error[k]), tuple(offset[:, k] / distance[k])
+
+    def without(self, shapes) -> "Primitives":
+        """These primitives with those of the shapes indexed ``shapes`` no longer spheres:
+        :meth:`surface_at` passes them over (the giant spheres, whose float32 bounds are
+        ulps of their radius: :class:`whitted.plugins.shading.giants.GiantHits` tests them)."""
+        sphere = self.sphere.copy()
+        for k in shapes:
+            sphere[self.first[k]:self.first[k] + self.counts[k]] = False
+        return replace(self, sphere=sphere)
 
     def distance_to_surfaces(self, point) -> float:
         """A lower bound on the distance from ``point`` to every primitive (inf without one):

@@ -95,18 +95,23 @@ class GiantHits:
     ``inner`` finder's answer for the other shapes (None: there are none), the float64 test
     for the giant ones (see the module docstring). A :class:`.hits.HitFinder`."""
 
-    def __init__(self, scene, inner, need_uv: bool, giants):
-        """``giants``: ``(shape index, center, radius)`` of each giant sphere."""
+    def __init__(self, scene, inner, need_uv: bool, giants, primitives):
+        """``giants``: ``(shape index, center, radius)`` of each giant sphere; ``primitives``:
+        the scene's (:class:`~whitted.plugins.scene.primitives.Primitives`)."""
         self.jit = dr.is_jit_v(mi.Float)
         shapes = scene.shapes()
         self.giants = [_Giant(shapes[k], center, radius, self.jit) for k, center, radius in giants]
         self.inner = inner
+        # the other shapes' surfaces: a giant's float32 bound (ulps of its radius) would put
+        # lights metres above a floor of radius 10^7 on it
+        self.others = primitives.without([k for k, _, _ in giants])
         self.need_uv = need_uv
 
     # -- lights on surfaces ----------------------------------------------------------------------
 
     def surface_at(self, point):
-        """As :meth:`.hits.HitFinder.surface_at`; a giant sphere's bound is the point's."""
+        """As :meth:`.hits.HitFinder.surface_at`; a giant sphere's bound is the point's, and
+        only its exact surface counts."""
         p = np.asarray(point, np.float64).reshape(-1)
         for giant in self.giants:
             offset = p - np.asarray(giant.center_tuple)
@@ -114,7 +119,7 @@ class GiantHits:
             error = POINT_ULPS * UNIT_ROUNDOFF * float(np.abs(p).max()) + FLOAT64_ERROR * giant.size
             if abs(distance - giant.radius) <= 2 * error:
                 return error, tuple(offset / distance)
-        return self.inner.surface_at(point) if self.inner is not None else (0.0, (0.0, 0.0, 0.0))
+        return self.others.surface_at(point)
 
     # -- shadow segments -------------------------------------------------------------------------
 
