@@ -290,14 +290,19 @@ def deviation(positions, faces, center: Vec3, radius: float):
 
 def ply_bytes(positions, normals, faces) -> bytes:
     """A binary little-endian PLY of the mesh, float32 positions and normals (what Mitsuba's
-    ``ply`` shape reads, and what ``mi.load_dict`` of the same file builds)."""
+    ``ply`` shape reads, and what ``mi.load_dict`` of the same file builds).
+
+    Each vertex also holds a field ``giant_0`` (0; Mitsuba's attribute ``vertex_giant``):
+    Mitsuba's loader merges the meshes that share a BSDF into one shape unless they carry
+    attributes, and the Whitted integrator finds each giant sphere's shape by its id
+    (smallpt's three grey walls would become one nameless mesh, traced in float32)."""
     import numpy as np
     header = ("ply\nformat binary_little_endian 1.0\n"
               f"element vertex {len(positions)}\n"
               "property float x\nproperty float y\nproperty float z\n"
-              "property float nx\nproperty float ny\nproperty float nz\n"
+              "property float nx\nproperty float ny\nproperty float nz\nproperty float giant_0\n"
               f"element face {len(faces)}\nproperty list uchar int vertex_indices\nend_header\n")
-    vertices = np.concatenate([positions, normals], axis=1).astype("<f4")
+    vertices = np.concatenate([positions, normals, np.zeros((len(positions), 1))], axis=1).astype("<f4")
     face_records = np.zeros(len(faces), dtype=[("n", "u1"), ("i", "<i4", (3,))])
     face_records["n"], face_records["i"] = 3, faces
     return header.encode("ascii") + vertices.tobytes() + face_records.tobytes()

@@ -156,7 +156,8 @@ class SceneTables:
         left), and its tables (:meth:`_part`); made once for each ``left_out``."""
         key = tuple(sorted(left_out))
         if key not in self._rest_scenes:
-            rest = {f"shape_{k}": shape for k, shape in enumerate(scene.shapes()) if k not in left_out}
+            # keyed by the shapes' own ids: mi.load_dict names each shape by its key
+            rest = {shape.id() or f"shape_{k}": shape for k, shape in enumerate(scene.shapes()) if k not in left_out}
             self._rest_scenes[key] = (mi.load_dict({"type": "scene", **rest}) if rest else None,
                                       self._part(left_out))
         return self._rest_scenes[key]

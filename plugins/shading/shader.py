@@ -27,6 +27,8 @@ from dataclasses import dataclass
 import drjit as dr
 import mitsuba as mi
 
+from whitted.errors import WhittedError
+
 from . import off, optics
 from .giants import GiantHits
 from .hits import TINY, hit_finder, spawn_ray, spawn_ray_to
@@ -57,7 +59,11 @@ def scene_hits(scene, tables, need_uv: bool, exact_spheres=()):
     giants = []
     if exact_spheres:
         index = {shape.id(): k for k, shape in enumerate(scene.shapes())}
-        giants = [(index[key], center, radius) for key, center, radius in exact_spheres if key in index]
+        missing = [key for key, _, _ in exact_spheres if key not in index]
+        if missing:
+            raise WhittedError(f"the whitted integrator's exact_spheres names shapes the scene lacks: "
+                               f"{', '.join(missing)} (each must be a shape of that id)")
+        giants = [(index[key], center, radius) for key, center, radius in exact_spheres]
     left_out = {k for k, _, _ in giants} | set(tables.layered)
     if not left_out:
         return hit_finder(scene, tables, need_uv)
@@ -65,7 +71,7 @@ def scene_hits(scene, tables, need_uv: bool, exact_spheres=()):
     hits = None if rest is None else hit_finder(rest, rest_tables, need_uv)
     if tables.layers:
         hits = LayeredHits(hits, tables, need_uv)
-    return GiantHits(scene, hits, need_uv, giants) if giants else hits
+    return GiantHits(scene, hits, need_uv, giants, tables.primitives) if giants else hits
 
 
 class Shader:
