@@ -120,3 +120,27 @@ def test_other_radius_classes_are_grouped_in_the_scaled_frame():
     assert g.radii == (0.25, 0.5) and g.member.all()
     assert [(r, len(c)) for _, r, c in S.groups(s, g, origin=s.lookat)] == [(1.0, 4), (2.0, 2)]
     assert S.choose(s, min_group=2).radii == (0.25,)    # for Mitsuba's own integrators
+
+
+def test_a_giant_sphere_is_never_grouped():
+    """A floor of radius 10^4 under balls of other radii (each radius once: the tie goes to
+    the larger) stays for the converter to judge, which gives it to the Whitted integrator's
+    float64 test; grouped, the scene would be scaled by 10^-4 around it."""
+    balls = [((1.5 * k, r, 0), r, MATTE) for k, r in enumerate((0.3, 0.4, 0.5, 0.6))]
+    s = scene(balls + [((0, -1e4, 0), 1e4, MATTE)], eye=(0.0, 1.5, 8.0))
+    g = S.choose(s, min_group=1, classes=S.MAX_LAYERS)
+    assert not g.member[-1] and g.radius == 0.6
+
+
+def test_grouped_spheres_beyond_the_rest_are_not_clipped(llvm):
+    """The sensor's clip range covers the grouped spheres, not only the rest of the scene: a
+    row of balls running 60 units away beside one near ball is seen to its end, as without
+    grouping."""
+    import mitsuba as mi
+    import whitted
+    text = ("size 64 16\neye 0 0.5 6\nlookat 0 0.5 0\nfov 30\nlight 0 10 6\nbackground 0 0 0\n"
+            "sphere 0 0.5 4 0.25 color 1 1 1 refract 0.5 1.5\n"
+            + "".join(f"sphere {0.4 * k - 3} 0.5 {-2 * k} 0.5 color 0.2 0.9 0.2\n" for k in range(30)))
+    grouped, plain = (whitted.render(whitted.loads(text, ellipsoids=e)).image for e in (True, False))
+    assert grouped.max() > 0.1
+    np.testing.assert_allclose(grouped, plain, atol=2e-3)

@@ -250,12 +250,14 @@ def _sealed_dict(remaining, model, grouping, params: dict) -> tuple[dict, list]:
     description of the rest of the scene (``remaining``: :func:`whitted.sealed.remaining`)
     in the scaled frame, plus those shapes (``sealed_K``); and the material of each."""
     from . import sealed
-    from .converter.description import describe, material_dict
+    from .converter.description import clip_range, describe, material_dict
     # The grouped spheres (the commonest of radius 1 in the scaled frame) count among the
     # scene's details.
     smallest = min([1.0, *(radius * grouping.scale for radius in grouping.radii)])
     description = describe(remaining, base_dir=None, smallest=smallest)
     scene = mitsuba_dict(description, params)
+    # the clip range of the whole scene, scaled: the rest's alone may cut off grouped spheres
+    scene["sensor"]["near_clip"], scene["sensor"]["far_clip"] = (d * grouping.scale for d in clip_range(model))
     materials = []
     for k, (material, radius, centers) in enumerate(sealed.groups(model, grouping, description.origin)):
         scene[f"sealed_{k}"] = sealed.ellipsoids(centers, material_dict(material, base_dir=None), radius)

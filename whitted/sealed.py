@@ -106,7 +106,8 @@ class Grouping:
 def choose(scene: Scene, min_group: int = MIN_GROUP, classes: int = 0,
            smaller: bool = True) -> Grouping | None:
     """The sealed spheres of the most common radius, if at least ``min_group`` (≥ 1) share
-    it (ties: the larger radius), else None; and those of up to ``classes`` other radii,
+    it (ties: the larger radius), else None, leaving out those float32 may place too
+    coarsely (possible giants: the converter judges them); and those of up to ``classes`` other radii,
     the ones most spheres share (ties: the larger radius), radii below the commonest only
     if ``smaller`` (the Whitted integrator's layers trace them exactly, Mitsuba's own
     ellipsoid test does not).
@@ -121,7 +122,8 @@ def choose(scene: Scene, min_group: int = MIN_GROUP, classes: int = 0,
         return None
     if any(tuple(light.position) == tuple(scene.lookat) for light in scene.lights):
         return None
-    mask = sealed(scene, spheres)
+    # spheres float32 may place too coarsely (converter/giants.py) stay for the converter to judge
+    mask = sealed(scene, spheres) & ~_coarse(scene, spheres)
     if mask.sum() < min_group:
         return None
     values, counts = np.unique(spheres.radius[mask], return_counts=True)
@@ -132,8 +134,8 @@ def choose(scene: Scene, min_group: int = MIN_GROUP, classes: int = 0,
     if light_reach(scene) / r > MAX_REACH:
         return None
     radii = [r]
-    if classes:   # other radii, but not spheres float32 places too coarsely (converter/giants.py)
-        fine = mask & ~_coarse(scene, spheres) & ((spheres.radius != r) if smaller else (spheres.radius > r))
+    if classes:   # other radii
+        fine = mask & ((spheres.radius != r) if smaller else (spheres.radius > r))
         values, counts = np.unique(spheres.radius[fine], return_counts=True)
         order = np.lexsort((-values, -counts))[:classes]
         radii += [float(values[k]) for k in order]
