@@ -11,7 +11,9 @@ the sensors, the refactor) is checked by rendering everything before and after i
 It lives beside the hard cases it renders (run as a script, its folder is on the import
 path). One Dr.Jit thread, as it was written before renders were the same bits at any
 thread count (tests/hard_cases/test_determinism.py). Both variants, each scene at its own spp
-through ``whitted.render`` and ``mi.render``, and the examples at 4 spp as well.
+through ``whitted.render`` and ``mi.render``, and the examples at 4 spp as well; every way a
+scene is loaded (the XML, ``load_scene`` of the ``.scn``, as ``whitted render`` loads it, grouped
+in ellipsoids), the giant spheres at every radius (floors of 10^4 to 10^7, walls, a dome).
 """
 
 from __future__ import annotations
@@ -32,6 +34,7 @@ def renders(variants, quick=False):
 
     import whitted
     from whitted.converter import scene_to_xml
+    from whitted.converter.scn_writer import scene_to_scn
     import hazard_scenes as H
 
     dr.set_thread_count(1)
@@ -48,9 +51,17 @@ def renders(variants, quick=False):
             for name in H.HAZARDS:
                 scenes[f"hazard/{name}"] = lambda name=name: mi.load_string(
                     scene_to_xml(H.build(name, tmp), base_dir=None))
+            for path in sorted((REPO / "scenes").glob("*.scn")):   # as `whitted render` loads them
+                scenes[f"render/{path.stem}"] = lambda path=path: whitted.load_scene(path, meshes=False)
             for name, builder in H.GIANTS.items():
                 scenes[f"giant/{name}"] = lambda builder=builder: mi.load_string(
                     scene_to_xml(builder(), base_dir=None))
+                path = tmp / f"{name}.scn"
+                path.write_text(scene_to_scn(builder(), tmp))
+                for way, options in (("render", {"meshes": False}), ("grouped", {"ellipsoids": True}),
+                                     ("scn", {})):
+                    scenes[f"giant-{way}/{name}"] = lambda path=path, options=options: whitted.load_scene(
+                        path, **options)
             for name, load in scenes.items():
                 scene = load()
                 yield f"{variant}/{name}/render", whitted.render(scene).image
