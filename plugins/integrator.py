@@ -164,6 +164,7 @@ class WhittedIntegrator(mi.SamplingIntegrator):
                                                          for name, default in self.DEFAULTS.items()}))
         self.hide_emitters = bool(props.get("hide_emitters", False))
         self._warned = ()   # what the last warning about 1 spp named (once per change)
+        self._gradient_keys = {}   # parameters seen with gradients: differentiated? (warned once)
         # Giant spheres' exact centers and radii, as the converter lists them (.giants).
         self.exact_spheres = parse_exact_spheres(str(props.get("exact_spheres", "")))
 
@@ -259,6 +260,8 @@ class WhittedIntegrator(mi.SamplingIntegrator):
         ``dr.forward`` after ``mi.render(scene, params)`` calls). Visibility is held fixed
         (:mod:`.gradients`)."""
         require_gradients("render_forward")
+        gradients.name_undifferentiated(scene, mi.traverse(scene) if params is None else params, self,
+                                        self._gradient_keys)
         with dr.resume_grad():
             image = self.render_detailed(scene, sensor, seed, spp, attached=True).image
             dr.forward_to(image)
@@ -269,6 +272,8 @@ class WhittedIntegrator(mi.SamplingIntegrator):
         derivatives to the parameters' gradients (reverse mode; what ``dr.backward`` after
         ``mi.render(scene, params)`` calls). Visibility is held fixed (:mod:`.gradients`)."""
         require_gradients("render_backward")
+        gradients.name_undifferentiated(scene, mi.traverse(scene) if params is None else params, self,
+                                        self._gradient_keys)
         with dr.resume_grad():
             image = self.render_detailed(scene, sensor, seed, spp, attached=True).image
             dr.set_grad(image, grad_in)
