@@ -56,7 +56,9 @@ import drjit as dr
 import mitsuba as mi
 
 from whitted import defaults as D
+from whitted.errors import ParameterError
 
+from .scene.materials import uniform_color
 from .shading import optics
 
 DIFFUSE, REFLECTION, TRANSMISSION = 0, 1, 2
@@ -98,8 +100,8 @@ class ArticleBSDF(mi.BSDF):
 
      * - color
        - |spectrum| or |texture|
-       - The base color B: an RGB color, or a texture (a ``bitmap`` mapped by
-         the sphere's UV) for a textured sphere. (Default: 1, 1, 1)
+       - The base color B: an RGB color, each component in [0, 1], or a texture
+         (a ``bitmap`` mapped by the sphere's UV) for a textured sphere. (Default: 1, 1, 1)
        - |exposed|, |differentiable|
 
      * - reflect
@@ -124,7 +126,10 @@ class ArticleBSDF(mi.BSDF):
     ``mi.traverse`` exposes ``reflect``, ``refract`` and ``ior`` as one-value
     float64 vectors (Dr.Jit ``Float64`` in the JIT variants, which the ``whitted``
     integrator differentiates: KR and KT); ``params['…bsdf.reflect'] = 0.5``
-    writes one, and ``params.update()`` refuses an edit that breaks the ranges above.
+    writes one. Loaded properties and edits (``params.update()``, of these or of a uniform
+    ``color.value``) meet one rule (:data:`whitted.defaults.PLUGIN_PARAMETERS`), with the
+    same one-line error naming the parameter (``article BSDF: reflect must be in [0, 1],
+    got 1.5``); a refused edit is undone. A texture's texels are not checked.
 
     A mixture of a Lambertian lobe (weight 1 − KR − KT, albedo B), a perfect
     mirror (KR) and a perfect refraction (KT), two-sided as the article shades
@@ -159,14 +164,24 @@ class ArticleBSDF(mi.BSDF):
 
     def __init__(self, props: mi.Properties):
         super().__init__(props)
+        values = {name: props.get(name, default)
+                  for name, default in zip(self.SCALARS, (D.REFLECT, D.REFRACT, D.IOR))}
+        if "color" not in props:
+            values["color"] = D.COLOR
+        elif props.type("color") == mi.Properties.Type.Color:
+            values["color"] = props.get("color")
+        #: the uniform base color last accepted (None for a texture): what a refused edit restores
+        self._color = None
+        # (an RGB color checked before Mitsuba makes it a texture: its own check names no parameter)
+        self._take(values)
         self.color = (props.get_texture("color") if "color" in props
                       else mi.load_dict({"type": "rgb", "value": D.COLOR}))
+        if self._color is None and not self.color.is_spatially_varying():   # a uniform texture
+            self._take({**values, "color": uniform_color(self.color)})
         self.m_components = list(COMPONENT_FLAGS)
         #: how many times ``params.update()`` changed the BSDF: what the Whitted integrator's
         #: tables compare (plugins/scene/tables.py) to see an edit, whoever made it
         self.changes = 0
-        self._set(float(props.get("reflect", D.REFLECT)), float(props.get("refract", D.REFRACT)),
-                  float(props.get("ior", D.IOR)))
         # What mi.traverse hands out: Mitsuba values that SceneParameters writes into in
         # place (a Python float cannot be; a one-value float64 Dr.Jit array can, in every variant).
         # In the JIT variants they are Dr.Jit Float64 arrays, which can carry gradients:
@@ -178,17 +193,13 @@ class ArticleBSDF(mi.BSDF):
     #: (``self.reflect`` ...) and, for mi.traverse, as one-value Mitsuba vectors
     SCALARS = ("reflect", "refract", "ior")
 
-    def _set(self, reflect: float, refract: float, ior: float) -> None:
-        """Check and take KR, KT and the IOR (a clean error when out of range)."""
-        if not (0.0 <= reflect <= 1.0 and 0.0 <= refract <= 1.0):
-            raise ValueError(f"article BSDF: reflect and refract must lie in [0, 1], got "
-                             f"{reflect} and {refract}")
-        if reflect + refract > 1.0 + 1e-6:
-            raise ValueError(f"article BSDF: reflect + refract must be <= 1, got "
-                             f"{reflect} + {refract}")
-        if not ior > 0.0:
-            raise ValueError(f"article BSDF: ior must be > 0, got {ior}")
-        self.reflect, self.refract, self.ior = reflect, refract, ior
+    def _take(self, values: dict) -> None:
+        """Take KR, KT, the IOR and a uniform ``color`` (``values``: name -> value as given) once
+        the plugins' one rule accepts them (:func:`whitted.defaults.check_plugin_parameters`;
+        else its error, and nothing taken)."""
+        checked = D.check_plugin_parameters("article BSDF", values)
+        self.reflect, self.refract, self.ior = (checked[name] for name in self.SCALARS)
+        self._color = checked.get("color", self._color)
         # Component indices are fixed (0 diffuse, 1 mirror, 2 refraction); the
         # material's flags name only the lobes it can actually use, so that
         # integrators skip light sampling on pure mirrors and glass.
@@ -203,15 +214,23 @@ class ArticleBSDF(mi.BSDF):
 
     def parameters_changed(self, keys=[]):  # noqa: B006  (Mitsuba's own default)
         # A parameter was written (mi.SceneParameters.update, even through mi.traverse(bsdf),
-        # which no scene hears of; Mitsuba calls this for an edit of the color texture too):
-        # KR, KT and the IOR are taken back as floats (checked; an invalid edit is undone),
-        # and the change is counted, which tells the Whitted integrator's tables.
-        previous = (self.reflect, self.refract, self.ior)
+        # which no scene hears of; Mitsuba calls this for an edit of the color texture too,
+        # keys ["color"]): KR, KT, the IOR and a uniform color are checked as at load and
+        # taken (an invalid edit is undone and refused), and the change is counted, which
+        # tells the Whitted integrator's tables.
+        values = {name: self._values[name][0] for name in self.SCALARS}
+        color = self._color is not None and (not keys or "color" in keys)
+        if color:
+            values["color"] = uniform_color(self.color)
         try:
-            self._set(*(float(self._values[name][0]) for name in self.SCALARS))
-        except ValueError:
-            for name, value in zip(self.SCALARS, previous):
-                self._values[name][0] = value
+            self._take(values)
+        except ParameterError:
+            for name in self.SCALARS:
+                self._values[name][0] = getattr(self, name)
+            if color:
+                params = mi.traverse(self.color)
+                params["value"] = type(params["value"])(*self._color)
+                params.update()
             raise
         self.changes += 1
 

@@ -24,9 +24,11 @@ which surface a ray hits, where a shadow's edge falls, which way a ray bends
 (the IOR), and where a sphere sits are held fixed, so a parameter that moves
 an edge (a light's position moves its shadows' edges) gets only the
 gradient of the smooth part. Mitsuba's ``prb`` has the same limit; what it
-would take is what Mitsuba's ``prb_reparam`` and ``direct_projective`` do:
-a reparameterisation of the rays (or sampling of the silhouette edges), so
-that the moving discontinuities contribute their boundary term.
+would take is what Mitsuba's ``prb_projective`` and ``direct_projective`` do:
+sampling of the silhouette edges, so that the moving discontinuities
+contribute their boundary term (``prb_projective`` is what differentiates a
+shape's position or size). A gradient render names, once, each parameter with
+gradients enabled that it does not differentiate (:func:`name_undifferentiated`).
 
 A weight that is 0 on every material leaves its effect out of the kernels
 (:mod:`.scene.effects`): a scene without mirrors has no reflected rays, and
@@ -55,6 +57,60 @@ def require_gradients(what: str) -> None:
     if not dr.is_diff_v(mi.Float):
         raise WhittedError(f"whitted: {what} needs gradients, which the {mi.variant()} variant "
                            "cannot compute: use llvm_ad_rgb (or cuda_ad_rgb)")
+
+
+#: what a differentiable render reads of a texture (an ``article`` color, a light's intensity,
+#: the background's radiance): its values or texels, not the UV transform
+TEXTURE_VALUES = ("value", "data")
+
+
+def differentiated(scene, integrator) -> list:
+    """The parameters' Dr.Jit values that a differentiable render of ``scene`` by the Whitted
+    ``integrator`` reads from the parameters themselves, so that their gradients are computed:
+    what :func:`attached` reads (the ambient, the point lights' positions and intensities, the
+    ``article`` BSDFs' KR, KT and colors) and the background's radiance."""
+    values = [value for name, value in getattr(integrator, "_values", {}).items()
+              if name in integrator.DIFFERENTIABLE]
+    bsdfs = _article_bsdfs(scene)
+    for node in [*scene.emitters(), *(bsdf.color for bsdf in bsdfs)]:
+        params = mi.traverse(node)
+        values += [params[key] for key in params.keys()
+                   if key == "position" or key.rsplit(".", 1)[-1] in TEXTURE_VALUES]
+    for bsdf in bsdfs:
+        values += [bsdf._values[name] for name in bsdf.DIFFERENTIABLE]
+    return values
+
+
+def _ad_indices(value) -> set:
+    """The Dr.Jit AD variables of ``value`` (none: no gradients enabled)."""
+    return {index >> 32 for index in dr.detail.collect_indices(value)} - {0}
+
+
+def name_undifferentiated(scene, params, integrator, seen: dict) -> None:
+    """Warn once per parameter (``seen``: key -> whether it is differentiated, kept between
+    calls) about each parameter of ``params`` with gradients enabled that a differentiable
+    render does not differentiate (:func:`differentiated`): its gradient is not computed."""
+    enabled = [key for key in params.keys() if key not in seen and _ad_indices(params[key])]
+    if not enabled:
+        return
+    read = set().union(*map(_ad_indices, differentiated(scene, integrator)))
+    for key in enabled:
+        seen[key] = bool(_ad_indices(params[key]) & read)
+        if not seen[key]:
+            mi.Log(mi.LogLevel.Warn, f"whitted: '{key}' has gradients enabled but is not differentiated: "
+                   "the whitted integrator holds visibility fixed (what a ray hits, the IOR) and "
+                   "differentiates only the article BSDFs' color, reflect and refract, the ambient, "
+                   "the point lights' intensity and position and the background, so its gradient "
+                   "is not computed; for a shape's position or size render with Mitsuba's "
+                   "prb_projective integrator (docs/gradients.md)")
+
+
+def _article_bsdfs(scene) -> list:
+    """The scene's BSDFs (``article`` ones: the Whitted integrator renders no other), each once."""
+    bsdfs = {}
+    for shape in scene.shapes():
+        bsdfs.setdefault(id(shape.bsdf()), shape.bsdf())
+    return list(bsdfs.values())
 
 
 @dataclass
@@ -111,10 +167,7 @@ def _material_table(scene, tables):
     (color_tp, color), (f_tp, reflect), (_, refract), ior, slot = columns
     size = dr.width(reflect)
     color, reflect, refract = dr.zeros(mi.Color3f, size), dr.zeros(mi.Float, size), dr.zeros(mi.Float, size)
-    bsdfs = {}
-    for shape in scene.shapes():
-        bsdfs.setdefault(id(shape.bsdf()), shape.bsdf())
-    for bsdf in bsdfs.values():
+    for bsdf in _article_bsdfs(scene):
         row = mi.UInt32(row_of[bsdf_key(bsdf)])
         if not bsdf.color.is_spatially_varying():
             value = bsdf.color.eval(dr.zeros(mi.SurfaceInteraction3f))

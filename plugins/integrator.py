@@ -117,8 +117,10 @@ class WhittedIntegrator(mi.SamplingIntegrator):
          2^21 when the tree has a single level). (Default: 0)
 
     ``mi.traverse(integrator)`` exposes ``max_depth``, ``ambient``, ``min_weight``
-    and ``light_reference`` (one- or three-value Dr.Jit arrays); ``params.update()``
-    checks an edit, refuses an invalid one whole, and the next render uses it.
+    and ``light_reference`` (one- or three-value float64 Dr.Jit arrays); ``params.update()``
+    checks an edit by the rule a loaded property meets, with the same one-line error
+    (``whitted: max_depth must be an integer, got 2.5``: refused, not truncated), refuses
+    an invalid edit whole, and the next render uses a valid one.
     ``lighting`` and ``exact_spheres`` are strings, which Mitsuba's scene
     parameters cannot hold: load the scene again to change them.
 
@@ -158,38 +160,42 @@ class WhittedIntegrator(mi.SamplingIntegrator):
 
     def __init__(self, props: mi.Properties):
         super().__init__(props)
-        self.max_depth = D.check_depth(props.get("max_depth", D.DEPTH), "whitted: max_depth")
-        self.ambient = D.check_ambient(props.get("ambient", D.AMBIENT), "whitted: ambient")
-        self.lighting = D.check_lighting(str(props.get("lighting", D.LIGHTING)), "whitted: lighting")
-        self.light_reference = mi.ScalarPoint3f(props.get("light_reference", mi.ScalarPoint3f(D.LOOKAT)))
-        self.wavefront_size = int(props.get("wavefront_size", D.WAVEFRONT_SIZE))
-        self.min_weight = D.check_min_weight(props.get("min_weight", D.MIN_WEIGHT), "whitted: min_weight")
+        self._take(D.check_plugin_parameters("whitted", {name: props.get(name, default)
+                                                         for name, default in self.DEFAULTS.items()}))
         self.hide_emitters = bool(props.get("hide_emitters", False))
         self._warned = ()   # what the last warning about 1 spp named (once per change)
+        self._gradient_keys = {}   # parameters seen with gradients: differentiated? (warned once)
         # Giant spheres' exact centers and radii, as the converter lists them (.giants).
         self.exact_spheres = parse_exact_spheres(str(props.get("exact_spheres", "")))
-        if self.wavefront_size < 0:
-            raise ValueError(f"whitted: wavefront_size must be >= 0, got {self.wavefront_size}")
+
+    #: the properties checked by the plugins' one rule (:func:`whitted.defaults.check_plugin_parameters`),
+    #: at load and at an edit, and their defaults
+    DEFAULTS = {"max_depth": D.DEPTH, "ambient": D.AMBIENT, "lighting": D.LIGHTING,
+                "light_reference": D.LOOKAT, "min_weight": D.MIN_WEIGHT,
+                "wavefront_size": D.WAVEFRONT_SIZE}
+
+    def _take(self, checked: dict) -> None:
+        """Take the properties ``checked`` by the plugins' one rule."""
+        for name, value in checked.items():
+            setattr(self, name, mi.ScalarPoint3f(*value) if name == "light_reference" else value)
 
     # -- mi.traverse ------------------------------------------------------------------------------
 
-    #: what :meth:`traverse` exposes: name -> (Dr.Jit scalar type, check); ``lighting`` and
-    #: ``exact_spheres`` are strings, which Mitsuba's scene parameters cannot hold
-    TRAVERSED = {
-        "max_depth": (dr.scalar.Array1i, lambda v: D.check_depth(int(v), "whitted: max_depth")),
-        "ambient": (dr.scalar.Array1f64, lambda v: D.check_ambient(float(v), "whitted: ambient")),
-        "min_weight": (dr.scalar.Array1f64, lambda v: D.check_min_weight(float(v), "whitted: min_weight")),
-        "light_reference": (dr.scalar.Array3f64, lambda v: mi.ScalarPoint3f(*(float(c) for c in v))),
-    }
+    #: what :meth:`traverse` exposes, as Dr.Jit scalar vectors (``max_depth`` too is a float64
+    #: one: an edit to 2.5 reaches the check, which refuses it, where an integer vector would
+    #: truncate it); ``lighting`` and ``exact_spheres`` are strings, which Mitsuba's scene
+    #: parameters cannot hold
+    TRAVERSED = {"max_depth": dr.scalar.Array1f64, "ambient": dr.scalar.Array1f64,
+                 "min_weight": dr.scalar.Array1f64, "light_reference": dr.scalar.Array3f64}
 
     def traverse(self, callback):
-        # One-value (or three-value) float64/int Dr.Jit arrays, which SceneParameters writes
+        # One-value (or three-value) float64 Dr.Jit arrays, which SceneParameters writes
         # into in place; :meth:`parameters_changed` reads them back.
         # The ambient is a Dr.Jit Float64 in the JIT variants, differentiable in the AD ones
         # (:meth:`render_forward`, :meth:`render_backward`).
         if not hasattr(self, "_values"):
             self._values = {name: (mi.Float64 if name in self.DIFFERENTIABLE and dr.is_jit_v(mi.Float) else tp)(
-                *self._traversed_value(name)) for name, (tp, _) in self.TRAVERSED.items()}
+                *self._traversed_value(name)) for name, tp in self.TRAVERSED.items()}
         for name, value in self._values.items():
             differentiable = name in self.DIFFERENTIABLE and dr.is_diff_v(mi.Float)
             callback.put(name, value, mi.ParamFlags.Differentiable if differentiable
@@ -203,22 +209,18 @@ class WhittedIntegrator(mi.SamplingIntegrator):
         return [float(c) for c in value] if name == "light_reference" else [value]
 
     def parameters_changed(self, keys=[]):  # noqa: B006  (Mitsuba's own default)
-        """``params.update()`` wrote some of :data:`TRAVERSED`: take them (checked; an
-        invalid edit is undone and refused)."""
-        changed = {}
-        for name in (keys or self.TRAVERSED):
-            if name in self.TRAVERSED:
-                value = self._values[name]
-                raw = [value[k] for k in range(len(value))] if name == "light_reference" else value[0]
-                try:
-                    changed[name] = self.TRAVERSED[name][1](raw)
-                except WhittedError:
-                    for other in self.TRAVERSED:   # undo the whole edit
-                        for k, c in enumerate(self._traversed_value(other)):
-                            self._values[other][k] = c
-                    raise
-        for name, value in changed.items():
-            setattr(self, name, value)
+        """``params.update()`` wrote some of :data:`TRAVERSED`: take them, checked as at load
+        (an invalid edit is undone and refused)."""
+        raw = {name: [value[k] for k in range(len(value))] if name == "light_reference" else value[0]
+               for name, value in self._values.items()}
+        try:
+            checked = D.check_plugin_parameters("whitted", raw)
+        except WhittedError:
+            for name in self.TRAVERSED:   # undo the whole edit
+                for k, c in enumerate(self._traversed_value(name)):
+                    self._values[name][k] = c
+            raise
+        self._take(checked)
 
     #: the settings :meth:`settings` reports and :meth:`with_settings` changes
     SETTINGS = ("max_depth", "ambient", "lighting", "light_reference", "min_weight", "exact_spheres")
@@ -258,6 +260,8 @@ class WhittedIntegrator(mi.SamplingIntegrator):
         ``dr.forward`` after ``mi.render(scene, params)`` calls). Visibility is held fixed
         (:mod:`.gradients`)."""
         require_gradients("render_forward")
+        gradients.name_undifferentiated(scene, mi.traverse(scene) if params is None else params, self,
+                                        self._gradient_keys)
         with dr.resume_grad():
             image = self.render_detailed(scene, sensor, seed, spp, attached=True).image
             dr.forward_to(image)
@@ -268,6 +272,8 @@ class WhittedIntegrator(mi.SamplingIntegrator):
         derivatives to the parameters' gradients (reverse mode; what ``dr.backward`` after
         ``mi.render(scene, params)`` calls). Visibility is held fixed (:mod:`.gradients`)."""
         require_gradients("render_backward")
+        gradients.name_undifferentiated(scene, mi.traverse(scene) if params is None else params, self,
+                                        self._gradient_keys)
         with dr.resume_grad():
             image = self.render_detailed(scene, sensor, seed, spp, attached=True).image
             dr.set_grad(image, grad_in)

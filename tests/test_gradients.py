@@ -183,3 +183,47 @@ def test_physical_lighting_gradients_equal_finite_differences(physical_scene, ke
     gradient, expected = backward_and_finite_difference(physical_scene, key, step)
     assert abs(expected) > 1e-4, key
     assert gradient == pytest.approx(expected, rel=0.02), key
+
+
+def named(capfd, key) -> list[str]:
+    out = capfd.readouterr()
+    return [line for line in (out.out + out.err).splitlines() if f"'{key}'" in line]
+
+
+def test_a_parameter_the_integrator_does_not_differentiate_is_named_once(capfd):
+    """A sphere's ``to_world`` (its position, its radius) gets no gradient from the whitted
+    integrator, which holds visibility fixed, nor does the IOR: a gradient render says so
+    once per parameter, backward or forward, and points to Mitsuba's ``prb_projective`` for
+    geometry; a parameter it differentiates is not named."""
+    scene = load()
+    params = mi.traverse(scene)
+    thetas = [mi.Float(0.0), mi.Float(0.0)]
+    for theta, key in zip(thetas, ("sphere_2.to_world", "sphere_1.to_world")):
+        dr.enable_grad(theta)
+        params[key] = mi.Transform4f().translate(mi.Vector3f(theta, 0, 0)) @ params[key]
+    for key in ("material_2.ior", *(key for key, _ in KINDS)):
+        dr.enable_grad(params[key])
+    params.update()
+    capfd.readouterr()
+    for _ in range(2):
+        dr.backward(dr.sum(mi.render(scene, params), axis=None))
+    assert dr.grad(thetas[0])[0] == 0   # (finite differences: about 1e-2)
+    out = capfd.readouterr()
+    lines = (out.out + out.err).splitlines()
+    for key in ("sphere_2.to_world", "sphere_1.to_world", "material_2.ior"):
+        assert len([line for line in lines if f"'{key}'" in line]) == 1, (key, lines)
+    geometry = next(line for line in lines if "'sphere_2.to_world'" in line)
+    assert "prb_projective" in geometry and "not differentiated" in geometry
+    assert not [line for line in lines if any(f"'{key}'" in line for key, _ in KINDS)]
+
+    # forward: a parameter not named before is named, once
+    theta = mi.Float(0.0)
+    dr.enable_grad(theta)
+    params["sphere_0.to_world"] = mi.Transform4f().translate(mi.Vector3f(0, theta, 0)) @ params["sphere_0.to_world"]
+    params.update()
+    capfd.readouterr()
+    for _ in range(2):
+        image = mi.render(scene, params)
+        dr.forward(theta)
+    assert dr.all(dr.grad(image) == 0, axis=None)
+    assert len(named(capfd, "sphere_0.to_world")) == 1

@@ -155,3 +155,78 @@ def test_load_scene_overrides_the_size(variant):
         assert tuple(scene.sensors()[0].film().size()) == (32, 20)
     with pytest.raises(whitted.WhittedError, match="width must be in 1…16384"):
         whitted.load_scene(REPO / "scenes_xml" / "tir.xml", width=0)
+
+
+# -- one rule for a parameter, loaded or edited ----------------------------------------------------
+
+def load_message(**properties) -> str:
+    """The message a plugin raised while Mitsuba loaded it from ``properties`` (Mitsuba puts
+    its own words and the traceback first: the plugin's error is the last line)."""
+    with pytest.raises(RuntimeError) as error:
+        mi.load_dict(properties)
+    return str(error.value).splitlines()[-1].split(": ", 1)[1]
+
+
+@pytest.mark.parametrize("name,value,loaded,message", [
+    ("reflect", 1.5, 1.5, "article BSDF: reflect must be in [0, 1], got 1.5"),
+    ("refract", -0.5, -0.5, "article BSDF: refract must be in [0, 1], got -0.5"),
+    ("ior", 0.0, 0.0, "article BSDF: ior must be > 0, got 0.0"),
+    ("color.value", [-0.5, 0.25, 0.25], {"type": "rgb", "value": [-0.5, 0.25, 0.25]},
+     "article BSDF: color must have each component in [0, 1], got [-0.5, 0.25, 0.25]"),
+    ("color.value", [0.5, 1.5, 0.5], {"type": "rgb", "value": [0.5, 1.5, 0.5]},
+     "article BSDF: color must have each component in [0, 1], got [0.5, 1.5, 0.5]")])
+def test_a_bsdf_parameter_is_checked_alike_at_load_and_at_update(variant, name, value, loaded, message):
+    """An edit that loading would refuse is refused by ``params.update()`` with loading's
+    message, and undone."""
+    from whitted.errors import WhittedError
+    assert load_message(type="article", **{name.split(".")[0]: loaded}) == message
+    scene = mi.load_string(glass_xml())
+    before = render(scene)
+    params = mi.traverse(scene)
+    params[f"material_0.{name}"] = value
+    with pytest.raises(WhittedError) as error:
+        params.update()
+    assert str(error.value) == message
+    np.testing.assert_array_equal(render(scene), before)
+
+
+@pytest.mark.parametrize("name,value,message", [
+    ("max_depth", 2.5, "whitted: max_depth must be an integer, got 2.5"),
+    ("max_depth", 65, "whitted: max_depth must be in 1…64 (primary rays have depth 1), got 65"),
+    ("ambient", -0.25, "whitted: ambient must be in [0, 1], got -0.25"),
+    ("min_weight", 1.5, "whitted: min_weight must be in [0, 1], got 1.5")])
+def test_an_integrator_parameter_is_checked_alike_at_load_and_at_update(variant, name, value, message):
+    """A non-integral max_depth is refused, not truncated, when loaded and when edited."""
+    from whitted.errors import WhittedError
+    assert load_message(type="whitted", **{name: value}) == message
+    scene = mi.load_string(glass_xml())
+    integrator = scene.integrator()
+    params = mi.traverse(integrator)
+    params[name] = value
+    with pytest.raises(WhittedError) as error:
+        params.update()
+    assert str(error.value) == message
+    assert (integrator.max_depth, integrator.ambient) == (8, 0.3)
+    assert params["max_depth"][0] == 8 and params["ambient"][0] == 0.3
+
+
+@pytest.mark.parametrize("plugin,name", [("article", "reflect"), ("article", "refract"),
+                                         ("article", "ior"), ("whitted", "ambient"),
+                                         ("whitted", "max_depth"), ("whitted", "min_weight")])
+def test_an_rgb_where_a_number_belongs_is_named(variant, plugin, name):
+    kind = "bsdf" if plugin == "article" else "integrator"
+    with pytest.raises(RuntimeError) as error:
+        mi.load_string(f'<{kind} version="3.0.0" type="{plugin}"><rgb name="{name}" value="0.5 0.5 0.5"/></{kind}>')
+    line = str(error.value).splitlines()[-1]
+    owner = "article BSDF" if plugin == "article" else "whitted"
+    assert f"{owner}: {name} must be a" in line and "[0.5, 0.5, 0.5]" in line, line
+    assert "float()" not in line
+
+
+def test_load_scene_names_the_bad_parameter_in_one_line(llvm, tmp_path):
+    import whitted
+    path = tmp_path / "bad.xml"
+    path.write_text(edited(glass_xml(), "material_1", "reflect", "1.5"))
+    with pytest.raises(whitted.WhittedError) as error:
+        whitted.load_scene(path)
+    assert str(error.value) == f"{path}: article BSDF: reflect must be in [0, 1], got 1.5"

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import math
 
-from .errors import WhittedError
+from .errors import ParameterError, WhittedError
 
 Vec3 = tuple[float, float, float]
 
@@ -213,11 +213,16 @@ def check_size(size, what: str = "width") -> int:
     return size
 
 
-def _unit_interval(value, what: str) -> float:
+def _number(value, what: str, kind: str) -> float:
+    """``value`` as a float, or an error saying it must be ``kind`` (an RGB value is no number)."""
     try:
-        value = float(value)
+        return float(value)
     except (TypeError, ValueError):
-        raise WhittedError(f"{what} must be a number in [0, 1], got {value!r}") from None
+        raise WhittedError(f"{what} must be {kind}, got {value!r}") from None
+
+
+def _unit_interval(value, what: str) -> float:
+    value = _number(value, what, "a number in [0, 1]")
     if not (math.isfinite(value) and 0.0 <= value <= 1.0):
         raise WhittedError(f"{what} must be in [0, 1], got {value}")
     return value
@@ -233,11 +238,80 @@ def check_min_weight(min_weight, what: str = "min weight") -> float:
     return _unit_interval(min_weight, what)
 
 
+def check_ior(ior, what: str = "ior") -> float:
+    """An index of refraction: a finite number > 0."""
+    ior = _number(ior, what, "a number > 0")
+    if not (math.isfinite(ior) and ior > 0.0):
+        raise WhittedError(f"{what} must be > 0, got {ior}")
+    return ior
+
+
+def check_color(color, what: str = "color") -> Vec3:
+    """A base color: three numbers, each in [0, 1] (the scene format's range, and what Mitsuba
+    loads as an RGB reflectance)."""
+    try:
+        rgb = tuple(float(c) for c in color)
+    except (TypeError, ValueError):
+        rgb = ()
+    if len(rgb) != 3:
+        raise WhittedError(f"{what} must be an RGB color (three numbers in [0, 1]), got {color!r}")
+    if not all(math.isfinite(c) and 0.0 <= c <= 1.0 for c in rgb):
+        raise WhittedError(f"{what} must have each component in [0, 1], got [{', '.join(f'{c:g}' for c in rgb)}]")
+    return rgb
+
+
+def check_point(point, what: str = "point") -> Vec3:
+    """A point: three finite numbers."""
+    try:
+        xyz = tuple(float(c) for c in point)
+    except (TypeError, ValueError):
+        xyz = ()
+    if len(xyz) != 3 or not all(map(math.isfinite, xyz)):
+        raise WhittedError(f"{what} must be a point (three finite numbers), got {point!r}")
+    return xyz
+
+
+def check_wavefront_size(size, what: str = "wavefront_size") -> int:
+    """Camera samples per pass: an integer >= 0 (0: as the tracer prefers)."""
+    size = _integer(size, what)
+    if size < 0:
+        raise WhittedError(f"{what} must be >= 0, got {size}")
+    return size
+
+
 def check_lighting(lighting, what: str = "lighting") -> str:
     """One of :data:`LIGHTING_MODES`."""
     if lighting not in LIGHTING_MODES:
         raise WhittedError(f"{what} must be one of {', '.join(LIGHTING_MODES)}, got '{lighting}'")
     return lighting
+
+
+#: The plugins' parameters and their checks: one rule for a property loaded (XML, a dict) and
+#: for an edit (``params.update()``, the plugins' ``parameters_changed``), by plugin (the name
+#: that starts its messages). ``color`` is a uniform base color (a texture's texels are not
+#: checked).
+PLUGIN_PARAMETERS = {
+    "article BSDF": {"color": check_color, "reflect": _unit_interval, "refract": _unit_interval,
+                     "ior": check_ior},
+    "whitted": {"max_depth": check_depth, "ambient": check_ambient, "min_weight": check_min_weight,
+                "lighting": check_lighting, "light_reference": check_point,
+                "wavefront_size": check_wavefront_size},
+}
+
+
+def check_plugin_parameters(plugin: str, values: dict) -> dict:
+    """``values`` (name -> value as given) checked by :data:`PLUGIN_PARAMETERS`, and together
+    (an ``article`` BSDF's reflect + refract <= 1): the values to use, or a
+    :class:`~whitted.errors.ParameterError` (``PLUGIN: NAME must ..., got VALUE``)."""
+    try:
+        checked = {name: PLUGIN_PARAMETERS[plugin][name](value, f"{plugin}: {name}")
+                   for name, value in values.items()}
+    except WhittedError as error:
+        raise ParameterError(str(error)) from None
+    reflect, refract = checked.get("reflect", 0.0), checked.get("refract", 0.0)
+    if reflect + refract > 1.0 + 1e-6:
+        raise ParameterError(f"{plugin}: reflect + refract must be <= 1, got {reflect} + {refract}")
+    return checked
 
 
 def check_integrator(integrator) -> str:

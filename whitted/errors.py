@@ -20,6 +20,11 @@ class WhittedError(Exception):
     """An error caused by the user's input or machine, reported as one clean line."""
 
 
+class ParameterError(WhittedError, ValueError):
+    """A plugin parameter out of its range (:func:`whitted.defaults.check_plugin_parameters`),
+    loaded or edited: ``PLUGIN: NAME must ..., got VALUE``."""
+
+
 class SceneError(WhittedError):
     """The problems of a scene file, each located as ``FILE:LINE: message`` (or ``FILE: message``).
 

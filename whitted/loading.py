@@ -127,8 +127,19 @@ def load_scene(path: str | os.PathLike, variant: str | None = None, *, model=Non
         if "unused parameters" in str(error) and unused:
             # e.g. ambient or lighting given for a portable scene, which has neither
             raise WhittedError(f"{path}: the scene has no {' or '.join(unused)} to override") from None
-        first = str(error).strip().splitlines()[0] if str(error).strip() else type(error).__name__
-        raise WhittedError(f"{path}: Mitsuba could not load the scene: {first}") from None
+        raise _load_error(path, error) from None
+
+
+def _load_error(where, error: RuntimeError) -> WhittedError:
+    """Mitsuba's load error in one line: its first, or, where a plugin raised (Mitsuba quotes
+    the Python traceback, the plugin's error last), the plugin's error; a plugin's
+    :class:`~whitted.errors.WhittedError` (a parameter out of range) as it is."""
+    lines = str(error).strip().splitlines() or [type(error).__name__]
+    line = lines[-1] if "Traceback (most recent call last)" in lines[0] else lines[0]
+    kind, _, message = line.partition(": ")
+    if kind in ("ParameterError", "WhittedError"):
+        return WhittedError(f"{where}: {message}")
+    return WhittedError(f"{where}: Mitsuba could not load the scene: {line}")
 
 
 #: A file an XML scene names (a texture's image, a giant sphere's mesh): ``<string name="filename" value="…"/>``.
@@ -174,8 +185,7 @@ def loads(text: str, variant: str | None = None, *, base_dir: str | os.PathLike 
     try:
         return _load_model(model, params, ellipsoids, integrator)
     except RuntimeError as error:
-        first = str(error).strip().splitlines()[0] if str(error).strip() else type(error).__name__
-        raise WhittedError(f"{TEXT_NAME}: Mitsuba could not load the scene: {first}") from None
+        raise _load_error(TEXT_NAME, error) from None
 
 
 #: How :func:`loads` names scene text in messages (``<text>:3: ...``).
