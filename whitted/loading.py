@@ -117,10 +117,10 @@ def load_scene(path: str | os.PathLike, variant: str | None = None, *, model=Non
         if xml:
             return mi.load_file(str(path), parallel=PARALLEL, **{k: str(v) for k, v in params.items()})
         from .converter import parse_file
-        from .converter.frame import warn_precision
+        from .converter.sight import warn_scene
         if model is None:
             model = parse_file(path)
-            warn_precision(model, integrator=integrator)
+            warn_scene(model, integrator=integrator)
         return _load_model(model, params, ellipsoids, integrator, meshes)
     except RuntimeError as error:
         unused = re.findall(r"^\s*- \$(\w+)=", str(error), re.M)
@@ -163,14 +163,14 @@ def loads(text: str, variant: str | None = None, *, base_dir: str | os.PathLike 
     import mitsuba as mi  # noqa: F401  (the variant hook runs on import)
 
     from .converter import parse_text
-    from .converter.frame import warn_precision
+    from .converter.sight import warn_scene
     from .variant import set_variant
     if not isinstance(text, str):
         raise WhittedError(f"loads takes the scene's text as a str, got {type(text).__name__}")
     set_variant(variant)
     params = _checked(overrides)
     model = parse_text(text, Path(base_dir) / TEXT_NAME)
-    warn_precision(model, integrator=integrator)
+    warn_scene(model, integrator=integrator)
     try:
         return _load_model(model, params, ellipsoids, integrator)
     except RuntimeError as error:
