@@ -38,6 +38,19 @@ def test_default_output_is_beside_the_input(write_scene, capsys):
     assert capsys.readouterr() == ("", "")
 
 
+def test_the_default_xml_says_how_to_render_it(write_scene):
+    """The stock ``mitsuba`` command cannot load the default XML (``Plugin "whitted" not
+    found!``): its header says what can, and names the portable file for that command."""
+    scene = write_scene("light 5 5 5\nsphere 0 0 0 1\n", "demo.scn")
+    assert convert(scene) == 0
+    header = scene.with_suffix(".xml").read_text().split("<scene ")[0]
+    header = " ".join(header.split())   # the comment's lines joined
+    for said in ("`whitted render demo.xml -o demo.png`", "`import whitted`", "mi.load_file",
+                 'Plugin "whitted" not found', "demo.portable.xml", "docs/portable.md"):
+        assert said in header
+    ET.fromstring(scene.with_suffix(".xml").read_text())   # still well-formed
+
+
 def test_output_option(write_scene, tmp_path, capsys):
     scene = write_scene("sphere 0 0 0 1\n")
     (tmp_path / "out").mkdir()
