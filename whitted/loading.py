@@ -127,8 +127,30 @@ def load_scene(path: str | os.PathLike, variant: str | None = None, *, model=Non
         if "unused parameters" in str(error) and unused:
             # e.g. ambient or lighting given for a portable scene, which has neither
             raise WhittedError(f"{path}: the scene has no {' or '.join(unused)} to override") from None
-        first = str(error).strip().splitlines()[0] if str(error).strip() else type(error).__name__
-        raise WhittedError(f"{path}: Mitsuba could not load the scene: {first}") from None
+        raise load_error(path, error) from None
+
+
+#: A plugin's exception as Mitsuba wraps it: ``At FILE (line N, col M): failed to instantiate
+#: ... plugin of type "whitted": Traceback (most recent call last):``, the frames, then
+#: ``TYPE: message``, the line a user needs.
+_WRAPPED = re.compile(r"^(?:\[[^]]*\] )?At [^\n]*?(?:\(line (\d+), col \d+\))?: failed to instantiate "
+                      r".*?Traceback \(most recent call last\):\n(?:  .*\n)*(\w+): (.*)", re.S)
+#: the exceptions our plugins raise for a bad parameter: their message is the whole story
+_PLAIN = ("WhittedError", "SceneError", "ValueError")
+
+
+def load_error(where, error: BaseException) -> WhittedError:
+    """Mitsuba's error from loading the scene ``where`` as one clear line: a plugin's own
+    message (``FILE:LINE: message``, the line of the XML object) rather than the wrapper's
+    first line; else that first line."""
+    text = str(error).strip()
+    wrapped = _WRAPPED.match(text)
+    if wrapped:
+        line, kind, message = wrapped.groups()
+        place = f"{where}:{line}" if line else f"{where}"
+        return WhittedError(f"{place}: {message if kind in _PLAIN else f'{kind}: {message}'}")
+    first = text.splitlines()[0] if text else type(error).__name__
+    return WhittedError(f"{where}: Mitsuba could not load the scene: {first}")
 
 
 #: A file an XML scene names (a texture's image, a giant sphere's mesh): ``<string name="filename" value="…"/>``.
@@ -174,8 +196,7 @@ def loads(text: str, variant: str | None = None, *, base_dir: str | os.PathLike 
     try:
         return _load_model(model, params, ellipsoids, integrator)
     except RuntimeError as error:
-        first = str(error).strip().splitlines()[0] if str(error).strip() else type(error).__name__
-        raise WhittedError(f"{TEXT_NAME}: Mitsuba could not load the scene: {first}") from None
+        raise load_error(TEXT_NAME, error) from None
 
 
 #: How :func:`loads` names scene text in messages (``<text>:3: ...``).
