@@ -1,6 +1,6 @@
 """Valid scenes that draw nothing useful, found from the scene model, each with one line that
-says what the user probably meant: no sphere in the camera's view (the image is all
-background), the eye shut inside an opaque sphere, no light.
+says what the user probably meant: no sphere at all or none in the camera's view (the image
+is all background), the eye shut inside an opaque sphere, no light.
 
 Deliberate scenes stay quiet. An eye inside a sphere is a dome or a room (a sky dome, smallpt's
 box, tests/hard_cases) as long as another sphere reaches inside it, and a glass or textured
