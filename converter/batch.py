@@ -22,7 +22,7 @@ from ..atomic import atomic_path, check_folder, check_folder_creatable, writable
 from ..defaults import SEALED_MIN_GROUP
 from ..errors import WhittedError
 from .description import describe, meshes
-from .frame import warn_precision
+from .sight import warn_scene
 from .parser import parse_file
 from .xml_writer import write_xml
 
@@ -147,13 +147,13 @@ def convert_file(source: Path, target: Path, portable: bool = False) -> None:
     spheres grouped in ``ellipsoids`` shapes as for the path tracer, :func:`_portable_description`)
     to ``target`` atomically (nothing for an invalid scene), with the mesh files of its giant
     spheres (:mod:`.giants`) and the PLY files of its groups beside it; warn on stderr when
-    float32 cannot hold the scene's detail (:mod:`.frame`)."""
+    float32 cannot hold the scene's detail (:mod:`.frame`) or it draws nothing useful (:mod:`.sight`)."""
     scene = parse_file(source)
     if target.is_dir():
         raise WhittedError(f"{target}: is a folder; give the output file's name")
     description = _portable_description(scene, target.parent) if portable else \
         describe(scene, base_dir=target.parent, block=True)
-    warn_precision(scene)
+    warn_scene(scene)
     written = meshes(description)
     for mesh in written:   # giant spheres' meshes (.giants), before the XML that names them
         with atomic_path(target.parent / mesh.filename) as tmp:

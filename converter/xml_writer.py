@@ -3,7 +3,8 @@
 The default XML holds everything needed to render the scene with stock Mitsuba
 plus the project's plugins (``import whitted`` registers them): the perspective
 sensor, spheres, point lights, background, the article's materials and textures,
-and the Whitted integrator. The portable XML (:mod:`.portable`) holds the same
+and the Whitted integrator; a comment at its top says what renders it
+(:func:`usage_notes`). The portable XML (:mod:`.portable`) holds the same
 scene in Mitsuba's stock plugins only, with a comment at the top saying what
 differs from the article's model. What the scene holds, and every formula behind it
 (frame, light intensities, texture frames), is decided once in
@@ -35,6 +36,7 @@ import signal
 import sys
 import tempfile
 from dataclasses import replace
+from pathlib import Path
 from xml.sax.saxutils import escape
 
 from .description import Description, LookAt, Matrix, Mesh, Param, SphereBlock, describe
@@ -144,6 +146,17 @@ def _object(key: str, node: dict, defaults: dict, depth: int) -> list[str]:
     return lines + [f"{pad}</{_OBJECT_TAGS[kind]}>"]
 
 
+def usage_notes(description: Description) -> list[str]:
+    """The default XML's header comment: what renders it, and the form for the stock
+    ``mitsuba`` command, which does not know the whitted plugins."""
+    stem = Path(description.source).stem if description.source.endswith(".scn") else "FILE"
+    return ["It needs the whitted plugins (the `whitted` integrator, the `article` BSDF): render it with",
+            f"`whitted render {stem}.xml -o {stem}.png`, or in Python `import whitted`, then mi.load_file.",
+            'The stock `mitsuba` command stops at Plugin "whitted" not found!: give it the portable form,',
+            f"{stem}.portable.xml (Mitsuba's stock plugins), which `whitted convert` writes with its",
+            "portable option (docs/portable.md)."]
+
+
 def description_to_xml(description: Description, notes: list[str] = ()) -> str:
     """The Mitsuba XML of a scene description; ``notes`` are lines of a comment at the top."""
     return "".join(_pieces(description, notes))
@@ -238,7 +251,7 @@ def write_xml(description: Description, file, portable: bool = False) -> None:
     if portable:
         description, notes = to_portable(description)
     else:
-        notes = ()
+        notes = usage_notes(description)
     block = description.spheres
     if block is None or len(block) < PARALLEL_FROM or not _can_fork(file):
         for piece in _pieces(description, notes):
@@ -322,5 +335,5 @@ def scene_to_xml(scene: Scene, base_dir: str | os.PathLike | None, portable: boo
 def xml_of(description: Description, portable: bool = False) -> str:
     """The XML of ``description``, in the default or the ``portable`` form."""
     if not portable:
-        return description_to_xml(description)
+        return description_to_xml(description, usage_notes(description))
     return description_to_xml(*to_portable(description))

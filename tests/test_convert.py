@@ -31,11 +31,24 @@ def convert(*args: str) -> int:
 
 
 def test_default_output_is_beside_the_input(write_scene, capsys):
-    scene = write_scene("sphere 0 0 0 1\n", "demo.scn")
+    scene = write_scene("light 5 5 5\nsphere 0 0 0 1\n", "demo.scn")
     assert convert(scene) == 0
     xml = scene.with_suffix(".xml")
     assert xml.read_text().startswith('<?xml version="1.0" encoding="utf-8"?>')
     assert capsys.readouterr() == ("", "")
+
+
+def test_the_default_xml_says_how_to_render_it(write_scene):
+    """The stock ``mitsuba`` command cannot load the default XML (``Plugin "whitted" not
+    found!``): its header says what can, and names the portable file for that command."""
+    scene = write_scene("light 5 5 5\nsphere 0 0 0 1\n", "demo.scn")
+    assert convert(scene) == 0
+    header = scene.with_suffix(".xml").read_text().split("<scene ")[0]
+    header = " ".join(header.split())   # the comment's lines joined
+    for said in ("`whitted render demo.xml -o demo.png`", "`import whitted`", "mi.load_file",
+                 'Plugin "whitted" not found', "demo.portable.xml", "docs/portable.md"):
+        assert said in header
+    ET.fromstring(scene.with_suffix(".xml").read_text())   # still well-formed
 
 
 def test_output_option(write_scene, tmp_path, capsys):
@@ -92,10 +105,10 @@ def test_cli_user_errors(case, message, write_scene, tmp_path, capsys):
 
 def test_an_output_folder_is_created_for_one_file_as_for_many(write_scene, tmp_path, capsys):
     """One rule: -o naming a folder (a trailing / or several inputs) is created when missing."""
-    scene = write_scene("sphere 0 0 0 1\n", "ball.scn")
+    scene = write_scene("light 5 5 5\nsphere 0 0 0 1\n", "ball.scn")
     assert convert(scene, "-o", f"{tmp_path / 'one' / 'deep'}/") == 0
     assert (tmp_path / "one" / "deep" / "ball.xml").is_file()
-    other = write_scene("sphere 0 0 0 2\n", "other.scn")
+    other = write_scene("light 5 5 5\nsphere 0 0 0 2\n", "other.scn")
     assert convert(scene, other, "-o", tmp_path / "many") == 0
     assert sorted(p.name for p in (tmp_path / "many").iterdir()) == ["ball.xml", "other.xml"]
     assert capsys.readouterr().err == ""
@@ -180,6 +193,47 @@ def test_convert_loads_neither_mitsuba_nor_drjit(write_scene, tmp_path):
     assert run.returncode == 0, run.stderr
     assert run.stdout.split() == ["0", "-"]
     assert scene.with_suffix(".xml").is_file()
+
+
+#: scenes that convert and render but draw nothing useful -> the one warning each gets
+NOTHING_USEFUL = [
+    ("size 8 6\nsphere 0 0 0 1\n", "scene.scn: no light: only the ambient term (0.2) lights the scene; "
+     "add `light X Y Z`"),
+    ("size 8 6\nlight 5 5 5\nlookat 0 0 20\nsphere 0 0 0 1\nsphere 3 0 -2 1\n",
+     "scene.scn: no sphere is in the camera's view: the image is only the background; point `lookat` at "
+     "the spheres (or widen `fov`)"),
+    ("size 8 6\nlight 5 5 5\neye 0 -1 10\nsphere 0 -100 0 100\nsphere 0 1 0 1\n",
+     "scene.scn:4: the eye is inside this opaque sphere, which holds no other sphere: the image shows "
+     "only its inside; move `eye` out of it (or make it `refract`)"),
+]
+
+
+@pytest.mark.parametrize("text, warning", NOTHING_USEFUL, ids=["no_light", "looking_away", "eye_shut_in"])
+def test_a_scene_that_draws_nothing_useful_gets_one_warning(text, warning, write_scene, tmp_path, capsys):
+    """Convert, render and load_scene all say what the user probably meant, in one line; the
+    scene stays valid (exit 0, the outputs written)."""
+    scene = write_scene(text)
+    line = f"whitted: warning: {tmp_path / warning}"
+    for args in (["convert", scene], ["render", scene, "-o", tmp_path / "out.png", "-q"]):
+        assert main(list(map(str, args))) == 0
+        assert capsys.readouterr() == ("", line + "\n")
+    assert scene.with_suffix(".xml").is_file() and (tmp_path / "out.png").is_file()
+    whitted.load_scene(scene)
+    assert capsys.readouterr().err == line + "\n"
+
+
+@pytest.mark.parametrize("text", ["ambient 1\nsphere 0 0 0 1\n",                   # flat on purpose
+                                  "light 5 5 5\nsphere 0 0 0 1\nsphere 0 0 0 50\n",   # a room around it
+                                  "light 5 5 5\neye 0 0 0.5\nsphere 0 0 0 1 refract 0.9 1.5\n",   # glass
+                                  "light 5 5 5\nlookat 0 0 20\nfov 179\nsphere 9 0 11 1\n"])   # at the edge
+def test_scenes_that_draw_something_get_no_warning(text, write_scene, capsys):
+    assert convert(write_scene(text)) == 0
+    assert capsys.readouterr() == ("", "")
+
+
+def test_the_example_scenes_convert_without_a_warning(tmp_path, capsys):
+    assert convert(REPO / "scenes", "-o", tmp_path) == 0
+    assert capsys.readouterr() == ("", "")
 
 
 def test_scenes_held_as_arrays_convert_as_lists_do(texture_png, tmp_path, capsys):

@@ -90,7 +90,7 @@ def test_convert_portable_names_and_folders(tmp_path, capsys):
     scenes = tmp_path / "scenes"
     scenes.mkdir()
     (scenes / "a.scn").write_text("size 8 6\nlight 1 1 1\nsphere 0 0 0 1 reflect 0.5\n")
-    (scenes / "b.scn").write_text("sphere 0 0 0 1\n")
+    (scenes / "b.scn").write_text("light 1 1 1\nsphere 0 0 0 1\n")
     assert main(["convert", str(scenes / "a.scn"), "--portable"]) == 0
     assert (scenes / "a.portable.xml").is_file() and not (scenes / "a.xml").exists()
     assert main(["convert", str(scenes), "-o", str(tmp_path / "out"), "--portable"]) == 0

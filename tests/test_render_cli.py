@@ -134,6 +134,16 @@ def test_verbose_prints_one_summary_line(scene_xml, tmp_path, capsys):
     assert err.count("\n") == 1 and "camera" in err and "shadow" in err
 
 
+@pytest.mark.parametrize("options, spp", [([], 1), (["--spp", 3], 3), (["--integrator", "path"], D.PATH_MIN_SPP),
+                                           (["--integrator", "path", "--spp", 2], 2)])
+def test_verbose_summary_says_the_spp_rendered(options, spp, scene_xml, tmp_path, capsys):
+    """The path tracer without --spp takes at least PATH_MIN_SPP samples, not the scene's 1."""
+    stats = tmp_path / "stats.json"
+    assert render(scene_xml, "-o", tmp_path / "v.exr", "-v", "-q", "--stats", stats, *options) == 0
+    assert f" at {spp} spp with " in capsys.readouterr().err
+    assert json.loads(stats.read_text())["rays"]["camera"] == W * H * spp
+
+
 # -- failures: a clean line, status 2, nothing written -------------------------------------------------
 
 @pytest.mark.parametrize("case", ["missing scene", "bad extension", "bad scene", "zero spp", "depth 0",

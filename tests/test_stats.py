@@ -148,6 +148,6 @@ def test_path_integrator_stats():
     stats = whitted.render(load(mixed(), "llvm_ad_rgb"), integrator="path", spp=2).stats
     # Only what is known without Mitsuba counting: the camera samples, times, effects, memory.
     assert stats["rays"] == {"camera": W * H * 2}
-    assert set(stats) == {"rays", "seconds", "compile_seconds", "effects", "peak_memory_bytes",
+    assert set(stats) == {"rays", "spp", "seconds", "compile_seconds", "effects", "peak_memory_bytes",
                           "peak_resident_bytes"}
     assert None not in stats.values()

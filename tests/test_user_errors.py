@@ -85,6 +85,38 @@ def test_an_unsupported_variant_is_named_when_a_scene_loads():
         assert lines[4] == "WhittedIntegrator"
 
 
+#: an edit of scenes_xml/tir.xml that a plugin refuses when the scene loads -> the XML object
+#: it is in and the words of the plugin's message
+BAD_XML = {
+    "integrator": (('name="max_depth" value="10"', 'name="max_depth" value="0"'), "<integrator ", "max_depth"),
+    "bsdf": (('name="reflect" value="0.05"', 'name="reflect" value="1.5"'), '<bsdf type="article" id="material_1"',
+             "reflect"),
+}
+
+
+@pytest.mark.parametrize("case", BAD_XML)
+def test_a_plugin_s_load_error_is_one_clear_line(case, tmp_path, capsys):
+    """Mitsuba wraps a plugin's exception as ``At FILE (line N, col M): failed to instantiate
+    ...: Traceback (most recent call last):`` with the message eight lines later: whitted
+    render prints that message as FILE:LINE: message, one line, and writes nothing;
+    whitted.load_scene raises it as a WhittedError."""
+    from whitted.cli import main
+    (old, new), element, word = BAD_XML[case]
+    text = (REPO / "scenes_xml" / "tir.xml").read_text(encoding="utf-8")
+    assert text.count(old) == 1
+    xml = tmp_path / "bad.xml"
+    xml.write_text(text.replace(old, new), encoding="utf-8")
+    line = next(n for n, row in enumerate(text.splitlines(), 1) if element in row)
+    assert main(["render", str(xml), "-o", str(tmp_path / "out.png"), "-q"]) == 2
+    out, err = capsys.readouterr()
+    assert out == "" and err.count("\n") == 1 and "Traceback" not in err
+    assert err.startswith(f"whitted: error: {xml}:{line}: ") and word in err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["bad.xml"]
+    with pytest.raises(whitted.WhittedError) as caught:
+        whitted.load_scene(xml)
+    assert f"whitted: error: {caught.value}\n" == err
+
+
 @pytest.mark.parametrize("integrator", ["whitted", "path"])
 def test_large_seeds_render(variant, integrator):
     """whitted.render takes any seed up to 2^64 - 1, folded to Mitsuba's 32 bits: seeds below

@@ -44,14 +44,13 @@ def convert_command(args) -> int:
 def _summary(args, result, sensor) -> str:
     import mitsuba as mi
     width, height = (int(c) for c in sensor.film().crop_size())
-    spp = sensor.sampler().sample_count()
     s = result.stats
     rays = ", ".join(f"{v} {k}" for k, v in s["rays"].items())
     depth = f"depth reached {s['max_depth_reached']}; " if "max_depth_reached" in s else ""
     if s.get("min_weight"):
         depth += (f"{s['culled_rays']} rays culled, error at most {s['error_bound']:.2g} "
                   f"(min weight {s['min_weight']:.3g}); ")
-    return (f"whitted: {width}x{height} at {spp} spp with {args.integrator} ({mi.variant()}): "
+    return (f"whitted: {width}x{height} at {s['spp']} spp with {args.integrator} ({mi.variant()}): "
             f"{s['seconds']:.3f} s (+{s['compile_seconds']:.3f} s compiling); rays: {rays}; {depth}"
             f"effects: {' '.join(s['effects']) or 'none'}; "
             f"peak memory {s['peak_memory_bytes'] / 2**20:.1f} MiB (Dr.Jit), "

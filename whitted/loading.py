@@ -117,29 +117,40 @@ def load_scene(path: str | os.PathLike, variant: str | None = None, *, model=Non
         if xml:
             return mi.load_file(str(path), parallel=PARALLEL, **{k: str(v) for k, v in params.items()})
         from .converter import parse_file
-        from .converter.frame import warn_precision
+        from .converter.sight import warn_scene
         if model is None:
             model = parse_file(path)
-            warn_precision(model, integrator=integrator)
+            warn_scene(model, integrator=integrator)
         return _load_model(model, params, ellipsoids, integrator, meshes)
     except RuntimeError as error:
         unused = re.findall(r"^\s*- \$(\w+)=", str(error), re.M)
         if "unused parameters" in str(error) and unused:
             # e.g. ambient or lighting given for a portable scene, which has neither
             raise WhittedError(f"{path}: the scene has no {' or '.join(unused)} to override") from None
-        raise _load_error(path, error) from None
+        raise load_error(path, error) from None
 
 
-def _load_error(where, error: RuntimeError) -> WhittedError:
-    """Mitsuba's load error in one line: its first, or, where a plugin raised (Mitsuba quotes
-    the Python traceback, the plugin's error last), the plugin's error; a plugin's
-    :class:`~whitted.errors.WhittedError` (a parameter out of range) as it is."""
-    lines = str(error).strip().splitlines() or [type(error).__name__]
-    line = lines[-1] if "Traceback (most recent call last)" in lines[0] else lines[0]
-    kind, _, message = line.partition(": ")
-    if kind in ("ParameterError", "WhittedError"):
-        return WhittedError(f"{where}: {message}")
-    return WhittedError(f"{where}: Mitsuba could not load the scene: {line}")
+#: A plugin's exception as Mitsuba wraps it: ``At FILE (line N, col M): failed to instantiate
+#: ... plugin of type "whitted": Traceback (most recent call last):``, the frames, then
+#: ``TYPE: message``, the line a user needs.
+_WRAPPED = re.compile(r"^(?:\[[^]]*\] )?At [^\n]*?(?:\(line (\d+), col \d+\))?: failed to instantiate "
+                      r".*?Traceback \(most recent call last\):\n(?:  .*\n)*(\w+): (.*)", re.S)
+#: the exceptions our plugins raise for a bad parameter: their message is the whole story
+_PLAIN = ("WhittedError", "SceneError", "ParameterError", "ValueError")
+
+
+def load_error(where, error: BaseException) -> WhittedError:
+    """Mitsuba's error from loading the scene ``where`` as one clear line: a plugin's own
+    message (``FILE:LINE: message``, the line of the XML object) rather than the wrapper's
+    first line; else that first line."""
+    text = str(error).strip()
+    wrapped = _WRAPPED.match(text)
+    if wrapped:
+        line, kind, message = wrapped.groups()
+        place = f"{where}:{line}" if line else f"{where}"
+        return WhittedError(f"{place}: {message if kind in _PLAIN else f'{kind}: {message}'}")
+    first = text.splitlines()[0] if text else type(error).__name__
+    return WhittedError(f"{where}: Mitsuba could not load the scene: {first}")
 
 
 #: A file an XML scene names (a texture's image, a giant sphere's mesh): ``<string name="filename" value="…"/>``.
@@ -174,18 +185,18 @@ def loads(text: str, variant: str | None = None, *, base_dir: str | os.PathLike 
     import mitsuba as mi  # noqa: F401  (the variant hook runs on import)
 
     from .converter import parse_text
-    from .converter.frame import warn_precision
+    from .converter.sight import warn_scene
     from .variant import set_variant
     if not isinstance(text, str):
         raise WhittedError(f"loads takes the scene's text as a str, got {type(text).__name__}")
     set_variant(variant)
     params = _checked(overrides)
     model = parse_text(text, Path(base_dir) / TEXT_NAME)
-    warn_precision(model, integrator=integrator)
+    warn_scene(model, integrator=integrator)
     try:
         return _load_model(model, params, ellipsoids, integrator)
     except RuntimeError as error:
-        raise _load_error(TEXT_NAME, error) from None
+        raise load_error(TEXT_NAME, error) from None
 
 
 #: How :func:`loads` names scene text in messages (``<text>:3: ...``).

@@ -15,7 +15,7 @@ In ``scalar_rgb`` nothing is compiled.
 
 Statistics (``result.stats``, written by ``--stats FILE.json``)::
 
-    {"rays": {"camera", "shadow", "reflection", "refraction"}, "merged_rays",
+    {"rays": {"camera", "shadow", "reflection", "refraction"}, "merged_rays", "spp",
      "seconds", "compile_seconds", "effects": [...], "max_depth_reached",
      "peak_memory_bytes", "peak_resident_bytes", "min_weight", "culled_rays", "culled_weight",
      "error_bound"}
@@ -24,6 +24,9 @@ Statistics (``result.stats``, written by ``--stats FILE.json``)::
 refracted share (total internal reflection sends the refracted share along
 the mirror direction: one ray, traced once, counted in both ``reflection``
 and ``refraction``); the rays traced are the sum of ``rays`` minus it.
+
+``spp`` is the samples per pixel rendered (the path tracer's at least
+``defaults.PATH_MIN_SPP`` when none is asked for).
 
 ``min_weight`` is the adaptive depth control's setting (0: off), ``culled_rays`` the
 reflected and refracted rays it left untraced, ``culled_weight`` their path weights' sum
@@ -262,7 +265,7 @@ def render_checked(scene, integrator: str = D.INTEGRATOR, spp: int | None = None
         adaptive = {}
 
     image = image[..., :3]
-    stats = {"rays": stats_rays, "seconds": clock.seconds, "compile_seconds": clock.compile,
+    stats = {"rays": stats_rays, "spp": spp, "seconds": clock.seconds, "compile_seconds": clock.compile,
              "effects": effects, "peak_memory_bytes": clock.peak_memory,
              "peak_resident_bytes": clock.peak_resident, **adaptive}
     return RenderResult(np.ascontiguousarray(image), clock.seconds, clock.compile, stats, clock.cpu_seconds)
