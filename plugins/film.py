@@ -173,11 +173,12 @@ class CameraSamples:
         if self.border:
             corner = corner - self.border
         crop_size = mi.ScalarVector2f(film.crop_size())
-        ray, weight = self.sensor.sample_ray(time=self.sensor.shutter_open(), sample1=0.5,
-                                             sample2=(corner + offset) / crop_size, sample3=aperture)
+        # (as Mitsuba's integrators ask for it: some sensors, the irradiance meter, give no plain ray)
+        ray, weight = self.sensor.sample_ray_differential(
+            time=self.sensor.shutter_open(), sample1=0.5, sample2=(corner + offset) / crop_size, sample3=aperture)
         # Box filter: a sample belongs to its pixel alone (as Mitsuba's own integrators do).
         position = corner if self.box else corner + offset
-        return ray, weight, position + mi.ScalarVector2f(film.crop_offset())
+        return mi.Ray3f(ray), weight, position + mi.ScalarVector2f(film.crop_offset())
 
 
 # -- where its color goes ------------------------------------------------------------------------
