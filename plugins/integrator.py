@@ -313,9 +313,9 @@ class WhittedIntegrator(mi.SamplingIntegrator):
             sensor = scene.sensors()[sensor]
         # mi.render may pass a UInt32; any integer up to 2^64 - 1 is folded to 32 bits
         seed = D.check_seed(int(seed[0]) if dr.is_array_v(seed) else seed, "whitted: seed")
-        spp = int(spp) or sensor.sampler().sample_count()
         film = sensor.film()
-        camera = CameraSamples(sensor, spp, seed)
+        camera = CameraSamples(sensor, int(spp), seed)
+        spp = camera.spp   # (as the sampler rounds it)
         # (not for a gradient: mi.render derives the seed of render_forward/backward itself)
         if camera.unused and camera.unused != self._warned and not attached:
             self._warned = camera.unused
