@@ -3,11 +3,13 @@ renders as Mitsuba's ``path`` renders it, or is refused with one clear line, and
 the process down.
 
 The renders run in one child process (this file, run as a script), which reports each case
-as it starts and as it ends: a crash fails these tests, naming the case, not the suite. The
-scene is opaque and diffuse, lit by a point light, with physical lighting and no
-background: what ``path`` with max_depth 2 computes too, without noise but where the
-camera samples fall. Its rays reach the floor of a tree 3 deep (the ball reflects), so
-every case walks more than one level of the wavefront tracer.
+as it starts and as it ends: a crash fails these tests, naming the case, not the suite.
+
+The scene is opaque (a partly reflecting ball on a diffuse floor), lit by a point light,
+with physical lighting and no background. Its direct light (whitted at max_depth 1) is what
+``path`` with max_depth 2 computes, noisy only where the camera samples fall; its trees 3
+deep walk more than one level of the wavefront tracer, and must be the same in the scalar
+variant, which walks them one ray at a time.
 """
 
 from __future__ import annotations
