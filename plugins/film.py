@@ -97,6 +97,17 @@ LENS_SALT = 0x85EBCA6B
 LENS_ROUNDS = 8
 
 
+def sample_count(sensor, spp: int) -> int:
+    """The samples per pixel of a render asking for ``spp`` (0: the sampler's own), as the
+    sensor's sampler rounds it (``stratified``: up to a square, ``orthogonal``: to a prime's
+    square, ``ldsampler``: to a power of two) and Mitsuba's integrators then render it."""
+    sampler = sensor.sampler()
+    if spp and spp != sampler.sample_count():
+        sampler = sampler.clone()
+        sampler.set_sample_count(spp)
+    return sampler.sample_count()
+
+
 class CameraSamples:
     """The camera rays of a render: where each sample starts in its pixel and on the lens.
 
@@ -112,6 +123,10 @@ class CameraSamples:
       (the render's seed for the first pass), so the image depends on the seed and the
       pass size.
 
+    How many: :attr:`spp` is what the sampler rounds ``spp`` to (:func:`sample_count`), as
+    in Mitsuba's integrators: 8 asked of ``stratified`` are 9, 1 asked of ``orthogonal`` or
+    ``ldsampler`` are 4.
+
     Lens samples are drawn only for a sensor that needs them (``thinlens``): a pinhole
     camera's kernels hold no lens code. With the film's ``sample_border`` the samples cover
     the border the reconstruction filter reaches beyond the crop too (:attr:`border`
@@ -119,6 +134,7 @@ class CameraSamples:
     """
 
     def __init__(self, sensor, spp: int, seed: int):
+        spp = sample_count(sensor, spp)
         self.sensor, self.spp, self.seed = sensor, spp, seed
         film = sensor.film()
         self.box = film.rfilter().is_box_filter()
@@ -173,11 +189,12 @@ class CameraSamples:
         if self.border:
             corner = corner - self.border
         crop_size = mi.ScalarVector2f(film.crop_size())
-        ray, weight = self.sensor.sample_ray(time=self.sensor.shutter_open(), sample1=0.5,
-                                             sample2=(corner + offset) / crop_size, sample3=aperture)
+        # (as Mitsuba's integrators ask for it: some sensors, the irradiance meter, give no plain ray)
+        ray, weight = self.sensor.sample_ray_differential(
+            time=self.sensor.shutter_open(), sample1=0.5, sample2=(corner + offset) / crop_size, sample3=aperture)
         # Box filter: a sample belongs to its pixel alone (as Mitsuba's own integrators do).
         position = corner if self.box else corner + offset
-        return ray, weight, position + mi.ScalarVector2f(film.crop_offset())
+        return mi.Ray3f(ray), weight, position + mi.ScalarVector2f(film.crop_offset())
 
 
 # -- where its color goes ------------------------------------------------------------------------

@@ -10,8 +10,8 @@ A render, as in Mitsuba's own Python integrators, prepares, samples and
 develops. Prepare: read the scene's tables (:mod:`.scene`: lights,
 materials, primitives, kept between renders while the scene is unchanged)
 and what the scene calls for (:mod:`.scene.effects`), and build a tracer.
-Sample: camera rays from the sensor's ``sample_ray`` (Mitsuba's perspective
-or thin-lens camera), placed in their pixels and on the lens by
+Sample: camera rays from the sensor's ``sample_ray_differential`` (any of
+Mitsuba's sensors), placed in their pixels and on the lens by
 :class:`.film.CameraSamples`, in passes
 of at most ``wavefront_size`` camera samples; each ray's tree is walked by
 :mod:`.tree` and shaded by :mod:`.shading`. Develop: the samples go straight
@@ -131,7 +131,9 @@ class WhittedIntegrator(mi.SamplingIntegrator):
 
     At one sample per pixel every ray passes through its pixel's center (and a thin lens's),
     so the seed, the sampler and the lens change nothing (a warning says so); more samples
-    honour the sensor (:class:`.film.CameraSamples`). Code for an effect the scene lacks is
+    honour the sensor (:class:`.film.CameraSamples`). Nested in the scene's ``aov``
+    integrator, which takes its AOVs from Mitsuba's own sampling loop, the color comes from
+    that loop too (each ray traced by :meth:`sample`): the rays of the AOVs. Code for an effect the scene lacks is
     left out of the kernels (:mod:`.scene.effects`). :meth:`render_detailed` also returns
     the rays traced and the adaptive depth control's error bound (``whitted render --stats``).
     Gradients (JIT AD variants): :meth:`render_forward` and :meth:`render_backward`, with
@@ -248,12 +250,26 @@ class WhittedIntegrator(mi.SamplingIntegrator):
     def render(self, scene, sensor=0, seed=0, spp=0, develop=True, evaluate=True):
         if not develop:
             raise ValueError("the whitted integrator only renders developed images (develop=True)")
+        if self._nested_in_aov(scene):
+            # The aov integrator takes its AOVs from Mitsuba's own sampling loop and its color
+            # from this render: the same loop, tracing each of its rays with sample(), gives a
+            # color of the very rays the AOVs describe.
+            return super().render(scene, sensor, seed, spp, develop, evaluate)
         return self.render_detailed(scene, sensor, seed, spp).image
 
+    def _nested_in_aov(self, scene) -> bool:
+        """Whether the scene's integrator is an ``aov`` integrator, which nests this one."""
+        outer = scene.integrator()
+        return outer is not None and outer is not self and outer.class_name() == "AOVIntegrator"
+
     def sample(self, scene, sampler, ray, medium=None, active=True):
-        """The color of ``ray``'s whole tree (for callers that drive the integrator per ray)."""
-        tracer, _, _ = self._tracer(scene)
-        return tracer.trace(mi.Ray3f(ray)), mi.Bool(True), []
+        """The color of ``ray``'s whole tree (for callers that drive the integrator per ray),
+        and whether the ray hit a surface or sees the background (a film's alpha)."""
+        tracer, analysis, _ = self._tracer(scene)
+        tracer.keep_camera_hit = True
+        color = tracer.trace(mi.Ray3f(ray))
+        seen = analysis.environment is not None and not self.hide_emitters
+        return color, mi.Bool(tracer.camera_hit | seen), []
 
     def render_forward(self, scene, params=None, sensor=0, seed=0, spp=0):
         """The image's derivative along the gradients set on the parameters (forward mode; what
@@ -319,9 +335,9 @@ class WhittedIntegrator(mi.SamplingIntegrator):
             sensor = scene.sensors()[sensor]
         # mi.render may pass a UInt32; any integer up to 2^64 - 1 is folded to 32 bits
         seed = D.check_seed(int(seed[0]) if dr.is_array_v(seed) else seed, "whitted: seed")
-        spp = int(spp) or sensor.sampler().sample_count()
         film = sensor.film()
-        camera = CameraSamples(sensor, spp, seed)
+        camera = CameraSamples(sensor, int(spp), seed)
+        spp = camera.spp   # (as the sampler rounds it)
         # (not for a gradient: mi.render derives the seed of render_forward/backward itself)
         if camera.unused and camera.unused != self._warned and not attached:
             self._warned = camera.unused

@@ -111,6 +111,19 @@ def test_sampler_types_are_used_and_converge(variant, sampler):
     assert np.abs(blocks(few) - reference).mean() > np.abs(converged - reference).mean()
 
 
+@pytest.mark.parametrize("sampler,asked,taken", [("stratified", 8, 9), ("orthogonal", 16, 25), ("ldsampler", 1, 4)])
+def test_a_rounded_sample_count_renders_as_the_sampler_rounds_it(variant, sampler, asked, taken):
+    """A sampler that takes only some sample counts (a square, a prime's square, a power of
+    two, at least 4) renders the count it rounds the one asked to, as path does: the same
+    image as asking for that count, and as many camera rays."""
+    from whitted.rendering import render
+    loaded = scene(sampler=sampler, spp=4)
+    image = whitted(loaded, spp=asked)
+    np.testing.assert_array_equal(image, whitted(loaded, spp=taken))
+    assert not np.array_equal(image, whitted(loaded, spp=4 if taken != 4 else 9))
+    assert render(loaded, spp=asked).stats["rays"]["camera"] == 24 * 16 * taken
+
+
 def test_sample_border_samples_beyond_the_crop_as_path_does(variant):
     """With a wide filter and ``sample_border``, the edge pixels take samples from beyond
     the image, as path's do: closer to path's with it than without."""

@@ -113,3 +113,31 @@ def test_alpha_is_paths_alpha(variant, hide, background):
         assert (whitted_alpha == 1).all()
     else:
         assert (whitted_alpha == 0).sum() > 20 and edge.sum() < 40
+
+
+# -- the aov integrator ----------------------------------------------------------------------------
+
+@pytest.mark.parametrize("spp", [1, 4])
+def test_aov_color_and_aovs_come_from_the_same_rays(variant, spp):
+    """Under Mitsuba's ``aov`` integrator the color is of the rays the AOVs describe (not of
+    the pixel centres a whitted render takes at 1 spp): with no background and an ambient
+    term, a pixel has a color exactly where its depth says a ray hit, silhouettes included."""
+    whitted = {"type": "whitted", "max_depth": 3}
+    description = {
+        "type": "scene", "integrator": {"type": "aov", "aovs": "dd.y:depth", "color": whitted},
+        "sensor": {"type": "perspective", "fov": 40,
+                   "to_world": mi.ScalarTransform4f().look_at(origin=[0, 0, 5], target=[0, 0, 0], up=[0, 1, 0]),
+                   "film": {"type": "hdrfilm", "width": 24, "height": 16, "rfilter": {"type": "box"}},
+                   "sampler": {"type": "independent", "sample_count": spp}},
+        "ball": {"type": "sphere", "bsdf": {"type": "article", "reflect": 0.4}},
+        "small": {"type": "sphere", "center": [1.6, 0.5, -1], "radius": 0.5, "bsdf": {"type": "article"}},
+        "light": {"type": "point", "position": [2, 4, 4], "intensity": {"type": "rgb", "value": [40, 40, 40]}},
+    }
+    image = np.array(mi.render(mi.load_dict(description)))
+    color, depth = image[..., :3], image[..., 3]
+    assert 20 < (depth > 0).sum() < depth.size - 20
+    np.testing.assert_array_equal(color.max(axis=-1) > 0, depth > 0)
+    # and it is the whitted integrator's color (the scene's lights and materials, as shaded)
+    description["integrator"] = whitted
+    plain = np.array(mi.render(mi.load_dict(description)))
+    assert np.abs(color.mean() - plain.mean()) < 0.05 * plain.mean()

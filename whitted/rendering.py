@@ -240,6 +240,8 @@ def render_checked(scene, integrator: str = D.INTEGRATOR, spp: int | None = None
     width, height = (int(c) for c in sensor.film().crop_size())
 
     if integrator == "whitted":
+        from .plugins.film import sample_count
+        spp = sample_count(sensor, spp)   # as the sampler rounds it (stratified: 8 are 9)
         tables = check_article_materials(scene)   # found once: the render takes them
         min_weight = float(min_weight) if min_weight is not None else settings["min_weight"]
         ambient = D.check_ambient(ambient, "ambient") if ambient is not None else settings["ambient"]

@@ -43,7 +43,9 @@ class WavefrontTracer(Tracer):
         dr.sync_thread()   # so that progress reports finished work
 
     def trace(self, ray, progress=None):
-        count = dr.width(ray.d)
+        # A wavefront's width is its ray's widest field: the rays of a sensor may share their
+        # origin (a pinhole) or their direction (orthographic, distant), held as one value.
+        count = dr.width(ray)
         camera = self.camera_branch(ray)
         camera.total = float(count)
         walk = _Walk(count, progress)
@@ -61,7 +63,7 @@ class WavefrontTracer(Tracer):
         that order, as :class:`~.depth_first.DepthFirstTracer` adds them: each sum has a fixed
         order, so the image is the same bits however many threads trace it (an atomic add of
         every level into its camera sample would add in the order the threads finish)."""
-        if front.level > 1 and dr.width(front.ray.d) > self.lanes:   # a pass's camera rays fit
+        if front.level > 1 and dr.width(front.ray) > self.lanes:   # a pass's camera rays fit
             return self._pieces(front, walk)
         color, culled, children = self.step(front)
         below = self._next_level(front, children, (color, culled), walk.reports) if children else None
@@ -69,7 +71,7 @@ class WavefrontTracer(Tracer):
         if below is not None:
             child, parent, second = below
             child_color, child_culled = self._subtree(child, walk)
-            width = dr.width(front.ray.d)   # (a camera wavefront's weight is one literal 1)
+            width = dr.width(front.ray)   # (a camera wavefront's weight is one literal 1)
             color = color + _to_parents(child_color, parent, second, False, mi.Color3f, width) \
                 + _to_parents(child_color, parent, second, True, mi.Color3f, width)
             if child_culled is not None:
@@ -82,7 +84,7 @@ class WavefrontTracer(Tracer):
         """:meth:`_subtree` of a wavefront too wide for one, a piece of ``lanes`` at a time."""
         pieces = self._split(front, walk.reports)
         walk.replaced(front, pieces)
-        n = dr.width(front.ray.d)
+        n = dr.width(front.ray)
         color, culled = dr.zeros(mi.Color3f, n), None
         for start, piece in pieces:
             lane = dr.arange(mi.UInt32, dr.width(piece.weight)) + dr.opaque(mi.UInt32, start)
