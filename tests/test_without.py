@@ -6,6 +6,7 @@ less work (plugins/scene/effects.py says what each effect's absence means).
 from __future__ import annotations
 
 import json
+import re
 from dataclasses import replace
 from pathlib import Path
 
@@ -147,3 +148,16 @@ def test_bad_effects_fail_in_one_line(argv, message, tmp_path, capsys):
     err = capsys.readouterr().err
     assert message in err and len(err.strip().splitlines()) == 1 and "Traceback" not in err
     assert not out.exists()
+
+
+def test_the_lessons_page_shows_each_command_s_picture():
+    """docs/lessons.md: every ``-o out/lessons/NAME.png`` of its commands has its picture in
+    docs/images/lessons/ (made by docs/images/lessons.py), shown on the page; the README
+    test runs the commands."""
+    page = (REPO / "docs" / "lessons.md").read_text()
+    names = re.findall(r"-o out/lessons/([\w-]+\.png)", page)
+    assert len(names) >= 10 and len(set(names)) == len(names)
+    for name in names:
+        assert (REPO / "docs" / "images" / "lessons" / name).is_file(), name
+        assert f"](images/lessons/{name})" in page, name
+    assert "--without" in page and "--max-depth" in page
