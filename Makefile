@@ -54,9 +54,11 @@ demo: scenes
 	done
 	@echo "demo images in $(OUT)/demo/: NAME.png and NAME.exr (the article's model), NAME-path.png (Mitsuba's path tracer, 64 spp)"
 
-# The README's first picture: scenes/spheres.scn with the article's model and the path tracer.
+# The README's first picture: scenes/spheres.scn with the article's model and the path tracer;
+# and the pictures of docs/lessons.md, rendered by its own commands.
 images: setup
 	$(PY) docs/images/first_look.py
+	$(PY) docs/images/lessons.py
 
 # Debian's Chromium, for the browser test of `whitted compare`'s report page
 # (tests/test_compare_page.py skips it without one): installed when missing and

@@ -229,6 +229,10 @@ class Reference:
     max_depth: int | None = None       # None: the scene's depth
     ambient: float | None = None
     lighting: str = "article"          # or "physical": (B/π)·I·cos/r², I = color·π·d_ref²
+    #: effects left out (``whitted render --without``), read from docs: ``shadows`` (no shadow
+    #: test), ``reflection``/``refraction`` (no such rays, their share black), ``textures``
+    #: (textured spheres white)
+    without: tuple = ()
 
     def __post_init__(self):
         self.depth = self.scene.depth if self.max_depth is None else self.max_depth
@@ -244,6 +248,8 @@ class Reference:
         material = sphere.material
         if material.texture is None:
             return tuple(material.color)
+        if "textures" in self.without:
+            return (1.0, 1.0, 1.0)
         path = str(material.texture)
         if path not in self._textures:
             self._textures[path] = load_texels(path)
@@ -258,9 +264,10 @@ class Reference:
         cos = dot(normal, to_light) / r
         if cos <= 0:
             return (0.0, 0.0, 0.0)
-        self.rays["shadow"] += 1
-        if blocked(self.scene, point, light.position):
-            return (0.0, 0.0, 0.0)
+        if "shadows" not in self.without:
+            self.rays["shadow"] += 1
+            if blocked(self.scene, point, light.position):
+                return (0.0, 0.0, 0.0)
         if self.lighting == "article":
             return mul(light.color, cos)
         d2 = dot(sub(light.position, self.scene.lookat), sub(light.position, self.scene.lookat)) or 1.0
@@ -291,10 +298,10 @@ class Reference:
         color = mul(point, 1 - m.reflect - m.refract)
         c1 = -dot(n_facing, direction)
         r = add(direction, mul(n_facing, 2 * c1))
-        if m.reflect > 0 and depth < self.depth:
+        if m.reflect > 0 and depth < self.depth and "reflection" not in self.without:
             self.rays["reflection"] += 1
             color = add(color, mul(self.trace(p, normalize(r), depth + 1), m.reflect))
-        if m.refract > 0 and depth < self.depth:
+        if m.refract > 0 and depth < self.depth and "refraction" not in self.without:
             self.rays["refraction"] += 1
             eta = m.ior if inside else 1 / m.ior
             k = 1 - eta * eta * (1 - c1 * c1)

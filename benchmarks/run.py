@@ -9,12 +9,15 @@ printed as a ratio against the fastest honest alternative doing the same work:
    ray-casting floor (floor.py): the same rays and nothing else.
 2. A diffuse scene at depth 16 vs depth 1 (the acceptance scene: 1024×768, 4 spp).
 3. Cost against sphere count (10 → 10 000), resolution and spp, with peak memory.
-4. Each effect: a scene with every effect vs the same scene without that one.
+4. Each effect: a scene with every effect vs the same scene without that one; and the
+   same scene with each effect left out by the integrator (``whitted render --without``):
+   a render without an effect must be no slower than with it.
 5. Adaptive depth control: a deep render with and without a minimum path weight.
 
 Usage::
 
     python -m benchmarks.run [--quick] [--markdown benchmarks/RESULTS.md] [--json FILE]
+    python -m benchmarks.run --quick --only left_out     # one section
 
 The exit status is 1 when an acceptance target (issue 6) is missed.
 """
@@ -220,6 +223,30 @@ class Bench:
             self.data["effects"][name] = {**vars(t), "rays": r.rays(), "effects": list(rendering.effects)}
         self.show(table)
 
+    def left_out(self, folder: Path):
+        """The every-effect scene rendered with each effect left out by the integrator's
+        ``without`` (``whitted render --without``), timed side by side with the full render."""
+        from whitted.defaults import SWITCHABLE_EFFECTS
+        width, height, spp = 512, 384, 4
+        model = scenes.every_effect(scenes.write_texture(folder / "checker.png"), width, height, spp)
+        scene = scenes.load(model)
+        integrators = {"every effect": scenes.load_whitted(model),
+                       **{f"--without {e}": scenes.load_whitted(model, without=e) for e in SWITCHABLE_EFFECTS}}
+        timing = self.measure({name: renderer(scene, i, spp) for name, i in integrators.items()},
+                              self.s["rounds"])
+        full = timing["every effect"]
+        table = Table(f"Each effect left out by --without ({width}×{height}, {spp} spp, max depth "
+                      f"{model.depth})", ["render", "median ms", "spread", "this / every effect",
+                                          "rays (cam/shadow/refl/refr)"])
+        self.data["left_out"] = {}
+        for name, integrator in integrators.items():
+            r = integrator.render_detailed(scene, spp=spp).rays
+            t = timing[name]
+            table.add(name, ms(t.median), t.spread(), t.over(full),
+                      f"{r.camera}/{r.shadow}/{r.reflection}/{r.refraction}")
+            self.data["left_out"][name] = {**vars(t), "rays": r.rays(), "over_full": t.over(full)}
+        self.show(table)
+
     def adaptive(self, folder: Path):
         width, height, spp = 512, 384, 4
         model = scenes.every_effect(folder / "checker.png", width, height, spp, depth=16)
@@ -245,6 +272,9 @@ class Bench:
                                         "depth": rays.max_depth_reached, "mean_abs_error": error}
         self.show(table)
 
+
+#: the sections of a run, in order (``--only``)
+SECTIONS = ("against_direct_and_floor", "depth", "scaling", "effects", "left_out", "adaptive")
 
 #: the prose of RESULTS.md between the acceptance table and the results: how to reproduce, what
 #: is compared
@@ -282,6 +312,7 @@ def main(argv=None) -> int:
     parser.add_argument("--markdown", metavar="FILE",
                         help="write the results as Markdown (benchmarks/RESULTS.md)")
     parser.add_argument("--json", metavar="FILE", help="write every number as JSON")
+    parser.add_argument("--only", choices=SECTIONS, help="run one section only (no acceptance check)")
     args = parser.parse_args(argv)
 
     whitted.set_variant(args.variant)
@@ -291,10 +322,15 @@ def main(argv=None) -> int:
     start = time.perf_counter()
     bench = Bench(QUICK if args.quick else FULL, sys.stdout)
     with tempfile.TemporaryDirectory() as folder:
+        if args.only:
+            section = getattr(bench, args.only)
+            section(Path(folder)) if args.only in ("effects", "left_out", "adaptive") else section()
+            return 0
         bench.against_direct_and_floor()
         bench.depth()
         bench.scaling()
         bench.effects(Path(folder))
+        bench.left_out(Path(folder))
         bench.adaptive(Path(folder))
     seconds = time.perf_counter() - start
 

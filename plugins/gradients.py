@@ -132,8 +132,8 @@ class Attached:
 
 
 def attached(scene, tables, integrator) -> Attached:
-    """:class:`Attached` for a render of ``scene`` (whose tables are ``tables``) by the Whitted
-    ``integrator``."""
+    """:class:`Attached` for a render of ``scene`` by the Whitted ``integrator``; ``tables``:
+    the scene's analysis (:class:`.scene.effects.SceneAnalysis`: its ``material_table``)."""
     values = getattr(integrator, "_values", {})
     ambient = mi.Float(values["ambient"]) if "ambient" in values else mi.Float(integrator.ambient)
     physical = integrator.lighting == "physical"

@@ -110,6 +110,14 @@ class WhittedIntegrator(mi.SamplingIntegrator):
          in Mitsuba's own integrators (reflections and refractions still show
          the background). (Default: false)
 
+     * - without
+       - |string|
+       - Effects the render leaves out, as if the scene lacked them, separated by
+         commas: ``shadows`` (no shadow test), ``reflection`` and ``refraction`` (no
+         such rays: their share KR or KT is dropped, the diffuse share stays),
+         ``textures`` (a textured sphere is white), ``diffuse`` (no light's term: B·A),
+         ``ambient`` (A = 0). :mod:`.scene.effects` says exactly what each means. (Default: none)
+
      * - wavefront_size
        - |int|
        - Camera samples per pass, and the widest wavefront the JIT variants
@@ -121,8 +129,9 @@ class WhittedIntegrator(mi.SamplingIntegrator):
     checks an edit by the rule a loaded property meets, with the same one-line error
     (``whitted: max_depth must be an integer, got 2.5``: refused, not truncated), refuses
     an invalid edit whole, and the next render uses a valid one.
-    ``lighting`` and ``exact_spheres`` are strings, which Mitsuba's scene
-    parameters cannot hold: load the scene again to change them.
+    ``lighting``, ``without`` and ``exact_spheres`` are strings, which Mitsuba's scene
+    parameters cannot hold: load the scene again to change them (or render with
+    ``whitted.render(scene, lighting=..., without=...)``).
 
     The article's ray tracer (docs/scene-format.md, "Shading"; :mod:`.shading.shader`): a
     point's color is ``B·(A + (1 - A)·Σ s·light)``, mixed with the reflected and refracted
@@ -149,6 +158,7 @@ class WhittedIntegrator(mi.SamplingIntegrator):
                 <point name="light_reference" x="0" y="0.2" z="0"/>
                 <float name="ambient" value="0.3"/>
                 <string name="lighting" value="article"/>
+                <string name="without" value="shadows,reflection"/>
             </integrator>
 
         .. code-tab:: python
@@ -157,7 +167,8 @@ class WhittedIntegrator(mi.SamplingIntegrator):
             'max_depth': 10,
             'light_reference': [0, 0.2, 0],
             'ambient': 0.3,
-            'lighting': 'article'
+            'lighting': 'article',
+            'without': 'shadows,reflection'
     """
 
     def __init__(self, props: mi.Properties):
@@ -174,7 +185,7 @@ class WhittedIntegrator(mi.SamplingIntegrator):
     #: at load and at an edit, and their defaults
     DEFAULTS = {"max_depth": D.DEPTH, "ambient": D.AMBIENT, "lighting": D.LIGHTING,
                 "light_reference": D.LOOKAT, "min_weight": D.MIN_WEIGHT,
-                "wavefront_size": D.WAVEFRONT_SIZE}
+                "wavefront_size": D.WAVEFRONT_SIZE, "without": ""}
 
     def _take(self, checked: dict) -> None:
         """Take the properties ``checked`` by the plugins' one rule."""
@@ -225,11 +236,12 @@ class WhittedIntegrator(mi.SamplingIntegrator):
         self._take(checked)
 
     #: the settings :meth:`settings` reports and :meth:`with_settings` changes
-    SETTINGS = ("max_depth", "ambient", "lighting", "light_reference", "min_weight", "exact_spheres")
+    SETTINGS = ("max_depth", "ambient", "lighting", "light_reference", "min_weight", "without",
+                "exact_spheres")
 
     def settings(self) -> dict:
-        """The integrator's properties as Python values (``exact_spheres``: ``(id, center,
-        radius)`` per giant sphere)."""
+        """The integrator's properties as Python values (``without``: a tuple of effect names;
+        ``exact_spheres``: ``(id, center, radius)`` per giant sphere)."""
         return {name: getattr(self, name) for name in self.SETTINGS}
 
     def with_settings(self, **changes):
@@ -240,6 +252,7 @@ class WhittedIntegrator(mi.SamplingIntegrator):
             return self
         settings = {**current, **changes}
         giants = settings.pop("exact_spheres")   # data, handed over as it is (no text)
+        settings["without"] = ",".join(D.check_without(settings["without"]))
         integrator = mi.load_dict({"type": "whitted", **settings, "hide_emitters": self.hide_emitters,
                                    "wavefront_size": self.wavefront_size})
         integrator.exact_spheres = list(giants)
@@ -304,12 +317,13 @@ class WhittedIntegrator(mi.SamplingIntegrator):
         ``tables``: the scene's tables as :func:`whitted.plugins.check_scene` just found them;
         ``attached``: shaded from the parameters' own Dr.Jit values (:mod:`.gradients`)."""
         tables = tables or scene_tables(scene)
-        analysis = analyse(tables, self.max_depth, self.light_reference)
-        bright = brightest(analysis, self.lighting, self.ambient) if self.min_weight > 0 else None
+        analysis = analyse(tables, self.max_depth, self.light_reference, self.without)
+        bright = brightest(analysis, self.lighting, analysis.ambient(self.ambient)) \
+            if self.min_weight > 0 else None
         tally = Tally()
         shader = Shader(scene, analysis, self.ambient, self.lighting, tally, self.exact_spheres,
                         hide_background=self.hide_emitters,
-                        attached=gradients.attached(scene, tables, self) if attached else None)
+                        attached=gradients.attached(scene, analysis, self) if attached else None)
         tracer = tracer_for_variant(shader, allowance(self.min_weight, bright), tally,
                                     self.wavefront_size or SAMPLES_PER_PASS)
         return tracer, analysis, bright
@@ -411,4 +425,5 @@ class WhittedIntegrator(mi.SamplingIntegrator):
 
     def to_string(self):
         return (f"WhittedIntegrator[max_depth={self.max_depth}, ambient={self.ambient}, "
-                f"lighting={self.lighting}, min_weight={self.min_weight}]")
+                f"lighting={self.lighting}, min_weight={self.min_weight}"
+                f"{', without=' + ','.join(self.without) if self.without else ''}]")

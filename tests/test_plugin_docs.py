@@ -76,7 +76,8 @@ def example(doc: str, language: str) -> str:
 DEFAULTS = {
     "whitted": {"max_depth": D.DEPTH, "ambient": D.AMBIENT, "lighting": D.LIGHTING,
                 "light_reference": D.LOOKAT, "min_weight": D.MIN_WEIGHT,
-                "wavefront_size": D.WAVEFRONT_SIZE, "exact_spheres": "none", "hide_emitters": "false"},
+                "wavefront_size": D.WAVEFRONT_SIZE, "exact_spheres": "none", "hide_emitters": "false",
+                "without": "none"},
     "article": {"color": D.COLOR, "reflect": D.REFLECT, "refract": D.REFRACT, "ior": D.IOR},
 }
 
@@ -88,7 +89,8 @@ def plugin_values(plugin) -> dict:
                 "light_reference": tuple(float(x) for x in plugin.light_reference),
                 "min_weight": plugin.min_weight, "wavefront_size": plugin.wavefront_size,
                 "exact_spheres": "; ".join(key for key, _, _ in plugin.exact_spheres) or "none",
-                "hide_emitters": str(bool(plugin.hide_emitters)).lower()}
+                "hide_emitters": str(bool(plugin.hide_emitters)).lower(),
+                "without": ",".join(plugin.without) or "none"}
     color = plugin.color.eval(dr.zeros(mi.SurfaceInteraction3f))
     return {"color": tuple(float(dr.ravel(c)[0]) for c in color), "reflect": plugin.reflect,
             "refract": plugin.refract, "ior": plugin.ior}
@@ -141,7 +143,7 @@ def test_the_examples_load_and_set_what_they_say(llvm, name):
 def test_the_plugins_read_every_documented_parameter(llvm):
     """A value given for each documented parameter ends up in the plugin."""
     given = {"max_depth": 7, "ambient": 0.5, "lighting": "physical", "light_reference": (1.0, 2.0, 3.0),
-             "min_weight": 0.25, "wavefront_size": 99}
+             "min_weight": 0.25, "wavefront_size": 99, "without": "shadows,reflection"}
     integrator = mi.load_dict({"type": "whitted", **{k: (mi.ScalarPoint3f(v) if k == "light_reference" else v)
                                                      for k, v in given.items()}})
     assert_values(plugin_values(integrator), given)

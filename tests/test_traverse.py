@@ -229,5 +229,6 @@ def test_load_scene_names_the_bad_parameter_in_one_line(llvm, tmp_path):
     path.write_text(edited(glass_xml(), "material_1", "reflect", "1.5"))
     with pytest.raises(whitted.WhittedError) as error:
         whitted.load_scene(path)
+    # FILE:LINE, the line of the XML object (whitted.loading.load_error)
     assert re.fullmatch(rf"{re.escape(str(path))}:\d+: article BSDF: reflect must be in \[0, 1\], got 1\.5",
                         str(error.value)), str(error.value)

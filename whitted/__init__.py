@@ -44,6 +44,7 @@ _LAZY = {
     "to_srgb": ("whitted.display", "to_srgb"),
     "set_variant": ("whitted.variant", "set_variant"),
     "fit": ("whitted.fitting", "fit"),
+    "SceneEditor": ("whitted.editing", "SceneEditor"),
 }
 
 __all__ = ["SceneError", "WhittedError", "__version__", *_LAZY]

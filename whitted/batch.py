@@ -67,6 +67,7 @@ class Settings:
     ``ambient``    the article's ambient coefficient
     ``lighting``   ``"article"`` or ``"physical"`` (whitted only)
     ``min_weight`` the adaptive depth control's bound (whitted only; 0: exact tree)
+    ``without``    the effects left out (whitted only; ``defaults.SWITCHABLE_EFFECTS``)
     ``variant``    Mitsuba's variant (None: the default, see :mod:`whitted.variant`)
     ``exposure``   a PNG's exposure in stops (:mod:`whitted.display`; never in EXR)
     ``view``       a PNG's view transform (None: as for one scene, :func:`~whitted.display.default_view`)
@@ -78,6 +79,7 @@ class Settings:
     ambient: float | None = None
     lighting: str | None = None
     min_weight: float | None = None
+    without: tuple | None = None
     variant: str | None = None
     exposure: float = 0.0
     view: str | None = None
@@ -86,7 +88,8 @@ class Settings:
         """Every option validated before any scene is read."""
         from .display import check_exposure
         from .rendering import check_settings
-        check_settings(self.spp, self.max_depth, self.lighting, self.integrator, self.min_weight)
+        check_settings(self.spp, self.max_depth, self.lighting, self.integrator, self.min_weight,
+                       self.without)
         check_exposure(self.exposure)
         if self.ambient is not None:
             D.check_ambient(self.ambient)
@@ -215,7 +218,8 @@ def render_one(scene: Path, outputs: tuple[Path, ...], settings: Settings,
                                 max_depth=settings.max_depth, ambient=settings.ambient,
                                 lighting=settings.lighting)
         try:
-            result = render(loaded, integrator=settings.integrator, min_weight=settings.min_weight)
+            result = render(loaded, integrator=settings.integrator, min_weight=settings.min_weight,
+                            without=settings.without)
         except WhittedError as error:
             raise WhittedError(f"{scene}: {error}") from None
         view = settings.view or default_view(settings.integrator,

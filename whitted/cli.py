@@ -137,6 +137,10 @@ def build_parser() -> argparse.ArgumentParser:
                         help="maximum ray-tree depth; primary rays have depth 1 (default: the scene's)")
     render.add_argument("--ambient", type=float, metavar="A",
                         help="the article's ambient coefficient (default: the scene's)")
+    render.add_argument("--without", action="append", metavar="EFFECT",
+                        help="leave an effect out of the article's model, as if the scene lacked it: "
+                             "shadows, reflection, refraction, textures, diffuse or ambient (repeat it, "
+                             "or separate names by commas; whitted integrator only)")
     render.add_argument("--min-weight", type=float, metavar="W",
                         help="adaptive depth control (Hall and Greenberg): leave reflected and "
                              "refracted rays untraced as long as together they cannot change a pixel "

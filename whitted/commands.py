@@ -43,6 +43,8 @@ def convert_command(args) -> int:
 
 def _summary(args, result, sensor) -> str:
     import mitsuba as mi
+
+    from .defaults import check_without
     width, height = (int(c) for c in sensor.film().crop_size())
     s = result.stats
     rays = ", ".join(f"{v} {k}" for k, v in s["rays"].items())
@@ -53,6 +55,7 @@ def _summary(args, result, sensor) -> str:
     return (f"whitted: {width}x{height} at {s['spp']} spp with {args.integrator} ({mi.variant()}): "
             f"{s['seconds']:.3f} s (+{s['compile_seconds']:.3f} s compiling); rays: {rays}; {depth}"
             f"effects: {' '.join(s['effects']) or 'none'}; "
+            f"{'left out: ' + ' '.join(check_without(args.without)) + '; ' if args.without else ''}"
             f"peak memory {s['peak_memory_bytes'] / 2**20:.1f} MiB (Dr.Jit), "
             f"{s['peak_resident_bytes'] / 2**20:.1f} MiB resident")
 
@@ -92,7 +95,7 @@ def render_single(args) -> None:
 
     output = Path(args.output)
     # Before the scene is loaded (seconds for a large one); once: render_checked trusts them.
-    check_settings(args.spp, args.max_depth, args.lighting, args.integrator, args.min_weight)
+    check_settings(args.spp, args.max_depth, args.lighting, args.integrator, args.min_weight, args.without)
     if args.ambient is not None:
         check_ambient(args.ambient)
     if args.stats and Path(args.stats).resolve() == output.resolve():
@@ -106,7 +109,7 @@ def render_single(args) -> None:
     loaded = _load_quietly(args)   # the mi.Scene
     try:   # render checks the scene (a sensor; the article's materials) before it starts
         result = render_checked(loaded, integrator=args.integrator, progress=not args.quiet,
-                                min_weight=args.min_weight, spp=args.spp)
+                                min_weight=args.min_weight, spp=args.spp, without=args.without)
     except WhittedError as error:
         raise WhittedError(f"{args.scenes[0]}: {error}") from None
     view = getattr(args, "view", None) or default_view(
@@ -126,10 +129,12 @@ def render_many_command(args) -> int:
     from . import interrupt
     from .atomic import check_writable, write_text
     from .batch import IN_PROCESS, Settings, Tally, plan_batch, render_planned, report_failure
+    from .defaults import check_without
     from .progress import progress_bar
 
     settings = Settings(integrator=args.integrator, spp=args.spp, max_depth=args.max_depth,
                         ambient=args.ambient, lighting=args.lighting, min_weight=args.min_weight,
+                        without=check_without(args.without, "--without") if args.without else None,
                         variant=args.variant, exposure=getattr(args, "exposure", 0.0),
                         view=getattr(args, "view", None))
     settings.check()

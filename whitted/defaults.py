@@ -60,6 +60,10 @@ MAX_REPORTED_ERRORS = 20
 #: how the Whitted integrator lights a scene: the article's model, or physically
 LIGHTING_MODES = ("article", "physical")
 LIGHTING = "article"
+#: what a render of the article's model may leave out, as if the scene lacked it
+#: (``whitted render --without``, the integrator's ``without``; plugins/scene/effects.py
+#: decides what each means)
+SWITCHABLE_EFFECTS = ("shadows", "reflection", "refraction", "textures", "diffuse", "ambient")
 #: the article's model, or Mitsuba's stock path tracer
 INTEGRATORS = ("whitted", "path")
 INTEGRATOR = "whitted"
@@ -286,6 +290,26 @@ def check_lighting(lighting, what: str = "lighting") -> str:
     return lighting
 
 
+def check_without(without, what: str = "without") -> tuple[str, ...]:
+    """Effects to leave out of a render: names of :data:`SWITCHABLE_EFFECTS`, given as a
+    string (comma-separated) or several; each once, in that tuple's order (None: none)."""
+    if without is None:
+        return ()
+    names = []
+    for item in [without] if isinstance(without, str) else without:
+        if not isinstance(item, str):
+            raise WhittedError(f"{what} must name effects ({', '.join(SWITCHABLE_EFFECTS)}), got {item!r}")
+        names += [name.strip().lower() for name in item.split(",") if name.strip()]
+    for name in names:
+        if name not in SWITCHABLE_EFFECTS:
+            import difflib
+            close = difflib.get_close_matches(name, SWITCHABLE_EFFECTS, n=1, cutoff=0.5)
+            hint = f" (did you mean {close[0]}?)" if close else ""
+            raise WhittedError(f"{what}: unknown effect '{name}'{hint}; choose from "
+                               f"{', '.join(SWITCHABLE_EFFECTS)}")
+    return tuple(name for name in SWITCHABLE_EFFECTS if name in names)
+
+
 #: The plugins' parameters and their checks: one rule for a property loaded (XML, a dict) and
 #: for an edit (``params.update()``, the plugins' ``parameters_changed``), by plugin (the name
 #: that starts its messages). ``color`` is a uniform base color (a texture's texels are not
@@ -295,7 +319,7 @@ PLUGIN_PARAMETERS = {
                      "ior": check_ior},
     "whitted": {"max_depth": check_depth, "ambient": check_ambient, "min_weight": check_min_weight,
                 "lighting": check_lighting, "light_reference": check_point,
-                "wavefront_size": check_wavefront_size},
+                "wavefront_size": check_wavefront_size, "without": check_without},
 }
 
 

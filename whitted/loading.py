@@ -24,7 +24,7 @@ from .errors import WhittedError
 #: with the check each override goes through.
 OVERRIDES = {"spp": D.check_spp, "max_depth": D.check_depth, "ambient": D.check_ambient,
              "lighting": check_lighting, "width": lambda v: D.check_size(v, "width"),
-             "height": lambda v: D.check_size(v, "height")}
+             "height": lambda v: D.check_size(v, "height"), "without": D.check_without}
 
 #: Mitsuba's parallel loading (``parallel=`` of ``mi.load_file``/``load_dict``): off. It
 #: cost 35-40 % more CPU time and more wall time on 2 cores at every size measured
@@ -97,7 +97,9 @@ def load_scene(path: str | os.PathLike, variant: str | None = None, *, model=Non
     triangles), far more than rendering a small frame. Mitsuba's path tracer would see
     the float32 sphere. ``whitted render`` passes it for the whitted integrator.
     ``overrides`` replace the scene's ``spp``, ``max_depth``, ``ambient``,
-    ``lighting`` ("article" or "physical"), ``width`` or ``height``. A portable ``.xml``
+    ``lighting`` ("article" or "physical"), ``width`` or ``height``; ``without`` (the
+    effects its whitted integrator leaves out: ``"shadows,reflection"`` or a list of names
+    of ``defaults.SWITCHABLE_EFFECTS``) is set on the loaded scene's integrator. A portable ``.xml``
     (stock plugins, ``whitted convert --portable``) has only ``spp``, ``max_depth``,
     ``width`` and ``height``, ``max_depth`` in Mitsuba's sense (the article's depth + 1).
     """
@@ -107,6 +109,7 @@ def load_scene(path: str | os.PathLike, variant: str | None = None, *, model=Non
     from .variant import set_variant
     set_variant(variant)
     params = _checked(overrides)
+    without = params.pop("without", None)
     path = Path(path)
     xml = path.suffix.lower() == ".xml"
     if xml or model is not None:
@@ -115,13 +118,14 @@ def load_scene(path: str | os.PathLike, variant: str | None = None, *, model=Non
         check_referenced_files(path)
     try:
         if xml:
-            return mi.load_file(str(path), parallel=PARALLEL, **{k: str(v) for k, v in params.items()})
+            return _leaving_out(mi.load_file(str(path), parallel=PARALLEL,
+                                             **{k: str(v) for k, v in params.items()}), without, path)
         from .converter import parse_file
         from .converter.sight import warn_scene
         if model is None:
             model = parse_file(path)
             warn_scene(model, integrator=integrator)
-        return _load_model(model, params, ellipsoids, integrator, meshes)
+        return _leaving_out(_load_model(model, params, ellipsoids, integrator, meshes), without, path)
     except RuntimeError as error:
         unused = re.findall(r"^\s*- \$(\w+)=", str(error), re.M)
         if "unused parameters" in str(error) and unused:
@@ -179,7 +183,7 @@ def loads(text: str, variant: str | None = None, *, base_dir: str | os.PathLike 
 
     Texture paths are relative to ``base_dir`` (default: the current folder); errors name
     the text as ``<text>:LINE``. ``variant``, ``ellipsoids``, ``integrator`` and
-    ``overrides`` (``spp``, ``max_depth``, ``ambient``, ``lighting``) are those of
+    ``overrides`` (``spp``, ``max_depth``, ``ambient``, ``lighting``, ``without``) are those of
     :func:`load_scene`.
     """
     import mitsuba as mi  # noqa: F401  (the variant hook runs on import)
@@ -191,12 +195,27 @@ def loads(text: str, variant: str | None = None, *, base_dir: str | os.PathLike 
         raise WhittedError(f"loads takes the scene's text as a str, got {type(text).__name__}")
     set_variant(variant)
     params = _checked(overrides)
+    without = params.pop("without", None)
     model = parse_text(text, Path(base_dir) / TEXT_NAME)
     warn_scene(model, integrator=integrator)
     try:
-        return _load_model(model, params, ellipsoids, integrator)
+        return _leaving_out(_load_model(model, params, ellipsoids, integrator), without, TEXT_NAME)
     except RuntimeError as error:
         raise load_error(TEXT_NAME, error) from None
+
+
+def _leaving_out(scene, without, where):
+    """``scene``, its whitted integrator set to leave out the effects ``without`` (checked:
+    :func:`whitted.defaults.check_without`; None: as loaded)."""
+    if without is None:
+        return scene
+    from .plugins import whitted_or_none
+    integrator = whitted_or_none(scene.integrator())
+    if integrator is None:
+        raise WhittedError(f"{where}: the scene has no without to override (its integrator is not "
+                           "the whitted one)")
+    integrator.without = without
+    return scene
 
 
 #: How :func:`loads` names scene text in messages (``<text>:3: ...``).

@@ -120,9 +120,12 @@ def quiet_mitsuba():
         logger.set_log_level(level)
 
 
-def check_settings(spp, max_depth, lighting, integrator, min_weight=None) -> None:
+def check_settings(spp, max_depth, lighting, integrator, min_weight=None, without=None) -> None:
     """Every rendering option validated once (the API and the CLI call this)."""
     D.check_integrator(integrator)
+    if D.check_without(without, "--without") and integrator != "whitted":
+        raise WhittedError("--without applies to the whitted integrator only; the path tracer "
+                           "simulates what the scene holds")
     if spp is not None:
         D.check_spp(spp)
     if max_depth is not None:
@@ -194,7 +197,7 @@ class _Clock:
 def render(scene, integrator: str = D.INTEGRATOR, spp: int | None = None, max_depth: int | None = None,
            lighting: str | None = None, progress: bool = False, seed: int = 0,
            min_weight: float | None = None, ambient: float | None = None, *,
-           fresh_memory: bool = True) -> RenderResult:
+           without=None, fresh_memory: bool = True) -> RenderResult:
     """Render ``scene`` (a ``mi.Scene``); see the module docstring and docs/CONTRACTS.md.
 
     ``seed``: any integer from 0 to 2^64 - 1 (:func:`whitted.defaults.check_seed` folds it
@@ -205,7 +208,10 @@ def render(scene, integrator: str = D.INTEGRATOR, spp: int | None = None, max_de
     control, 0 = off) and ``ambient`` (the article's A, whitted only) default to
     the scene's own settings; but the path tracer without ``spp`` takes at least
     ``defaults.PATH_MIN_SPP`` (64) samples per pixel, not a scene's 1 (pass ``spp``
-    to choose: noise falls as 1/spp). ``integrator="path"``
+    to choose: noise falls as 1/spp). ``without`` (whitted only): the effects to leave out,
+    as if the scene lacked them (``"shadows,reflection"`` or names of
+    ``defaults.SWITCHABLE_EFFECTS``; plugins/scene/effects.py says what each means); None:
+    the scene's own (none unless its integrator says). ``integrator="path"``
     uses Mitsuba's ``path`` integrator with ``max_depth + 1`` (one more
     segment for the connection to a light); a scene whose own integrator is
     ``path`` (a portable scene) is rendered with it unless ``max_depth`` is given.
@@ -215,15 +221,15 @@ def render(scene, integrator: str = D.INTEGRATOR, spp: int | None = None, max_de
     rendering again and again would (``whitted compare`` times renders so), and the peak
     figures are then the process's so far.
     """
-    check_settings(spp, max_depth, lighting, integrator, min_weight)
+    check_settings(spp, max_depth, lighting, integrator, min_weight, without)
     return render_checked(scene, integrator, spp, max_depth, lighting, progress, seed, min_weight, ambient,
-                          fresh_memory=fresh_memory)
+                          without=without, fresh_memory=fresh_memory)
 
 
 def render_checked(scene, integrator: str = D.INTEGRATOR, spp: int | None = None,
                    max_depth: int | None = None, lighting: str | None = None, progress: bool = False,
                    seed: int = 0, min_weight: float | None = None,
-                   ambient: float | None = None, *, fresh_memory: bool = True) -> RenderResult:
+                   ambient: float | None = None, *, without=None, fresh_memory: bool = True) -> RenderResult:
     """:func:`render` for settings :func:`check_settings` has passed already (the CLI checks
     them before it loads the scene): checked once."""
     seed = D.check_seed(seed)
@@ -247,7 +253,9 @@ def render_checked(scene, integrator: str = D.INTEGRATOR, spp: int | None = None
         ambient = D.check_ambient(ambient, "ambient") if ambient is not None else settings["ambient"]
         with quiet_mitsuba():
             whitted = own.with_settings(max_depth=depth, lighting=lighting or settings["lighting"],
-                                        min_weight=min_weight, ambient=ambient)
+                                        min_weight=min_weight, ambient=ambient,
+                                        without=settings["without"] if without is None
+                                        else D.check_without(without, "without"))
         with progress_bar(progress, width * height * spp, "render") as bar, _Clock(fresh_memory) as clock:
             rendering = whitted.render_detailed(scene, sensor, seed=seed, spp=spp, progress=bar.update,
                                                tables=tables)

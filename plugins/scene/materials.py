@@ -80,6 +80,17 @@ class Materials:
                         None if None in texels else max(texels, default=0.0), objects)
         return materials, shape_keys
 
+    def untextured(self) -> "Materials":
+        """These materials with each texture replaced by the plain color white (the format's
+        default color: a textured sphere's ``color`` is not kept beside its texture)."""
+        if not self.textures:
+            return self
+        rows = self.rows.copy()
+        textured = rows[:, TEXTURED] != 0
+        rows[textured, COLOR] = 1.0
+        rows[:, TEXTURED] = 0.0
+        return Materials(self.key, rows, {}, 0.0, self.bsdfs)
+
     @property
     def reflective(self) -> bool:
         return bool((self.rows[:, REFLECT] > 0).any())

@@ -86,7 +86,8 @@ class Shader:
         # Per-render constants are opaque: kernels are reused across scenes (plain numbers in scalar).
         # A differentiable render reads the parameters' own values (``attached``:
         # :class:`whitted.plugins.gradients.Attached`), so that the AD graph reaches them.
-        self.ambient = dr.opaque(mi.Float, ambient) if attached is None else attached.ambient
+        self.ambient = dr.opaque(mi.Float, analysis.ambient(ambient)) \
+            if attached is None or not analysis.has("ambient") else attached.ambient
         # Article lighting uses the light's color; physical lighting its intensity (divided by r^2).
         # Giant spheres listed with their exact values are intersected in float64 (.giants).
         need_uv = analysis.has("textures")
@@ -104,7 +105,8 @@ class Shader:
         self.environment = analysis.environment
         self.reflection = analysis.has("reflection")
         self.refraction = analysis.has("refraction")
-        self.surfaces = SurfaceLookup(tables.materials, tables.material_table if attached is None
+        self.shadows = analysis.has("shadows")
+        self.surfaces = SurfaceLookup(analysis.surfaces, analysis.material_table if attached is None
                                       else attached.material_table, need_ior=self.refraction)
         self.tally = tally   # counts the shadow rays (:class:`~whitted.plugins.tree.counts.Tally`)
         self.depth = analysis.depth
@@ -161,7 +163,8 @@ class Shader:
         return base * (self.ambient + (1 - self.ambient) * direct)
 
     def light(self, si, error, n_facing, position, strength, on_surface, active):
-        """One light's ``s·light_color`` (article) or ``I·cos/r²`` (physical), 0 in shadow.
+        """One light's ``s·light_color`` (article) or ``I·cos/r²`` (physical), 0 in shadow
+        (never, when the render leaves shadows out).
 
         Every sphere blocks the segment to the light, transparent ones too. The
         shadow ray leaves from a point moved off the surface by the hit's error
@@ -175,13 +178,16 @@ class Shader:
         facing = active & (dist2 > 0) & (cos > 0)
         if off(facing):
             return mi.Color3f(0)
+        if self.physical:
+            strength = strength * dr.rcp(dr.maximum(dist2, TINY))
+        lit = dr.select(facing, cos * strength, 0)
+        if not self.shadows:   # the render leaves shadows out: every light is seen
+            return lit
         self.tally.add("shadow", facing)
         # (visibility is not differentiated: the shadow ray is detached from the light's position)
         shadowed = self.hits.blocked(spawn_ray_to(si, error, dr.detach(position),
                                                   *(on_surface or ())), facing)
-        if self.physical:
-            strength = strength * dr.rcp(dr.maximum(dist2, TINY))
-        return dr.select(shadowed, 0, dr.select(facing, cos * strength, 0))
+        return dr.select(shadowed, 0, lit)
 
 
 @dataclass

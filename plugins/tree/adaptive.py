@@ -88,7 +88,7 @@ def brightest(analysis, lighting: str, ambient: float):
     whose largest value is not known here.
     """
     tables = analysis.tables
-    base, gain = tables.materials.largest_base(), tables.materials.largest_gain()
+    base, gain = analysis.surfaces.largest_base(), analysis.surfaces.largest_gain()
     if base is None or tables.background is None:
         return None
     if lighting == "physical":

@@ -1,0 +1,202 @@
+"""Editing a loaded scene in its ``.scn`` file's own terms: :class:`SceneEditor`.
+
+Why. A notebook that moves a light or a sphere, or changes a color, wants the numbers of
+the file (``light 2 3 1``), and a render in milliseconds, not a reload. Mitsuba's
+parameters (``mi.traverse(scene)``) hold the scene as the converter wrote it: positions
+relative to ``lookat`` (converter/frame.py), a sphere as its ``to_world`` transform, and
+a light of article color c at distance d from ``lookat`` as a point emitter of intensity
+``I = c·π·d²`` (converter/description.py, ``light_intensity``). The whitted integrator
+reads the color back as ``I / (π·d²)``, d measured at render time (plugins/scene/lights.py,
+``article_color``). So writing only a light's ``position`` keeps I and changes d: the light's
+color, and every point it lights, scale by ``d_old² / d_new²`` (``light 5 8 4`` under
+``lookat 0 0.5 0`` moved to ``2 3 1``: 97.25 / 11.25, 8.6 times brighter), where in the
+article a light's color never depends on where it is.
+
+How. The editor keeps the scene's model (:class:`whitted.converter.Scene`) and its
+description (the one the loader built the scene from). An edit changes the model, describes
+it again with the converter's own code, and writes what changed into the scene through
+``mi.traverse`` and ``params.update()``: a light's position and its intensity for the new
+distance, a sphere's ``to_world``, a material's color, the camera's clip range. So the
+scene is the one the edited file loads, and renders the same image, bit for bit. An edit
+that changes how the scene is built (a sphere moved so far that it becomes a giant one,
+intersected in float64 from the integrator's ``exact_spheres``, or one that makes two
+materials equal) is refused in one line: load the edited scene (:meth:`SceneEditor.scn`)
+instead. The editor loads every sphere as a shape of its own (no ``ellipsoids`` groups:
+``load_scene(..., ellipsoids=False)``), which for a scene of thousands of spheres costs
+load time.
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import replace
+from pathlib import Path
+
+from . import defaults as D
+from .errors import WhittedError
+
+
+class SceneEditor:
+    """A scene loaded from a ``.scn`` file (or its text, or a model), edited in the file's
+    coordinates (docs/notebook.md, "Editing a scene").
+
+    ``editor.scene`` is the ``mi.Scene`` (render it with :func:`whitted.render` or
+    ``mi.render``); ``editor.model`` the scene model as edited; :meth:`scn` its text.
+    ``overrides`` are :func:`whitted.load_scene`'s (``spp``, ``max_depth``, ``ambient``,
+    ``lighting``, ``width``, ``height``, ``without``).
+    """
+
+    def __init__(self, source, variant: str | None = None, **overrides):
+        from .converter import Scene, parse_file
+        from .converter.sight import warn_scene
+        from .loading import _checked, _leaving_out
+        from .variant import set_variant
+        set_variant(variant)
+        self._params = _checked(overrides)
+        self._without = self._params.pop("without", None)
+        if isinstance(source, Scene):
+            self.model = source
+        else:
+            self.model = parse_file(Path(source))
+            warn_scene(self.model)
+        self._description = self._describe(self.model)
+        self.scene = _leaving_out(self._load(self._description), self._without, self.model.source)
+
+    @classmethod
+    def loads(cls, text: str, variant: str | None = None, *, base_dir: str | os.PathLike = ".",
+              **overrides) -> "SceneEditor":
+        """An editor of the scene whose ``.scn`` text is ``text`` (as :func:`whitted.loads`)."""
+        from .converter import parse_text
+        from .converter.sight import warn_scene
+        from .loading import TEXT_NAME
+        model = parse_text(text, Path(base_dir) / TEXT_NAME)
+        warn_scene(model)
+        return cls(model, variant, **overrides)
+
+    # -- the edits ------------------------------------------------------------------------------
+
+    def move_light(self, k: int, position) -> None:
+        """Light ``k`` (from 0, in the file's order) to ``position`` (x, y, z in the file's
+        coordinates), its color kept."""
+        lights = list(self.model.lights)
+        light = self._item(lights, k, "light")
+        lights[k] = replace(light, position=D.check_point(position, "a light's position"))
+        self._apply(replace(self.model, lights=lights))
+
+    def move_sphere(self, k: int, center, radius: float | None = None) -> None:
+        """Sphere ``k`` (from 0, in the file's order) to ``center`` (the file's coordinates),
+        with radius ``radius`` (None: kept)."""
+        spheres = list(self.model.spheres)
+        sphere = self._item(spheres, k, "sphere")
+        radius = sphere.radius if radius is None else float(radius)
+        if not radius > 0:
+            raise WhittedError(f"a sphere's radius must be > 0, got {radius}")
+        spheres[k] = replace(sphere, center=D.check_point(center, "a sphere's center"), radius=radius)
+        self._apply(replace(self.model, spheres=spheres))
+
+    def set_color(self, k: int, color) -> None:
+        """The color of sphere ``k`` (from 0) to ``color`` (RGB in [0, 1], linear), and of every
+        sphere that shares its material (the same color, reflect, refract and IOR in the file:
+        the converter writes such spheres one material), as if each were edited in the file."""
+        spheres = list(self.model.spheres)
+        material = self._item(spheres, k, "sphere").material
+        if material.texture is not None:
+            raise WhittedError(f"sphere {k} is textured: its texture, not a color, gives its base color")
+        edited = replace(material, color=D.check_color(color))
+        self._apply(replace(self.model, spheres=[replace(s, material=edited) if s.material == material else s
+                                                 for s in spheres]))
+
+    def scn(self, folder: str | os.PathLike = ".") -> str:
+        """The edited scene as ``.scn`` text, for a file in ``folder`` (texture paths relative
+        to it): what loads as :attr:`scene`."""
+        from .converter.scn_writer import scene_to_scn
+        return scene_to_scn(self.model, folder)
+
+    # -- how ------------------------------------------------------------------------------------
+
+    @staticmethod
+    def _item(items: list, k: int, what: str):
+        if isinstance(k, bool) or not isinstance(k, int) or not 0 <= k < len(items):
+            raise WhittedError(f"no {what} {k!r}: the scene has {len(items)} {what}s, numbered from 0")
+        return items[k]
+
+    def _describe(self, model):
+        from .converter.description import describe
+        return describe(model, base_dir=None)
+
+    def _load(self, description):
+        from .loading import _loaded, mitsuba_dict
+        return _loaded(mitsuba_dict(description, self._params), meshes=True)
+
+    def _apply(self, model) -> None:
+        """Write into :attr:`scene` what changes from the current model to ``model``, or refuse."""
+        import mitsuba as mi
+        description = self._describe(model)
+        changes = _differences(self._description.scene, description.scene)
+        writes = {}
+        for path, value in changes:
+            key = _parameter(path, value, description.scene)
+            if key is None:
+                raise WhittedError(f"this edit changes how the scene is built ({'.'.join(map(str, path))}), "
+                                   "which Mitsuba's parameters cannot change: make it in the .scn file "
+                                   "and load that; the scene is left as it was")
+            writes[key[0]] = key[1]
+        params = mi.traverse(self.scene)
+        for key, value in writes.items():
+            params[key] = _as(params[key], value)
+        params.update()
+        self.model, self._description = model, description
+
+
+def _differences(old, new, path=()) -> list:
+    """``(path, new value)`` of every leaf where the descriptions ``old`` and ``new`` differ (a
+    key present in one only is a difference at that key)."""
+    if isinstance(old, dict) and isinstance(new, dict):
+        found = []
+        for key in dict.fromkeys([*old, *new]):
+            if key not in old or key not in new:
+                found.append(((*path, key), new.get(key)))
+            else:
+                found += _differences(old[key], new[key], (*path, key))
+        return found
+    return [] if type(old) is type(new) and old == new else [(path, new)]
+
+
+def _parameter(path: tuple, value, scene: dict):
+    """``(key, value)`` of the Mitsuba parameter that makes the change ``path`` -> ``value`` of a
+    description, or None (the change needs a new scene)."""
+    from .converter.description import Matrix
+    obj = scene.get(path[0]) if path else None
+    kind = obj.get("type") if isinstance(obj, dict) else None
+    if kind == "point" and path[1:] in (("position",), ("intensity", "value")):
+        return ".".join(path), value
+    if kind == "article" and path[1:] == ("color", "value"):
+        return ".".join(path), value
+    if path in (("sensor", "near_clip"), ("sensor", "far_clip")):
+        return ".".join(path), value
+    if kind == "sphere" and path[1:] in (("center",), ("radius",)):
+        return f"{path[0]}.to_world", ("sphere", obj["center"], obj["radius"])
+    if kind == "sphere" and path[1:] == ("to_world",) and isinstance(value, Matrix):
+        return f"{path[0]}.to_world", ("matrix", value.rows)
+    return None
+
+
+def _as(current, value):
+    """``value`` as the type of the parameter ``current``: a sphere's transform made as the
+    sphere plugin makes it from its properties (float32 ``translate(center)·scale(radius)``;
+    a matrix and its inverse in float64, then rounded), so that the bits are a loaded scene's."""
+    import mitsuba as mi
+    import numpy as np
+    if isinstance(value, tuple) and value and value[0] == "sphere":
+        _, center, radius = value
+        transform = mi.ScalarAffineTransform4f().translate(mi.ScalarPoint3f(center)).scale(
+            mi.ScalarVector3f(radius))
+        return type(current)(transform)
+    if isinstance(value, tuple) and value and value[0] == "matrix":
+        exact = mi.ScalarAffineTransform4d(mi.ScalarMatrix4d(np.array(value[1], np.float64)))
+        transform = mi.ScalarAffineTransform4f(mi.ScalarMatrix4f(np.array(exact.matrix, np.float32)),
+                                               mi.ScalarMatrix4f(np.array(exact.inverse_transpose, np.float32)))
+        return type(current)(transform)
+    if isinstance(current, float):
+        return float(value)
+    return type(current)(*value)
