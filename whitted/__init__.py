@@ -17,7 +17,7 @@ user needs still happens on its own, through Mitsuba's own hooks:
 
 The rendering API (:func:`load_scene`, :func:`loads`, :func:`render`, :func:`render_scenes`
 for many scene files, :func:`write_image`, :func:`read_image`, :func:`to_srgb`,
-:func:`set_variant`) is loaded on first use.
+:func:`set_variant`, :func:`trace_pixel`) is loaded on first use.
 """
 
 from __future__ import annotations
@@ -44,6 +44,7 @@ _LAZY = {
     "to_srgb": ("whitted.display", "to_srgb"),
     "set_variant": ("whitted.variant", "set_variant"),
     "fit": ("whitted.fitting", "fit"),
+    "trace_pixel": ("whitted.trace", "trace_pixel"),
 }
 
 __all__ = ["SceneError", "WhittedError", "__version__", *_LAZY]
