@@ -254,3 +254,84 @@ def test_a_loaded_scene_keeps_its_file_s_names(llvm):
     assert tree.root.hit and tree.root.sphere.comment.startswith("ball ")
     assert tree.root.sphere.center == (1.0, -1.0, 0.0)   # grouped in a frame scaled by 1/0.9
     assert np.linalg.norm(np.subtract(tree.root.position, tree.root.sphere.center)) == pytest.approx(0.9, rel=1e-5)
+
+
+# --------------------------------------------------------------------------- the page
+
+
+@pytest.fixture(scope="module")
+def page_file(tmp_path_factory):
+    """The page of three pixels of tir.scn (glass with total internal reflection, the floor in
+    the ball's shadow, the background), written through the command line."""
+    whitted.set_variant("llvm_ad_rgb")
+    page = tmp_path_factory.mktemp("trace-page") / "tir.html"
+    assert main(["trace", str(TIR), "--pixel", "160", "90", "--pixel", "60", "150", "--pixel", "5", "5",
+                 "-o", str(page)]) == 0
+    return page
+
+
+def test_page_is_self_contained(page_file):
+    html = page_file.read_text()
+    import re
+    assert not re.search(r"<script[^>]*\bsrc=", html) and "<link" not in html   # no file fetched
+    assert re.search(r"plotly\.js v\d", html)        # plotly's script is in the page
+    assert "data:image/png;base64," in html           # the image is inlined
+    assert html.count('class="tree"') == 3            # a table per pixel
+    assert "tir.scn:19 (the glass ball)" in html and "total internal reflection" in html
+
+
+@pytest.fixture(scope="module")
+def browser(page_file, tmp_path_factory):
+    """The page opened from disk in headless Chromium: (page, console errors, requests)."""
+    from test_compare_page import CHROMIUM_ARGS, chromium
+    executable = chromium()
+    if executable is None:
+        pytest.skip("no Chromium: install Debian's chromium or set $WHITTED_CHROMIUM")
+    try:
+        from playwright.sync_api import sync_playwright
+    except ImportError:
+        pytest.skip("playwright is not installed (pip install -e '.[test]')")
+    profile = tmp_path_factory.mktemp("chromium-profile")
+    with sync_playwright() as playwright:
+        context = playwright.chromium.launch_persistent_context(
+            str(profile), executable_path=executable, headless=True,
+            args=[*CHROMIUM_ARGS, "--enable-unsafe-swiftshader", "--use-angle=swiftshader"])
+        context.set_default_timeout(30_000)
+        page = context.new_page()
+        errors: list[str] = []
+        requests: list[str] = []
+        page.on("console", lambda message: errors.append(message.text) if message.type == "error" else None)
+        page.on("pageerror", lambda error: errors.append(str(error)))
+        page.on("request", lambda request: requests.append(request.url))
+        page.goto(page_file.as_uri(), wait_until="load")
+        page.wait_for_function("document.querySelector('.js-plotly-plot') && "
+                               "document.querySelector('.js-plotly-plot')._fullLayout")
+        yield page, errors, requests
+        context.close()
+
+
+def test_page_shows_the_3d_view_and_the_tables_in_a_browser(browser):
+    page, errors, requests = browser
+    names = page.evaluate("Array.from(document.querySelector('.js-plotly-plot').data, t => t.name)")
+    for name in ("camera", "reflection", "refraction", "total internal reflection", "shadow ray, lit",
+                 "shadow ray, blocked", "lights", "missed (to the background)"):
+        assert name in names
+    assert page.locator(".js-plotly-plot canvas").count() > 0   # drawn (WebGL)
+    dashed = page.evaluate("Array.from(document.querySelector('.js-plotly-plot').data)"
+                           ".filter(t => t.name === 'shadow ray, blocked').map(t => t.line.dash)")
+    assert dashed == ["dash"]
+    assert page.locator("table.tree").count() == 3
+    assert page.locator("table.tree").first.locator("tbody tr").count() == 4   # the glass pixel's 4 rays
+    assert page.locator(".stage img").evaluate("i => i.naturalWidth") == 320
+    assert page.locator(".stage svg circle").count() == 2 * 3    # each pixel marked
+    assert not errors, errors
+    assert all(url.startswith(("file:", "data:", "blob:", "about:")) for url in requests), requests
+
+
+def test_notebook_shows_the_figure_and_table(llvm):
+    tree = trace_pixel(TIR, 160, 90)
+    html = tree._repr_html_()
+    import re
+    assert "Plotly.newPlot" in html and 'class="tree"' in html and "<html" not in html
+    assert not re.search(r"<script[^>]*\bsrc=", html) and re.search(r"plotly\.js v\d", html)
+    assert str(tree).splitlines()[0].startswith("pixel (160, 90) of tir.scn")

@@ -17,9 +17,11 @@ def add_arguments(command) -> None:
     """``whitted trace``'s options on its parser ``command``."""
     from ..defaults import LIGHTING_MODES, VARIANTS
     command.add_argument("scene", metavar="SCENE", help="the scene (.scn, or a converted .xml)")
-    command.add_argument("--pixel", nargs=2, type=int, action="append", required=True, metavar=("X", "Y"),
-                         help="a pixel: X the column from the left, Y the row from the top, from 0; "
-                              "give it again for more pixels")
+    command.add_argument("--pixel", nargs=2, type=pixel_coordinate, action="append", required=True,
+                         metavar=("X", "Y"),
+                         help="a pixel: X the column from the left, Y the row from the top, from 0, "
+                              "or each as a percentage of the width or height (--pixel 50%% 45%%: "
+                              "near the middle at any size); give it again for more pixels")
     command.add_argument("--json", action="store_true",
                          help="print the trees as JSON (for scripts) instead of indented text")
     command.add_argument("-o", "--output", metavar="PAGE.html",
@@ -37,6 +39,20 @@ def add_arguments(command) -> None:
                          help="adaptive depth control, as whitted render's: branches that cannot change "
                               "the pixel by more than W together are not traced, and the tree says so "
                               "(default: the scene's; 0 traces the exact tree)")
+
+
+def pixel_coordinate(text: str):
+    """A ``--pixel`` coordinate: an integer, or a percentage (``"45%"``) kept as text for
+    :func:`.pixel.trace_pixels` to place once the image's size is known."""
+    import argparse
+    try:
+        if text.endswith("%"):
+            float(text[:-1])
+            return text
+        return int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is neither a whole number nor a percentage "
+                                         "such as 45%") from None
 
 
 def trace_command(args) -> int:

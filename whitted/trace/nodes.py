@@ -154,21 +154,23 @@ def xyz(p) -> str:
     return f"({shown[0]:.5g}, {shown[1]:.5g}, {shown[2]:.5g})"
 
 
-def text_tree(root: Node) -> list[str]:
-    """The tree as indented lines of text, a node and its terms, then its children."""
+def text_tree(root: Node, physical: bool = False) -> list[str]:
+    """The tree as indented lines of text, a node and its terms, then its children
+    (``physical``: the point's formula is physical lighting's)."""
     lines: list[str] = []
-    _text(root, "", lines)
+    _text(root, "", lines, physical)
     return lines
 
 
-def _text(node: Node, indent: str, lines: list[str]) -> None:
+def _text(node: Node, indent: str, lines: list[str], physical: bool) -> None:
     merged = " (carries KR + KT)" if node.merged else ""
     head = (f"{indent}{node.kind}{merged}, level {node.level}, weight {node.weight:.4g}: "
             f"from {xyz(node.origin)} along {xyz(node.direction)}")
     lines.append(head)
     pad = indent + "  "
     if not node.hit:
-        lines.append(f"{pad}missed: background {rgb(node.background)}")
+        lines.append(f"{pad}missed: the background")
+        lines.append(f"{pad}contribution w·background = {rgb(node.contribution)}")
     else:
         where = node.sphere.label() if node.sphere else "a surface"
         side = "inside" if node.inside else "outside"
@@ -178,7 +180,8 @@ def _text(node: Node, indent: str, lines: list[str]) -> None:
                      f"from {side}")
         lines.append(f"{pad}color B {rgb(m['color'])}, KR {m['reflect']:.4g}, KT {m['refract']:.4g}"
                      + (f", IOR {m['ior']:.4g}" if m["refract"] > 0 else ""))
-        lines.append(f"{pad}ambient B·A {rgb(node.ambient)}")
+        if not physical:
+            lines.append(f"{pad}ambient B·A {rgb(node.ambient)}")
         for term in node.lights:
             name = f"light {term.index + 1}" + (f" (line {term.line})" if term.line else "")
             if not term.facing:
@@ -187,13 +190,15 @@ def _text(node: Node, indent: str, lines: list[str]) -> None:
                 by = term.blocker.short() if term.blocker else "a surface"
                 state = f"s = {term.cos:.4g}, blocked by {by}"
             else:
-                state = f"s = {term.cos:.4g}, lit: {rgb(term.term)}"
+                state = f"s = {term.cos:.4g}, adds {rgb(term.term)}"
             lines.append(f"{pad}{name}: {state}")
-        lines.append(f"{pad}point {rgb(node.local)} × (1 − KR − KT) {node.diffuse_weight:.4g} × weight")
-    lines.append(f"{pad}contribution {rgb(node.contribution)}")
+        formula = "(B/π)·Σ I·s/r²" if physical else "B·(A + (1 − A)·Σ s·light)"
+        lines.append(f"{pad}point {formula} = {rgb(node.local)}")
+        lines.append(f"{pad}contribution w·(1 − KR − KT)·point = {node.weight:.4g} × {node.diffuse_weight:.4g} "
+                     f"× point = {rgb(node.contribution)}")
     for u in node.untraced:
         lines.append(f"{pad}{u['kind']} of weight {u['weight']:.4g} not traced: {u['why']}")
     if node.stop and node.hit:
         lines.append(f"{pad}branch ends: {node.stop}")
     for child in node.children:
-        _text(child, pad, lines)
+        _text(child, pad, lines, physical)

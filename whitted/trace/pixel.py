@@ -175,10 +175,11 @@ class PixelTree:
 
     def lines(self) -> list[str]:
         total = self.total()
+        count = self.root.count()
         head = (f"pixel ({self.x}, {self.y}) of {self.view.source}: color ({self.color[0]:.6g} "
-                f"{self.color[1]:.6g} {self.color[2]:.6g}), the sum of {self.root.count()} rays' "
-                f"contributions ({total[0]:.6g} {total[1]:.6g} {total[2]:.6g})")
-        return [head, *text_tree(self.root)]
+                f"{self.color[1]:.6g} {self.color[2]:.6g}), the sum of the contributions of its {count} "
+                f"ray{'s' if count != 1 else ''} ({total[0]:.6g} {total[1]:.6g} {total[2]:.6g})")
+        return [head, *text_tree(self.root, physical=self.settings.get("lighting") == "physical")]
 
     def __str__(self) -> str:
         return "\n".join(self.lines())
@@ -232,8 +233,8 @@ def _load(scene, variant, overrides: dict):
 def trace_pixels(scene, pixels, *, variant: str | None = None, max_depth: int | None = None,
                  ambient: float | None = None, lighting: str | None = None,
                  min_weight: float | None = None) -> Traces:
-    """The ray trees of ``pixels`` (``(x, y)`` each: column from the left, row from the top)
-    of ``scene`` (a ``mi.Scene`` from :func:`whitted.load_scene`, or a scene file's path),
+    """The ray trees of ``pixels`` (``(x, y)`` each: column from the left, row from the top,
+    from 0; or each a percentage of the width or height, ``("50%", "45%")``) of ``scene`` (a ``mi.Scene`` from :func:`whitted.load_scene`, or a scene file's path),
     traced by the Whitted integrator exactly as a render at one sample per pixel traces them,
     with the scene's settings or those given (as ``whitted render`` takes them)."""
     from .. import defaults as D
@@ -245,7 +246,7 @@ def trace_pixels(scene, pixels, *, variant: str | None = None, max_depth: int | 
     if not scene.sensors():
         raise WhittedError("the scene has no sensor (camera) to trace from")
     width, height = (int(c) for c in scene.sensors()[0].film().crop_size())
-    pixels = [(int(x), int(y)) for x, y in pixels]
+    pixels = [(_coordinate(x, width), _coordinate(y, height)) for x, y in pixels]
     for x, y in pixels:
         if not (0 <= x < width and 0 <= y < height):
             raise WhittedError(f"pixel ({x}, {y}) is outside the {width}x{height} image "
@@ -269,11 +270,27 @@ def trace_pixels(scene, pixels, *, variant: str | None = None, max_depth: int | 
     view = scene_view(scene)
     for root in roots:
         _to_file(root, view)
-    used = {k: v for k, v in integrator.settings().items() if k != "exact_spheres"}
-    used["light_reference"] = [float(c) for c in used["light_reference"]]
+    used = {k: v for k, v in integrator.settings().items() if k not in ("exact_spheres", "light_reference")}
     trees = {p: PixelTree(p[0], p[1], root, tuple(map(float, color)), view, used)
              for p, root, color in zip(unique, roots, flat)}
     return Traces([trees[p] for p in pixels], view, used, scene)
+
+
+def _coordinate(value, size: int) -> int:
+    """A pixel coordinate: an integer, or a percentage of ``size`` (``"45%"``; 100% is the last
+    pixel)."""
+    if isinstance(value, str) and value.strip().endswith("%"):
+        try:
+            share = float(value.strip()[:-1]) / 100
+        except ValueError:
+            raise WhittedError(f"pixel coordinate {value!r} is not a percentage such as 45%") from None
+        if not 0 <= share <= 1:
+            raise WhittedError(f"pixel coordinate {value} must be from 0% to 100%")
+        return min(int(share * size), size - 1)
+    try:
+        return int(value)
+    except (TypeError, ValueError):
+        raise WhittedError(f"pixel coordinate {value!r} is neither a whole number nor a percentage") from None
 
 
 def trace_pixel(scene, x: int, y: int, **options) -> PixelTree:

@@ -28,6 +28,11 @@ _VECTORS = {"o", "d", "color", "p", "n", "n_facing", "base", "point", "position"
             "ray_o", "ray_d", "value", "child_o", "child_d"}
 
 
+def _t(values) -> tuple:
+    """Numbers as a tuple of Python floats."""
+    return tuple(float(c) for c in values)
+
+
 def _lanes(value, n: int, vector: bool) -> np.ndarray:
     """A recorded value as numpy: (n, 3) for a vector, (n,) else, broadcast from one lane."""
     array = np.asarray(value)
@@ -115,10 +120,10 @@ class Recorder:
         for level in self.levels:
             v = level["values"]
             for lane in range(level["n"]):
-                o, d, weight = tuple(v["o"][lane]), tuple(v["d"][lane]), float(v["weight"][lane])
+                o, d, weight = _t(v["o"][lane]), _t(v["d"][lane]), float(v["weight"][lane])
                 if level["level"] == 1:
                     node = Node(kind="camera", level=1, weight=weight, origin=o, direction=d)
-                    node.camera_weight = tuple(self.weights[level["batch"]][lane])
+                    node.camera_weight = _t(self.weights[level["batch"]][lane])
                     roots.append(node)
                 else:
                     waiting = pending.get((level["level"], o, d, weight))
@@ -139,7 +144,7 @@ class Recorder:
                     elif kind == "refraction" and "tir" in v and bool(v["tir"][lane]):
                         named = "total internal reflection"
                     if bool(entry["traced"][lane]):
-                        key = (level["level"] + 1, tuple(entry["child_o"][lane]), tuple(entry["child_d"][lane]), w)
+                        key = (level["level"] + 1, _t(entry["child_o"][lane]), _t(entry["child_d"][lane]), w)
                         pending[key].append((node, named, merged))
                     elif w > 0:
                         node.untraced.append({"kind": named, "weight": w, "why": "cut by weight"})
@@ -159,33 +164,33 @@ class Recorder:
     def _shade(self, node: Node, level: dict, lane: int, ambient: float) -> None:
         """The shading terms of ``node`` from lane ``lane`` of ``level``."""
         v = level["values"]
-        node.contribution = tuple(v["color"][lane] * np.asarray(node.camera_weight))
+        node.contribution = _t(v["color"][lane] * np.asarray(node.camera_weight))
         node.hit = bool(v["hit"][lane])
         if not node.hit:
             node.background = node.contribution
             return
         node.distance = float(v["t"][lane])
-        node.position = tuple(v["p"][lane])
-        node.normal = tuple(v["n"][lane])
+        node.position = _t(v["p"][lane])
+        node.normal = _t(v["n"][lane])
         node.inside = bool(v["inside"][lane])
         base = v["base"][lane]
-        node.material = {"color": tuple(base), "reflect": float(v["reflect"][lane]),
+        node.material = {"color": _t(base), "reflect": float(v["reflect"][lane]),
                          "refract": float(v["refract"][lane]), "ior": float(v["ior"][lane])}
-        node.local = tuple(v["point"][lane])
+        node.local = _t(v["point"][lane])
         node.diffuse_weight = 1 - node.material["reflect"] - node.material["refract"]
         physical = self.shader.physical
-        node.ambient = (0.0, 0.0, 0.0) if physical else tuple(base * ambient)
+        node.ambient = (0.0, 0.0, 0.0) if physical else _t(base * ambient)
         for k, light in enumerate(level["lights"]):
             facing = bool(light["facing"][lane])
-            term = LightTerm(index=k, position=tuple(light["position"][lane]),
-                             color=tuple(light["strength"][lane]), facing=facing,
+            term = LightTerm(index=k, position=_t(light["position"][lane]),
+                             color=_t(light["strength"][lane]), facing=facing,
                              cos=max(0.0, float(light["cos"][lane])))
             if facing and "ray_o" in light:
                 term.blocked = bool(light["shadowed"][lane])
-                term.shadow = {"origin": tuple(light["ray_o"][lane]), "direction": tuple(light["ray_d"][lane]),
+                term.shadow = {"origin": _t(light["ray_o"][lane]), "direction": _t(light["ray_d"][lane]),
                                "length": float(light["maxt"][lane])}
                 value = light["value"][lane]
-                term.term = tuple(base * value / np.pi if physical else base * (1 - ambient) * value)
+                term.term = _t(base * value / np.pi if physical else base * (1 - ambient) * value)
             node.lights.append(term)
 
     # -- the spheres that block shadow rays ---------------------------------------------------------
