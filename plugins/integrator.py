@@ -397,10 +397,10 @@ class WhittedIntegrator(mi.SamplingIntegrator):
         """The colors of the camera rays through the centers of ``pixels`` (``(x, y)`` each, in
         the film's crop), traced as a render at one sample per pixel traces them: the same
         camera rays, tracer and shader, in one batch (one ray at a time in the scalar variants).
-        ``recorder`` is shown every level of their trees (whitted/trace/record.py: the ray tree
-        of a pixel): ``recorder.attach(tracer)`` before, ``recorder.camera(weight)`` with each
-        batch's camera ray weights. Returns each batch's colors (weighted as the render weights
-        them: ``mi.Color3f``)."""
+        ``recorder`` is shown every level of their trees (the ray tree of a pixel, recorded by
+        whitted/trace/record.py): ``recorder.attach(tracer)`` before,
+        ``recorder.camera(weight)`` with each batch's camera ray weights. Returns each batch's
+        colors (weighted as the render weights them: ``mi.Color3f``)."""
         if isinstance(sensor, int):
             sensor = scene.sensors()[sensor]
         camera = CameraSamples(sensor, 1, 0)

@@ -110,7 +110,7 @@ class Shader:
         self.depth = analysis.depth
         #: a dict that :meth:`shade` fills with the terms of the level it shades (None in a
         #: render): the hit, the facing normal, the material, each light's term and shadow ray
-        #: (whitted/trace/record.py: the ray tree of a pixel)
+        #: (the ray tree of a pixel: whitted/trace/record.py)
         self.record = None
 
     def background(self, ray):

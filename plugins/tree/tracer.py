@@ -71,7 +71,7 @@ class Tracer:
         self.camera_hit = None   # mi.Bool: which camera rays of the last :meth:`trace` hit
         #: shown every level :meth:`step` shades, with its lanes' shading terms (None in a
         #: render): ``recorder.level(branch, shaded, traced)``, ``traced`` a mask per child of
-        #: ``shaded`` (whitted/trace/record.py: the ray tree of a pixel)
+        #: ``shaded`` (the ray tree of a pixel: whitted/trace/record.py)
         self.recorder = None
 
     @staticmethod

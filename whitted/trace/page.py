@@ -89,6 +89,13 @@ def _sphere_mesh(center, radius, toward, reach):
     return vertices, (i, j, k)
 
 
+def _sphere_color(view, k: int) -> str:
+    """A sphere's color in the view: its own, glass tinted blue so that it shows."""
+    if view.glass is not None and view.glass[k]:
+        return "rgb(140,190,225)"
+    return _color(view.colors[k]) if view.colors is not None else "rgb(190,190,190)"
+
+
 def _color(rgb) -> str:
     r, g, b = (int(round(255 * min(1.0, max(0.0, float(c))) ** (1 / 2.2))) for c in rgb)
     return f"rgb({r},{g},{b})"
@@ -115,8 +122,8 @@ def figure(view, trees):
         vertices, (i, j, kk) = _sphere_mesh(ref.center, ref.radius, center, reach)
         name = ref.short()
         fig.add_trace(go.Mesh3d(x=vertices[:, 0], y=vertices[:, 1], z=vertices[:, 2], i=i, j=j, k=kk,
-                                color=_color(view.colors[k]) if view.colors is not None else "rgb(190,190,190)",
-                                opacity=0.25 if k in used else 0.15, name=name, hovertext=name,
+                                color=_sphere_color(view, k), opacity=0.3 if k in used else 0.15,
+                                name=name, hovertext=name,
                                 hoverinfo="text", showlegend=False, flatshading=True))
     if view.lights:
         spots = np.array([p for p, _, _ in view.lights])
@@ -179,7 +186,7 @@ def figure(view, trees):
         scene=dict(aspectmode="manual", aspectratio=dict(x=aspect[0], y=aspect[1], z=aspect[2]),
                    xaxis=dict(range=[low[0], high[0]], title="x"), yaxis=dict(range=[low[1], high[1]], title="y"),
                    zaxis=dict(range=[low[2], high[2]], title="z"),
-                   camera=_camera(view, (low + high) / 2, span, aspect)),
+                   camera=_camera(view, trees, (low + high) / 2, span, aspect)),
         margin=dict(l=0, r=0, t=0, b=0), height=560,
         legend=dict(x=1, xanchor="right", y=1, bgcolor="rgba(255,255,255,.75)", font=dict(size=11)),
         uirevision="keep")
@@ -198,19 +205,26 @@ def _bounds(view, trees, segments) -> tuple[np.ndarray, np.ndarray]:
     return low - pad, high + pad
 
 
-def _camera(view, middle, span, aspect):
-    """Plotly's camera (in the view box's normalized units) behind the scene's eye, a little
-    above and to the side so that depth shows, with ``y`` up (the scene files' usual up)."""
+def _camera(view, trees, middle, span, aspect):
+    """Plotly's camera (in the view box's normalized units): looking at the middle of the
+    eye and the hits from behind the scene's eye, a little above and to the side so that
+    depth shows, far enough back to see the lights, with ``y`` up (the scene files' usual up)."""
     if view.eye is None:
         return {}
-    eye = (np.asarray(view.eye, np.float64) - middle) / span * aspect
-    n = np.linalg.norm(eye)
-    direction = eye / n if n > 0 else np.array([0.0, 0.0, 1.0])
+
+    def normalized(p):
+        return (np.asarray(p, np.float64) - middle) / span * aspect
+    focus = [view.eye] + [node.position for tree in trees for node in tree.root.walk() if node.hit]
+    focus = np.array(focus, np.float64)
+    target = normalized((focus.min(axis=0) + focus.max(axis=0)) / 2)
+    back = normalized(view.eye) - target
+    n = np.linalg.norm(back)
+    direction = back / n if n > 0 else np.array([0.0, 0.0, 1.0])
     direction = direction + np.array([0.45, 0.55, 0.0])
     direction /= np.linalg.norm(direction)
-    position = 1.35 * direction
+    position = target + 1.7 * direction
     return dict(eye=dict(x=float(position[0]), y=float(position[1]), z=float(position[2])),
-                center=dict(x=0, y=0, z=0), up=dict(x=0, y=1, z=0))
+                center=dict(x=float(target[0]), y=float(target[1]), z=float(target[2])), up=dict(x=0, y=1, z=0))
 
 
 def figure_html(view, trees, div_id: str = "trace-3d") -> str:
@@ -317,7 +331,12 @@ def page_html(traces, scene_name: str) -> str:
     s = traces.settings
     settings = (f"depth {s['max_depth']}, ambient {s['ambient']:.3g}, {s['lighting']} lighting, "
                 f"min weight {s['min_weight']:.3g}, {width}×{height}, one sample per pixel")
-    marks = [{"number": n, "x": (t.x + 0.5) * zoom, "y": (t.y + 0.5) * zoom} for n, t in enumerate(traces, 1)]
+    marks = []
+    for n, t in enumerate(traces, 1):
+        x, y = (t.x + 0.5) * zoom, (t.y + 0.5) * zoom
+        # the number beside its circle, inside the image
+        marks.append({"number": n, "x": x, "y": y, "tx": x + 12 if x < width * zoom - 30 else x - 26,
+                      "ty": y - 8 if y > 24 else y + 24})
     return _environment().get_template(TEMPLATE).render(
         page=True, scene=scene_name, settings=settings, image={"uri": uri, "width": width * zoom,
                                                                 "height": height * zoom},

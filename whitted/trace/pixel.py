@@ -46,6 +46,7 @@ class SceneView:
     lines: np.ndarray | None      # (N,), each sphere's line in the file (None: no file)
     names: list | None = None     # each sphere's name where there is no file (its shape's id)
     colors: np.ndarray | None = None   # (N, 3), each sphere's color (textured ones grey)
+    glass: np.ndarray | None = None    # (N,), whether each sphere refracts (KT > 0)
     text: list | None = None      # the file's lines
     lights: list = field(default_factory=list)   # (position, color, line) in the file's terms
     eye: tuple | None = None
@@ -127,6 +128,8 @@ def scene_view(scene) -> SceneView:
                          scale=float(source.scale), centers=np.asarray(arrays.center, np.float64).reshape(-1, 3),
                          radii=np.asarray(arrays.radius, np.float64), lines=np.asarray(arrays.line),
                          colors=palette[np.asarray(arrays.material, np.int64)],
+                         glass=np.array([m.refract > 0 for m in arrays.materials] or [False])[
+                             np.asarray(arrays.material, np.int64)],
                          text=None if text is None else text.splitlines(),
                          lights=[(tuple(light.position), tuple(light.color), light.line) for light in model.lights],
                          eye=tuple(model.eye), lookat=tuple(model.lookat), width=width, height=height,
@@ -234,9 +237,10 @@ def trace_pixels(scene, pixels, *, variant: str | None = None, max_depth: int | 
                  ambient: float | None = None, lighting: str | None = None,
                  min_weight: float | None = None) -> Traces:
     """The ray trees of ``pixels`` (``(x, y)`` each: column from the left, row from the top,
-    from 0; or each a percentage of the width or height, ``("50%", "45%")``) of ``scene`` (a ``mi.Scene`` from :func:`whitted.load_scene`, or a scene file's path),
-    traced by the Whitted integrator exactly as a render at one sample per pixel traces them,
-    with the scene's settings or those given (as ``whitted render`` takes them)."""
+    from 0; or each a percentage of the width or height, ``("50%", "45%")``) of ``scene`` (a
+    ``mi.Scene`` from :func:`whitted.load_scene`, or a scene file's path), traced by the
+    Whitted integrator exactly as a render at one sample per pixel traces them, with the
+    scene's settings or those given (as ``whitted render`` takes them)."""
     from .. import defaults as D
     from ..rendering import check_article_materials, check_settings, integrator_of, quiet_mitsuba
     check_settings(None, max_depth, lighting, "whitted", min_weight)
