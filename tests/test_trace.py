@@ -335,3 +335,14 @@ def test_notebook_shows_the_figure_and_table(llvm):
     assert "Plotly.newPlot" in html and 'class="tree"' in html and "<html" not in html
     assert not re.search(r"<script[^>]*\bsrc=", html) and re.search(r"plotly\.js v\d", html)
     assert str(tree).splitlines()[0].startswith("pixel (160, 90) of tir.scn")
+
+
+def test_a_converted_xml_is_traced_in_its_own_frame(llvm):
+    """A converted .xml has no scene file to name spheres from: shape ids, the XML's positions
+    (the .scn's minus its lookat), the same tree."""
+    from_scn = trace_pixel(TIR, 160, 90)
+    from_xml = trace_pixel(REPO / "scenes_xml" / "tir.xml", 160, 90)
+    assert from_xml.color == from_scn.color
+    assert from_xml.root.sphere.name == "sphere_1" and from_xml.root.sphere.line is None
+    assert from_xml.root.origin == pytest.approx((0.0, 0.3, 7.0), abs=1e-6)   # tir.scn's lookat is 0 0.2 0
+    assert str(from_xml).startswith("pixel (160, 90) of tir.xml")

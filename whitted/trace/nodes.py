@@ -31,9 +31,10 @@ class SphereRef:
 
     def label(self) -> str:
         """The name, the statement and its comment: ``tir.scn:19: sphere 0 0.9 0 1.4 ... # the glass ball``."""
+        if not self.statement:
+            return self.short()
         comment = f"  # {self.comment}" if self.comment else ""
-        statement = f" {' '.join(self.statement.split())}" if self.statement else ""
-        return f"{self.name}:{statement}{comment}"
+        return f"{self.name}: {' '.join(self.statement.split())}{comment}"
 
     def short(self) -> str:
         """The name and the comment: ``tir.scn:19 (the glass ball)``."""

@@ -246,6 +246,7 @@ def trace_pixels(scene, pixels, *, variant: str | None = None, max_depth: int | 
     check_settings(None, max_depth, lighting, "whitted", min_weight)
     if ambient is not None:
         D.check_ambient(ambient)
+    given = scene
     scene = _load(scene, variant, {"max_depth": max_depth, "ambient": ambient, "lighting": lighting})
     if not scene.sensors():
         raise WhittedError("the scene has no sensor (camera) to trace from")
@@ -272,6 +273,8 @@ def trace_pixels(scene, pixels, *, variant: str | None = None, max_depth: int | 
     recorder.blockers(roots)
     flat = np.concatenate([np.asarray(c, np.float64).reshape(3, -1).T for c in colors])
     view = scene_view(scene)
+    if view.lines is None and isinstance(given, (str, os.PathLike)):
+        view.source = Path(given).name   # (a converted .xml: no scene file names its spheres)
     for root in roots:
         _to_file(root, view)
     used = {k: v for k, v in integrator.settings().items() if k not in ("exact_spheres", "light_reference")}
