@@ -423,6 +423,32 @@ class WhittedIntegrator(mi.SamplingIntegrator):
         image.put_pixels(pixel, color)
         tracer.finish_pass()
 
+    def trace_pixels(self, scene, pixels, recorder, sensor=0) -> list:
+        """The colors of the camera rays through the centers of ``pixels`` (``(x, y)`` each, in
+        the film's crop), traced as a render at one sample per pixel traces them: the same
+        camera rays, tracer and shader, in one batch (one ray at a time in the scalar variants).
+        ``recorder`` is shown every level of their trees (the ray tree of a pixel, recorded by
+        whitted/trace/record.py): ``recorder.attach(tracer)`` before,
+        ``recorder.camera(weight)`` with each batch's camera ray weights. Returns each batch's
+        colors (weighted as the render weights them: ``mi.Color3f``)."""
+        if isinstance(sensor, int):
+            sensor = scene.sensors()[sensor]
+        camera = CameraSamples(sensor, 1, 0)
+        tracer, _, _ = self._tracer(scene)
+        recorder.attach(tracer)
+        grid = [(x + camera.border, y + camera.border) for x, y in pixels]
+        index = [y * camera.width + x for x, y in grid]
+        if dr.is_jit_v(mi.Float):
+            batches = [(mi.UInt32([x for x, _ in grid]), mi.UInt32([y for _, y in grid]), mi.UInt32(index))]
+        else:
+            batches = [(x, y, k) for (x, y), k in zip(grid, index)]
+        colors = []
+        for x, y, pixel in batches:
+            ray, ray_weight, _ = camera.ray(x, y, pixel, 0 if isinstance(pixel, int) else mi.UInt32(0))
+            recorder.camera(ray_weight)
+            colors.append(tracer.trace(ray) * ray_weight)
+        return colors
+
     def to_string(self):
         return (f"WhittedIntegrator[max_depth={self.max_depth}, ambient={self.ambient}, "
                 f"lighting={self.lighting}, min_weight={self.min_weight}"

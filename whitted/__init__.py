@@ -17,7 +17,7 @@ user needs still happens on its own, through Mitsuba's own hooks:
 
 The rendering API (:func:`load_scene`, :func:`loads`, :func:`render`, :func:`render_scenes`
 for many scene files, :func:`write_image`, :func:`read_image`, :func:`to_srgb`,
-:func:`set_variant`) is loaded on first use.
+:func:`set_variant`, :func:`trace_pixel`) is loaded on first use.
 """
 
 from __future__ import annotations
@@ -45,6 +45,7 @@ _LAZY = {
     "set_variant": ("whitted.variant", "set_variant"),
     "fit": ("whitted.fitting", "fit"),
     "SceneEditor": ("whitted.editing", "SceneEditor"),
+    "trace_pixel": ("whitted.trace", "trace_pixel"),
 }
 
 __all__ = ["SceneError", "WhittedError", "__version__", *_LAZY]

@@ -52,6 +52,11 @@ def _fit(args: argparse.Namespace) -> None:
     fit_command(args)
 
 
+def _trace(args: argparse.Namespace) -> int:
+    from .trace.cli import trace_command
+    return trace_command(args)
+
+
 def _command(sub, name: str, run, help: str, description: str) -> argparse.ArgumentParser:
     """The subcommand ``name``'s parser, which runs ``run`` with the parsed arguments (its
     own parser at hand, to report a bad option in its terms)."""
@@ -190,6 +195,20 @@ def build_parser() -> argparse.ArgumentParser:
     fit.add_argument("--width", type=int, default=FIT_WIDTH, metavar="W",
                      help=f"the widest image the fit renders (default {FIT_WIDTH})")
     fit.add_argument("-q", "--quiet", action="store_true", help="no progress bar, no losses")
+
+    from .trace.cli import add_arguments as add_trace_arguments
+    trace = _command(
+        sub, "trace", _trace, help="the ray tree of a pixel, as the renderer computed it",
+        description="""\
+        Trace pixels' center rays as a render at one sample per pixel traces them (the whitted
+        integrator's own code) and print each ray tree as indented text (or --json): every ray's
+        kind, origin, direction and distance, the sphere it hits (its line in the scene file),
+        the normal, the ambient term and each light's term with its shadow ray (and the sphere
+        that blocks it), the reflection and refraction weights, the ray's contribution to the
+        pixel and why its branch stops. The contributions add up to the pixel. Positions are in
+        the scene file's coordinates. -o PAGE.html also writes a page to project: the image with
+        the pixels marked, each tree as a table and a 3D view of the rays.""")
+    add_trace_arguments(trace)
 
     from .compare.cli import add_arguments as add_compare_arguments
     compare = _command(

@@ -199,7 +199,7 @@ def loads(text: str, variant: str | None = None, *, base_dir: str | os.PathLike 
     model = parse_text(text, Path(base_dir) / TEXT_NAME)
     warn_scene(model, integrator=integrator)
     try:
-        return _leaving_out(_load_model(model, params, ellipsoids, integrator), without, TEXT_NAME)
+        return _leaving_out(_load_model(model, params, ellipsoids, integrator, text=text), without, TEXT_NAME)
     except RuntimeError as error:
         raise load_error(TEXT_NAME, error) from None
 
@@ -222,11 +222,16 @@ def _leaving_out(scene, without, where):
 TEXT_NAME = "<text>"
 
 
-def _load_model(model, params: dict, ellipsoids: bool | None, integrator: str, meshes: bool = True):
+def _load_model(model, params: dict, ellipsoids: bool | None, integrator: str, meshes: bool = True,
+                text: str | None = None):
     """A parsed scene model as a ``mi.Scene`` (see :func:`load_scene`'s ``ellipsoids`` and
-    ``meshes``)."""
-    scene, _, _ = _scene_dict(model, params, ellipsoids, integrator)
-    return _loaded(scene, meshes)
+    ``meshes``), remembered as loaded from ``model`` (:mod:`whitted.sources`; ``text``: what
+    it was parsed from, when no file holds it)."""
+    from .sources import Source, remember
+    scene, _, _, scale = _scene_dict(model, params, ellipsoids, integrator)
+    loaded = _loaded(scene, meshes)
+    remember(loaded, Source(model, scale, text))
+    return loaded
 
 
 def load_model_parts(model, params: dict, ellipsoids: bool | None, integrator: str, meshes: bool = True):
@@ -241,26 +246,27 @@ def load_model_parts(model, params: dict, ellipsoids: bool | None, integrator: s
     scene's). What a fit (:mod:`whitted.fitting`) needs to write a material's color or a
     light's into the scene."""
     from .converter.description import _shared, material_ids
-    scene, described, grouped = _scene_dict(model, params, ellipsoids, integrator)
+    scene, described, grouped, _ = _scene_dict(model, params, ellipsoids, integrator)
     bsdfs = {material: [mid] for material, mid in material_ids(described).items()}
     for k, material in enumerate(grouped):
         bsdfs.setdefault(_shared(material), []).append(f"sealed_{k}")
     return _loaded(scene, meshes), bsdfs, described
 
 
-def _scene_dict(model, params: dict, ellipsoids: bool | None, integrator: str) -> tuple[dict, object, list]:
+def _scene_dict(model, params: dict, ellipsoids: bool | None, integrator: str) -> tuple[dict, object, list, float]:
     """The ``mi.load_dict`` form of ``model``, the model it describes (the rest of the
-    scene, scaled, when spheres are grouped) and the material of each group (``sealed_K``)."""
+    scene, scaled, when spheres are grouped), the material of each group (``sealed_K``) and
+    the scale of its frame (1 unless spheres are grouped)."""
     from . import sealed
     from .converter.description import describe
     grouping = None if ellipsoids is False else \
         sealed.choose(model, min_group=1 if ellipsoids else sealed.MIN_GROUP,
                       classes=sealed.MAX_LAYERS, smaller=integrator == "whitted")
     if grouping is None:
-        return mitsuba_dict(describe(model, base_dir=None), params), model, []
+        return mitsuba_dict(describe(model, base_dir=None), params), model, [], 1.0
     described = sealed.remaining(model, grouping)
     scene, grouped = _sealed_dict(described, model, grouping, params)
-    return scene, described, grouped
+    return scene, described, grouped, grouping.scale
 
 
 def _loaded(scene: dict, meshes: bool):

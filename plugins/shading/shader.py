@@ -110,6 +110,10 @@ class Shader:
                                       else attached.material_table, need_ior=self.refraction)
         self.tally = tally   # counts the shadow rays (:class:`~whitted.plugins.tree.counts.Tally`)
         self.depth = analysis.depth
+        #: a dict that :meth:`shade` fills with the terms of the level it shades (None in a
+        #: render): the hit, the facing normal, the material, each light's term and shadow ray
+        #: (the ray tree of a pixel: whitted/trace/record.py)
+        self.record = None
 
     def background(self, ray):
         """The color of rays that escape: the environment emitter's."""
@@ -121,6 +125,10 @@ class Shader:
         """One level of the tree for ``ray``; ``spawn`` is False at the last level, ``camera``
         True at the first (camera rays)."""
         hit, si, bsdf, error = self.hits.intersect(ray, coherent)
+        record = self.record
+        if record is not None:
+            record.clear()
+            record.update(si=si, lights=[])
         color = mi.Color3f(0)
         if self.environment is not None and not (camera and self.hide_background):
             color = dr.select(hit, color, weight * self.background(ray))
@@ -133,6 +141,8 @@ class Shader:
         point = self.point_color(si, error, n_facing, surface.base, hit)
         diffuse = 1 - surface.reflect - surface.refract
         color = dr.select(hit, weight * diffuse * point, color)
+        if record is not None:
+            record.update(n_facing=n_facing, inside=inside, surface=surface, point=point)
 
         children = []
         if spawn and (self.reflection or self.refraction):
@@ -142,6 +152,8 @@ class Shader:
             if self.refraction:
                 eta = optics.relative_ior(surface.ior, inside)
                 t, tir = optics.refract(v, n_facing, c1, eta)
+                if record is not None:
+                    record["tir"] = tir
                 refracted = spawn_ray(si, error, dr.select(tir, mirror, optics.unit(t)))
                 if self.reflection:   # the mirror ray carries both shares
                     merged = tir & (kr > 0) & (kt > 0)
@@ -176,18 +188,27 @@ class Shader:
         dist2 = dr.squared_norm(to_light)
         cos = dr.dot(n_facing, to_light) * dr.rsqrt(dr.maximum(dist2, TINY))
         facing = active & (dist2 > 0) & (cos > 0)
+        terms = None
+        if self.record is not None:
+            terms = {"position": position, "strength": strength, "facing": facing, "cos": cos}
+            self.record["lights"].append(terms)
         if off(facing):
             return mi.Color3f(0)
         if self.physical:
             strength = strength * dr.rcp(dr.maximum(dist2, TINY))
         lit = dr.select(facing, cos * strength, 0)
         if not self.shadows:   # the render leaves shadows out: every light is seen
+            if terms is not None:
+                terms.update(value=lit)
             return lit
         self.tally.add("shadow", facing)
         # (visibility is not differentiated: the shadow ray is detached from the light's position)
-        shadowed = self.hits.blocked(spawn_ray_to(si, error, dr.detach(position),
-                                                  *(on_surface or ())), facing)
-        return dr.select(shadowed, 0, lit)
+        shadow_ray = spawn_ray_to(si, error, dr.detach(position), *(on_surface or ()))
+        shadowed = self.hits.blocked(shadow_ray, facing)
+        value = dr.select(shadowed, 0, lit)
+        if terms is not None:
+            terms.update(ray=shadow_ray, shadowed=shadowed, value=value)
+        return value
 
 
 @dataclass

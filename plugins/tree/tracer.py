@@ -69,6 +69,10 @@ class Tracer:
         #: the camera rays' level, not again afterwards
         self.keep_camera_hit = False
         self.camera_hit = None   # mi.Bool: which camera rays of the last :meth:`trace` hit
+        #: shown every level :meth:`step` shades, with its lanes' shading terms (None in a
+        #: render): ``recorder.level(branch, shaded, traced)``, ``traced`` a mask per child of
+        #: ``shaded`` (the ray tree of a pixel: whitted/trace/record.py)
+        self.recorder = None
 
     @staticmethod
     def passes(total: int, per_pass: int):
@@ -108,6 +112,8 @@ class Tracer:
             if dr.is_jit_v(mi.Float):
                 dr.schedule(self.camera_hit)   # evaluated by the level's own kernel
         if not shaded.children:
+            if self.recorder is not None:
+                self.recorder.level(branch, shaded, [])
             return shaded.color, None, []
         weights = [child.weight for child in shaded.children]
         if branch.allowance is None:
@@ -116,6 +122,8 @@ class Tracer:
             first, second, allowance, culled = split(weights[0], weights[1] if len(weights) > 1 else 0.0,
                                                      branch.allowance)
             traced = [first, second][:len(weights)]
+        if self.recorder is not None:
+            self.recorder.level(branch, shaded, traced)
         children = []
         for child, is_traced in zip(shaded.children, traced):
             self.tally.add(child.kind, is_traced)

@@ -1,0 +1,205 @@
+"""The nodes of a pixel's ray tree, as the renderer computed them, and their text and JSON forms.
+
+A :class:`Node` is one ray of the tree (the camera ray, a reflected, refracted or totally
+reflected ray) with what the shader computed where it went: the sphere it hit, the
+normal, the material, the local terms (the ambient term and each light's diffuse term
+with its shadow ray), the weights of its children, its *contribution* to the pixel
+(``w·(1 − KR − KT)·point`` on a hit, ``w·background`` on a miss, ``w`` its path weight)
+and why its branch stops. The article's recursion is linear, so the pixel is the sum of
+its tree's contributions (:meth:`Node.total`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+#: the kinds of rays, in the order a legend lists them
+KINDS = ("camera", "reflection", "refraction", "total internal reflection")
+
+
+@dataclass
+class SphereRef:
+    """A sphere as the scene file names it: its index among the file's spheres, its line,
+    the statement and the comment on that line; its center and radius."""
+    index: int
+    center: tuple
+    radius: float
+    line: int | None = None
+    statement: str | None = None
+    comment: str | None = None
+    name: str = ""   # how the text names it: "tir.scn:17", or the shape's id
+
+    def label(self) -> str:
+        """The name, the statement and its comment: ``tir.scn:19: sphere 0 0.9 0 1.4 ... # the glass ball``."""
+        if not self.statement:
+            return self.short()
+        comment = f"  # {self.comment}" if self.comment else ""
+        return f"{self.name}: {' '.join(self.statement.split())}{comment}"
+
+    def short(self) -> str:
+        """The name and the comment: ``tir.scn:19 (the glass ball)``."""
+        return f"{self.name} ({self.comment})" if self.comment else self.name
+
+    def json(self) -> dict:
+        return {"index": self.index, "line": self.line, "statement": self.statement,
+                "comment": self.comment, "center": list(self.center), "radius": self.radius,
+                "name": self.name}
+
+
+@dataclass
+class LightTerm:
+    """One light's share of a hit's color: ``s = max(0, N'·L)``, 0 when the light is behind
+    the surface or a sphere blocks the shadow ray (its segment to the light)."""
+    index: int
+    position: tuple
+    color: tuple                 # the light's color (article) or intensity (physical)
+    facing: bool                 # whether the light is in front of the surface (s > 0)
+    cos: float                   # N'·L, clamped at 0
+    blocked: bool = False
+    shadow: dict | None = None   # the shadow ray: origin, direction, length (None: not cast)
+    term: tuple = (0.0, 0.0, 0.0)   # its share of the point color: B·(1 − A)·s·color
+    blocker: SphereRef | None = None
+    blocker_point: tuple | None = None
+    blocker_normal: tuple | None = None
+    line: int | None = None
+    statement: str | None = None
+
+    def json(self) -> dict:
+        return {"index": self.index, "line": self.line, "statement": self.statement,
+                "position": list(self.position), "color": list(self.color), "facing": self.facing,
+                "s": self.cos, "blocked": self.blocked,
+                "blocker": self.blocker.json() if self.blocker else None,
+                "blocker_point": list(self.blocker_point) if self.blocker_point else None,
+                "shadow_ray": None if self.shadow is None else
+                {k: (list(v) if isinstance(v, tuple) else v) for k, v in self.shadow.items()},
+                "term": list(self.term)}
+
+
+@dataclass
+class Node:
+    """One ray of a pixel's tree (see the module docstring)."""
+    kind: str
+    level: int
+    weight: float
+    origin: tuple
+    direction: tuple
+    merged: bool = False        # a totally reflected ray that carries both KR and KT
+    camera_weight: tuple = (1.0, 1.0, 1.0)
+    hit: bool = False
+    distance: float | None = None
+    position: tuple | None = None
+    normal: tuple | None = None   # the sphere's outward normal at the hit
+    inside: bool | None = None    # whether the ray arrived from inside the sphere
+    sphere: SphereRef | None = None
+    material: dict | None = None   # color (B, the texel on a textured sphere), reflect, refract, ior
+    ambient: tuple | None = None   # B·A
+    lights: list = field(default_factory=list)
+    local: tuple | None = None     # point = B·(A + (1 − A)·Σ s·light)
+    diffuse_weight: float | None = None   # 1 − KR − KT
+    background: tuple | None = None
+    contribution: tuple = (0.0, 0.0, 0.0)
+    children: list = field(default_factory=list)
+    untraced: list = field(default_factory=list)   # {kind, weight, why} of rays left untraced
+    stop: str | None = None
+
+    def walk(self):
+        """This node and every node below it, depth first (a parent before its children)."""
+        yield self
+        for child in self.children:
+            yield from child.walk()
+
+    def total(self) -> tuple:
+        """The sum of the contributions of this node's tree (float64)."""
+        sums = [0.0, 0.0, 0.0]
+        for node in self.walk():
+            for c in range(3):
+                sums[c] += node.contribution[c]
+        return tuple(sums)
+
+    def count(self) -> int:
+        return sum(1 for _ in self.walk())
+
+    def json(self) -> dict:
+        out = {"kind": self.kind, "level": self.level, "weight": self.weight,
+               "origin": list(self.origin), "direction": list(self.direction),
+               "hit": self.hit, "distance": self.distance}
+        if self.merged:
+            out["merged"] = True
+        if self.hit:
+            out.update(sphere=self.sphere.json() if self.sphere else None, point=list(self.position),
+                       normal=list(self.normal), inside=self.inside, material=_lists(self.material),
+                       ambient=list(self.ambient), lights=[t.json() for t in self.lights],
+                       local=list(self.local), diffuse_weight=self.diffuse_weight)
+        else:
+            out["background"] = list(self.background)
+        out.update(contribution=list(self.contribution), untraced=self.untraced, stop=self.stop,
+                   children=[child.json() for child in self.children])
+        return out
+
+
+def _lists(d: dict) -> dict:
+    return {k: list(v) if isinstance(v, tuple) else v for k, v in d.items()}
+
+
+# -- text ---------------------------------------------------------------------------------------------
+
+def rgb(c) -> str:
+    return f"({c[0]:.4g} {c[1]:.4g} {c[2]:.4g})"
+
+
+def xyz(p) -> str:
+    """A point or direction, each coordinate to 5 digits; one below a millionth of the
+    largest is shown as 0 (a camera ray's rounding off an axis)."""
+    largest = max(abs(c) for c in p)
+    shown = [0.0 if abs(c) < 1e-6 * largest else c for c in p]
+    return f"({shown[0]:.5g}, {shown[1]:.5g}, {shown[2]:.5g})"
+
+
+def text_tree(root: Node, physical: bool = False) -> list[str]:
+    """The tree as indented lines of text, a node and its terms, then its children
+    (``physical``: the point's formula is physical lighting's)."""
+    lines: list[str] = []
+    _text(root, "", lines, physical)
+    return lines
+
+
+def _text(node: Node, indent: str, lines: list[str], physical: bool) -> None:
+    merged = " (carries KR + KT)" if node.merged else ""
+    head = (f"{indent}{node.kind}{merged}, level {node.level}, weight {node.weight:.4g}: "
+            f"from {xyz(node.origin)} along {xyz(node.direction)}")
+    lines.append(head)
+    pad = indent + "  "
+    if not node.hit:
+        lines.append(f"{pad}missed: the background")
+        lines.append(f"{pad}contribution w·background = {rgb(node.contribution)}")
+    else:
+        where = node.sphere.label() if node.sphere else "a surface"
+        side = "inside" if node.inside else "outside"
+        m = node.material
+        lines.append(f"{pad}hits {where}")
+        lines.append(f"{pad}at {xyz(node.position)}, distance {node.distance:.5g}, normal {xyz(node.normal)}, "
+                     f"from {side}")
+        lines.append(f"{pad}color B {rgb(m['color'])}, KR {m['reflect']:.4g}, KT {m['refract']:.4g}"
+                     + (f", IOR {m['ior']:.4g}" if m["refract"] > 0 else ""))
+        if not physical:
+            lines.append(f"{pad}ambient B·A {rgb(node.ambient)}")
+        for term in node.lights:
+            name = f"light {term.index + 1}" + (f" (line {term.line})" if term.line else "")
+            if not term.facing:
+                state = "behind the surface (s = 0)"
+            elif term.blocked:
+                by = term.blocker.short() if term.blocker else "a surface"
+                state = f"s = {term.cos:.4g}, blocked by {by}"
+            else:
+                state = f"s = {term.cos:.4g}, adds {rgb(term.term)}"
+            lines.append(f"{pad}{name}: {state}")
+        formula = "(B/π)·Σ I·s/r²" if physical else "B·(A + (1 − A)·Σ s·light)"
+        lines.append(f"{pad}point {formula} = {rgb(node.local)}")
+        lines.append(f"{pad}contribution w·(1 − KR − KT)·point = {node.weight:.4g} × {node.diffuse_weight:.4g} "
+                     f"× point = {rgb(node.contribution)}")
+    for u in node.untraced:
+        lines.append(f"{pad}{u['kind']} of weight {u['weight']:.4g} not traced: {u['why']}")
+    if node.stop and node.hit:
+        lines.append(f"{pad}branch ends: {node.stop}")
+    for child in node.children:
+        _text(child, pad, lines, physical)

@@ -1,0 +1,350 @@
+"""The ray trees drawn: a page to project (``whitted trace -o PAGE.html``) and a notebook's view.
+
+The page holds the rendered image (one sample per pixel, as the trees were traced) with
+the traced pixels marked and numbered, a 3D view of the scene and the rays (plotly,
+rotatable: the spheres as meshes, the lights, the rays coloured by kind, shadow rays to
+the lights solid when they reach it and dashed when a sphere blocks them), and each
+tree as a table. It is one file that works offline: the image is inlined as a PNG and
+plotly's script is in the page (no CDN, no network). A notebook shows the same 3D view
+and tables (:meth:`.pixel.PixelTree._repr_html_`).
+
+The page is a Jinja2 template (``templates/trace.html.j2``, shipped as package data),
+as the comparison report is (whitted/compare/page.py).
+"""
+
+from __future__ import annotations
+
+import base64
+import io
+import math
+
+import numpy as np
+
+from ..atomic import write_text
+from ..defaults import VERSION
+from .nodes import KINDS, Node, xyz
+
+TEMPLATE = "trace.html.j2"
+#: each kind of ray's colour, in the view and the tables
+COLORS = {"camera": "#222222", "reflection": "#1f77b4", "refraction": "#2ca02c",
+          "total internal reflection": "#b03cc8", "shadow": "#e0a800", "blocked": "#888888",
+          "background": "#d62728"}
+#: the most spheres drawn whole; a larger scene shows only the spheres its rays meet
+MAX_SPHERES = 200
+#: the image is enlarged by a whole factor (pixels stay square) to at least this width
+IMAGE_WIDTH = 560
+
+
+def _environment():
+    import jinja2
+
+    return jinja2.Environment(loader=jinja2.PackageLoader("whitted.trace", "templates"),
+                              autoescape=jinja2.select_autoescape(["html", "j2"]),
+                              undefined=jinja2.StrictUndefined, trim_blocks=True, lstrip_blocks=True)
+
+
+# -- the 3D view --------------------------------------------------------------------------------
+
+def _extent(view, trees) -> tuple[np.ndarray, float]:
+    """The center and size of the box the rays span (the eye, the hits, the lights)."""
+    points = [view.eye] if view.eye is not None else []
+    for tree in trees:
+        for node in tree.root.walk():
+            points.append(node.origin)
+            if node.hit:
+                points.append(node.position)
+    points += [p for p, _, _ in view.lights]
+    points = np.array(points, np.float64)
+    low, high = points.min(axis=0), points.max(axis=0)
+    return (low + high) / 2, max(float(np.max(high - low)), 1e-9)
+
+
+def _sphere_mesh(center, radius, toward, reach):
+    """A sphere as a triangle mesh: whole when it is small against the view's ``reach``, else
+    the cap of it that faces ``toward`` (a giant floor or dome as the patch the rays meet)."""
+    center = np.asarray(center, np.float64)
+    axis = np.asarray(toward, np.float64) - center
+    norm = np.linalg.norm(axis)
+    axis = axis / norm if norm > 0 else np.array([0.0, 1.0, 0.0])
+    cap = math.pi if radius <= reach else min(math.pi, 1.5 * reach / radius)
+    helper = np.array([1.0, 0.0, 0.0]) if abs(axis[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    u = np.cross(axis, helper)
+    u /= np.linalg.norm(u)
+    v = np.cross(axis, u)
+    rings, segments = (12, 24) if cap == math.pi else (16, 32)
+    theta = np.linspace(0.0, cap, rings + 1)
+    phi = np.linspace(0.0, 2 * math.pi, segments, endpoint=False)
+    t, p = np.meshgrid(theta, phi, indexing="ij")
+    directions = (np.cos(t)[..., None] * axis + np.sin(t)[..., None] *
+                  (np.cos(p)[..., None] * u + np.sin(p)[..., None] * v))
+    vertices = (center + radius * directions).reshape(-1, 3)
+    i, j, k = [], [], []
+    for r in range(rings):
+        for s in range(segments):
+            a, b = r * segments + s, r * segments + (s + 1) % segments
+            c, d = a + segments, b + segments
+            i += [a, b]
+            j += [c, c]
+            k += [b, d]
+    return vertices, (i, j, k)
+
+
+def _sphere_color(view, k: int) -> str:
+    """A sphere's color in the view: its own, glass tinted blue so that it shows."""
+    if view.glass is not None and view.glass[k]:
+        return "rgb(140,190,225)"
+    return _color(view.colors[k]) if view.colors is not None else "rgb(190,190,190)"
+
+
+def _color(rgb) -> str:
+    r, g, b = (int(round(255 * min(1.0, max(0.0, float(c))) ** (1 / 2.2))) for c in rgb)
+    return f"rgb({r},{g},{b})"
+
+
+def figure(view, trees):
+    """The plotly figure of the scene and the trees' rays (see the module docstring)."""
+    import plotly.graph_objects as go
+
+    center, size = _extent(view, trees)
+    reach = 2.0 * size
+    fig = go.Figure()
+    used = set()
+    for tree in trees:
+        for node in tree.root.walk():
+            if node.sphere is not None:
+                used.add(node.sphere.index)
+            for term in node.lights:
+                if term.blocker is not None:
+                    used.add(term.blocker.index)
+    shown = range(len(view.radii)) if len(view.radii) <= MAX_SPHERES else sorted(used)
+    for k in shown:
+        ref = view.sphere(k)
+        vertices, (i, j, kk) = _sphere_mesh(ref.center, ref.radius, center, reach)
+        name = ref.short()
+        fig.add_trace(go.Mesh3d(x=vertices[:, 0], y=vertices[:, 1], z=vertices[:, 2], i=i, j=j, k=kk,
+                                color=_sphere_color(view, k), opacity=0.3 if k in used else 0.15,
+                                name=name, hovertext=name,
+                                hoverinfo="text", showlegend=False, flatshading=True))
+    if view.lights:
+        spots = np.array([p for p, _, _ in view.lights])
+        fig.add_trace(go.Scatter3d(x=spots[:, 0], y=spots[:, 1], z=spots[:, 2], mode="markers+text",
+                                   marker=dict(size=7, color="#ffcc00", symbol="diamond",
+                                               line=dict(color="#8a6d00", width=1)),
+                                   text=[f"light {k + 1}" for k in range(len(view.lights))],
+                                   textposition="top center", name="lights", hoverinfo="text"))
+    if view.eye is not None:
+        fig.add_trace(go.Scatter3d(x=[view.eye[0]], y=[view.eye[1]], z=[view.eye[2]], mode="markers+text",
+                                   marker=dict(size=5, color="#222222"), text=["eye"], name="eye",
+                                   textposition="top center", hoverinfo="text"))
+    segments: dict = {kind: ([], []) for kind in (*KINDS, "background", "shadow", "blocked")}
+
+    def add(kind, a, b, label):
+        xs, labels = segments[kind]
+        xs += [a, b, (None, None, None)]
+        labels += [label, label, None]
+
+    escape = 0.5 * size
+    for number, tree in enumerate(trees, start=1):
+        for node in tree.root.walk():
+            label = f"pixel {number} ({tree.x}, {tree.y}): {node.kind}, level {node.level}, weight {node.weight:.3g}"
+            if node.hit:
+                add(node.kind, node.origin, node.position, label + f", hits {node.sphere.short() if node.sphere else ''}")
+                for term in node.lights:
+                    if term.shadow is None:
+                        continue
+                    o, d, length = term.shadow["origin"], np.asarray(term.shadow["direction"]), term.shadow["length"]
+                    end = tuple(np.asarray(o) + d * length)
+                    state = f"blocked by {term.blocker.short()}" if term.blocked and term.blocker else \
+                        ("blocked" if term.blocked else "lit")
+                    add("blocked" if term.blocked else "shadow", node.position, end,
+                        f"pixel {number}: shadow ray to light {term.index + 1}, {state}")
+            else:
+                end = tuple(np.asarray(node.origin) + np.asarray(node.direction) * escape)
+                add("background", node.origin, end, label + ", missed: background")
+    names = {"background": "missed (to the background)", "shadow": "shadow ray, lit",
+             "blocked": "shadow ray, blocked"}
+    for kind, (xs, labels) in segments.items():
+        if not xs:
+            continue
+        points = np.array([(np.nan,) * 3 if p[0] is None else p for p in xs], np.float64)
+        dash = "dash" if kind in ("blocked", "background") else "solid"
+        width = 2 if kind in ("shadow", "blocked") else 5
+        fig.add_trace(go.Scatter3d(x=points[:, 0], y=points[:, 1], z=points[:, 2], mode="lines",
+                                   line=dict(color=COLORS[kind], width=width, dash=dash),
+                                   name=names.get(kind, kind), hovertext=labels, hoverinfo="text",
+                                   connectgaps=False))
+    blockers = [term.blocker_point for tree in trees for node in tree.root.walk() for term in node.lights
+                if term.blocked and term.blocker_point is not None]
+    if blockers:
+        b = np.array(blockers)
+        fig.add_trace(go.Scatter3d(x=b[:, 0], y=b[:, 1], z=b[:, 2], mode="markers", name="where blocked",
+                                   marker=dict(size=4, color="#555555", symbol="x"), hoverinfo="name"))
+    low, high = _bounds(view, trees, segments)
+    span = np.maximum(high - low, 1e-3 * float(np.max(high - low)))
+    aspect = span / float(span.max())
+    fig.update_layout(
+        scene=dict(aspectmode="manual", aspectratio=dict(x=aspect[0], y=aspect[1], z=aspect[2]),
+                   xaxis=dict(range=[low[0], high[0]], title="x"), yaxis=dict(range=[low[1], high[1]], title="y"),
+                   zaxis=dict(range=[low[2], high[2]], title="z"),
+                   camera=_camera(view, trees, (low + high) / 2, span, aspect)),
+        margin=dict(l=0, r=0, t=0, b=0), height=560,
+        legend=dict(x=1, xanchor="right", y=1, bgcolor="rgba(255,255,255,.75)", font=dict(size=11)),
+        uirevision="keep")
+    return fig
+
+
+def _bounds(view, trees, segments) -> tuple[np.ndarray, np.ndarray]:
+    """The box the view shows: the eye, the lights and every ray drawn, a little wider."""
+    points = [p for xs, _ in segments.values() for p in xs if p[0] is not None]
+    points += [p for p, _, _ in view.lights]
+    if view.eye is not None:
+        points.append(view.eye)
+    points = np.array(points, np.float64)
+    low, high = points.min(axis=0), points.max(axis=0)
+    pad = 0.08 * float(np.max(high - low)) + 1e-9
+    return low - pad, high + pad
+
+
+def _camera(view, trees, middle, span, aspect):
+    """Plotly's camera (in the view box's normalized units): looking at the middle of the
+    eye and the hits from behind the scene's eye, a little above and to the side so that
+    depth shows, far enough back to see the lights, with ``y`` up (the scene files' usual up)."""
+    if view.eye is None:
+        return {}
+
+    def normalized(p):
+        return (np.asarray(p, np.float64) - middle) / span * aspect
+    focus = [view.eye] + [node.position for tree in trees for node in tree.root.walk() if node.hit]
+    focus = np.array(focus, np.float64)
+    target = normalized((focus.min(axis=0) + focus.max(axis=0)) / 2)
+    back = normalized(view.eye) - target
+    n = np.linalg.norm(back)
+    direction = back / n if n > 0 else np.array([0.0, 0.0, 1.0])
+    direction = direction + np.array([0.45, 0.55, 0.0])
+    direction /= np.linalg.norm(direction)
+    position = target + 1.7 * direction
+    return dict(eye=dict(x=float(position[0]), y=float(position[1]), z=float(position[2])),
+                center=dict(x=float(target[0]), y=float(target[1]), z=float(target[2])), up=dict(x=0, y=1, z=0))
+
+
+def figure_html(view, trees, div_id: str = "trace-3d") -> str:
+    """The figure as HTML with plotly's script in it (offline)."""
+    return figure(view, trees).to_html(full_html=False, include_plotlyjs=True, div_id=div_id,
+                                       config={"displaylogo": False, "responsive": True})
+
+
+# -- the tables ---------------------------------------------------------------------------------
+
+def _rows(tree) -> list[dict]:
+    rows = []
+
+    def visit(node: Node, label: str):
+        m = node.material
+        lights = []
+        for term in node.lights:
+            name = f"light {term.index + 1}"
+            if not term.facing:
+                lights.append((name, "behind (s = 0)", "off"))
+            elif term.blocked:
+                by = term.blocker.short() if term.blocker else "a surface"
+                lights.append((name, f"s = {term.cos:.3g}, blocked by {by}", "blocked"))
+            else:
+                lights.append((name, f"s = {term.cos:.3g}, lit", "lit"))
+        stops = [f"{u['kind']} (weight {u['weight']:.3g}) not traced: {u['why']}" for u in node.untraced]
+        if node.stop and node.hit and not node.untraced:
+            stops.append(node.stop)
+        if not node.hit:
+            stops.append("missed: background")
+        rows.append({
+            "label": label, "level": node.level, "kind": node.kind + (" (KR + KT)" if node.merged else ""),
+            "color": COLORS[node.kind], "weight": f"{node.weight:.4g}",
+            "origin": xyz(node.origin), "direction": xyz(node.direction),
+            "hit": (node.sphere.short() if node.sphere else "a surface") if node.hit else "nothing: background",
+            "statement": " ".join(node.sphere.statement.split()) if node.hit and node.sphere and node.sphere.statement
+            else "",
+            "distance": f"{node.distance:.4g}" if node.hit else "—",
+            "point": xyz(node.position) if node.hit else "",
+            "normal": xyz(node.normal) if node.hit else "",
+            "side": ("inside" if node.inside else "outside") if node.hit else "",
+            "base": _swatch(m["color"]) if m else None,
+            "coefficients": f"KR {m['reflect']:.3g}, KT {m['refract']:.3g}" + (f", IOR {m['ior']:.3g}" if m["refract"] > 0 else "")
+            if m else "",
+            "ambient": _swatch(node.ambient) if node.hit else None,
+            "lights": lights,
+            "local": _swatch(node.local) if node.hit else None,
+            "diffuse": f"{node.diffuse_weight:.3g}" if node.hit else "",
+            "contribution": _swatch(node.contribution),
+            "stops": stops,
+        })
+        for k, child in enumerate(node.children, start=1):
+            visit(child, f"{label}.{k}")
+    visit(tree.root, "1")
+    return rows
+
+
+def _swatch(rgb) -> dict:
+    return {"css": _color(rgb), "text": f"{rgb[0]:.4g} {rgb[1]:.4g} {rgb[2]:.4g}"}
+
+
+def _pixels(trees) -> list[dict]:
+    return [{"number": n, "x": t.x, "y": t.y, "color": _swatch(t.color), "sum": _swatch(t.total()),
+             "gap": f"{float(np.abs(np.subtract(t.total(), t.color)).max()):.2g}", "rays": t.root.count(),
+             "rows": _rows(t)} for n, t in enumerate(trees, start=1)]
+
+
+def _legend() -> list[dict]:
+    return [{"name": name, "color": COLORS[key]} for key, name in (
+        ("camera", "camera"), ("reflection", "reflection"), ("refraction", "refraction"),
+        ("total internal reflection", "total internal reflection"), ("shadow", "shadow ray, lit"),
+        ("blocked", "shadow ray, blocked (dashed)"), ("background", "missed (dashed)"))]
+
+
+def fragment(view, trees) -> str:
+    """The 3D view and the tables, for a notebook (no image: nothing is rendered)."""
+    return _environment().get_template(TEMPLATE).render(
+        page=False, scene=view.source, settings="", image=None, marks=[], pixels=_pixels(trees),
+        figure=figure_html(view, trees, div_id=f"trace-3d-{id(trees):x}"), legend=_legend(), version=VERSION)
+
+
+# -- the page -------------------------------------------------------------------------------------
+
+def _image(traces) -> tuple[str, int, int, int]:
+    """The scene rendered at one sample per pixel with the trees' settings, as a PNG data URI;
+    its size and the factor it is shown enlarged by."""
+    from PIL import Image
+
+    from ..display import default_view, to_srgb
+    from ..rendering import render_checked
+    s = traces.settings
+    result = render_checked(traces.scene, spp=1, max_depth=s["max_depth"], lighting=s["lighting"],
+                            min_weight=s["min_weight"], ambient=s["ambient"])
+    srgb = to_srgb(result.image, view=default_view("whitted", s["lighting"]))
+    buffer = io.BytesIO()
+    Image.fromarray(srgb).save(buffer, "PNG")
+    height, width = srgb.shape[:2]
+    return ("data:image/png;base64," + base64.b64encode(buffer.getvalue()).decode("ascii"),
+            width, height, max(1, math.ceil(IMAGE_WIDTH / width)))
+
+
+def page_html(traces, scene_name: str) -> str:
+    uri, width, height, zoom = _image(traces)
+    s = traces.settings
+    settings = (f"depth {s['max_depth']}, ambient {s['ambient']:.3g}, {s['lighting']} lighting, "
+                f"min weight {s['min_weight']:.3g}, {width}×{height}, one sample per pixel")
+    marks = []
+    for n, t in enumerate(traces, 1):
+        x, y = (t.x + 0.5) * zoom, (t.y + 0.5) * zoom
+        # the number beside its circle, inside the image
+        marks.append({"number": n, "x": x, "y": y, "tx": x + 12 if x < width * zoom - 30 else x - 26,
+                      "ty": y - 8 if y > 24 else y + 24})
+    return _environment().get_template(TEMPLATE).render(
+        page=True, scene=scene_name, settings=settings, image={"uri": uri, "width": width * zoom,
+                                                                "height": height * zoom},
+        marks=marks, pixels=_pixels(traces), figure=figure_html(traces.view, list(traces)),
+        legend=_legend(), version=VERSION)
+
+
+def write_page(path, traces, scene) -> None:
+    """The page of ``traces`` (of the scene file ``scene``) at ``path``."""
+    from pathlib import Path
+    write_text(path, page_html(traces, Path(scene).name))

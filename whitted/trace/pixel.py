@@ -1,0 +1,331 @@
+"""``trace_pixel``: the ray tree of a pixel, as the renderer computed it, in the scene file's terms.
+
+The integrator traces the pixels' center rays as a render at one sample per pixel does
+(:meth:`~whitted.plugins.integrator.WhittedIntegrator.trace_pixels`), and a
+:class:`~.record.Recorder` keeps every level (:mod:`.record`). This module moves the
+trees from the loaded scene's frame (Mitsuba's coordinates: the file's minus its
+``lookat``, scaled when spheres are grouped; converter/frame.py) back to the file's
+coordinates, and names each sphere hit or blocking a shadow ray by its line in the file
+(and its comment), each light by its line.
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import WhittedError
+from .nodes import Node, SphereRef, text_tree
+
+
+# -- the scene file's frame and names ------------------------------------------------------------
+
+def _comment(line: str) -> tuple[str, str | None]:
+    """``(statement, comment)`` of one line of a scene file (``#`` outside quotes)."""
+    quoted = False
+    for i, c in enumerate(line):
+        if c == '"':
+            quoted = not quoted
+        elif c == "#" and not quoted:
+            return line[:i].strip(), line[i + 1:].strip() or None
+    return line.strip(), None
+
+
+@dataclass
+class SceneView:
+    """What the trees are shown against: the scene's spheres and lights in the file's
+    coordinates (world = frame / ``scale`` + ``origin``), named as the file names them."""
+    source: str                   # the file's name ("tir.scn"), or what the scene was loaded from
+    origin: np.ndarray
+    scale: float
+    centers: np.ndarray           # (N, 3), the file's coordinates
+    radii: np.ndarray             # (N,)
+    lines: np.ndarray | None      # (N,), each sphere's line in the file (None: no file)
+    names: list | None = None     # each sphere's name where there is no file (its shape's id)
+    colors: np.ndarray | None = None   # (N, 3), each sphere's color (textured ones grey)
+    glass: np.ndarray | None = None    # (N,), whether each sphere refracts (KT > 0)
+    text: list | None = None      # the file's lines
+    lights: list = field(default_factory=list)   # (position, color, line) in the file's terms
+    eye: tuple | None = None
+    lookat: tuple | None = None
+    width: int = 0
+    height: int = 0
+    background: tuple = (0.0, 0.0, 0.0)
+
+    def position(self, p) -> tuple:
+        return tuple(float(c) for c in np.asarray(p, np.float64) / self.scale + self.origin)
+
+    def length(self, t: float) -> float:
+        return float(t) / self.scale
+
+    def sphere(self, k: int) -> SphereRef:
+        center, radius = tuple(map(float, self.centers[k])), float(self.radii[k])
+        if self.lines is None:
+            name = self.names[k] if self.names else f"sphere {k}"
+            return SphereRef(k, center, radius, name=name)
+        line = int(self.lines[k])
+        statement, comment = (_comment(self.text[line - 1]) if self.text and 0 < line <= len(self.text)
+                              else (None, None))
+        return SphereRef(k, center, radius, line=line, statement=statement, comment=comment,
+                         name=f"{self.source}:{line}")
+
+    def sphere_at(self, p, n) -> SphereRef | None:
+        """The sphere whose surface holds the scene point ``p`` (file coordinates) with outward
+        normal ``n``: the nearest surface, relative to the size of its numbers; of several
+        within float32's reach, the one whose normal there is ``n``."""
+        if not len(self.radii):
+            return None
+        p, n = np.asarray(p, np.float64), np.asarray(n, np.float64)
+        offset = p - self.centers
+        distance = np.sqrt(np.einsum("ij,ij->i", offset, offset))
+        size = self.radii + np.sqrt(np.einsum("ij,ij->i", self.centers - self.origin, self.centers - self.origin))
+        gap = np.abs(distance - self.radii) / np.maximum(size, 1e-300)
+        near = np.flatnonzero(gap <= 1e-4)
+        if not len(near):
+            k = int(np.argmin(gap))
+            return self.sphere(k) if gap[k] <= 1e-2 else None
+        if len(near) > 1:
+            agree = np.einsum("ij,j->i", offset[near], n) / np.maximum(distance[near], 1e-300)
+            return self.sphere(int(near[np.argmax(agree - gap[near])]))
+        return self.sphere(int(near[0]))
+
+    def light(self, position) -> int | None:
+        """The index of the light at ``position`` (file coordinates)."""
+        if not self.lights:
+            return None
+        spots = np.array([p for p, _, _ in self.lights], np.float64)
+        return int(np.argmin(np.linalg.norm(spots - np.asarray(position), axis=1)))
+
+    def statement(self, line: int | None) -> str | None:
+        if not line or not self.text or line > len(self.text):
+            return None
+        return _comment(self.text[line - 1])[0]
+
+
+def scene_view(scene) -> SceneView:
+    """The :class:`SceneView` of a loaded ``mi.Scene``: from the ``.scn`` model it was loaded
+    from (:mod:`whitted.sources`), else from the scene itself (its shapes' ids name spheres,
+    positions are Mitsuba's)."""
+    from ..sources import recall
+    source = recall(scene)
+    sensor = scene.sensors()[0]
+    width, height = (int(c) for c in sensor.film().crop_size())
+    if source is not None:
+        model = source.model
+        arrays = model.sphere_arrays()
+        text = source.text
+        if text is None:
+            try:
+                text = Path(model.source).read_text(encoding="utf-8", errors="replace")
+            except OSError:
+                text = None
+        palette = np.array([(0.7, 0.7, 0.7) if m.texture is not None else m.color for m in arrays.materials]
+                           or [(0.7, 0.7, 0.7)], np.float64)
+        return SceneView(source=Path(str(model.source)).name, origin=np.asarray(model.lookat, np.float64),
+                         scale=float(source.scale), centers=np.asarray(arrays.center, np.float64).reshape(-1, 3),
+                         radii=np.asarray(arrays.radius, np.float64), lines=np.asarray(arrays.line),
+                         colors=palette[np.asarray(arrays.material, np.int64)],
+                         glass=np.array([m.refract > 0 for m in arrays.materials] or [False])[
+                             np.asarray(arrays.material, np.int64)],
+                         text=None if text is None else text.splitlines(),
+                         lights=[(tuple(light.position), tuple(light.color), light.line) for light in model.lights],
+                         eye=tuple(model.eye), lookat=tuple(model.lookat), width=width, height=height,
+                         background=tuple(model.background))
+    from ..plugins.scene.tables import scene_tables
+    tables = scene_tables(scene)
+    primitives = tables.primitives
+    spheres = np.flatnonzero(primitives.sphere)
+    shapes = scene.shapes()
+    owner = np.searchsorted(primitives.first, spheres, side="right") - 1
+    counts = primitives.counts
+    names = [shapes[s].id() + (f"[{p - primitives.first[s]}]" if counts[s] > 1 else "")
+             for p, s in zip(spheres.tolist(), owner.tolist())]
+    import mitsuba as mi
+    to_world = sensor.world_transform()
+    eye = tuple(float(c) for c in to_world @ mi.ScalarPoint3f(0, 0, 0)) if not hasattr(to_world, "translation") \
+        else tuple(float(c) for c in np.asarray(to_world.translation()).reshape(-1))
+    return SceneView(source="the scene", origin=np.zeros(3), scale=1.0,
+                     centers=primitives.center[:, spheres].T.copy(), radii=primitives.radius[spheres].copy(),
+                     lines=None, names=names,
+                     lights=[(tuple(map(float, p)), tuple(map(float, c)), None) for p, c in tables.lights],
+                     eye=eye, width=width, height=height)
+
+
+# -- one pixel's tree ---------------------------------------------------------------------------------
+
+@dataclass
+class PixelTree:
+    """The ray tree of pixel ``(x, y)`` (:func:`trace_pixel`). ``color`` is the color the
+    tracer returned for its center ray (what a 1-spp render puts in the pixel); the tree's
+    contributions add up to it (:meth:`total`). ``str()`` is the tree as indented text;
+    in a notebook it shows as the page's 3D view and table (:mod:`.page`)."""
+    x: int
+    y: int
+    root: Node
+    color: tuple
+    view: SceneView = field(repr=False)
+    settings: dict = field(default_factory=dict, repr=False)
+
+    def total(self) -> tuple:
+        """The sum of the tree's contributions (float64)."""
+        return self.root.total()
+
+    def nodes(self) -> list[Node]:
+        return list(self.root.walk())
+
+    def lines(self) -> list[str]:
+        total = self.total()
+        count = self.root.count()
+        head = (f"pixel ({self.x}, {self.y}) of {self.view.source}: color ({self.color[0]:.6g} "
+                f"{self.color[1]:.6g} {self.color[2]:.6g}), the sum of the contributions of its {count} "
+                f"ray{'s' if count != 1 else ''} ({total[0]:.6g} {total[1]:.6g} {total[2]:.6g})")
+        return [head, *text_tree(self.root, physical=self.settings.get("lighting") == "physical")]
+
+    def __str__(self) -> str:
+        return "\n".join(self.lines())
+
+    def json(self) -> dict:
+        return {"pixel": [self.x, self.y], "color": list(self.color), "sum": list(self.total()),
+                "rays": self.root.count(), "tree": self.root.json()}
+
+    def _repr_html_(self) -> str:
+        from .page import fragment
+        return fragment(self.view, [self])
+
+
+class Traces(list):
+    """The trees of several pixels of one scene (:func:`trace_pixels`): a list of
+    :class:`PixelTree`, shown together."""
+
+    def __init__(self, trees, view: SceneView, settings: dict, scene=None):
+        super().__init__(trees)
+        self.view, self.settings = view, settings
+        self.scene = scene   # the mi.Scene traced
+
+    def __str__(self) -> str:
+        return "\n\n".join(str(tree) for tree in self)
+
+    def json(self) -> dict:
+        return {"scene": self.view.source, "settings": self.settings,
+                "coordinates": "the scene file's" if self.view.lines is not None else "the loaded scene's",
+                "pixels": [tree.json() for tree in self]}
+
+    def _repr_html_(self) -> str:
+        from .page import fragment
+        return fragment(self.view, list(self))
+
+
+# -- tracing ----------------------------------------------------------------------------------------
+
+def _load(scene, variant, overrides: dict):
+    """``scene`` as a loaded ``mi.Scene`` (a path is loaded as ``whitted render`` loads it)."""
+    if isinstance(scene, (str, os.PathLike)):
+        from ..loading import load_scene
+        from ..rendering import quiet_mitsuba
+        with quiet_mitsuba():
+            return load_scene(scene, variant=variant, meshes=False,
+                              **{k: v for k, v in overrides.items() if k in ("max_depth", "ambient", "lighting")})
+    if variant is not None:
+        raise WhittedError("variant applies to a scene given by its path; a loaded scene keeps its own")
+    return scene
+
+
+def trace_pixels(scene, pixels, *, variant: str | None = None, max_depth: int | None = None,
+                 ambient: float | None = None, lighting: str | None = None,
+                 min_weight: float | None = None) -> Traces:
+    """The ray trees of ``pixels`` (``(x, y)`` each: column from the left, row from the top,
+    from 0; or each a percentage of the width or height, ``("50%", "45%")``) of ``scene`` (a
+    ``mi.Scene`` from :func:`whitted.load_scene`, or a scene file's path), traced by the
+    Whitted integrator exactly as a render at one sample per pixel traces them, with the
+    scene's settings or those given (as ``whitted render`` takes them)."""
+    from .. import defaults as D
+    from ..rendering import check_article_materials, check_settings, integrator_of, quiet_mitsuba
+    check_settings(None, max_depth, lighting, "whitted", min_weight)
+    if ambient is not None:
+        D.check_ambient(ambient)
+    given = scene
+    scene = _load(scene, variant, {"max_depth": max_depth, "ambient": ambient, "lighting": lighting})
+    if not scene.sensors():
+        raise WhittedError("the scene has no sensor (camera) to trace from")
+    width, height = (int(c) for c in scene.sensors()[0].film().crop_size())
+    pixels = [(_coordinate(x, width), _coordinate(y, height)) for x, y in pixels]
+    for x, y in pixels:
+        if not (0 <= x < width and 0 <= y < height):
+            raise WhittedError(f"pixel ({x}, {y}) is outside the {width}x{height} image "
+                               f"(x from 0 to {width - 1}, y from 0 to {height - 1})")
+    check_article_materials(scene)
+    own = integrator_of(scene)
+    settings = own.settings()
+    with quiet_mitsuba():
+        integrator = own.with_settings(
+            max_depth=int(max_depth) if max_depth is not None else settings["max_depth"],
+            lighting=lighting or settings["lighting"],
+            min_weight=float(min_weight) if min_weight is not None else settings["min_weight"],
+            ambient=float(ambient) if ambient is not None else settings["ambient"])
+    from .record import Recorder
+    recorder = Recorder()
+    unique = list(dict.fromkeys(pixels))
+    colors = integrator.trace_pixels(scene, unique, recorder)
+    roots = recorder.trees()
+    recorder.blockers(roots)
+    flat = np.concatenate([np.asarray(c, np.float64).reshape(3, -1).T for c in colors])
+    view = scene_view(scene)
+    if view.lines is None and isinstance(given, (str, os.PathLike)):
+        view.source = Path(given).name   # (a converted .xml: no scene file names its spheres)
+    for root in roots:
+        _to_file(root, view)
+    used = {k: v for k, v in integrator.settings().items() if k not in ("exact_spheres", "light_reference")}
+    trees = {p: PixelTree(p[0], p[1], root, tuple(map(float, color)), view, used)
+             for p, root, color in zip(unique, roots, flat)}
+    return Traces([trees[p] for p in pixels], view, used, scene)
+
+
+def _coordinate(value, size: int) -> int:
+    """A pixel coordinate: an integer, or a percentage of ``size`` (``"45%"``; 100% is the last
+    pixel)."""
+    if isinstance(value, str) and value.strip().endswith("%"):
+        try:
+            share = float(value.strip()[:-1]) / 100
+        except ValueError:
+            raise WhittedError(f"pixel coordinate {value!r} is not a percentage such as 45%") from None
+        if not 0 <= share <= 1:
+            raise WhittedError(f"pixel coordinate {value} must be from 0% to 100%")
+        return min(int(share * size), size - 1)
+    try:
+        return int(value)
+    except (TypeError, ValueError):
+        raise WhittedError(f"pixel coordinate {value!r} is neither a whole number nor a percentage") from None
+
+
+def trace_pixel(scene, x: int, y: int, **options) -> PixelTree:
+    """The ray tree of pixel ``(x, y)`` of ``scene`` (:func:`trace_pixels`, whose options it takes)."""
+    return trace_pixels(scene, [(x, y)], **options)[0]
+
+
+def _to_file(root: Node, view: SceneView) -> None:
+    """Move a recorded tree from the loaded scene's frame to the file's, and name its spheres
+    and lights."""
+    for node in root.walk():
+        node.origin = view.position(node.origin)
+        node.direction = tuple(float(c) for c in node.direction)
+        if node.hit:
+            node.position = view.position(node.position)
+            node.distance = view.length(node.distance)
+            node.sphere = view.sphere_at(node.position, node.normal)
+        for term in node.lights:
+            term.position = view.position(term.position)
+            k = view.light(term.position)
+            if k is not None:
+                term.index = k
+                _, _, term.line = view.lights[k]
+                term.statement = view.statement(term.line)
+            if term.shadow is not None:
+                term.shadow = {"origin": view.position(term.shadow["origin"]),
+                               "direction": tuple(float(c) for c in term.shadow["direction"]),
+                               "length": view.length(term.shadow["length"])}
+            if term.blocker_point is not None:
+                term.blocker_point = view.position(term.blocker_point)
+                term.blocker = view.sphere_at(term.blocker_point, term.blocker_normal)

@@ -1,0 +1,242 @@
+"""The renderer's own trees, recorded: what each level of a pixel's ray tree computed.
+
+The integrator traces a pixel's camera ray as a render does
+(:meth:`whitted.plugins.integrator.WhittedIntegrator.trace_pixels`): the same tracer, the
+same shader, the same hit finders. The tracer shows each level it shades to a
+:class:`Recorder` (``Tracer.recorder``), and the shader leaves that level's terms in
+``Shader.record``: the hit, the facing normal, the material, each light's term and shadow
+ray, whether the refracted ray was totally reflected. The recorder reads them lane by lane
+(a wavefront in the JIT variants, one ray in the scalar ones) into :class:`~.nodes.Node`
+objects, and links each child to its parent by its ray: a child shaded at level L + 1 is
+the pending child of level L with the same origin, direction and weight, bit for bit.
+
+Everything here is in the frame of the loaded scene (Mitsuba's coordinates);
+:mod:`.pixel` moves the tree to the ``.scn`` file's coordinates and names its spheres.
+"""
+
+from __future__ import annotations
+
+from collections import defaultdict, deque
+
+import drjit as dr
+import mitsuba as mi
+import numpy as np
+
+from .nodes import LightTerm, Node
+
+_VECTORS = {"o", "d", "color", "p", "n", "n_facing", "base", "point", "position", "strength",
+            "ray_o", "ray_d", "value", "child_o", "child_d"}
+
+
+def _t(values) -> tuple:
+    """Numbers as a tuple of Python floats."""
+    return tuple(float(c) for c in values)
+
+
+def _lanes(value, n: int, vector: bool) -> np.ndarray:
+    """A recorded value as numpy: (n, 3) for a vector, (n,) else, broadcast from one lane."""
+    array = np.asarray(value)
+    if array.dtype != bool:
+        array = array.astype(np.float64)
+    if vector:
+        array = array.reshape(3, -1).T if array.ndim else np.full((1, 3), float(array))
+        return np.broadcast_to(array, (n, 3)) if len(array) != n else array
+    array = array.reshape(-1)
+    return np.broadcast_to(array, (n,)) if len(array) != n else array
+
+
+class Recorder:
+    """Collects the levels a tracer shades (see the module docstring) and makes them trees."""
+
+    def __init__(self):
+        self.levels: list[dict] = []
+        self.weights: list[np.ndarray] = []   # each batch's camera ray weights (n, 3)
+        self.tracer = None
+        self.shader = None
+
+    # -- what the integrator calls -----------------------------------------------------------------
+
+    def attach(self, tracer) -> None:
+        """Be shown every level ``tracer`` shades, with its shader's terms."""
+        self.tracer, self.shader = tracer, tracer.shader
+        tracer.recorder = self
+        self.shader.record = {}
+
+    def camera(self, weight) -> None:
+        """The camera rays of the next batch have the ray weight ``weight`` (mi.Color3f)."""
+        self._pending_weight = weight
+
+    def level(self, branch, shaded, traced) -> None:
+        """One level shaded: its rays, their colors, the shader's terms and the children."""
+        record = self.shader.record
+        si = record["si"]
+        values = {"o": branch.ray.o, "d": branch.ray.d, "weight": branch.weight,
+                  "color": shaded.color, "hit": shaded.hit, "t": si.t, "p": si.p, "n": si.n}
+        if "surface" in record:   # (a scalar ray that missed has no surface)
+            surface = record["surface"]
+            values.update(inside=record["inside"], base=surface.base, reflect=surface.reflect,
+                          refract=surface.refract, ior=surface.ior, point=record["point"])
+            if "tir" in record:
+                values["tir"] = record["tir"]
+        lights = []
+        for terms in record["lights"]:
+            light = {"position": terms["position"], "strength": terms["strength"],
+                     "facing": terms["facing"], "cos": terms["cos"]}
+            if "ray" in terms:   # (none when the render leaves shadows out)
+                light.update(ray_o=terms["ray"].o, ray_d=terms["ray"].d, maxt=terms["ray"].maxt,
+                             shadowed=terms["shadowed"])
+            if "value" in terms:
+                light["value"] = terms["value"]
+            lights.append(light)
+        children = []
+        for child, is_traced in zip(shaded.children, traced):
+            entry = {"child_o": child.ray.o, "child_d": child.ray.d, "weight": child.weight,
+                     "traced": is_traced}
+            if child.merged is not None:
+                entry["merged"] = child.merged
+            children.append((child.kind, entry))
+        jit = dr.is_jit_v(mi.Float)
+        if jit:
+            flat = [*values.values(), *(v for light in lights for v in light.values()),
+                    *(v for _, entry in children for v in entry.values())]
+            dr.eval(*[v for v in flat if dr.is_jit_v(v)])
+        n = dr.width(branch.ray.d) if jit else 1
+
+        def convert(group: dict) -> dict:
+            return {key: _lanes(value, n, key in _VECTORS) for key, value in group.items()}
+        self.levels.append({"level": branch.level, "n": n, "spawn": branch.level < self.shader.depth,
+                            "values": convert(values), "lights": [convert(light) for light in lights],
+                            "children": [(kind, convert(entry)) for kind, entry in children],
+                            "batch": len(self.weights) - 1 if branch.level > 1 else len(self.weights)})
+        if branch.level == 1:
+            self.weights.append(_lanes(self._pending_weight, n, True))
+
+    # -- the trees ---------------------------------------------------------------------------------
+
+    def trees(self) -> list[Node]:
+        """The recorded trees, one per camera ray in the order traced (frame coordinates)."""
+        shader = self.shader
+        ambient = float(np.asarray(shader.ambient).reshape(-1)[0])
+        roots: list[Node] = []
+        pending: dict = defaultdict(deque)   # (level, o, d, weight) -> (parent, kind, merged)
+        for level in self.levels:
+            v = level["values"]
+            for lane in range(level["n"]):
+                o, d, weight = _t(v["o"][lane]), _t(v["d"][lane]), float(v["weight"][lane])
+                if level["level"] == 1:
+                    node = Node(kind="camera", level=1, weight=weight, origin=o, direction=d)
+                    node.camera_weight = _t(self.weights[level["batch"]][lane])
+                    roots.append(node)
+                else:
+                    waiting = pending.get((level["level"], o, d, weight))
+                    if not waiting:
+                        raise RuntimeError(f"a ray of level {level['level']} that no parent spawned")
+                    parent, kind, merged = waiting.popleft()
+                    node = Node(kind=kind, level=level["level"], weight=weight, origin=o, direction=d,
+                                merged=merged)
+                    node.camera_weight = parent.camera_weight
+                    parent.children.append(node)
+                self._shade(node, level, lane, ambient)
+                for kind, entry in level["children"]:
+                    w = float(entry["weight"][lane])
+                    merged = bool(entry["merged"][lane]) if "merged" in entry else False
+                    named = kind
+                    if kind == "reflection" and merged:
+                        named = "total internal reflection"
+                    elif kind == "refraction" and "tir" in v and bool(v["tir"][lane]):
+                        named = "total internal reflection"
+                    if bool(entry["traced"][lane]):
+                        key = (level["level"] + 1, _t(entry["child_o"][lane]), _t(entry["child_d"][lane]), w)
+                        pending[key].append((node, named, merged))
+                    elif w > 0:
+                        node.untraced.append({"kind": named, "weight": w, "why": "cut by weight"})
+                if node.hit and not level["spawn"]:
+                    for kind, share in (("reflection", node.material["reflect"]),
+                                        ("refraction", node.material["refract"])):
+                        if share > 0:
+                            node.untraced.append({"kind": kind, "weight": weight * share, "why": "max depth"})
+        left = sum(len(q) for q in pending.values())
+        if left:
+            raise RuntimeError(f"{left} traced rays were never shaded")
+        for root in roots:
+            for node in root.walk():
+                node.stop = _stop(node)
+        return roots
+
+    def _shade(self, node: Node, level: dict, lane: int, ambient: float) -> None:
+        """The shading terms of ``node`` from lane ``lane`` of ``level``."""
+        v = level["values"]
+        node.contribution = _t(v["color"][lane] * np.asarray(node.camera_weight))
+        node.hit = bool(v["hit"][lane])
+        if not node.hit:
+            node.background = node.contribution
+            return
+        node.distance = float(v["t"][lane])
+        node.position = _t(v["p"][lane])
+        node.normal = _t(v["n"][lane])
+        node.inside = bool(v["inside"][lane])
+        base = v["base"][lane]
+        node.material = {"color": _t(base), "reflect": float(v["reflect"][lane]),
+                         "refract": float(v["refract"][lane]), "ior": float(v["ior"][lane])}
+        node.local = _t(v["point"][lane])
+        node.diffuse_weight = 1 - node.material["reflect"] - node.material["refract"]
+        physical = self.shader.physical
+        node.ambient = (0.0, 0.0, 0.0) if physical else _t(base * ambient)
+        for k, light in enumerate(level["lights"]):
+            facing = bool(light["facing"][lane])
+            term = LightTerm(index=k, position=_t(light["position"][lane]),
+                             color=_t(light["strength"][lane]), facing=facing,
+                             cos=max(0.0, float(light["cos"][lane])))
+            if facing and "value" in light:
+                if "ray_o" in light:
+                    term.blocked = bool(light["shadowed"][lane])
+                    term.shadow = {"origin": _t(light["ray_o"][lane]), "direction": _t(light["ray_d"][lane]),
+                                   "length": float(light["maxt"][lane])}
+                value = light["value"][lane]
+                term.term = _t(base * value / np.pi if physical else base * (1 - ambient) * value)
+            node.lights.append(term)
+
+    # -- the spheres that block shadow rays ---------------------------------------------------------
+
+    def blockers(self, roots: list[Node]) -> None:
+        """For each blocked shadow ray of the trees, where it meets its nearest blocker
+        (``term.blocker_point``, frame coordinates), through the render's own hit finder."""
+        terms = [term for root in roots for node in root.walk() for term in node.lights
+                 if term.blocked and term.shadow is not None]
+        if not terms:
+            return
+        hits = self.shader.hits
+        origins = np.array([t.shadow["origin"] for t in terms])
+        directions = np.array([t.shadow["direction"] for t in terms])
+        lengths = np.array([t.shadow["length"] for t in terms])
+        if dr.is_jit_v(mi.Float):
+            ray = mi.Ray3f(mi.Point3f(*origins.T), mi.Vector3f(*directions.T))
+            ray.maxt = mi.Float(lengths)
+            hit, si, _, _ = hits.intersect(ray, False)
+            found, points, normals = np.asarray(hit, bool), np.asarray(si.p).T, np.asarray(si.n).T
+        else:
+            found, points, normals = [], [], []
+            for o, d, maxt in zip(origins, directions, lengths):
+                ray = mi.Ray3f(mi.Point3f(*o), mi.Vector3f(*d))
+                ray.maxt = float(maxt)
+                hit, si, _, _ = hits.intersect(ray, False)
+                found.append(bool(hit))
+                points.append(np.asarray(si.p, np.float64) if hit else np.zeros(3))
+                normals.append(np.asarray(si.n, np.float64) if hit else np.zeros(3))
+        for term, ok, p, n in zip(terms, found, points, normals):
+            if ok:
+                term.blocker_point, term.blocker_normal = tuple(map(float, p)), tuple(map(float, n))
+
+
+def _stop(node: Node) -> str | None:
+    """Why the tree ends below ``node`` (None while a child goes on)."""
+    if not node.hit:
+        return "missed: background"
+    if node.children:
+        return None
+    whys = [u["why"] for u in node.untraced]
+    if "max depth" in whys:
+        return "max depth"
+    if "cut by weight" in whys:
+        return "cut by weight"
+    return "no reflection or refraction"
