@@ -346,3 +346,13 @@ def test_a_converted_xml_is_traced_in_its_own_frame(llvm):
     assert from_xml.root.sphere.name == "sphere_1" and from_xml.root.sphere.line is None
     assert from_xml.root.origin == pytest.approx((0.0, 0.3, 7.0), abs=1e-6)   # tir.scn's lookat is 0 0.2 0
     assert str(from_xml).startswith("pixel (160, 90) of tir.xml")
+
+
+@pytest.mark.parametrize("effect", ["shadows", "reflection", "refraction", "diffuse", "ambient"])
+def test_a_render_without_an_effect_adds_up_too(llvm, scene_files, effect):
+    """With an effect left out (``without``), each tree still adds up to its 1-spp pixel."""
+    scene = whitted.load_scene(scene_files["example:tir"], meshes=False, without=effect)
+    image = np.asarray(whitted.render(scene, spp=1).image, np.float64)
+    pixels = chosen_pixels(image)
+    for tree, (x, y) in zip(trace_pixels(scene, pixels), pixels):
+        assert float(np.abs(np.asarray(tree.total()) - image[y, x]).max()) <= TOLERANCE, (effect, x, y)
