@@ -6,18 +6,15 @@ terms (``whitted trace``: positions in the file's coordinates, spheres named by 
 line) asks :func:`recall` for the model the scene was loaded from and that frame.
 Scenes take no Python attributes, so the loader (:func:`remember`) keeps them by the
 scene's address, with a *witness* that tells a new scene at a dead one's address apart
-(as the integrator's tables do: plugins/scene/tables.py). At most :data:`SCENES` are kept.
+(the integrator's tables' way: :class:`whitted.plugins.scene.tables.KeptByScene`). At most :data:`SCENES` are kept.
 """
 
 from __future__ import annotations
 
-from collections import OrderedDict
 from dataclasses import dataclass
 
 #: how many scenes are remembered (the least recently loaded go first)
 SCENES = 16
-
-_kept: OrderedDict = OrderedDict()
 
 
 @dataclass(frozen=True)
@@ -29,39 +26,23 @@ class Source:
     text: str | None = None
 
 
-def _witness(scene):
-    import drjit as dr
-    import mitsuba as mi
-    if dr.is_jit_v(mi.Float):
-        shapes = scene.shapes_dr()
-        return shapes if dr.width(shapes) else None
-    shapes = scene.shapes()
-    return shapes[0] if shapes else None
+_kept = None
 
 
-def _same(a, b) -> bool:
-    import drjit as dr
-    if dr.is_array_v(a):
-        return dr.is_array_v(b) and a.index == b.index
-    return a is b
+def _store():
+    """The scenes remembered (:class:`whitted.plugins.scene.tables.KeptByScene`, made on first use)."""
+    global _kept
+    if _kept is None:
+        from .plugins.scene.tables import KeptByScene
+        _kept = KeptByScene(SCENES)
+    return _kept
 
 
 def remember(scene, source: Source) -> None:
     """``scene`` was loaded from ``source``."""
-    witness = _witness(scene)
-    if witness is None:
-        return
-    key = (scene.variant_name(), scene.ptr)
-    _kept.pop(key, None)
-    _kept[key] = (witness, source)
-    while len(_kept) > SCENES:
-        _kept.popitem(last=False)
+    _store().put(scene, source)
 
 
 def recall(scene) -> Source | None:
     """What ``scene`` was loaded from, if :func:`remember` was told and it is still held."""
-    kept = _kept.get((scene.variant_name(), scene.ptr))
-    if kept is None:
-        return None
-    witness = _witness(scene)
-    return kept[1] if witness is not None and _same(kept[0], witness) else None
+    return _store().get(scene)

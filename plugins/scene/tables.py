@@ -48,8 +48,6 @@ from .primitives import Primitives, bounds, corners
 #: how many scenes' tables are kept (the least recently used go first)
 SCENES = 8
 
-#: (variant, scene address) -> (witness, tables)
-_kept: OrderedDict = OrderedDict()
 
 
 def _changes(bsdfs) -> tuple:
@@ -193,20 +191,44 @@ def _same(witness, current) -> bool:
     return witness is current
 
 
+class KeptByScene:
+    """Values kept for live scenes, by the scene's address and recognised by its witness
+    (see the module docstring); at most ``size``, the least recently used going first."""
+
+    def __init__(self, size: int):
+        self.size = size
+        self._kept: OrderedDict = OrderedDict()   # (variant, address) -> (witness, value)
+
+    def get(self, scene):
+        """The value kept for ``scene``, or None."""
+        kept = self._kept.get((scene.variant_name(), scene.ptr))
+        witness = _witness(scene)
+        if kept is None or witness is None or not _same(kept[0], witness):
+            return None
+        self._kept.move_to_end((scene.variant_name(), scene.ptr))
+        return kept[1]
+
+    def put(self, scene, value) -> None:
+        """Keep ``value`` for ``scene`` (nothing, for a scene with nothing to witness it)."""
+        witness = _witness(scene)
+        if witness is None:
+            return
+        address = (scene.variant_name(), scene.ptr)
+        self._kept.pop(address, None)
+        self._kept[address] = (witness, value)
+        while len(self._kept) > self.size:
+            self._kept.popitem(last=False)
+
+
+_kept = KeptByScene(SCENES)
+
+
 def scene_tables(scene) -> SceneTables:
     """The :class:`SceneTables` of ``scene`` as it is now: the kept ones while they still
     describe it, else new ones."""
-    witness = _witness(scene)
-    if witness is None:
-        return SceneTables(scene)
-    address = (scene.variant_name(), scene.ptr)
-    kept = _kept.get(address)
-    if kept is not None and _same(kept[0], witness) and kept[1].matches(scene):
-        _kept.move_to_end(address)
-        return kept[1]
-    _kept.pop(address, None)
+    tables = _kept.get(scene)
+    if tables is not None and tables.matches(scene):
+        return tables
     tables = SceneTables(scene)
-    _kept[address] = (witness, tables)
-    while len(_kept) > SCENES:
-        _kept.popitem(last=False)
+    _kept.put(scene, tables)
     return tables
