@@ -65,7 +65,9 @@ def _command(sub, name: str, run, help: str, description: str) -> argparse.Argum
     return command
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(command: str | None = None) -> argparse.ArgumentParser:
+    """The parser of every command, or, given ``command``, one whose other commands have no
+    options yet (their help is the same; their code is not imported)."""
     parser = argparse.ArgumentParser(
         prog="whitted",
         description="""\
@@ -196,7 +198,6 @@ def build_parser() -> argparse.ArgumentParser:
                      help=f"the widest image the fit renders (default {FIT_WIDTH})")
     fit.add_argument("-q", "--quiet", action="store_true", help="no progress bar, no losses")
 
-    from .trace.cli import add_arguments as add_trace_arguments
     trace = _command(
         sub, "trace", _trace, help="the ray tree of a pixel, as the renderer computed it",
         description="""\
@@ -208,9 +209,10 @@ def build_parser() -> argparse.ArgumentParser:
         pixel and why its branch stops. The contributions add up to the pixel. Positions are in
         the scene file's coordinates. -o PAGE.html also writes a page to project: the image with
         the pixels marked, each tree as a table and a 3D view of the rays.""")
-    add_trace_arguments(trace)
+    if command in (None, "trace"):
+        from .trace.cli import add_arguments
+        add_arguments(trace)
 
-    from .compare.cli import add_arguments as add_compare_arguments
     compare = _command(
         sub, "compare", _compare, help="what accuracy costs in time: sweep the methods against a path-traced reference",
         description="""\
@@ -220,7 +222,9 @@ def build_parser() -> argparse.ArgumentParser:
         open it from disk), DIR/summary.txt (its conclusions in text), DIR/findings.json (the same
         for scripts), DIR/results.csv (one row per render), DIR/error_vs_time.png,
         DIR/contact_sheet.png and every render under DIR/renders/.""")
-    add_compare_arguments(compare)
+    if command in (None, "compare"):
+        from .compare.cli import add_arguments
+        add_arguments(compare)
     return parser
 
 
@@ -244,7 +248,8 @@ def suggestion(parser: argparse.ArgumentParser, unknown: list[str]) -> str:
 
 def main(argv: list[str] | None = None) -> int:
     interrupt.install()
-    parser = build_parser()
+    words = sys.argv[1:] if argv is None else argv
+    parser = build_parser(next((w for w in words if not w.startswith("-")), None))
     args, unknown = parser.parse_known_args(argv)
     if unknown:   # the command's own usage, not the top-level one
         args.parser.error(f"unrecognized arguments: {' '.join(unknown)}{suggestion(args.parser, unknown)}")
