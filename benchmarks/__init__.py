@@ -19,7 +19,7 @@ The library they share:
 * :mod:`benchmarks.tables`: number formats and text/Markdown tables;
 * :mod:`benchmarks.sections`: the sections of RESULTS.md each program owns.
 
-One-off studies that ``make bench`` does not run live in
-:mod:`benchmarks.studies`, each runnable the same way
-(``python -m benchmarks.studies.ellipsoids --help``).
+One-off studies that ``make bench`` does not run (ellipsoids, giants, portable, scene
+building) are kept at the git tag ``studies`` (commit 932610f):
+``git checkout studies -- benchmarks/studies``, then ``python -m benchmarks.studies.NAME``.
 """

@@ -1,8 +1,7 @@
 """A float64 reference renderer of the article's model, written from docs/scene-format.md.
 
-The tests hold the integrator to it, and the studies measure against it
-(benchmarks/studies/ellipsoids.py); it lives with the benchmarks' library so
-that both import it as ``benchmarks.reference``.
+The tests hold the integrator to it, and the benchmarks measure against it; it lives
+with the benchmarks' library so that both import it as ``benchmarks.reference``.
 
 It shares no code with the integrator: its own camera formula, sphere
 intersection, shading recursion and texture mapping, in plain Python floats

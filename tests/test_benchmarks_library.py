@@ -1,6 +1,6 @@
 """benchmarks/ is a small library that its programs and the tests import as the package
 ``benchmarks``: no program changes ``sys.path`` or imports from tests/, and every program
-(what ``make bench`` runs and the one-off studies) starts as ``python -m benchmarks.NAME``."""
+(what ``make bench`` runs) starts as ``python -m benchmarks.NAME``."""
 
 from __future__ import annotations
 
@@ -37,11 +37,7 @@ def test_no_path_hacks_and_nothing_from_tests(path):
             f"{path.name}:{node.lineno}: imports {modules}"
 
 
-STUDIES = sorted(p.stem for p in (REPO / "benchmarks" / "studies").glob("*.py") if p.stem != "__init__")
-
-
-@pytest.mark.parametrize("name", ["run", "vs_povray", "frames"] + [f"studies.{s}" for s in STUDIES
-                                                                   if s != "scene_setup"])
+@pytest.mark.parametrize("name", ["run", "vs_povray", "frames"])
 def test_every_program_starts_as_a_module(name):
     done = subprocess.run([sys.executable, "-m", f"benchmarks.{name}", "--help"], cwd=REPO,
                           capture_output=True, text=True, timeout=120)

@@ -136,7 +136,7 @@ def path_exists(text: str, anchor: Path | None = None) -> bool:
 def checked_path(text: str) -> bool:
     """Whether a path-like text is the project's to check (not a user's file in an example)."""
     first = text.split("/")[0]
-    return first in TOP or first in ("shading", "scene", "tree", "compare", "templates", "hard_cases", "studies")
+    return first in TOP or first in ("shading", "scene", "tree", "compare", "templates", "hard_cases")
 
 
 def role_exists(target: str, path: Path, module: str) -> bool:

@@ -28,7 +28,7 @@ OVERRIDES = {"spp": D.check_spp, "max_depth": D.check_depth, "ambient": D.check_
 
 #: Mitsuba's parallel loading (``parallel=`` of ``mi.load_file``/``load_dict``): off. It
 #: cost 35-40 % more CPU time and more wall time on 2 cores at every size measured
-#: (benchmarks/studies/scene_building.py; benchmarks/RESULTS.md, "Scene building").
+#: (benchmarks/RESULTS.md, "Scene building").
 PARALLEL = False
 
 
