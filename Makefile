@@ -73,8 +73,10 @@ chromium:
 		echo "note: no /usr/bin/chromium (as root: apt-get install chromium); the browser test will be skipped"; \
 	fi
 
+# in parallel, one worker per core; a test file's tests share a worker (and the renders its
+# fixtures make once)
 test: setup chromium
-	$(PY) -m pytest -q
+	$(PY) -m pytest -q -n auto --dist loadfile
 
 # POV-Ray 3.7 for the side-by-side benchmark: Debian's povray, installed when missing and
 # allowed (root, or sudo without a password), like the llvm step; otherwise its rows say why.
