@@ -45,7 +45,7 @@ the diffuse lobe is part of its pdf.
 
 The Whitted integrator reads the parameters directly: ``color`` (a texture),
 ``reflect``, ``refract`` and ``ior`` (Python floats), into its material table
-(:mod:`whitted.plugins.scene.materials`); other code can use
+(:mod:`whitted.plugins.scene_tables`); other code can use
 :meth:`eval_diffuse_reflectance` (B, without the weight 1 − KR − KT) and
 :meth:`eval_attribute_1`.
 """
@@ -58,8 +58,8 @@ import mitsuba as mi
 from whitted import defaults as D
 from whitted.errors import ParameterError
 
-from .scene.materials import uniform_color
-from .shading import optics
+from .hits import cos_incidence, facing_normal, reflect, refract, relative_ior
+from .scene_tables import uniform_color
 
 DIFFUSE, REFLECTION, TRANSMISSION = 0, 1, 2
 
@@ -75,18 +75,18 @@ _LOBE_TYPES = (mi.BSDFFlags.DiffuseReflection, mi.BSDFFlags.DeltaReflection,
 
 def delta_directions(wi, ior):
     """The article's mirror and refracted directions for ``wi`` (local frame,
-    pointing away from the surface, normal +z), with :mod:`.shading.optics`' formulas.
+    pointing away from the surface, normal +z), with the article's optics (:mod:`.hits`).
 
     Returns (R, T, total_internal_reflection, eta), eta being Mitsuba's
     ``bs.eta``: the relative index n2/n1 of the side T enters. Under total
     internal reflection T is meaningless (and finite).
     """
     v = -wi
-    n_facing, inside = optics.facing_normal(v, mi.Vector3f(0, 0, 1))
-    c1 = optics.cos_incidence(v, n_facing)
-    n = optics.relative_ior(ior, inside)
-    t, tir = optics.refract(v, n_facing, c1, n)
-    return optics.reflect(v, n_facing, c1), t, tir, dr.rcp(n)
+    n_facing, inside = facing_normal(v, mi.Vector3f(0, 0, 1))
+    c1 = cos_incidence(v, n_facing)
+    n = relative_ior(ior, inside)
+    t, tir = refract(v, n_facing, c1, n)
+    return reflect(v, n_facing, c1), t, tir, dr.rcp(n)
 
 
 class ArticleBSDF(mi.BSDF):

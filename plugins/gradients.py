@@ -1,7 +1,7 @@
 """Gradients of the article's model: what a differentiable render of the Whitted integrator reads.
 
 Why a module of its own. A plain render reads the scene's numbers once, as
-plain values baked into opaque tables and kernels (:mod:`.scene.tables`):
+plain values baked into opaque tables and kernels (:mod:`.scene_tables`):
 that is what keeps it fast and its images the same bits run after run. A
 gradient needs the opposite: every number a parameter feeds must be computed
 from the parameter's own Dr.Jit value, so that Dr.Jit's AD graph leads from
@@ -12,7 +12,7 @@ or ``dr.forward``) swaps in, for the columns a parameter carries, values
 tree's shape, what each ray hits, the shadow tests) is the plain render's.
 
 What is differentiated, and what is not. The image is a sum over each
-camera ray's tree of ``w·contribution`` (:mod:`.shading.shader`): it is
+camera ray's tree of ``w·contribution`` (:meth:`.recursion.Recursion.step`): it is
 smooth in every ``article`` color (a uniform ``rgb`` or a bitmap texture's
 texels: Mitsuba's textures are differentiable themselves), in KR and KT
 (``reflect``, ``refract``: the path weights and the ``1 - KR - KT`` share),
@@ -31,7 +31,7 @@ shape's position or size). A gradient render names, once, each parameter with
 gradients enabled that it does not differentiate (:func:`name_undifferentiated`).
 
 A weight that is 0 on every material leaves its effect out of the kernels
-(:mod:`.scene.effects`): a scene without mirrors has no reflected rays, and
+(:mod:`.scene_tables`): a scene without mirrors has no reflected rays, and
 the gradient of KR there is 0 (render the scene with a small KR to get it).
 
 Costs and limits. A bitmap texture is differentiated when it is stored as
@@ -49,7 +49,7 @@ import mitsuba as mi
 
 from whitted.errors import WhittedError
 
-from .scene.materials import bsdf_key
+from .primitives import bsdf_key
 
 
 def require_gradients(what: str) -> None:
@@ -120,9 +120,9 @@ class Attached:
     ============== ======================================================================
     ambient        mi.Float, the integrator's A
     lights         ``(position, strength)`` per point light, in the order of the scene's
-                   (:func:`.scene.lights.point_lights`): strength is the article's color or
+                   (:func:`.scene_tables.point_lights`): strength is the article's color or
                    the intensity (physical lighting)
-    material_table the materials' table (:meth:`.scene.materials.Materials.table`) with
+    material_table the materials' table (:meth:`.scene_tables.Materials.table`) with
                    the color, KR and KT columns computed from the BSDFs' parameters
     ============== ======================================================================
     """
@@ -133,7 +133,7 @@ class Attached:
 
 def attached(scene, tables, integrator) -> Attached:
     """:class:`Attached` for a render of ``scene`` by the Whitted ``integrator``; ``tables``:
-    the scene's analysis (:class:`.scene.effects.SceneAnalysis`: its ``material_table``)."""
+    the scene's analysis (:class:`.scene_tables.SceneAnalysis`: its ``material_table``)."""
     values = getattr(integrator, "_values", {})
     ambient = mi.Float(values["ambient"]) if "ambient" in values else mi.Float(integrator.ambient)
     physical = integrator.lighting == "physical"
@@ -152,7 +152,7 @@ def _lights(scene, physical: bool, reference) -> list:
         if physical:
             lights.append((position, intensity))
             continue
-        # the article's color I / (π d²) (see .scene.lights.article_color)
+        # the article's color I / (π d²) (see .scene_tables.article_color)
         d2 = dr.squared_norm(position - reference)
         d2 = dr.select(d2 == 0, 1.0, d2)
         lights.append((position, intensity / (dr.pi * d2)))

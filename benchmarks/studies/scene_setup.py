@@ -7,8 +7,8 @@ Usage::
     python -m benchmarks.studies.scene_setup [SPHERES]      # default 66 000
 
 The integrator builds these tables once per scene state and checks them at every render
-(plugins/scene/tables.py); this prints the time of that check or build, :func:`analyse`
-and the :class:`Shader` construction, which is all a render does with the scene before its
+(plugins/scene_tables.py); this prints the time of that check or build, :func:`analyse`
+and the :class:`Recursion` construction, which is all a render does with the scene before its
 kernels run.
 """
 
@@ -22,10 +22,8 @@ import drjit as dr
 import mitsuba as mi
 
 import whitted  # noqa: F401  (selects the variant, registers the plugins)
-from whitted.plugins.scene.effects import analyse
-from whitted.plugins.scene.tables import scene_tables
-from whitted.plugins.shading.shader import Shader
-from whitted.plugins.tree.counts import Tally
+from whitted.plugins.recursion import Recursion
+from whitted.plugins.scene_tables import analyse, scene_tables
 
 from .. import scenes
 
@@ -39,7 +37,7 @@ def main(count: int) -> None:
 
     def setup() -> float:
         start = time.perf_counter()
-        Shader(scene, analyse(scene_tables(scene), model.depth, reference), model.ambient, "article", Tally())
+        Recursion(scene, analyse(scene_tables(scene), model.depth, reference), model.ambient, "article")
         dr.eval()
         return time.perf_counter() - start
 
