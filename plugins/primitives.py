@@ -135,7 +135,7 @@ class Primitives:
     def without(self, shapes) -> "Primitives":
         """These primitives with those of the shapes indexed ``shapes`` no longer spheres:
         :meth:`surface_at` passes them over (the giant spheres, whose float32 bounds are
-        ulps of their radius: :class:`whitted.plugins.shading.giants.GiantHits` tests them)."""
+        ulps of their radius: :class:`.hits.GiantHits` tests them)."""
         sphere = self.sphere.copy()
         for k in shapes:
             sphere[self.first[k]:self.first[k] + self.counts[k]] = False

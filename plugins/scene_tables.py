@@ -2,7 +2,7 @@
 
 :class:`SceneTables` holds, built in one pass, the scene's lights, background, materials
 (one table: base color B, KR, KT, IOR and texture slot per BSDF, looked up at a hit by
-:class:`SurfaceLookup`) and primitives (:mod:`.primitives`); :func:`analyse` says which
+:class:`.hits.SurfaceLookup`) and primitives (:mod:`.primitives`); :func:`analyse` says which
 effects a render calls for (:class:`SceneAnalysis`).
 
 Why tables. In the JIT variants a per-instance method call for every material would make
@@ -306,13 +306,13 @@ class SceneTables:
     lights         ``(position, intensity)`` of each point light
     environment    the environment emitter (the background) or None
     background     the largest channel of its radiance (0 without one; None: not known)
-    materials      the distinct ``article`` BSDFs (:class:`.materials.Materials`)
-    material_table their numbers as lookup tables (:meth:`.materials.Materials.table`)
+    materials      the distinct ``article`` BSDFs (:class:`Materials`)
+    material_table their numbers as lookup tables (:meth:`Materials.table`)
     primitives     each primitive's bounding sphere and error bound (:class:`.primitives.Primitives`)
     spheres_only   whether every primitive is a sphere (the JIT variants' sphere table applies)
     sphere_shapes  whether a shape is a ``sphere`` shape (shadow rays must avoid its ray_test)
     hit_tables     the primitives' Dr.Jit tables (JIT variants) or ``id(shape)`` table (scalar)
-    layers         spheres traced in frames of their own (:mod:`.layers`)
+    layers         spheres traced in frames of their own (:func:`.primitives.layers`)
     layered        the indices of the shapes the layers hold
     ============== =======================================================================
 
@@ -462,7 +462,7 @@ EFFECTS = ("lights", "reflection", "refraction", "textures", "background")
 class PointLight:
     """A point emitter, with both readings of its strength: Mitsuba's radiant intensity I
     (physical lighting divides it by r^2) and the article's light color ``I / (pi d^2)``
-    (:func:`.lights.article_color`, d measured to the integrator's ``light_reference``)."""
+    (:func:`article_color`, d measured to the integrator's ``light_reference``)."""
     position: tuple[float, float, float]
     intensity: tuple[float, float, float]
     color: tuple[float, float, float]
@@ -504,7 +504,7 @@ class SceneAnalysis:
 
     @property
     def material_table(self):
-        """The table of :attr:`surfaces` (:meth:`.materials.Materials.table`)."""
+        """The table of :attr:`surfaces` (:meth:`Materials.table`)."""
         if self.surfaces is self.tables.materials:
             return self.tables.material_table
         return self.surfaces.table()
