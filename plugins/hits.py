@@ -112,11 +112,10 @@ def lat_long_uv(n, x_axis, y_axis, z_axis):
     Mitsuba's sphere UV: ``u = atan2(y, x)/2π``, ``v = acos(z)/π`` (v = 0 at the north pole).
 
     The converter orients the frame so that this is the article's (u, 1 - v)
-    (docs/CONTRACTS.md). atan2 needs no division by sin(phi), and its two
-    singular sets follow the spec: at a pole (|z| = 1 in float32: sin(phi) = 0)
-    u = 0, and on the seam (y = 0, x > 0: theta = 0 and (Vn × Ve)·Vp = 0, the
-    "otherwise" case) u = 1. A camera on the axis sees a pole pixel, and one in
-    the seam's plane a whole row of seam pixels.
+    (docs/CONTRACTS.md). atan2 needs no division by sin(phi), and its two singular sets
+    follow the spec: at a pole (|z| = 1 in float32: sin(phi) = 0) u = 0, and on the seam
+    (y = 0, x > 0: theta = 0 and (Vn × Ve)·Vp = 0, the "otherwise" case) u = 1. A camera on the
+    axis sees a pole pixel, and one in the seam's plane a whole row of seam pixels.
     """
     x, y, z = dr.dot(n, x_axis), dr.dot(n, y_axis), dr.dot(n, z_axis)
     angle = dr.atan2(y, x)   # (-π, π]
@@ -128,15 +127,14 @@ def lat_long_uv(n, x_axis, y_axis, z_axis):
 # -- leaving a hit ---------------------------------------------------------------------------------
 
 def offset_origin(p, n, error, d):
-    """``p`` moved by ``error`` along the normal ``n``, to the side that ``d`` leaves towards.
+    """``p`` moved by ``error`` along the normal ``n``, to the side ``d`` leaves towards.
 
     ``error`` bounds how far the float32 hit point ``p`` lies off its surface
-    (:func:`whitted.float32.hit_error`): from the moved origin, neither the
-    surface's true position nor the float32 ray-surface test can put the
-    surface in front of the ray again (no acne). Mitsuba's own ``spawn_ray``
-    moves by ``(1 + max|p_i|)·RayEpsilon`` instead, which is too little for a
-    huge sphere under the origin and far too much in a scene of size 10^-3 or
-    at 10^4 (docs/numerics.md).
+    (:func:`whitted.float32.hit_error`): from the moved origin, neither the surface's true
+    position nor the float32 ray-surface test can put the surface in front of the ray again
+    (no acne). Mitsuba's own ``spawn_ray`` moves by ``(1 + max|p_i|)·RayEpsilon`` instead,
+    which is too little for a huge sphere under the origin and far too much in a scene of
+    size 10^-3 or at 10^4 (docs/numerics.md).
     """
     return dr.fma(dr.mulsign(error, dr.dot(n, d)), n, p)
 
@@ -149,13 +147,13 @@ def spawn_ray(si, error, d):
 def spawn_ray_to(si, error, target, target_error=0.0, target_normal=None):
     """The segment from the hit ``si`` to ``target``, which ends short of ``target``.
 
-    When ``target`` sits on a surface (a light on a sphere), the end is moved
-    off that surface by the surface's error bound ``target_error`` along its
-    normal ``target_normal``, to the hit's side, as :func:`offset_origin` moves
-    the start: the surface the light sits on does not hide it, even from
-    segments that meet it at a grazing angle. Nothing else shortens the
-    segment; Mitsuba's ``spawn_ray_to`` stops a fixed fraction of the length
-    short, which lets a light inside a small sphere far away out of it.
+    When ``target`` sits on a surface (a light on a sphere), the end is moved off that
+    surface by the surface's error bound ``target_error`` along its normal
+    ``target_normal``, to the hit's side, as :func:`offset_origin` moves the start: the
+    surface the light sits on does not hide it, even from segments that meet it at a grazing
+    angle. Nothing else shortens the segment; Mitsuba's ``spawn_ray_to`` stops a fixed
+    fraction of the length short, which lets a light inside a small sphere far away out of
+    it.
     """
     if target_normal is not None:
         target = offset_origin(target, target_normal, target_error, si.p - target)
@@ -172,15 +170,14 @@ def blocked(scene, ray, active, spheres: bool = True):
     """Whether a surface crosses the segment ``ray`` (from its origin to ``ray.maxt``);
     ``spheres``: whether ``scene`` holds ``sphere`` shapes.
 
-    In the JIT variants Mitsuba's ``ray_test`` on a sphere shape solves the
-    textbook quadratic in float32, whose discriminant ``B² - 4AC`` loses every
-    digit when the ray starts a few thousand radii from the sphere (a small ball
-    near a distant light casts a shadow of noise). Its ``ray_intersect_preliminary``
-    first moves the origin to the plane through the sphere's center and stays
-    exact, so shadow rays use it where there are sphere shapes. Elsewhere
-    ``ray_test`` answers as the nearest hit would (an ``ellipsoids`` shape runs
-    the same routine for both; triangles are watertight), and may stop at the
-    first blocker. The scalar variants solve spheres in float64 already.
+    In the JIT variants Mitsuba's ``ray_test`` on a sphere shape solves the textbook
+    quadratic in float32, whose discriminant ``B² - 4AC`` loses every digit when the ray
+    starts a few thousand radii from the sphere (a small ball near a distant light casts a
+    shadow of noise). Its ``ray_intersect_preliminary`` first moves the origin to the plane
+    through the sphere's center and stays exact, so shadow rays use it where there are
+    sphere shapes. Elsewhere ``ray_test`` answers as the nearest hit would (an
+    ``ellipsoids`` shape runs the same routine for both; triangles are watertight), and may
+    stop at the first blocker. The scalar variants solve spheres in float64 already.
     """
     if spheres and dr.is_jit_v(mi.Float):
         return scene.ray_intersect_preliminary(ray, coherent=False, active=active).is_valid()

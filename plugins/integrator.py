@@ -1,23 +1,22 @@
 """``whitted``: the article's recursive ray tracer as a Mitsuba integrator.
 
-Why a Python integrator: the article's model is not a light transport
-algorithm Mitsuba has (a point's color is ``B·(A + (1 - A)·Σ s·light)``, a
-ray tree of fixed depth, no sampling), and written with Dr.Jit it runs as
-compiled kernels in the JIT variants, as fast as Mitsuba's own C++ ``direct``
-integrator on the same rays. What it is: see the class docstring.
+Why a Python integrator: the article's model is not a light transport algorithm Mitsuba has
+(a point's color is ``B·(A + (1 - A)·Σ s·light)``, a ray tree of fixed depth, no sampling),
+and written with Dr.Jit it runs as compiled kernels in the JIT variants, as fast as
+Mitsuba's own C++ ``direct`` integrator on the same rays. What it is: see the class
+docstring.
 
-A render, as in Mitsuba's own Python integrators, prepares, samples and
-develops. Prepare: read the scene's tables (:mod:`.scene_tables`: lights,
-materials, primitives, kept between renders while the scene is unchanged)
-and what the scene calls for (:func:`.scene_tables.analyse`), and build the
-recursion (:mod:`.recursion`). Sample: camera rays from the sensor's
-``sample_ray_differential`` (any of Mitsuba's sensors), placed in their
-pixels and on the lens by :class:`.film.CameraSamples`, in passes of at most
+A render, as in Mitsuba's own Python integrators, prepares, samples and develops. Prepare:
+read the scene's tables (:mod:`.scene_tables`: lights, materials, primitives, kept between
+renders while the scene is unchanged) and what the scene calls for
+(:func:`.scene_tables.analyse`), and build the recursion (:mod:`.recursion`). Sample: camera
+rays from the sensor's ``sample_ray_differential`` (any of Mitsuba's sensors), placed in
+their pixels and on the lens by :class:`.film.CameraSamples`, in passes of at most
 ``wavefront_size`` camera samples; each ray's tree is traced by
-:meth:`.recursion.Recursion.trace`. Develop: the samples go straight
-into the developed image for a box-filtered RGB film, else into Mitsuba's
-image block, developed by the film (:mod:`.film`); either way the sensor's
-film holds the render afterwards (``film.bitmap()``, ``film.write()``).
+:meth:`.recursion.Recursion.trace`. Develop: the samples go straight into the developed
+image for a box-filtered RGB film, else into Mitsuba's image block, developed by the film
+(:mod:`.film`); either way the sensor's film holds the render afterwards (``film.bitmap()``,
+``film.write()``).
 """
 
 from __future__ import annotations
