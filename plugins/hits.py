@@ -187,7 +187,7 @@ def blocked(scene, ray, active, spheres: bool = True):
 # -- finding hits ----------------------------------------------------------------------------------
 
 class HitFinder(Protocol):
-    """What the shader (:mod:`.recursion`) asks of a hit finder.
+    """What the recursion (:meth:`.recursion.Recursion.step`) asks of a hit finder.
 
     One finder serves both kinds of variant. In the JIT variants a ray is a wavefront
     (``mi.Ray3f`` of Dr.Jit arrays) and masks are ``mi.Bool`` arrays; in the scalar ones a

@@ -51,13 +51,13 @@ class Recorder:
     def __init__(self):
         self.levels: list[dict] = []
         self.weights: list[np.ndarray] = []   # each batch's camera ray weights (n, 3)
-        self.shader = None   # the render's recursion (whitted.plugins.recursion.Recursion)
+        self.recursion = None   # the render's recursion (whitted.plugins.recursion.Recursion)
 
     # -- what the integrator calls -----------------------------------------------------------------
 
     def attach(self, recursion) -> None:
         """Be shown every level ``recursion`` shades, with its terms."""
-        self.shader = recursion
+        self.recursion = recursion
         recursion.recorder = self
         recursion.record = {}
 
@@ -67,7 +67,7 @@ class Recorder:
 
     def level(self, branch, color, hit, children) -> None:
         """One level shaded: its rays, their colors, its terms and the children."""
-        record = self.shader.record
+        record = self.recursion.record
         si = record["si"]
         values = {"o": branch.ray.o, "d": branch.ray.d, "weight": branch.weight,
                   "color": color, "hit": hit, "t": si.t, "p": si.p, "n": si.n}
@@ -104,7 +104,7 @@ class Recorder:
 
         def convert(group: dict) -> dict:
             return {key: _lanes(value, n, key in _VECTORS) for key, value in group.items()}
-        self.levels.append({"level": branch.level, "n": n, "spawn": branch.level < self.shader.depth,
+        self.levels.append({"level": branch.level, "n": n, "spawn": branch.level < self.recursion.depth,
                             "values": convert(values), "lights": [convert(light) for light in lights],
                             "children": [(kind, convert(entry)) for kind, entry in children],
                             "batch": len(self.weights) - 1 if branch.level > 1 else len(self.weights)})
@@ -115,8 +115,7 @@ class Recorder:
 
     def trees(self) -> list[Node]:
         """The recorded trees, one per camera ray in the order traced (frame coordinates)."""
-        shader = self.shader
-        ambient = float(np.asarray(shader.ambient).reshape(-1)[0])
+        ambient = float(np.asarray(self.recursion.ambient).reshape(-1)[0])
         roots: list[Node] = []
         pending: dict = defaultdict(deque)   # (level, o, d, weight) -> (parent, kind, merged)
         for level in self.levels:
@@ -180,7 +179,7 @@ class Recorder:
                          "refract": float(v["refract"][lane]), "ior": float(v["ior"][lane])}
         node.local = _t(v["point"][lane])
         node.diffuse_weight = 1 - node.material["reflect"] - node.material["refract"]
-        physical = self.shader.physical
+        physical = self.recursion.physical
         node.ambient = (0.0, 0.0, 0.0) if physical else _t(base * ambient)
         for k, light in enumerate(level["lights"]):
             facing = bool(light["facing"][lane])
@@ -205,7 +204,7 @@ class Recorder:
                  if term.blocked and term.shadow is not None]
         if not terms:
             return
-        hits = self.shader.hits
+        hits = self.recursion.hits
         origins = np.array([t.shadow["origin"] for t in terms])
         directions = np.array([t.shadow["direction"] for t in terms])
         lengths = np.array([t.shadow["length"] for t in terms])
