@@ -14,7 +14,7 @@ integrators do: the floor of any renderer that hands back a Mitsuba image.
 Two ways to the nearest hit are timed, and the faster one is the floor:
 Mitsuba's ``scene.ray_intersect`` (a surface interaction from the hit
 shape) and the integrator's sphere table (Embree's preliminary hit, then the
-sphere's normal from a table; :mod:`whitted.plugins.shading.hits`).
+sphere's normal from a table; :mod:`whitted.plugins.hits`).
 """
 
 from __future__ import annotations
@@ -28,8 +28,8 @@ HIT_FINDERS = ("ray_intersect", "sphere table")
 class RayCastingFloor:
     def __init__(self, scene, light_position, spp: int, hit_finder: str, seed: int = 0, film: bool = False):
         from whitted.plugins.film import CameraSamples
-        from whitted.plugins.scene.tables import scene_tables
-        from whitted.plugins.shading.hits import SphereHits
+        from whitted.plugins.scene_tables import scene_tables
+        from whitted.plugins.hits import SphereHits
         if hit_finder not in HIT_FINDERS:
             raise ValueError(f"hit_finder must be one of {HIT_FINDERS}")
         self.scene, self.spp, self.seed, self.film = scene, spp, seed, film

@@ -207,7 +207,7 @@ def bench_level(level: int, floor: float, runs: int, folder: Path, pov_exe: str 
     path_image = folder / f"path-{name}.png"
     run_path = lambda: run_whitted(scn, path_image, stats, timeout, path=True)   # noqa: E731
     # One untimed run of each first: the kernels a scene needs depend on its radii (one layer
-    # each: plugins/shading/layers.py), and Dr.Jit compiles them once, then reads its cache.
+    # each: plugins/hits.py), and Dr.Jit compiles them once, then reads its cache.
     _attempt(row, "whitted", run_w)
     _attempt(row, "pov", run_p)
     _attempt(row, "path", run_path)

@@ -243,7 +243,7 @@ def describe(scene: Scene, base_dir: str | os.PathLike | None, smallest: float |
     meshed = [k for k in misplaced if sphere(k).material.texture is None]
     giants = sorted(set(giants) | set(meshed))
     if giants:
-        # Their exact values, for the integrator to intersect in float64 (plugins/shading/giants.py).
+        # Their exact values, for the integrator to intersect in float64 (plugins/hits.py).
         integrator["exact_spheres"] = exact_spheres(
             (f"sphere_{k}", to_frame(sphere(k).center, origin), sphere(k).radius) for k in giants)
     objects: dict = {"type": "scene", "integrator": integrator}

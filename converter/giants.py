@@ -15,7 +15,7 @@ the frame) exceeds :data:`GIANT_FRACTION` of the scene's smallest radius,
 where float32 can no longer keep the gaps the scene's details need. It lists
 them, with their centers (in the frame, subtracted in float64) and radii as
 float64 text, in the Whitted integrator's ``exact_spheres`` property, and the
-integrator intersects those spheres itself in float64 (plugins/shading/giants.py).
+integrator intersects those spheres itself in float64 (plugins/hits.py).
 They stay ``sphere`` shapes too, for Mitsuba's own integrators and for
 readers of the XML. A scene without giant spheres has no ``exact_spheres``.
 """

@@ -3,10 +3,13 @@
 Two plugins: the ``whitted`` integrator (:mod:`.integrator`) and the
 ``article`` BSDF (:mod:`.bsdf`). Their classes derive from variant-specific
 Mitsuba base classes, so those two modules are (re)loaded once per variant,
-after ``mi.set_variant``, by :func:`register`. Behind the integrator:
-:mod:`.scene` (what it reads from a scene), :mod:`.tree` (walking the ray
-tree), :mod:`.shading` (the article's model, optics and hits) and
-:mod:`.film` (where camera samples start and go).
+after ``mi.set_variant``, by :func:`register`. Behind the integrator, data
+flowing one way: :mod:`.film` (where camera samples start and go),
+:mod:`.recursion` (the article's recursion and its walks), which calls
+:mod:`.hits` (hit finding, ray offsets, optics, the material at a hit), which
+reads :mod:`.scene_tables` (what the integrator reads from a scene) and
+:mod:`.primitives` (a scene's primitives as numbers); :mod:`.gradients`
+serves differentiable renders only.
 
 The rest of the package asks through the functions below, never through the
 plugins' insides.
@@ -77,14 +80,13 @@ def check_scene(scene):
     """Raise :class:`~whitted.errors.WhittedError` unless the ``whitted`` integrator can
     render ``scene``: every shape has the ``article`` BSDF and every emitter is a point
     light or the environment. Returns what it read (the scene's tables,
-    :mod:`.scene.tables`), for ``render_detailed(..., tables=)``: found once per render."""
-    from .scene.tables import scene_tables
+    :mod:`.scene_tables`), for ``render_detailed(..., tables=)``: found once per render."""
+    from .scene_tables import scene_tables
     return scene_tables(scene)
 
 
 def scene_effects(scene, max_depth: int, light_reference=(0.0, 0.0, 0.0)) -> tuple[str, ...]:
-    """The effects a render of ``scene`` to ``max_depth`` calls for (:mod:`.scene.effects`);
+    """The effects a render of ``scene`` to ``max_depth`` calls for (:func:`.scene_tables.analyse`);
     raises :class:`~whitted.errors.WhittedError` as :func:`check_scene` does."""
-    from .scene.effects import analyse
-    from .scene.tables import scene_tables
+    from .scene_tables import analyse, scene_tables
     return analyse(scene_tables(scene), max_depth, light_reference).effects

@@ -4,8 +4,8 @@ The article shades a sphere point as the linear combination
 
     color = (1 − KR − KT)·point + KR·reflected + KT·refracted
 
-Read as a BSDF this is a mixture of three lobes, which is what this plugin
-gives Mitsuba's stock integrators (``path`` in particular):
+Read as a BSDF this is a mixture of three lobes, which is what this plugin gives Mitsuba's
+stock integrators (``path`` in particular):
 
 =========  ====================  ===========  =================================
 component  flags                 weight       lobe
@@ -16,38 +16,34 @@ component  flags                 weight       lobe
                                               T = n·V + (n·c1 − √k)·N'
 =========  ====================  ===========  =================================
 
-Total internal reflection (k < 0) moves the refraction lobe's weight KT onto
-the mirror direction, as the article does; the weights always add up to 1, so
-the material neither creates nor (apart from B < 1) absorbs energy.
+Total internal reflection (k < 0) moves the refraction lobe's weight KT onto the mirror
+direction, as the article does; the weights always add up to 1, so the material neither
+creates nor (apart from B < 1) absorbs energy.
 
-Sidedness follows the article: a ray arriving from inside the sphere is shaded
-with N' = −N. All three lobes are therefore two-sided (a ray inside a glass
-sphere that hits its wall sees the same diffuse lobe as one outside), and the
-refraction lobe uses the relative index n = 1/ior entering (Mitsuba's
-``bs.eta = ior``) and n = ior leaving (``bs.eta = 1/ior``). The outside
-includes grazing incidence, ``wi.z = 0``, where the article's test
-``ray·N > 0`` is false.
+Sidedness follows the article: a ray arriving from inside the sphere is shaded with N' = −N.
+All three lobes are therefore two-sided (a ray inside a glass sphere that hits its wall sees
+the same diffuse lobe as one outside), and the refraction lobe uses the relative index
+n = 1/ior entering (Mitsuba's ``bs.eta = ior``) and n = ior leaving (``bs.eta = 1/ior``).
+The outside includes grazing incidence, ``wi.z = 0``, where the article's test ``ray·N > 0``
+is false.
 
-No radiance scaling by η² on refraction, in either transport mode: the
-article's model has none, and neither has the Whitted integrator's physical
-mode, which the path tracer is compared with. For spheres seen from outside
-and lit from outside the choice makes no difference to a complete light path:
-every path that enters a sphere also leaves it, and the factors η² and 1/η²
-of a physically based dielectric cancel. The material is thus the same in
-both transport directions (no ``NonSymmetric`` flag).
+No radiance scaling by η² on refraction, in either transport mode: the article's model has
+none, and neither has the Whitted integrator's physical mode, which the path tracer is
+compared with. For spheres seen from outside and lit from outside the choice makes no
+difference to a complete light path: every path that enters a sphere also leaves it, and the
+factors η² and 1/η² of a physically based dielectric cancel. The material is thus the same
+in both transport directions (no ``NonSymmetric`` flag).
 
-Lobes are sampled in proportion to their weights (among those a context
-enables), so that each sample's weight is B (diffuse) or 1 (mirror,
-refraction) when all lobes are enabled, and a pure-delta material never
-samples the diffuse lobe. ``pdf`` and ``eval`` describe the diffuse lobe only,
-as for every Mitsuba BSDF with delta components; the probability of choosing
-the diffuse lobe is part of its pdf.
+Lobes are sampled in proportion to their weights (among those a context enables), so that
+each sample's weight is B (diffuse) or 1 (mirror, refraction) when all lobes are enabled,
+and a pure-delta material never samples the diffuse lobe. ``pdf`` and ``eval`` describe the
+diffuse lobe only, as for every Mitsuba BSDF with delta components; the probability of
+choosing the diffuse lobe is part of its pdf.
 
-The Whitted integrator reads the parameters directly: ``color`` (a texture),
-``reflect``, ``refract`` and ``ior`` (Python floats), into its material table
-(:mod:`whitted.plugins.scene.materials`); other code can use
-:meth:`eval_diffuse_reflectance` (B, without the weight 1 − KR − KT) and
-:meth:`eval_attribute_1`.
+The Whitted integrator reads the parameters directly: ``color`` (a texture), ``reflect``,
+``refract`` and ``ior`` (Python floats), into its material table
+(:mod:`whitted.plugins.scene_tables`); other code can use :meth:`eval_diffuse_reflectance`
+(B, without the weight 1 − KR − KT) and :meth:`eval_attribute_1`.
 """
 
 from __future__ import annotations
@@ -58,8 +54,8 @@ import mitsuba as mi
 from whitted import defaults as D
 from whitted.errors import ParameterError
 
-from .scene.materials import uniform_color
-from .shading import optics
+from .hits import cos_incidence, facing_normal, reflect, refract, relative_ior
+from .scene_tables import uniform_color
 
 DIFFUSE, REFLECTION, TRANSMISSION = 0, 1, 2
 
@@ -75,18 +71,18 @@ _LOBE_TYPES = (mi.BSDFFlags.DiffuseReflection, mi.BSDFFlags.DeltaReflection,
 
 def delta_directions(wi, ior):
     """The article's mirror and refracted directions for ``wi`` (local frame,
-    pointing away from the surface, normal +z), with :mod:`.shading.optics`' formulas.
+    pointing away from the surface, normal +z), with the article's optics (:mod:`.hits`).
 
     Returns (R, T, total_internal_reflection, eta), eta being Mitsuba's
     ``bs.eta``: the relative index n2/n1 of the side T enters. Under total
     internal reflection T is meaningless (and finite).
     """
     v = -wi
-    n_facing, inside = optics.facing_normal(v, mi.Vector3f(0, 0, 1))
-    c1 = optics.cos_incidence(v, n_facing)
-    n = optics.relative_ior(ior, inside)
-    t, tir = optics.refract(v, n_facing, c1, n)
-    return optics.reflect(v, n_facing, c1), t, tir, dr.rcp(n)
+    n_facing, inside = facing_normal(v, mi.Vector3f(0, 0, 1))
+    c1 = cos_incidence(v, n_facing)
+    n = relative_ior(ior, inside)
+    t, tir = refract(v, n_facing, c1, n)
+    return reflect(v, n_facing, c1), t, tir, dr.rcp(n)
 
 
 class ArticleBSDF(mi.BSDF):

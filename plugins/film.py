@@ -1,44 +1,40 @@
 """Camera samples on the film: where each one starts in its pixel, and where its color goes.
 
-Where a sample starts. With one sample per pixel the ray passes exactly
-through the pixel center, so a render is deterministic (the scene format's
-rule). With N samples the pixel is cut into an ``nx × ny = N`` grid of equal
-cells (the most nearly square factorisation of N; a prime N gives N columns)
-and each sample is jittered uniformly inside its own cell: stratified
-sampling, unbiased, whatever N is (:func:`pixel_offset`). The jitter is a
-hash of (pixel, sample, seed) rather than a stream from a sampler, so an
-image does not depend on how the render is split into passes. That is what
-the ``independent`` sampler (the one converted scenes name) gets; any other
-sampler type draws the samples itself, and a thin lens gets lens samples
-(:class:`CameraSamples`).
+Where a sample starts. With one sample per pixel the ray passes exactly through the pixel
+center, so a render is deterministic (the scene format's rule). With N samples the pixel is
+cut into an ``nx × ny = N`` grid of equal cells (the most nearly square factorisation of N;
+a prime N gives N columns) and each sample is jittered uniformly inside its own cell:
+stratified sampling, unbiased, whatever N is (:func:`pixel_offset`). The jitter is a hash of
+(pixel, sample, seed) rather than a stream from a sampler, so an image does not depend on
+how the render is split into passes. That is what the ``independent`` sampler (the one
+converted scenes name) gets; any other sampler type draws the samples itself, and a thin
+lens gets lens samples (:class:`CameraSamples`).
 
-Where its color goes: straight into the developed image, or through
-Mitsuba's film. Why two ways. Mitsuba's film accepts samples anywhere on the
-image plane and spreads each over the pixels its reconstruction filter covers:
-``ImageBlock.put`` evaluates the filter and adds, per sample, red, green,
-blue and a weight into a block of four floats per pixel; the film then adds
-the block into its own storage (four more) and develops a third image, each
-pixel's weighted sum divided by its summed weights: three images, 44 bytes a
-pixel, and a share of the render time that benchmarks/RESULTS.md measures.
+Where its color goes: straight into the developed image, or through Mitsuba's film. Why two
+ways. Mitsuba's film accepts samples anywhere on the image plane and spreads each over the
+pixels its reconstruction filter covers: ``ImageBlock.put`` evaluates the filter and adds,
+per sample, red, green, blue and a weight into a block of four floats per pixel; the film
+then adds the block into its own storage (four more) and develops a third image, each
+pixel's weighted sum divided by its summed weights: three images, 44 bytes a pixel, and a
+share of the render time that benchmarks/RESULTS.md measures.
 
-With a box filter (what converted scenes use, and Mitsuba's integrators put
-a box-filtered sample at its pixel alone), every sample lands in one pixel
-with weight 1, and every pixel gets ``spp`` of them, so the developed pixel
-is simply the mean of its samples. :class:`PixelMeans` adds ``color / spp``
-of each sample into that pixel of one RGB array, which *is* the developed
-image: three adds per sample (pre-reduced within a SIMD packet, where a
-pixel's samples sit side by side), nothing else to develop, 12 bytes a pixel.
-It is the film's image up to the order of the additions (an ulp or so; none
-with one sample per pixel). It serves Mitsuba's ``hdrfilm`` with a box
-filter and RGB pixels in the JIT variants; :class:`FilmSplats` serves every
-other film, filter and pixel format, and the scalar variant, through the film.
+With a box filter (what converted scenes use, and Mitsuba's integrators put a box-filtered
+sample at its pixel alone), every sample lands in one pixel with weight 1, and every pixel
+gets ``spp`` of them, so the developed pixel is simply the mean of its samples.
+:class:`PixelMeans` adds ``color / spp`` of each sample into that pixel of one RGB array,
+which *is* the developed image: three adds per sample (pre-reduced within a SIMD packet,
+where a pixel's samples sit side by side), nothing else to develop, 12 bytes a pixel. It is
+the film's image up to the order of the additions (an ulp or so; none with one sample per
+pixel). It serves Mitsuba's ``hdrfilm`` with a box filter and RGB pixels in the JIT
+variants; :class:`FilmSplats` serves every other film, filter and pixel format, and the
+scalar variant, through the film.
 
 Either way the film holds the render: ``film.bitmap()``, ``film.write()`` and
 ``film.develop()`` after ``mi.render`` give the image the render returned.
-:class:`PixelMeans` hands the film its image as the film's own storage (each
-pixel's RGB and a weight of 1, which the film divides by: the same values)
-through ``ImageBlock`` and ``put_block``, as a lazy Dr.Jit expression over the
-image: nothing is computed or copied unless the film is read.
+:class:`PixelMeans` hands the film its image as the film's own storage (each pixel's RGB and
+a weight of 1, which the film divides by: the same values) through ``ImageBlock`` and
+``put_block``, as a lazy Dr.Jit expression over the image: nothing is computed or copied
+unless the film is read.
 """
 
 from __future__ import annotations

@@ -1,23 +1,22 @@
 """``whitted``: the article's recursive ray tracer as a Mitsuba integrator.
 
-Why a Python integrator: the article's model is not a light transport
-algorithm Mitsuba has (a point's color is ``B·(A + (1 - A)·Σ s·light)``, a
-ray tree of fixed depth, no sampling), and written with Dr.Jit it runs as
-compiled kernels in the JIT variants, as fast as Mitsuba's own C++ ``direct``
-integrator on the same rays. What it is: see the class docstring.
+Why a Python integrator: the article's model is not a light transport algorithm Mitsuba has
+(a point's color is ``B·(A + (1 - A)·Σ s·light)``, a ray tree of fixed depth, no sampling),
+and written with Dr.Jit it runs as compiled kernels in the JIT variants, as fast as
+Mitsuba's own C++ ``direct`` integrator on the same rays. What it is: see the class
+docstring.
 
-A render, as in Mitsuba's own Python integrators, prepares, samples and
-develops. Prepare: read the scene's tables (:mod:`.scene`: lights,
-materials, primitives, kept between renders while the scene is unchanged)
-and what the scene calls for (:mod:`.scene.effects`), and build a tracer.
-Sample: camera rays from the sensor's ``sample_ray_differential`` (any of
-Mitsuba's sensors), placed in their pixels and on the lens by
-:class:`.film.CameraSamples`, in passes
-of at most ``wavefront_size`` camera samples; each ray's tree is walked by
-:mod:`.tree` and shaded by :mod:`.shading`. Develop: the samples go straight
-into the developed image for a box-filtered RGB film, else into Mitsuba's
-image block, developed by the film (:mod:`.film`); either way the sensor's
-film holds the render afterwards (``film.bitmap()``, ``film.write()``).
+A render, as in Mitsuba's own Python integrators, prepares, samples and develops. Prepare:
+read the scene's tables (:mod:`.scene_tables`: lights, materials, primitives, kept between
+renders while the scene is unchanged) and what the scene calls for
+(:func:`.scene_tables.analyse`), and build the recursion (:mod:`.recursion`). Sample: camera
+rays from the sensor's ``sample_ray_differential`` (any of Mitsuba's sensors), placed in
+their pixels and on the lens by :class:`.film.CameraSamples`, in passes of at most
+``wavefront_size`` camera samples; each ray's tree is traced by
+:meth:`.recursion.Recursion.trace`. Develop: the samples go straight into the developed
+image for a box-filtered RGB film, else into Mitsuba's image block, developed by the film
+(:mod:`.film`); either way the sensor's film holds the render afterwards (``film.bitmap()``,
+``film.write()``).
 """
 
 from __future__ import annotations
@@ -31,16 +30,9 @@ from whitted import defaults as D
 from whitted.errors import WhittedError
 from whitted.giant_list import parse_exact_spheres
 
-from . import gradients
 from .film import CameraSamples, image_for
-from .gradients import require_gradients
-from .scene.effects import analyse
-from .scene.tables import scene_tables
-from .shading.shader import Shader
-from .tree import tracer_for_variant
-from .tree.adaptive import allowance, brightest
-from .tree.counts import RayCounts, Tally
-from .tree.wavefront import SAMPLES_PER_PASS
+from .recursion import RayCounts, recursion
+from .scene_tables import analyse, scene_tables
 
 
 @dataclass
@@ -48,7 +40,7 @@ class DetailedRender:
     """What :meth:`WhittedIntegrator.render_detailed` returns."""
     image: object          # mi.TensorXf (H, W, channels), developed by the film
     rays: RayCounts
-    effects: tuple         # see plugins/scene/effects.py
+    effects: tuple         # see plugins/scene_tables.py
     depth: int             # the tree depth the scene needed (<= max_depth)
     passes: int
     error_bound: float     # the most the adaptive depth control can have changed a pixel
@@ -93,7 +85,7 @@ class WhittedIntegrator(mi.SamplingIntegrator):
        - The adaptive depth control (Hall and Greenberg's; POV-Ray's
          ``adc_bailout``), in [0, 1]: reflected and refracted rays are left
          untraced as long as together they cannot change any pixel by more than
-         this (:mod:`.tree.adaptive`). 0 traces the exact tree. (Default: 1/255)
+         this (:mod:`.recursion`). 0 traces the exact tree. (Default: 1/255)
 
      * - exact_spheres
        - |string|
@@ -116,7 +108,7 @@ class WhittedIntegrator(mi.SamplingIntegrator):
          commas: ``shadows`` (no shadow test), ``reflection`` and ``refraction`` (no
          such rays: their share KR or KT is dropped, the diffuse share stays),
          ``textures`` (a textured sphere is white), ``diffuse`` (no light's term: B·A),
-         ``ambient`` (A = 0). :mod:`.scene.effects` says exactly what each means. (Default: none)
+         ``ambient`` (A = 0). :mod:`.scene_tables` says exactly what each means. (Default: none)
 
      * - wavefront_size
        - |int|
@@ -133,7 +125,7 @@ class WhittedIntegrator(mi.SamplingIntegrator):
     parameters cannot hold: load the scene again to change them (or render with
     ``whitted.render(scene, lighting=..., without=...)``).
 
-    The article's ray tracer (docs/scene-format.md, "Shading"; :mod:`.shading.shader`): a
+    The article's ray tracer (docs/scene-format.md, "Shading"; :meth:`.recursion.Recursion.step`): a
     point's color is ``B·(A + (1 - A)·Σ s·light)``, mixed with the reflected and refracted
     colors by KR and KT, to ``max_depth``. Every surface must carry the
     :ref:`article <bsdf-article>` BSDF, every emitter be a point light or the environment.
@@ -143,7 +135,7 @@ class WhittedIntegrator(mi.SamplingIntegrator):
     honour the sensor (:class:`.film.CameraSamples`). Nested in the scene's ``aov``
     integrator, which takes its AOVs from Mitsuba's own sampling loop, the color comes from
     that loop too (each ray traced by :meth:`sample`): the rays of the AOVs. Code for an effect the scene lacks is
-    left out of the kernels (:mod:`.scene.effects`). :meth:`render_detailed` also returns
+    left out of the kernels (:mod:`.scene_tables`). :meth:`render_detailed` also returns
     the rays traced and the adaptive depth control's error bound (``whitted render --stats``).
     Gradients (JIT AD variants): :meth:`render_forward` and :meth:`render_backward`, with
     visibility held fixed (:mod:`.gradients` says what is differentiated).
@@ -278,7 +270,7 @@ class WhittedIntegrator(mi.SamplingIntegrator):
     def sample(self, scene, sampler, ray, medium=None, active=True):
         """The color of ``ray``'s whole tree (for callers that drive the integrator per ray),
         and whether the ray hit a surface or sees the background (a film's alpha)."""
-        tracer, analysis, _ = self._tracer(scene)
+        tracer, analysis = self._recursion(scene)
         tracer.keep_camera_hit = True
         color = tracer.trace(mi.Ray3f(ray))
         seen = analysis.environment is not None and not self.hide_emitters
@@ -288,7 +280,8 @@ class WhittedIntegrator(mi.SamplingIntegrator):
         """The image's derivative along the gradients set on the parameters (forward mode; what
         ``dr.forward`` after ``mi.render(scene, params)`` calls). Visibility is held fixed
         (:mod:`.gradients`)."""
-        require_gradients("render_forward")
+        from . import gradients
+        gradients.require_gradients("render_forward")
         gradients.name_undifferentiated(scene, mi.traverse(scene) if params is None else params, self,
                                         self._gradient_keys)
         with dr.resume_grad():
@@ -300,7 +293,8 @@ class WhittedIntegrator(mi.SamplingIntegrator):
         """Add ``grad_in`` (the loss's gradient with respect to the image) times the image's
         derivatives to the parameters' gradients (reverse mode; what ``dr.backward`` after
         ``mi.render(scene, params)`` calls). Visibility is held fixed (:mod:`.gradients`)."""
-        require_gradients("render_backward")
+        from . import gradients
+        gradients.require_gradients("render_backward")
         gradients.name_undifferentiated(scene, mi.traverse(scene) if params is None else params, self,
                                         self._gradient_keys)
         with dr.resume_grad():
@@ -311,22 +305,17 @@ class WhittedIntegrator(mi.SamplingIntegrator):
 
     # -- Rendering ------------------------------------------------------------------------------
 
-    def _tracer(self, scene, tables=None, attached=False):
-        """A tracer for ``scene`` (see :mod:`.tree`), the scene's analysis, and the
-        brightest color a ray can have in it (:func:`.tree.adaptive.brightest`; None: unknown).
+    def _recursion(self, scene, tables=None, attached=False):
+        """The recursion of a render of ``scene`` (:mod:`.recursion`) and the scene's analysis.
         ``tables``: the scene's tables as :func:`whitted.plugins.check_scene` just found them;
         ``attached``: shaded from the parameters' own Dr.Jit values (:mod:`.gradients`)."""
-        tables = tables or scene_tables(scene)
-        analysis = analyse(tables, self.max_depth, self.light_reference, self.without)
-        bright = brightest(analysis, self.lighting, analysis.ambient(self.ambient)) \
-            if self.min_weight > 0 else None
-        tally = Tally()
-        shader = Shader(scene, analysis, self.ambient, self.lighting, tally, self.exact_spheres,
-                        hide_background=self.hide_emitters,
-                        attached=gradients.attached(scene, analysis, self) if attached else None)
-        tracer = tracer_for_variant(shader, allowance(self.min_weight, bright), tally,
-                                    self.wavefront_size or SAMPLES_PER_PASS)
-        return tracer, analysis, bright
+        analysis = analyse(tables or scene_tables(scene), self.max_depth, self.light_reference,
+                           self.without)
+        values = None
+        if attached:
+            from .gradients import attached as attached_values
+            values = attached_values(scene, analysis, self)
+        return recursion(scene, analysis, self, values), analysis
 
     def render_detailed(self, scene, sensor=0, seed=0, spp=0, progress=None, tables=None,
                         attached=False) -> DetailedRender:
@@ -360,7 +349,7 @@ class WhittedIntegrator(mi.SamplingIntegrator):
                    f"{' and the '.join(camera.unused)} change nothing; render spp > 1 for them")
         width, height = camera.width, camera.height
 
-        tracer, analysis, bright = self._tracer(scene, tables, attached)
+        tracer, analysis = self._recursion(scene, tables, attached)
         image = image_for(film, spp)
         # An alpha channel: opaque where a camera ray hits a surface or sees the background
         # (as Mitsuba's own integrators do).
@@ -382,7 +371,7 @@ class WhittedIntegrator(mi.SamplingIntegrator):
                 camera.start_pass(index, count)
                 self._render_pass(tracer, camera, image, first, count, progress, background_seen)
         rays = tracer.tally.read(camera=width * height * spp, max_depth_reached=tracer.deepest)
-        error_bound = rays.sample_culled_weight * bright if rays.culled else 0.0
+        error_bound = rays.sample_culled_weight * tracer.bright if rays.culled else 0.0
         return DetailedRender(image.develop(), rays, analysis.effects, analysis.depth, len(passes), error_bound)
 
     def _render_pass(self, tracer, camera, image, first, count, progress, background_seen=False):
@@ -426,7 +415,7 @@ class WhittedIntegrator(mi.SamplingIntegrator):
     def trace_pixels(self, scene, pixels, recorder, sensor=0) -> list:
         """The colors of the camera rays through the centers of ``pixels`` (``(x, y)`` each, in
         the film's crop), traced as a render at one sample per pixel traces them: the same
-        camera rays, tracer and shader, in one batch (one ray at a time in the scalar variants).
+        camera rays and recursion, in one batch (one ray at a time in the scalar variants).
         ``recorder`` is shown every level of their trees (the ray tree of a pixel, recorded by
         whitted/trace/record.py): ``recorder.attach(tracer)`` before,
         ``recorder.camera(weight)`` with each batch's camera ray weights. Returns each batch's
@@ -434,7 +423,7 @@ class WhittedIntegrator(mi.SamplingIntegrator):
         if isinstance(sensor, int):
             sensor = scene.sensors()[sensor]
         camera = CameraSamples(sensor, 1, 0)
-        tracer, _, _ = self._tracer(scene)
+        tracer, _ = self._recursion(scene)
         recorder.attach(tracer)
         grid = [(x + camera.border, y + camera.border) for x, y in pixels]
         index = [y * camera.width + x for x, y in grid]

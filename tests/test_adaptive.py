@@ -1,4 +1,4 @@
-"""Adaptive depth control (plugins/tree/adaptive.py): ``min_weight``, ``--min-weight``, on by default.
+"""Adaptive depth control (plugins/recursion.py): ``min_weight``, ``--min-weight``, on by default.
 
 Branches are left untraced as long as, together, they cannot change a pixel
 by more than ``min_weight``. Expectations come from the weights themselves:
@@ -28,7 +28,7 @@ from whitted.errors import WhittedError
 
 from conftest import REPO
 
-#: plugins/tree/adaptive.py's ROUND_OFF_MARGIN (ε is taken this much smaller than min_weight / L)
+#: plugins/recursion.py's ROUND_OFF_MARGIN (ε is taken this much smaller than min_weight / L)
 MARGIN = 1e-5
 
 
@@ -54,7 +54,7 @@ def brightest(model: Scene) -> float:
 
 
 def predicted(kr: float, kt: float, min_weight: float, depth: int, bright: float) -> dict:
-    """One camera ray's tree in :func:`inside_mirror` under the rule of plugins/tree/adaptive.py."""
+    """One camera ray's tree in :func:`inside_mirror` under the rule of plugins/recursion.py."""
     counts = {"reflection": 0, "refraction": 0, "culled": 0, "culled_weight": 0.0, "deepest": 1,
               "closest_call": math.inf}
     allowance = min_weight / bright * (1 - MARGIN) if min_weight > 0 else 0.0
@@ -162,9 +162,8 @@ def test_no_pixel_changes_by_more_than_the_bound(variant, spp, min_weight):
 
 
 def test_brightest_color_by_hand(llvm):
-    from whitted.plugins.scene.effects import analyse
-    from whitted.plugins.scene.tables import scene_tables
-    from whitted.plugins.tree.adaptive import brightest as plugin_brightest
+    from whitted.plugins.scene_tables import analyse, scene_tables
+    from whitted.plugins.recursion import brightest as plugin_brightest
     model = Scene(width=4, height=4, eye=(0.0, 0.0, 10.0), ambient=0.3, background=(0.1, 0.2, 0.5),
                   lights=[Light((0.0, 4.0, 0.0), (0.6, 0.5, 0.4)), Light((5.0, 0.0, 0.0), (0.2, 0.3, 0.1))],
                   spheres=[Sphere((0.0, 0.0, 0.0), 1.0, Material(color=(0.5, 0.7, 0.6), reflect=0.2)),

@@ -3,7 +3,7 @@ docstrings name no module, file or function that does not exist.
 
 What is checked, where it is written:
 
-* a file path under one of the repository's folders (``plugins/shading/hits.py``,
+* a file path under one of the repository's folders (``plugins/hits.py``,
   ``benchmarks/RESULTS.md``), or under one of the package's folders from inside it
   (``shading/hits.py`` in a plugin's docstring): the file exists;
 * a dotted name of the package (``whitted.atomic.leftovers``, ``converter.giants.cached``):
@@ -238,7 +238,7 @@ def test_the_docstrings_cite_what_exists(folder):
 
 def test_a_dangling_reference_is_found():
     """The checks themselves: each kind of reference, resolved and dangling."""
-    assert problems_in_text("see whitted.atomic.leftovers and plugins/shading/hits.py", "x") == []
+    assert problems_in_text("see whitted.atomic.leftovers and plugins/hits.py", "x") == []
     assert problems_in_text("converter/giants.py: cached", "x") == []
     assert problems_in_text("converter/giants.py: no_such_function", "x") == \
         ["x: converter/giants.py defines no no_such_function"]
@@ -246,7 +246,7 @@ def test_a_dangling_reference_is_found():
     assert problems_in_text("see plugins/shading/nothing.py", "x") == ["x: no file plugins/shading/nothing.py"]
     assert problems_in_text("converter/giants.py: float32_error", "x") == \
         ["x: converter/giants.py defines no float32_error"]   # dead, removed (issue 31)
-    hits = REPO / "plugins" / "shading" / "hits.py"
-    assert role_exists("spawn_ray", hits, "whitted.plugins.shading.hits")
-    assert not role_exists("no_such_function_anywhere", hits, "whitted.plugins.shading.hits")
-    assert role_exists(".hits", REPO / "plugins" / "shading" / "__init__.py", "whitted.plugins.shading")
+    hits = REPO / "plugins" / "hits.py"
+    assert role_exists("spawn_ray", hits, "whitted.plugins.hits")
+    assert not role_exists("no_such_function_anywhere", hits, "whitted.plugins.hits")
+    assert role_exists(".hits", REPO / "plugins" / "__init__.py", "whitted.plugins")

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 import whitted
-from whitted.plugins.scene.lights import article_color, floats
+from whitted.plugins.scene_tables import article_color, floats
 
 from conftest import REPO, VARIANTS
 

@@ -1,5 +1,5 @@
 """Unit spheres held by one Mitsuba ``ellipsoids`` shape are spheres to the Whitted integrator
-(plugins/scene/primitives.py reads their centers per primitive; whitted/sealed.py builds them)."""
+(plugins/primitives.py reads their centers per primitive; whitted/sealed.py builds them)."""
 
 from __future__ import annotations
 
@@ -67,8 +67,8 @@ def colors(scene, bsdf_ids):
 
 
 def test_the_sphere_table_serves_ellipsoid_primitives_as_their_spheres(llvm):
-    from whitted.plugins.scene.tables import scene_tables
-    from whitted.plugins.shading import hits as geometry
+    from whitted.plugins.scene_tables import scene_tables
+    from whitted.plugins import hits as geometry
     center, red = balls()
     ray = rays()
     found = {}
@@ -94,8 +94,8 @@ def test_the_sphere_table_serves_ellipsoid_primitives_as_their_spheres(llvm):
 def test_mitsuba_interactions_get_each_primitive_s_error_bound(variant):
     """Beside a shape of other primitives (a rectangle: two triangles), which keeps one bound."""
     whitted.set_variant(variant)
-    from whitted.plugins.scene.tables import scene_tables
-    from whitted.plugins.shading import hits as geometry
+    from whitted.plugins.scene_tables import scene_tables
+    from whitted.plugins import hits as geometry
     center, red = balls(count=6)
     description = scene_dict(center, red, grouped=True)
     description["wall"] = {"type": "rectangle", "bsdf": FLOOR_BSDF,
@@ -117,8 +117,8 @@ def test_mitsuba_interactions_get_each_primitive_s_error_bound(variant):
 
 
 def test_a_light_on_a_grouped_sphere_is_found_on_it(llvm):
-    from whitted.plugins.scene.tables import scene_tables
-    from whitted.plugins.shading import hits as geometry
+    from whitted.plugins.scene_tables import scene_tables
+    from whitted.plugins import hits as geometry
     center, red = balls(count=4)
     scene = mi.load_dict(scene_dict(center, red, grouped=True))
     hits = geometry.hit_finder(scene, scene_tables(scene), need_uv=False)
@@ -128,8 +128,8 @@ def test_a_light_on_a_grouped_sphere_is_found_on_it(llvm):
 
 
 def test_ellipsoids_that_are_not_spheres_leave_the_sphere_table_out(llvm):
-    from whitted.plugins.scene.tables import scene_tables
-    from whitted.plugins.shading import hits as geometry
+    from whitted.plugins.scene_tables import scene_tables
+    from whitted.plugins import hits as geometry
     shape = sealed.ellipsoids(np.zeros((2, 3)), RED_BSDF)
     shape["scales"] = mi.TensorXf(np.array([[1, 1, 1], [1, 2, 1]], np.float32))
     assert not scene_tables(mi.load_dict({"type": "scene", "e": shape})).spheres_only
@@ -264,8 +264,8 @@ def test_no_ray_meets_the_unit_ellipsoid_it_leaves(llvm, center):
     shape (the only radius the loader gives them): outward rays and shadow segments leave it
     for good. (Inward rays do not exist for a sealed sphere; the shape culls them.)"""
     from hard_cases.test_acne import RAYS, failures_jit
-    from whitted.plugins.scene.tables import scene_tables
-    from whitted.plugins.shading import hits as geometry
+    from whitted.plugins.scene_tables import scene_tables
+    from whitted.plugins import hits as geometry
     center = np.array(center)
     scene = mi.load_dict({"type": "scene", "ball": sealed.ellipsoids(center[None], RED_BSDF)})
     hits = geometry.hit_finder(scene, scene_tables(scene), need_uv=False)

@@ -1,4 +1,4 @@
-"""The hit finders keep to their declared protocol (plugins/shading/hits.py: ``HitFinder``).
+"""The hit finders keep to their declared protocol (plugins/hits.py: ``HitFinder``).
 
 The shader holds one finder, often one wrapping others (``GiantHits(LayeredHits(SphereHits |
 MitsubaHits))``), and calls it by name only: a finder whose method is renamed, or whose
@@ -15,7 +15,7 @@ from pathlib import Path
 import pytest
 
 import whitted  # noqa: F401  (selects a variant: the plugins import)
-from whitted.plugins.shading import giants, hits, layers, shader
+from whitted.plugins import hits, recursion
 
 #: the protocol's methods, as the shader calls them
 METHODS = ("intersect", "blocked", "surface_at")
@@ -28,10 +28,10 @@ def protocol_methods() -> dict[str, inspect.Signature]:
 
 
 def finder_classes() -> list[type]:
-    """Every public ``…Hits`` class of the shading modules."""
-    return [cls for module in (hits, layers, giants) for name, cls in vars(module).items()
+    """Every public ``…Hits`` class of the hit finding module."""
+    return [cls for name, cls in vars(hits).items()
             if inspect.isclass(cls) and name.endswith("Hits") and not name.startswith("_")
-            and cls.__module__ == module.__name__]
+            and cls.__module__ == hits.__name__]
 
 
 def parameters(signature: inspect.Signature) -> list[tuple[str, object, bool]]:
@@ -41,7 +41,7 @@ def parameters(signature: inspect.Signature) -> list[tuple[str, object, bool]]:
 
 def test_the_protocol_declares_what_the_shader_calls():
     assert set(protocol_methods()) == set(METHODS)
-    source = Path(inspect.getsourcefile(shader)).read_text(encoding="utf-8")
+    source = Path(inspect.getsourcefile(recursion)).read_text(encoding="utf-8")
     called = {node.attr for node in ast.walk(ast.parse(source))
               if isinstance(node, ast.Attribute) and isinstance(node.value, ast.Attribute)
               and node.value.attr == "hits"}

@@ -119,7 +119,7 @@ def test_the_graph_sees_relative_lazy_and_type_checking_imports():
     graph = import_graph()
     assert "whitted.converter.parser" in graph and "whitted.plugins.integrator" in graph
     assert "whitted.errors" in graph["whitted.converter.parser"]       # from ..errors import
-    assert "whitted.plugins.shading.optics" in graph["whitted.plugins.shading.shader"]  # from . import optics
+    assert "whitted.plugins.hits" in graph["whitted.plugins.recursion"]  # from .hits import ...
     assert "whitted.plugins" in graph["whitted.rendering"]         # inside a function
     assert "whitted.defaults" in graph["whitted.plugins.integrator"]    # absolute
 

@@ -358,12 +358,12 @@ def test_example_scenes_match_the_reference(path, variant):
 
 @pytest.mark.parametrize("name", ("everything", "tir", "texture"))
 def test_mitsuba_interactions_match_the_sphere_table(suite, name, monkeypatch):
-    """In llvm, all-sphere scenes skip Mitsuba's per-shape call (plugins/shading/hits.py); the
+    """In llvm, all-sphere scenes skip Mitsuba's per-shape call (plugins/hits.py); the
     general path through ``scene.ray_intersect`` must give the same image."""
     from functools import partial
 
-    import whitted.plugins.shading.shader as shader
-    monkeypatch.setattr(shader, "hit_finder", partial(shader.hit_finder, sphere_table=False))
+    import whitted.plugins.hits as hits
+    monkeypatch.setattr(hits, "hit_finder", partial(hits.hit_finder, sphere_table=False))
     general = render(suite(name, "model"), "llvm_ad_rgb")
     assert_matches(general, suite(name, "reference"))
     assert np.abs(general - suite(name, "llvm_ad_rgb")).max() < 1e-3

@@ -1,5 +1,5 @@
 """Spheres of several radii loaded as ``ellipsoids`` shapes: the Whitted integrator traces each
-radius in a frame of its own (plugins/scene/layers.py, plugins/shading/layers.py), where
+radius in a frame of its own (plugins/primitives.py, plugins/hits.py), where
 Mitsuba's ellipsoid test is exact. The image is the one the same scene gives as sphere shapes,
 and the float64 reference's, with several radii, glass, a textured sphere, a giant floor and
 the camera inside a sphere."""
@@ -73,7 +73,7 @@ def test_layers_render_the_scene_as_sphere_shapes_do(variant, tmp_path, texture_
     model = replace(model, source=path)
     shapes = whitted.load_scene(path, model=model, ellipsoids=False)
     grouped = whitted.load_scene(path, model=model, ellipsoids=True)
-    from whitted.plugins.scene.tables import scene_tables
+    from whitted.plugins.scene_tables import scene_tables
     tables = scene_tables(grouped)
     assert sorted(layer.radius for layer in tables.layers) == pytest.approx(LAYERS[counts], rel=1e-6)
     assert all(grouped.shapes()[k].class_name() == "Ellipsoids" for k in tables.layered)
@@ -90,8 +90,8 @@ def test_layers_find_the_hits_mitsubas_ellipsoid_test_loses(llvm):
     loses many of them; the integrator's layer finds every one at the analytic distance."""
     import mitsuba as mi
 
-    from whitted.plugins.scene.tables import scene_tables
-    from whitted.plugins.shading.shader import scene_hits
+    from whitted.plugins.scene_tables import scene_tables
+    from whitted.plugins.hits import scene_hits
     rng = np.random.default_rng(5)
     radius, count = 0.01, 400
     centers = np.c_[rng.uniform(-1, 1, (count, 2)), np.zeros(count)]

@@ -1,4 +1,4 @@
-"""What the integrator reads from a scene is built once per scene state (plugins/scene/tables.py).
+"""What the integrator reads from a scene is built once per scene state (plugins/scene_tables.py).
 
 A second render of an unchanged scene builds nothing again; a change made
 through Mitsuba's own ``mi.traverse(scene)`` + ``params.update()`` shows in
@@ -36,7 +36,7 @@ def load(scene_model: Scene):
 @pytest.fixture
 def builds(monkeypatch):
     """How often a scene's tables were built (lights, materials, primitives: one pass)."""
-    from whitted.plugins.scene import tables
+    from whitted.plugins import scene_tables as tables
     calls = []
 
     class Counted(tables.SceneTables):
@@ -82,7 +82,7 @@ def test_changes_through_mitsuba_parameters_show_in_the_next_render(variant, bui
     params["sphere_1.to_world"] = mi.ScalarTransform4f().translate(frame[0]).scale(radius)
     params["material_2.color.value"] = mi.Color3f(color)
     params["light_0.position"] = mi.Point3f(frame[1])
-    # the converter's encoding of the article's light color (plugins/scene/lights.py): I = color·π·d²
+    # the converter's encoding of the article's light color (plugins/scene_tables.py): I = color·π·d²
     params["light_0.intensity.value"] = mi.Color3f(math.pi * sum((a - b) ** 2 for a, b in zip(light, original.lookat)))
     params.update()
     changed = replace(original, lights=[replace(original.lights[0], position=light)], spheres=[

@@ -1,6 +1,6 @@
 """Effects left out of a render (``whitted render --without``, the integrator's ``without``):
 each render equals the render of the scene edited to lack the effect, and the kernel does
-less work (plugins/scene/effects.py says what each effect's absence means).
+less work (plugins/scene_tables.py says what each effect's absence means).
 """
 
 from __future__ import annotations

@@ -61,7 +61,7 @@ MAX_REPORTED_ERRORS = 20
 LIGHTING_MODES = ("article", "physical")
 LIGHTING = "article"
 #: what a render of the article's model may leave out, as if the scene lacked it
-#: (``whitted render --without``, the integrator's ``without``; plugins/scene/effects.py
+#: (``whitted render --without``, the integrator's ``without``; plugins/scene_tables.py
 #: decides what each means)
 SWITCHABLE_EFFECTS = ("shadows", "reflection", "refraction", "textures", "diffuse", "ambient")
 #: the article's model, or Mitsuba's stock path tracer
@@ -96,9 +96,9 @@ def path_depth(depth: int) -> int:
 
 #: The adaptive depth control (Hall and Greenberg; POV-Ray's adc_bailout): branches of the
 #: ray tree are left untraced as long as together they cannot change a pixel by more than
-#: this, one step of an 8-bit image (plugins/tree/adaptive.py); 0 traces the exact tree
+#: this, one step of an 8-bit image (plugins/recursion.py); 0 traces the exact tree
 MIN_WEIGHT = 1 / 255
-#: camera samples per pass of the whitted integrator (0: as its tracer prefers; see plugins/tree/wavefront.py)
+#: camera samples per pass of the whitted integrator (0: as its tracer prefers; see plugins/recursion.py)
 WAVEFRONT_SIZE = 0
 #: the multiplier that spreads consecutive seeds over 32 bits (the golden ratio's, Knuth's
 #: multiplicative hash): a render's seed and its passes' seeds are far apart

@@ -6,7 +6,7 @@ parameters (``mi.traverse(scene)``) hold the scene as the converter wrote it: po
 relative to ``lookat`` (converter/frame.py), a sphere as its ``to_world`` transform, and
 a light of article color c at distance d from ``lookat`` as a point emitter of intensity
 ``I = c·π·d²`` (converter/description.py, ``light_intensity``). The whitted integrator
-reads the color back as ``I / (π·d²)``, d measured at render time (plugins/scene/lights.py,
+reads the color back as ``I / (π·d²)``, d measured at render time (plugins/scene_tables.py,
 ``article_color``). So writing only a light's ``position`` keeps I and changes d: the light's
 color, and every point it lights, scale by ``d_old² / d_new²`` (``light 5 8 4`` under
 ``lookat 0 0.5 0`` moved to ``2 3 1``: 97.25 / 11.25, 8.6 times brighter), where in the

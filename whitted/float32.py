@@ -4,7 +4,7 @@ Mitsuba stores positions in float32 and, in the JIT variants, intersects
 spheres in float32. The converter decides from this bound which spheres are
 too coarse for float32 (converter/giants.py) and when a scene's size deserves
 a warning (converter/frame.py); the Whitted integrator moves secondary and
-shadow rays off a surface by it (plugins/shading/hits.py). One definition, so
+shadow rays off a surface by it (plugins/hits.py). One definition, so
 that what the converter promises is what the integrator does. docs/numerics.md
 ("The error bound behind the ray offsets") derives it.
 

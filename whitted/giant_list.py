@@ -2,7 +2,7 @@
 
 Why a module of its own. The converter writes the list (converter/giants.py decides
 which spheres are giant) and the ``whitted`` integrator reads it back
-(plugins/shading/giants.py intersects them in float64): the format is the one thing
+(plugins/hits.py intersects them in float64): the format is the one thing
 both sides share, so it lives below both, and neither imports the other. Plain
 Python: no Mitsuba, no numpy.
 

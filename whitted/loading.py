@@ -92,7 +92,7 @@ def load_scene(path: str | os.PathLike, variant: str | None = None, *, model=Non
     spheres that Mitsuba misplaces, which the converter describes as fine meshes for
     Mitsuba's own integrators (converter/giants.py), stay plain ``sphere`` shapes. The
     whitted integrator intersects them itself in float64 and never traces their shapes
-    (plugins/shading/giants.py), so its image is the same, bit for bit; building a
+    (plugins/hits.py), so its image is the same, bit for bit; building a
     mesh's acceleration structure costs about 0.4 s (a floor of radius 10^4: 170 000
     triangles), far more than rendering a small frame. Mitsuba's path tracer would see
     the float32 sphere. ``whitted render`` passes it for the whitted integrator.

@@ -30,7 +30,7 @@ and ``refraction``); the rays traced are the sum of ``rays`` minus it.
 
 ``min_weight`` is the adaptive depth control's setting (0: off), ``culled_rays`` the
 reflected and refracted rays it left untraced, ``culled_weight`` their path weights' sum
-and ``error_bound`` the most it can have changed any pixel (plugins/tree/adaptive.py
+and ``error_bound`` the most it can have changed any pixel (plugins/recursion.py
 derives the bound).
 
 ``peak_memory_bytes`` is, in the JIT variants, the high-water mark of Dr.Jit's
@@ -210,7 +210,7 @@ def render(scene, integrator: str = D.INTEGRATOR, spp: int | None = None, max_de
     ``defaults.PATH_MIN_SPP`` (64) samples per pixel, not a scene's 1 (pass ``spp``
     to choose: noise falls as 1/spp). ``without`` (whitted only): the effects to leave out,
     as if the scene lacked them (``"shadows,reflection"`` or names of
-    ``defaults.SWITCHABLE_EFFECTS``; plugins/scene/effects.py says what each means); None:
+    ``defaults.SWITCHABLE_EFFECTS``; plugins/scene_tables.py says what each means); None:
     the scene's own (none unless its integrator says). ``integrator="path"``
     uses Mitsuba's ``path`` integrator with ``max_depth + 1`` (one more
     segment for the connection to a light); a scene whose own integrator is

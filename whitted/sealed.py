@@ -18,7 +18,7 @@ measurements):
   Mitsuba's path tracer, whose ray offsets are absolute, is not quite. Spheres
   of other radii may be grouped too, by radius (``classes``): the Whitted
   integrator traces each such class in a frame of its own, scaled to make its
-  radius 1 (plugins/shading/layers.py), whatever the radius. Mitsuba's own
+  radius 1 (plugins/hits.py), whatever the radius. Mitsuba's own
   integrators intersect them with Mitsuba's test: below radius 1 it loses hits
   (its origin step overshoots the center plane), above it finds every one, a
   float32 cancellation misplacing them along the ray by up to a few hundredths
@@ -190,9 +190,9 @@ def groups(scene: Scene, grouping: Grouping, origin) -> list[tuple[Material, flo
 
 def ellipsoids(centers: np.ndarray, bsdf, radius: float = 1.0) -> dict:
     """The ``mi.load_dict`` entry of one ``ellipsoids`` shape of spheres of ``radius`` at
-    ``centers`` (M×3): :func:`whitted.plugins.scene.layers.ellipsoids_shape`, which the
+    ``centers`` (M×3): :func:`whitted.plugins.primitives.ellipsoids_shape`, which the
     integrator's layers build too (the loader builds on the plugins, not the other way)."""
-    from .plugins.scene.layers import ellipsoids_shape
+    from .plugins.primitives import ellipsoids_shape
     return ellipsoids_shape(centers, bsdf, radius)
 
 

@@ -6,7 +6,7 @@ terms (``whitted trace``: positions in the file's coordinates, spheres named by 
 line) asks :func:`recall` for the model the scene was loaded from and that frame.
 Scenes take no Python attributes, so the loader (:func:`remember`) keeps them by the
 scene's address, with a *witness* that tells a new scene at a dead one's address apart
-(the integrator's tables' way: :class:`whitted.plugins.scene.tables.KeptByScene`). At most :data:`SCENES` are kept.
+(the integrator's tables' way: :class:`whitted.plugins.scene_tables.KeptByScene`). At most :data:`SCENES` are kept.
 """
 
 from __future__ import annotations
@@ -30,10 +30,10 @@ _kept = None
 
 
 def _store():
-    """The scenes remembered (:class:`whitted.plugins.scene.tables.KeptByScene`, made on first use)."""
+    """The scenes remembered (:class:`whitted.plugins.scene_tables.KeptByScene`, made on first use)."""
     global _kept
     if _kept is None:
-        from .plugins.scene.tables import KeptByScene
+        from .plugins.scene_tables import KeptByScene
         _kept = KeptByScene(SCENES)
     return _kept
 

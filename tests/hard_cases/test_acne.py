@@ -2,7 +2,7 @@
 
 One sphere of center C and radius r, over six orders of magnitude of each. Rays
 from random points around it hit it at random places; from each hit, the
-integrator's own ray spawning and hit finding (plugins/shading/hits.py)
+integrator's own ray spawning and hit finding (plugins/hits.py)
 must give:
 
 - a ray leaving outwards (grazing ones included) that never meets the sphere
@@ -70,7 +70,7 @@ def leaving(si_n, tangent, cosine):
 
 
 def failures_jit(scene, hits, center, radius, cap, n, rng):
-    from whitted.plugins.shading.hits import blocked, spawn_ray, spawn_ray_to
+    from whitted.plugins.hits import blocked, spawn_ray, spawn_ray_to
     origin, direction, tangent, cosine = hits_and_directions(center, radius, cap, n, rng)
     hit, si, _, error = hits.intersect(mi.Ray3f(mi.Point3f(origin), mi.Vector3f(direction)), False)
     hit = np.array(hit)
@@ -87,7 +87,7 @@ def failures_jit(scene, hits, center, radius, cap, n, rng):
 
 
 def failures_scalar(scene, hits, center, radius, cap, n, rng):
-    from whitted.plugins.shading.hits import blocked, spawn_ray, spawn_ray_to
+    from whitted.plugins.hits import blocked, spawn_ray, spawn_ray_to
     origin, direction, tangent, cosine = hits_and_directions(center, radius, cap, n, rng)
     counts = np.zeros(4, int)
     for k in range(n):
@@ -109,8 +109,8 @@ def failures_scalar(scene, hits, center, radius, cap, n, rng):
 @pytest.mark.parametrize("size", list(SIZES))
 def test_no_ray_meets_the_surface_it_leaves(variant, finder, size, monkeypatch):
     whitted.set_variant(variant)
-    from whitted.plugins.scene.tables import scene_tables
-    from whitted.plugins.shading import hits as geometry
+    from whitted.plugins.scene_tables import scene_tables
+    from whitted.plugins import hits as geometry
     center, radius, cap = SIZES[size]
     center = np.array(center)
     scene = mi.load_dict({"type": "scene", "ball": {"type": "sphere", "center": center.tolist(),

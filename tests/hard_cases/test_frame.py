@@ -67,8 +67,7 @@ def test_textured_spheres_are_moved_into_the_frame(tmp_path):
 
 def _light_colors(loaded) -> np.ndarray:
     integrator = loaded.integrator()
-    from whitted.plugins.scene.effects import analyse
-    from whitted.plugins.scene.tables import scene_tables
+    from whitted.plugins.scene_tables import analyse, scene_tables
     return np.array([light.color for light in analyse(scene_tables(loaded), 1, integrator.light_reference).lights])
 
 

@@ -250,9 +250,9 @@ def test_rays_leaving_a_giant_floor_do_not_meet_it_again(variant, radius):
     floor, one leaving downwards must meet it again (its far side), and the shadow segment
     to a light above must be clear, all with the offsets of the point's own error bound."""
     whitted.set_variant(variant)
-    from whitted.plugins.scene.tables import scene_tables
-    from whitted.plugins.shading.shader import scene_hits
-    from whitted.plugins.shading.hits import spawn_ray, spawn_ray_to
+    from whitted.plugins.scene_tables import scene_tables
+    from whitted.plugins.hits import scene_hits
+    from whitted.plugins.hits import spawn_ray, spawn_ray_to
     model = Scene(eye=(0.0, 1.5, 8.0), lookat=(0.0, 0.5, 0.0), lights=[Light((0.0, 10.0, 0.0))],
                   spheres=[Sphere((0.0, -radius, 0.0), radius), Sphere((40.0, 0.3, -40.0), 0.3)])
     scene = mi.load_string(scene_to_xml(model, None))

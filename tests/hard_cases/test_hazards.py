@@ -117,11 +117,11 @@ SINGULAR = {
 @pytest.mark.parametrize("variant", VARIANTS)
 @pytest.mark.parametrize("where", list(SINGULAR))
 def test_lat_long_uv_at_singular_points(variant, where):
-    """The integrator's UV (plugins/shading/hits.py) is the spec's (u, 1 - v) at the poles, on the
+    """The integrator's UV (plugins/hits.py) is the spec's (u, 1 - v) at the poles, on the
     seam and an ulp beyond |Vn·Vp| = 1, where arccos and the division by sin(phi) fail."""
     whitted.set_variant(variant)
     from whitted.converter import Sphere
-    from whitted.plugins.shading.hits import lat_long_uv
+    from whitted.plugins.hits import lat_long_uv
     n = SINGULAR[where]
     axes = [mi.Vector3f(1, 0, 0), mi.Vector3f(0, 1, 0), mi.Vector3f(0, 0, 1)]
     uv = lat_long_uv(mi.Vector3f(*n), *axes)
@@ -137,7 +137,7 @@ def test_lat_long_uv_at_singular_points(variant, where):
 def test_a_shadow_ray_to_its_own_origin_is_finite(variant):
     """A light exactly at the offset origin: the shadow segment has length 0 (no 0/0)."""
     whitted.set_variant(variant)
-    from whitted.plugins.shading.hits import offset_origin, spawn_ray_to
+    from whitted.plugins.hits import offset_origin, spawn_ray_to
     si = dr.zeros(mi.SurfaceInteraction3f)
     si.p, si.n = mi.Point3f(1.0, 2.0, 3.0), mi.Vector3f(0.0, 1.0, 0.0)
     error = 1e-6
@@ -151,10 +151,10 @@ def test_a_shadow_ray_to_its_own_origin_is_finite(variant):
 @pytest.mark.parametrize("variant", VARIANTS)
 def test_refraction_stays_finite_beyond_the_critical_angle(variant):
     """k = 1 - n²(1 - c1²) < 0: the caller takes the mirror direction, but T itself must
-    stay finite (plugins/shading/optics.py), from grazing (c1 = 0) to just past the critical angle,
+    stay finite (plugins/hits.py), from grazing (c1 = 0) to just past the critical angle,
     and for c1 an ulp above 1."""
     whitted.set_variant(variant)
-    from whitted.plugins.shading import optics
+    from whitted.plugins import hits as optics
     n = mi.Vector3f(0.0, 0.0, 1.0)
     for eta in (1.5, 1 / 0.6, 50.0):
         critical = math.sqrt(1 - 1 / eta ** 2)
@@ -172,7 +172,7 @@ def test_directions_stay_unit_along_a_deep_mirror_chain(variant):
     """64 reflections (the deepest tree the format allows) off random normals: the ray
     direction keeps |d| = 1 to float32 round-off, so c1 and k keep their meaning at depth 64."""
     whitted.set_variant(variant)
-    from whitted.plugins.shading import optics
+    from whitted.plugins import hits as optics
     rng = np.random.default_rng(2)
     lanes = 1000 if dr.is_jit_v(mi.Float) else 20
     start = rng.normal(size=(3, lanes))

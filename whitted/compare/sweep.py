@@ -10,7 +10,7 @@ reference cache by its folder, and returns a
 Mitsuba object goes in or out unless the caller shares its process.
 
 Each setting is rendered once and scored (the same seed gives the same image
-whenever it is rendered: :mod:`whitted.plugins.tree.wavefront`); then the scene's
+whenever it is rendered: :class:`whitted.plugins.recursion.Wavefronts`); then the scene's
 settings are timed together, in rounds (:mod:`.timing`: every setting once per
 round, so that what is compared is timed in the same moments of a busy machine).
 Kernel compilation is excluded (``result.seconds`` of the rendering API, and the

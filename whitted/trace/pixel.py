@@ -134,7 +134,7 @@ def scene_view(scene) -> SceneView:
                          lights=[(tuple(light.position), tuple(light.color), light.line) for light in model.lights],
                          eye=tuple(model.eye), lookat=tuple(model.lookat), width=width, height=height,
                          background=tuple(model.background))
-    from ..plugins.scene.tables import scene_tables
+    from ..plugins.scene_tables import scene_tables
     tables = scene_tables(scene)
     primitives = tables.primitives
     spheres = np.flatnonzero(primitives.sphere)

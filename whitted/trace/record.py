@@ -1,10 +1,10 @@
 """The renderer's own trees, recorded: what each level of a pixel's ray tree computed.
 
 The integrator traces a pixel's camera ray as a render does
-(:meth:`whitted.plugins.integrator.WhittedIntegrator.trace_pixels`): the same tracer, the
-same shader, the same hit finders. The tracer shows each level it shades to a
-:class:`Recorder` (``Tracer.recorder``), and the shader leaves that level's terms in
-``Shader.record``: the hit, the facing normal, the material, each light's term and shadow
+(:meth:`whitted.plugins.integrator.WhittedIntegrator.trace_pixels`): the same recursion and
+hit finders. :meth:`whitted.plugins.recursion.Recursion.step` shows each level it shades to
+a :class:`Recorder` (``Recursion.recorder``), and leaves that level's terms in
+``Recursion.record``: the hit, the facing normal, the material, each light's term and shadow
 ray, whether the refracted ray was totally reflected. The recorder reads them lane by lane
 (a wavefront in the JIT variants, one ray in the scalar ones) into :class:`~.nodes.Node`
 objects, and links each child to its parent by its ray: a child shaded at level L + 1 is
@@ -51,27 +51,26 @@ class Recorder:
     def __init__(self):
         self.levels: list[dict] = []
         self.weights: list[np.ndarray] = []   # each batch's camera ray weights (n, 3)
-        self.tracer = None
-        self.shader = None
+        self.recursion = None   # the render's recursion (whitted.plugins.recursion.Recursion)
 
     # -- what the integrator calls -----------------------------------------------------------------
 
-    def attach(self, tracer) -> None:
-        """Be shown every level ``tracer`` shades, with its shader's terms."""
-        self.tracer, self.shader = tracer, tracer.shader
-        tracer.recorder = self
-        self.shader.record = {}
+    def attach(self, recursion) -> None:
+        """Be shown every level ``recursion`` shades, with its terms."""
+        self.recursion = recursion
+        recursion.recorder = self
+        recursion.record = {}
 
     def camera(self, weight) -> None:
         """The camera rays of the next batch have the ray weight ``weight`` (mi.Color3f)."""
         self._pending_weight = weight
 
-    def level(self, branch, shaded, traced) -> None:
-        """One level shaded: its rays, their colors, the shader's terms and the children."""
-        record = self.shader.record
+    def level(self, branch, color, hit, children) -> None:
+        """One level shaded: its rays, their colors, its terms and the children."""
+        record = self.recursion.record
         si = record["si"]
         values = {"o": branch.ray.o, "d": branch.ray.d, "weight": branch.weight,
-                  "color": shaded.color, "hit": shaded.hit, "t": si.t, "p": si.p, "n": si.n}
+                  "color": color, "hit": hit, "t": si.t, "p": si.p, "n": si.n}
         if "surface" in record:   # (a scalar ray that missed has no surface)
             surface = record["surface"]
             values.update(inside=record["inside"], base=surface.base, reflect=surface.reflect,
@@ -88,13 +87,14 @@ class Recorder:
             if "value" in terms:
                 light["value"] = terms["value"]
             lights.append(light)
-        children = []
-        for child, is_traced in zip(shaded.children, traced):
-            entry = {"child_o": child.ray.o, "child_d": child.ray.d, "weight": child.weight,
-                     "traced": is_traced}
+        entries = []
+        for child in children:
+            entry = {"child_o": child.branch.ray.o, "child_d": child.branch.ray.d,
+                     "weight": child.branch.weight, "traced": child.traced}
             if child.merged is not None:
                 entry["merged"] = child.merged
-            children.append((child.kind, entry))
+            entries.append((child.kind, entry))
+        children = entries
         jit = dr.is_jit_v(mi.Float)
         if jit:
             flat = [*values.values(), *(v for light in lights for v in light.values()),
@@ -104,7 +104,7 @@ class Recorder:
 
         def convert(group: dict) -> dict:
             return {key: _lanes(value, n, key in _VECTORS) for key, value in group.items()}
-        self.levels.append({"level": branch.level, "n": n, "spawn": branch.level < self.shader.depth,
+        self.levels.append({"level": branch.level, "n": n, "spawn": branch.level < self.recursion.depth,
                             "values": convert(values), "lights": [convert(light) for light in lights],
                             "children": [(kind, convert(entry)) for kind, entry in children],
                             "batch": len(self.weights) - 1 if branch.level > 1 else len(self.weights)})
@@ -115,8 +115,7 @@ class Recorder:
 
     def trees(self) -> list[Node]:
         """The recorded trees, one per camera ray in the order traced (frame coordinates)."""
-        shader = self.shader
-        ambient = float(np.asarray(shader.ambient).reshape(-1)[0])
+        ambient = float(np.asarray(self.recursion.ambient).reshape(-1)[0])
         roots: list[Node] = []
         pending: dict = defaultdict(deque)   # (level, o, d, weight) -> (parent, kind, merged)
         for level in self.levels:
@@ -180,7 +179,7 @@ class Recorder:
                          "refract": float(v["refract"][lane]), "ior": float(v["ior"][lane])}
         node.local = _t(v["point"][lane])
         node.diffuse_weight = 1 - node.material["reflect"] - node.material["refract"]
-        physical = self.shader.physical
+        physical = self.recursion.physical
         node.ambient = (0.0, 0.0, 0.0) if physical else _t(base * ambient)
         for k, light in enumerate(level["lights"]):
             facing = bool(light["facing"][lane])
@@ -205,7 +204,7 @@ class Recorder:
                  if term.blocked and term.shadow is not None]
         if not terms:
             return
-        hits = self.shader.hits
+        hits = self.recursion.hits
         origins = np.array([t.shadow["origin"] for t in terms])
         directions = np.array([t.shadow["direction"] for t in terms])
         lengths = np.array([t.shadow["length"] for t in terms])

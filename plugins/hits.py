@@ -1,0 +1,685 @@
+"""Where a ray hits, how rays leave a hit, and what is there: the Whitted recursion's helpers.
+
+A hit finder (:class:`HitFinder`) answers a ray with its nearest hit: point, normal, UV,
+BSDF and error bound. :func:`hit_finder` picks one of two ways to the same answer.
+:class:`MitsubaHits` asks Mitsuba's ``scene.ray_intersect`` for a surface interaction: it
+works for every shape, but in the JIT variants the interaction is computed by a call on
+the hit shape, which Dr.Jit traces once per shape *instance* for every kernel.
+:class:`SphereHits` serves scenes made only of spheres in the JIT variants (``sphere``
+shapes, and ``ellipsoids`` shapes of spheres: whitted/sealed.py): Embree still finds the
+nearest hit (``ray_intersect_preliminary``: a distance, a shape and a primitive, no call),
+and the rest comes from the primitive tables (:mod:`.primitives`), computed exactly as
+Mitsuba's sphere computes it: the hit is re-projected onto the sphere
+(``N = normalize(o + t·d - C)``, ``P = C + r·N``) and the UV is the direction's longitude
+and colatitude in the sphere's own frame (:func:`lat_long_uv`). Two finders wrap them:
+:class:`LayeredHits` (spheres traced in frames of their own) and :class:`GiantHits` (giant
+spheres in float64). :func:`scene_hits` assembles what a scene needs.
+
+Every finder returns each hit's error bound (:func:`whitted.float32.hit_error`), by which
+:func:`offset_origin` moves secondary and shadow rays off the surface, and tells which
+sphere a light sits on (``surface_at``). docs/numerics.md catalogues the hazards.
+:class:`SurfaceLookup` reads the material at a hit; :func:`facing_normal`,
+:func:`reflect` and :func:`refract` are the article's optics (docs/scene-format.md,
+"Shading", steps 2, 5 and 6), also used by the ``article`` BSDF.
+
+The same code serves one ray (scalar variants, masks are Python ``bool``s) and a
+wavefront (JIT variants, masks are Dr.Jit arrays). Two things differ. Work a mask
+switches off: a wavefront does it on every lane and discards what the mask rejects
+(``dr.select``), while a single ray must not start it at all (Mitsuba's scalar
+``ray_test`` ignores its ``active`` argument, and a ray that missed has no shape: a call
+through it dereferences a null pointer); :func:`off` tells the scalar case apart. And
+negation: ``~True`` is -2, so the shading code never negates a mask; it selects instead.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Protocol
+
+import drjit as dr
+import mitsuba as mi
+import numpy as np
+
+from whitted.errors import WhittedError
+from whitted.float32 import UNIT_ROUNDOFF
+
+from .primitives import bsdf_key, slot_of
+
+#: a floor for squared distances: keeps 1/r and 1/r^2 finite when a light sits on the surface
+TINY = 1e-30
+
+
+def off(mask) -> bool:
+    """Whether ``mask`` is a single ray's ``False`` (scalar variants), so that the work it
+    guards must be skipped. A wavefront's mask never is: its lanes are masked one by one."""
+    return mask is False
+
+
+# -- the article's optics (directions are unit vectors, ``v`` points into the surface) ----------
+
+def facing_normal(v, n):
+    """``(N', inside)``: the normal on the side the ray arrives from.
+
+    A ray arriving from inside a sphere (``v·N > 0``) is shaded and refracted
+    with ``N' = -N``.
+    """
+    inside = dr.dot(v, n) > 0
+    return dr.select(inside, -n, n), inside
+
+
+def cos_incidence(v, n_facing):
+    """``c1 = -N'·V``, the cosine between the facing normal and the reversed ray (>= 0)."""
+    return -dr.dot(n_facing, v)
+
+
+def reflect(v, n_facing, c1):
+    """Mirror direction ``R = V + 2·c1·N'``."""
+    return dr.fma(2 * c1, n_facing, v)
+
+
+def relative_ior(ior, inside):
+    """``n = n1/n2``: entering, n1 = 1 and n2 = IOR; leaving, the reverse.
+
+    Outside every sphere the index is 1, even when spheres nest: each surface
+    is judged on its own, by the side the ray arrives from.
+    """
+    return dr.select(inside, ior, dr.rcp(ior))
+
+
+def refract(v, n_facing, c1, eta):
+    """``(T, tir)``: Snell's refraction ``T = n·V + (n·c1 - sqrt(k))·N'``.
+
+    ``k = 1 - n^2 (1 - c1^2)``; when ``k < 0`` (total internal reflection,
+    ``tir`` is True) there is no transmitted ray and the caller sends the
+    refracted share along the mirror direction instead. ``T`` is then
+    meaningless but finite (``sqrt`` is never taken of a negative number).
+    """
+    k = 1 - eta * eta * (1 - c1 * c1)
+    tir = k < 0
+    t = dr.fma(eta, v, (eta * c1 - dr.safe_sqrt(k)) * n_facing)
+    return t, tir
+
+
+def unit(v):
+    """``v`` normalized; float32 round-off would otherwise drift along deep mirror chains."""
+    return dr.normalize(mi.Vector3f(v))
+
+
+
+
+def lat_long_uv(n, x_axis, y_axis, z_axis):
+    """The article's lat/long mapping of the unit normal ``n`` in a sphere's frame, as
+    Mitsuba's sphere UV: ``u = atan2(y, x)/2π``, ``v = acos(z)/π`` (v = 0 at the north pole).
+
+    The converter orients the frame so that this is the article's (u, 1 - v)
+    (docs/CONTRACTS.md). atan2 needs no division by sin(phi), and its two singular sets
+    follow the spec: at a pole (|z| = 1 in float32: sin(phi) = 0) u = 0, and on the seam
+    (y = 0, x > 0: theta = 0 and (Vn × Ve)·Vp = 0, the "otherwise" case) u = 1. A camera on the
+    axis sees a pole pixel, and one in the seam's plane a whole row of seam pixels.
+    """
+    x, y, z = dr.dot(n, x_axis), dr.dot(n, y_axis), dr.dot(n, z_axis)
+    angle = dr.atan2(y, x)   # (-π, π]
+    u = dr.select(angle > 0, angle, angle + dr.two_pi) * dr.inv_two_pi
+    pole = dr.abs(z) >= 1
+    return mi.Point2f(dr.select(pole, 0.0, u), dr.safe_acos(z) * dr.inv_pi)
+
+
+# -- leaving a hit ---------------------------------------------------------------------------------
+
+def offset_origin(p, n, error, d):
+    """``p`` moved by ``error`` along the normal ``n``, to the side ``d`` leaves towards.
+
+    ``error`` bounds how far the float32 hit point ``p`` lies off its surface
+    (:func:`whitted.float32.hit_error`): from the moved origin, neither the surface's true
+    position nor the float32 ray-surface test can put the surface in front of the ray again
+    (no acne). Mitsuba's own ``spawn_ray`` moves by ``(1 + max|p_i|)·RayEpsilon`` instead,
+    which is too little for a huge sphere under the origin and far too much in a scene of
+    size 10^-3 or at 10^4 (docs/numerics.md).
+    """
+    return dr.fma(dr.mulsign(error, dr.dot(n, d)), n, p)
+
+
+def spawn_ray(si, error, d):
+    """The ray leaving the hit ``si`` along ``d``."""
+    return mi.Ray3f(offset_origin(si.p, si.n, error, d), d)
+
+
+def spawn_ray_to(si, error, target, target_error=0.0, target_normal=None):
+    """The segment from the hit ``si`` to ``target``, which ends short of ``target``.
+
+    When ``target`` sits on a surface (a light on a sphere), the end is moved off that
+    surface by the surface's error bound ``target_error`` along its normal
+    ``target_normal``, to the hit's side, as :func:`offset_origin` moves the start: the
+    surface the light sits on does not hide it, even from segments that meet it at a grazing
+    angle. Nothing else shortens the segment; Mitsuba's ``spawn_ray_to`` stops a fixed
+    fraction of the length short, which lets a light inside a small sphere far away out of
+    it.
+    """
+    if target_normal is not None:
+        target = offset_origin(target, target_normal, target_error, si.p - target)
+    origin = offset_origin(si.p, si.n, error, target - si.p)
+    d = target - origin
+    distance2 = dr.squared_norm(d)
+    distance = dr.sqrt(distance2)
+    ray = mi.Ray3f(origin, d * dr.rsqrt(dr.maximum(distance2, TINY)))  # no 0/0 at the target
+    ray.maxt = distance
+    return ray
+
+
+def blocked(scene, ray, active, spheres: bool = True):
+    """Whether a surface crosses the segment ``ray`` (from its origin to ``ray.maxt``);
+    ``spheres``: whether ``scene`` holds ``sphere`` shapes.
+
+    In the JIT variants Mitsuba's ``ray_test`` on a sphere shape solves the textbook
+    quadratic in float32, whose discriminant ``B² - 4AC`` loses every digit when the ray
+    starts a few thousand radii from the sphere (a small ball near a distant light casts a
+    shadow of noise). Its ``ray_intersect_preliminary`` first moves the origin to the plane
+    through the sphere's center and stays exact, so shadow rays use it where there are
+    sphere shapes. Elsewhere ``ray_test`` answers as the nearest hit would (an
+    ``ellipsoids`` shape runs the same routine for both; triangles are watertight), and may
+    stop at the first blocker. The scalar variants solve spheres in float64 already.
+    """
+    if spheres and dr.is_jit_v(mi.Float):
+        return scene.ray_intersect_preliminary(ray, coherent=False, active=active).is_valid()
+    return scene.ray_test(ray, coherent=False, active=active)
+
+
+# -- finding hits ----------------------------------------------------------------------------------
+
+class HitFinder(Protocol):
+    """What the recursion (:meth:`.recursion.Recursion.step`) asks of a hit finder.
+
+    One finder serves both kinds of variant. In the JIT variants a ray is a wavefront
+    (``mi.Ray3f`` of Dr.Jit arrays) and masks are ``mi.Bool`` arrays; in the scalar ones a
+    ray is one ray and masks are Python bools, and a finder must not touch a ray's
+    shape where it missed (:func:`off`).
+    """
+
+    def intersect(self, ray, coherent: bool):
+        """``(hit, si, bsdf, error)``: the nearest hit along ``ray`` (up to ``ray.maxt``).
+
+        ``hit``: whether there is one (a mask). ``si``: an ``mi.SurfaceInteraction3f`` with
+        ``t`` (inf where nothing was hit), ``p``, ``n`` (the geometric normal, unit), and
+        ``uv`` when the finder was made with ``need_uv``. ``bsdf``: the hit shape's BSDF as
+        its instance ID (JIT: ``mi.UInt32``) or the BSDF itself (scalar; None or anything
+        where nothing was hit). ``error``: how far ``si.p`` may lie off the true surface
+        (``mi.Float``, or a float), by which rays leave it (:func:`offset_origin`).
+        ``coherent``: Mitsuba's hint that the rays are coherent (camera rays).
+        """
+        ...
+
+    def blocked(self, ray, active):
+        """Whether a surface crosses the segment ``ray`` from its origin to ``ray.maxt``
+        (a shadow test), on the lanes of ``active``: a mask like ``active`` (``False``
+        wherever ``active`` is; a scalar finder may return as soon as it knows)."""
+        ...
+
+    def surface_at(self, point) -> tuple[float, tuple[float, float, float]]:
+        """``(error, normal)`` of the sphere that the scene point ``point`` (three floats, a
+        light's position) lies on, within twice its error bound, ``(0.0, (0, 0, 0))`` if
+        none: where a light sits on a surface, its shadow segments end off that surface
+        (:func:`spawn_ray_to`). Plain Python, called once per light and render."""
+        ...
+
+
+def no_hits():
+    """``(hit, si, bsdf, error)`` of rays that hit nothing (where a finder has no shapes)."""
+    jit = dr.is_jit_v(mi.Float)
+    si = dr.zeros(mi.SurfaceInteraction3f)
+    si.t = dr.inf
+    return (mi.Bool(False) if jit else False), si, (mi.UInt32(0) if jit else None), 0.0
+
+
+def no_blocker():
+    """What :func:`blocked` says where a finder has no shapes."""
+    return mi.Bool(False) if dr.is_jit_v(mi.Float) else False
+
+
+def hit_finder(scene, tables, need_uv: bool, sphere_table: bool = True):
+    """The fastest exact way to intersect ``scene`` (its tables: ``tables``) in the current
+    variant; ``sphere_table=False`` keeps to Mitsuba's surface interactions."""
+    if sphere_table and dr.is_jit_v(mi.Float) and tables.spheres_only:
+        return SphereHits(scene, tables, need_uv)
+    return MitsubaHits(scene, tables, need_uv)
+
+
+class _SceneHits:
+    """What :class:`MitsubaHits` and :class:`SphereHits` share: the scene they intersect,
+    its tables, its shadow test (:func:`blocked`) and its lights' surfaces."""
+
+    def __init__(self, scene, tables, need_uv: bool):
+        self.scene = scene
+        self.need_uv = need_uv
+        self.primitives = tables.primitives
+        self.spheres = tables.sphere_shapes
+        self.tables = tables.hit_tables
+
+    def surface_at(self, point):
+        """As :meth:`HitFinder.surface_at` (:meth:`~.primitives.Primitives.surface_at`)."""
+        return self.primitives.surface_at(point)
+
+    def blocked(self, ray, active):
+        """Whether a surface crosses the segment ``ray`` (:func:`blocked`)."""
+        return blocked(self.scene, ray, active, self.spheres)
+
+
+class MitsubaHits(_SceneHits):
+    """Surface interactions from Mitsuba's own ``ray_intersect`` (any shape).
+
+    Textured spheres get their UV from :func:`lat_long_uv` rather than from
+    Mitsuba, whose UV goes through the inverse of ``to_world`` and so misses the
+    poles and the seam by a rounding error. A :class:`HitFinder`.
+    """
+
+    def __init__(self, scene, tables, need_uv: bool):
+        super().__init__(scene, tables, need_uv)
+        self.flags = mi.RayFlags.Minimal | (mi.RayFlags.UV if need_uv else mi.RayFlags.Empty)
+        self.vectorized = dr.is_jit_v(mi.Float)
+        self._errors = None if self.vectorized else tables.primitives.error.tolist()
+
+    def intersect(self, ray, coherent: bool):
+        """``(hit, si, bsdf, error)`` (:meth:`HitFinder.intersect`)."""
+        si = self.scene.ray_intersect(ray, ray_flags=self.flags, coherent=coherent)
+        hit = si.is_valid()
+        if not self.vectorized:
+            if not hit:
+                return hit, si, None, 0.0
+            first, many, frame = self.tables[id(si.shape)]
+            if frame is not None:
+                si.uv = lat_long_uv(si.n, *frame)
+            return hit, si, si.bsdf(), self._errors[first + int(si.prim_index) if many else first]
+        tables = self.tables
+        slot = slot_of(tables.base, dr.reinterpret_array(mi.UInt32, si.shape), si.prim_index, hit)
+        if self.need_uv:
+            mapped = dr.gather(mi.Bool, tables.mapped, slot, hit)
+            frame = [dr.gather(mi.Vector3f, axis, slot, mapped) for axis in tables.frame]
+            si.uv = dr.select(mapped, lat_long_uv(si.n, *frame), si.uv)
+        return hit, si, dr.reinterpret_array(mi.UInt32, si.bsdf()), dr.gather(mi.Float, tables.error, slot, hit)
+
+
+class SphereHits(_SceneHits):
+    """Nearest hits on a scene of spheres without Mitsuba's per-shape call (JIT variants):
+    ``sphere`` shapes, and ``ellipsoids`` shapes whose every primitive is a sphere. A
+    :class:`HitFinder`."""
+
+    def intersect(self, ray, coherent: bool):
+        """``(hit, si, bsdf, error)`` (:meth:`HitFinder.intersect`), ``bsdf`` an instance ID."""
+        tables = self.tables
+        pi = self.scene.ray_intersect_preliminary(ray, coherent=coherent)
+        hit = pi.is_valid()
+        slot = slot_of(tables.base, dr.reinterpret_array(mi.UInt32, pi.shape), pi.prim_index, hit)
+        center = dr.gather(mi.Point3f, tables.center, slot, hit)
+        radius = dr.gather(mi.Float, tables.radius, slot, hit)
+        si = dr.zeros(mi.SurfaceInteraction3f)
+        si.t = dr.select(hit, pi.t, dr.inf)
+        si.n = dr.normalize(ray(pi.t) - center)
+        si.p = dr.fma(si.n, radius, center)
+        si.time = ray.time
+        si.wavelengths = ray.wavelengths
+        if self.need_uv:
+            si.uv = lat_long_uv(si.n, *(dr.gather(mi.Vector3f, axis, slot, hit) for axis in tables.frame))
+        return hit, si, dr.gather(mi.UInt32, tables.bsdf, slot, hit), dr.gather(mi.Float, tables.error, slot, hit)
+
+
+# -- spheres traced in frames of their own -------------------------------------------------------
+
+#: the texture frame of a layer's spheres (they are untextured; UV as for a unit sphere)
+_AXES = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
+
+
+class LayeredHits:
+    """The ``inner`` finder's hits (None: no other shapes) and the layers' of ``tables``
+    (:mod:`.primitives`: spheres of radius r in the scene's frame scaled by s = 1/r about
+    the origin, where Mitsuba's ``ellipsoids`` test is exact).
+
+    A ray ``o + t·d`` of the scene is the ray ``s·o + t'·d`` in a layer, with the same unit
+    direction and ``t' = s·t``: Embree finds the nearest sphere of each layer, the nearest
+    over the layers and the inner finder wins, and the hit point, normal, BSDF and error
+    bound come from the layer's tables in the scene's frame, re-projected onto the sphere as
+    :class:`SphereHits` does.
+
+    The layers are traced first, largest spheres first, each bounded by the nearest hit so
+    far (``maxt``), and the inner finder last, bounded the same way: Embree skips what lies
+    beyond. A shadow segment already blocked is not traced again. A :class:`HitFinder`.
+    """
+
+    def __init__(self, inner, tables, need_uv: bool):
+        self.jit = dr.is_jit_v(mi.Float)
+        self.inner = inner
+        self.layers = sorted(tables.layers, key=lambda layer: -layer.radius)
+        self.need_uv = need_uv
+        self.primitives = tables.primitives
+        # per-render constants are opaque: one kernel serves every scale
+        self.scales = [dr.opaque(mi.Float, layer.scale) if self.jit else layer.scale for layer in self.layers]
+        self.radii = [dr.opaque(mi.Float, layer.radius) if self.jit else layer.radius for layer in self.layers]
+
+    def _ray(self, k: int, ray, maxt):
+        """``ray`` in layer ``k``'s frame, up to ``maxt`` (in the scene's frame)."""
+        scaled = mi.Ray3f(ray.o * self.scales[k], ray.d)
+        scaled.maxt = maxt * self.scales[k]
+        return scaled
+
+    def surface_at(self, point):
+        """As :meth:`HitFinder.surface_at`: the layers' spheres are the scene's primitives."""
+        return self.primitives.surface_at(point)
+
+    def blocked(self, ray, active):
+        """Whether a surface crosses the segment ``ray`` (:meth:`HitFinder.blocked`)."""
+        tests = [lambda mask, k=k, layer=layer: blocked(layer.scene, self._ray(k, ray, ray.maxt), mask,
+                                                        spheres=False)
+                 for k, layer in enumerate(self.layers)]
+        if self.inner is not None:
+            tests.append(lambda mask: self.inner.blocked(ray, mask))
+        shadowed = no_blocker()
+        for test in tests:
+            if self.jit:   # lanes already blocked are not traced again
+                shadowed = shadowed | test(active & ~shadowed)
+            elif shadowed or not active:
+                break
+            else:
+                shadowed = test(active)
+        return shadowed & active
+
+    def intersect(self, ray, coherent: bool):
+        """``(hit, si, bsdf, error)`` (:meth:`HitFinder.intersect`)."""
+        if not self.jit:
+            return self._scalar(ray, coherent)
+        best, which, slot = mi.Float(ray.maxt), mi.Int32(-1), mi.UInt32(0)
+        for k, layer in enumerate(self.layers):
+            pi = layer.scene.ray_intersect_preliminary(self._ray(k, ray, best), coherent=coherent)
+            t = pi.t / self.scales[k]
+            nearer = pi.is_valid() & (t < best)
+            layer_slot = slot_of(layer.tables.base, dr.reinterpret_array(mi.UInt32, pi.shape), pi.prim_index, nearer)
+            best, which, slot = dr.select(nearer, t, best), dr.select(nearer, k, which), dr.select(nearer, layer_slot, slot)
+        if self.inner is not None:   # the other shapes, before the nearest layer hit
+            bounded = mi.Ray3f(ray)
+            bounded.maxt = best
+            hit, si, bsdf, error = self.inner.intersect(bounded, coherent)
+            which = dr.select(hit, -1, which)
+        else:
+            hit, si, bsdf, error = no_hits()
+        layered = which >= 0
+        center, radius, layer_bsdf, layer_error = mi.Point3f(0.0), mi.Float(1.0), mi.UInt32(0), mi.Float(0.0)
+        for k, layer in enumerate(self.layers):
+            this = which == k
+            center = dr.select(this, dr.gather(mi.Point3f, layer.tables.center, slot, this), center)
+            radius = dr.select(this, self.radii[k], radius)
+            layer_bsdf = dr.select(this, dr.gather(mi.UInt32, layer.tables.bsdf, slot, this), layer_bsdf)
+            layer_error = dr.select(this, dr.gather(mi.Float, layer.tables.error, slot, this), layer_error)
+        n = dr.normalize(ray(best) - center)
+        si.t = dr.select(layered, best, si.t)
+        si.n = dr.select(layered, n, si.n)
+        si.p = dr.select(layered, dr.fma(n, radius, center), si.p)
+        si.time = ray.time
+        si.wavelengths = ray.wavelengths
+        if self.need_uv:
+            si.uv = dr.select(layered, lat_long_uv(n, *(mi.Vector3f(a) for a in _AXES)), si.uv)
+        return hit | layered, si, dr.select(layered, layer_bsdf, bsdf), dr.select(layered, layer_error, error)
+
+    def _scalar(self, ray, coherent):
+        best, nearest = float(ray.maxt), None
+        for k, layer in enumerate(self.layers):
+            pi = layer.scene.ray_intersect_preliminary(self._ray(k, ray, best), coherent=coherent)
+            if pi.is_valid() and pi.t / layer.scale < best:
+                best, nearest = pi.t / layer.scale, (layer, pi.shape, int(pi.prim_index))
+        if self.inner is not None:
+            bounded = mi.Ray3f(ray)
+            bounded.maxt = best
+            hit, si, bsdf, error = self.inner.intersect(bounded, coherent)
+        else:
+            hit, si, bsdf, error = no_hits()
+        if hit or nearest is None:
+            return hit, si, bsdf, error
+        layer, shape, prim = nearest
+        first, layer_bsdf = layer.tables[id(shape)]
+        if not hit:
+            si = dr.zeros(mi.SurfaceInteraction3f)
+            si.time, si.wavelengths = ray.time, ray.wavelengths
+        center = layer.center[first + prim]
+        si.n = dr.normalize(ray(best) - center)
+        si.p, si.t = dr.fma(si.n, layer.radius, center), best
+        if self.need_uv:
+            si.uv = lat_long_uv(si.n, *(mi.Vector3f(a) for a in _AXES))
+        return True, si, layer_bsdf, layer.error[first + prim]
+
+
+# -- giant spheres, in float64 ---------------------------------------------------------------------
+
+#: the error bound of a point rounded from float64 to float32, in round-offs of its largest
+#: coordinate (half an ulp per coordinate, with the margin the other bounds keep)
+POINT_ULPS = 8
+#: float64's unit round-off times the few operations of the float64 test: what it adds, in
+#: units of the sphere's size (radius plus largest center coordinate)
+FLOAT64_ERROR = 16 * 2.0 ** -53
+
+
+def point_error(p, size):
+    """How far a hit point computed in float64 and rounded to float32 may lie off its sphere
+    (``size``: radius plus the center's largest coordinate; its float64 test's share)."""
+    largest = dr.maximum(dr.maximum(dr.abs(p.x), dr.abs(p.y)), dr.abs(p.z))
+    return (POINT_ULPS * UNIT_ROUNDOFF) * largest + FLOAT64_ERROR * size
+
+
+def _roots(o, d, center, radius):
+    """``(t, valid)``: the nearest root t > 0 of |o + t·d − C| = r, in float64 (``o``, ``d``,
+    ``center`` float64 vectors; ``d`` need not be unit)."""
+    f = o - center
+    a = dr.squared_norm(d)
+    b = dr.dot(f, d)
+    h = radius * radius - dr.squared_norm(f - (b / a) * d)   # the discriminant over a
+    root = dr.sqrt(dr.maximum(a * h, 0.0))
+    q = -(b + dr.mulsign(root, b))
+    distance = dr.norm(f)
+    c = (distance - radius) * (distance + radius)            # |f|² − r², without cancellation
+    t0, t1 = q / a, c / q
+    near, far = dr.minimum(t0, t1), dr.maximum(t0, t1)
+    t = dr.select(near > 0, near, far)
+    return t, (h >= 0) & (t > 0) & (q != 0)
+
+
+class _Giant:
+    """One giant sphere: its exact center and radius, its shape's BSDF and texture frame."""
+
+    def __init__(self, shape, center, radius, jit: bool):
+        self.center_tuple, self.radius = center, radius
+        self.size = radius + max(abs(c) for c in center)
+        if jit:
+            self.center = dr.opaque(mi.Point3d, center)
+            self.radius64 = dr.opaque(mi.Float64, radius)
+            self.bsdf = dr.opaque(mi.UInt32, bsdf_key(shape.bsdf()))
+        else:
+            self.center, self.radius64, self.bsdf = mi.Point3d(center), radius, shape.bsdf()
+        self.frame = None
+        if shape.bsdf().color.is_spatially_varying():   # a textured sphere: Mitsuba's UV frame
+            matrix = np.array(mi.traverse(shape)["to_world"].matrix, np.float64).reshape(4, 4)
+            axes = (matrix[:3, :3] / np.linalg.norm(matrix[:3, 0])).T
+            self.frame = [mi.Vector3f(axis) for axis in axes]
+
+
+class GiantHits:
+    """Nearest hits, shadow tests and light surfaces for a scene with giant spheres: the
+    ``inner`` finder's answer for the other shapes (None: there are none), the float64 test
+    for the giant ones. A :class:`HitFinder`.
+
+    Why. Mitsuba keeps a sphere's center and radius in float32 and, in the JIT variants,
+    intersects it in float32 in world space: a floor sphere of radius 10^6 is placed to
+    ~0.1, one of 10^7 to ~1, while balls of radius 0.3 stand on it. No ray offset can be
+    right there (docs/numerics.md, hazard 14). But such a sphere is known exactly in the
+    scene file, and a float64 test of the few giant ones costs a handful of operations.
+
+    How. The converter lists the giant spheres (converter/giants.py) in the integrator's
+    ``exact_spheres``: each shape's id, center (in the scene's frame) and radius, as float64
+    text. Every *other* shape is traced through Mitsuba, on a scene of those shapes alone
+    (:meth:`~.scene_tables.SceneTables.rest`: the same shape objects, so the same instance
+    IDs, BSDFs and tables); the giant spheres are intersected here in float64 with the
+    stable discriminant r² − |f − (f·d)d|² (hazard 4b) and the cancellation-free roots, and
+    the nearer answer wins. The hit point and normal are computed in float64 and rounded to
+    float32, so the point lies within an ulp of its own coordinates of the exact surface:
+    its error bound (:func:`point_error`) is relative to the point, not to the radius.
+    """
+
+    def __init__(self, scene, inner, need_uv: bool, giants, primitives):
+        """``giants``: ``(shape index, center, radius)`` of each giant sphere; ``primitives``:
+        the scene's (:class:`~.primitives.Primitives`)."""
+        self.jit = dr.is_jit_v(mi.Float)
+        shapes = scene.shapes()
+        self.giants = [_Giant(shapes[k], center, radius, self.jit) for k, center, radius in giants]
+        self.inner = inner
+        # the other shapes' surfaces: a giant's float32 bound (ulps of its radius) would put
+        # lights metres above a floor of radius 10^7 on it
+        self.others = primitives.without([k for k, _, _ in giants])
+        self.need_uv = need_uv
+
+    # -- lights on surfaces ----------------------------------------------------------------------
+
+    def surface_at(self, point):
+        """As :meth:`HitFinder.surface_at`; a giant sphere's bound is the point's, and
+        only its exact surface counts."""
+        p = np.asarray(point, np.float64).reshape(-1)
+        for giant in self.giants:
+            offset = p - np.asarray(giant.center_tuple)
+            distance = float(np.linalg.norm(offset))
+            error = POINT_ULPS * UNIT_ROUNDOFF * float(np.abs(p).max()) + FLOAT64_ERROR * giant.size
+            if abs(distance - giant.radius) <= 2 * error:
+                return error, tuple(offset / distance)
+        return self.others.surface_at(point)
+
+    # -- shadow segments -------------------------------------------------------------------------
+
+    def blocked(self, ray, active):
+        """Whether a surface crosses the segment ``ray`` (:meth:`HitFinder.blocked`)."""
+        shadowed = self.inner.blocked(ray, active) if self.inner is not None else no_blocker()
+        if not self.jit and (shadowed or not active):
+            return shadowed
+        o, d, maxt = mi.Point3d(ray.o), mi.Vector3d(ray.d), mi.Float64(ray.maxt) if self.jit else float(ray.maxt)
+        for giant in self.giants:
+            t, valid = _roots(o, d, giant.center, giant.radius64)
+            shadowed = shadowed | (valid & (t < maxt))
+        return shadowed & active
+
+    # -- nearest hits ----------------------------------------------------------------------------
+
+    def intersect(self, ray, coherent: bool):
+        """``(hit, si, bsdf, error)`` (:meth:`HitFinder.intersect`)."""
+        hit, si, bsdf, error = self.inner.intersect(ray, coherent) if self.inner is not None else no_hits()
+        o, d = mi.Point3d(ray.o), mi.Vector3d(ray.d)
+        if not self.jit:
+            return self._scalar(ray, o, d, hit, si, bsdf, error)
+        best = dr.select(hit, mi.Float64(si.t), dr.inf)
+        which = mi.Int32(-1)
+        for k, giant in enumerate(self.giants):
+            t, valid = _roots(o, d, giant.center, giant.radius64)
+            nearer = valid & (t < best)
+            best, which = dr.select(nearer, t, best), dr.select(nearer, k, which)
+        giant_hit = which >= 0
+        if off(giant_hit):
+            return hit, si, bsdf, error
+        center, radius = mi.Point3d(0.0), mi.Float64(1.0)
+        size, bsdf_giant = mi.Float(0.0), mi.UInt32(0)
+        for k, giant in enumerate(self.giants):
+            this = which == k
+            center = dr.select(this, giant.center, center)
+            radius = dr.select(this, giant.radius64, radius)
+            size = dr.select(this, giant.size, size)
+            bsdf_giant = dr.select(this, giant.bsdf, bsdf_giant)
+        p = dr.fma(d, best, o)
+        si.p = dr.select(giant_hit, mi.Point3f(p), si.p)
+        si.n = dr.select(giant_hit, mi.Vector3f((p - center) / radius), si.n)
+        si.t = dr.select(giant_hit, mi.Float(best), si.t)
+        if self.need_uv:
+            for k, giant in enumerate(self.giants):
+                if giant.frame is not None:
+                    si.uv = dr.select(which == k, lat_long_uv(si.n, *giant.frame), si.uv)
+        error = dr.select(giant_hit, point_error(si.p, size), error)
+        return hit | giant_hit, si, dr.select(giant_hit, bsdf_giant, bsdf), error
+
+    def _scalar(self, ray, o, d, hit, si, bsdf, error):
+        best, nearest = (float(si.t) if hit else float("inf")), None
+        for giant in self.giants:
+            t, valid = _roots(o, d, giant.center, giant.radius64)
+            if valid and t < best:
+                best, nearest = t, giant
+        if nearest is None:
+            return hit, si, bsdf, error
+        if not hit:
+            si = dr.zeros(mi.SurfaceInteraction3f)
+            si.time, si.wavelengths = ray.time, ray.wavelengths
+        p = o + d * best
+        si.p, si.n, si.t = mi.Point3f(p), mi.Vector3f((p - nearest.center) / nearest.radius), best
+        if self.need_uv and nearest.frame is not None:
+            si.uv = lat_long_uv(si.n, *nearest.frame)
+        return True, si, nearest.bsdf, point_error(si.p, nearest.size)
+
+
+def scene_hits(scene, tables, need_uv: bool, exact_spheres=()):
+    """How rays meet ``scene`` (its :class:`~.scene_tables.SceneTables`: ``tables``): Mitsuba's
+    ray tracing (:func:`hit_finder`) for the shapes it intersects exactly, layers for spheres
+    it intersects exactly only in frames of their own (:class:`LayeredHits`), and the float64
+    test for the giant spheres listed in ``exact_spheres`` (:class:`GiantHits`)."""
+    giants = []
+    if exact_spheres:
+        index = {shape.id(): k for k, shape in enumerate(scene.shapes())}
+        missing = [key for key, _, _ in exact_spheres if key not in index]
+        if missing:
+            raise WhittedError(f"the whitted integrator's exact_spheres names shapes the scene lacks: "
+                               f"{', '.join(missing)} (each must be a shape of that id)")
+        giants = [(index[key], center, radius) for key, center, radius in exact_spheres]
+    left_out = {k for k, _, _ in giants} | set(tables.layered)
+    if not left_out:
+        return hit_finder(scene, tables, need_uv)
+    rest, rest_tables = tables.rest(scene, left_out)
+    hits = None if rest is None else hit_finder(rest, rest_tables, need_uv)
+    if tables.layers:
+        hits = LayeredHits(hits, tables, need_uv)
+    return GiantHits(scene, hits, need_uv, giants, tables.primitives) if giants else hits
+
+
+# -- the material at a hit --------------------------------------------------------------------------
+
+@dataclass
+class SurfaceSample:
+    """The material at a hit point."""
+    base: object      # mi.Color3f, B (texel or color)
+    reflect: object   # mi.Float, KR
+    refract: object   # mi.Float, KT
+    ior: object       # mi.Float
+
+
+class SurfaceLookup:
+    """The material at a hit, from the scene's material table
+    (:meth:`~.scene_tables.Materials.table`).
+
+    ``need_ior`` leaves the IOR out of the kernels of scenes without refraction.
+    """
+
+    def __init__(self, materials, table, need_ior: bool):
+        self.need_ior = need_ior
+        # KR and KT that are 0 on every material are constants, not lookups
+        self.reflective, self.refractive = materials.reflective, materials.refractive
+        self.textured = list(materials.textures.values())   # slot k is textured[k - 1]
+        row_of, columns = table
+        if dr.is_jit_v(mi.Float):
+            self._row = lambda bsdf: bsdf
+            self._read = lambda tp, values, row, active: dr.gather(tp, values, row, active)
+        else:
+            self._row = lambda bsdf: row_of[id(bsdf)]
+            self._read = lambda tp, values, row, active: tp(values[..., row].tolist())
+        self._color, self._reflect, self._refract, self._ior, self._slot = columns
+
+    def lookup(self, si, bsdf, active) -> SurfaceSample:
+        """The material at ``si`` on the lanes ``active`` (hits only).
+
+        ``bsdf`` is the hit BSDF's instance ID (JIT variants) or the BSDF itself (scalar).
+        """
+        row = self._row(bsdf)
+        base = self._read(*self._color, row, active)
+        if self.textured:
+            slot = self._read(*self._slot, row, active)
+            for k, texture in enumerate(self.textured, start=1):
+                on_texture = active & (slot == k)
+                if not off(on_texture):
+                    base = dr.select(on_texture, mi.Color3f(texture.eval(si, on_texture)), base)
+        ior = self._read(*self._ior, row, active) if self.need_ior else mi.Float(1)
+        reflect = self._read(*self._reflect, row, active) if self.reflective else mi.Float(0)
+        refract = self._read(*self._refract, row, active) if self.refractive else mi.Float(0)
+        return SurfaceSample(base, reflect, refract, ior)

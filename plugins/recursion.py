@@ -1,0 +1,615 @@
+"""The article's Whitted recursion: one step (:meth:`Recursion.step`) and the walks that repeat it.
+
+The article's ``trace`` is recursive, but its result is linear in the children's colors::
+
+    color = (1 - KR - KT)·point + KR·reflected + KT·refracted
+
+so the color of a camera ray is a sum over its tree's rays of ``w·contribution``, ``w``
+being the product of the KR and KT factors on the way down. :meth:`Recursion.step` is that
+sum's term for the rays of one level (a wavefront in the JIT variants, one ray in the
+scalar ones), the article's algorithm top to bottom: find the hits; a ray that escapes sees
+the background; at a hit, the material, the ambient term and each light's diffuse term with
+its shadow ray, weighted ``1 - KR - KT``; then the reflected ray (weight ``w·KR``) and the
+refracted one (``w·KT``) or, under total internal reflection, the mirror ray. It calls
+:mod:`.hits` for hit finding, ray offsets and optics. Two walks repeat it, the same tree
+either way:
+
+* :class:`Recursion` (scalar variants) walks it depth first, the article's recursion as
+  written, one ray at a time;
+* :class:`Wavefronts` (JIT variants) walks it level by level: a *wavefront* holds the rays of
+  one level for a whole pass of camera samples, and no Python runs per ray.
+
+Under total internal reflection both children would be the very same ray, and inside a
+glass ball that traps light the tree would double at every bounce. So the mirror ray is
+traced once, with weight ``w·(KR + KT)``: exact, since the color is linear in the weights.
+It still counts as a reflection ray and as a refraction ray (``Child.merged``), as the
+article's recursion traces both. Code for an effect the scene lacks (:func:`.scene_tables.analyse`)
+is left out of the kernels.
+
+Adaptive depth control (Hall and Greenberg 1983; POV-Ray's ``adc_bailout``). A ray's color
+reaches its pixel multiplied by its path weight. Inside a glass ball that traps light the
+weights fall by a few percent a bounce, and the tree goes on to whatever depth is allowed,
+for a change the 8-bit image cannot show. So branches are left untraced as long as
+together they cannot change any pixel by more than ``min_weight`` (default 1/255; 0 traces
+the exact tree). Every ray carries an *allowance* ``a``: how much path weight may still be
+left untraced in its subtree. A camera ray starts with ``ε = min_weight / L``, ``L`` the
+brightest color any ray can bring back (:func:`brightest`). Where a ray spawns children of
+weights ``w1 <= w2`` (a missing child has weight 0), :func:`split` culls the lighter child
+if ``w1 <= a``, then the heavier one too if ``w2 <= a - w1``, and otherwise traces it with
+allowance ``a - w1``; if ``w1 > a`` it traces both, each with allowance ``a/2``. The weights
+culled at a ray plus its traced children's allowances add up to at most its own allowance,
+so the weights culled from one camera ray's tree add up to at most ``ε``. A culled ray of
+weight ``w`` would have added at most ``w·L`` to its sample (a ray's color mixes point
+colors and the background with weights adding up to at most 1), so culling darkens each
+pixel by at most ``ε·L = min_weight`` in every channel. The render reports the bound it
+reached, the largest weight culled from one sample times ``L`` (``error_bound`` in
+``whitted render --stats``). The rule looks at one ray and its children only, so the tree
+does not depend on the walk or on how wavefronts are split.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, fields
+
+import drjit as dr
+import mitsuba as mi
+
+from .hits import (TINY, SurfaceLookup, cos_incidence, facing_normal, off, reflect, refract,
+                   relative_ior, scene_hits, spawn_ray, spawn_ray_to, unit)
+
+#: default camera samples per pass (and widest wavefront): a level holds about 100 bytes per
+#: lane, so a pass stays around 100 MiB
+SAMPLES_PER_PASS = 1 << 20
+#: the same when the tree has a single level: then one kernel traces, shades and splats each
+#: sample, storing nothing per lane; but it is one kernel, which Ctrl-C cannot stop, and 2^21
+#: samples keep it short (well under a second on 2 cores: benchmarks/RESULTS.md)
+SAMPLES_PER_FLAT_PASS = 1 << 21
+#: ε is taken this much smaller than ``min_weight / L``: float32 round-off in the allowances
+#: of up to 64 levels (a few ulps each) cannot then push the bound past ``min_weight``
+ROUND_OFF_MARGIN = 1e-5
+
+
+@dataclass
+class Branch:
+    """Rays of one level of the tree with their path weights: a wavefront (JIT variants) or
+    a single ray (scalar). ``allowance``: the path weight that may still be left untraced
+    below each ray (None: the exact tree); ``total``: the sum of the weights, for progress."""
+    ray: object      # mi.Ray3f
+    weight: object   # mi.Float
+    level: int       # primary rays have level 1
+    allowance: object = None   # mi.Float
+    total: float = 0.0
+
+
+@dataclass
+class Child:
+    """A branch one level down, on which lanes it is traced, and (a reflection) the lanes
+    where the ray also carries the refracted share (total internal reflection)."""
+    kind: str        # "reflection" or "refraction"
+    branch: Branch
+    traced: object   # mi.Bool
+    merged: object = None
+
+
+class Recursion:
+    """The article's model for one scene and render, walked depth first (scalar variants).
+
+    ``analysis``: :class:`~.scene_tables.SceneAnalysis`; ``epsilon``: each camera ray's
+    allowance (0: the exact tree); ``attached``: the parameters' own Dr.Jit values
+    (:class:`.gradients.Attached`) for a differentiable render.
+    """
+
+    #: camera samples per pass when the integrator's ``wavefront_size`` is 0 (automatic)
+    samples_per_pass = 1 << 10
+
+    def __init__(self, scene, analysis, ambient: float, lighting: str, exact_spheres=(),
+                 epsilon: float = 0.0, hide_background: bool = False, attached=None):
+        self.physical = lighting == "physical"
+        self.hide_background = hide_background   # Mitsuba's ``hide_emitters``
+        # Per-render constants are opaque: kernels are reused across scenes.
+        self.ambient = dr.opaque(mi.Float, analysis.ambient(ambient)) \
+            if attached is None or not analysis.has("ambient") else attached.ambient
+        need_uv = analysis.has("textures")
+        self.hits = scene_hits(scene, analysis.tables, need_uv, exact_spheres)
+        # (position, strength, (error bound, normal) of a sphere the light sits on); article
+        # lighting uses the light's color, physical lighting its intensity (divided by r^2)
+        self.lights = []
+        for k, light in enumerate(analysis.lights):
+            error, normal = self.hits.surface_at(light.position)
+            position, strength = (dr.opaque(mi.Point3f, light.position),
+                                  dr.opaque(mi.Color3f, light.intensity if self.physical
+                                            else light.color)) \
+                if attached is None else attached.lights[k]
+            self.lights.append((position, strength, (dr.opaque(mi.Float, error),
+                                dr.opaque(mi.Vector3f, normal)) if error else None))
+        self.environment = analysis.environment
+        self.reflection = analysis.has("reflection")
+        self.refraction = analysis.has("refraction")
+        self.shadows = analysis.has("shadows")
+        self.surfaces = SurfaceLookup(analysis.surfaces, analysis.material_table if attached is None
+                                      else attached.material_table, need_ior=self.refraction)
+        self.depth = analysis.depth
+        self.epsilon = epsilon
+        self.tally = Tally()
+        self.deepest = 0   # the deepest level that traced a ray
+        #: whether :attr:`camera_hit` is wanted (an alpha channel): computed with the camera
+        #: rays' level, not again afterwards
+        self.keep_camera_hit = False
+        self.camera_hit = None   # mi.Bool: which camera rays of the last :meth:`trace` hit
+        #: the ray tree of a pixel (whitted/trace/record.py; None in a render): ``record``, a
+        #: dict that :meth:`step` fills with each level's terms, and ``recorder``, shown
+        #: every level: ``recorder.level(branch, color, hit, children)``
+        self.record = None
+        self.recorder = None
+
+    def step(self, branch: Branch):
+        """The rays of ``branch``: their color (already weighted), the weight culled below each
+        ray (None when the tree is traced exactly) and their children."""
+        ray, weight, level = branch.ray, branch.weight, branch.level
+        self.deepest = max(self.deepest, level)
+        camera = level == 1
+        record = self.record
+        hit, si, bsdf, error = self.hits.intersect(ray, camera)   # (camera rays are coherent)
+        if record is not None:
+            record.clear()
+            record.update(si=si, lights=[])
+        if camera and self.keep_camera_hit:
+            self.camera_hit = hit
+            if dr.is_jit_v(mi.Float):
+                dr.schedule(hit)   # evaluated by the level's own kernel
+
+        # A ray that escapes sees the background.
+        color = mi.Color3f(0)
+        if self.environment is not None and not (camera and self.hide_background):
+            si_out = dr.zeros(mi.SurfaceInteraction3f)
+            si_out.wi = -ray.d
+            color = dr.select(hit, color, weight * self.environment.eval(si_out))
+        if off(hit):   # a single ray that missed: no shape to ask for a material
+            if self.recorder is not None:
+                self.recorder.level(branch, color, hit, [])
+            return color, None, []
+
+        # At a hit: B·(A + (1 - A)·Σ s·light) (article) or (B/π)·Σ I·max(0, N'·L)/r² (physical),
+        # s = 0 where the segment to the light is blocked (every sphere blocks it, transparent
+        # ones too), weighted 1 - KR - KT.
+        v = ray.d
+        n_facing, inside = facing_normal(v, si.n)
+        surface = self.surfaces.lookup(si, bsdf, hit)
+        direct = mi.Color3f(0)
+        for position, strength, on_surface in self.lights:
+            to_light = position - si.p
+            dist2 = dr.squared_norm(to_light)
+            cos = dr.dot(n_facing, to_light) * dr.rsqrt(dr.maximum(dist2, TINY))
+            facing = hit & (dist2 > 0) & (cos > 0)
+            terms = None
+            if record is not None:
+                terms = {"position": position, "strength": strength, "facing": facing, "cos": cos}
+                record["lights"].append(terms)
+            if off(facing):
+                continue
+            if self.physical:
+                strength = strength * dr.rcp(dr.maximum(dist2, TINY))
+            lit = dr.select(facing, cos * strength, 0)
+            if self.shadows:
+                self.tally.add("shadow", facing)
+                # The shadow ray leaves the hit moved off its surface by its error bound and
+                # ends off the surface the light sits on. (Visibility is not differentiated.)
+                shadow_ray = spawn_ray_to(si, error, dr.detach(position), *(on_surface or ()))
+                shadowed = self.hits.blocked(shadow_ray, facing)
+                if terms is not None:
+                    terms.update(ray=shadow_ray, shadowed=shadowed)
+                lit = dr.select(shadowed, 0, lit)
+            if terms is not None:
+                terms.update(value=lit)
+            direct += lit
+        if self.physical:
+            point = surface.base * dr.inv_pi * direct
+        else:
+            point = surface.base * (self.ambient + (1 - self.ambient) * direct)
+        color = dr.select(hit, weight * (1 - surface.reflect - surface.refract) * point, color)
+        if record is not None:
+            record.update(n_facing=n_facing, inside=inside, surface=surface, point=point)
+
+        # The reflected ray (weight w·KR) and the refracted one (w·KT), the mirror ray under
+        # total internal reflection; one ray with both shares where they coincide.
+        spawned = []
+        if level < self.depth and (self.reflection or self.refraction):
+            c1 = cos_incidence(v, n_facing)
+            mirror = unit(reflect(v, n_facing, c1))
+            kr, kt, merged = surface.reflect, surface.refract, None
+            if self.refraction:
+                t, tir = refract(v, n_facing, c1, relative_ior(surface.ior, inside))
+                if record is not None:
+                    record["tir"] = tir
+                refracted = spawn_ray(si, error, dr.select(tir, mirror, unit(t)))
+                if self.reflection:   # the mirror ray carries both shares
+                    merged = tir & (kr > 0) & (kt > 0)
+                    kr, kt = kr + dr.select(merged, kt, 0), dr.select(merged, 0, kt)
+            if self.reflection:
+                spawned.append(("reflection", spawn_ray(si, error, mirror),
+                                dr.select(hit, weight * kr, 0), merged))
+            if self.refraction:
+                spawned.append(("refraction", refracted, dr.select(hit, weight * kt, 0), None))
+        if not spawned:
+            if self.recorder is not None:
+                self.recorder.level(branch, color, hit, [])
+            return color, None, []
+
+        # Adaptive depth control: which children are traced, with what allowance.
+        weights = [w for _, _, w, _ in spawned]
+        if branch.allowance is None:
+            traced, allowance, culled = [w > 0 for w in weights], None, None
+        else:
+            first, second, allowance, culled = split(weights[0], weights[1] if len(weights) > 1
+                                                     else 0.0, branch.allowance)
+            traced = [first, second][:len(weights)]
+        children = [Child(kind, Branch(child_ray, w, level + 1, allowance), is_traced, merged)
+                    for (kind, child_ray, w, merged), is_traced in zip(spawned, traced)]
+        if self.recorder is not None:
+            self.recorder.level(branch, color, hit, children)
+        for child in children:
+            self.tally.add(child.kind, child.traced)
+            if child.merged is not None:   # one ray, counted as both kinds
+                self.tally.add("refraction", child.traced & child.merged)
+                self.tally.add("merged", child.traced & child.merged)
+            if culled is not None:
+                lost = dr.select(child.traced, False, child.branch.weight > 0)
+                self.tally.add("culled", lost)
+                if child.merged is not None:
+                    self.tally.add("culled", lost & child.merged)
+                self.tally.add_total("culled_weight", child.branch.weight, lost)
+        return color, culled, children
+
+    # -- the depth-first walk (scalar variants) ---------------------------------------------------
+
+    def camera_branch(self, ray) -> Branch:
+        return Branch(ray, mi.Float(1), 1, dr.opaque(mi.Float, self.epsilon) if self.epsilon > 0
+                      else None)
+
+    def trace(self, ray, progress=None):
+        """The color of the camera rays ``ray``: the sum of ``w·contribution`` over their trees.
+        ``progress``, when given, is called with the number of camera samples finished since
+        its last call (a sample in the proportion of its path weight shaded or culled)."""
+        color, culled = self._trace(self.camera_branch(ray))
+        if culled is not None:
+            self.tally.note_max("sample_culled_weight", culled)
+        if progress is not None:
+            progress(1)
+        return color
+
+    def _trace(self, branch):
+        """The color of ``branch``'s tree and the weight culled from it (None: traced exactly)."""
+        color, culled, children = self.step(branch)
+        for child in children:
+            if child.traced:
+                child_color, child_culled = self._trace(child.branch)
+                color = color + child_color
+                if child_culled is not None:   # (None below a leaf, or everywhere when exact)
+                    culled = culled + child_culled
+        return color, culled
+
+    @staticmethod
+    def passes(total: int, per_pass: int):
+        """``(first, count)`` of each pass of ``per_pass`` samples over ``total`` camera samples."""
+        return [(first, min(per_pass, total - first)) for first in range(0, total, per_pass)]
+
+    def samples(self, count: int):
+        """The sample indices 0 … count - 1 of a pass, as the walk takes them."""
+        return range(count)   # one camera sample at a time
+
+    def finish_pass(self) -> None:
+        """Make a pass's work (its image block's accumulation) done before the next one."""
+
+
+def recursion(scene, analysis, integrator, attached=None) -> Recursion:
+    """The recursion of a render of ``scene`` (its :class:`~.scene_tables.SceneAnalysis`) by
+    the Whitted ``integrator``, walked as the current variant can: wavefronts need Dr.Jit
+    arrays to gather a level's rays into (JIT variants)."""
+    bright = brightest(analysis, integrator.lighting, analysis.ambient(integrator.ambient)) \
+        if integrator.min_weight > 0 else None
+    args = (scene, analysis, integrator.ambient, integrator.lighting, integrator.exact_spheres,
+            allowance(integrator.min_weight, bright), integrator.hide_emitters, attached)
+    walk = Wavefronts(*args, lanes=integrator.wavefront_size or SAMPLES_PER_PASS) \
+        if dr.is_jit_v(mi.Float) else Recursion(*args)
+    walk.bright = bright
+    return walk
+
+
+# -- the wavefront walk (JIT variants) ------------------------------------------------------------
+
+class Wavefronts(Recursion):
+    """The tree walked level by level. Shading a wavefront (a :class:`Branch` of Dr.Jit arrays)
+    gives each lane's color and one wavefront of children holding only the lanes really traced
+    (``dr.compress``), each with the lane of its parent: one kernel shades a level, a small one
+    packs its children. The walk goes down a wavefront's children before adding their colors
+    back to their parents, each parent's first child and then its second, in a fixed order:
+    the image is the same bits at any thread count. Wavefronts wider than ``lanes`` are split,
+    so that trees which double at each level still run in bounded memory."""
+
+    def __init__(self, *args, lanes: int):
+        super().__init__(*args)
+        self.lanes = lanes
+        self.samples_per_pass = SAMPLES_PER_PASS if self.depth > 1 else SAMPLES_PER_FLAT_PASS
+
+    def samples(self, count: int):
+        return [dr.arange(mi.UInt32, count)]   # the whole pass is one wavefront
+
+    def finish_pass(self) -> None:
+        dr.eval()          # the pass's kernels and side effects (the block's accumulation)
+        dr.sync_thread()   # so that progress reports finished work
+
+    def trace(self, ray, progress=None):
+        # A wavefront's width is its ray's widest field: the rays of a sensor may share their
+        # origin (a pinhole) or their direction (orthographic, distant), held as one value.
+        count = dr.width(ray)
+        camera = self.camera_branch(ray)
+        camera.total = float(count)
+        walk = _Progress(count, progress)
+        color, culled = self._subtree(camera, walk)
+        walk.finish()
+        if culled is not None:
+            self.tally.note_max("sample_culled_weight", culled)
+        return color
+
+    def _subtree(self, front, walk):
+        """The color of each lane's tree below and including ``front`` and the weight culled
+        from it (None: traced exactly): its own, plus its first child's tree, plus its second
+        child's, in that order, as the depth-first walk adds them (an atomic add of every
+        level into its camera sample would add in the order the threads finish)."""
+        if front.level > 1 and dr.width(front.ray) > self.lanes:   # a pass's camera rays fit
+            return self._pieces(front, walk)
+        color, culled, children = self.step(front)
+        below = self._next_level(front, children, (color, culled), walk.reports) \
+            if children else None
+        walk.shaded(front, below)
+        if below is not None:
+            child, parent, second = below
+            child_color, child_culled = self._subtree(child, walk)
+            width = dr.width(front.ray)   # (a camera wavefront's weight is one literal 1)
+            color = color + _to_parents(child_color, parent, second, False, mi.Color3f, width) \
+                + _to_parents(child_color, parent, second, True, mi.Color3f, width)
+            if child_culled is not None:
+                culled = culled \
+                    + _to_parents(child_culled, parent, second, False, mi.Float, width) \
+                    + _to_parents(child_culled, parent, second, True, mi.Float, width)
+            dr.eval(color, culled)   # (a single-level tree is left lazy: it may run in a loop)
+        return color, culled
+
+    def _pieces(self, front, walk):
+        """:meth:`_subtree` of a wavefront too wide for one, a piece of ``lanes`` at a time."""
+        pieces = self._split(front, walk.reports)
+        walk.replaced(front, pieces)
+        n = dr.width(front.ray)
+        color, culled = dr.zeros(mi.Color3f, n), None
+        for start, piece in pieces:
+            lane = dr.arange(mi.UInt32, dr.width(piece.weight)) + dr.opaque(mi.UInt32, start)
+            piece_color, piece_culled = self._subtree(piece, walk)
+            dr.scatter(color, piece_color, lane)
+            if piece_culled is not None:
+                if culled is None:
+                    culled = dr.zeros(mi.Float, n)
+                dr.scatter(culled, piece_culled, lane)
+            dr.eval(color, culled)
+        return color, culled
+
+    def _next_level(self, front, children, sums, with_total: bool):
+        """The wavefront of ``children``: only their traced lanes, siblings side by side; with
+        the lane of ``front`` each came from and whether it is the second child (None: there is
+        one kind of child). None when no child is traced."""
+        # One kernel shades this level, computes its color, and stores the children ...
+        dr.eval(sums, [(c.branch.ray.o, c.branch.ray.d, c.branch.weight, c.branch.allowance,
+                        c.traced) for c in children])
+        # ... then the traced children of every kind are packed into one wavefront,
+        # interleaved so that siblings stay next to each other.
+        if len(children) == 1:
+            lane = dr.compress(children[0].traced)
+        else:
+            slot = dr.arange(mi.UInt32, 2 * dr.width(children[0].traced))
+            lane = dr.compress(dr.select((slot & 1) == 1,
+                                         dr.gather(mi.Bool, children[1].traced, slot >> 1),
+                                         dr.gather(mi.Bool, children[0].traced, slot >> 1)))
+        if dr.width(lane) == 0:
+            return None
+        parent, second = (lane, None) if len(children) == 1 else (lane >> 1, (lane & 1) == 1)
+
+        def gather(tp, field):
+            """``field`` of each traced child, from the child of its kind."""
+            if second is None:
+                return dr.gather(tp, field(children[0]), parent)
+            return dr.select(second, dr.gather(tp, field(children[1]), parent, second),
+                             dr.gather(tp, field(children[0]), parent, ~second))
+
+        ray = mi.Ray3f(gather(mi.Point3f, lambda c: c.branch.ray.o),
+                       gather(mi.Vector3f, lambda c: c.branch.ray.d))
+        weight = gather(mi.Float, lambda c: c.branch.weight)
+        # the allowance is the same for both children of a ray (see split)
+        allowance = None if front.allowance is None \
+            else dr.gather(mi.Float, children[0].branch.allowance, parent)
+        dr.eval(parent, second)
+        child = Branch(ray, weight, front.level + 1, allowance,
+                       float(dr.sum(weight)[0]) if with_total else 0.0)
+        return child, parent, second
+
+    def _split(self, front, with_total: bool):
+        """``front`` cut into wavefronts of at most ``lanes`` lanes, each with its first lane."""
+        dr.eval(front.ray, front.weight, front.allowance)
+        n = dr.width(front.weight)
+        pieces = []
+        for start in range(0, n, self.lanes):
+            lane = dr.arange(mi.UInt32, min(self.lanes, n - start)) + dr.opaque(mi.UInt32, start)
+            weight = dr.gather(mi.Float, front.weight, lane)
+            pieces.append((start, Branch(
+                mi.Ray3f(dr.gather(mi.Point3f, front.ray.o, lane),
+                         dr.gather(mi.Vector3f, front.ray.d, lane)),
+                weight, front.level,
+                None if front.allowance is None else dr.gather(mi.Float, front.allowance, lane),
+                float(dr.sum(weight)[0]) if with_total else 0.0)))
+        return pieces
+
+
+def _to_parents(value, parent, second, which: bool, tp, width: int):
+    """``value`` of each child lane at its parent's lane (0 where that parent has no such
+    child): the first children's (``which`` False) or the second children's. A parent has at
+    most one child of each kind, so each is a plain scatter, with no order to depend on."""
+    out = dr.zeros(tp, width)
+    if second is None:
+        if not which:
+            dr.scatter(out, value, parent)
+        return out
+    dr.scatter(out, value, parent, second if which else ~second)
+    return out
+
+
+class _Progress:
+    """Progress of one pass's trees, reported to ``progress`` (when given) as the camera
+    samples' path weight still to be shaded shrinks: a wavefront shaded takes its weight off
+    and adds its children's. Python has control between levels: Ctrl-C lands there."""
+
+    def __init__(self, count: int, progress):
+        self.count, self.progress = count, progress
+        self.reports = progress is not None
+        self.pending, self.done = float(count), 0.0
+
+    def shaded(self, front, below) -> None:
+        if self.reports:
+            self.pending -= front.total - (below[0].total if below is not None else 0.0)
+            self._report()
+
+    def replaced(self, front, pieces) -> None:
+        if self.reports:
+            self.pending -= front.total - sum(piece.total for _, piece in pieces)
+            self._report()
+
+    def _report(self) -> None:
+        finished = self.count - self.pending
+        if finished > self.done:
+            self.progress(finished - self.done)
+            self.done = finished
+
+    def finish(self) -> None:
+        if self.reports and self.count > self.done:
+            self.progress(self.count - self.done)
+
+
+# -- adaptive depth control (the module docstring) ------------------------------------------------
+
+def allowance(min_weight: float, bright) -> float:
+    """The camera rays' allowance ε for a ``min_weight`` and a brightest color ``bright``
+    (:func:`brightest`): 0 (the exact tree) when either is 0 or no bound is known."""
+    if min_weight <= 0 or bright is None:
+        return 0.0
+    return min_weight / max(bright, 1e-30) * (1 - ROUND_OFF_MARGIN)
+
+
+def split(w1, w2, a):
+    """The rule for children of weights ``w1`` and ``w2`` under allowance ``a``: ``(traced1,
+    traced2, allowance, culled)``, ``allowance`` being that of either traced child and
+    ``culled`` the weight left untraced."""
+    first_is_lighter = w1 <= w2
+    light, heavy = dr.minimum(w1, w2), dr.maximum(w1, w2)
+    light_traced = light > a
+    rest = dr.select(light_traced, 0.5 * a, a - light)
+    heavy_traced = heavy > rest
+    culled = dr.select(light_traced, 0, light) + dr.select(heavy_traced, 0, heavy)
+    return (dr.select(first_is_lighter, light_traced, heavy_traced),
+            dr.select(first_is_lighter, heavy_traced, light_traced), rest, culled)
+
+
+def brightest(analysis, lighting: str, ambient: float):
+    """An upper bound on every channel of every ray's color in the scene of ``analysis``, or
+    None (a texture or an environment whose largest value is not known here).
+
+    Article lighting: ``B·(A + (1 - A)·Σ s·light)`` with ``s <= 1`` is at most
+    ``max B · (A + (1 - A)·Σ max light)``. Physical lighting: ``(B/π)·Σ I·cos/r²`` is at most
+    ``(max B/π)·Σ max I/d²``, d the distance from the light to the nearest surface (None when
+    a light sits on one). A ray that escapes gets the background. The bound is the largest of
+    these, times ``(max KR + KT)^(depth-1)`` when round-off lets KR + KT exceed 1.
+    """
+    tables = analysis.tables
+    base, gain = analysis.surfaces.largest_base(), analysis.surfaces.largest_gain()
+    if base is None or tables.background is None:
+        return None
+    if lighting == "physical":
+        lit = 0.0
+        for light in analysis.lights:
+            distance = tables.primitives.distance_to_surfaces(light.position)
+            if distance <= 0:
+                return None
+            lit += max(light.intensity) / distance ** 2
+        point = base * lit / math.pi
+    else:
+        lit = sum(max(light.color) for light in analysis.lights)
+        point = base * (ambient + (1 - ambient) * lit)
+    return max(point, tables.background) * max(1.0, gain) ** (analysis.depth - 1)
+
+
+# -- what a render counts -------------------------------------------------------------------------
+
+@dataclass
+class RayCounts:
+    """Rays traced by one render (``whitted render --stats``).
+
+    A refracted share sent along the mirror direction by total internal reflection still
+    counts as a refraction ray; when the surface also reflects, that ray and the reflected
+    one are traced once, as one of each kind, and ``merged`` counts such rays: the rays
+    traced are ``camera + shadow + reflection + refraction - merged``. ``culled`` counts the
+    reflected and refracted rays the adaptive depth control left untraced (one that would
+    have carried both shares counts twice), ``culled_weight`` sums their path weights, and
+    ``sample_culled_weight`` is the largest sum of them in one camera sample's tree.
+    """
+    camera: int = 0
+    shadow: int = 0
+    reflection: int = 0
+    refraction: int = 0
+    merged: int = 0
+    max_depth_reached: int = 0
+    culled: int = 0
+    culled_weight: float = 0.0
+    sample_culled_weight: float = 0.0
+
+    def rays(self) -> dict:
+        return {kind: getattr(self, kind)
+                for kind in ("camera", "shadow", "reflection", "refraction")}
+
+
+class Tally:
+    """Running counts of one render, named as :class:`RayCounts`' fields. In the JIT variants
+    each is a one-element array that the kernels add to atomically (``dr.scatter_reduce``,
+    deferred into the kernel that computes the mask) and that is read back once, at the end;
+    the scalar variants' counts are Python numbers, as their masks are."""
+
+    def __init__(self):
+        self._jit = dr.is_jit_v(mi.Float)
+        self._sums = {}
+
+    def add(self, name: str, mask) -> None:
+        """Count the set lanes of ``mask``."""
+        self._add(name, mi.UInt32, 1, mask)
+
+    def add_total(self, name: str, value, mask) -> None:
+        """Add up ``value`` over the set lanes of ``mask`` (in double precision: millions of
+        small terms are added one after the other)."""
+        self._add(name, mi.Float64, mi.Float64(value), mask)
+
+    def note_max(self, name: str, value) -> None:
+        """Keep the largest of ``value``'s lanes (and of those noted before)."""
+        self._add(name, mi.Float, value, True, dr.ReduceOp.Max)
+
+    def _add(self, name, tp, value, mask, op=dr.ReduceOp.Add):
+        if not self._jit:
+            if mask:
+                old = self._sums.get(name, 0)
+                self._sums[name] = old + value if op == dr.ReduceOp.Add else max(old, value)
+            return
+        if name not in self._sums:
+            self._sums[name] = dr.zeros(tp, 1)
+            dr.make_opaque(self._sums[name])
+        dr.scatter_reduce(op, self._sums[name], value, mi.UInt32(0), mask)
+
+    def read(self, **known) -> RayCounts:
+        """The counts as Python numbers, with ``known`` ones (e.g. ``camera``) added."""
+        kinds = {f.name: f.type for f in fields(RayCounts)}
+        values = {name: (float if kinds[name] == "float" else int)(value[0] if self._jit else value)
+                  for name, value in self._sums.items()}
+        return RayCounts(**{**values, **known})

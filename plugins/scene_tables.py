@@ -1,0 +1,536 @@
+"""What the Whitted integrator reads from a scene, and what a render of it calls for.
+
+:class:`SceneTables` holds, built in one pass, the scene's lights, background, materials
+(one table: base color B, KR, KT, IOR and texture slot per BSDF, looked up at a hit by
+:class:`.hits.SurfaceLookup`) and primitives (:mod:`.primitives`); :func:`analyse` says which
+effects a render calls for (:class:`SceneAnalysis`).
+
+Why tables. In the JIT variants a per-instance method call for every material would make
+Dr.Jit trace one Python function per BSDF, which does not scale to scenes of thousands of
+spheres. Instead the materials' numbers sit in a table indexed by the BSDF's instance ID
+(a ``BSDFPtr`` reinterpreted as an integer): a lookup is a handful of gathers whatever the
+number of materials. Textures are the exception: each textured material evaluates its own
+texture, only on the lanes that hit it. The scalar variant reads the same numbers, by the
+hit BSDF's row.
+
+Kept between renders. Building the tables takes a pass over the shapes, which a scene of
+tens of thousands of spheres feels, while they only change when the scene does. So they
+are kept, and :func:`scene_tables`, which every render calls first, checks them against
+what they were built from and what costs little to read: each shape's bounding box, each
+``ellipsoids`` shape's data array, each textured sphere's ``to_world``, the lights and the
+background, and how many times each ``article`` BSDF has changed (its ``changes``, which
+Mitsuba's own ``parameters_changed`` counts: no BSDF knows of the tables). When one
+differs, the tables are built afresh. So an edit made the Mitsuba way (``params =
+mi.traverse(scene)``, ``params[...] = ...``, ``params.update()``) shows in the next render
+without the integrator being told, and no Mitsuba class is touched. (A shape edited
+through its own ``mi.traverse(shape)`` reaches no scene: Mitsuba's own ray tracing of it
+is then stale as well, and so are the tables.)
+
+Which scene. Scenes take neither Python attributes nor weak references, so tables are
+kept by the scene's address, and a scene is recognised by a *witness* held with them: in
+the JIT variants the Dr.Jit arrays of its shapes, emitters and sensors (a held variable's
+index is never reused, so a new scene at the address of a dead one has other ones), in
+``scalar_rgb`` its first shape, emitter or sensor object (:class:`KeptByScene`).
+
+The article's light color is read back from Mitsuba's radiant intensity
+(:func:`article_color`): the converter writes a light of color c at distance d from the
+scene's ``lookat`` as ``I = c·π·d²``, and the integrator's ``light_reference`` is that
+``lookat`` in the frame the converter writes (docs/numerics.md, hazard 6b).
+
+Effect names (also reported by ``whitted render --stats``):
+
+``lights``      point lights: the direct term and its shadow rays
+``reflection``  a surface with KR > 0, and a max depth above 1
+``refraction``  a surface with KT > 0, and a max depth above 1
+``textures``    a surface whose base color varies over it (a bitmap)
+``background``  an environment emitter (the scene's non-black background)
+
+A scene without mirrors gets no reflection code and spawns no reflection rays, a scene
+without lights traces no shadow rays, and a scene without reflective or transparent
+surfaces is traced to depth 1 whatever its ``max_depth``. What a render leaves out on
+request (the integrator's ``without``, ``whitted render --without``:
+:data:`whitted.defaults.SWITCHABLE_EFFECTS`) is decided here too, as if the scene lacked
+it; each is the same image, bit for bit, as a scene edited so:
+
+``shadows``     no shadow test: every light is seen from every point facing it (no
+                shadow rays)
+``reflection``  no reflected rays: a mirror keeps its diffuse share ``(1 - KR - KT)·point``
+                and its share KR is dropped (black), as at the tree's last level
+``refraction``  no refracted rays, likewise for KT (without both: ``max_depth`` 1)
+``textures``    a textured sphere has the plain color the scene gives it: white, the
+                format's default (the converter keeps no color beside a texture)
+``diffuse``     no light's term: a point's color is ``B·A`` (article) or 0 (physical), as
+                in a scene without lights (so no shadow rays either)
+``ambient``     A = 0, as ``ambient 0`` in the file
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+from collections import OrderedDict
+from dataclasses import dataclass, field
+
+import drjit as dr
+import mitsuba as mi
+import numpy as np
+
+from whitted.defaults import SWITCHABLE_EFFECTS
+from whitted.errors import WhittedError
+
+from .primitives import Primitives, bounds, bsdf_key, corners, layers
+
+#: how many scenes' tables are kept (the least recently used go first)
+SCENES = 8
+
+
+# -- lights ---------------------------------------------------------------------------------------
+
+def floats(value) -> tuple[float, ...]:
+    """A Mitsuba vector or color (scalar or width-1 JIT array) as Python floats."""
+    return tuple(float(x) for x in np.array(value, dtype=np.float64).reshape(-1))
+
+
+def article_color(intensity, position, reference) -> tuple[float, float, float]:
+    """The article's light color ``I / (pi d^2)`` (d = |position - reference|, 1 when 0)."""
+    d2 = sum((p - r) ** 2 for p, r in zip(position, reference))
+    if d2 == 0.0:
+        d2 = 1.0
+    return tuple(i / (math.pi * d2) for i in intensity)
+
+
+def _point_light(emitter) -> tuple:
+    """``(position, intensity)`` of a point emitter."""
+    params = mi.traverse(emitter)
+    if "position" not in params or "intensity.value" not in params:
+        raise WhittedError(f"the whitted integrator cannot read the point light {emitter.id()!r}: "
+                           "give it a 'position' and an RGB 'intensity'")
+    position = floats(params["position"])
+    intensity = floats(params["intensity.value"])
+    if len(intensity) == 1:
+        intensity = intensity * 3
+    return position, intensity
+
+
+def point_lights(scene) -> tuple[tuple, ...]:
+    """``(position, intensity)`` of every point light of ``scene``; a clean error for an
+    emitter the integrator cannot render (neither a point light nor the environment)."""
+    lights = []
+    for emitter in scene.emitters():
+        if emitter.is_environment():
+            continue
+        if emitter.class_name() != "PointLight":
+            raise WhittedError(f"the whitted integrator cannot render the emitter {emitter.id()!r} "
+                               f"(a {emitter.class_name()}): it renders point lights and a "
+                               "background only")
+        lights.append(_point_light(emitter))
+    return tuple(lights)
+
+
+def largest_emission(emitter) -> float | None:
+    """The largest channel of a constant environment's radiance (None for other emitters)."""
+    params = mi.traverse(emitter)
+    if emitter.class_name() != "ConstantBackgroundEmitter" or "radiance.value" not in params:
+        return None
+    return float(np.array(params["radiance.value"], np.float64).max())
+
+
+# -- materials ------------------------------------------------------------------------------------
+
+#: columns of a :func:`material_row`
+KEY, TEXTURED, COLOR, REFLECT, REFRACT, IOR = 0, 1, slice(2, 5), 5, 6, 7
+
+
+def uniform_color(texture) -> tuple[float, float, float]:
+    """The color of a texture that does not vary over the surface, as three floats
+    (read by indexing, which is much cheaper than numpy's conversion)."""
+    value = texture.eval(dr.zeros(mi.SurfaceInteraction3f))
+    color = tuple(float(c[0]) if dr.is_jit_v(c) else float(c) for c in value)
+    return color * 3 if len(color) == 1 else color
+
+
+def material_row(bsdf) -> tuple:
+    """An ``article`` BSDF as numbers: ``(key, textured, B, KR, KT, IOR)``, B being the
+    constant base color (zero when textured)."""
+    color = None if bsdf.color.is_spatially_varying() else uniform_color(bsdf.color)
+    return (bsdf_key(bsdf), float(color is None), *(color or (0.0, 0.0, 0.0)),
+            bsdf.reflect, bsdf.refract, bsdf.ior)
+
+
+@dataclass
+class Materials:
+    """A scene's distinct ``article`` BSDFs, one :func:`material_row` each (ordered by key).
+
+    ``textures`` maps the keys of textured materials to their color textures, in
+    order; ``largest_texel`` is the largest value any of them can return (None
+    when that is not known: a texture other than a bitmap).
+    """
+    key: np.ndarray
+    rows: np.ndarray                     # (n, 8)
+    textures: dict
+    largest_texel: float | None
+    bsdfs: list = None                   # the BSDF objects, in the rows' order
+
+    @classmethod
+    def of(cls, bsdfs) -> tuple["Materials", np.ndarray]:
+        """The distinct materials among ``bsdfs`` (``article`` BSDF objects, one per shape),
+        and each shape's material key. A material is read once, however many shapes share it."""
+        distinct = {}
+        for bsdf in bsdfs:
+            distinct.setdefault(id(bsdf), bsdf)
+        objects = list(distinct.values())
+        rows = np.array([material_row(bsdf) for bsdf in objects], np.float64).reshape(-1, 8)
+        key_of = dict(zip(distinct, rows[:, KEY].astype(np.int64).tolist()))
+        shape_keys = np.fromiter((key_of[id(bsdf)] for bsdf in bsdfs), np.int64, len(bsdfs))
+        order = np.argsort(rows[:, KEY], kind="stable")
+        rows = rows[order]
+        objects = [objects[k] for k in order.tolist()]
+        textures = {int(row[KEY]): bsdf.color for row, bsdf in zip(rows, objects) if row[TEXTURED]}
+        texels = [_largest_texel(texture) for texture in textures.values()]
+        materials = cls(rows[:, KEY].astype(np.int64), rows, textures,
+                        None if None in texels else max(texels, default=0.0), objects)
+        return materials, shape_keys
+
+    def untextured(self) -> "Materials":
+        """These materials with each texture replaced by the plain color white (the format's
+        default color: a textured sphere's ``color`` is not kept beside its texture)."""
+        if not self.textures:
+            return self
+        rows = self.rows.copy()
+        textured = rows[:, TEXTURED] != 0
+        rows[textured, COLOR] = 1.0
+        rows[:, TEXTURED] = 0.0
+        return Materials(self.key, rows, {}, 0.0, self.bsdfs)
+
+    @property
+    def reflective(self) -> bool:
+        return bool((self.rows[:, REFLECT] > 0).any())
+
+    @property
+    def refractive(self) -> bool:
+        return bool((self.rows[:, REFRACT] > 0).any())
+
+    @property
+    def textured(self) -> bool:
+        return bool(self.textures)
+
+    def largest_base(self) -> float | None:
+        """The largest channel B can take, textures included (None when a texture's is not known)."""
+        if self.largest_texel is None:
+            return None
+        return max(float(self.rows[self.rows[:, TEXTURED] == 0, COLOR].max(initial=0.0)), self.largest_texel)
+
+    def largest_gain(self) -> float:
+        """The largest KR + KT."""
+        return float((self.rows[:, REFLECT] + self.rows[:, REFRACT]).max(initial=0.0))
+
+    def table(self):
+        """``(row_of, columns)``: the materials' numbers by row, and each material's row by
+        key. ``columns`` are ``(type, table)`` pairs of color, KR, KT, IOR and texture slot
+        (0 untextured, k: the k-th of ``textures``).
+
+        A hit names its BSDF by instance ID in the JIT variants: the rows are the
+        instance IDs and the tables opaque Dr.Jit arrays, read by gathers. In the
+        scalar variant a hit hands over the BSDF itself, and ``dr.gather`` takes no
+        plain numbers: the rows are 1, 2, ... and the tables numpy arrays. Row 0 is no
+        material (a miss).
+        """
+        jit = dr.is_jit_v(mi.Float)
+        rows = self.key if jit else np.arange(1, len(self.key) + 1)
+        size = int(rows.max()) + 1 if len(rows) else 1
+        numbers = np.zeros((size, 8))
+        numbers[:, IOR] = 1.0
+        numbers[rows] = self.rows
+        slot = np.zeros(size, np.uint32)
+        slot[rows[np.isin(self.key, list(self.textures))]] = np.arange(1, len(self.textures) + 1)
+        columns = ((mi.Color3f, numbers[:, COLOR].T), (mi.Float, numbers[:, REFLECT]),
+                   (mi.Float, numbers[:, REFRACT]), (mi.Float, numbers[:, IOR]), (mi.UInt32, slot))
+        if jit:
+            columns = tuple((tp, tp(values)) for tp, values in columns)
+            dr.make_opaque(*(table for _, table in columns))
+        return (dict(zip(self.key.tolist(), rows.tolist())), columns)
+
+
+def _largest_texel(texture):
+    """The largest value a bitmap texture can return: its largest stored value (8- and 16-bit
+    ones read as v/255 and v/65535, which is at least their sRGB-decoded value); None for
+    other textures."""
+    params = mi.traverse(texture)
+    if "data" not in params:
+        return None
+    data = np.array(params["data"])
+    scale = {np.dtype(np.uint8): 255.0, np.dtype(np.uint16): 65535.0}.get(data.dtype, 1.0)
+    return float(data.max(initial=0.0)) / scale
+
+
+# -- the tables, kept by scene -------------------------------------------------------------------
+
+
+
+
+
+def _changes(bsdfs) -> tuple:
+    """How many times each ``article`` BSDF has been changed (``ArticleBSDF.changes``)."""
+    return tuple(bsdf.changes for bsdf in bsdfs)
+
+
+def _shape_types(scene, shapes) -> np.ndarray:
+    """Each shape's ``mi.ShapeType`` as an integer (one gather in the JIT variants)."""
+    if dr.is_jit_v(mi.Float):
+        return np.asarray(scene.shapes_dr().shape_type(), np.uint32).reshape(-1)
+    return np.array([int(shape.shape_type()) for shape in shapes], np.uint32)
+
+
+def _ellipsoid_data(shape):
+    """What an ``ellipsoids`` shape's primitives are read from: its data array (the Dr.Jit
+    array itself in the JIT variants, compared by variable index; a copy in scalar) and extent."""
+    params = mi.traverse(shape)
+    data = params["data"]
+    return (data if dr.is_jit_v(mi.Float) else np.array(data)), float(params["extent"])
+
+
+def _same_data(a, b) -> bool:
+    if dr.is_jit_v(mi.Float):
+        return a[0].index == b[0].index and a[1] == b[1]
+    return np.array_equal(a[0], b[0]) and a[1] == b[1]
+
+
+def _to_world(shape) -> tuple:
+    return tuple(np.array(mi.traverse(shape)["to_world"].matrix, np.float64).reshape(-1).tolist())
+
+
+class SceneTables:
+    """Everything the Whitted integrator reads from one state of a scene, built in one pass.
+
+    ============== =======================================================================
+    lights         ``(position, intensity)`` of each point light
+    environment    the environment emitter (the background) or None
+    background     the largest channel of its radiance (0 without one; None: not known)
+    materials      the distinct ``article`` BSDFs (:class:`Materials`)
+    material_table their numbers as lookup tables (:meth:`Materials.table`)
+    primitives     each primitive's bounding sphere and error bound (:class:`.primitives.Primitives`)
+    spheres_only   whether every primitive is a sphere (the JIT variants' sphere table applies)
+    sphere_shapes  whether a shape is a ``sphere`` shape (shadow rays must avoid its ray_test)
+    hit_tables     the primitives' Dr.Jit tables (JIT variants) or ``id(shape)`` table (scalar)
+    layers         spheres traced in frames of their own (:func:`.primitives.layers`)
+    layered        the indices of the shapes the layers hold
+    ============== =======================================================================
+
+    Raises :class:`~whitted.errors.WhittedError` when a shape lacks the ``article`` BSDF or
+    an emitter is neither a point light nor the environment.
+    """
+
+    def __init__(self, scene):
+        shapes = scene.shapes()
+        bsdfs = [shape.bsdf() for shape in shapes]
+        for shape, bsdf in zip(shapes, bsdfs):
+            if not getattr(bsdf, "is_article", False):
+                has = f"the BSDF {bsdf.class_name()}" if bsdf is not None else "no BSDF"
+                raise WhittedError(
+                    f"the whitted integrator cannot render {has} of shape {shape.id()!r} "
+                    f"(a {shape.class_name()}): it renders the 'article' BSDF only")
+        self.lights = point_lights(scene)
+        self.environment = scene.environment()
+        self.background = 0.0 if self.environment is None else largest_emission(self.environment)
+        self.materials, keys = Materials.of(bsdfs)
+        self.material_table = self.materials.table()
+        textured = np.isin(keys, list(self.materials.textures))
+        types = _shape_types(scene, shapes)
+        boxes = bounds(shapes)
+        jit = dr.is_jit_v(mi.Float)
+        rows = np.asarray(dr.reinterpret_array(mi.UInt32, scene.shapes_dr()), np.int64).reshape(-1) \
+            if jit and shapes else None
+        self.primitives = Primitives.read(shapes, corners(boxes), types, textured, rows, keys if jit else None)
+        self._types = types
+        self.spheres_only = bool(len(shapes)) and bool(self.primitives.sphere.all())
+        self.sphere_shapes = bool((types == int(mi.ShapeType.Sphere)).any())
+        if jit:   # with every primitive's sphere (a mesh's is its bounding sphere): see :meth:`_part`
+            self.hit_tables = self.primitives.tables(spheres=True)
+        else:
+            self.hit_tables = self.primitives.scalar_tables(shapes)
+        self.layers, self.layered = layers(shapes, types, self.primitives)
+        self._rest_scenes = {}
+        # what the tables were built from (:meth:`matches`)
+        self._boxes, self._changes = boxes, _changes(self.materials.bsdfs)
+        ellipsoids = types == int(mi.ShapeType.Ellipsoids)
+        self._ellipsoids = {k: _ellipsoid_data(shapes[k]) for k in np.flatnonzero(ellipsoids).tolist()}
+        spheres = types == int(mi.ShapeType.Sphere)
+        self._frames = {k: _to_world(shapes[k]) for k in np.flatnonzero(textured & spheres).tolist()}
+
+    def matches(self, scene) -> bool:
+        """Whether these tables are still those of ``scene`` (see the module docstring)."""
+        shapes = scene.shapes()
+        return (_changes(self.materials.bsdfs) == self._changes and bounds(shapes) == self._boxes
+                and all(_same_data(_ellipsoid_data(shapes[k]), data) for k, data in self._ellipsoids.items())
+                and all(_to_world(shapes[k]) == matrix for k, matrix in self._frames.items())
+                and point_lights(scene) == self.lights
+                and (scene.environment() is None) == (self.environment is None)
+                and (self.environment is None or largest_emission(scene.environment()) == self.background))
+
+    def rest(self, scene, left_out):
+        """``(rest_scene, tables)``: a scene of ``scene``'s shapes but those whose index is in
+        ``left_out`` (the same objects: the same instance IDs and BSDFs; None when no shape is
+        left), and its tables (:meth:`_part`); made once for each ``left_out``."""
+        key = tuple(sorted(left_out))
+        if key not in self._rest_scenes:
+            # keyed by the shapes' own ids: mi.load_dict names each shape by its key
+            rest = {shape.id() or f"shape_{k}": shape for k, shape in enumerate(scene.shapes()) if k not in left_out}
+            self._rest_scenes[key] = (mi.load_dict({"type": "scene", **rest}) if rest else None,
+                                      self._part(left_out))
+        return self._rest_scenes[key]
+
+    def _part(self, left_out) -> "SceneTables":
+        """These tables, for the scene of :meth:`rest` (its shape objects keep their instance
+        IDs, rows and primitives): only what depends on which shapes there are changes."""
+        part = copy.copy(self)
+        kept = np.ones(len(self._types), bool)
+        kept[list(left_out)] = False
+        shape_sphere = np.add.reduceat(~self.primitives.sphere, self.primitives.first) == 0 \
+            if len(self._types) else np.zeros(0, bool)
+        part.spheres_only = bool(kept.any()) and bool(shape_sphere[kept].all())
+        part.sphere_shapes = bool((self._types[kept] == int(mi.ShapeType.Sphere)).any())
+        part.layers, part.layered, part._rest_scenes = [], [], {}
+        return part
+
+
+def _witness(scene):
+    """Something that identifies ``scene`` while held, or None (nothing to keep)."""
+    if dr.is_jit_v(mi.Float):
+        arrays = (scene.shapes_dr(), scene.emitters_dr(), scene.sensors_dr())
+        return arrays if any(dr.width(a) for a in arrays) else None
+    for objects in (scene.shapes(), scene.emitters(), scene.sensors()):
+        if objects:
+            return objects[0]
+    return None
+
+
+def _same(witness, current) -> bool:
+    if isinstance(witness, tuple):
+        return all(a.index == b.index for a, b in zip(witness, current))
+    return witness is current
+
+
+class KeptByScene:
+    """Values kept for live scenes, by the scene's address and recognised by its witness
+    (see the module docstring); at most ``size``, the least recently used going first."""
+
+    def __init__(self, size: int):
+        self.size = size
+        self._kept: OrderedDict = OrderedDict()   # (variant, address) -> (witness, value)
+
+    def get(self, scene):
+        """The value kept for ``scene``, or None."""
+        kept = self._kept.get((scene.variant_name(), scene.ptr))
+        witness = _witness(scene)
+        if kept is None or witness is None or not _same(kept[0], witness):
+            return None
+        self._kept.move_to_end((scene.variant_name(), scene.ptr))
+        return kept[1]
+
+    def put(self, scene, value) -> None:
+        """Keep ``value`` for ``scene`` (nothing, for a scene with nothing to witness it)."""
+        witness = _witness(scene)
+        if witness is None:
+            return
+        address = (scene.variant_name(), scene.ptr)
+        self._kept.pop(address, None)
+        self._kept[address] = (witness, value)
+        while len(self._kept) > self.size:
+            self._kept.popitem(last=False)
+
+
+_kept = KeptByScene(SCENES)
+
+
+def scene_tables(scene) -> SceneTables:
+    """The :class:`SceneTables` of ``scene`` as it is now: the kept ones while they still
+    describe it, else new ones."""
+    tables = _kept.get(scene)
+    if tables is not None and tables.matches(scene):
+        return tables
+    tables = SceneTables(scene)
+    _kept.put(scene, tables)
+    return tables
+
+
+# -- what a render calls for ---------------------------------------------------------------------
+
+EFFECTS = ("lights", "reflection", "refraction", "textures", "background")
+
+
+@dataclass(frozen=True)
+class PointLight:
+    """A point emitter, with both readings of its strength: Mitsuba's radiant intensity I
+    (physical lighting divides it by r^2) and the article's light color ``I / (pi d^2)``
+    (:func:`article_color`, d measured to the integrator's ``light_reference``)."""
+    position: tuple[float, float, float]
+    intensity: tuple[float, float, float]
+    color: tuple[float, float, float]
+
+
+@dataclass
+class SceneAnalysis:
+    """The scene tables read for one render: lights, background, materials, effects and the
+    depth the tree needs."""
+    tables: SceneTables
+    lights: list[PointLight]             # the lights simulated (none without ``diffuse``)
+    max_depth: int                       # the depth asked for
+    without: frozenset = frozenset()     # what the render leaves out (the module docstring)
+    effects: tuple[str, ...] = field(init=False)
+    depth: int = field(init=False)       # the depth actually needed
+    surfaces: Materials = field(init=False)   # the materials as simulated
+
+    def __post_init__(self):
+        if "diffuse" in self.without:
+            self.lights = []
+        self.surfaces = self.tables.materials.untextured() if "textures" in self.without \
+            else self.tables.materials
+        deep = self.max_depth > 1
+        present = {
+            "lights": bool(self.lights),
+            "reflection": deep and self.surfaces.reflective and "reflection" not in self.without,
+            "refraction": deep and self.surfaces.refractive and "refraction" not in self.without,
+            "textures": self.surfaces.textured,
+            "background": self.environment is not None,
+        }
+        self.effects = tuple(name for name in EFFECTS if present[name])
+        # Only reflected and refracted rays make a tree deeper than its root.
+        self.depth = self.max_depth if ("reflection" in self.effects
+                                        or "refraction" in self.effects) else 1
+
+    @property
+    def environment(self):
+        return self.tables.environment
+
+    @property
+    def material_table(self):
+        """The table of :attr:`surfaces` (:meth:`Materials.table`)."""
+        if self.surfaces is self.tables.materials:
+            return self.tables.material_table
+        return self.surfaces.table()
+
+    def has(self, effect: str) -> bool:
+        """Whether the render simulates ``effect``: one of :data:`EFFECTS` the scene calls
+        for, or ``shadows`` (lights, tested for shadow) or ``ambient`` (A is taken)."""
+        if effect == "shadows":
+            return "lights" in self.effects and "shadows" not in self.without
+        if effect == "ambient":
+            return "ambient" not in self.without
+        return effect in self.effects
+
+    def ambient(self, ambient: float) -> float:
+        """The ambient coefficient the render takes, for the integrator's ``ambient``."""
+        return ambient if self.has("ambient") else 0.0
+
+
+def analyse(tables: SceneTables, max_depth: int, light_reference, without=()) -> SceneAnalysis:
+    """What a render of the scene of ``tables`` to ``max_depth`` calls for; ``light_reference``
+    is where the article's light colors were measured (the integrator's property);
+    ``without``: the effects the render leaves out (names of :data:`SWITCHABLE_EFFECTS`)."""
+    unknown = set(without) - set(SWITCHABLE_EFFECTS)
+    if unknown:
+        raise ValueError(f"unknown effects {sorted(unknown)}")
+    reference = floats(light_reference)
+    lights = [PointLight(position, intensity, article_color(intensity, position, reference))
+              for position, intensity in tables.lights]
+    return SceneAnalysis(tables, lights, max_depth, frozenset(without))
