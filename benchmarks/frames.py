@@ -123,7 +123,7 @@ def differing(root: Path, scenes: list[Path]) -> list[str]:
     """The frames whose folder-run image differs from the frame rendered alone."""
     import numpy as np
 
-    from whitted.imageio import read_image
+    from whitted.images import read_image
     return [scene.stem for scene in scenes
             if not np.array_equal(read_image(root / "folder" / f"{scene.stem}.exr"),
                                   read_image(root / "single" / f"{scene.stem}.exr"))]

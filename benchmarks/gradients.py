@@ -39,7 +39,7 @@ def _measure(work) -> tuple[float, int, int]:
     """(seconds, Dr.Jit peak bytes, peak resident bytes) of ``work()``."""
     import drjit as dr
 
-    from whitted.memory import peak_resident_bytes, reset_peak
+    from whitted.rendering import peak_resident_bytes, reset_peak
     dr.sync_thread()
     dr.flush_malloc_cache()
     dr.detail.malloc_clear_statistics()

@@ -22,9 +22,8 @@ from ..atomic import atomic_path, check_folder, check_folder_creatable, writable
 from ..defaults import SEALED_MIN_GROUP
 from ..errors import WhittedError
 from .description import describe, meshes
-from .sight import warn_scene
+from .frame import warn_scene
 from .parser import parse_file
-from .xml_writer import write_xml
 
 #: the legacy scene files a folder argument stands for
 SCENE_SUFFIX = ".scn"
@@ -147,7 +146,9 @@ def convert_file(source: Path, target: Path, portable: bool = False) -> None:
     spheres grouped in ``ellipsoids`` shapes as for the path tracer, :func:`_portable_description`)
     to ``target`` atomically (nothing for an invalid scene), with the mesh files of its giant
     spheres (:mod:`.giants`) and the PLY files of its groups beside it; warn on stderr when
-    float32 cannot hold the scene's detail (:mod:`.frame`) or it draws nothing useful (:mod:`.sight`)."""
+    float32 cannot hold the scene's detail (:mod:`.frame`) or it draws nothing useful (:func:`.frame.warn_scene`)."""
+    from .xml_writer import write_xml
+
     scene = parse_file(source)
     if target.is_dir():
         raise WhittedError(f"{target}: is a folder; give the output file's name")

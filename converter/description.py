@@ -44,7 +44,7 @@ from .. import defaults as D
 from .frame import farthest, farthest_index, scene_origin, to_frame
 from .giants import cached, coarse_spheres, exact_spheres, mesh_bytes
 from .scene import Material, Scene, Sphere, SphereArrays, Vec3, first_use
-from .vectors import cross, dot, normalize, sub
+from .scene import cross, dot, normalize, sub
 
 if TYPE_CHECKING:
     import numpy as np

@@ -34,7 +34,7 @@ from pathlib import Path
 from ..atomic import atomic_path, remove_stale_leftovers
 from ..defaults import MESH_CACHE_BYTES, STALE_SECONDS
 from ..float32 import UNIT_ROUNDOFF, hit_error
-from ..giant_list import exact_spheres, parse_exact_spheres  # noqa: F401  (the format, re-exported)
+from ..float32 import exact_spheres, parse_exact_spheres  # noqa: F401  (the format, re-exported)
 from .scene import Scene, Sphere, SphereArrays, Vec3
 
 #: a sphere is giant when that bound exceeds this fraction of the scene's smallest radius.

@@ -42,11 +42,11 @@ from pathlib import Path
 from .. import defaults
 from ..defaults import MAX_DEPTH, MAX_SAMPLES, MAX_SIZE, PARALLEL_SINE
 from ..errors import SceneError
-from .images import image_problem
+from .textures import image_problem
 from .plain import (ARRAYS_FROM, EQUATOR, LINE_BREAK, NORTH, NOT_PLAIN_BYTES, NOT_PLAIN_CHARACTERS,
                     PlainReader)
 from .scene import Distinct, Light, Material, Scene, Sphere, SphereArrays, Vec3, first_use
-from .vectors import cross, length, normalize
+from .scene import cross, length, normalize
 
 # The format's limits live in whitted.defaults (see there why each is what it is).
 MAX_MAGNITUDE = Decimal(defaults.MAX_MAGNITUDE)

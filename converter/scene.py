@@ -16,6 +16,7 @@ numpy (``whitted convert`` of a small file stays quick).
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -207,3 +208,32 @@ def _set_spheres(scene: Scene, spheres) -> None:
 # After the dataclass is made: its __init__, __repr__ and __eq__ go through the property.
 Scene.spheres = property(_get_spheres, _set_spheres,
                          doc="The spheres as objects, in order (made from the arrays on first use).")
+
+
+# The converter's vector arithmetic on 3-tuples of Python floats, written once: the parser's
+# checks, the description and the frame compute with the same formulas, bit for bit alike.
+
+
+
+def sub(a: Vec3, b: Vec3) -> Vec3:
+    return (a[0] - b[0], a[1] - b[1], a[2] - b[2])
+
+
+def dot(a: Vec3, b: Vec3) -> float:
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+
+
+def cross(a: Vec3, b: Vec3) -> Vec3:
+    return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
+
+
+def length(a: Vec3) -> float:
+    return math.sqrt(dot(a, a))
+
+
+def normalize(a: Vec3) -> Vec3:
+    """``a`` / |a|, scaled first so that tiny or huge components neither underflow nor overflow."""
+    scale = max(abs(c) for c in a)
+    a = (a[0] / scale, a[1] / scale, a[2] / scale)
+    n = length(a)
+    return (a[0] / n, a[1] / n, a[2] / n)

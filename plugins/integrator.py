@@ -28,7 +28,7 @@ import mitsuba as mi
 
 from whitted import defaults as D
 from whitted.errors import WhittedError
-from whitted.giant_list import parse_exact_spheres
+from whitted.float32 import parse_exact_spheres
 
 from .film import CameraSamples, image_for
 from .recursion import RayCounts, recursion

@@ -104,8 +104,8 @@ def in_process(scenes, tmp_path_factory) -> Path:
 def reference_images(out: Path) -> dict[str, np.ndarray]:
     """The cache's entries (``NAME-KEY.exr``), not the hidden temporary file of a write that
     a worker killed mid-run left behind (``.NAME-KEY.exr.XXXX.exr``, never read as an entry)."""
-    from whitted import imageio
-    return {p.stem.rsplit("-", 1)[0]: imageio.read_image(p) for p in (out / "references").glob("*.exr")
+    from whitted.images import read_image
+    return {p.stem.rsplit("-", 1)[0]: read_image(p) for p in (out / "references").glob("*.exr")
             if not p.name.startswith(".")}
 
 

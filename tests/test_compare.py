@@ -149,9 +149,9 @@ def test_the_contact_sheet_shows_every_render(sweep):
 
 def test_reference_is_the_path_tracer_at_high_spp(sweep):
     """The cached reference is a linear image of the scene's size, brighter than black."""
-    from whitted import imageio
+    from whitted.images import read_image
     _, entries = sweep
-    reference = imageio.read_image(entries[0].reference_file)
+    reference = read_image(entries[0].reference_file)
     assert reference.shape == (24, 32, 3) and np.all(np.isfinite(reference))
     assert reference.mean() > 0.01
     assert not entries[0].reference_cached

@@ -16,9 +16,10 @@ import numpy as np
 import pytest
 
 from whitted import compare as cmp
-from whitted import imageio, metrics
+from whitted import metrics
+from whitted.images import read_image
 from whitted.cli import main
-from whitted.display import clipped_fraction, to_srgb
+from whitted.images import clipped_fraction, to_srgb
 
 REPO = Path(__file__).resolve().parent.parent
 EXAMPLES = ("globe", "mirrors", "spheres", "tir")
@@ -48,13 +49,13 @@ def test_every_image_of_a_scene_is_shown_and_scored_in_one_view(examples):
     # spheres' path-traced reference runs far above 1 (plain sRGB clips a large share): tone-mapped
     assert views["spheres"] == "aces"
     for entry in entries:
-        reference = imageio.read_image(entry.reference_file)
+        reference = read_image(entry.reference_file)
         clipped = clipped_fraction(to_srgb(reference))
         assert entry.view == ("clip" if clipped < 0.01 else "aces"), entry.name
         shown = np.asarray(__import__("mitsuba").Bitmap(str(out / entry.reference_png)))
         assert clipped_fraction(shown) < 0.01
         for m in entry.measurements[::5]:
-            image = imageio.read_image(out / m.image)
+            image = read_image(out / m.image)
             assert m.flip == pytest.approx(metrics.flip(image, reference, view=entry.view), abs=1e-6)
             png = np.asarray(__import__("mitsuba").Bitmap(str(out / m.image_png))).astype(int)
             assert np.abs(png - to_srgb(image, view=entry.view)).max() <= 1

@@ -21,7 +21,7 @@ import numpy as np
 import pytest
 
 from whitted import compare as cmp
-from whitted import imageio
+from whitted.images import read_image
 from whitted.cli import main
 
 SCENE = """\
@@ -67,16 +67,16 @@ def report(tmp_path_factory) -> tuple[Path, list]:
 def test_every_render_is_kept_as_exr_png_and_error_map(report):
     out, (entry,) = report
     assert len(entry.measurements) == 2 * len(DEPTHS) * len(WHITTED_SPP) + len(PATH_SPP)
-    reference = imageio.read_image(entry.reference_file)
+    reference = read_image(entry.reference_file)
     for m in entry.measurements:
-        image = imageio.read_image(out / m.image)
+        image = read_image(out / m.image)
         assert image.shape == (24, 32, 3)
         # the kept EXR is the scored image: its relative MSE is the CSV's
         from whitted import metrics
         assert metrics.relative_mse(image, reference) == pytest.approx(m.rel_mse, rel=1e-5)
-        png = imageio.read_image(out / m.image_png)
+        png = read_image(out / m.image_png)
         np.testing.assert_allclose(png, np.clip(image, 0, 1), atol=0.02)  # the same, 8-bit sRGB
-        error_map = imageio.read_image(out / m.error_map)
+        error_map = read_image(out / m.error_map)
         assert error_map.shape == (24, 32, 3)
     assert (out / entry.reference_png).is_file()
 
@@ -87,9 +87,9 @@ def test_error_map_colors_follow_flips_per_pixel_error(report):
 
     from whitted import metrics
     out, (entry,) = report
-    reference = imageio.read_image(entry.reference_file)
+    reference = read_image(entry.reference_file)
     worst = max(entry.measurements, key=lambda m: m.flip)
-    error, mean = metrics.flip_map(imageio.read_image(out / worst.image), reference)
+    error, mean = metrics.flip_map(read_image(out / worst.image), reference)
     assert mean == pytest.approx(worst.flip, rel=1e-5) and error.shape == (24, 32)
     colors = np.array(mi.Bitmap(str(out / worst.error_map)), dtype=np.float64)
     brightness = colors.sum(axis=2)

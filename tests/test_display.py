@@ -1,6 +1,6 @@
 """What is displayed (PNG, FLIP, notebooks) against what is kept (EXR, relative MSE).
 
-Expectations are independent of whitted.display's code: the sRGB transfer curve written
+Expectations are independent of whitted.images's code: the sRGB transfer curve written
 out from IEC 61966-2-1, Mitsuba's own 8-bit sRGB encoding, and OpenColorIO's processor
 built here from the config and view names.
 """
@@ -18,8 +18,8 @@ import pytest
 import whitted
 from whitted import metrics
 from whitted.cli import main
-from whitted.display import clipped_fraction, default_view, to_display, to_srgb
-from whitted.imageio import read_image
+from whitted.images import clipped_fraction, default_view, to_display, to_srgb
+from whitted.images import read_image
 
 REPO = Path(__file__).resolve().parent.parent
 

@@ -15,7 +15,7 @@ from conftest import MIRROR_AND_GLASS
 from whitted.compare.curves import best_ambient
 from whitted.converter import parse_file, parse_text
 from whitted.fitting import fit, fitted_model, material_ids, write_fitted
-from whitted.imageio import write_image
+from whitted.images import write_image
 from whitted.loading import _load_model, load_model_parts
 
 #: shadows, a mirror, glass, four materials, two lights

@@ -31,7 +31,7 @@ DRIVER = """
 import json, sys
 from pathlib import Path
 import whitted
-from whitted.memory import peak_resident_bytes, reset_peak, resident_bytes
+from whitted.rendering import peak_resident_bytes, reset_peak, resident_bytes
 
 scene = whitted.load_scene(sys.argv[1])
 baseline = resident_bytes()

@@ -234,7 +234,7 @@ def test_missing_and_unreadable_textures(tmp_path, make, message):
 @pytest.mark.parametrize("suffix", ["png", "jpg", "exr", "hdr", "pfm", "ppm"])
 def test_textures_are_checked_as_mitsuba_reads_them(tmp_path, suffix):
     """Every format Mitsuba writes is accepted whole (the converter checks it without Mitsuba:
-    converter/images.py), and refused cut in half, where Mitsuba refuses it too: but for a
+    converter/textures.py), and refused cut in half, where Mitsuba refuses it too: but for a
     JPEG, which libjpeg reads truncated (Mitsuba warns, and renders it)."""
     import mitsuba as mi
     import numpy as np

@@ -147,7 +147,7 @@ def test_the_portable_xml_groups_them_too_and_the_stock_mitsuba_command_renders_
     from test_portable import portable_file, stock_mitsuba
     from whitted.converter.description import meshes
     from whitted.converter.xml_writer import xml_of
-    from whitted.imageio import read_image
+    from whitted.images import read_image
     model = replace(crowd(), source=tmp_path / "crowd.scn")
     description = sealed.described(model, tmp_path)
     for mesh in meshes(description):

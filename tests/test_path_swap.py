@@ -286,7 +286,7 @@ def test_cli_physical_whitted_agrees_with_the_path_tracer(llvm, tmp_path):
     """The acceptance criterion as a user runs it: ``whitted render --lighting
     physical --spp 64`` against ``whitted render --integrator path --spp 1024``."""
     from whitted.cli import main
-    from whitted.imageio import read_image
+    from whitted.images import read_image
 
     scene = tmp_path / "sphere.scn"
     scene.write_text(SINGLE_SPHERE_SCN)

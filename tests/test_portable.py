@@ -31,7 +31,7 @@ from whitted.cli import main
 from whitted.converter import Light, Material, Scene, Sphere, parse_file, scene_to_xml
 from whitted.converter.description import describe, meshes
 from whitted.converter.xml_writer import xml_of
-from whitted.imageio import read_image
+from whitted.images import read_image
 from whitted.metrics import relative_mse
 from whitted.variant import find_libllvm
 

@@ -21,7 +21,7 @@ from whitted import defaults as D
 from benchmarks.reference import render_reference, srgb_to_linear
 from whitted.cli import main
 from whitted.converter import Light, Material, Scene, Sphere, scene_to_xml
-from whitted.imageio import read_image
+from whitted.images import read_image
 
 W, H = 32, 24
 MODEL = Scene(width=W, height=H, eye=(0.0, 1.0, 7.0), lookat=(0.0, 0.3, 0.0), background=(0.2, 0.3, 0.5),

@@ -24,7 +24,7 @@ import pytest
 
 import whitted
 from whitted.cli import main
-from whitted.imageio import read_image
+from whitted.images import read_image
 
 from conftest import session_left
 from test_interrupt import start  # noqa: E402  (signals are sent once the process handles them)

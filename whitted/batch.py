@@ -69,8 +69,8 @@ class Settings:
     ``min_weight`` the adaptive depth control's bound (whitted only; 0: exact tree)
     ``without``    the effects left out (whitted only; ``defaults.SWITCHABLE_EFFECTS``)
     ``variant``    Mitsuba's variant (None: the default, see :mod:`whitted.variant`)
-    ``exposure``   a PNG's exposure in stops (:mod:`whitted.display`; never in EXR)
-    ``view``       a PNG's view transform (None: as for one scene, :func:`~whitted.display.default_view`)
+    ``exposure``   a PNG's exposure in stops (:mod:`whitted.images`; never in EXR)
+    ``view``       a PNG's view transform (None: as for one scene, :func:`~whitted.images.default_view`)
     ============== ==================================================================
     """
     integrator: str = D.INTEGRATOR
@@ -86,7 +86,7 @@ class Settings:
 
     def check(self) -> None:
         """Every option validated before any scene is read."""
-        from .display import check_exposure
+        from .images import check_exposure
         from .rendering import check_settings
         check_settings(self.spp, self.max_depth, self.lighting, self.integrator, self.min_weight,
                        self.without)
@@ -203,10 +203,10 @@ def render_one(scene: Path, outputs: tuple[Path, ...], settings: Settings,
     """Load, render and write one scene in this process; a user error is returned as a
     failed :class:`SceneRender`, not raised (an interruption is raised)."""
     from . import interrupt
-    from .display import default_view
-    from .imageio import write_image
+    from .images import default_view
+    from .images import write_image
     from .loading import load_scene
-    from .memory import peak_resident_bytes
+    from .rendering import peak_resident_bytes
     from .rendering import quiet_mitsuba, render, whitted_settings
 
     start = time.perf_counter()

@@ -87,10 +87,10 @@ def render_single(args) -> None:
     from .atomic import check_writable, write_text
     from .defaults import check_ambient
     from .interrupt import deferred
-    from .memory import peak_resident_bytes
+    from .rendering import peak_resident_bytes
     with deferred():   # numpy's C extension is not cut mid-import by a Ctrl-C (see deferred)
-        from .display import check_exposure, default_view
-        from .imageio import image_format, write_image
+        from .images import check_exposure, default_view
+        from .images import image_format, write_image
         from .rendering import check_settings, render_checked, whitted_settings
 
     output = Path(args.output)

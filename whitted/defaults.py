@@ -67,7 +67,7 @@ SWITCHABLE_EFFECTS = ("shadows", "reflection", "refraction", "textures", "diffus
 #: the article's model, or Mitsuba's stock path tracer
 INTEGRATORS = ("whitted", "path")
 INTEGRATOR = "whitted"
-#: How an image is displayed (PNG, the compare page, notebooks; whitted/display.py): plain
+#: How an image is displayed (PNG, the compare page, notebooks; whitted/images.py): plain
 #: sRGB clipped to [0, 1], or OpenColorIO's ACES 2.0 SDR view (highlights rolled off)
 VIEWS = ("clip", "aces")
 #: The path tracer's samples per pixel when none are asked for and the scene asks for fewer:

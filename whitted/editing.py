@@ -48,7 +48,7 @@ class SceneEditor:
 
     def __init__(self, source, variant: str | None = None, **overrides):
         from .converter import Scene, parse_file
-        from .converter.sight import warn_scene
+        from .converter.frame import warn_scene
         from .loading import _checked, _leaving_out
         from .variant import set_variant
         set_variant(variant)
@@ -67,7 +67,7 @@ class SceneEditor:
               **overrides) -> "SceneEditor":
         """An editor of the scene whose ``.scn`` text is ``text`` (as :func:`whitted.loads`)."""
         from .converter import parse_text
-        from .converter.sight import warn_scene
+        from .converter.frame import warn_scene
         from .loading import TEXT_NAME
         model = parse_text(text, Path(base_dir) / TEXT_NAME)
         warn_scene(model)

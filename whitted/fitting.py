@@ -103,7 +103,7 @@ def fit(scene, target, *, free=FREE, iterations: int = D.FIT_ITERATIONS, width: 
     import mitsuba as mi
 
     from .converter import parse_file
-    from .imageio import read_image
+    from .images import read_image
     from .loading import _checked, load_model_parts
     from .metrics import EPSILON, relative_mse
     from .progress import progress_bar
@@ -231,7 +231,7 @@ def fit_command(args) -> None:
     """``whitted fit SCENE --to IMAGE -o FITTED.scn``: everything checked before the fit."""
     from .atomic import check_writable
     from .converter import parse_file
-    from .imageio import read_image
+    from .images import read_image
     if not Path(args.output).suffix.lower() == ".scn":
         raise WhittedError(f"{args.output}: the fitted scene is a .scn file")
     if args.iterations < 1:

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import os
 import re
+from dataclasses import dataclass
 from pathlib import Path
 
 from . import defaults as D
@@ -121,7 +122,7 @@ def load_scene(path: str | os.PathLike, variant: str | None = None, *, model=Non
             return _leaving_out(mi.load_file(str(path), parallel=PARALLEL,
                                              **{k: str(v) for k, v in params.items()}), without, path)
         from .converter import parse_file
-        from .converter.sight import warn_scene
+        from .converter.frame import warn_scene
         if model is None:
             model = parse_file(path)
             warn_scene(model, integrator=integrator)
@@ -189,7 +190,7 @@ def loads(text: str, variant: str | None = None, *, base_dir: str | os.PathLike 
     import mitsuba as mi  # noqa: F401  (the variant hook runs on import)
 
     from .converter import parse_text
-    from .converter.sight import warn_scene
+    from .converter.frame import warn_scene
     from .variant import set_variant
     if not isinstance(text, str):
         raise WhittedError(f"loads takes the scene's text as a str, got {type(text).__name__}")
@@ -225,9 +226,8 @@ TEXT_NAME = "<text>"
 def _load_model(model, params: dict, ellipsoids: bool | None, integrator: str, meshes: bool = True,
                 text: str | None = None):
     """A parsed scene model as a ``mi.Scene`` (see :func:`load_scene`'s ``ellipsoids`` and
-    ``meshes``), remembered as loaded from ``model`` (:mod:`whitted.sources`; ``text``: what
+    ``meshes``), remembered as loaded from ``model`` (:func:`recall`; ``text``: what
     it was parsed from, when no file holds it)."""
-    from .sources import Source, remember
     scene, _, _, scale = _scene_dict(model, params, ellipsoids, integrator)
     loaded = _loaded(scene, meshes)
     remember(loaded, Source(model, scale, text))
@@ -257,11 +257,14 @@ def _scene_dict(model, params: dict, ellipsoids: bool | None, integrator: str) -
     """The ``mi.load_dict`` form of ``model``, the model it describes (the rest of the
     scene, scaled, when spheres are grouped), the material of each group (``sealed_K``) and
     the scale of its frame (1 unless spheres are grouped)."""
-    from . import sealed
     from .converter.description import describe
-    grouping = None if ellipsoids is False else \
-        sealed.choose(model, min_group=1 if ellipsoids else sealed.MIN_GROUP,
-                      classes=sealed.MAX_LAYERS, smaller=integrator == "whitted")
+    held = model.held_sphere_arrays()
+    count = len(held) if held is not None else len(model.spheres)
+    grouping = None
+    if ellipsoids or (ellipsoids is None and count >= D.SEALED_MIN_GROUP):
+        from . import sealed
+        grouping = sealed.choose(model, min_group=1 if ellipsoids else sealed.MIN_GROUP,
+                                 classes=sealed.MAX_LAYERS, smaller=integrator == "whitted")
     if grouping is None:
         return mitsuba_dict(describe(model, base_dir=None), params), model, [], 1.0
     described = sealed.remaining(model, grouping)
@@ -309,3 +312,44 @@ def _sealed_dict(remaining, model, grouping, params: dict) -> tuple[dict, list]:
         scene[f"sealed_{k}"] = sealed.ellipsoids(centers, material_dict(material, base_dir=None), radius)
         materials.append(material)
     return scene, materials
+
+
+# Which ``.scn`` scene a loaded ``mi.Scene`` came from, and in what frame: what shows a scene
+# in the file's own terms (``whitted trace``: positions in the file's coordinates, spheres
+# named by their line) asks :func:`recall`. Scenes take no Python attributes, so they are
+# kept by address with a witness (:class:`whitted.plugins.scene_tables.KeptByScene`).
+
+
+#: how many scenes are remembered (the least recently loaded go first)
+REMEMBERED = 16
+
+
+@dataclass(frozen=True)
+class Source:
+    """A loaded scene's model (``whitted.converter.Scene``), its frame (world = frame / scale
+    + ``model.lookat``) and the text it was parsed from when it came from no file (``loads``)."""
+    model: object
+    scale: float = 1.0
+    text: str | None = None
+
+
+_kept = None
+
+
+def _store():
+    """The scenes remembered (:class:`whitted.plugins.scene_tables.KeptByScene`, made on first use)."""
+    global _kept
+    if _kept is None:
+        from .plugins.scene_tables import KeptByScene
+        _kept = KeptByScene(REMEMBERED)
+    return _kept
+
+
+def remember(scene, source: Source) -> None:
+    """``scene`` was loaded from ``source``."""
+    _store().put(scene, source)
+
+
+def recall(scene) -> Source | None:
+    """What ``scene`` was loaded from, if :func:`remember` was told and it is still held."""
+    return _store().get(scene)

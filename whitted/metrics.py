@@ -9,7 +9,7 @@ reference second, and are asymmetric: the reference sets the scale.
   by zero. It is the error measure of Monte Carlo rendering papers: for an
   unbiased renderer it falls as 1/spp.
 * **FLIP** (NVIDIA's perceptual difference, the ``flip-evaluator`` package) in
-  its LDR mode, on the images as displayed (:func:`whitted.display.to_display`:
+  its LDR mode, on the images as displayed (:func:`whitted.images.to_display`:
   an exposure and a view, by default plain sRGB clipped to [0, 1]): what a
   viewer compares on screen, the same as comparing the PNG outputs. 0 is
   identical, 1 maximally different. Exposure and view change FLIP and nothing
@@ -36,7 +36,7 @@ def relative_mse(image: np.ndarray, reference: np.ndarray) -> float:
 
 def flip(image: np.ndarray, reference: np.ndarray, exposure: float = 0.0, view: str = "clip") -> float:
     """Mean LDR-FLIP error of ``image`` against ``reference`` (both linear RGB), as displayed
-    with ``exposure`` and ``view`` (:mod:`whitted.display`)."""
+    with ``exposure`` and ``view`` (:mod:`whitted.images`)."""
     return flip_map(image, reference, exposure, view)[1]
 
 
@@ -47,7 +47,7 @@ def flip_map(image: np.ndarray, reference: np.ndarray, exposure: float = 0.0,
     (both displayed with ``exposure`` and ``view``)."""
     import flip_evaluator
 
-    from .display import to_display
+    from .images import to_display
 
     a, b = (np.ascontiguousarray(to_display(x, exposure, view), np.float32)
             for x in _pair(image, reference))

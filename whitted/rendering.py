@@ -41,7 +41,7 @@ render so that the mark starts from what is really in use. In
 ``scalar_rgb``, where Dr.Jit allocates nothing, it is ``peak_resident_bytes``.
 ``peak_resident_bytes`` is what the operating system counts: the process's
 peak resident set size during the render (on Linux; elsewhere over the
-process's life; see :mod:`whitted.memory`), everything included. ``whitted
+process's life; see :func:`peak_resident_bytes`), everything included. ``whitted
 render`` extends it to the end of writing the image.
 
 Mitsuba's ``path`` integrator counts none of its rays, so its stats hold what is
@@ -55,14 +55,16 @@ absent.
 from __future__ import annotations
 
 import contextlib
+import resource
+import sys
 import time
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
 from . import defaults as D
 from .errors import WhittedError
-from .memory import peak_resident_bytes, reset_peak
 from .progress import progress_bar
 
 #: camera samples per ``mi.render`` call of the path tracer (bounds its memory)
@@ -357,3 +359,46 @@ def _effects_or_none(scene, depth: int) -> list:
         return list(scene_effects(scene, depth))
     except WhittedError:
         return []
+
+
+# The process's resident memory and its peak. Dr.Jit's allocator high-water mark counts
+# Dr.Jit's arrays only, not numpy, bitmaps, Embree, LLVM or Python (benchmarks/RESULTS.md,
+# "Peak memory of a large render"). Linux keeps the peak resident set (``VmHWM``) and lets a
+# process reset it (``5`` into ``/proc/self/clear_refs``); elsewhere the peak is the whole
+# life's (``getrusage``). The reset also resets what ``getrusage``, ``wait4`` and GNU
+# ``time`` report: each render resets it, so a ``whitted render`` process's peak is its
+# render's.
+
+
+_STATUS = Path("/proc/self/status")
+_CLEAR_REFS = Path("/proc/self/clear_refs")
+
+
+def _status(key: str) -> int | None:
+    """A ``kB`` entry of /proc/self/status in bytes (None where there is none)."""
+    with contextlib.suppress(OSError):
+        for line in _STATUS.read_text().splitlines():
+            if line.startswith(key + ":"):
+                return int(line.split()[1]) * 1024
+    return None
+
+
+def resident_bytes() -> int | None:
+    """The process's resident set size now (Linux; None elsewhere)."""
+    return _status("VmRSS")
+
+
+def reset_peak() -> None:
+    """Start measuring the peak resident size afresh (Linux; elsewhere nothing happens)."""
+    with contextlib.suppress(OSError):
+        _CLEAR_REFS.write_text("5")
+
+
+def peak_resident_bytes() -> int:
+    """The process's peak resident set size since :func:`reset_peak` (Linux), or over its
+    whole life (elsewhere)."""
+    peak = _status("VmHWM")
+    if peak is not None:
+        return peak
+    maxrss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    return int(maxrss) if sys.platform == "darwin" else int(maxrss) * 1024

@@ -5,7 +5,7 @@ imageio's ffmpeg plugin (imageio-ffmpeg ships the ``ffmpeg`` binary, so nothing 
 needed from the system): H.264 in yuv420p, which every player reads. yuv420p needs
 even sizes: a frame of odd width or height is padded by repeating its last column or
 row (never scaled). PNG frames are sent as their 8-bit sRGB bytes; EXR frames are
-encoded to sRGB as PNG output is (:func:`whitted.imageio.srgb8`). The file is written
+encoded to sRGB as PNG output is (:func:`whitted.images.srgb8`). The file is written
 beside its target and renamed into place (:mod:`whitted.atomic`): an interruption
 leaves no partial video.
 """
@@ -68,7 +68,7 @@ def frame_pixels(path: Path):
     import mitsuba as mi
     import numpy as np
 
-    from .imageio import read_image, srgb8
+    from .images import read_image, srgb8
     if path.suffix.lower() == ".exr":
         return srgb8(read_image(path))
     try:

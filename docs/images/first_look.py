@@ -29,7 +29,7 @@ def main() -> None:
     from matplotlib.figure import Figure
 
     from whitted.atomic import atomic_path
-    from whitted.display import default_view
+    from whitted.images import default_view
 
     scene = whitted.load_scene(SCENE)
     whitted.render(scene)                                  # compile the kernels once, untimed

@@ -19,7 +19,7 @@ from benchmarks.reference import assert_matches, render_reference
 from whitted.cli import main
 from whitted.converter import Sphere, parse_file, scene_to_xml
 from whitted.converter.frame import SPREAD_WARNING, float32_spread, path_warning, precision_warning
-from whitted.converter.sight import sight_warning
+from whitted.converter.frame import sight_warning
 
 FAR = (1e7, -1e7, 1e7)
 
@@ -128,7 +128,7 @@ def test_no_hazard_scene_is_warned_about_wherever_it_lies(tmp_path, name, offset
 def test_no_hard_case_is_taken_for_a_scene_that_draws_nothing(tmp_path, name):
     """The eye inside a glass sphere (camera_inside), a room (light_inside), smallpt's box and
     a sky dome hold the eye in spheres on purpose: each has other spheres inside, and is not
-    warned about as an eye shut in a sphere (converter/sight.py); texture_poles has no light
+    warned about as an eye shut in a sphere (converter/frame.py); texture_poles has no light
     but is lit flat (ambient 1) on purpose."""
     scene = hs.build(name, tmp_path) if name in hs.HAZARDS else hs.GIANTS[name]()
     assert sight_warning(scene) is None

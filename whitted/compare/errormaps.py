@@ -53,7 +53,7 @@ def write_render(out: Path, stem: str, image: np.ndarray, error_map: np.ndarray 
     """Keep one render under ``out``: ``STEM.exr`` (linear), ``STEM.png`` (as displayed, with
     ``exposure`` and ``view``) and, with an error map, ``STEM-flip.png``; returns their paths
     relative to ``out`` by kind (``image``, ``image_png``, ``error_map``)."""
-    from ..imageio import write_image
+    from ..images import write_image
 
     (out / stem).parent.mkdir(parents=True, exist_ok=True)
     files = {"image": f"{stem}.exr", "image_png": f"{stem}.png"}

@@ -33,7 +33,9 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import imageio, metrics
+from .. import metrics
+
+from ..images import write_image
 from .. import rendering  # rendering.render looked up at call time: tests count calls
 from ..defaults import COMPARE_LIMIT_MAX_SPP, COMPARE_LIMIT_NOISE_SHARE, COMPARE_LIMIT_SPP_FACTOR
 from .curves import best_ambient, reference_noise
@@ -108,5 +110,5 @@ def render_limit(loaded, entry: SceneResult, method: str, measured: list[tuple[M
                                         limit.best_ambient, deadline)
     if limit is not None:
         limit.image = f"{entry.folder}/{method}-limit-d{depth}-{limit.spp}spp.exr"
-        imageio.write_image(Path(out) / limit.image, image.astype(np.float32))
+        write_image(Path(out) / limit.image, image.astype(np.float32))
     return limit

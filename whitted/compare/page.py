@@ -22,7 +22,7 @@ from pathlib import Path
 
 from ..atomic import write_text
 from ..defaults import VERSION
-from ..display import view_text
+from ..images import view_text
 from .analysis import (METHOD_NAMES, TIMING, Analysis, equal_time_how, reach_text, speedup_text,
                        spread_text)
 from .curves import pareto_front

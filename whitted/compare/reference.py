@@ -132,7 +132,7 @@ def reference_settings(entry: SceneResult, spp: int) -> dict:
 class ReferenceCache:
     """Converged path-traced references on disk, keyed by everything they depend on.
 
-    An entry is ``NAME-KEY.exr`` (the linear image, via whitted.imageio) and
+    An entry is ``NAME-KEY.exr`` (the linear image, via whitted.images) and
     ``NAME-KEY.json`` (the settings and render time). Both are written atomically,
     the JSON last, and an entry is used only when the JSON names the same key and
     the image reads back whole with the expected size.
@@ -191,7 +191,7 @@ class ReferenceCache:
     def load(self, name: str, key: str, shape: tuple[int, int]) -> tuple[np.ndarray, dict] | None:
         """The cached (image, description) of ``shape`` = (height, width); None when the
         entry is missing, damaged or of another key."""
-        from .. import imageio
+        from ..images import read_image
 
         self.clean()
         image_file, info_file = self.entry(name, key)
@@ -199,7 +199,7 @@ class ReferenceCache:
             info = json.loads(info_file.read_text(encoding="utf-8"))
             if info.get("key") != key:
                 return None
-            image = imageio.read_image(image_file)
+            image = read_image(image_file)
         except Exception:  # missing, unreadable or foreign: render it again
             return None
         if image.shape != (shape[0], shape[1], 3) or not np.all(np.isfinite(image)):
@@ -208,13 +208,13 @@ class ReferenceCache:
 
     def store(self, name: str, key: str, image: np.ndarray, info: dict) -> Path:
         """Write an entry (image first, description last); returns the image file."""
-        from .. import imageio
+        from ..images import write_image
         from ..atomic import write_text
 
         self.folder.mkdir(parents=True, exist_ok=True)
         self.clean()
         image_file, info_file = self.entry(name, key)
-        imageio.write_image(image_file, image)
+        write_image(image_file, image)
         write_text(info_file, json.dumps({**info, "key": key}, indent=2, sort_keys=True) + "\n")
         return image_file
 

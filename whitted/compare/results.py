@@ -217,7 +217,7 @@ class SceneResult:
                             by one worker, so its times compare)
     ``limits``              Whitted method -> its :class:`Limit` (absent: not rendered)
     ``view``, ``exposure``  how every image of the scene is displayed (PNGs, page,
-                            contact sheet) and what FLIP scores (:mod:`whitted.display`)
+                            contact sheet) and what FLIP scores (:mod:`whitted.images`)
     ``reference_clipped``   the share of the reference's pixels plain sRGB would clip
     ======================= ===========================================================
     """
@@ -288,7 +288,7 @@ class Options:
     ``scheduler``           sweep on the Dask cluster of this scheduler
                             (``tcp://host:port``; None: in this process)
     ``view``                how every image is displayed and FLIP scores it ("clip" or
-                            "aces"; None: per scene, :func:`whitted.display.fitting_view`
+                            "aces"; None: per scene, :func:`whitted.images.fitting_view`
                             of its reference)
     ``exposure``            the displayed images' exposure, in stops
     ======================= ==========================================================

@@ -56,7 +56,7 @@ def check_options(options: Options) -> None:
                            "give one of them")
     if options.workers is not None and options.workers < 1:
         raise WhittedError(f"--workers must be >= 1, got {options.workers}")
-    from ..display import check_exposure, check_view
+    from ..images import check_exposure, check_view
     if options.view is not None:
         check_view(options.view)
     check_exposure(options.exposure)

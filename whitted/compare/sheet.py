@@ -21,8 +21,8 @@ def thumbnail(image: np.ndarray, width: int = THUMBNAIL_WIDTH, exposure: float =
               view: str = "clip") -> np.ndarray:
     """A small sRGB uint8 copy of a linear image: box-averaged by an integer factor so
     that noise shows as it would at full size on average, then displayed with
-    ``exposure`` and ``view`` (:mod:`whitted.display`)."""
-    from ..display import to_srgb
+    ``exposure`` and ``view`` (:mod:`whitted.images`)."""
+    from ..images import to_srgb
 
     image = np.nan_to_num(np.asarray(image, dtype=np.float32), nan=0.0, posinf=0.0, neginf=0.0)
     factor = max(1, math.ceil(image.shape[1] / width))

@@ -17,7 +17,7 @@ Kernel compilation is excluded (``result.seconds`` of the rendering API, and the
 scored render compiled every kernel before the rounds) and reported apart
 (``compile_seconds``). The relative MSE is measured on the linear images, FLIP on the
 images as displayed (:mod:`whitted.metrics`): every image of a scene is shown in one
-view, chosen from its reference (:func:`whitted.display.fitting_view`) unless ``--view``
+view, chosen from its reference (:func:`whitted.images.fitting_view`) unless ``--view``
 names one.
 
 After its renders, each Whitted method's limit is rendered (:mod:`.limits`) and every
@@ -37,12 +37,12 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import imageio, memory, metrics
+from .. import metrics
 from .. import rendering  # rendering.render looked up at call time: tests count calls
 from ..defaults import (COMPARE_CLOCK, COMPARE_HEADLINE_ROUNDS, COMPARE_KEPT_MEMORY,
                         COMPARE_MAX_ROUNDS, COMPARE_ROUND_REPEATS, COMPARE_ROUND_SECONDS,
                         COMPARE_ROUNDS_SECONDS, COMPARE_TIMING_THREADS)
-from ..display import clipped_fraction, fitting_view, to_srgb
+from ..images import clipped_fraction, fitting_view, read_image, to_srgb, write_image
 from .analysis import analyse
 from .budget import Budget
 from .errormaps import write_render
@@ -189,7 +189,7 @@ def _rounds(loaded, entry: SceneResult, measured: list[Measurement], rounds: int
 def _bound_memory() -> None:
     """Dr.Jit's memory cache handed back when the process holds more than
     :data:`~whitted.defaults.COMPARE_KEPT_MEMORY` bytes."""
-    if (memory.resident_bytes() or 0) > COMPARE_KEPT_MEMORY:
+    if (rendering.resident_bytes() or 0) > COMPARE_KEPT_MEMORY:
         import drjit as dr
         dr.flush_malloc_cache()
 
@@ -270,7 +270,7 @@ def sweep_scene(scene: SceneFile, entry: SceneResult, settings: list[Setting], o
     entry.reference_thumbnail = thumbnail(reference, exposure=entry.exposure, view=entry.view)
     entry.reference_png = f"{entry.folder}/reference.png"  # its EXR is the cache's
     (out / entry.folder).mkdir(parents=True, exist_ok=True)
-    imageio.write_image(out / entry.reference_png, reference, exposure=entry.exposure, view=entry.view)
+    write_image(out / entry.reference_png, reference, exposure=entry.exposure, view=entry.view)
     settings = _below_the_reference(entry, settings, progress)
     done: list[tuple[Setting, float, float]] = []
     overran = 0
@@ -326,7 +326,7 @@ def _limits(loaded, entry: SceneResult, settings: list[Setting], reference: np.n
     for method in limit_methods(settings):
         if progress is not None:
             progress.set_postfix_str(f"{entry.name}: {method} limit", refresh=False)
-        measured = [(m, imageio.read_image(out / m.image)) for m in entry.measurements
+        measured = [(m, read_image(out / m.image)) for m in entry.measurements
                     if m.setting.method == method and m.image]
         limit = render_limit(loaded, entry, method, measured, reference, out, deadline, model)
         if limit is not None:

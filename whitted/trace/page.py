@@ -313,7 +313,7 @@ def _image(traces) -> tuple[str, int, int, int]:
     its size and the factor it is shown enlarged by."""
     from PIL import Image
 
-    from ..display import default_view, to_srgb
+    from ..images import default_view, to_srgb
     from ..rendering import render_checked
     s = traces.settings
     result = render_checked(traces.scene, spp=1, max_depth=s["max_depth"], lighting=s["lighting"],

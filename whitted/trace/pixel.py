@@ -107,9 +107,9 @@ class SceneView:
 
 def scene_view(scene) -> SceneView:
     """The :class:`SceneView` of a loaded ``mi.Scene``: from the ``.scn`` model it was loaded
-    from (:mod:`whitted.sources`), else from the scene itself (its shapes' ids name spheres,
+    from (:func:`whitted.loading.recall`), else from the scene itself (its shapes' ids name spheres,
     positions are Mitsuba's)."""
-    from ..sources import recall
+    from ..loading import recall
     source = recall(scene)
     sensor = scene.sensors()[0]
     width, height = (int(c) for c in sensor.film().crop_size())

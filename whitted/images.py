@@ -1,6 +1,6 @@
-"""What a render looks like on screen: an exposure and a view transform.
+"""Images: what a render looks like on screen (an exposure and a view transform), and its files.
 
-Why a module of its own: a render is linear radiance, and that is what EXR files keep
+A render is linear radiance, and that is what EXR files keep
 and what the relative MSE reads; but everything a person *looks at* (PNG files, the
 compare page and its contact sheet, an array shown in a notebook) needs those values
 turned into display colors, and there is more than one sensible way to do it:
@@ -25,12 +25,19 @@ that view (:func:`whitted.metrics.flip_map`). The relative MSE never sees a view
 
 Images are processed in bands of rows (:data:`BAND_ROWS`), so that a 16384² render
 costs no whole-image float temporary.
+
+Files. EXR files keep the linear values as they are; PNG files keep what is displayed
+(8-bit sRGB after the exposure and the view). Reading and writing go through Mitsuba's
+``Bitmap``; writing is atomic (:mod:`whitted.atomic`): a failed write leaves no file behind.
+An image of 16384² pixels is 3 GiB of float32, so a PNG is converted band by band.
 """
 
 from __future__ import annotations
 
 import functools
 import math
+import os
+from pathlib import Path
 
 import numpy as np
 
@@ -178,3 +185,72 @@ def to_srgb(image, exposure: float = 0.0, view: str = "clip", rows_done=None) ->
 def clipped_fraction(srgb8: np.ndarray) -> float:
     """The share of pixels with a channel at full scale (255): what a view has clipped."""
     return float(np.mean(np.any(np.asarray(srgb8) >= 255, axis=-1)))
+
+
+FORMATS = (".exr", ".png")
+
+
+def image_format(path: str | os.PathLike) -> str:
+    """The suffix of ``path`` (".exr" or ".png"), or a clear error."""
+    suffix = Path(path).suffix.lower()
+    if suffix not in FORMATS:
+        raise WhittedError(f"{path}: unsupported image format '{suffix or '(none)'}'; "
+                           "use .exr (linear) or .png (sRGB)")
+    return suffix
+
+
+def write_image(path: str | os.PathLike, image, progress: bool = False, exposure: float = 0.0,
+                view: str = "clip") -> None:
+    """Write a linear RGB image (H, W, 3) as EXR (linear float, as it is) or PNG (8-bit sRGB,
+    as displayed: ``exposure`` in stops and ``view``, "clip" or "aces", see
+    :mod:`whitted.images`; an EXR ignores both); ``progress`` shows the conversion's rows
+    and the writing's time on stderr."""
+    import mitsuba as mi
+
+    from .atomic import atomic_path
+    from .progress import elapsed, progress_bar
+
+    suffix = image_format(path)
+    pixels = np.asarray(image, dtype=np.float32)   # no copy of a float32 image
+    if pixels.ndim != 3 or pixels.shape[2] != 3:
+        raise WhittedError(f"{path}: expected an (H, W, 3) RGB image, got shape {pixels.shape}")
+    name = Path(path).name
+    if suffix == ".png":
+        with progress_bar(progress, pixels.shape[0], f"encoding {name}", unit="row", unit_scale=False) as bar:
+            data = srgb8(pixels, bar.update, exposure=exposure, view=view)
+    else:
+        data = np.ascontiguousarray(pixels)
+    bitmap = mi.Bitmap(data, pixel_format=mi.Bitmap.PixelFormat.RGB)
+    del data
+    with atomic_path(path) as tmp, elapsed(progress, f"writing {name}"):
+        try:
+            bitmap.write(str(tmp))
+        except RuntimeError as error:
+            raise WhittedError(f"{path}: could not write the image: {_first_line(error)}") from None
+
+
+def srgb8(pixels: np.ndarray, rows_done=None, exposure: float = 0.0, view: str = "clip") -> np.ndarray:
+    """A linear RGB image as 8-bit sRGB (H, W, 3), as PNG files hold it
+    (:func:`whitted.images.to_srgb`; ``rows_done(n)`` after each band of rows)."""
+
+    return to_srgb(pixels, exposure=exposure, view=view, rows_done=rows_done)
+
+
+def read_image(path: str | os.PathLike) -> np.ndarray:
+    """Read an EXR or PNG as a linear RGB float32 array (H, W, 3); 8-bit sRGB is decoded."""
+    import mitsuba as mi
+
+    image_format(path)
+    if not Path(path).is_file():
+        raise WhittedError(f"{path}: no such image")
+    try:
+        bitmap = mi.Bitmap(str(path))
+    except RuntimeError as error:
+        raise WhittedError(f"{path}: could not read the image: {_first_line(error)}") from None
+    bitmap = bitmap.convert(mi.Bitmap.PixelFormat.RGB, mi.Struct.Type.Float32, srgb_gamma=False)
+    return np.array(bitmap, dtype=np.float32).reshape(bitmap.height(), bitmap.width(), 3)
+
+
+def _first_line(error: Exception) -> str:
+    text = str(error).strip()
+    return text.splitlines()[0] if text else type(error).__name__
