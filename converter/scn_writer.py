@@ -13,7 +13,7 @@ import os
 from pathlib import Path
 
 from .. import defaults as D
-from .scene import Material, Scene, Sphere
+from .scene import Scene, Sphere
 
 
 def _num(x: float) -> str:
@@ -25,7 +25,9 @@ def _nums(values) -> str:
     return " ".join(_num(v) for v in values)
 
 
-def _material_text(m: Material, sphere: Sphere, folder: Path) -> str:
+def material_text(sphere: Sphere, folder: Path) -> str:
+    """The attributes of ``sphere``'s material, as its statement writes them."""
+    m = sphere.material
     parts = []
     if m.texture is not None:
         path = Path(os.path.relpath(os.path.realpath(m.texture), os.path.realpath(folder))).as_posix()
@@ -55,6 +57,5 @@ def scene_to_scn(scene: Scene, folder: str | os.PathLike, comment: str = "") -> 
     if scene.min_weight is not None:
         lines.append(f"minweight {_num(scene.min_weight)}")
     lines += [f"light {_nums(light.position)}  {_nums(light.color)}" for light in scene.lights]
-    lines += [f"sphere {_nums(s.center)} {_num(s.radius)}  {_material_text(s.material, s, folder)}"
-              for s in scene.spheres]
+    lines += [f"sphere {_nums(s.center)} {_num(s.radius)}  {material_text(s, folder)}" for s in scene.spheres]
     return "\n".join(lines) + "\n"
