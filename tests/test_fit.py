@@ -181,3 +181,15 @@ def test_the_fitted_file_is_the_scene_s_text_with_the_fitted_numbers(llvm, tmp_p
     assert '"../maps/t.png"' in written
     assert re.search(r"\nlight 5 4 -6 [\d.]+ [\d.]+ [\d.]+\r", written)   # colors added where there were none
     assert re.search(r"\n   reflect 0.2  color [\d.]+ [\d.]+ [\d.]+ # two lines\r", written)
+
+
+def test_compare_s_fitted_text_names_materials_and_lights_as_the_file_does(llvm):
+    from whitted.compare.fitted import fit_to_reference, fitted_text
+    text = COMMENTED.replace("size 40 25", "size 16 10")
+    model = parse_text(text, "scene.scn")
+    fitted = fit_to_reference(model, render(model) * 0.9, depth=model.depth, spp=1, seed=0)
+    said = fitted_text(fitted)
+    floor, key, mirror = (next(n for n, line in enumerate(text.splitlines(), 1) if part in line)
+                          for part in ("# the floor", "# the key", "reflect 0.6"))
+    assert f"colors line {floor} (the floor): " in said and f", line {mirror}: " in said
+    assert f"lights line {key} (the key): " in said and "material_" not in said
