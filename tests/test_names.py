@@ -129,3 +129,6 @@ def test_grouped_spheres_keep_the_xml_s_material_ids(tmp_path, llvm):
     keys = set(mi.traverse(whitted.load_scene(path, ellipsoids=True)).keys())
     assert "material_l4.color.value" in keys and any(key.startswith("sphere_l24_floor.") for key in keys)
     assert not any(key.startswith(("material_0", "sphere_l4.")) for key in keys)   # (the balls are a group)
+    from whitted import sealed
+    portable = sealed.described(parse_file(path), tmp_path, min_group=1).scene   # (for Mitsuba's own)
+    assert {"material_l4", "sealed_material_l4"} <= set(portable)

@@ -239,8 +239,8 @@ def load_model_parts(model, params: dict, ellipsoids: bool | None, integrator: s
 
     ``bsdfs``: each material of ``model`` (as the converter shares them:
     ``converter.description._shared``) -> where its ``article`` BSDFs are: the ids of
-    BSDFs (``converter.description.material_ids``) and of the ``ellipsoids`` shapes of its grouped spheres
-    (``sealed_K``), whose BSDF is their own (``shape.bsdf()``: Mitsuba's ``ellipsoids``
+    BSDFs (``converter.description.material_ids``) and of the ``ellipsoids`` shapes of its
+    grouped spheres (``sealed_K``), whose BSDF is their own (``shape.bsdf()``: Mitsuba's ``ellipsoids``
     does not traverse it); a material can have both. ``described``: the model as the scene
     shows it (with the grouped spheres, lengths scaled: its lights' positions are the
     scene's). What a fit (:mod:`whitted.fitting`) needs to write a material's color or a

@@ -227,13 +227,12 @@ def described(scene: Scene, base_dir, min_group: int = MIN_GROUP) -> Description
     # the grouped radii are 1 and above in this frame: the smallest detail is 1 (as in the loader)
     ids = material_ids(scene)
     description = describe(remaining(scene, grouping), base_dir, smallest=1.0, block=True, ids=ids)
-    materials: dict[Material, str] = {}
     stem = file_stem(scene)
     for k, (material, radius, centers) in enumerate(groups(scene, grouping, description.origin)):
-        if material not in materials:
-            materials[material] = f"sealed_{ids[material]}"
-            description.scene[materials[material]] = material_dict(material, base_dir)
+        bsdf = f"sealed_{ids[material]}"
+        if bsdf not in description.scene:
+            description.scene[bsdf] = material_dict(material, base_dir)
         description.scene[f"sealed_{k}"] = {
             "type": "ellipsoids", "filename": Mesh(f"{stem}.sealed_{k}.ply", ellipsoids_ply(centers)),
-            "scale_factor": float(radius), "extent": 1.0, "bsdf": {"type": "ref", "id": materials[material]}}
+            "scale_factor": float(radius), "extent": 1.0, "bsdf": {"type": "ref", "id": bsdf}}
     return description
