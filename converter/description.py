@@ -35,6 +35,7 @@ from __future__ import annotations
 import math
 import os
 import re
+import unicodedata
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
@@ -43,7 +44,7 @@ from typing import TYPE_CHECKING
 from .. import defaults as D
 from .frame import farthest, farthest_index, scene_origin, to_frame
 from .giants import cached, coarse_spheres, exact_spheres, mesh_bytes
-from .scene import Material, Scene, Sphere, SphereArrays, Vec3, first_use
+from .scene import Material, Scene, Sphere, SphereArrays, Vec3
 from .scene import cross, dot, normalize, sub
 
 if TYPE_CHECKING:
@@ -86,14 +87,16 @@ class Mesh:
 class SphereBlock:
     """Spheres a description holds as arrays rather than as dicts in its ``scene``
     (``describe(..., block=True)``, for the XML writer): sphere ``k`` of the scene is the
-    object ``sphere_k``, a ``sphere`` shape of center ``center[k]`` (in the frame) and radius
-    ``radius[k]`` whose ``bsdf`` refers to ``material_ids[material[k]]``, unless ``k`` is in
-    ``in_scene``: then ``scene["sphere_k"]`` describes it (a textured or meshed sphere).
+    object ``sphere_{names[k]}`` (:func:`sphere_names`), a ``sphere`` shape of center
+    ``center[k]`` (in the frame) and radius ``radius[k]`` whose ``bsdf`` refers to
+    ``material_ids[material[k]]``, unless ``k`` is in ``in_scene``: then ``scene`` describes
+    it under that id (a textured or meshed sphere).
     Those objects come after every other one."""
     center: np.ndarray
     radius: np.ndarray
     material: np.ndarray
     material_ids: tuple[str, ...]
+    names: list[str]
     in_scene: frozenset = frozenset()
 
     def __len__(self) -> int:
@@ -111,6 +114,8 @@ class Description:
     ``origin``   the world coordinates of the frame's origin: world = frame + origin
     ``source``   the name of the scene file it came from
     ``spheres``  None, or the spheres ``scene`` leaves out (:class:`SphereBlock`)
+    ``notes``    material id -> where the scene file first writes it (a comment beside it
+                 in the XML)
     ============ ==============================================================
     """
     scene: dict
@@ -118,6 +123,7 @@ class Description:
     origin: Vec3 = (0.0, 0.0, 0.0)
     source: str = ""
     spheres: SphereBlock | None = None
+    notes: dict = field(default_factory=dict)
 
 
 # -- the formulas --------------------------------------------------------------------------------
@@ -168,17 +174,81 @@ def _shared(material: Material) -> Material:
     return material if material.texture is None else replace(material, color=Material.color)
 
 
-def material_ids(scene: Scene) -> dict:
-    """Each distinct material of ``scene`` as written (:func:`_shared`) -> its id in the
-    description: ``material_K`` in order of first use, as :func:`describe` numbers them
-    (from the sphere arrays when the scene holds them: no sphere objects made)."""
+def slug(text: str) -> str:
+    """``text`` as a part of an id: ASCII letters (lowercase) and digits, every run of other
+    characters one ``_``, cut after a word within 24 characters."""
+    text = unicodedata.normalize("NFKD", text).encode("ascii", "ignore").decode().lower()
+    text = re.sub(r"[^a-z0-9]+", "_", text).strip("_")
+    if len(text) > 24:
+        cut = text.rfind("_", 0, 25)
+        text = text[:cut] if cut > 0 else text[:24]
+    return text
+
+
+def sphere_names(scene: Scene, spheres: SphereArrays | None = None) -> list[str]:
+    """Per sphere of ``scene`` (``spheres``: its arrays), what its ids end in: ``l12_the_floor``
+    for the sphere on line 12 whose comment is "the floor" (:func:`slug`), ``l12`` without a
+    comment; its index for a sphere without a line of its own (0, or an earlier sphere's)."""
+    spheres = scene.held_sphere_arrays() if spheres is None else spheres
+    comments, order = scene.comments, None if spheres is None else spheres.line
+    if order is not None and len(order) and order[0] > 0 and (order[1:] > order[:-1]).all():
+        names = list(map("l%d".__mod__, order.tolist()))   # a file's lines, in order: fast
+        for line, text in comments.items():
+            k = int(order.searchsorted(line))
+            if k < len(names) and order[k] == line and slug(text):
+                names[k] = f"l{line}_{slug(text)}"
+        return names
+    seen, names = set(), []
+    for k, line in enumerate([sphere.line for sphere in scene.spheres] if order is None else order.tolist()):
+        if line > 0 and line not in seen:
+            seen.add(line)
+            tag = slug(comments[line]) if line in comments else ""
+            names.append(f"l{line}_{tag}" if tag else f"l{line}")
+        else:
+            names.append(str(k))
+    return names
+
+
+def first_spheres(scene: Scene, spheres: SphereArrays | None = None) -> dict:
+    """Each distinct material of ``scene`` as written (:func:`_shared`) -> the index of its
+    first sphere, in order of first use (from the arrays when the scene holds them)."""
+    spheres = scene.held_sphere_arrays() if spheres is None else spheres
+    firsts: dict[Material, int] = {}
+    if spheres is None:
+        for k, sphere in enumerate(scene.spheres):
+            firsts.setdefault(_shared(sphere.material), k)
+        return firsts
+    import numpy as np
+    for k in np.sort(np.unique(spheres.material, return_index=True)[1]).tolist():
+        firsts.setdefault(_shared(spheres.materials[int(spheres.material[k])]), k)
+    return firsts
+
+
+def material_ids(scene: Scene, names: list[str] | None = None, firsts: dict | None = None) -> dict:
+    """Each distinct material of ``scene`` as written (:func:`_shared`) -> its id, in order of
+    first use: ``material_`` and its first sphere's name (:func:`sphere_names`: its line and
+    comment), ``material_K`` (K its place in that order) when that sphere has no line.
+    ``names`` and ``firsts`` (:func:`first_spheres`): the scene's, when known."""
+    names = sphere_names(scene) if names is None else names
+    firsts = first_spheres(scene) if firsts is None else firsts
+    return {material: f"material_{names[k]}" if names[k][0] == "l" else f"material_{i}"
+            for i, (material, k) in enumerate(firsts.items())}
+
+
+def line_label(scene: Scene, line: int) -> str:
+    """The statement on ``line`` as a person finds it in the file: ``line 12 (the floor)``."""
+    comment = scene.comments.get(line)
+    return f"line {line} ({comment})" if comment else f"line {line}"
+
+
+def material_labels(scene: Scene) -> dict:
+    """Each material id (:func:`material_ids`) -> its first sphere's :func:`line_label`, or
+    the id when that sphere has no line."""
     spheres = scene.held_sphere_arrays()
-    materials = ((spheres.materials[k] for k in first_use(spheres.material).tolist()) if spheres is not None
-                 else (sphere.material for sphere in scene.spheres))
-    ids: dict[Material, str] = {}
-    for material in materials:
-        ids.setdefault(_shared(material), f"material_{len(ids)}")
-    return ids
+    names, firsts = sphere_names(scene, spheres), first_spheres(scene, spheres)
+    line = scene.spheres.__getitem__ if spheres is None else spheres.sphere
+    return {mid: line_label(scene, line(k).line) if names[k][0] == "l" else mid
+            for mid, k in zip(material_ids(scene, names, firsts).values(), firsts.values())}
 
 
 def material_dict(material: Material, base_dir: Path | None) -> dict:
@@ -213,7 +283,7 @@ def _sphere(sphere: Sphere, origin: Vec3, material_id: str, mesh: Mesh | None = 
 
 
 def describe(scene: Scene, base_dir: str | os.PathLike | None, smallest: float | None = None,
-             block: bool = False) -> Description:
+             block: bool = False, ids: dict | None = None) -> Description:
     """The description of ``scene``. Texture paths are relative to ``base_dir`` (the folder
     the XML will live in: Mitsuba resolves paths against it), or absolute when it is None.
     ``smallest``: the smallest radius of spheres the scene holds elsewhere (the loader's
@@ -221,10 +291,14 @@ def describe(scene: Scene, base_dir: str | os.PathLike | None, smallest: float |
     ``block``: when the scene holds its spheres as arrays (:meth:`~.scene.Scene.held_sphere_arrays`),
     the plain ones (untextured, not meshed) are left out of ``scene`` and held as arrays in
     :attr:`Description.spheres` (what the XML writer reads fastest; ``mi.load_dict`` needs
-    them in ``scene``)."""
+    them in ``scene``).
+    Objects are named by :func:`sphere_names` and :func:`material_ids`; ``ids``: the
+    material ids of a scene ``scene`` is part of (the loader's rest of a grouped scene)."""
     base_dir = None if base_dir is None else Path(os.path.abspath(base_dir))
     spheres = scene.held_sphere_arrays()
     sphere = scene.spheres.__getitem__ if spheres is None else spheres.sphere
+    names, firsts = sphere_names(scene, spheres), first_spheres(scene, spheres)
+    ids = material_ids(scene, names, firsts) if ids is None else ids
     origin = scene_origin(scene)
     near, far = clip_range(scene)
     defaults = {"spp": int(scene.samples), "max_depth": int(scene.depth),
@@ -245,7 +319,7 @@ def describe(scene: Scene, base_dir: str | os.PathLike | None, smallest: float |
     if giants:
         # Their exact values, for the integrator to intersect in float64 (plugins/hits.py).
         integrator["exact_spheres"] = exact_spheres(
-            (f"sphere_{k}", to_frame(sphere(k).center, origin), sphere(k).radius) for k in giants)
+            (f"sphere_{names[k]}", to_frame(sphere(k).center, origin), sphere(k).radius) for k in giants)
     objects: dict = {"type": "scene", "integrator": integrator}
     objects["sensor"] = {
         "type": "perspective", "fov_axis": "x", "fov": float(scene.fov),
@@ -262,58 +336,58 @@ def describe(scene: Scene, base_dir: str | os.PathLike | None, smallest: float |
                                  "intensity": _rgb(light_intensity(scene, light.position, light.color))}
     # Identical materials are described once and shared by reference, which keeps
     # Mitsuba's per-material dispatch small for scenes of many spheres.
-    materials: dict[Material, str] = {}
+    description = Description(objects, defaults, origin, scene.source.name)
+    for material, k in firsts.items():
+        objects[ids[material]] = material_dict(material, base_dir)
+        if sphere(k).line > 0:
+            description.notes[ids[material]] = _note(scene, sphere(k), base_dir)
     if spheres is not None:
-        return _describe_arrays(scene, spheres, objects, materials, meshed, base_dir, block,
-                                Description(objects, defaults, origin, scene.source.name))
-    ids = []
-    for sphere in scene.spheres:
-        material = _shared(sphere.material)
-        if material not in materials:
-            materials[material] = f"material_{len(materials)}"
-            objects[materials[material]] = material_dict(material, base_dir)
-        ids.append(materials[material])
+        return _describe_arrays(scene, spheres, names, ids, meshed, base_dir, block, description)
     meshed = set(meshed)
-    for i, (sphere, material_id) in enumerate(zip(scene.spheres, ids)):
+    for i, sphere in enumerate(scene.spheres):
         mesh = None
         if i in meshed:
             data = mesh_bytes(sphere, origin, scene.eye, scene.lookat)
-            mesh = Mesh(str(cached(data)) if base_dir is None else f"{file_stem(scene)}.sphere_{i}.ply", data)
-        objects[f"sphere_{i}"] = _sphere(sphere, origin, material_id, mesh)
-    return Description(objects, defaults, origin, scene.source.name)
+            mesh = Mesh(str(cached(data)) if base_dir is None else f"{file_stem(scene)}.sphere_{names[i]}.ply", data)
+        objects[f"sphere_{names[i]}"] = _sphere(sphere, origin, ids[_shared(sphere.material)], mesh)
+    return description
 
 
-def _describe_arrays(scene: Scene, spheres: SphereArrays, objects: dict, materials: dict, meshed: list[int],
+def _note(scene: Scene, sphere: Sphere, base_dir: Path | None) -> str:
+    """Where the material of ``sphere`` is first written: the file, the line, the material's
+    part of the statement and its comment."""
+    from .scn_writer import material_text
+    comment = scene.comments.get(sphere.line)
+    return (f"{scene.source.name}:{sphere.line}: {material_text(sphere, base_dir or scene.source.parent)}"
+            + (f"  # {comment}" if comment else ""))
+
+
+def _describe_arrays(scene: Scene, spheres: SphereArrays, names: list[str], ids: dict, meshed: list[int],
                      base_dir: Path | None, block: bool, description: Description) -> Description:
     """The rest of :func:`describe` for a scene that holds its spheres as arrays: the
-    materials and the spheres, as :func:`describe` makes them from the list, with numpy."""
+    spheres, as :func:`describe` makes them from the list, with numpy."""
     origin = description.origin
-    ids = [""] * len(spheres.materials)
-    for k in first_use(spheres.material).tolist():    # ids in order of first use, as from the list
-        material = _shared(spheres.materials[k])
-        if material not in materials:
-            materials[material] = f"material_{len(materials)}"
-            objects[materials[material]] = material_dict(material, base_dir)
-        ids[k] = materials[material]
+    by_index = [ids.get(_shared(material), "") for material in spheres.materials]
     import numpy as np
     special = sorted(set(meshed) | set(np.flatnonzero(spheres.textured()).tolist()))
     center = spheres.center - origin
     if block:
-        description.spheres = SphereBlock(center, spheres.radius, spheres.material, tuple(ids), frozenset(special))
+        description.spheres = SphereBlock(center, spheres.radius, spheres.material, tuple(by_index), names,
+                                          frozenset(special))
     else:
-        bsdfs = [{"type": "ref", "id": i} for i in ids]   # one dict per material: copied below
-        for k, ((x, y, z), radius, material) in enumerate(zip(center.tolist(), spheres.radius.tolist(),
-                                                               spheres.material.tolist())):
-            objects[f"sphere_{k}"] = {"type": "sphere", "center": (x, y, z), "radius": radius,
-                                      "bsdf": dict(bsdfs[material])}
+        bsdfs = [{"type": "ref", "id": i} for i in by_index]   # one dict per material: copied below
+        for name, (x, y, z), radius, material in zip(names, center.tolist(), spheres.radius.tolist(),
+                                                     spheres.material.tolist()):
+            description.scene[f"sphere_{name}"] = {"type": "sphere", "center": (x, y, z), "radius": radius,
+                                                   "bsdf": dict(bsdfs[material])}
     meshed = set(meshed)
     for k in special:    # textured and meshed spheres, as from the list
         mesh = None
         sphere = spheres.sphere(k)
         if k in meshed:
             data = mesh_bytes(sphere, origin, scene.eye, scene.lookat)
-            mesh = Mesh(str(cached(data)) if base_dir is None else f"{file_stem(scene)}.sphere_{k}.ply", data)
-        objects[f"sphere_{k}"] = _sphere(sphere, origin, ids[int(spheres.material[k])], mesh)
+            mesh = Mesh(str(cached(data)) if base_dir is None else f"{file_stem(scene)}.sphere_{names[k]}.ply", data)
+        description.scene[f"sphere_{names[k]}"] = _sphere(sphere, origin, by_index[int(spheres.material[k])], mesh)
     return description
 
 

@@ -44,7 +44,7 @@ from ..defaults import MAX_DEPTH, MAX_SAMPLES, MAX_SIZE, PARALLEL_SINE
 from ..errors import SceneError
 from .textures import image_problem
 from .plain import (ARRAYS_FROM, EQUATOR, LINE_BREAK, NORTH, NOT_PLAIN_BYTES, NOT_PLAIN_CHARACTERS,
-                    PlainReader)
+                    PlainReader, comment_text)
 from .scene import Distinct, Light, Material, Scene, Sphere, SphereArrays, Vec3, first_use
 from .scene import cross, length, normalize
 
@@ -146,8 +146,9 @@ def _clip(text: str) -> str:
     return text if len(text) <= 40 else text[:37] + "..."
 
 
-def _statements(text: str, path, errors: list) -> list[tuple[int, list[Token]]]:
-    """Split ``text`` into statements: (first line number, tokens).
+def _statements(text: str, path, errors: list, comments: dict) -> list[tuple[int, list[Token]]]:
+    """Split ``text`` into statements: (first line number, tokens); a statement's comment
+    (:func:`comment_text`, its first if it spans lines) goes into ``comments`` by that line.
 
     ``#`` outside quotes starts a comment. A line whose text (without its
     comment and trailing blanks) ends in ``\\`` continues on the next line; the
@@ -159,6 +160,7 @@ def _statements(text: str, path, errors: list) -> list[tuple[int, list[Token]]]:
     statements = []
     tokens: list[Token] = []
     first = 0
+    remark = None   # the statement's comment
     skipping = False  # the continuation lines of a statement that could not be split
     lines = LINE_BREAK.split(text)
     if len(lines) > 1 and lines[-1] == "":
@@ -168,36 +170,42 @@ def _statements(text: str, path, errors: list) -> list[tuple[int, list[Token]]]:
             skipping = line.rstrip(_BLANKS).endswith("\\")
             continue
         if not tokens:
-            first = number
+            first, remark = number, None
         try:
-            line_tokens, continued = _split_line(line, path, first)
+            line_tokens, continued, line_remark = _split_line(line, path, first)
         except SceneError as error:
             errors.append((error.line, error.message))
             tokens = []
             skipping = line.rstrip(_BLANKS).endswith("\\")
             continue
         tokens += line_tokens
+        remark = remark or line_remark
         if continued:
             if number == len(lines):
                 errors.append((first, "the last line ends with '\\' but no line follows"))
             continue
         if tokens:
             statements.append((first, tokens))
+            if remark:
+                comments[first] = remark
         tokens = []
     return statements
 
 
-def _split_line(line: str, path, first: int) -> tuple[list[Token], bool]:
-    """Tokens of one physical line, and whether it ends with a continuation ``\\``."""
+def _split_line(line: str, path, first: int) -> tuple[list[Token], bool, str | None]:
+    """Tokens of one physical line, whether it ends with a continuation ``\\``, and its
+    comment (:func:`comment_text`)."""
     if "\0" in line:
         raise SceneError(path, first, "binary file (NUL character), not a text scene")
     tokens: list[Token] = []
+    remark = None
     i, n = 0, len(line)
     while i < n:
         c = line[i]
         if c in _BLANKS:
             i += 1
         elif c == "#":
+            remark = comment_text(line[i + 1:])
             break
         elif c == '"':
             end = line.find('"', i + 1)
@@ -221,7 +229,7 @@ def _split_line(line: str, path, first: int) -> tuple[list[Token], bool]:
     if continued:
         rest = tokens[-1].text[:-1]
         tokens[-1:] = [Token(rest)] if rest else []
-    return tokens, continued
+    return tokens, continued, remark
 
 
 def parse_text(text: str, source: str | os.PathLike, *, careful: bool = False) -> Scene:
@@ -243,7 +251,7 @@ def _parse(text: str, source: str | os.PathLike, *, fast: bool, arrays: bool | N
     if fast and not any(c in text for c in NOT_PLAIN_CHARACTERS):
         PlainReader(parser).read_text(text, arrays)
     else:
-        parser.parse(_statements(text, source, parser.errors))
+        parser.parse(_statements(text, source, parser.errors, parser.scene.comments))
     return parser.finish()
 
 
@@ -391,9 +399,11 @@ class _Parser:
 
     def careful_line(self, number: int, line: str) -> None:
         """Read one physical line (the fast paths' every doubt) as the careful path would."""
-        tokens, _ = _split_line(line, self.source, number)
+        tokens, _, remark = _split_line(line, self.source, number)
         if tokens:
             self.statement(number, tokens)
+            if remark:
+                self.scene.comments[number] = remark
 
     def statement_size(self, args):
         self.count("size", args, "W H", 2)

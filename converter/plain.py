@@ -54,6 +54,12 @@ EQUATOR = tuple(float(c) for c in defaults.EQUATOR)
 _BLANK_CODES = (9, 10, 11, 12, 13)
 
 
+def comment_text(text: str) -> str | None:
+    """A statement's comment as the scene keeps it (``Scene.comments``): the text after its
+    ``#``, stripped; None when that is empty."""
+    return text.strip() or None
+
+
 def _float_or_nan(token: bytes) -> float:
     try:
         return float(token)
@@ -148,12 +154,12 @@ class PlainReader:
         code_end = ends
         hashes = np.flatnonzero(b == 35) if data.find(b"#", pos, end) >= 0 else None
         if hashes is not None:    # a comment runs from a line's first '#' to its end
-            holder, first_hash = np.unique(np.searchsorted(ends, hashes, "right"), return_index=True)
+            commented, first_hash = np.unique(np.searchsorted(ends, hashes, "right"), return_index=True)
             code_end = ends.copy()
-            code_end[holder] = hashes[first_hash]
+            code_end[commented] = hashes[first_hash]
             edges = np.zeros(m + 1, np.int8)
             edges[hashes[first_hash]] = 1
-            edges[ends[holder]] -= 1
+            edges[ends[commented]] -= 1
             sep |= np.cumsum(edges[:m], dtype=np.int8).view(bool)
         # lines whose code holds what str.split and float() read otherwise: non-ASCII bytes,
         # '_' or a control character that is no blank
@@ -185,6 +191,10 @@ class PlainReader:
         if len(candidates):
             accepted[candidates] = self.chunk_spheres(data, pos, b, candidates + first, keyword,
                                                       counts[candidates], token_start, token_end)
+            if hashes is not None:   # the comments of the spheres taken
+                taken = commented[accepted[commented]]
+                for k, a, z in zip(taken.tolist(), code_end[taken].tolist(), ends[taken].tolist()):
+                    self.comment(first + k, data[pos + a + 1:pos + z].decode("utf-8", "surrogatepass"))
         rest = np.flatnonzero(((counts > 0) | doubtful) & ~accepted)
         for k, a, z in zip(rest.tolist(), starts[rest].tolist(), ends[rest].tolist()):
             self.read_line(first + k, data[pos + a:pos + z].decode("utf-8", "surrogatepass"))
@@ -257,13 +267,18 @@ class PlainReader:
         # (and nan/inf, which fail every range check).
         if code.isascii() and "_" not in code:
             keyword = tokens[0]
-            if keyword == "sphere" or keyword.lower() == "sphere":
-                if self.sphere(number, tokens):
-                    return
-            elif keyword == "light" or keyword.lower() == "light":
-                if self.light(number, code.split()):
-                    return
+            if ((keyword == "sphere" or keyword.lower() == "sphere") and self.sphere(number, tokens)
+                    or (keyword == "light" or keyword.lower() == "light") and self.light(number, code.split())):
+                if comment_at >= 0:
+                    self.comment(number, line[comment_at + 1:])
+                return
         self.reader.careful_line(number, line)
+
+    def comment(self, number: int, text: str) -> None:
+        """Keep the comment ``text`` (after the ``#``) of the statement on line ``number``."""
+        text = comment_text(text)
+        if text:
+            self.scene.comments[number] = text
 
     def bound(self, token: str, value: float) -> bool:
         """Whether ``token``, which reads as the float ``value``, is exactly ``value``.

@@ -127,7 +127,8 @@ def portable(description: Description) -> tuple[Description, list[str]]:
         notes.append("The scene's minweight (the whitted integrator's adaptive depth) has no stock form.")
     _replace_materials(scene, notes)
     # the spheres held as arrays refer to their materials by id: nothing to change there
-    return Description(scene, defaults, description.origin, description.source, description.spheres), notes
+    return Description(scene, defaults, description.origin, description.source, description.spheres,
+                       description.notes), notes
 
 
 def _replace_materials(node: dict, notes: list[str]) -> None:

@@ -175,6 +175,9 @@ class Scene:
     #: the spheres as objects (made from :meth:`sphere_arrays` on first use); assigning a
     #: :class:`SphereArrays` is allowed too
     spheres: list[Sphere] = field(default_factory=list)
+    #: line -> the comment of the statement there (the text after ``#``, stripped): what
+    #: names its sphere and material (converter/description.py, ``sphere_names``)
+    comments: dict[int, str] = field(default_factory=dict)
 
     def sphere_arrays(self) -> SphereArrays:
         """The spheres as arrays: those the scene holds (:meth:`held_sphere_arrays`), or else

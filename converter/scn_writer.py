@@ -5,15 +5,18 @@ a program) becomes text that the parser reads back into an equal model. Numbers
 are written as Python's shortest round-tripping form (``repr``), so that a
 fitted value survives the round trip exactly; textures are written relative to
 the folder the file goes to (the format resolves them against it), quoted.
+:func:`edited_scn` writes a model into the text it was read from instead, changing
+only the numbers that differ: the file's comments and layout stay.
 """
 
 from __future__ import annotations
 
 import os
+import re
 from pathlib import Path
 
 from .. import defaults as D
-from .scene import Material, Scene, Sphere
+from .scene import Scene, Sphere
 
 
 def _num(x: float) -> str:
@@ -25,7 +28,9 @@ def _nums(values) -> str:
     return " ".join(_num(v) for v in values)
 
 
-def _material_text(m: Material, sphere: Sphere, folder: Path) -> str:
+def material_text(sphere: Sphere, folder: Path) -> str:
+    """The attributes of ``sphere``'s material, as its statement writes them."""
+    m = sphere.material
     parts = []
     if m.texture is not None:
         path = Path(os.path.relpath(os.path.realpath(m.texture), os.path.realpath(folder))).as_posix()
@@ -55,6 +60,106 @@ def scene_to_scn(scene: Scene, folder: str | os.PathLike, comment: str = "") -> 
     if scene.min_weight is not None:
         lines.append(f"minweight {_num(scene.min_weight)}")
     lines += [f"light {_nums(light.position)}  {_nums(light.color)}" for light in scene.lights]
-    lines += [f"sphere {_nums(s.center)} {_num(s.radius)}  {_material_text(s.material, s, folder)}"
-              for s in scene.spheres]
+    lines += [f"sphere {_nums(s.center)} {_num(s.radius)}  {material_text(s, folder)}" for s in scene.spheres]
     return "\n".join(lines) + "\n"
+
+
+#: a token of a line (a quoted one with its quotes), or the ``#`` that starts its comment
+_TOKEN = re.compile(r'"[^"]*"|#|[^ \t\f\v#"]+')
+
+
+def _tokens(line: str) -> tuple[list[list[int]], bool]:
+    """The spans ``[start, end]`` of the tokens of a line, and whether it continues on the
+    next (a trailing ``\\``, left out of the spans)."""
+    spans = []
+    for match in _TOKEN.finditer(line):
+        if match.group() == "#":
+            break
+        spans.append([match.start(), match.end()])
+    continued = bool(spans) and line[spans[-1][0]] != '"' and line[spans[-1][1] - 1] == "\\"
+    if continued:
+        spans[-1][1] -= 1
+        if spans[-1][0] == spans[-1][1]:
+            spans.pop()
+    return spans, continued
+
+
+def _statement(lines: list[str], line: int) -> list[tuple[int, int, int]]:
+    """The tokens ``(line index, start, end)`` of the statement that starts on ``line``
+    (1-based); empty when none starts there."""
+    k = line - 1
+    if not 0 <= k < len(lines) or k and _tokens(lines[k - 1])[1]:
+        return []
+    found = []
+    for k in range(k, len(lines)):
+        spans, continued = _tokens(lines[k])
+        found += [(k, a, z) for a, z in spans]
+        if not continued:
+            break
+    return found
+
+
+def edited_scn(text: str, scene: Scene, folder: str | os.PathLike, note: str = "") -> str | None:
+    """``text``, the ``.scn`` file ``scene`` was read from, with the numbers ``scene`` has
+    changed since put in place (its ambient, its lights' colors, its untextured spheres'
+    colors, each written where its statement has it or added to the statement) and texture
+    paths made relative to ``folder``; every other character as it was. ``note`` ends it as
+    comment lines (an ``ambient`` statement the file lacked goes before it). None when a
+    statement is not on the line ``scene`` gives it."""
+    from .parser import ATTRIBUTES
+    folder = Path(folder)
+    bom = "\ufeff" if text.startswith("\ufeff") else ""
+    parts = re.split(r"(\r\n|\r|\n)", text[len(bom):])
+    lines, edits, tail = parts[0::2], [], []
+
+    def word(token) -> str:
+        return lines[token[0]][token[1]:token[2]]
+
+    def put(tokens, at: int, values, default, name: str = "") -> None:
+        """``values`` for the numbers from token ``at`` on where they read otherwise, or added
+        after the last token (with ``name``) when the statement has none and they are not the
+        ``default``."""
+        if len(tokens) > at:
+            edits.extend((*t, _num(v)) for t, v in zip(tokens[at:], values) if float(word(t)) != v)
+        elif tuple(values) != tuple(default):
+            k, _, z = tokens[-1]
+            edits.append((k, z, z, f"{'  ' + name if name else ''} {_nums(values)}"))
+
+    def statement(line: int, keyword: str):
+        tokens = _statement(lines, line)
+        return tokens if tokens and word(tokens[0]).lower() == keyword else None
+
+    ambient = next(filter(None, (statement(k + 1, "ambient") for k, line in enumerate(lines)
+                                 if line.lstrip(" \t\f\v")[:7].lower() == "ambient")), None)
+    if ambient:
+        put(ambient, 1, [scene.ambient], ())
+    elif scene.ambient != D.AMBIENT:
+        tail.append(f"ambient {_num(scene.ambient)}")
+    for light in scene.lights:
+        tokens = statement(light.line, "light")
+        if tokens is None:
+            return None
+        put(tokens, 4, light.color, D.LIGHT_COLOR)
+    for sphere in scene.spheres:
+        tokens = statement(sphere.line, "sphere")
+        if tokens is None:
+            return None
+        at, found = 5, {}
+        while at < len(tokens):   # the attributes: name -> the index of its first value
+            name = word(tokens[at]).lower()
+            found[name] = at + 1
+            at += 1 + len(ATTRIBUTES.get(name, ()))
+        texture = sphere.material.texture
+        if texture is None:
+            put(tokens, found.get("color", len(tokens)), sphere.material.color, D.COLOR, "color")
+        elif Path(os.path.abspath(folder / word(tokens[found["texture"]]).strip('"'))) != texture:
+            path = Path(os.path.relpath(os.path.realpath(texture), os.path.realpath(folder))).as_posix()
+            edits.append((*tokens[found["texture"]], f'"{path}"'))
+    for k, start, end, new in sorted(edits, reverse=True):
+        lines[k] = lines[k][:start] + new + lines[k][end:]
+    parts[0::2] = lines
+    tail += [f"# {line}" for line in note.splitlines()]
+    if tail:
+        newline = parts[1] if len(parts) > 1 else "\n"
+        parts += ([newline] if parts[-1] else []) + [newline.join(tail) + newline]
+    return bom + "".join(parts)

@@ -39,7 +39,7 @@ from dataclasses import replace
 from pathlib import Path
 from xml.sax.saxutils import escape
 
-from .description import Description, LookAt, Matrix, Mesh, Param, SphereBlock, describe
+from .description import Description, LookAt, Matrix, Mesh, Param, describe
 from .portable import portable as to_portable
 from .scene import Scene, Vec3
 
@@ -181,23 +181,29 @@ def _pieces(description: Description, notes: list[str] = ()):
         out.append(f'{INDENT}<default name="{name}" value="{_value(value, {})[1]}"/>')
     # each object comes after a blank line
     block = description.spheres
-    later = set() if block is None else {f"sphere_{k}" for k in block.in_scene}
+    later = set() if block is None else {f"sphere_{block.names[k]}" for k in block.in_scene}
     for key, node in description.scene.items():
         if key != "type" and key not in later:
-            out += [""] + _object(key, node, description.defaults, 1)
+            out += [""] + _noted(key, description) + _object(key, node, description.defaults, 1)
     yield "\n".join(out) + "\n"
     if block is not None:
-        yield from _block(block, description.scene, description.defaults)
+        yield from _Block(description).pieces()
     yield "</scene>\n"
 
 
-#: the objects of :func:`_block`'s spheres, from the blank line before to the line break after
-_SPHERE = ('\n    <shape type="sphere" id="sphere_%d">\n'
+def _noted(key: str, description: Description) -> list[str]:
+    """The comment before the object ``key``: where the scene file writes it (its notes)."""
+    note = description.notes.get(key)
+    return [] if note is None else [f"{INDENT}<!-- {comment(note)} -->"]
+
+
+#: the objects of :class:`_Block`'s spheres, from the blank line before to the line break after
+_SPHERE = ('\n    <shape type="sphere" id="sphere_%s">\n'
            '        <point name="center" value="%r, %r, %r"/>\n'
            '        <float name="radius" value="%s"/>\n'
            '        <ref name="bsdf" id="%s"/>\n'
            '    </shape>\n')
-#: the spheres :func:`_block` formats at a time
+#: the spheres :class:`_Block` formats at a time
 _BATCH = 1 << 14
 #: blocks of this many spheres on are formatted by two processes (:func:`write_xml`)
 PARALLEL_FROM = 100_000
@@ -208,9 +214,10 @@ class _Block:
     writes them: a number's text is :func:`num`'s, ``repr(x + 0.0)`` (adding 0.0 turns -0.0
     into 0.0), each radius's made once when a few radii serve many spheres."""
 
-    def __init__(self, block: SphereBlock, scene: dict, defaults: dict):
+    def __init__(self, description: Description):
         import numpy as np
-        self.block, self.scene, self.defaults = block, scene, defaults
+        self.block = block = description.spheres
+        self.scene, self.defaults = description.scene, description.defaults
         self.center = block.center + 0.0
         distinct, self.which = np.unique(block.radius, return_inverse=True)
         self.radii = [num(r) for r in distinct.tolist()] if len(distinct) <= len(block) // 4 else None
@@ -227,16 +234,11 @@ class _Block:
                 x, y, z = center[a:b].T.tolist()
                 texts = (map(radii.__getitem__, self.which[a:b].tolist()) if radii is not None
                          else map(repr, block.radius[a:b].tolist()))
-                yield "".join(map(_SPHERE.__mod__, zip(range(a, b), x, y, z, texts,
+                yield "".join(map(_SPHERE.__mod__, zip(block.names[a:b], x, y, z, texts,
                                                         map(ids.__getitem__, block.material[a:b].tolist()))))
             if stop < hi:
-                key = f"sphere_{stop}"
+                key = f"sphere_{block.names[stop]}"
                 yield "\n" + "\n".join(_object(key, self.scene[key], self.defaults, 1)) + "\n"
-
-
-def _block(block: SphereBlock, scene: dict, defaults: dict):
-    """The objects of a :class:`~.description.SphereBlock`, in order (:class:`_Block`)."""
-    yield from _Block(block, scene, defaults).pieces()
 
 
 def write_xml(description: Description, file, portable: bool = False) -> None:
@@ -260,7 +262,7 @@ def write_xml(description: Description, file, portable: bool = False) -> None:
     # _pieces without the block, which comes in two halves
     pieces = list(_pieces(replace(description, spheres=None, scene=_without(description)), notes))
     file.write(pieces[0])
-    text = _Block(block, description.scene, description.defaults)
+    text = _Block(description)
     half = len(block) // 2
     with tempfile.TemporaryFile() as spill:
         child = _fork_writer(text, half, spill)
@@ -286,7 +288,7 @@ def write_xml(description: Description, file, portable: bool = False) -> None:
 
 def _without(description: Description) -> dict:
     """The description's objects but the block's spheres it holds (written with the block)."""
-    later = {f"sphere_{k}" for k in description.spheres.in_scene}
+    later = {f"sphere_{description.spheres.names[k]}" for k in description.spheres.in_scene}
     return {key: node for key, node in description.scene.items() if key not in later}
 
 

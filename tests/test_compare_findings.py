@@ -140,6 +140,13 @@ def test_the_fitted_model_does_at_least_as_well_as_the_best_ambient(run, scene):
     assert 0 <= fitted["ambient"] <= 1 and all(0 <= c <= 1 for rgb in fitted["colors"].values() for c in rgb)
     assert f"fitted, the article's model reaches {fitted['rel_mse']:.3g}" in article["text"]
     assert f"brings it to {article['rel_mse_at_best_ambient']:.3g}" in article["text"]
+    # each fitted color named as the file names its material: its first sphere's line and comment
+    lines = {"close": CLOSE, "far": FAR}.get(scene) or (REPO / "scenes" / f"{scene}.scn").read_text()
+    lines = lines.splitlines()
+    for mid in fitted["colors"]:
+        n = int(re.fullmatch(r"material_l(\d+)\w*", mid).group(1))
+        comment = lines[n - 1].partition("#")[2].strip()
+        assert (f"line {n} ({comment}): " if comment else f"line {n}: ") in article["text"]
 
 
 def test_close_and_far_scenes_tell_the_models_bias_apart(run):

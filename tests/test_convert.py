@@ -337,7 +337,7 @@ def test_texture_paths_are_relative_to_the_output_folder(write_scene, texture_pn
     assert filename == "../../scenes/maps/tex.png"
     monkeypatch.chdir(REPO)  # Mitsuba resolves it against the XML's folder, not the cwd
     loaded = mi.load_file(str(target))
-    assert np.array(mi.traverse(loaded)["material_0.color.data"]).shape == (2, 4, 3)
+    assert np.array(mi.traverse(loaded)["material_l1.color.data"]).shape == (2, 4, 3)   # line 1
 
 
 def test_xml_moved_with_its_texture_still_loads(write_scene, texture_png, tmp_path):
@@ -427,7 +427,8 @@ def test_materials_are_shared_and_textures_ignore_color(texture_png, tmp_path):
     root = ET.fromstring(scene_to_xml(scene, tmp_path).encode())
     assert len(root.findall("bsdf")) == 4
     refs = [s.find("ref").get("id") for s in root.findall("shape")]
-    assert refs == ["material_0", "material_0", "material_1", "material_2", "material_2", "material_3"]
+    # each named by the line of its first sphere
+    assert refs == ["material_l1", "material_l1", "material_l3", "material_l4", "material_l4", "material_l6"]
 
 
 def test_numbers_are_written_exactly():
@@ -540,9 +541,9 @@ def test_convert_names_the_mesh_files_it_writes_and_why(write_scene, tmp_path, c
     assert convert(scene) == 0
     err = capsys.readouterr().err.strip().splitlines()
     meshes = sorted(p.name for p in tmp_path.glob("floor.sphere_*.ply"))
-    assert meshes == ["floor.sphere_0.ply"]
+    assert meshes == ["floor.sphere_l2.ply"]   # the sphere of line 2
     size = (tmp_path / meshes[0]).stat().st_size
-    assert len(err) == 1 and "floor.sphere_0.ply" in err[0] and f"{size / 1e6:.1f} MB" in err[0]
+    assert len(err) == 1 and "floor.sphere_l2.ply" in err[0] and f"{size / 1e6:.1f} MB" in err[0]
     assert "giant sphere" in err[0] and "path tracer" in err[0]
 
 

@@ -3,8 +3,10 @@ image by gradient descent through the whitted integrator's gradients."""
 
 from __future__ import annotations
 
+import re
 import subprocess
 import sys
+from dataclasses import replace
 
 import mitsuba as mi
 import numpy as np
@@ -20,6 +22,9 @@ from whitted.loading import _load_model, load_model_parts
 
 #: shadows, a mirror, glass, four materials, two lights
 SCENE = "size 40 25\n" + MIRROR_AND_GLASS + "sphere 0 0.5 1 0.5        color 0.3 0.5 0.8\n"
+#: the same with comments: a header, a line between statements, trailing ones
+COMMENTED = "# a scene to fit\n#   its comments stay\n" + SCENE.replace(
+    "light 0 10 6\n", "\n# the lights\nlight 0 10 6   # the key\n").replace("0.6 0.65 0.6\n", "0.6 0.65 0.6  # the floor\n")
 
 
 def render(model, **overrides) -> np.ndarray:
@@ -78,8 +83,10 @@ def whitted_cli(*args):
 
 
 def test_fit_command_writes_a_fitted_scene(truth, tmp_path):
+    """The fitted file is the scene's own text, its comments where they were, and the summary
+    names each material by its line and comment."""
     scene = tmp_path / "scene.scn"
-    scene.write_text(SCENE.replace("ambient 0.15", "ambient 0.3"))
+    scene.write_text(COMMENTED.replace("ambient 0.15", "ambient 0.3"))
     target = tmp_path / "target.exr"
     write_image(target, render(truth).astype(np.float32))
     out = tmp_path / "fitted.scn"
@@ -88,6 +95,12 @@ def test_fit_command_writes_a_fitted_scene(truth, tmp_path):
     assert "step 40: relative MSE" in run.stderr and "wrote" in run.stderr
     fitted = parse_file(out)
     assert abs(fitted.ambient - 0.15) < abs(0.3 - 0.15)
+    before, after = scene.read_text().splitlines(), out.read_text().splitlines()
+    for n, line in enumerate(before, 1):
+        if "#" in line:
+            assert after[n - 1][after[n - 1].index("#"):] == line[line.index("#"):]
+    floor = next(n for n, line in enumerate(before, 1) if line.endswith("# the floor"))
+    assert f"line {floor} (the floor): color 0.6 0.65 0.6 -> " in run.stderr
 
 
 @pytest.mark.parametrize("problem", ["size", "unwritable"])
@@ -136,3 +149,47 @@ def test_a_fit_of_a_scene_with_grouped_spheres_writes_every_bsdf_of_a_material(l
     assert result.error < 1e-5
     for light, color in zip(truth.lights, result.lights):
         np.testing.assert_allclose(color, light.color, atol=2e-3)
+
+
+def test_the_fitted_file_is_the_scene_s_text_with_the_fitted_numbers(llvm, tmp_path, texture_png):
+    """Only the fitted numbers change, where the statements write them (or added to them: a light
+    or a sphere without a color, an ambient the file lacks); every other line stays as written,
+    a texture path follows the file to another folder, and the file reads back as the fitted model."""
+    texture_png("maps/t.png")
+    text = (COMMENTED.replace("ambient 0.15\n", "").replace("light 5 4 -6   0.4 0.4 0.4", "light 5 4 -6")
+            .replace("color 0.3 0.5 0.8", "\\\n   reflect 0.2 # two lines")
+            + "sphere 1.5 0.4 1.5 0.4  texture maps/t.png\n").replace("\n", "\r\n")
+    source = tmp_path / "scene.scn"
+    source.write_bytes(text.encode())
+    model = parse_file(source)
+    target = render(model) * np.array([1.1, 0.95, 0.9])
+    result = fit(model, target, iterations=3)
+    out = tmp_path / "fitted" / "fitted.scn"
+    out.parent.mkdir()
+    write_fitted(result, out, "scene.scn", text)
+    written = out.read_bytes().decode()
+    again = parse_file(out)
+    assert again == replace(result.model, source=again.source)
+    assert again.comments == model.comments and again.ambient == result.ambient != model.ambient
+    before, after = text.split("\r\n"), written.split("\r\n")
+    changed = [n for n, (a, b) in enumerate(zip(before[:-1], after)) if a != b]
+    assert changed and all(before[n].strip() and not before[n].lstrip().startswith("#") for n in changed)
+    for a, b in zip(before, after):   # every comment as it was
+        assert "#" not in a or b[b.index("#"):] == a[a.index("#"):]
+    assert after[len(before) - 1:] == [f"ambient {result.ambient!r}", after[-2], ""]
+    assert after[-2].startswith("# fitted by whitted fit from scene.scn")
+    assert '"../maps/t.png"' in written
+    assert re.search(r"\nlight 5 4 -6 [\d.]+ [\d.]+ [\d.]+\r", written)   # colors added where there were none
+    assert re.search(r"\n   reflect 0.2  color [\d.]+ [\d.]+ [\d.]+ # two lines\r", written)
+
+
+def test_compare_s_fitted_text_names_materials_and_lights_as_the_file_does(llvm):
+    from whitted.compare.fitted import fit_to_reference, fitted_text
+    text = COMMENTED.replace("size 40 25", "size 16 10")
+    model = parse_text(text, "scene.scn")
+    fitted = fit_to_reference(model, render(model) * 0.9, depth=model.depth, spp=1, seed=0)
+    said = fitted_text(fitted)
+    floor, key, mirror = (next(n for n, line in enumerate(text.splitlines(), 1) if part in line)
+                          for part in ("# the floor", "# the key", "reflect 0.6"))
+    assert f"colors line {floor} (the floor): " in said and f", line {mirror}: " in said
+    assert f"lights line {key} (the key): " in said and "material_" not in said

@@ -22,12 +22,20 @@ from whitted.errors import WhittedError
 #: shadows (two lights, four spheres on a floor), a mirror, a glass ball, a textured globe
 SCENE = "size 32 24\n" + MIRROR_AND_GLASS + "sphere 0 0.5 1 0.5        texture earth.png  reflect 0.1\n"
 
+
+def line_of(fragment: str) -> int:
+    """The line of SCENE that holds ``fragment``: the converter names spheres and materials by it."""
+    return next(n for n, row in enumerate(SCENE.splitlines(), 1) if fragment in row)
+
+
+FLOOR, MIRROR, GLASS, GLOBE = (f"l{line_of(f)}" for f in ("1000 ", "reflect 0.6", "refract 0.7", "texture"))
+
 #: (parameter, finite-difference step): one per kind
 KINDS = [
-    ("material_1.color.value", 1e-2),        # an article color
-    ("material_3.color.data", 1e-2),         # a bitmap texture's texels
-    ("material_1.reflect", 1e-3),            # KR (a mirror)
-    ("material_2.refract", 1e-3),            # KT (glass)
+    (f"material_{MIRROR}.color.value", 1e-2),   # an article color
+    (f"material_{GLOBE}.color.data", 1e-2),     # a bitmap texture's texels
+    (f"material_{MIRROR}.reflect", 1e-3),       # KR (a mirror)
+    (f"material_{GLASS}.refract", 1e-3),        # KT (glass)
     ("integrator.ambient", 1e-2),            # the ambient coefficient
     ("light_1.intensity.value", 1e-1),       # a light's intensity
     ("light_0.position", 2e-3),              # a light's position (shadows held fixed)
@@ -43,7 +51,7 @@ def load(**overrides):
     xml = xml.replace('<string name="filename" value="', '<string name="format" value="variant"/>\n'
                       '<string name="filename" value="')
     scene = mi.load_string(xml, **overrides)
-    assert isinstance(mi.traverse(scene)["material_3.color.data"], mi.TensorXf)
+    assert isinstance(mi.traverse(scene)[f"material_{GLOBE}.color.data"], mi.TensorXf)
     params = mi.traverse(scene)
     params["integrator.min_weight"] = 0.0   # the exact tree: no culling that a step could flip
     params.update()
@@ -157,11 +165,11 @@ def test_forward_gradients_equal_finite_differences(scene, key, step):
 def test_a_gradient_render_leaves_the_plain_render_alone(scene):
     before = np.array(mi.render(scene))
     params = mi.traverse(scene)
-    dr.enable_grad(params["material_1.color.value"])
+    dr.enable_grad(params[f"material_{MIRROR}.color.value"])
     params.update()
     image = mi.render(scene, params)
     dr.backward(image)
-    dr.disable_grad(params["material_1.color.value"])
+    dr.disable_grad(params[f"material_{MIRROR}.color.value"])
     params.update()
     np.testing.assert_array_equal(np.array(image), before)
     np.testing.assert_array_equal(np.array(mi.render(scene)), before)
@@ -178,7 +186,7 @@ def test_scalar_refuses_gradients_in_one_line():
 
 
 @pytest.mark.parametrize("key,step", [("light_1.intensity.value", 10.0), ("light_0.position", 2e-3),
-                                      ("material_1.color.value", 1e-2)])
+                                      (f"material_{MIRROR}.color.value", 1e-2)])
 def test_physical_lighting_gradients_equal_finite_differences(physical_scene, key, step):
     gradient, expected = backward_and_finite_difference(physical_scene, key, step)
     assert abs(expected) > 1e-4, key
@@ -198,10 +206,10 @@ def test_a_parameter_the_integrator_does_not_differentiate_is_named_once(capfd):
     scene = load()
     params = mi.traverse(scene)
     thetas = [mi.Float(0.0), mi.Float(0.0)]
-    for theta, key in zip(thetas, ("sphere_2.to_world", "sphere_1.to_world")):
+    for theta, key in zip(thetas, (f"sphere_{GLASS}.to_world", f"sphere_{MIRROR}.to_world")):
         dr.enable_grad(theta)
         params[key] = mi.Transform4f().translate(mi.Vector3f(theta, 0, 0)) @ params[key]
-    for key in ("material_2.ior", *(key for key, _ in KINDS)):
+    for key in (f"material_{GLASS}.ior", *(key for key, _ in KINDS)):
         dr.enable_grad(params[key])
     params.update()
     capfd.readouterr()
@@ -210,20 +218,21 @@ def test_a_parameter_the_integrator_does_not_differentiate_is_named_once(capfd):
     assert dr.grad(thetas[0])[0] == 0   # (finite differences: about 1e-2)
     out = capfd.readouterr()
     lines = (out.out + out.err).splitlines()
-    for key in ("sphere_2.to_world", "sphere_1.to_world", "material_2.ior"):
+    for key in (f"sphere_{GLASS}.to_world", f"sphere_{MIRROR}.to_world", f"material_{GLASS}.ior"):
         assert len([line for line in lines if f"'{key}'" in line]) == 1, (key, lines)
-    geometry = next(line for line in lines if "'sphere_2.to_world'" in line)
+    geometry = next(line for line in lines if f"'sphere_{GLASS}.to_world'" in line)
     assert "prb_projective" in geometry and "not differentiated" in geometry
     assert not [line for line in lines if any(f"'{key}'" in line for key, _ in KINDS)]
 
     # forward: a parameter not named before is named, once
     theta = mi.Float(0.0)
     dr.enable_grad(theta)
-    params["sphere_0.to_world"] = mi.Transform4f().translate(mi.Vector3f(0, theta, 0)) @ params["sphere_0.to_world"]
+    key = f"sphere_{FLOOR}.to_world"
+    params[key] = mi.Transform4f().translate(mi.Vector3f(0, theta, 0)) @ params[key]
     params.update()
     capfd.readouterr()
     for _ in range(2):
         image = mi.render(scene, params)
         dr.forward(theta)
     assert dr.all(dr.grad(image) == 0, axis=None)
-    assert len(named(capfd, "sphere_0.to_world")) == 1
+    assert len(named(capfd, key)) == 1

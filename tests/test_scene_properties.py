@@ -160,8 +160,9 @@ def scenes(draw):
 
 @st.composite
 def written(draw, statements):
-    """The scene's text in a random legal style, and the first line of each statement."""
-    lines, first_lines = [], []
+    """The scene's text in a random legal style, the first line of each statement, and what the
+    converter's ids of each end with (its comment's slug)."""
+    lines, first_lines, slugs = [], [], []
     blank = st.sampled_from([" ", "\t", "  ", " \t "])
     for statement in statements:
         for _ in range(draw(st.integers(0, 2))):
@@ -177,11 +178,11 @@ def written(draw, statements):
             elif k:
                 line += draw(blank)
             line += word
-        if draw(st.booleans()):
-            line += draw(st.sampled_from([" # done", "#x", '  # "quoted" \\']))
-        lines.append(line)
+        comment = draw(st.sampled_from(["", " # done", "#x", '  # "quoted" \\']))
+        slugs.append({"": "", " # done": "_done", "#x": "_x", '  # "quoted" \\': "_quoted"}[comment])
+        lines.append(line + comment)
     ending = draw(st.sampled_from(["\n", "\r\n"]))
-    return ending.join(lines) + (ending if draw(st.booleans()) else ""), first_lines
+    return ending.join(lines) + (ending if draw(st.booleans()) else ""), first_lines, slugs
 
 
 # ----------------------------------------------------------- expectations
@@ -256,7 +257,7 @@ def close(a, b, scale=1.0, rel=2e-6):
 @given(data=st.data())
 def test_random_valid_scenes_survive_parse_xml_and_load(folder, data):
     statements, g = data.draw(scenes())
-    text, first_lines = data.draw(written(statements))
+    text, first_lines, slugs = data.draw(written(statements))
     source = folder / "random.scn"
     source.write_bytes(text.encode("utf-8"))
     scene = parse_file(source)
@@ -266,6 +267,7 @@ def test_random_valid_scenes_survive_parse_xml_and_load(folder, data):
     lights = [s for s in statements if s.kind == "light"]
     spheres = [s for s in statements if s.kind == "sphere"]
     lines = dict(zip(map(id, statements), first_lines))
+    ids = {id(s): f"sphere_l{line}{slug}" for s, line, slug in zip(statements, first_lines, slugs)}
     assert (scene.width, scene.height) == g["size"]
     assert (scene.eye, scene.lookat, scene.up, scene.fov) == (g["eye"], g["lookat"], g["up"], g["fov"])
     assert (scene.background, scene.ambient, scene.depth, scene.samples) == \
@@ -315,8 +317,8 @@ def test_random_valid_scenes_survive_parse_xml_and_load(folder, data):
     assert len(shapes) == len(spheres)
     si = dr.zeros(mi.SurfaceInteraction3f)
     for k, s in enumerate(spheres):
-        e, shape = s.expect, shapes[f"sphere_{k}"]
-        close(matrix(params[f"sphere_{k}.to_world"]), sphere_to_world(e, origin), scale=100, rel=2e-6)
+        e, shape = s.expect, shapes[ids[id(s)]]   # named by its line and comment
+        close(matrix(params[f"{ids[id(s)]}.to_world"]), sphere_to_world(e, origin), scale=100, rel=2e-6)
         bsdf = shape.bsdf()
         for name in ("reflect", "refract", "ior"):
             close(scalar(bsdf.eval_attribute_1(name, si)), e[name])

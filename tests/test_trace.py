@@ -343,7 +343,9 @@ def test_a_converted_xml_is_traced_in_its_own_frame(llvm):
     from_scn = trace_pixel(TIR, 160, 90)
     from_xml = trace_pixel(REPO / "scenes_xml" / "tir.xml", 160, 90)
     assert from_xml.color == from_scn.color
-    assert from_xml.root.sphere.name == "sphere_1" and from_xml.root.sphere.line is None
+    line = from_scn.root.sphere.line   # the glass ball's: "# the glass ball" in tir.scn
+    assert TIR.read_text().splitlines()[line - 1].endswith("# the glass ball")
+    assert from_xml.root.sphere.name == f"sphere_l{line}_the_glass_ball" and from_xml.root.sphere.line is None
     assert from_xml.root.origin == pytest.approx((0.0, 0.3, 7.0), abs=1e-6)   # tir.scn's lookat is 0 0.2 0
     assert str(from_xml).startswith("pixel (160, 90) of tir.xml")
 

@@ -89,8 +89,8 @@ def test_an_unsupported_variant_is_named_when_a_scene_loads():
 #: it is in and the words of the plugin's message
 BAD_XML = {
     "integrator": (('name="max_depth" value="10"', 'name="max_depth" value="0"'), "<integrator ", "max_depth"),
-    "bsdf": (('name="reflect" value="0.05"', 'name="reflect" value="1.5"'), '<bsdf type="article" id="material_1"',
-             "reflect"),
+    "bsdf": (('name="reflect" value="0.05"', 'name="reflect" value="1.5"'),   # line 19: "# the glass ball"
+             '<bsdf type="article" id="material_l19_the_glass_ball"', "reflect"),
 }
 
 

@@ -218,19 +218,45 @@ def fitted_model(model, ambient: float, colors: dict, lights: list):
                    lights=[replace(light, color=tuple(color)) for light, color in zip(model.lights, lights)])
 
 
-def write_fitted(result: FitResult, path, source_name: str = "") -> None:
-    """Write the fitted model as a ``.scn`` file (atomically)."""
+def write_fitted(result: FitResult, path, source_name: str = "", text: str | None = None) -> None:
+    """Write the fitted model as a ``.scn`` file (atomically): ``text``, the file the model was
+    read from, with the fitted numbers put in place (its comments and layout kept:
+    ``converter.scn_writer.edited_scn``), or the model written anew without ``text`` (or
+    when the edit would not read back as the fitted model)."""
     from .atomic import write_text
-    from .converter.scn_writer import scene_to_scn
+    from .converter import parse_text
+    from .converter.scn_writer import edited_scn, scene_to_scn
+    from .errors import SceneError
     note = (f"fitted by whitted fit{' from ' + source_name if source_name else ''}: relative MSE "
             f"{result.error:.4g} at {result.size[0]}x{result.size[1]} after {len(result.losses)} steps")
-    write_text(path, scene_to_scn(result.model, Path(path).resolve().parent, note))
+    folder = Path(path).resolve().parent
+    written = None if text is None else edited_scn(text, result.model, folder, note)
+    try:   # the edited text must read back as the fitted model
+        same = written is not None and replace(parse_text(written, path), source=result.model.source) == result.model
+    except SceneError:
+        same = False
+    write_text(path, written if same else scene_to_scn(result.model, folder, note))
+
+
+def fitted_lines(model, result: FitResult) -> list[str]:
+    """What a fit of ``model`` changed, a line each, named as the file names it:
+    ``line 14 (the floor): color 0.6 0.65 0.6 -> 0.52 0.6 0.55``."""
+    from .converter.description import line_label, material_labels
+
+    def rgb(color):
+        return " ".join(f"{c:.4g}" for c in color)
+    labels = material_labels(model)
+    before = {mid: material.color for material, mid in material_ids(model).items()}
+    return ([f"ambient {model.ambient:.4g} -> {result.ambient:.4g}"]
+            + [f"{labels[mid]}: color {rgb(before[mid])} -> {rgb(color)}" for mid, color in result.colors.items()]
+            + [f"{line_label(model, light.line)}: light {rgb(light.color)} -> {rgb(color)}"
+               for light, color in zip(model.lights, result.lights) if tuple(color) != tuple(light.color)])
 
 
 def fit_command(args) -> None:
     """``whitted fit SCENE --to IMAGE -o FITTED.scn``: everything checked before the fit."""
     from .atomic import check_writable
-    from .converter import parse_file
+    from .converter.parser import decode, parse_text, read_scene_file
     from .images import read_image
     if not Path(args.output).suffix.lower() == ".scn":
         raise WhittedError(f"{args.output}: the fitted scene is a .scn file")
@@ -239,7 +265,8 @@ def fit_command(args) -> None:
     if args.width < 1:
         raise WhittedError(f"--width must be >= 1, got {args.width}")
     check_writable(args.output, inputs=(args.scene, args.target))
-    model = parse_file(args.scene)
+    text = decode(read_scene_file(args.scene), args.scene)
+    model = parse_text(text, args.scene)
     target = read_image(args.target)
     fit_size((model.width, model.height), target.shape[1::-1], args.width, args.target)
 
@@ -249,7 +276,9 @@ def fit_command(args) -> None:
             tqdm.write(f"step {k + 1}: relative MSE {loss:.6g}", file=sys.stderr)
     result = fit(model, target, iterations=args.iterations, width=args.width, progress=not args.quiet,
                  on_step=step, target_name=args.target)
-    write_fitted(result, args.output, Path(args.scene).name)
+    write_fitted(result, args.output, Path(args.scene).name, text)
     if not args.quiet:
         print(f"whitted: wrote {args.output}: relative MSE {result.losses[0]:.4g} -> {result.error:.4g} "
-              f"at {result.size[0]}x{result.size[1]} (ambient {result.ambient:.4g})", file=sys.stderr)
+              f"at {result.size[0]}x{result.size[1]}", file=sys.stderr)
+        for line in fitted_lines(model, result):
+            print(f"  {line}", file=sys.stderr)

@@ -239,15 +239,16 @@ def load_model_parts(model, params: dict, ellipsoids: bool | None, integrator: s
 
     ``bsdfs``: each material of ``model`` (as the converter shares them:
     ``converter.description._shared``) -> where its ``article`` BSDFs are: the ids of
-    BSDFs (``material_K``) and of the ``ellipsoids`` shapes of its grouped spheres
-    (``sealed_K``), whose BSDF is their own (``shape.bsdf()``: Mitsuba's ``ellipsoids``
+    BSDFs (``converter.description.material_ids``) and of the ``ellipsoids`` shapes of its
+    grouped spheres (``sealed_K``), whose BSDF is their own (``shape.bsdf()``: Mitsuba's ``ellipsoids``
     does not traverse it); a material can have both. ``described``: the model as the scene
     shows it (with the grouped spheres, lengths scaled: its lights' positions are the
     scene's). What a fit (:mod:`whitted.fitting`) needs to write a material's color or a
     light's into the scene."""
-    from .converter.description import _shared, material_ids
+    from .converter.description import _shared, first_spheres, material_ids
     scene, described, grouped, _ = _scene_dict(model, params, ellipsoids, integrator)
-    bsdfs = {material: [mid] for material, mid in material_ids(described).items()}
+    ids = material_ids(model)
+    bsdfs = {material: [ids[material]] for material in first_spheres(described)}
     for k, material in enumerate(grouped):
         bsdfs.setdefault(_shared(material), []).append(f"sealed_{k}")
     return _loaded(scene, meshes), bsdfs, described
@@ -299,11 +300,11 @@ def _sealed_dict(remaining, model, grouping, params: dict) -> tuple[dict, list]:
     description of the rest of the scene (``remaining``: :func:`whitted.sealed.remaining`)
     in the scaled frame, plus those shapes (``sealed_K``); and the material of each."""
     from . import sealed
-    from .converter.description import clip_range, describe, material_dict
+    from .converter.description import clip_range, describe, material_dict, material_ids
     # The grouped spheres (the commonest of radius 1 in the scaled frame) count among the
     # scene's details.
     smallest = min([1.0, *(radius * grouping.scale for radius in grouping.radii)])
-    description = describe(remaining, base_dir=None, smallest=smallest)
+    description = describe(remaining, base_dir=None, smallest=smallest, ids=material_ids(model))
     scene = mitsuba_dict(description, params)
     # the clip range of the whole scene, scaled: the rest's alone may cut off grouped spheres
     scene["sensor"]["near_clip"], scene["sensor"]["far_clip"] = (d * grouping.scale for d in clip_range(model))

@@ -44,7 +44,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from . import defaults as D
-from .converter.description import Description, Mesh, describe, file_stem, material_dict
+from .converter.description import Description, Mesh, describe, file_stem, material_dict, material_ids
 from .converter.frame import farthest
 from .converter.giants import coarse_candidates
 from .converter.scene import Material, Scene, SphereArrays
@@ -219,20 +219,20 @@ def described(scene: Scene, base_dir, min_group: int = MIN_GROUP) -> Description
     spheres :func:`choose` groups for Mitsuba's own integrators (``smaller=False``) as one
     ``ellipsoids`` shape per radius and material, read from a PLY file beside the XML
     (``SCENE.sealed_K.ply``: a :class:`~whitted.converter.description.Mesh`, written as the
-    giant spheres' meshes are), in the frame that makes the commonest radius 1; the plain
-    description when nothing is grouped."""
+    giant spheres' meshes are), its BSDF ``sealed_`` and the material's id, in the frame that
+    makes the commonest radius 1; the plain description when nothing is grouped."""
     grouping = choose(scene, min_group, classes=MAX_LAYERS, smaller=False)
     if grouping is None:
         return describe(scene, base_dir, block=True)
     # the grouped radii are 1 and above in this frame: the smallest detail is 1 (as in the loader)
-    description = describe(remaining(scene, grouping), base_dir, smallest=1.0, block=True)
-    materials: dict[Material, str] = {}
+    ids = material_ids(scene)
+    description = describe(remaining(scene, grouping), base_dir, smallest=1.0, block=True, ids=ids)
     stem = file_stem(scene)
     for k, (material, radius, centers) in enumerate(groups(scene, grouping, description.origin)):
-        if material not in materials:
-            materials[material] = f"sealed_material_{len(materials)}"
-            description.scene[materials[material]] = material_dict(material, base_dir)
+        bsdf = f"sealed_{ids[material]}"
+        if bsdf not in description.scene:
+            description.scene[bsdf] = material_dict(material, base_dir)
         description.scene[f"sealed_{k}"] = {
             "type": "ellipsoids", "filename": Mesh(f"{stem}.sealed_{k}.ply", ellipsoids_ply(centers)),
-            "scale_factor": float(radius), "extent": 1.0, "bsdf": {"type": "ref", "id": materials[material]}}
+            "scale_factor": float(radius), "extent": 1.0, "bsdf": {"type": "ref", "id": bsdf}}
     return description

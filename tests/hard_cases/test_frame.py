@@ -189,7 +189,7 @@ def test_convert_and_render_warn_in_one_line_and_still_work(tmp_path, capsys):
     warning, note = err.splitlines()
     assert out == "" and err.count("\n") == 2
     assert warning.startswith(f"whitted: warning: {source}: the eye ") and "float32" in warning
-    assert note.startswith("whitted: note: wrote planet.sphere_0.ply")
+    assert note.startswith("whitted: note: wrote planet.sphere_l6.ply")   # the sphere of line 6
     assert source.with_suffix(".xml").is_file()
     assert main(["render", str(source), "-o", str(tmp_path / "planet.exr"), "-q"]) == 0
     out, err = capsys.readouterr()

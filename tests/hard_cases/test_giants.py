@@ -202,11 +202,12 @@ def test_both_routes_give_mitsuba_the_same_mesh(tmp_path, llvm):
     source.write_text("size 48 32\neye 0 1.5 8\nlookat 0 0.5 0\nlight 3 6 4\n"
                       "sphere 0 -100000 0 100000\nsphere 0 1 0 1\n")
     assert main(["convert", str(source)]) == 0
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["floor.scn", "floor.sphere_0.ply", "floor.xml"]
+    # the floor is the sphere of line 5
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["floor.scn", "floor.sphere_l5.ply", "floor.xml"]
     from_xml = whitted.load_scene(tmp_path / "floor.xml")
     from_scn = whitted.load_scene(source)
     assert_same_scene(from_xml, from_scn)
-    floor = {shape.id(): shape for shape in from_xml.shapes()}["sphere_0"]
+    floor = {shape.id(): shape for shape in from_xml.shapes()}["sphere_l5"]
     assert "Mesh" in floor.class_name()
     assert from_xml.integrator().exact_spheres == from_scn.integrator().exact_spheres != []
 

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -28,7 +28,8 @@ from .. import rendering
 @dataclass
 class Fitted:
     """The fit of one scene: its relative MSE against the reference at full resolution, the
-    fitted ambient, colors (material id -> RGB) and light colors, and what it took."""
+    fitted ambient, colors (material id -> RGB) and light colors, and what it took; ``names``:
+    how the scene file names each material id and ``light_K`` (``line 14 (the floor)``)."""
     rel_mse: float
     ambient: float
     colors: dict
@@ -36,6 +37,7 @@ class Fitted:
     seconds: float
     fit_rel_mse: float      # at the fit's resolution
     size: tuple
+    names: dict = field(default_factory=dict)
 
 
 def fit_to_reference(model, reference: np.ndarray, depth: int, spp: int, seed: int,
@@ -45,6 +47,7 @@ def fit_to_reference(model, reference: np.ndarray, depth: int, spp: int, seed: i
     there at ``depth`` and ``spp`` (the exact tree, ``seed``). None without a model (an XML
     scene), or when the fit's first steps show it would run past ``deadline`` (a
     ``time.monotonic`` reading)."""
+    from ..converter.description import line_label, material_labels
     from ..defaults import FIT_ITERATIONS, FIT_SPP
     from ..fitting import fit
     from ..loading import _load_model
@@ -72,8 +75,10 @@ def fit_to_reference(model, reference: np.ndarray, depth: int, spp: int, seed: i
     image = rendering.render(loaded, integrator="whitted", spp=spp, max_depth=depth, lighting="article",
                              seed=seed, min_weight=0.0, ambient=result.ambient).image
     error = metrics.relative_mse(np.asarray(image, np.float64), reference)
+    names = {**material_labels(model), **{f"light_{k}": line_label(model, light.line)
+                                          for k, light in enumerate(model.lights) if light.line}}
     return Fitted(error, result.ambient, result.colors, list(result.lights), time.monotonic() - start,
-                  result.error, result.size)
+                  result.error, result.size, names)
 
 
 class _OutOfTime(Exception):
@@ -81,12 +86,15 @@ class _OutOfTime(Exception):
 
 
 def fitted_text(fitted: Fitted) -> str:
-    """"ambient 0.31, colors material_0 (0.52, 0.6, 0.55), …; lights (0.9, 0.9, 0.9), …"."""
+    """"ambient 0.31; colors line 14 (the floor): 0.52 0.6 0.55, …; lights line 11: 0.9 0.9 0.9, …",
+    each named as the scene file names it (:attr:`Fitted.names`)."""
     def rgb(c):
-        return "(" + ", ".join(f"{v:.2g}" for v in c) + ")"
+        return " ".join(f"{v:.2g}" for v in c)
+    names = fitted.names
     parts = [f"ambient {fitted.ambient:.2g}"]
     if fitted.colors:
-        parts.append("colors " + ", ".join(f"{mid} {rgb(c)}" for mid, c in fitted.colors.items()))
+        parts.append("colors " + ", ".join(f"{names.get(mid, mid)}: {rgb(c)}" for mid, c in fitted.colors.items()))
     if fitted.lights:
-        parts.append("lights " + ", ".join(rgb(c) for c in fitted.lights))
+        parts.append("lights " + ", ".join(f"{names.get(f'light_{k}', f'light {k}')}: {rgb(c)}"
+                                           for k, c in enumerate(fitted.lights)))
     return "; ".join(parts)
