@@ -339,7 +339,7 @@ def describe(scene: Scene, base_dir: str | os.PathLike | None, smallest: float |
     description = Description(objects, defaults, origin, scene.source.name)
     for material, k in firsts.items():
         objects[ids[material]] = material_dict(material, base_dir)
-        if sphere(k).line > 0:
+        if sphere(k).line > 0 and block:   # for the XML's readers
             description.notes[ids[material]] = _note(scene, sphere(k), base_dir)
     if spheres is not None:
         return _describe_arrays(scene, spheres, names, ids, meshed, base_dir, block, description)
