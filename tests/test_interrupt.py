@@ -37,7 +37,7 @@ COMPARE_PATIENCE = 30.0
 def start(args, cwd):
     """The command, once it handles signals itself (:func:`handles_signals`): a signal that
     lands while Python itself is still starting is Python's to report, whatever the program."""
-    env = dict(os.environ)
+    env = dict(os.environ, PYTHONFAULTHANDLER="1")   # a hung child shows where (see stop)
     process = subprocess.Popen([sys.executable, "-m", "whitted", *args], cwd=cwd, env=env,
                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     deadline = time.monotonic() + 30
@@ -125,10 +125,15 @@ def wait_for(process, condition, what: str, seconds: float = 180.0) -> None:
         time.sleep(0.05)
 
 
-def stop(process, err: Lines):
+def stop(process, err: Lines, seconds: float = 120.0):
     process.send_signal(signal.SIGINT)
     sent = time.monotonic()
-    process.wait(timeout=60)
+    try:
+        process.wait(timeout=seconds)
+    except subprocess.TimeoutExpired:
+        process.send_signal(signal.SIGABRT)   # the faulthandler prints every thread's stack
+        process.wait(timeout=30)
+        pytest.fail(f"still running {seconds:.0f} s after SIGINT; its stderr:\n{err.text()[-6000:]}")
     return process.returncode, err.text(), time.monotonic() - sent
 
 
