@@ -141,17 +141,12 @@ class WhittedIntegrator(mi.SamplingIntegrator):
 
     def __init__(self, props: mi.Properties):
         super().__init__(props)
-        self._take(D.check_plugin_parameters("whitted", {name: props.get(name, default)
-                                                         for name, default in self.DEFAULTS.items()}))
+        given = {name: props.get(name, default) for name, default in D.WHITTED_DEFAULTS.items()}
+        self._take(D.check_plugin_parameters("whitted", given))
         self.hide_emitters = bool(props.get("hide_emitters", False))
         self._warned = ()   # what the last warning about 1 spp named (once per change)
         self._gradient_keys = {}   # parameters seen with gradients: differentiated? (warned once)
         self.exact_spheres = parse_exact_spheres(str(props.get("exact_spheres", "")))
-
-    #: the properties :func:`whitted.defaults.check_plugin_parameters` checks, and their defaults
-    DEFAULTS = {"max_depth": D.DEPTH, "ambient": D.AMBIENT, "lighting": D.LIGHTING,
-                "light_reference": D.LOOKAT, "min_weight": D.MIN_WEIGHT,
-                "wavefront_size": D.WAVEFRONT_SIZE, "without": ""}
 
     def _take(self, checked: dict) -> None:
         """Take the properties ``checked`` by the plugins' one rule."""

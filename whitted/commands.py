@@ -1,9 +1,6 @@
-"""The bodies of ``whitted convert`` and ``whitted render`` (``whitted/cli.py`` parses
-their arguments; ``compare`` has its own package).
-
-Both check everything a user can get wrong — options, environment, the scene,
-every output path — before any long work, and write outputs atomically, so
-that a failure or an interruption leaves no partial file.
+"""The bodies of ``whitted convert`` and ``whitted render`` (``whitted/cli.py`` parses their
+arguments): everything a user can get wrong is checked before any long work, and outputs
+are written atomically.
 """
 
 from __future__ import annotations
@@ -13,7 +10,6 @@ import sys
 from pathlib import Path
 
 from .errors import EXIT_USER_ERROR, WhittedError, report
-
 
 
 def convert_command(args) -> int:
@@ -37,8 +33,6 @@ def convert_command(args) -> int:
     if failed and len(pairs) > 1:
         print(f"whitted: {failed} of {len(pairs)} scene files not converted", file=sys.stderr)
     return EXIT_USER_ERROR if failed else 0
-
-
 
 
 def _summary(args, result, sensor) -> str:

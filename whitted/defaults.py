@@ -109,6 +109,10 @@ MAX_SPP = 2 ** 31
 VARIANTS = ("scalar_rgb", "llvm_ad_rgb", "cuda_ad_rgb")
 DEFAULT_VARIANT = "llvm_ad_rgb"
 FALLBACK_VARIANT = "scalar_rgb"
+#: the ``whitted`` integrator's checked properties and their defaults
+WHITTED_DEFAULTS = {"max_depth": DEPTH, "ambient": AMBIENT, "lighting": LIGHTING,
+                    "light_reference": LOOKAT, "min_weight": MIN_WEIGHT,
+                    "wavefront_size": WAVEFRONT_SIZE, "without": ""}
 
 
 # --- whitted compare ------------------------------------------------------------------------------

@@ -242,7 +242,7 @@ def trace_pixels(scene, pixels, *, variant: str | None = None, max_depth: int | 
     Whitted integrator exactly as a render at one sample per pixel traces them, with the
     scene's settings or those given (as ``whitted render`` takes them)."""
     from .. import defaults as D
-    from ..rendering import check_article_materials, check_settings, integrator_of, quiet_mitsuba
+    from ..rendering import check_article_materials, check_settings, whitted_integrator
     check_settings(None, max_depth, lighting, "whitted", min_weight)
     if ambient is not None:
         D.check_ambient(ambient)
@@ -257,14 +257,10 @@ def trace_pixels(scene, pixels, *, variant: str | None = None, max_depth: int | 
             raise WhittedError(f"pixel ({x}, {y}) is outside the {width}x{height} image "
                                f"(x from 0 to {width - 1}, y from 0 to {height - 1})")
     check_article_materials(scene)
-    own = integrator_of(scene)
-    settings = own.settings()
-    with quiet_mitsuba():
-        integrator = own.with_settings(
-            max_depth=int(max_depth) if max_depth is not None else settings["max_depth"],
-            lighting=lighting or settings["lighting"],
-            min_weight=float(min_weight) if min_weight is not None else settings["min_weight"],
-            ambient=float(ambient) if ambient is not None else settings["ambient"])
+    integrator = whitted_integrator(
+        scene, max_depth=None if max_depth is None else int(max_depth), lighting=lighting,
+        ambient=None if ambient is None else float(ambient),
+        min_weight=None if min_weight is None else float(min_weight))
     from .record import Recorder
     recorder = Recorder()
     unique = list(dict.fromkeys(pixels))
