@@ -206,13 +206,19 @@ def check_ior(ior, what: str = "ior") -> float:
     return ior
 
 
+def _triple(value) -> tuple:
+    """``value`` as three floats, or () when it is not three numbers."""
+    try:
+        numbers = tuple(float(c) for c in value)
+    except (TypeError, ValueError):
+        return ()
+    return numbers if len(numbers) == 3 else ()
+
+
 def check_color(color, what: str = "color") -> Vec3:
     """A base color: three numbers, each in [0, 1]."""
-    try:
-        rgb = tuple(float(c) for c in color)
-    except (TypeError, ValueError):
-        rgb = ()
-    if len(rgb) != 3:
+    rgb = _triple(color)
+    if not rgb:
         raise WhittedError(f"{what} must be an RGB color (three numbers in [0, 1]), got {color!r}")
     if not all(math.isfinite(c) and 0.0 <= c <= 1.0 for c in rgb):
         raise WhittedError(f"{what} must have each component in [0, 1], got [{', '.join(f'{c:g}' for c in rgb)}]")
@@ -221,11 +227,8 @@ def check_color(color, what: str = "color") -> Vec3:
 
 def check_point(point, what: str = "point") -> Vec3:
     """A point: three finite numbers."""
-    try:
-        xyz = tuple(float(c) for c in point)
-    except (TypeError, ValueError):
-        xyz = ()
-    if len(xyz) != 3 or not all(map(math.isfinite, xyz)):
+    xyz = _triple(point)
+    if not xyz or not all(map(math.isfinite, xyz)):
         raise WhittedError(f"{what} must be a point (three finite numbers), got {point!r}")
     return xyz
 
