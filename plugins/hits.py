@@ -259,8 +259,7 @@ class LayeredHits:
         scaled.maxt = maxt * self.scales[k]
         return scaled
 
-    def surface_at(self, point):
-        return self.primitives.surface_at(point)
+    surface_at = _SceneHits.surface_at
 
     def blocked(self, ray, active):
         tests = [lambda mask, k=k, layer=layer: blocked(layer.scene, self._ray(k, ray, ray.maxt), mask,

@@ -232,26 +232,27 @@ class WhittedIntegrator(mi.SamplingIntegrator):
 
     def render_forward(self, scene, params=None, sensor=0, seed=0, spp=0):
         """The image's derivative along the parameters' gradients (forward mode)."""
-        from . import gradients
-        gradients.require_gradients("render_forward")
-        gradients.name_undifferentiated(scene, mi.traverse(scene) if params is None else params, self,
-                                        self._gradient_keys)
         with dr.resume_grad():
-            image = self.render_detailed(scene, sensor, seed, spp, attached=True).image
+            image = self._attached_image("render_forward", scene, params, sensor, seed, spp)
             dr.forward_to(image)
         return dr.grad(image)
 
     def render_backward(self, scene, params, grad_in, sensor=0, seed=0, spp=0):
         """Add ``grad_in`` times the image's derivatives to the parameters' gradients (reverse mode)."""
-        from . import gradients
-        gradients.require_gradients("render_backward")
-        gradients.name_undifferentiated(scene, mi.traverse(scene) if params is None else params, self,
-                                        self._gradient_keys)
         with dr.resume_grad():
-            image = self.render_detailed(scene, sensor, seed, spp, attached=True).image
+            image = self._attached_image("render_backward", scene, params, sensor, seed, spp)
             dr.set_grad(image, grad_in)
             dr.enqueue(dr.ADMode.Backward, image)
             dr.traverse(dr.ADMode.Backward)
+
+    def _attached_image(self, what, scene, params, sensor, seed, spp):
+        """The image of a gradient render (:mod:`.gradients`), whose parameters are named once
+        when some with gradients are not differentiated."""
+        from . import gradients
+        gradients.require_gradients(what)
+        gradients.name_undifferentiated(scene, mi.traverse(scene) if params is None else params, self,
+                                        self._gradient_keys)
+        return self.render_detailed(scene, sensor, seed, spp, attached=True).image
 
     # -- Rendering ------------------------------------------------------------------------------
 

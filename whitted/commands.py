@@ -54,15 +54,6 @@ def _summary(args, result, sensor) -> str:
             f"{s['peak_resident_bytes'] / 2**20:.1f} MiB resident")
 
 
-def _load_quietly(args):
-    from .loading import load_scene
-    from .rendering import quiet_mitsuba
-    with quiet_mitsuba():
-        return load_scene(args.scenes[0], variant=args.variant, integrator=args.integrator,
-                          meshes=args.integrator != "whitted", spp=args.spp,
-                          max_depth=args.max_depth, ambient=args.ambient, lighting=args.lighting)
-
-
 def render_command(args) -> int:
     """``whitted render SCENE -o OUT``, or several scenes into a folder (:func:`render_many_command`)."""
     from .converter.batch import names_folder
@@ -81,11 +72,11 @@ def render_single(args) -> None:
     from .atomic import check_writable, write_text
     from .defaults import check_ambient
     from .interrupt import deferred
-    from .rendering import peak_resident_bytes
+    from .loading import load_scene
     with deferred():   # numpy's C extension is not cut mid-import by a Ctrl-C (see deferred)
-        from .images import check_exposure, default_view
-        from .images import image_format, write_image
-        from .rendering import check_settings, render_checked, whitted_settings
+        from .images import check_exposure, default_view, image_format, write_image
+        from .rendering import (check_settings, peak_resident_bytes, quiet_mitsuba, render_checked,
+                                whitted_settings)
 
     output = Path(args.output)
     # Before the scene is loaded (seconds for a large one); once: render_checked trusts them.
@@ -100,7 +91,10 @@ def render_single(args) -> None:
     if args.stats:
         check_writable(args.stats, inputs=(args.scenes[0],))
 
-    loaded = _load_quietly(args)   # the mi.Scene
+    with quiet_mitsuba():
+        loaded = load_scene(args.scenes[0], variant=args.variant, integrator=args.integrator,
+                            meshes=args.integrator != "whitted", spp=args.spp,
+                            max_depth=args.max_depth, ambient=args.ambient, lighting=args.lighting)
     try:   # render checks the scene (a sensor; the article's materials) before it starts
         result = render_checked(loaded, integrator=args.integrator, progress=not args.quiet,
                                 min_weight=args.min_weight, spp=args.spp, without=args.without)

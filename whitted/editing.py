@@ -30,11 +30,8 @@ class SceneEditor:
     def __init__(self, source, variant: str | None = None, **overrides):
         from .converter import Scene, parse_file
         from .converter.frame import warn_scene
-        from .loading import _checked, _leaving_out
-        from .variant import set_variant
-        set_variant(variant)
-        self._params = _checked(overrides)
-        self._without = self._params.pop("without", None)
+        from .loading import _leaving_out, prepared
+        self._params, self._without = prepared(variant, overrides)
         if isinstance(source, Scene):
             self.model = source
         else:

@@ -59,6 +59,14 @@ def _checked(overrides: dict) -> dict:
     return {k: OVERRIDES[k](v) for k, v in overrides.items() if v is not None}
 
 
+def prepared(variant: str | None, overrides: dict) -> tuple[dict, tuple | None]:
+    """Set ``variant``; the checked ``overrides`` but ``without``, and ``without``."""
+    from .variant import set_variant
+    set_variant(variant)
+    params = _checked(overrides)
+    return params, params.pop("without", None)
+
+
 def load_scene(path: str | os.PathLike, variant: str | None = None, *, model=None,
                ellipsoids: bool | None = None, integrator: str = D.INTEGRATOR, meshes: bool = True,
                **overrides):
@@ -76,10 +84,7 @@ def load_scene(path: str | os.PathLike, variant: str | None = None, *, model=Non
     import mitsuba as mi
 
     from .converter.parser import check_scene_file
-    from .variant import set_variant
-    set_variant(variant)
-    params = _checked(overrides)
-    without = params.pop("without", None)
+    params, without = prepared(variant, overrides)
     path = Path(path)
     xml = path.suffix.lower() == ".xml"
     if xml or model is not None:
@@ -151,12 +156,9 @@ def loads(text: str, variant: str | None = None, *, base_dir: str | os.PathLike 
 
     from .converter import parse_text
     from .converter.frame import warn_scene
-    from .variant import set_variant
     if not isinstance(text, str):
         raise WhittedError(f"loads takes the scene's text as a str, got {type(text).__name__}")
-    set_variant(variant)
-    params = _checked(overrides)
-    without = params.pop("without", None)
+    params, without = prepared(variant, overrides)
     model = parse_text(text, Path(base_dir) / TEXT_NAME)
     warn_scene(model, integrator=integrator)
     try:

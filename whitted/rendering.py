@@ -152,10 +152,8 @@ def render(scene, integrator: str = D.INTEGRATOR, spp: int | None = None, max_de
            lighting: str | None = None, progress: bool = False, seed: int = 0,
            min_weight: float | None = None, ambient: float | None = None, *,
            without=None, fresh_memory: bool = True) -> RenderResult:
-    """Render ``scene`` (a ``mi.Scene``; docs/CONTRACTS.md). Settings that are None are the
-    scene's own, but the path tracer takes at least ``defaults.PATH_MIN_SPP`` spp.
-    ``fresh_memory``: hand Dr.Jit's cached memory back first, so that the peak memory
-    figures are this render's own (False: the process's so far, as ``whitted compare`` times)."""
+    """Render ``scene`` (a ``mi.Scene``; docs/CONTRACTS.md), settings left None as the scene's;
+    ``fresh_memory``: measure this render's own peak memory (:class:`_Clock`)."""
     check_settings(spp, max_depth, lighting, integrator, min_weight, without)
     return render_checked(scene, integrator, spp, max_depth, lighting, progress, seed, min_weight, ambient,
                           without=without, fresh_memory=fresh_memory)
