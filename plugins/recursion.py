@@ -329,12 +329,9 @@ class Wavefronts(Recursion):
             child, parent, second = below
             child_color, child_culled = self._subtree(child, walk)
             width = dr.width(front.ray)   # (a camera wavefront's weight is one literal 1)
-            color = color + _to_parents(child_color, parent, second, False, mi.Color3f, width) \
-                + _to_parents(child_color, parent, second, True, mi.Color3f, width)
+            color = _plus_children(color, child_color, parent, second, mi.Color3f, width)
             if child_culled is not None:
-                culled = culled \
-                    + _to_parents(child_culled, parent, second, False, mi.Float, width) \
-                    + _to_parents(child_culled, parent, second, True, mi.Float, width)
+                culled = _plus_children(culled, child_culled, parent, second, mi.Float, width)
             dr.eval(color, culled)   # (a single-level tree is left lazy: it may run in a loop)
         return color, culled
 
@@ -407,6 +404,12 @@ class Wavefronts(Recursion):
                 None if front.allowance is None else dr.gather(mi.Float, front.allowance, lane),
                 float(dr.sum(weight)[0]) if with_total else 0.0)))
         return pieces
+
+
+def _plus_children(total, value, parent, second, tp, width: int):
+    """``total`` plus ``value`` of the first children, then of the second, at their parents' lanes."""
+    return total + _to_parents(value, parent, second, False, tp, width) \
+        + _to_parents(value, parent, second, True, tp, width)
 
 
 def _to_parents(value, parent, second, which: bool, tp, width: int):
