@@ -169,11 +169,8 @@ def ensure_llvm(allow_install: bool = True) -> str | None:
     import subprocess
 
     path = find_libllvm()
-    if path is not None:
-        print(f"whitted: using {path} for the llvm variants")
-        return path
     apt = shutil.which("apt-get")
-    if allow_install and apt and not os.environ.get("WHITTED_NO_APT"):
+    if path is None and allow_install and apt and not os.environ.get("WHITTED_NO_APT"):
         prefix = []
         if os.geteuid() != 0:
             sudo = shutil.which("sudo")
@@ -187,10 +184,9 @@ def ensure_llvm(allow_install: bool = True) -> str | None:
             subprocess.run(prefix + [apt, "-qq", "update"], env=env, check=False)
             subprocess.run(prefix + [apt, "-qq", "install", "-y", "libllvm19"], env=env, check=False)
             path = find_libllvm()
-            if path is not None:
-                print(f"whitted: using {path} for the llvm variants")
-                return path
+    if path is not None:
+        print(f"whitted: using {path} for the llvm variants")
+        return path
     print(f"whitted: warning: no libLLVM >= {MIN_LLVM_VERSION}; install Debian's libllvm19 "
           f"(apt-get install libllvm19) or set DRJIT_LIBLLVM_PATH. Using {FALLBACK_VARIANT}.")
     return None
-

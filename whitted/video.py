@@ -17,8 +17,6 @@ from .errors import WhittedError
 VIDEO_SUFFIXES = (".mp4", ".mkv", ".mov")
 #: imageio-ffmpeg's quality, 0 to 10 (its default 5 blurs small frames: 5 levels of 255 off on 40x26)
 QUALITY = 8
-#: frames per second unless told
-DEFAULT_FPS = D.DEFAULT_FPS
 #: the images a folder of frames stands for, in this order of preference
 FRAME_SUFFIXES = (".png", ".exr")
 
@@ -83,7 +81,7 @@ def _even(pixels):
     return np.pad(pixels, ((0, height % 2), (0, width % 2), (0, 0)), mode="edge")
 
 
-def write_video(path: str | os.PathLike, frames: list[Path], fps: float = DEFAULT_FPS,
+def write_video(path: str | os.PathLike, frames: list[Path], fps: float = D.DEFAULT_FPS,
                 progress: bool = False) -> None:
     """Encode ``frames`` (image files, all of one size) as an H.264 video at ``fps``."""
     import imageio.v2 as iio
