@@ -111,9 +111,8 @@ def render_single(args) -> None:
 
 
 def render_many_command(args) -> int:
-    """``whitted render SCENE|FOLDER... -o OUT/``: every scene rendered that can be, in one
-    process (or on a Dask cluster), with a progress bar over the scenes; up-to-date images
-    skipped unless ``--force``; 2 if any scene failed (:mod:`whitted.batch`)."""
+    """``whitted render SCENE|FOLDER... -o OUT/``: every scene rendered that can be
+    (:mod:`whitted.batch`); 2 if any failed."""
     from . import interrupt
     from .atomic import check_writable, write_text
     from .batch import IN_PROCESS, Settings, Tally, plan_batch, render_planned, report_failure

@@ -19,13 +19,8 @@ from .errors import WhittedError
 
 class SceneEditor:
     """A scene loaded from a ``.scn`` file (or its text, or a model), edited in the file's
-    coordinates (docs/notebook.md, "Editing a scene").
-
-    ``editor.scene`` is the ``mi.Scene`` (render it with :func:`whitted.render` or
-    ``mi.render``); ``editor.model`` the scene model as edited; :meth:`scn` its text.
-    ``overrides`` are :func:`whitted.load_scene`'s (``spp``, ``max_depth``, ``ambient``,
-    ``lighting``, ``width``, ``height``, ``without``).
-    """
+    coordinates: ``editor.scene`` the ``mi.Scene``, ``editor.model`` the model as edited,
+    :meth:`scn` its text; ``overrides`` as :func:`whitted.load_scene`'s."""
 
     def __init__(self, source, variant: str | None = None, **overrides):
         from .converter import Scene, parse_file
@@ -73,9 +68,8 @@ class SceneEditor:
         self._apply(replace(self.model, spheres=spheres))
 
     def set_color(self, k: int, color) -> None:
-        """The color of sphere ``k`` (from 0) to ``color`` (RGB in [0, 1], linear), and of every
-        sphere that shares its material (the same color, reflect, refract and IOR in the file:
-        the converter writes such spheres one material), as if each were edited in the file."""
+        """The color of sphere ``k`` (from 0) to ``color`` (linear RGB in [0, 1]), and of every
+        sphere that shares its material, as if each were edited in the file."""
         spheres = list(self.model.spheres)
         material = self._item(spheres, k, "sphere").material
         if material.texture is not None:
@@ -160,9 +154,8 @@ def _parameter(path: tuple, value, scene: dict):
 
 
 def _as(current, value):
-    """``value`` as the type of the parameter ``current``: a sphere's transform made as the
-    sphere plugin makes it from its properties (float32 ``translate(center)·scale(radius)``;
-    a matrix and its inverse in float64, then rounded), so that the bits are a loaded scene's."""
+    """``value`` as the type of the parameter ``current``, a sphere's transform made as the
+    sphere plugin makes it, so that the bits are a loaded scene's."""
     import mitsuba as mi
     import numpy as np
     if isinstance(value, tuple) and value and value[0] == "sphere":

@@ -44,9 +44,8 @@ def default_view(integrator: str = "whitted", lighting: str | None = None) -> st
 
 
 def fitting_view(reference, exposure: float = 0.0) -> str:
-    """The view that shows every image of a comparison against ``reference`` (linear RGB):
-    ``clip`` while plain sRGB clips less than :data:`MOST_CLIPPED` of the reference's
-    pixels (its colors then stay as they are), else ``aces``."""
+    """The view of a comparison against ``reference``: ``clip`` while it clips less than
+    :data:`MOST_CLIPPED` of the reference's pixels, else ``aces``."""
     return "clip" if clipped_fraction(to_srgb(reference, exposure, "clip")) < MOST_CLIPPED else "aces"
 
 
@@ -88,9 +87,8 @@ def _aces_processor():
 
 
 def _exposed(band: np.ndarray, exposure: float) -> np.ndarray:
-    """A band of linear RGB (a float32 copy, changed in place) times 2^exposure, NaN and
-    negative values 0 (no negative light; OpenColorIO's curve expects none either), and
-    values above :data:`BRIGHTEST` (infinity too) that."""
+    """A band of linear RGB (changed in place) times 2^exposure, in [0, :data:`BRIGHTEST`]
+    (NaN 0)."""
     np.nan_to_num(band, copy=False, nan=0.0)
     if exposure:
         band *= np.float32(2.0 ** exposure)

@@ -207,9 +207,8 @@ def load_model_parts(model, params: dict, ellipsoids: bool | None, integrator: s
 
 
 def _scene_dict(model, params: dict, ellipsoids: bool | None, integrator: str) -> tuple[dict, object, list, float]:
-    """The ``mi.load_dict`` form of ``model``, the model it describes (the rest of the
-    scene, scaled, when spheres are grouped), the material of each group (``sealed_K``) and
-    the scale of its frame (1 unless spheres are grouped)."""
+    """The ``mi.load_dict`` form of ``model``, the model it describes, the material of each
+    group of spheres (``sealed_K``) and the scale of its frame."""
     from .converter.description import describe
     held = model.held_sphere_arrays()
     count = len(held) if held is not None else len(model.spheres)
