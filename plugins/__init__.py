@@ -1,18 +1,8 @@
 """The project's Mitsuba plugins, and what the rest of the package may ask of them.
 
-Two plugins: the ``whitted`` integrator (:mod:`.integrator`) and the
-``article`` BSDF (:mod:`.bsdf`). Their classes derive from variant-specific
-Mitsuba base classes, so those two modules are (re)loaded once per variant,
-after ``mi.set_variant``, by :func:`register`. Behind the integrator, data
-flowing one way: :mod:`.film` (where camera samples start and go),
-:mod:`.recursion` (the article's recursion and its walks), which calls
-:mod:`.hits` (hit finding, ray offsets, optics, the material at a hit), which
-reads :mod:`.scene_tables` (what the integrator reads from a scene) and
-:mod:`.primitives` (a scene's primitives as numbers); :mod:`.gradients`
-serves differentiable renders only.
-
-The rest of the package asks through the functions below, never through the
-plugins' insides.
+The ``whitted`` integrator (:mod:`.integrator`) and the ``article`` BSDF (:mod:`.bsdf`)
+derive from variant-specific Mitsuba classes, so :func:`register` (re)loads them once per
+variant. The rest of the package asks through the functions below, never the plugins' insides.
 """
 
 from __future__ import annotations
@@ -49,9 +39,8 @@ def register() -> None:
 
 
 def refuse(supported) -> None:
-    """In Mitsuba's current variant, which the plugins do not run in (``supported`` lists
-    those they do), register their names so that a scene naming them fails with the reason
-    ("runs in ... only") rather than Mitsuba's ``Plugin "whitted" not found!``."""
+    """Register the plugins' names in a variant they do not run in, to fail with the reason
+    (``supported``: the variants they run in), not Mitsuba's ``Plugin not found``."""
     import mitsuba as mi
 
     from whitted.errors import WhittedError
@@ -77,16 +66,13 @@ def whitted_or_none(integrator):
 
 
 def check_scene(scene):
-    """Raise :class:`~whitted.errors.WhittedError` unless the ``whitted`` integrator can
-    render ``scene``: every shape has the ``article`` BSDF and every emitter is a point
-    light or the environment. Returns what it read (the scene's tables,
-    :mod:`.scene_tables`), for ``render_detailed(..., tables=)``: found once per render."""
+    """The scene's tables (for ``render_detailed(..., tables=)``), or a
+    :class:`~whitted.errors.WhittedError` if the ``whitted`` integrator cannot render it."""
     from .scene_tables import scene_tables
     return scene_tables(scene)
 
 
 def scene_effects(scene, max_depth: int, light_reference=(0.0, 0.0, 0.0)) -> tuple[str, ...]:
-    """The effects a render of ``scene`` to ``max_depth`` calls for (:func:`.scene_tables.analyse`);
-    raises :class:`~whitted.errors.WhittedError` as :func:`check_scene` does."""
+    """The effects a render of ``scene`` to ``max_depth`` calls for (:func:`.scene_tables.analyse`)."""
     from .scene_tables import analyse, scene_tables
     return analyse(scene_tables(scene), max_depth, light_reference).effects

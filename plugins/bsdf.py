@@ -1,49 +1,9 @@
-"""``article``: the article's material as a Mitsuba BSDF.
+"""``article``: the article's material as a Mitsuba BSDF, for Mitsuba's own integrators.
 
-The article shades a sphere point as the linear combination
-
-    color = (1 − KR − KT)·point + KR·reflected + KT·refracted
-
-Read as a BSDF this is a mixture of three lobes, which is what this plugin gives Mitsuba's
-stock integrators (``path`` in particular):
-
-=========  ====================  ===========  =================================
-component  flags                 weight       lobe
-=========  ====================  ===========  =================================
-0          DiffuseReflection     1 − KR − KT  Lambertian, albedo B: f = w·B/π
-1          DeltaReflection       KR           perfect mirror, R = V + 2·c1·N'
-2          DeltaTransmission     KT           perfect refraction with ``ior``,
-                                              T = n·V + (n·c1 − √k)·N'
-=========  ====================  ===========  =================================
-
-Total internal reflection (k < 0) moves the refraction lobe's weight KT onto the mirror
-direction, as the article does; the weights always add up to 1, so the material neither
-creates nor (apart from B < 1) absorbs energy.
-
-Sidedness follows the article: a ray arriving from inside the sphere is shaded with N' = −N.
-All three lobes are therefore two-sided (a ray inside a glass sphere that hits its wall sees
-the same diffuse lobe as one outside), and the refraction lobe uses the relative index
-n = 1/ior entering (Mitsuba's ``bs.eta = ior``) and n = ior leaving (``bs.eta = 1/ior``).
-The outside includes grazing incidence, ``wi.z = 0``, where the article's test ``ray·N > 0``
-is false.
-
-No radiance scaling by η² on refraction, in either transport mode: the article's model has
-none, and neither has the Whitted integrator's physical mode, which the path tracer is
-compared with. For spheres seen from outside and lit from outside the choice makes no
-difference to a complete light path: every path that enters a sphere also leaves it, and the
-factors η² and 1/η² of a physically based dielectric cancel. The material is thus the same
-in both transport directions (no ``NonSymmetric`` flag).
-
-Lobes are sampled in proportion to their weights (among those a context enables), so that
-each sample's weight is B (diffuse) or 1 (mirror, refraction) when all lobes are enabled,
-and a pure-delta material never samples the diffuse lobe. ``pdf`` and ``eval`` describe the
-diffuse lobe only, as for every Mitsuba BSDF with delta components; the probability of
-choosing the diffuse lobe is part of its pdf.
-
-The Whitted integrator reads the parameters directly: ``color`` (a texture), ``reflect``,
-``refract`` and ``ior`` (Python floats), into its material table
-(:mod:`whitted.plugins.scene_tables`); other code can use :meth:`eval_diffuse_reflectance`
-(B, without the weight 1 − KR − KT) and :meth:`eval_attribute_1`.
+``(1 − KR − KT)·point + KR·reflected + KT·refracted`` read as three lobes, a Lambertian one
+of albedo B, a perfect mirror and a perfect refraction, two-sided, with total internal
+reflection moving KT onto the mirror and no η² scaling: docs/radiometry.md, "Materials".
+The ``whitted`` integrator reads the parameters directly (:mod:`.scene_tables`).
 """
 
 from __future__ import annotations
@@ -70,13 +30,8 @@ _LOBE_TYPES = (mi.BSDFFlags.DiffuseReflection, mi.BSDFFlags.DeltaReflection,
 
 
 def delta_directions(wi, ior):
-    """The article's mirror and refracted directions for ``wi`` (local frame,
-    pointing away from the surface, normal +z), with the article's optics (:mod:`.hits`).
-
-    Returns (R, T, total_internal_reflection, eta), eta being Mitsuba's
-    ``bs.eta``: the relative index n2/n1 of the side T enters. Under total
-    internal reflection T is meaningless (and finite).
-    """
+    """``(R, T, tir, eta)``: the article's mirror and refracted directions for ``wi`` (local
+    frame, normal +z; :mod:`.hits`), and Mitsuba's ``bs.eta`` for T."""
     v = -wi
     n_facing, inside = facing_normal(v, mi.Vector3f(0, 0, 1))
     c1 = cos_incidence(v, n_facing)
@@ -128,11 +83,7 @@ class ArticleBSDF(mi.BSDF):
     got 1.5``); a refused edit is undone. A texture's texels are not checked.
 
     A mixture of a Lambertian lobe (weight 1 − KR − KT, albedo B), a perfect
-    mirror (KR) and a perfect refraction (KT), two-sided as the article shades
-    both sides of a sphere; under total internal reflection the refraction's
-    weight moves to the mirror. The module docstring has the details. The
-    ``whitted`` integrator reads the parameters directly; Mitsuba's own
-    integrators (``path``) sample the lobes.
+    mirror (KR) and a perfect refraction (KT) (docs/radiometry.md, "Materials").
 
     .. tabs::
 
@@ -175,13 +126,9 @@ class ArticleBSDF(mi.BSDF):
         if self._color is None and not self.color.is_spatially_varying():   # a uniform texture
             self._take({**values, "color": uniform_color(self.color)})
         self.m_components = list(COMPONENT_FLAGS)
-        #: how many times ``params.update()`` changed the BSDF: what the Whitted integrator's
-        #: tables compare (plugins/scene/tables.py) to see an edit, whoever made it
+        #: how many times ``params.update()`` changed the BSDF: the integrator's tables compare it
         self.changes = 0
-        # What mi.traverse hands out: Mitsuba values that SceneParameters writes into in
-        # place (a Python float cannot be; a one-value float64 Dr.Jit array can, in every variant).
-        # In the JIT variants they are Dr.Jit Float64 arrays, which can carry gradients:
-        # KR and KT are differentiable (the Whitted integrator's render_forward/backward).
+        # one-value float64 arrays, which SceneParameters writes into in place (JIT: differentiable)
         one_value = mi.Float64 if dr.is_jit_v(mi.Float) else dr.scalar.Array1f64
         self._values = {name: one_value(getattr(self, name)) for name in self.SCALARS}
 
@@ -190,15 +137,12 @@ class ArticleBSDF(mi.BSDF):
     SCALARS = ("reflect", "refract", "ior")
 
     def _take(self, values: dict) -> None:
-        """Take KR, KT, the IOR and a uniform ``color`` (``values``: name -> value as given) once
-        the plugins' one rule accepts them (:func:`whitted.defaults.check_plugin_parameters`;
-        else its error, and nothing taken)."""
+        """Take KR, KT, the IOR and a uniform ``color`` if
+        :func:`whitted.defaults.check_plugin_parameters` accepts them (else its error)."""
         checked = D.check_plugin_parameters("article BSDF", values)
         self.reflect, self.refract, self.ior = (checked[name] for name in self.SCALARS)
         self._color = checked.get("color", self._color)
-        # Component indices are fixed (0 diffuse, 1 mirror, 2 refraction); the
-        # material's flags name only the lobes it can actually use, so that
-        # integrators skip light sampling on pure mirrors and glass.
+        # the flags name only the lobes the material can use (no light sampling on glass)
         flags = mi.BSDFFlags.Empty
         if self.diffuse_weight > 0:
             flags |= COMPONENT_FLAGS[DIFFUSE]
@@ -209,11 +153,7 @@ class ArticleBSDF(mi.BSDF):
         self.m_flags = flags
 
     def parameters_changed(self, keys=[]):  # noqa: B006  (Mitsuba's own default)
-        # A parameter was written (mi.SceneParameters.update, even through mi.traverse(bsdf),
-        # which no scene hears of; Mitsuba calls this for an edit of the color texture too,
-        # keys ["color"]): KR, KT, the IOR and a uniform color are checked as at load and
-        # taken (an invalid edit is undone and refused), and the change is counted, which
-        # tells the Whitted integrator's tables.
+        # checked as at load (an invalid edit is undone and refused), and counted for the tables
         values = {name: self._values[name][0] for name in self.SCALARS}
         color = self._color is not None and (not keys or "color" in keys)
         if color:
@@ -332,8 +272,6 @@ class ArticleBSDF(mi.BSDF):
 
     def traverse(self, callback):
         callback.put("color", self.color, mi.ParamFlags.Differentiable)
-        # KR, KT and the IOR: editable (params.update() takes them); KR and KT differentiable
-        # in the AD variants (the Whitted integrator reads their Dr.Jit values in a gradient).
         for name in self.SCALARS:
             differentiable = name in self.DIFFERENTIABLE and dr.is_diff_v(mi.Float)
             callback.put(name, self._values[name], mi.ParamFlags.Differentiable if differentiable

@@ -1,40 +1,14 @@
 """Camera samples on the film: where each one starts in its pixel, and where its color goes.
 
-Where a sample starts. With one sample per pixel the ray passes exactly through the pixel
-center, so a render is deterministic (the scene format's rule). With N samples the pixel is
-cut into an ``nx × ny = N`` grid of equal cells (the most nearly square factorisation of N;
-a prime N gives N columns) and each sample is jittered uniformly inside its own cell:
-stratified sampling, unbiased, whatever N is (:func:`pixel_offset`). The jitter is a hash of
-(pixel, sample, seed) rather than a stream from a sampler, so an image does not depend on
-how the render is split into passes. That is what the ``independent`` sampler (the one
-converted scenes name) gets; any other sampler type draws the samples itself, and a thin
-lens gets lens samples (:class:`CameraSamples`).
+One sample per pixel passes through the pixel's center (the scene format's rule); N samples
+are jittered in an ``nx × ny = N`` grid of cells by a hash of (pixel, sample, seed), so an
+image does not depend on how the render is split into passes (:class:`CameraSamples`).
 
-Where its color goes: straight into the developed image, or through Mitsuba's film. Why two
-ways. Mitsuba's film accepts samples anywhere on the image plane and spreads each over the
-pixels its reconstruction filter covers: ``ImageBlock.put`` evaluates the filter and adds,
-per sample, red, green, blue and a weight into a block of four floats per pixel; the film
-then adds the block into its own storage (four more) and develops a third image, each
-pixel's weighted sum divided by its summed weights: three images, 44 bytes a pixel, and a
-share of the render time that benchmarks/RESULTS.md measures.
-
-With a box filter (what converted scenes use, and Mitsuba's integrators put a box-filtered
-sample at its pixel alone), every sample lands in one pixel with weight 1, and every pixel
-gets ``spp`` of them, so the developed pixel is simply the mean of its samples.
-:class:`PixelMeans` adds ``color / spp`` of each sample into that pixel of one RGB array,
-which *is* the developed image: three adds per sample (pre-reduced within a SIMD packet,
-where a pixel's samples sit side by side), nothing else to develop, 12 bytes a pixel. It is
-the film's image up to the order of the additions (an ulp or so; none with one sample per
-pixel). It serves Mitsuba's ``hdrfilm`` with a box filter and RGB pixels in the JIT
-variants; :class:`FilmSplats` serves every other film, filter and pixel format, and the
-scalar variant, through the film.
-
-Either way the film holds the render: ``film.bitmap()``, ``film.write()`` and
-``film.develop()`` after ``mi.render`` give the image the render returned.
-:class:`PixelMeans` hands the film its image as the film's own storage (each pixel's RGB and
-a weight of 1, which the film divides by: the same values) through ``ImageBlock`` and
-``put_block``, as a lazy Dr.Jit expression over the image: nothing is computed or copied
-unless the film is read.
+A sample's color goes through Mitsuba's film (:class:`FilmSplats`: any film and filter,
+three images and 44 bytes a pixel), or, for a box-filtered RGB ``hdrfilm`` in the JIT
+variants, straight into the developed image as ``color / spp`` (:class:`PixelMeans`: 12
+bytes a pixel, the film's image up to the order of the additions). Either way the film
+holds the render afterwards (``film.bitmap()``, ``film.write()``).
 """
 
 from __future__ import annotations
@@ -58,11 +32,7 @@ def strata(spp: int) -> tuple[int, int]:
 
 
 def pixel_offset(pixel, sample, spp: int, seed: int):
-    """Offset of a camera sample inside its pixel, in [0, 1)^2 (Point2f).
-
-    ``pixel`` is the pixel's linear index and ``sample`` the sample's number
-    within the pixel (UInt32, or ints in scalar variants).
-    """
+    """Offset in [0, 1)^2 of sample number ``sample`` inside the pixel of linear index ``pixel``."""
     if spp == 1:
         return mi.Point2f(0.5, 0.5)
     nx, ny = strata(spp)
@@ -95,8 +65,7 @@ LENS_ROUNDS = 8
 
 def sample_count(sensor, spp: int) -> int:
     """The samples per pixel of a render asking for ``spp`` (0: the sampler's own), as the
-    sensor's sampler rounds it (``stratified``: up to a square, ``orthogonal``: to a prime's
-    square, ``ldsampler``: to a power of two) and Mitsuba's integrators then render it."""
+    sensor's sampler rounds it (``stratified``: up to a square)."""
     sampler = sensor.sampler()
     if spp and spp != sampler.sample_count():
         sampler = sampler.clone()
@@ -106,28 +75,10 @@ def sample_count(sensor, spp: int) -> int:
 
 class CameraSamples:
     """The camera rays of a render: where each sample starts in its pixel and on the lens.
-
-    * One sample per pixel: the pixel's center and the lens's (the scene format's rule),
-      whatever the sampler, its seed or the lens (:attr:`unused` names what that leaves
-      unused, for the integrator to warn about).
-    * More, with the ``independent`` sampler (what converted scenes name): the stratified
-      jitter of :func:`pixel_offset`, and :func:`lens_offset` on a thin lens, hashes of
-      (pixel, sample, seed) that do not depend on how the render is split into passes.
-    * More, with any other sampler (``stratified``, ``multijitter``, ``ldsampler``,
-      ``orthogonal``): that sampler's own 2D samples, the pixel's then the lens's, as
-      Mitsuba's integrators draw them; each pass holds whole pixels and seeds the sampler
-      (the render's seed for the first pass), so the image depends on the seed and the
-      pass size.
-
-    How many: :attr:`spp` is what the sampler rounds ``spp`` to (:func:`sample_count`), as
-    in Mitsuba's integrators: 8 asked of ``stratified`` are 9, 1 asked of ``orthogonal`` or
-    ``ldsampler`` are 4.
-
-    Lens samples are drawn only for a sensor that needs them (``thinlens``): a pinhole
-    camera's kernels hold no lens code. With the film's ``sample_border`` the samples cover
-    the border the reconstruction filter reaches beyond the crop too (:attr:`border`
-    pixels on each side), as in Mitsuba's integrators.
-    """
+    One sample per pixel: the centers, whatever the sampler, seed or lens (:attr:`unused`
+    names what that leaves unused). More: :func:`pixel_offset` and :func:`lens_offset` for
+    the ``independent`` sampler, else that sampler's own samples, seeded per pass of whole
+    pixels. With ``sample_border``, :attr:`border` pixels beyond the crop too."""
 
     def __init__(self, sensor, spp: int, seed: int):
         spp = sample_count(sensor, spp)
@@ -260,12 +211,8 @@ class PixelMeans:
 
     @staticmethod
     def _cleared(size: int, spp: int):
-        """The image's values: zeros where samples are added up (``spp`` > 1), else
-        uninitialised (one sample, or one pixel's mean, is stored per value).
-
-        Zeroed a band at a time: ``dr.zeros`` is one memset kernel, which at 16384² is
-        3 GiB of first-touched memory and seconds long, during which Ctrl-C waits
-        (Python regains control only between kernels)."""
+        """The image's values, zeroed where samples are added up (``spp`` > 1) a band at a
+        time, so that Ctrl-C acts between kernels."""
         image = dr.empty(mi.Float, size)
         if spp > 1:
             zero = dr.opaque(mi.Float, 0.0)
@@ -289,8 +236,7 @@ class PixelMeans:
 
     def put_pixels(self, pixel, color_of_sample) -> None:
         """Set the pixels ``pixel`` (one lane each) to the mean of ``color_of_sample(sample)``
-        over their samples 0 … spp - 1, added up in a loop inside the kernel: no atomic adds,
-        one store per pixel (what a single-level ray tree allows: see the integrator)."""
+        over their samples, summed in a loop inside the kernel (single-level trees)."""
         if self.spp == 1:
             total = color_of_sample(mi.UInt32(0))
         else:
@@ -301,15 +247,13 @@ class PixelMeans:
         dr.scatter(self.image, total / dr.opaque(mi.Float, self.spp), pixel)   # as the film divides
 
     def develop(self):
-        """The image as an ``mi.TensorXf`` (H, W, 3): the same array, no copy. The film
-        receives it too (see the module docstring), at no cost until it is read."""
+        """The image as an ``mi.TensorXf`` (H, W, 3), no copy; the film gets it lazily too."""
         self.film.put_block(mi.ImageBlock(self._film_storage(), self.film.crop_offset(),
                                           self.film.rfilter()))
         return mi.TensorXf(self.image, (self.height, self.width, 3))
 
     def _film_storage(self):
-        """The image as the film stores it, (H, W, 4): R, G, B and the weight 1 per pixel,
-        a lazy expression (gathers from the image when the film is read)."""
+        """The image as the film stores it, (H, W, 4) with weight 1: a lazy expression."""
         index = dr.arange(mi.UInt32, 4 * self.width * self.height)
         channel = index & 3
         rgb = channel < 3

@@ -1,42 +1,12 @@
 """Gradients of the article's model: what a differentiable render of the Whitted integrator
 reads.
 
-Why a module of its own. A plain render reads the scene's numbers once, as
-plain values baked into opaque tables and kernels (:mod:`.scene_tables`):
-that is what keeps it fast and its images the same bits run after run. A
-gradient needs the opposite: every number a parameter feeds must be computed
-from the parameter's own Dr.Jit value, so that Dr.Jit's AD graph leads from
-the image back to it. So a differentiable render (``render_forward``,
-``render_backward``, and so ``mi.render(scene, params)`` then ``dr.backward``
-or ``dr.forward``) swaps in, for the columns a parameter carries, values
-*attached* to the parameters (:class:`Attached`); everything else (the ray
-tree's shape, what each ray hits, the shadow tests) is the plain render's.
-
-What is differentiated, and what is not. The image is a sum over each camera ray's tree of
-``w·contribution`` (:meth:`.recursion.Recursion.step`): it is smooth in every ``article``
-color (a uniform ``rgb`` or a bitmap texture's texels: Mitsuba's textures are differentiable
-themselves), in KR and KT (``reflect``, ``refract``: the path weights and the ``1 - KR -
-KT`` share), in the integrator's ambient A, in each point light's intensity and position
-(through ``cos``, the article's color ``I/(πd²)`` or the physical ``I/r²``), and in the
-background's radiance (a ``constant`` emitter, evaluated by Mitsuba's own differentiable
-texture). Visibility is not differentiated: which surface a ray hits, where a shadow's edge
-falls, which way a ray bends (the IOR), and where a sphere sits are held fixed, so a
-parameter that moves an edge (a light's position moves its shadows' edges) gets only the
-gradient of the smooth part. Mitsuba's ``prb`` has the same limit; what it would take is
-what Mitsuba's ``prb_projective`` and ``direct_projective`` do: sampling of the silhouette
-edges, so that the moving discontinuities contribute their boundary term (``prb_projective``
-is what differentiates a shape's position or size). A gradient render names, once, each
-parameter with gradients enabled that it does not differentiate
-(:func:`name_undifferentiated`).
-
-A weight that is 0 on every material leaves its effect out of the kernels
-(:mod:`.scene_tables`): a scene without mirrors has no reflected rays, and the gradient of
-KR there is 0 (render the scene with a small KR to get it).
-
-Costs and limits. A bitmap texture is differentiated when it is stored as floats
-(``format="variant"``). The render is recorded whole as an AD graph, so its memory grows
-with the tree (benchmarks/RESULTS.md). ``scalar_rgb`` has no gradients:
-:func:`require_gradients` refuses them in one line.
+A plain render bakes the scene's numbers into opaque tables (:mod:`.scene_tables`); a
+gradient needs every number a parameter feeds computed from the parameter's own Dr.Jit
+value. So ``render_forward`` and ``render_backward`` swap in, for those columns, values
+*attached* to the parameters (:class:`Attached`); the ray tree, the hits and the shadow
+tests stay the plain render's. What is differentiated, and what not (visibility):
+docs/gradients.md.
 """
 
 from __future__ import annotations
@@ -114,17 +84,8 @@ def _article_bsdfs(scene) -> list:
 
 @dataclass
 class Attached:
-    """The values a differentiable render reads from the parameters' Dr.Jit arrays.
-
-    ============== ======================================================================
-    ambient        mi.Float, the integrator's A
-    lights         ``(position, strength)`` per point light, in the order of the scene's
-                   (:func:`.scene_tables.point_lights`): strength is the article's color or
-                   the intensity (physical lighting)
-    material_table the materials' table (:meth:`.scene_tables.Materials.table`) with
-                   the color, KR and KT columns computed from the BSDFs' parameters
-    ============== ======================================================================
-    """
+    """The values a differentiable render reads from the parameters' Dr.Jit arrays: the
+    ambient A, ``(position, strength)`` per point light, and the material table."""
     ambient: object
     lights: list
     material_table: tuple

@@ -1,34 +1,16 @@
 """Where a ray hits, how rays leave a hit, and what is there: the Whitted recursion's helpers.
 
-A hit finder (:class:`HitFinder`) answers a ray with its nearest hit: point, normal, UV,
-BSDF and error bound. :func:`hit_finder` picks one of two ways to the same answer.
-:class:`MitsubaHits` asks Mitsuba's ``scene.ray_intersect`` for a surface interaction: it
-works for every shape, but in the JIT variants the interaction is computed by a call on
-the hit shape, which Dr.Jit traces once per shape *instance* for every kernel.
-:class:`SphereHits` serves scenes made only of spheres in the JIT variants (``sphere``
-shapes, and ``ellipsoids`` shapes of spheres: whitted/sealed.py): Embree still finds the
-nearest hit (``ray_intersect_preliminary``: a distance, a shape and a primitive, no call),
-and the rest comes from the primitive tables (:mod:`.primitives`), computed exactly as
-Mitsuba's sphere computes it: the hit is re-projected onto the sphere
-(``N = normalize(o + t·d - C)``, ``P = C + r·N``) and the UV is the direction's longitude
-and colatitude in the sphere's own frame (:func:`lat_long_uv`). Two finders wrap them:
-:class:`LayeredHits` (spheres traced in frames of their own) and :class:`GiantHits` (giant
-spheres in float64). :func:`scene_hits` assembles what a scene needs.
+A hit finder (:class:`HitFinder`) answers a ray with its nearest hit and that hit's error
+bound, by which :func:`offset_origin` moves new rays off the surface (docs/numerics.md).
+:func:`scene_hits` assembles the finders a scene needs: :class:`MitsubaHits` (any shape),
+:class:`SphereHits` (spheres only, JIT: no per-shape call), :class:`LayeredHits` (spheres
+traced in frames of their own) and :class:`GiantHits` (giant spheres in float64).
+:func:`facing_normal`, :func:`reflect` and :func:`refract` are the article's optics
+(docs/scene-format.md, "Shading").
 
-Every finder returns each hit's error bound (:func:`whitted.float32.hit_error`), by which
-:func:`offset_origin` moves secondary and shadow rays off the surface, and tells which
-sphere a light sits on (``surface_at``). docs/numerics.md catalogues the hazards.
-:class:`SurfaceLookup` reads the material at a hit; :func:`facing_normal`,
-:func:`reflect` and :func:`refract` are the article's optics (docs/scene-format.md,
-"Shading", steps 2, 5 and 6), also used by the ``article`` BSDF.
-
-The same code serves one ray (scalar variants, masks are Python ``bool``s) and a
-wavefront (JIT variants, masks are Dr.Jit arrays). Two things differ. Work a mask
-switches off: a wavefront does it on every lane and discards what the mask rejects
-(``dr.select``), while a single ray must not start it at all (Mitsuba's scalar
-``ray_test`` ignores its ``active`` argument, and a ray that missed has no shape: a call
-through it dereferences a null pointer); :func:`off` tells the scalar case apart. And
-negation: ``~True`` is -2, so the shading code never negates a mask; it selects instead.
+One code serves one ray (scalar variants, Python ``bool`` masks) and a wavefront (JIT):
+a single ray must not start work its mask switches off (:func:`off`), and since
+``~True`` is -2 the code selects rather than negates a mask.
 """
 
 from __future__ import annotations
@@ -50,19 +32,14 @@ TINY = 1e-30
 
 
 def off(mask) -> bool:
-    """Whether ``mask`` is a single ray's ``False`` (scalar variants), so that the work it
-    guards must be skipped. A wavefront's mask never is: its lanes are masked one by one."""
+    """Whether ``mask`` is a single ray's ``False`` (scalar variants): skip the work it guards."""
     return mask is False
 
 
 # -- the article's optics (directions are unit vectors, ``v`` points into the surface) ----------
 
 def facing_normal(v, n):
-    """``(N', inside)``: the normal on the side the ray arrives from.
-
-    A ray arriving from inside a sphere (``v·N > 0``) is shaded and refracted
-    with ``N' = -N``.
-    """
+    """``(N', inside)``: the normal on the side the ray arrives from (``-N`` from inside)."""
     inside = dr.dot(v, n) > 0
     return dr.select(inside, -n, n), inside
 
@@ -78,22 +55,13 @@ def reflect(v, n_facing, c1):
 
 
 def relative_ior(ior, inside):
-    """``n = n1/n2``: entering, n1 = 1 and n2 = IOR; leaving, the reverse.
-
-    Outside every sphere the index is 1, even when spheres nest: each surface
-    is judged on its own, by the side the ray arrives from.
-    """
+    """``n = n1/n2``: 1/IOR entering, IOR leaving (each surface judged on its own)."""
     return dr.select(inside, ior, dr.rcp(ior))
 
 
 def refract(v, n_facing, c1, eta):
-    """``(T, tir)``: Snell's refraction ``T = n·V + (n·c1 - sqrt(k))·N'``.
-
-    ``k = 1 - n^2 (1 - c1^2)``; when ``k < 0`` (total internal reflection,
-    ``tir`` is True) there is no transmitted ray and the caller sends the
-    refracted share along the mirror direction instead. ``T`` is then
-    meaningless but finite (``sqrt`` is never taken of a negative number).
-    """
+    """``(T, tir)``: Snell's ``T = n·V + (n·c1 - sqrt(k))·N'``, ``k = 1 - n²(1 - c1²)``;
+    ``tir`` where ``k < 0`` (total internal reflection: ``T`` is then finite but meaningless)."""
     k = 1 - eta * eta * (1 - c1 * c1)
     tir = k < 0
     t = dr.fma(eta, v, (eta * c1 - dr.safe_sqrt(k)) * n_facing)
@@ -105,18 +73,10 @@ def unit(v):
     return dr.normalize(mi.Vector3f(v))
 
 
-
-
 def lat_long_uv(n, x_axis, y_axis, z_axis):
-    """The article's lat/long mapping of the unit normal ``n`` in a sphere's frame, as
-    Mitsuba's sphere UV: ``u = atan2(y, x)/2π``, ``v = acos(z)/π`` (v = 0 at the north pole).
-
-    The converter orients the frame so that this is the article's (u, 1 - v)
-    (docs/CONTRACTS.md). atan2 needs no division by sin(phi), and its two singular sets
-    follow the spec: at a pole (|z| = 1 in float32: sin(phi) = 0) u = 0, and on the seam
-    (y = 0, x > 0: theta = 0 and (Vn × Ve)·Vp = 0, the "otherwise" case) u = 1. A camera on the
-    axis sees a pole pixel, and one in the seam's plane a whole row of seam pixels.
-    """
+    """The article's lat/long UV of the unit normal ``n`` in a sphere's frame, as Mitsuba's:
+    ``u = atan2(y, x)/2π``, ``v = acos(z)/π``; u = 0 at a pole and 1 on the seam, as the
+    spec says (docs/CONTRACTS.md)."""
     x, y, z = dr.dot(n, x_axis), dr.dot(n, y_axis), dr.dot(n, z_axis)
     angle = dr.atan2(y, x)   # (-π, π]
     u = dr.select(angle > 0, angle, angle + dr.two_pi) * dr.inv_two_pi
@@ -127,15 +87,8 @@ def lat_long_uv(n, x_axis, y_axis, z_axis):
 # -- leaving a hit ---------------------------------------------------------------------------------
 
 def offset_origin(p, n, error, d):
-    """``p`` moved by ``error`` along the normal ``n``, to the side ``d`` leaves towards.
-
-    ``error`` bounds how far the float32 hit point ``p`` lies off its surface
-    (:func:`whitted.float32.hit_error`): from the moved origin, neither the surface's true
-    position nor the float32 ray-surface test can put the surface in front of the ray again
-    (no acne). Mitsuba's own ``spawn_ray`` moves by ``(1 + max|p_i|)·RayEpsilon`` instead,
-    which is too little for a huge sphere under the origin and far too much in a scene of
-    size 10^-3 or at 10^4 (docs/numerics.md).
-    """
+    """``p`` moved by its error bound ``error`` along ``n``, to the side ``d`` leaves
+    towards: no acne at any scene scale, unlike Mitsuba's fixed epsilon (docs/numerics.md)."""
     return dr.fma(dr.mulsign(error, dr.dot(n, d)), n, p)
 
 
@@ -145,16 +98,8 @@ def spawn_ray(si, error, d):
 
 
 def spawn_ray_to(si, error, target, target_error=0.0, target_normal=None):
-    """The segment from the hit ``si`` to ``target``, which ends short of ``target``.
-
-    When ``target`` sits on a surface (a light on a sphere), the end is moved off that
-    surface by the surface's error bound ``target_error`` along its normal
-    ``target_normal``, to the hit's side, as :func:`offset_origin` moves the start: the
-    surface the light sits on does not hide it, even from segments that meet it at a grazing
-    angle. Nothing else shortens the segment; Mitsuba's ``spawn_ray_to`` stops a fixed
-    fraction of the length short, which lets a light inside a small sphere far away out of
-    it.
-    """
+    """The segment from the hit ``si`` to ``target``; where ``target`` sits on a surface
+    (``target_normal``), its end is moved off it as :func:`offset_origin` moves the start."""
     if target_normal is not None:
         target = offset_origin(target, target_normal, target_error, si.p - target)
     origin = offset_origin(si.p, si.n, error, target - si.p)
@@ -167,18 +112,9 @@ def spawn_ray_to(si, error, target, target_error=0.0, target_normal=None):
 
 
 def blocked(scene, ray, active, spheres: bool = True):
-    """Whether a surface crosses the segment ``ray`` (from its origin to ``ray.maxt``);
-    ``spheres``: whether ``scene`` holds ``sphere`` shapes.
-
-    In the JIT variants Mitsuba's ``ray_test`` on a sphere shape solves the textbook
-    quadratic in float32, whose discriminant ``B² - 4AC`` loses every digit when the ray
-    starts a few thousand radii from the sphere (a small ball near a distant light casts a
-    shadow of noise). Its ``ray_intersect_preliminary`` first moves the origin to the plane
-    through the sphere's center and stays exact, so shadow rays use it where there are
-    sphere shapes. Elsewhere ``ray_test`` answers as the nearest hit would (an
-    ``ellipsoids`` shape runs the same routine for both; triangles are watertight), and may
-    stop at the first blocker. The scalar variants solve spheres in float64 already.
-    """
+    """Whether a surface crosses the segment ``ray`` (to ``ray.maxt``). Where ``scene`` has
+    ``sphere`` shapes (``spheres``), the JIT variants use ``ray_intersect_preliminary``: their
+    ``ray_test`` loses every digit far from a sphere (docs/numerics.md)."""
     if spheres and dr.is_jit_v(mi.Float):
         return scene.ray_intersect_preliminary(ray, coherent=False, active=active).is_valid()
     return scene.ray_test(ray, coherent=False, active=active)
@@ -187,38 +123,22 @@ def blocked(scene, ray, active, spheres: bool = True):
 # -- finding hits ----------------------------------------------------------------------------------
 
 class HitFinder(Protocol):
-    """What the recursion (:meth:`.recursion.Recursion.step`) asks of a hit finder.
-
-    One finder serves both kinds of variant. In the JIT variants a ray is a wavefront
-    (``mi.Ray3f`` of Dr.Jit arrays) and masks are ``mi.Bool`` arrays; in the scalar ones a
-    ray is one ray and masks are Python bools, and a finder must not touch a ray's
-    shape where it missed (:func:`off`).
-    """
+    """What the recursion (:meth:`.recursion.Recursion.step`) asks of a hit finder: a
+    wavefront and ``mi.Bool`` masks in the JIT variants, one ray and bools in the scalar ones."""
 
     def intersect(self, ray, coherent: bool):
-        """``(hit, si, bsdf, error)``: the nearest hit along ``ray`` (up to ``ray.maxt``).
-
-        ``hit``: whether there is one (a mask). ``si``: an ``mi.SurfaceInteraction3f`` with
-        ``t`` (inf where nothing was hit), ``p``, ``n`` (the geometric normal, unit), and
-        ``uv`` when the finder was made with ``need_uv``. ``bsdf``: the hit shape's BSDF as
-        its instance ID (JIT: ``mi.UInt32``) or the BSDF itself (scalar; None or anything
-        where nothing was hit). ``error``: how far ``si.p`` may lie off the true surface
-        (``mi.Float``, or a float), by which rays leave it (:func:`offset_origin`).
-        ``coherent``: Mitsuba's hint that the rays are coherent (camera rays).
-        """
+        """``(hit, si, bsdf, error)``: the nearest hit along ``ray`` (up to ``ray.maxt``):
+        ``si`` with ``t`` (inf on a miss), ``p``, unit ``n`` and ``uv`` if ``need_uv``;
+        ``bsdf`` an instance ID (JIT) or the BSDF; ``error`` the bound on ``si.p``'s error."""
         ...
 
     def blocked(self, ray, active):
-        """Whether a surface crosses the segment ``ray`` from its origin to ``ray.maxt``
-        (a shadow test), on the lanes of ``active``: a mask like ``active`` (``False``
-        wherever ``active`` is; a scalar finder may return as soon as it knows)."""
+        """Whether a surface crosses the segment ``ray`` (a shadow test) on the lanes ``active``."""
         ...
 
     def surface_at(self, point) -> tuple[float, tuple[float, float, float]]:
-        """``(error, normal)`` of the sphere that the scene point ``point`` (three floats, a
-        light's position) lies on, within twice its error bound, ``(0.0, (0, 0, 0))`` if
-        none: where a light sits on a surface, its shadow segments end off that surface
-        (:func:`spawn_ray_to`). Plain Python, called once per light and render."""
+        """``(error, normal)`` of the sphere a light at ``point`` sits on, ``(0.0, (0, 0, 0))``
+        if none (:func:`spawn_ray_to`)."""
         ...
 
 
@@ -244,8 +164,7 @@ def hit_finder(scene, tables, need_uv: bool, sphere_table: bool = True):
 
 
 class _SceneHits:
-    """What :class:`MitsubaHits` and :class:`SphereHits` share: the scene they intersect,
-    its tables, its shadow test (:func:`blocked`) and its lights' surfaces."""
+    """What :class:`MitsubaHits` and :class:`SphereHits` share."""
 
     def __init__(self, scene, tables, need_uv: bool):
         self.scene = scene
@@ -255,21 +174,15 @@ class _SceneHits:
         self.tables = tables.hit_tables
 
     def surface_at(self, point):
-        """As :meth:`HitFinder.surface_at` (:meth:`~.primitives.Primitives.surface_at`)."""
         return self.primitives.surface_at(point)
 
     def blocked(self, ray, active):
-        """Whether a surface crosses the segment ``ray`` (:func:`blocked`)."""
         return blocked(self.scene, ray, active, self.spheres)
 
 
 class MitsubaHits(_SceneHits):
-    """Surface interactions from Mitsuba's own ``ray_intersect`` (any shape).
-
-    Textured spheres get their UV from :func:`lat_long_uv` rather than from
-    Mitsuba, whose UV goes through the inverse of ``to_world`` and so misses the
-    poles and the seam by a rounding error. A :class:`HitFinder`.
-    """
+    """A :class:`HitFinder` by Mitsuba's own ``ray_intersect`` (any shape); a textured
+    sphere's UV from :func:`lat_long_uv` (Mitsuba's misses the poles and seam by a rounding)."""
 
     def __init__(self, scene, tables, need_uv: bool):
         super().__init__(scene, tables, need_uv)
@@ -278,7 +191,6 @@ class MitsubaHits(_SceneHits):
         self._errors = None if self.vectorized else tables.primitives.error.tolist()
 
     def intersect(self, ray, coherent: bool):
-        """``(hit, si, bsdf, error)`` (:meth:`HitFinder.intersect`)."""
         si = self.scene.ray_intersect(ray, ray_flags=self.flags, coherent=coherent)
         hit = si.is_valid()
         if not self.vectorized:
@@ -298,12 +210,10 @@ class MitsubaHits(_SceneHits):
 
 
 class SphereHits(_SceneHits):
-    """Nearest hits on a scene of spheres without Mitsuba's per-shape call (JIT variants):
-    ``sphere`` shapes, and ``ellipsoids`` shapes whose every primitive is a sphere. A
-    :class:`HitFinder`."""
+    """A :class:`HitFinder` for scenes of spheres (JIT variants): Embree's preliminary hit, the
+    rest from the primitive tables, re-projected onto the sphere as Mitsuba's sphere does."""
 
     def intersect(self, ray, coherent: bool):
-        """``(hit, si, bsdf, error)`` (:meth:`HitFinder.intersect`), ``bsdf`` an instance ID."""
         tables = self.tables
         pi = self.scene.ray_intersect_preliminary(ray, coherent=coherent)
         hit = pi.is_valid()
@@ -328,20 +238,10 @@ _AXES = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
 
 
 class LayeredHits:
-    """The ``inner`` finder's hits (None: no other shapes) and the layers' of ``tables``
-    (:mod:`.primitives`: spheres of radius r in the scene's frame scaled by s = 1/r about
-    the origin, where Mitsuba's ``ellipsoids`` test is exact).
-
-    A ray ``o + t·d`` of the scene is the ray ``s·o + t'·d`` in a layer, with the same unit
-    direction and ``t' = s·t``: Embree finds the nearest sphere of each layer, the nearest
-    over the layers and the inner finder wins, and the hit point, normal, BSDF and error
-    bound come from the layer's tables in the scene's frame, re-projected onto the sphere as
-    :class:`SphereHits` does.
-
-    The layers are traced first, largest spheres first, each bounded by the nearest hit so
-    far (``maxt``), and the inner finder last, bounded the same way: Embree skips what lies
-    beyond. A shadow segment already blocked is not traced again. A :class:`HitFinder`.
-    """
+    """A :class:`HitFinder` over the ``inner`` finder (None: no other shapes) and the layers
+    of ``tables`` (:class:`~.primitives.Layer`: spheres scaled by s = 1/r, where Mitsuba's
+    test is exact). A scene ray ``o + t·d`` is ``s·o + s·t·d`` in a layer; the layers are
+    traced largest first, then the inner finder, each bounded by the nearest hit so far."""
 
     def __init__(self, inner, tables, need_uv: bool):
         self.jit = dr.is_jit_v(mi.Float)
@@ -359,12 +259,9 @@ class LayeredHits:
         scaled.maxt = maxt * self.scales[k]
         return scaled
 
-    def surface_at(self, point):
-        """As :meth:`HitFinder.surface_at`: the layers' spheres are the scene's primitives."""
-        return self.primitives.surface_at(point)
+    surface_at = _SceneHits.surface_at
 
     def blocked(self, ray, active):
-        """Whether a surface crosses the segment ``ray`` (:meth:`HitFinder.blocked`)."""
         tests = [lambda mask, k=k, layer=layer: blocked(layer.scene, self._ray(k, ray, ray.maxt), mask,
                                                         spheres=False)
                  for k, layer in enumerate(self.layers)]
@@ -381,7 +278,6 @@ class LayeredHits:
         return shadowed & active
 
     def intersect(self, ray, coherent: bool):
-        """``(hit, si, bsdf, error)`` (:meth:`HitFinder.intersect`)."""
         if not self.jit:
             return self._scalar(ray, coherent)
         best, which, slot = mi.Float(ray.maxt), mi.Int32(-1), mi.UInt32(0)
@@ -497,30 +393,12 @@ class _Giant:
 
 
 class GiantHits:
-    """Nearest hits, shadow tests and light surfaces for a scene with giant spheres: the
-    ``inner`` finder's answer for the other shapes (None: there are none), the float64 test
-    for the giant ones. A :class:`HitFinder`.
-
-    Why. Mitsuba keeps a sphere's center and radius in float32 and, in the JIT variants,
-    intersects it in float32 in world space: a floor sphere of radius 10^6 is placed to
-    ~0.1, one of 10^7 to ~1, while balls of radius 0.3 stand on it. No ray offset can be
-    right there (docs/numerics.md, hazard 14). But such a sphere is known exactly in the
-    scene file, and a float64 test of the few giant ones costs a handful of operations.
-
-    How. The converter lists the giant spheres (converter/giants.py) in the integrator's
-    ``exact_spheres``: each shape's id, center (in the scene's frame) and radius, as float64
-    text. Every *other* shape is traced through Mitsuba, on a scene of those shapes alone
-    (:meth:`~.scene_tables.SceneTables.rest`: the same shape objects, so the same instance
-    IDs, BSDFs and tables); the giant spheres are intersected here in float64 with the
-    stable discriminant r² − |f − (f·d)d|² (hazard 4b) and the cancellation-free roots, and
-    the nearer answer wins. The hit point and normal are computed in float64 and rounded to
-    float32, so the point lies within an ulp of its own coordinates of the exact surface:
-    its error bound (:func:`point_error`) is relative to the point, not to the radius.
-    """
+    """A :class:`HitFinder` that tests the giant spheres of ``exact_spheres`` in float64 and
+    the other shapes by the ``inner`` finder (None: there are none): Mitsuba's float32 sphere
+    places a floor of radius 10^7 to ~1 (docs/numerics.md, hazard 14). ``giants``: ``(shape
+    index, center, radius)`` each; the hit point's bound is :func:`point_error`."""
 
     def __init__(self, scene, inner, need_uv: bool, giants, primitives):
-        """``giants``: ``(shape index, center, radius)`` of each giant sphere; ``primitives``:
-        the scene's (:class:`~.primitives.Primitives`)."""
         self.jit = dr.is_jit_v(mi.Float)
         shapes = scene.shapes()
         self.giants = [_Giant(shapes[k], center, radius, self.jit) for k, center, radius in giants]
@@ -530,11 +408,8 @@ class GiantHits:
         self.others = primitives.without([k for k, _, _ in giants])
         self.need_uv = need_uv
 
-    # -- lights on surfaces ----------------------------------------------------------------------
-
     def surface_at(self, point):
-        """As :meth:`HitFinder.surface_at`; a giant sphere's bound is the point's, and
-        only its exact surface counts."""
+        """As :meth:`HitFinder.surface_at`, a giant sphere's exact surface first."""
         p = np.asarray(point, np.float64).reshape(-1)
         for giant in self.giants:
             offset = p - np.asarray(giant.center_tuple)
@@ -544,10 +419,7 @@ class GiantHits:
                 return error, tuple(offset / distance)
         return self.others.surface_at(point)
 
-    # -- shadow segments -------------------------------------------------------------------------
-
     def blocked(self, ray, active):
-        """Whether a surface crosses the segment ``ray`` (:meth:`HitFinder.blocked`)."""
         shadowed = self.inner.blocked(ray, active) if self.inner is not None else no_blocker()
         if not self.jit and (shadowed or not active):
             return shadowed
@@ -557,10 +429,7 @@ class GiantHits:
             shadowed = shadowed | (valid & (t < maxt))
         return shadowed & active
 
-    # -- nearest hits ----------------------------------------------------------------------------
-
     def intersect(self, ray, coherent: bool):
-        """``(hit, si, bsdf, error)`` (:meth:`HitFinder.intersect`)."""
         hit, si, bsdf, error = self.inner.intersect(ray, coherent) if self.inner is not None else no_hits()
         o, d = mi.Point3d(ray.o), mi.Vector3d(ray.d)
         if not self.jit:
@@ -612,10 +481,8 @@ class GiantHits:
 
 
 def scene_hits(scene, tables, need_uv: bool, exact_spheres=()):
-    """How rays meet ``scene`` (its :class:`~.scene_tables.SceneTables`: ``tables``): Mitsuba's
-    ray tracing (:func:`hit_finder`) for the shapes it intersects exactly, layers for spheres
-    it intersects exactly only in frames of their own (:class:`LayeredHits`), and the float64
-    test for the giant spheres listed in ``exact_spheres`` (:class:`GiantHits`)."""
+    """The :class:`HitFinder` of ``scene`` (its ``tables``), with the layers and the giant
+    spheres of ``exact_spheres`` where there are any."""
     giants = []
     if exact_spheres:
         index = {shape.id(): k for k, shape in enumerate(scene.shapes())}
@@ -646,11 +513,8 @@ class SurfaceSample:
 
 
 class SurfaceLookup:
-    """The material at a hit, from the scene's material table
-    (:meth:`~.scene_tables.Materials.table`).
-
-    ``need_ior`` leaves the IOR out of the kernels of scenes without refraction.
-    """
+    """The material at a hit, from :meth:`~.scene_tables.Materials.table` (``need_ior``:
+    False leaves the IOR out of the kernels)."""
 
     def __init__(self, materials, table, need_ior: bool):
         self.need_ior = need_ior
@@ -667,10 +531,7 @@ class SurfaceLookup:
         self._color, self._reflect, self._refract, self._ior, self._slot = columns
 
     def lookup(self, si, bsdf, active) -> SurfaceSample:
-        """The material at ``si`` on the lanes ``active`` (hits only).
-
-        ``bsdf`` is the hit BSDF's instance ID (JIT variants) or the BSDF itself (scalar).
-        """
+        """The material at ``si`` (``bsdf``: an instance ID, or the BSDF) on the lanes ``active``."""
         row = self._row(bsdf)
         base = self._read(*self._color, row, active)
         if self.textured:

@@ -1,22 +1,11 @@
 """``whitted``: the article's recursive ray tracer as a Mitsuba integrator.
 
-Why a Python integrator: the article's model is not a light transport algorithm Mitsuba has
-(a point's color is ``B·(A + (1 - A)·Σ s·light)``, a ray tree of fixed depth, no sampling),
-and written with Dr.Jit it runs as compiled kernels in the JIT variants, as fast as
-Mitsuba's own C++ ``direct`` integrator on the same rays. What it is: see the class
-docstring.
-
-A render, as in Mitsuba's own Python integrators, prepares, samples and develops. Prepare:
-read the scene's tables (:mod:`.scene_tables`: lights, materials, primitives, kept between
-renders while the scene is unchanged) and what the scene calls for
-(:func:`.scene_tables.analyse`), and build the recursion (:mod:`.recursion`). Sample: camera
-rays from the sensor's ``sample_ray_differential`` (any of Mitsuba's sensors), placed in
-their pixels and on the lens by :class:`.film.CameraSamples`, in passes of at most
-``wavefront_size`` camera samples; each ray's tree is traced by
-:meth:`.recursion.Recursion.trace`. Develop: the samples go straight into the developed
-image for a box-filtered RGB film, else into Mitsuba's image block, developed by the film
-(:mod:`.film`); either way the sensor's film holds the render afterwards (``film.bitmap()``,
-``film.write()``).
+The article's model is no light transport algorithm Mitsuba has (``B·(A + (1 - A)·Σ
+s·light)``, a ray tree of fixed depth, no sampling); written with Dr.Jit it runs as compiled
+kernels in the JIT variants. A render prepares (the scene's tables, :mod:`.scene_tables`,
+and the recursion, :mod:`.recursion`), samples (camera rays from the sensor, placed by
+:class:`.film.CameraSamples`, in passes of at most ``wavefront_size``) and develops into the
+sensor's film (:mod:`.film`).
 """
 
 from __future__ import annotations
@@ -116,29 +105,16 @@ class WhittedIntegrator(mi.SamplingIntegrator):
          trace at once: it bounds memory. 0 lets the tracer choose (2^20, or
          2^21 when the tree has a single level). (Default: 0)
 
-    ``mi.traverse(integrator)`` exposes ``max_depth``, ``ambient``, ``min_weight``
-    and ``light_reference`` (one- or three-value float64 Dr.Jit arrays); ``params.update()``
-    checks an edit by the rule a loaded property meets, with the same one-line error
-    (``whitted: max_depth must be an integer, got 2.5``: refused, not truncated), refuses
-    an invalid edit whole, and the next render uses a valid one.
-    ``lighting``, ``without`` and ``exact_spheres`` are strings, which Mitsuba's scene
-    parameters cannot hold: load the scene again to change them (or render with
-    ``whitted.render(scene, lighting=..., without=...)``).
+    ``mi.traverse(integrator)`` exposes ``max_depth``, ``ambient``, ``min_weight`` and
+    ``light_reference``; ``params.update()`` checks an edit as a loaded property is checked
+    and refuses an invalid one whole. The strings (``lighting``, ``without``,
+    ``exact_spheres``) change only by loading the scene again.
 
-    The article's ray tracer (docs/scene-format.md, "Shading"; :meth:`.recursion.Recursion.step`): a
-    point's color is ``B·(A + (1 - A)·Σ s·light)``, mixed with the reflected and refracted
-    colors by KR and KT, to ``max_depth``. Every surface must carry the
-    :ref:`article <bsdf-article>` BSDF, every emitter be a point light or the environment.
-
-    At one sample per pixel every ray passes through its pixel's center (and a thin lens's),
-    so the seed, the sampler and the lens change nothing (a warning says so); more samples
-    honour the sensor (:class:`.film.CameraSamples`). Nested in the scene's ``aov``
-    integrator, which takes its AOVs from Mitsuba's own sampling loop, the color comes from
-    that loop too (each ray traced by :meth:`sample`): the rays of the AOVs. Code for an effect the scene lacks is
-    left out of the kernels (:mod:`.scene_tables`). :meth:`render_detailed` also returns
-    the rays traced and the adaptive depth control's error bound (``whitted render --stats``).
-    Gradients (JIT AD variants): :meth:`render_forward` and :meth:`render_backward`, with
-    visibility held fixed (:mod:`.gradients` says what is differentiated).
+    The article's ray tracer (docs/scene-format.md, "Shading"; :meth:`.recursion.Recursion.step`)
+    for scenes of the :ref:`article <bsdf-article>` BSDF, point lights and an environment.
+    At one sample per pixel every ray passes through its pixel's center, so the seed, the
+    sampler and the lens change nothing (a warning says so). Gradients (JIT AD variants):
+    :meth:`render_forward` and :meth:`render_backward`, visibility held fixed (:mod:`.gradients`).
 
     .. tabs::
 
@@ -165,39 +141,24 @@ class WhittedIntegrator(mi.SamplingIntegrator):
 
     def __init__(self, props: mi.Properties):
         super().__init__(props)
-        self._take(D.check_plugin_parameters("whitted", {name: props.get(name, default)
-                                                         for name, default in self.DEFAULTS.items()}))
+        given = {name: props.get(name, default) for name, default in D.WHITTED_DEFAULTS.items()}
+        self._take(D.check_plugin_parameters("whitted", given))
         self.hide_emitters = bool(props.get("hide_emitters", False))
         self._warned = ()   # what the last warning about 1 spp named (once per change)
         self._gradient_keys = {}   # parameters seen with gradients: differentiated? (warned once)
-        # Giant spheres' exact centers and radii, as the converter lists them (.giants).
         self.exact_spheres = parse_exact_spheres(str(props.get("exact_spheres", "")))
-
-    #: the properties checked by the plugins' one rule (:func:`whitted.defaults.check_plugin_parameters`),
-    #: at load and at an edit, and their defaults
-    DEFAULTS = {"max_depth": D.DEPTH, "ambient": D.AMBIENT, "lighting": D.LIGHTING,
-                "light_reference": D.LOOKAT, "min_weight": D.MIN_WEIGHT,
-                "wavefront_size": D.WAVEFRONT_SIZE, "without": ""}
 
     def _take(self, checked: dict) -> None:
         """Take the properties ``checked`` by the plugins' one rule."""
         for name, value in checked.items():
             setattr(self, name, mi.ScalarPoint3f(*value) if name == "light_reference" else value)
 
-    # -- mi.traverse ------------------------------------------------------------------------------
-
-    #: what :meth:`traverse` exposes, as Dr.Jit scalar vectors (``max_depth`` too is a float64
-    #: one: an edit to 2.5 reaches the check, which refuses it, where an integer vector would
-    #: truncate it); ``lighting`` and ``exact_spheres`` are strings, which Mitsuba's scene
-    #: parameters cannot hold
+    #: what :meth:`traverse` exposes, as float64 vectors (an edit of max_depth to 2.5 is refused)
     TRAVERSED = {"max_depth": dr.scalar.Array1f64, "ambient": dr.scalar.Array1f64,
                  "min_weight": dr.scalar.Array1f64, "light_reference": dr.scalar.Array3f64}
 
     def traverse(self, callback):
-        # One-value (or three-value) float64 Dr.Jit arrays, which SceneParameters writes
-        # into in place; :meth:`parameters_changed` reads them back.
-        # The ambient is a Dr.Jit Float64 in the JIT variants, differentiable in the AD ones
-        # (:meth:`render_forward`, :meth:`render_backward`).
+        # arrays SceneParameters writes into in place; the ambient differentiable (AD variants)
         if not hasattr(self, "_values"):
             self._values = {name: (mi.Float64 if name in self.DIFFERENTIABLE and dr.is_jit_v(mi.Float) else tp)(
                 *self._traversed_value(name)) for name, tp in self.TRAVERSED.items()}
@@ -214,8 +175,7 @@ class WhittedIntegrator(mi.SamplingIntegrator):
         return [float(c) for c in value] if name == "light_reference" else [value]
 
     def parameters_changed(self, keys=[]):  # noqa: B006  (Mitsuba's own default)
-        """``params.update()`` wrote some of :data:`TRAVERSED`: take them, checked as at load
-        (an invalid edit is undone and refused)."""
+        """Take what ``params.update()`` wrote, checked as at load (an invalid edit is undone)."""
         raw = {name: [value[k] for k in range(len(value))] if name == "light_reference" else value[0]
                for name, value in self._values.items()}
         try:
@@ -232,13 +192,11 @@ class WhittedIntegrator(mi.SamplingIntegrator):
                 "exact_spheres")
 
     def settings(self) -> dict:
-        """The integrator's properties as Python values (``without``: a tuple of effect names;
-        ``exact_spheres``: ``(id, center, radius)`` per giant sphere)."""
+        """The integrator's properties as Python values."""
         return {name: getattr(self, name) for name in self.SETTINGS}
 
     def with_settings(self, **changes):
-        """This integrator if ``changes`` change none of its :meth:`settings`, else a new one
-        with them changed and the rest (the light reference, the giant spheres) kept."""
+        """This integrator if ``changes`` change none of its :meth:`settings`, else a new one."""
         current = self.settings()
         if all(current[name] == value for name, value in changes.items()):
             return self
@@ -255,10 +213,7 @@ class WhittedIntegrator(mi.SamplingIntegrator):
     def render(self, scene, sensor=0, seed=0, spp=0, develop=True, evaluate=True):
         if not develop:
             raise ValueError("the whitted integrator only renders developed images (develop=True)")
-        if self._nested_in_aov(scene):
-            # The aov integrator takes its AOVs from Mitsuba's own sampling loop and its color
-            # from this render: the same loop, tracing each of its rays with sample(), gives a
-            # color of the very rays the AOVs describe.
+        if self._nested_in_aov(scene):   # the color of the very rays of the AOVs
             return super().render(scene, sensor, seed, spp, develop, evaluate)
         return self.render_detailed(scene, sensor, seed, spp).image
 
@@ -268,8 +223,7 @@ class WhittedIntegrator(mi.SamplingIntegrator):
         return outer is not None and outer is not self and outer.class_name() == "AOVIntegrator"
 
     def sample(self, scene, sampler, ray, medium=None, active=True):
-        """The color of ``ray``'s whole tree (for callers that drive the integrator per ray),
-        and whether the ray hit a surface or sees the background (a film's alpha)."""
+        """The color of ``ray``'s whole tree, and whether it hit a surface or sees the background."""
         tracer, analysis = self._recursion(scene)
         tracer.keep_camera_hit = True
         color = tracer.trace(mi.Ray3f(ray))
@@ -277,38 +231,34 @@ class WhittedIntegrator(mi.SamplingIntegrator):
         return color, mi.Bool(tracer.camera_hit | seen), []
 
     def render_forward(self, scene, params=None, sensor=0, seed=0, spp=0):
-        """The image's derivative along the gradients set on the parameters (forward mode; what
-        ``dr.forward`` after ``mi.render(scene, params)`` calls). Visibility is held fixed
-        (:mod:`.gradients`)."""
-        from . import gradients
-        gradients.require_gradients("render_forward")
-        gradients.name_undifferentiated(scene, mi.traverse(scene) if params is None else params, self,
-                                        self._gradient_keys)
+        """The image's derivative along the parameters' gradients (forward mode)."""
         with dr.resume_grad():
-            image = self.render_detailed(scene, sensor, seed, spp, attached=True).image
+            image = self._attached_image("render_forward", scene, params, sensor, seed, spp)
             dr.forward_to(image)
         return dr.grad(image)
 
     def render_backward(self, scene, params, grad_in, sensor=0, seed=0, spp=0):
-        """Add ``grad_in`` (the loss's gradient with respect to the image) times the image's
-        derivatives to the parameters' gradients (reverse mode; what ``dr.backward`` after
-        ``mi.render(scene, params)`` calls). Visibility is held fixed (:mod:`.gradients`)."""
-        from . import gradients
-        gradients.require_gradients("render_backward")
-        gradients.name_undifferentiated(scene, mi.traverse(scene) if params is None else params, self,
-                                        self._gradient_keys)
+        """Add ``grad_in`` times the image's derivatives to the parameters' gradients (reverse mode)."""
         with dr.resume_grad():
-            image = self.render_detailed(scene, sensor, seed, spp, attached=True).image
+            image = self._attached_image("render_backward", scene, params, sensor, seed, spp)
             dr.set_grad(image, grad_in)
             dr.enqueue(dr.ADMode.Backward, image)
             dr.traverse(dr.ADMode.Backward)
 
+    def _attached_image(self, what, scene, params, sensor, seed, spp):
+        """The image of a gradient render (:mod:`.gradients`), whose parameters are named once
+        when some with gradients are not differentiated."""
+        from . import gradients
+        gradients.require_gradients(what)
+        gradients.name_undifferentiated(scene, mi.traverse(scene) if params is None else params, self,
+                                        self._gradient_keys)
+        return self.render_detailed(scene, sensor, seed, spp, attached=True).image
+
     # -- Rendering ------------------------------------------------------------------------------
 
     def _recursion(self, scene, tables=None, attached=False):
-        """The recursion of a render of ``scene`` (:mod:`.recursion`) and the scene's analysis.
-        ``tables``: the scene's tables as :func:`whitted.plugins.check_scene` just found them;
-        ``attached``: shaded from the parameters' own Dr.Jit values (:mod:`.gradients`)."""
+        """The recursion of a render of ``scene`` and the scene's analysis (``attached``:
+        shaded from the parameters' own Dr.Jit values, :mod:`.gradients`)."""
         analysis = analyse(tables or scene_tables(scene), self.max_depth, self.light_reference,
                            self.without)
         values = None
@@ -319,21 +269,9 @@ class WhittedIntegrator(mi.SamplingIntegrator):
 
     def render_detailed(self, scene, sensor=0, seed=0, spp=0, progress=None, tables=None,
                         attached=False) -> DetailedRender:
-        """Render ``scene`` and report what was traced.
-
-        ``tables``: what :func:`whitted.plugins.check_scene` returned for ``scene`` just
-        before (else the render finds the scene's tables itself).
-
-        ``progress``, when given, is called with the number of camera samples
-        finished since its last call, as the trees are traced: after each level
-        of each pass in the JIT variants (a sample counts as finished in the
-        proportion of its path weight already shaded or culled), after each
-        sample in the scalar ones. Between levels Python has control, so a
-        ``KeyboardInterrupt`` (Ctrl-C) stops the render there.
-
-        ``attached`` (JIT AD variants): the image is computed from the parameters' own Dr.Jit
-        values (:mod:`.gradients`), so that gradients reach them.
-        """
+        """Render ``scene`` and report what was traced. ``tables``: what
+        :func:`whitted.plugins.check_scene` just returned; ``progress(n)`` is told of finished
+        camera samples (between levels, where Ctrl-C lands); ``attached``: for gradients."""
         if isinstance(sensor, int):
             sensor = scene.sensors()[sensor]
         # mi.render may pass a UInt32; any integer up to 2^64 - 1 is folded to 32 bits
@@ -351,8 +289,6 @@ class WhittedIntegrator(mi.SamplingIntegrator):
 
         tracer, analysis = self._recursion(scene, tables, attached)
         image = image_for(film, spp)
-        # An alpha channel: opaque where a camera ray hits a surface or sees the background
-        # (as Mitsuba's own integrators do).
         tracer.keep_camera_hit = image.alpha
         background_seen = analysis.environment is not None and not self.hide_emitters
         # A single-level tree stores nothing between levels: then, where the image takes
@@ -375,8 +311,7 @@ class WhittedIntegrator(mi.SamplingIntegrator):
         return DetailedRender(image.develop(), rays, analysis.effects, analysis.depth, len(passes), error_bound)
 
     def _render_pass(self, tracer, camera, image, first, count, progress, background_seen=False):
-        """Samples first … first + count - 1 (of every pixel's spp, pixel after pixel), as
-        ``tracer`` takes them: one wavefront, or one sample at a time."""
+        """Samples first … first + count - 1 (pixel after pixel), as ``tracer`` takes them."""
         spp, width = camera.spp, camera.width
         # Counted from the pass's first pixel, so that 32-bit indices never overflow.
         first_pixel, first_sample = divmod(first, spp)
@@ -399,8 +334,7 @@ class WhittedIntegrator(mi.SamplingIntegrator):
         tracer.finish_pass()
 
     def _render_pixels(self, tracer, camera, image, first_pixel, pixels):
-        """Pixels first_pixel … first_pixel + pixels - 1, one lane each, every sample of a
-        pixel traced in a loop inside the kernel (single-level trees, :class:`.film.PixelMeans`)."""
+        """Pixels first_pixel … first_pixel + pixels - 1, one lane each (single-level trees)."""
         pixel = dr.arange(mi.UInt32, pixels) + dr.opaque(mi.UInt32, first_pixel)
         opaque_width = dr.opaque(mi.UInt32, camera.width)
         y = pixel // opaque_width
@@ -413,13 +347,9 @@ class WhittedIntegrator(mi.SamplingIntegrator):
         tracer.finish_pass()
 
     def trace_pixels(self, scene, pixels, recorder, sensor=0) -> list:
-        """The colors of the camera rays through the centers of ``pixels`` (``(x, y)`` each, in
-        the film's crop), traced as a render at one sample per pixel traces them: the same
-        camera rays and recursion, in one batch (one ray at a time in the scalar variants).
-        ``recorder`` is shown every level of their trees (the ray tree of a pixel, recorded by
-        whitted/trace/record.py): ``recorder.attach(tracer)`` before,
-        ``recorder.camera(weight)`` with each batch's camera ray weights. Returns each batch's
-        colors (weighted as the render weights them: ``mi.Color3f``)."""
+        """The colors of the camera rays through the centers of ``pixels`` (``(x, y)`` in the
+        crop), traced as a 1 spp render traces them, each batch's shown to ``recorder``
+        (whitted/trace/record.py: ``attach(tracer)``, then ``camera(weight)`` per batch)."""
         if isinstance(sensor, int):
             sensor = scene.sensors()[sensor]
         camera = CameraSamples(sensor, 1, 0)

@@ -1,29 +1,14 @@
 """A scene's primitives as numbers, and the spheres traced in frames of their own (layers).
 
 Each primitive's bounding sphere, error bound and texture frame, and the Dr.Jit tables the
-hit finders (:mod:`.hits`) read them from. A ``sphere`` shape is one primitive; an
-``ellipsoids`` shape is one primitive per ellipsoid, which is a sphere when its three
-scales are equal and it is not rotated (the loader writes sealed spheres that way:
-whitted/sealed.py); any other shape is one primitive known by its bounding box. Center
-and radius come from the bounding boxes, exact to a float32 ulp of |C| + r for a sphere
-(within the error bound, :func:`whitted.float32.hit_error`), and an ellipsoid's from its
-own center and largest scale. A textured sphere's frame (rows: the local x, y and z axes)
-is its ``to_world`` rotation, which also gives its center and radius.
+hit finders (:mod:`.hits`) read them from: a ``sphere`` shape is one primitive, an
+``ellipsoids`` shape one per ellipsoid, any other shape one known by its bounding box. A
+hit's slot in the tables is its shape's instance ID, plus ``prim_index`` past a per-shape
+``base`` for ellipsoids (:func:`slot_of`).
 
-Where a hit finds its primitive (JIT variants). A hit names its shape by instance ID and,
-within an ``ellipsoids`` shape, by ``prim_index``. A shape of one primitive has its
-instance ID as its *slot* in the tables; the primitives of ellipsoids shapes follow all
-of those, and a per-instance-ID ``base`` says where they start, so that a hit's slot is
-``base[row] + prim_index`` for them (:func:`slot_of`).
-
-Layers. Mitsuba 3.9's ``ellipsoids`` test is exact only at radius 1 (docs/numerics.md,
-"Spheres as Mitsuba ellipsoids"). The loader gives the commonest radius 1 by scaling the
-whole scene; spheres of other radii that it groups as well (whitted/sealed.py), and any
-``ellipsoids`` shape of spheres whose radius is not 1, are traced in a *layer*: a scene of
-their own holding the same spheres scaled by 1/r about the origin, where their radius is 1
-(:class:`.hits.LayeredHits`). A layer's tables hold its primitives' centers, radii, error
-bounds and BSDFs in the *scene's* frame, so a hit found in a layer is the same point,
-normal and bound as if Mitsuba had found it exactly in the scene.
+Mitsuba's ``ellipsoids`` test is exact only at radius 1 (docs/numerics.md, "Spheres as
+Mitsuba ellipsoids"): spheres of another radius are traced in a *layer*, a scene of their
+own scaled by 1/r, whose tables hold them in the scene's frame (:class:`.hits.LayeredHits`).
 """
 
 from __future__ import annotations
@@ -217,8 +202,7 @@ class PrimitiveTables:
 
 
 def slot_of(base, row, prim_index, active):
-    """A hit's slot in the primitive tables from its shape's instance ID ``row`` and its
-    ``prim_index`` (see the module docstring)."""
+    """A hit's slot in the primitive tables from its shape's instance ID ``row`` and ``prim_index``."""
     if base is None:
         return row
     start, expanded = base
@@ -231,13 +215,9 @@ def slot_of(base, row, prim_index, active):
 
 @dataclass
 class Layer:
-    """Spheres of one radius, traced in the scene's frame scaled by ``scale`` (= 1/radius).
-
-    ``tables`` are, in the JIT variants, the layer's
-    :class:`~.primitives.PrimitiveTables` by slot of its own scene, with the scene-frame
-    center, radius, error bound and BSDF instance ID; in the scalar variant a dict
-    ``id(shape) -> (first primitive, BSDF)`` beside the lists ``center``, ``error``.
-    """
+    """Spheres of one radius, traced in the scene's frame scaled by ``scale`` (= 1/radius);
+    ``tables``: JIT, :class:`~.primitives.PrimitiveTables` in the scene's frame; scalar,
+    ``id(shape) -> (first primitive, BSDF)`` beside the lists ``center`` and ``error``."""
     scale: float
     radius: float
     scene: object
@@ -247,9 +227,7 @@ class Layer:
 
 
 def layers(shapes, types, primitives: Primitives) -> tuple[list[Layer], list[int]]:
-    """The layers of ``shapes`` (``scene.shapes()``, their ``mi.ShapeType``s and
-    :class:`~.primitives.Primitives`), and the indices of the shapes they hold (which the
-    scene's own ray tracing must then leave out)."""
+    """The layers of ``shapes``, and the indices of the shapes they hold."""
     members: dict[float, list] = {}
     held = []
     counts = primitives.counts
@@ -266,8 +244,7 @@ def layers(shapes, types, primitives: Primitives) -> tuple[list[Layer], list[int
 
 def ellipsoids_shape(centers: np.ndarray, bsdf, radius: float = 1.0) -> dict:
     """The ``mi.load_dict`` entry of one ``ellipsoids`` shape of spheres of ``radius`` at
-    ``centers`` (M×3): equal scales, no rotation, and ``extent`` 1 (Mitsuba's default, 3,
-    would triple them). The loader's sealed spheres are made the same way (whitted/sealed.py)."""
+    ``centers`` (M×3): equal scales, no rotation, ``extent`` 1 (Mitsuba's 3 would triple them)."""
     count = len(centers)
     return {"type": "ellipsoids", "extent": 1.0,
             "centers": mi.TensorXf(np.ascontiguousarray(centers, np.float32).reshape(count, 3)),

@@ -1,37 +1,16 @@
 """The article's Whitted recursion: one step (:meth:`Recursion.step`) and the walks that repeat it.
 
-The article's ``trace`` is recursive, but its result is linear in the children's colors::
+The color is linear in the children's, ``(1 - KR - KT)·point + KR·reflected + KT·refracted``,
+so a camera ray's color is a sum over its tree of ``w·contribution``, ``w`` the product of
+the KR and KT factors on the way down. :meth:`Recursion.step` is that sum's term for one
+level of rays; :class:`Recursion` (scalar variants) walks the tree depth first, one ray at a
+time, and :class:`Wavefronts` (JIT variants) level by level, a whole pass per wavefront.
+Under total internal reflection both children are the same mirror ray: it is traced once,
+with weight ``w·(KR + KT)``, and counted as both kinds (``Child.merged``).
 
-    color = (1 - KR - KT)·point + KR·reflected + KT·refracted
-
-so the color of a camera ray is a sum over its tree's rays of ``w·contribution``, ``w``
-being the product of the KR and KT factors on the way down. :meth:`Recursion.step` is that
-sum's term for the rays of one level (a wavefront in the JIT variants, one ray in the
-scalar ones), the article's algorithm top to bottom: find the hits; a ray that escapes sees
-the background; at a hit, the material, the ambient term and each light's diffuse term with
-its shadow ray, weighted ``1 - KR - KT``; then the reflected ray (weight ``w·KR``) and the
-refracted one (``w·KT``) or, under total internal reflection, the mirror ray. It calls
-:mod:`.hits` for hit finding, ray offsets and optics. Two walks repeat it, the same tree
-either way:
-
-* :class:`Recursion` (scalar variants) walks it depth first, the article's recursion as
-  written, one ray at a time;
-* :class:`Wavefronts` (JIT variants) walks it level by level: a *wavefront* holds the rays of
-  one level for a whole pass of camera samples, and no Python runs per ray.
-
-Under total internal reflection both children would be the very same ray, and inside a
-glass ball that traps light the tree would double at every bounce. So the mirror ray is
-traced once, with weight ``w·(KR + KT)``: exact, since the color is linear in the weights.
-It still counts as a reflection ray and as a refraction ray (``Child.merged``), as the
-article's recursion traces both. Code for an effect the scene lacks (:func:`.scene_tables.analyse`)
-is left out of the kernels.
-
-Adaptive depth control (Hall and Greenberg 1983; POV-Ray's ``adc_bailout``). A ray's color
-reaches its pixel multiplied by its path weight. Inside a glass ball that traps light the
-weights fall by a few percent a bounce, and the tree goes on to whatever depth is allowed,
-for a change the 8-bit image cannot show. So branches are left untraced as long as
-together they cannot change any pixel by more than ``min_weight`` (default 1/255; 0 traces
-the exact tree). Every ray carries an *allowance* ``a``: how much path weight may still be
+Adaptive depth control (Hall and Greenberg 1983; POV-Ray's ``adc_bailout``): branches are
+left untraced as long as together they cannot change any pixel by more than ``min_weight``
+(0 traces the exact tree). Every ray carries an *allowance* ``a``: how much path weight may still be
 left untraced in its subtree. A camera ray starts with ``ε = min_weight / L``, ``L`` the
 brightest color any ray can bring back (:func:`brightest`). Where a ray spawns children of
 weights ``w1 <= w2`` (a missing child has weight 0), :func:`split` culls the lighter child
@@ -93,12 +72,9 @@ class Child:
 
 
 class Recursion:
-    """The article's model for one scene and render, walked depth first (scalar variants).
-
-    ``analysis``: :class:`~.scene_tables.SceneAnalysis`; ``epsilon``: each camera ray's
-    allowance (0: the exact tree); ``attached``: the parameters' own Dr.Jit values
-    (:class:`.gradients.Attached`) for a differentiable render.
-    """
+    """The article's model for one scene and render, walked depth first (scalar variants);
+    ``epsilon``: each camera ray's allowance (0: the exact tree); ``attached``: the
+    parameters' own Dr.Jit values (:class:`.gradients.Attached`)."""
 
     #: camera samples per pass when the integrator's ``wavefront_size`` is 0 (automatic)
     samples_per_pass = 1 << 10
@@ -133,13 +109,9 @@ class Recursion:
         self.epsilon = epsilon
         self.tally = Tally()
         self.deepest = 0   # the deepest level that traced a ray
-        #: whether :attr:`camera_hit` is wanted (an alpha channel): computed with the camera
-        #: rays' level, not again afterwards
-        self.keep_camera_hit = False
+        self.keep_camera_hit = False   # whether camera_hit is wanted (an alpha channel)
         self.camera_hit = None   # mi.Bool: which camera rays of the last :meth:`trace` hit
-        #: the ray tree of a pixel (whitted/trace/record.py; None in a render): ``record``, a
-        #: dict that :meth:`step` fills with each level's terms, and ``recorder``, shown
-        #: every level: ``recorder.level(branch, color, hit, children)``
+        # a pixel's ray tree (whitted/trace/record.py): the terms of each level, shown to recorder
         self.record = None
         self.recorder = None
 
@@ -268,9 +240,7 @@ class Recursion:
                       else None)
 
     def trace(self, ray, progress=None):
-        """The color of the camera rays ``ray``: the sum of ``w·contribution`` over their trees.
-        ``progress``, when given, is called with the number of camera samples finished since
-        its last call (a sample in the proportion of its path weight shaded or culled)."""
+        """The color of the camera rays ``ray``; ``progress(n)`` is told of finished samples."""
         color, culled = self._trace(self.camera_branch(ray))
         if culled is not None:
             self.tally.note_max("sample_culled_weight", culled)
@@ -303,9 +273,7 @@ class Recursion:
 
 
 def recursion(scene, analysis, integrator, attached=None) -> Recursion:
-    """The recursion of a render of ``scene`` (its :class:`~.scene_tables.SceneAnalysis`) by
-    the Whitted ``integrator``, walked as the current variant can: wavefronts need Dr.Jit
-    arrays to gather a level's rays into (JIT variants)."""
+    """The recursion of a render of ``scene`` by ``integrator``: wavefronts in JIT variants."""
     bright = brightest(analysis, integrator.lighting, analysis.ambient(integrator.ambient)) \
         if integrator.min_weight > 0 else None
     args = (scene, analysis, integrator.ambient, integrator.lighting, integrator.exact_spheres,
@@ -319,13 +287,9 @@ def recursion(scene, analysis, integrator, attached=None) -> Recursion:
 # -- the wavefront walk (JIT variants) ------------------------------------------------------------
 
 class Wavefronts(Recursion):
-    """The tree walked level by level. Shading a wavefront (a :class:`Branch` of Dr.Jit arrays)
-    gives each lane's color and one wavefront of children holding only the lanes really traced
-    (``dr.compress``), each with the lane of its parent: one kernel shades a level, a small one
-    packs its children. The walk goes down a wavefront's children before adding their colors
-    back to their parents, each parent's first child and then its second, in a fixed order:
-    the image is the same bits at any thread count. Wavefronts wider than ``lanes`` are split,
-    so that trees which double at each level still run in bounded memory."""
+    """The tree walked level by level: a level's traced children are packed into one wavefront
+    (``dr.compress``), and their colors added back to their parents in a fixed order (the same
+    bits at any thread count). Wavefronts wider than ``lanes`` are split (bounded memory)."""
 
     def __init__(self, *args, lanes: int):
         super().__init__(*args)
@@ -353,10 +317,8 @@ class Wavefronts(Recursion):
         return color
 
     def _subtree(self, front, walk):
-        """The color of each lane's tree below and including ``front`` and the weight culled
-        from it (None: traced exactly): its own, plus its first child's tree, plus its second
-        child's, in that order, as the depth-first walk adds them (an atomic add of every
-        level into its camera sample would add in the order the threads finish)."""
+        """The color of each lane's tree from ``front`` down and the weight culled from it
+        (None: exact): its own, then its first child's tree, then its second's."""
         if front.level > 1 and dr.width(front.ray) > self.lanes:   # a pass's camera rays fit
             return self._pieces(front, walk)
         color, culled, children = self.step(front)
@@ -367,12 +329,9 @@ class Wavefronts(Recursion):
             child, parent, second = below
             child_color, child_culled = self._subtree(child, walk)
             width = dr.width(front.ray)   # (a camera wavefront's weight is one literal 1)
-            color = color + _to_parents(child_color, parent, second, False, mi.Color3f, width) \
-                + _to_parents(child_color, parent, second, True, mi.Color3f, width)
+            color = _plus_children(color, child_color, parent, second, mi.Color3f, width)
             if child_culled is not None:
-                culled = culled \
-                    + _to_parents(child_culled, parent, second, False, mi.Float, width) \
-                    + _to_parents(child_culled, parent, second, True, mi.Float, width)
+                culled = _plus_children(culled, child_culled, parent, second, mi.Float, width)
             dr.eval(color, culled)   # (a single-level tree is left lazy: it may run in a loop)
         return color, culled
 
@@ -394,9 +353,8 @@ class Wavefronts(Recursion):
         return color, culled
 
     def _next_level(self, front, children, sums, with_total: bool):
-        """The wavefront of ``children``: only their traced lanes, siblings side by side; with
-        the lane of ``front`` each came from and whether it is the second child (None: there is
-        one kind of child). None when no child is traced."""
+        """``(child, parent, second)``: the traced lanes of ``children``, siblings side by side,
+        each parent's lane and whether it is the second child; None when none is traced."""
         # One kernel shades this level, computes its color, and stores the children ...
         dr.eval(sums, [(c.branch.ray.o, c.branch.ray.d, c.branch.weight, c.branch.allowance,
                         c.traced) for c in children])
@@ -448,10 +406,14 @@ class Wavefronts(Recursion):
         return pieces
 
 
+def _plus_children(total, value, parent, second, tp, width: int):
+    """``total`` plus ``value`` of the first children, then of the second, at their parents' lanes."""
+    return total + _to_parents(value, parent, second, False, tp, width) \
+        + _to_parents(value, parent, second, True, tp, width)
+
+
 def _to_parents(value, parent, second, which: bool, tp, width: int):
-    """``value`` of each child lane at its parent's lane (0 where that parent has no such
-    child): the first children's (``which`` False) or the second children's. A parent has at
-    most one child of each kind, so each is a plain scatter, with no order to depend on."""
+    """``value`` of the first (``which`` False) or second children at their parents' lanes."""
     out = dr.zeros(tp, width)
     if second is None:
         if not which:
@@ -462,9 +424,7 @@ def _to_parents(value, parent, second, which: bool, tp, width: int):
 
 
 class _Progress:
-    """Progress of one pass's trees, reported to ``progress`` (when given) as the camera
-    samples' path weight still to be shaded shrinks: a wavefront shaded takes its weight off
-    and adds its children's. Python has control between levels: Ctrl-C lands there."""
+    """A pass's progress, reported to ``progress`` as the path weight still to shade shrinks."""
 
     def __init__(self, count: int, progress):
         self.count, self.progress = count, progress
@@ -517,15 +477,8 @@ def split(w1, w2, a):
 
 
 def brightest(analysis, lighting: str, ambient: float):
-    """An upper bound on every channel of every ray's color in the scene of ``analysis``, or
-    None (a texture or an environment whose largest value is not known here).
-
-    Article lighting: ``B·(A + (1 - A)·Σ s·light)`` with ``s <= 1`` is at most
-    ``max B · (A + (1 - A)·Σ max light)``. Physical lighting: ``(B/π)·Σ I·cos/r²`` is at most
-    ``(max B/π)·Σ max I/d²``, d the distance from the light to the nearest surface (None when
-    a light sits on one). A ray that escapes gets the background. The bound is the largest of
-    these, times ``(max KR + KT)^(depth-1)`` when round-off lets KR + KT exceed 1.
-    """
+    """L: a bound on every channel of every ray's color (docs/statistics.md), or None where
+    a texture, an environment or a light on a surface leaves it unknown."""
     tables = analysis.tables
     base, gain = analysis.surfaces.largest_base(), analysis.surfaces.largest_gain()
     if base is None or tables.background is None:
@@ -548,16 +501,8 @@ def brightest(analysis, lighting: str, ambient: float):
 
 @dataclass
 class RayCounts:
-    """Rays traced by one render (``whitted render --stats``).
-
-    A refracted share sent along the mirror direction by total internal reflection still
-    counts as a refraction ray; when the surface also reflects, that ray and the reflected
-    one are traced once, as one of each kind, and ``merged`` counts such rays: the rays
-    traced are ``camera + shadow + reflection + refraction - merged``. ``culled`` counts the
-    reflected and refracted rays the adaptive depth control left untraced (one that would
-    have carried both shares counts twice), ``culled_weight`` sums their path weights, and
-    ``sample_culled_weight`` is the largest sum of them in one camera sample's tree.
-    """
+    """Rays traced by one render (``whitted render --stats``; docs/statistics.md);
+    ``sample_culled_weight``: the most weight culled from one camera sample's tree."""
     camera: int = 0
     shadow: int = 0
     reflection: int = 0
@@ -574,10 +519,8 @@ class RayCounts:
 
 
 class Tally:
-    """Running counts of one render, named as :class:`RayCounts`' fields. In the JIT variants
-    each is a one-element array that the kernels add to atomically (``dr.scatter_reduce``,
-    deferred into the kernel that computes the mask) and that is read back once, at the end;
-    the scalar variants' counts are Python numbers, as their masks are."""
+    """Running counts of one render (:class:`RayCounts`' fields): one-element arrays the
+    kernels add to atomically (JIT), or Python numbers (scalar)."""
 
     def __init__(self):
         self._jit = dr.is_jit_v(mi.Float)
@@ -588,8 +531,7 @@ class Tally:
         self._add(name, mi.UInt32, 1, mask)
 
     def add_total(self, name: str, value, mask) -> None:
-        """Add up ``value`` over the set lanes of ``mask`` (in double precision: millions of
-        small terms are added one after the other)."""
+        """Add up ``value`` over the set lanes of ``mask`` (in float64: millions of terms)."""
         self._add(name, mi.Float64, mi.Float64(value), mask)
 
     def note_max(self, name: str, value) -> None:

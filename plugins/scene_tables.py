@@ -1,41 +1,11 @@
 """What the Whitted integrator reads from a scene, and what a render of it calls for.
 
-:class:`SceneTables` holds, built in one pass, the scene's lights, background, materials
-(one table: base color B, KR, KT, IOR and texture slot per BSDF, looked up at a hit by
-:class:`.hits.SurfaceLookup`) and primitives (:mod:`.primitives`); :func:`analyse` says which
+:class:`SceneTables` holds the scene's lights, background, primitives and materials, the
+materials as one table indexed by the BSDF's instance ID (a lookup is a few gathers, however
+many materials: no per-BSDF call in the kernels). The tables are kept between renders and
+checked at each against what they were built from (docs/CONTRACTS.md); a scene is
+recognised by a witness held with them (:class:`KeptByScene`). :func:`analyse` says which
 effects a render calls for (:class:`SceneAnalysis`).
-
-Why tables. In the JIT variants a per-instance method call for every material would make
-Dr.Jit trace one Python function per BSDF, which does not scale to scenes of thousands of
-spheres. Instead the materials' numbers sit in a table indexed by the BSDF's instance ID
-(a ``BSDFPtr`` reinterpreted as an integer): a lookup is a handful of gathers whatever the
-number of materials. Textures are the exception: each textured material evaluates its own
-texture, only on the lanes that hit it. The scalar variant reads the same numbers, by the
-hit BSDF's row.
-
-Kept between renders. Building the tables takes a pass over the shapes, which a scene of
-tens of thousands of spheres feels, while they only change when the scene does. So they
-are kept, and :func:`scene_tables`, which every render calls first, checks them against
-what they were built from and what costs little to read: each shape's bounding box, each
-``ellipsoids`` shape's data array, each textured sphere's ``to_world``, the lights and the
-background, and how many times each ``article`` BSDF has changed (its ``changes``, which
-Mitsuba's own ``parameters_changed`` counts: no BSDF knows of the tables). When one
-differs, the tables are built afresh. So an edit made the Mitsuba way (``params =
-mi.traverse(scene)``, ``params[...] = ...``, ``params.update()``) shows in the next render
-without the integrator being told, and no Mitsuba class is touched. (A shape edited
-through its own ``mi.traverse(shape)`` reaches no scene: Mitsuba's own ray tracing of it
-is then stale as well, and so are the tables.)
-
-Which scene. Scenes take neither Python attributes nor weak references, so tables are
-kept by the scene's address, and a scene is recognised by a *witness* held with them: in
-the JIT variants the Dr.Jit arrays of its shapes, emitters and sensors (a held variable's
-index is never reused, so a new scene at the address of a dead one has other ones), in
-``scalar_rgb`` its first shape, emitter or sensor object (:class:`KeptByScene`).
-
-The article's light color is read back from Mitsuba's radiant intensity
-(:func:`article_color`): the converter writes a light of color c at distance d from the
-scene's ``lookat`` as ``I = c·π·d²``, and the integrator's ``light_reference`` is that
-``lookat`` in the frame the converter writes (docs/numerics.md, hazard 6b).
 
 Effect names (also reported by ``whitted render --stats``):
 
@@ -45,12 +15,10 @@ Effect names (also reported by ``whitted render --stats``):
 ``textures``    a surface whose base color varies over it (a bitmap)
 ``background``  an environment emitter (the scene's non-black background)
 
-A scene without mirrors gets no reflection code and spawns no reflection rays, a scene
-without lights traces no shadow rays, and a scene without reflective or transparent
-surfaces is traced to depth 1 whatever its ``max_depth``. What a render leaves out on
-request (the integrator's ``without``, ``whitted render --without``:
-:data:`whitted.defaults.SWITCHABLE_EFFECTS`) is decided here too, as if the scene lacked
-it; each is the same image, bit for bit, as a scene edited so:
+Code for an effect the scene lacks is left out of the kernels; without reflection and
+refraction the tree has depth 1. What a render leaves out on request (``without``:
+:data:`whitted.defaults.SWITCHABLE_EFFECTS`) is the same image, bit for bit, as a scene
+edited so:
 
 ``shadows``     no shadow test: every light is seen from every point facing it (no
                 shadow rays)
@@ -92,7 +60,8 @@ def floats(value) -> tuple[float, ...]:
 
 
 def article_color(intensity, position, reference) -> tuple[float, float, float]:
-    """The article's light color ``I / (pi d^2)`` (d = |position - reference|, 1 when 0)."""
+    """The article's light color ``I / (pi d^2)`` (d = |position - reference|, 1 when 0): the
+    converter writes color c as ``I = c·π·d²`` (docs/numerics.md, hazard 6b)."""
     d2 = sum((p - r) ** 2 for p, r in zip(position, reference))
     if d2 == 0.0:
         d2 = 1.0
@@ -113,8 +82,8 @@ def _point_light(emitter) -> tuple:
 
 
 def point_lights(scene) -> tuple[tuple, ...]:
-    """``(position, intensity)`` of every point light of ``scene``; a clean error for an
-    emitter the integrator cannot render (neither a point light nor the environment)."""
+    """``(position, intensity)`` of every point light of ``scene``; an error for an emitter
+    that is neither a point light nor the environment."""
     lights = []
     for emitter in scene.emitters():
         if emitter.is_environment():
@@ -142,8 +111,7 @@ KEY, TEXTURED, COLOR, REFLECT, REFRACT, IOR = 0, 1, slice(2, 5), 5, 6, 7
 
 
 def uniform_color(texture) -> tuple[float, float, float]:
-    """The color of a texture that does not vary over the surface, as three floats
-    (read by indexing, which is much cheaper than numpy's conversion)."""
+    """The color of a texture that does not vary over the surface, as three floats."""
     value = texture.eval(dr.zeros(mi.SurfaceInteraction3f))
     color = tuple(float(c[0]) if dr.is_jit_v(c) else float(c) for c in value)
     return color * 3 if len(color) == 1 else color
@@ -159,12 +127,8 @@ def material_row(bsdf) -> tuple:
 
 @dataclass
 class Materials:
-    """A scene's distinct ``article`` BSDFs, one :func:`material_row` each (ordered by key).
-
-    ``textures`` maps the keys of textured materials to their color textures, in
-    order; ``largest_texel`` is the largest value any of them can return (None
-    when that is not known: a texture other than a bitmap).
-    """
+    """A scene's distinct ``article`` BSDFs, one :func:`material_row` each (ordered by key);
+    ``textures``: key -> color texture; ``largest_texel``: their largest value (None: unknown)."""
     key: np.ndarray
     rows: np.ndarray                     # (n, 8)
     textures: dict
@@ -173,8 +137,7 @@ class Materials:
 
     @classmethod
     def of(cls, bsdfs) -> tuple["Materials", np.ndarray]:
-        """The distinct materials among ``bsdfs`` (``article`` BSDF objects, one per shape),
-        and each shape's material key. A material is read once, however many shapes share it."""
+        """The distinct materials among ``bsdfs`` (one per shape), and each shape's key."""
         distinct = {}
         for bsdf in bsdfs:
             distinct.setdefault(id(bsdf), bsdf)
@@ -192,8 +155,7 @@ class Materials:
         return materials, shape_keys
 
     def untextured(self) -> "Materials":
-        """These materials with each texture replaced by the plain color white (the format's
-        default color: a textured sphere's ``color`` is not kept beside its texture)."""
+        """These materials with each texture replaced by white (the format's default color)."""
         if not self.textures:
             return self
         rows = self.rows.copy()
@@ -225,16 +187,9 @@ class Materials:
         return float((self.rows[:, REFLECT] + self.rows[:, REFRACT]).max(initial=0.0))
 
     def table(self):
-        """``(row_of, columns)``: the materials' numbers by row, and each material's row by
-        key. ``columns`` are ``(type, table)`` pairs of color, KR, KT, IOR and texture slot
-        (0 untextured, k: the k-th of ``textures``).
-
-        A hit names its BSDF by instance ID in the JIT variants: the rows are the
-        instance IDs and the tables opaque Dr.Jit arrays, read by gathers. In the
-        scalar variant a hit hands over the BSDF itself, and ``dr.gather`` takes no
-        plain numbers: the rows are 1, 2, ... and the tables numpy arrays. Row 0 is no
-        material (a miss).
-        """
+        """``(row_of, columns)``: each material's row by key, and ``(type, table)`` columns of
+        color, KR, KT, IOR and texture slot (k > 0: the k-th texture). The rows are instance
+        IDs (JIT: opaque arrays) or 1, 2, ... (scalar: numpy); row 0 is a miss."""
         jit = dr.is_jit_v(mi.Float)
         rows = self.key if jit else np.arange(1, len(self.key) + 1)
         size = int(rows.max()) + 1 if len(rows) else 1
@@ -252,9 +207,7 @@ class Materials:
 
 
 def _largest_texel(texture):
-    """The largest value a bitmap texture can return: its largest stored value (8- and 16-bit
-    ones read as v/255 and v/65535, which is at least their sRGB-decoded value); None for
-    other textures."""
+    """The largest value a bitmap texture can return (None for other textures)."""
     params = mi.traverse(texture)
     if "data" not in params:
         return None
@@ -264,10 +217,6 @@ def _largest_texel(texture):
 
 
 # -- the tables, kept by scene -------------------------------------------------------------------
-
-
-
-
 
 def _changes(bsdfs) -> tuple:
     """How many times each ``article`` BSDF has been changed (``ArticleBSDF.changes``)."""
@@ -282,8 +231,7 @@ def _shape_types(scene, shapes) -> np.ndarray:
 
 
 def _ellipsoid_data(shape):
-    """What an ``ellipsoids`` shape's primitives are read from: its data array (the Dr.Jit
-    array itself in the JIT variants, compared by variable index; a copy in scalar) and extent."""
+    """An ``ellipsoids`` shape's data array (JIT: the array itself; scalar: a copy) and extent."""
     params = mi.traverse(shape)
     data = params["data"]
     return (data if dr.is_jit_v(mi.Float) else np.array(data)), float(params["extent"])
@@ -316,8 +264,7 @@ class SceneTables:
     layered        the indices of the shapes the layers hold
     ============== =======================================================================
 
-    Raises :class:`~whitted.errors.WhittedError` when a shape lacks the ``article`` BSDF or
-    an emitter is neither a point light nor the environment.
+    Raises :class:`~whitted.errors.WhittedError` for a shape without the ``article`` BSDF.
     """
 
     def __init__(self, scene):
@@ -358,7 +305,7 @@ class SceneTables:
         self._frames = {k: _to_world(shapes[k]) for k in np.flatnonzero(textured & spheres).tolist()}
 
     def matches(self, scene) -> bool:
-        """Whether these tables are still those of ``scene`` (see the module docstring)."""
+        """Whether these tables are still those of ``scene``."""
         shapes = scene.shapes()
         return (_changes(self.materials.bsdfs) == self._changes and bounds(shapes) == self._boxes
                 and all(_same_data(_ellipsoid_data(shapes[k]), data) for k, data in self._ellipsoids.items())
@@ -368,9 +315,8 @@ class SceneTables:
                 and (self.environment is None or largest_emission(scene.environment()) == self.background))
 
     def rest(self, scene, left_out):
-        """``(rest_scene, tables)``: a scene of ``scene``'s shapes but those whose index is in
-        ``left_out`` (the same objects: the same instance IDs and BSDFs; None when no shape is
-        left), and its tables (:meth:`_part`); made once for each ``left_out``."""
+        """``(rest_scene, tables)``: a scene of the same shape objects but those in ``left_out``
+        (None when none is left), and its tables; made once for each ``left_out``."""
         key = tuple(sorted(left_out))
         if key not in self._rest_scenes:
             # keyed by the shapes' own ids: mi.load_dict names each shape by its key
@@ -380,8 +326,7 @@ class SceneTables:
         return self._rest_scenes[key]
 
     def _part(self, left_out) -> "SceneTables":
-        """These tables, for the scene of :meth:`rest` (its shape objects keep their instance
-        IDs, rows and primitives): only what depends on which shapes there are changes."""
+        """These tables, for the scene of :meth:`rest`."""
         part = copy.copy(self)
         kept = np.ones(len(self._types), bool)
         kept[list(left_out)] = False
@@ -411,8 +356,9 @@ def _same(witness, current) -> bool:
 
 
 class KeptByScene:
-    """Values kept for live scenes, by the scene's address and recognised by its witness
-    (see the module docstring); at most ``size``, the least recently used going first."""
+    """Values kept for at most ``size`` live scenes (least recently used first out), by the
+    scene's address, recognised by a witness: JIT, its Dr.Jit arrays (an index is never
+    reused); scalar, its first shape, emitter or sensor."""
 
     def __init__(self, size: int):
         self.size = size
@@ -460,9 +406,7 @@ EFFECTS = ("lights", "reflection", "refraction", "textures", "background")
 
 @dataclass(frozen=True)
 class PointLight:
-    """A point emitter, with both readings of its strength: Mitsuba's radiant intensity I
-    (physical lighting divides it by r^2) and the article's light color ``I / (pi d^2)``
-    (:func:`article_color`, d measured to the integrator's ``light_reference``)."""
+    """A point emitter: its radiant intensity I and the article's color (:func:`article_color`)."""
     position: tuple[float, float, float]
     intensity: tuple[float, float, float]
     color: tuple[float, float, float]
@@ -524,9 +468,8 @@ class SceneAnalysis:
 
 
 def analyse(tables: SceneTables, max_depth: int, light_reference, without=()) -> SceneAnalysis:
-    """What a render of the scene of ``tables`` to ``max_depth`` calls for; ``light_reference``
-    is where the article's light colors were measured (the integrator's property);
-    ``without``: the effects the render leaves out (names of :data:`SWITCHABLE_EFFECTS`)."""
+    """What a render of the scene of ``tables`` to ``max_depth``, ``without`` some effects,
+    calls for; ``light_reference``: where the article's light colors were measured."""
     unknown = set(without) - set(SWITCHABLE_EFFECTS)
     if unknown:
         raise ValueError(f"unknown effects {sorted(unknown)}")

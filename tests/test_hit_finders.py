@@ -58,4 +58,3 @@ def test_each_finder_has_the_protocol_methods_with_its_signatures(cls):
         method = inspect.getattr_static(cls, name, None)
         assert inspect.isfunction(method), f"{cls.__name__} has no method {name}"
         assert parameters(inspect.signature(method)) == parameters(signature), f"{cls.__name__}.{name}"
-        assert "HitFinder" in cls.__doc__, f"{cls.__name__}'s docstring does not say it is a HitFinder"

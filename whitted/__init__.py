@@ -1,23 +1,9 @@
 """whitted: the classic sphere ray tracer of "Ray Tracing: Graphics for the Masses",
 inside Mitsuba 3.
 
-Importing this package is cheap: it loads neither Mitsuba nor Dr.Jit, so the
-converter (``whitted.converter``, ``whitted convert``) runs where Mitsuba is
-absent and converting many files costs no renderer start-up. What a Mitsuba
-user needs still happens on its own, through Mitsuba's own hooks:
-
-* before Dr.Jit starts, ``DRJIT_LIBLLVM_PATH`` points at a libLLVM >= 16 (an
-  older one aborts the process; see :mod:`whitted.variant`);
-* once ``mitsuba`` is imported (before or after ``import whitted``), a variant
-  is chosen when none is set (llvm_ad_rgb when a libLLVM >= 16 exists, else
-  scalar_rgb), and the project's plugins — the ``whitted`` integrator and the
-  ``article`` BSDF — are registered for it and for every variant set later
-  (``mitsuba.detail.add_variant_callback``), so that ``mi.load_file`` reads
-  XML files that name them.
-
-The rendering API (:func:`load_scene`, :func:`loads`, :func:`render`, :func:`render_scenes`
-for many scene files, :func:`write_image`, :func:`read_image`, :func:`to_srgb`,
-:func:`set_variant`, :func:`trace_pixel`) is loaded on first use.
+Importing this package loads neither Mitsuba nor Dr.Jit (the converter runs without them);
+the API is loaded on first use. Once ``mitsuba`` is imported, before or after, a variant is
+chosen if none is set and the plugins are registered for every variant (:mod:`whitted.variant`).
 """
 
 from __future__ import annotations
@@ -76,8 +62,7 @@ def _mitsuba_ready(mi) -> None:
 
 
 class _MitsubaHook:
-    """A ``sys.meta_path`` finder that runs :func:`_mitsuba_ready` right after
-    ``import mitsuba`` completes (``importlib.abc`` is not imported: it costs 10 ms)."""
+    """A ``sys.meta_path`` finder that runs :func:`_mitsuba_ready` right after ``import mitsuba``."""
 
     def find_spec(self, fullname, path=None, target=None):
         if fullname != "mitsuba":

@@ -1,8 +1,4 @@
-"""Atomic output: a file appears complete or not at all.
-
-Writers produce a temporary file beside the target and rename it into place, so
-an interrupted or failed run never leaves a partial output behind.
-"""
+"""Atomic output: a file appears complete or not at all (written beside, renamed into place)."""
 
 from __future__ import annotations
 
@@ -17,11 +13,15 @@ from pathlib import Path
 from .errors import WhittedError
 
 
+def _folder(target: Path) -> Path:
+    return target.parent if str(target.parent) else Path(".")
+
+
 @contextlib.contextmanager
 def atomic_path(target: str | os.PathLike):
     """Yield a temporary path beside ``target``; on success it replaces ``target``."""
     target = Path(target)
-    folder = target.parent if str(target.parent) else Path(".")
+    folder = _folder(target)
     if not folder.is_dir():
         raise WhittedError(f"{target}: output folder {folder} does not exist")
     try:
@@ -45,11 +45,9 @@ def atomic_path(target: str | os.PathLike):
 
 def leftovers(target: str | os.PathLike) -> list[Path]:
     """The temporary files of :func:`atomic_path` for ``target`` that a writer killed
-    outright (SIGKILL, a lost machine) left beside it; a writer that is stopped any other
-    way removes its own. Only whoever knows that no writer of ``target`` is running may
-    delete them (``whitted render`` on a cluster, once every task has ended)."""
+    outright left beside it (only whoever knows no writer runs may delete them)."""
     target = Path(target)
-    folder = target.parent if str(target.parent) else Path(".")
+    folder = _folder(target)
     prefix, suffix = f".{target.name}.", target.suffix or ".tmp"
     try:
         return [p for p in folder.iterdir() if p.name.startswith(prefix) and p.name.endswith(suffix)
@@ -64,10 +62,8 @@ _TEMPORARY = re.compile(r"\.(?P<target>.+)\.[a-z0-9_]{8}(?P<suffix>\.[^.]+)")
 
 
 def remove_stale_leftovers(folder: str | os.PathLike, older_than: float) -> list[Path]:
-    """Remove from ``folder`` the temporary files of :func:`atomic_path` that nobody has
-    touched for ``older_than`` seconds, and return them. A writer fills its temporary file
-    and renames it within moments, so one that old was left by a writer killed outright; a
-    live writer's file is never that old. For folders whitted alone writes (its caches)."""
+    """Remove from ``folder`` (one whitted alone writes) the temporary files of
+    :func:`atomic_path` untouched for ``older_than`` seconds, and return them."""
     removed = []
     now = time.time()
     try:
@@ -87,19 +83,10 @@ def remove_stale_leftovers(folder: str | os.PathLike, older_than: float) -> list
 
 
 def check_writable(target: str | os.PathLike, inputs: tuple = ()) -> Path:
-    """Fail now, with one clear line naming ``target``, if it could not be written later.
-
-    Called before any long work (a render, a sweep), so that an unwritable
-    output is not found after minutes of rendering. ``target`` must name a file
-    (not a folder, nor a device such as ``/dev/full``: the atomic rename would
-    replace it), its folder must exist and accept a new file: a temporary file
-    is created and removed there, which also catches what permission bits cannot
-    show (``/proc``, ``/sys``, read-only mounts, and root, for whom
-    ``os.access`` says yes to everything). ``inputs`` are files the output must
-    not overwrite.
-    """
+    """Fail now, with one line naming ``target``, if it could not be written later: a regular
+    file, not one of ``inputs``, in a folder where a probe file can be created."""
     target = Path(target)
-    folder = target.parent if str(target.parent) else Path(".")
+    folder = _folder(target)
     if target.is_dir():
         raise WhittedError(f"{target}: is a folder; give a file name")
     if target.exists() and not target.is_file():
@@ -134,9 +121,8 @@ def _probe(folder: Path, named: Path) -> None:
 
 
 def check_folder_creatable(folder: str | os.PathLike, named: str | os.PathLike | None = None) -> Path:
-    """Check, without creating anything, that ``folder`` exists and accepts files or can
-    be made: its nearest existing ancestor must be a folder that accepts files. Errors
-    name ``named`` (default: ``folder``), the path the user gave."""
+    """Check, creating nothing, that ``folder`` accepts files or can be made (its nearest
+    existing ancestor accepts files); errors name ``named`` (default: ``folder``)."""
     folder = Path(folder)
     named = folder if named is None else Path(named)
     existing = folder

@@ -26,35 +26,12 @@ from .errors import EXIT_USER_ERROR, WhittedError, report
 SCENE_KEYWORD_OPTIONS = {"--samples": "--spp", "--depth": "--max-depth", "--minweight": "--min-weight"}
 
 
-
-def _convert(args: argparse.Namespace) -> int:
-    from .commands import convert_command
-    return convert_command(args)
-
-
-def _render(args: argparse.Namespace) -> int:
-    from .commands import render_command
-    return render_command(args)
-
-
-def _video(args: argparse.Namespace) -> None:
-    from .video import video_command
-    video_command(args)
-
-
-def _compare(args: argparse.Namespace) -> None:
-    from .compare.cli import compare_command
-    compare_command(args)
-
-
-def _fit(args: argparse.Namespace) -> None:
-    from .fitting import fit_command
-    fit_command(args)
-
-
-def _trace(args: argparse.Namespace) -> int:
-    from .trace.cli import trace_command
-    return trace_command(args)
+def _body(module: str, function: str):
+    """A command's body, ``module.function(args)``, imported only when the command runs."""
+    def run(args: argparse.Namespace):
+        import importlib
+        return getattr(importlib.import_module(module, __package__), function)(args)
+    return run
 
 
 def _command(sub, name: str, run, help: str, description: str) -> argparse.ArgumentParser:
@@ -78,7 +55,8 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
     convert = _command(
-        sub, "convert", _convert, help="convert legacy .scn scenes to Mitsuba 3 XML",
+        sub, "convert", _body(".commands", "convert_command"),
+        help="convert legacy .scn scenes to Mitsuba 3 XML",
         description="""\
         Convert legacy .scn scenes to Mitsuba 3 XML (format 3.0.0): each X.scn becomes X.xml beside
         it, or in the folder given with -o. The XML loads in Mitsuba's Python once 'import whitted'
@@ -98,7 +76,8 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
     convert.add_argument("-v", "--verbose", action="store_true", help="say what was written")
 
     render = _command(
-        sub, "render", _render, help="render .scn or .xml scenes to EXR or PNG (one, or folders of them)",
+        sub, "render", _body(".commands", "render_command"),
+        help="render .scn or .xml scenes to EXR or PNG (one, or folders of them)",
         description="""\
         Render a scene with the article's Whitted model (default) or Mitsuba's path tracer. EXR
         stores linear RGB as rendered; PNG stores what is displayed: 8-bit sRGB after --exposure and
@@ -167,7 +146,8 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
     render.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
 
     video = _command(
-        sub, "video", _video, help="encode PNG or EXR frames as an H.264 video",
+        sub, "video", _body(".video", "video_command"),
+        help="encode PNG or EXR frames as an H.264 video",
         description="""\
         Encode frames (image files, or folders of them: their PNG files sorted by name, else their
         EXR files) as an H.264 video through FFmpeg (imageio-ffmpeg). EXR frames are encoded to sRGB
@@ -182,7 +162,8 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
 
     from .defaults import FIT_ITERATIONS, FIT_WIDTH
     fit = _command(
-        sub, "fit", _fit, help="fit a scene's colors, ambient and light colors to an image",
+        sub, "fit", _body(".fitting", "fit_command"),
+        help="fit a scene's colors, ambient and light colors to an image",
         description="""\
         Fit the article's model of a legacy scene to a target image (a path-traced reference, a
         photograph of the same view) by gradient descent (Mitsuba's Adam on the relative MSE, at low
@@ -199,7 +180,8 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
     fit.add_argument("-q", "--quiet", action="store_true", help="no progress bar, no losses")
 
     trace = _command(
-        sub, "trace", _trace, help="the ray tree of a pixel, as the renderer computed it",
+        sub, "trace", _body(".trace.cli", "trace_command"),
+        help="the ray tree of a pixel, as the renderer computed it",
         description="""\
         Trace pixels' center rays as a render at one sample per pixel traces them (the whitted
         integrator's own code) and print each ray tree as indented text (or --json): every ray's
@@ -214,7 +196,8 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
         add_arguments(trace)
 
     compare = _command(
-        sub, "compare", _compare, help="what accuracy costs in time: sweep the methods against a path-traced reference",
+        sub, "compare", _body(".compare.cli", "compare_command"),
+        help="what accuracy costs in time: sweep the methods against a path-traced reference",
         description="""\
         Render a converged path-traced reference (cached), then sweep the Whitted integrator (max
         depth x spp, article and physical lighting) and the path tracer (spp) and score each

@@ -1,9 +1,6 @@
-"""The bodies of ``whitted convert`` and ``whitted render`` (``whitted/cli.py`` parses
-their arguments; ``compare`` has its own package).
-
-Both check everything a user can get wrong — options, environment, the scene,
-every output path — before any long work, and write outputs atomically, so
-that a failure or an interruption leaves no partial file.
+"""The bodies of ``whitted convert`` and ``whitted render`` (``whitted/cli.py`` parses their
+arguments): everything a user can get wrong is checked before any long work, and outputs
+are written atomically.
 """
 
 from __future__ import annotations
@@ -13,7 +10,6 @@ import sys
 from pathlib import Path
 
 from .errors import EXIT_USER_ERROR, WhittedError, report
-
 
 
 def convert_command(args) -> int:
@@ -39,8 +35,6 @@ def convert_command(args) -> int:
     return EXIT_USER_ERROR if failed else 0
 
 
-
-
 def _summary(args, result, sensor) -> str:
     import mitsuba as mi
 
@@ -58,15 +52,6 @@ def _summary(args, result, sensor) -> str:
             f"{'left out: ' + ' '.join(check_without(args.without)) + '; ' if args.without else ''}"
             f"peak memory {s['peak_memory_bytes'] / 2**20:.1f} MiB (Dr.Jit), "
             f"{s['peak_resident_bytes'] / 2**20:.1f} MiB resident")
-
-
-def _load_quietly(args):
-    from .loading import load_scene
-    from .rendering import quiet_mitsuba
-    with quiet_mitsuba():
-        return load_scene(args.scenes[0], variant=args.variant, integrator=args.integrator,
-                          meshes=args.integrator != "whitted", spp=args.spp,
-                          max_depth=args.max_depth, ambient=args.ambient, lighting=args.lighting)
 
 
 def render_command(args) -> int:
@@ -87,11 +72,11 @@ def render_single(args) -> None:
     from .atomic import check_writable, write_text
     from .defaults import check_ambient
     from .interrupt import deferred
-    from .rendering import peak_resident_bytes
+    from .loading import load_scene
     with deferred():   # numpy's C extension is not cut mid-import by a Ctrl-C (see deferred)
-        from .images import check_exposure, default_view
-        from .images import image_format, write_image
-        from .rendering import check_settings, render_checked, whitted_settings
+        from .images import check_exposure, default_view, image_format, write_image
+        from .rendering import (check_settings, peak_resident_bytes, quiet_mitsuba, render_checked,
+                                whitted_settings)
 
     output = Path(args.output)
     # Before the scene is loaded (seconds for a large one); once: render_checked trusts them.
@@ -106,7 +91,10 @@ def render_single(args) -> None:
     if args.stats:
         check_writable(args.stats, inputs=(args.scenes[0],))
 
-    loaded = _load_quietly(args)   # the mi.Scene
+    with quiet_mitsuba():
+        loaded = load_scene(args.scenes[0], variant=args.variant, integrator=args.integrator,
+                            meshes=args.integrator != "whitted", spp=args.spp,
+                            max_depth=args.max_depth, ambient=args.ambient, lighting=args.lighting)
     try:   # render checks the scene (a sensor; the article's materials) before it starts
         result = render_checked(loaded, integrator=args.integrator, progress=not args.quiet,
                                 min_weight=args.min_weight, spp=args.spp, without=args.without)
@@ -123,9 +111,8 @@ def render_single(args) -> None:
 
 
 def render_many_command(args) -> int:
-    """``whitted render SCENE|FOLDER... -o OUT/``: every scene rendered that can be, in one
-    process (or on a Dask cluster), with a progress bar over the scenes; up-to-date images
-    skipped unless ``--force``; 2 if any scene failed (:mod:`whitted.batch`)."""
+    """``whitted render SCENE|FOLDER... -o OUT/``: every scene rendered that can be
+    (:mod:`whitted.batch`); 2 if any failed."""
     from . import interrupt
     from .atomic import check_writable, write_text
     from .batch import IN_PROCESS, Settings, Tally, plan_batch, render_planned, report_failure

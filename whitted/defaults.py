@@ -1,15 +1,6 @@
-"""One home for every default and limit: the scene format's, the plugins' and the CLI's.
-
-Why one module: the same number (the format's depth cap of 64, the ambient
-coefficient 0.2, ...) is needed by the parser, the scene model, the
-integrator's constructor, the rendering API and ``compare``; written once, no
-copy can drift from another. Everything here is plain Python (no Mitsuba, no
-Dr.Jit), so the standalone converter can import it as cheaply as the plugins do.
-
-The scene format's defaults and limits restate ``docs/scene-format.md`` (the
-project's copy of the format contract); the ``check_*`` functions validate a
-setting once, wherever it comes from (API, CLI, XML), and raise
-:class:`~whitted.errors.WhittedError`, which the CLI prints as one line.
+"""One home for every default and limit: the scene format's (docs/scene-format.md), the
+plugins' and the CLI's, written once so that no copy drifts; and the ``check_*`` functions
+that validate a setting wherever it comes from. Plain Python: the converter imports it too.
 """
 
 from __future__ import annotations
@@ -57,30 +48,20 @@ PARALLEL_SINE = 1e-9
 MAX_REPORTED_ERRORS = 20
 
 # --- Rendering -----------------------------------------------------------------------------------
-#: how the Whitted integrator lights a scene: the article's model, or physically
 LIGHTING_MODES = ("article", "physical")
 LIGHTING = "article"
-#: what a render of the article's model may leave out, as if the scene lacked it
-#: (``whitted render --without``, the integrator's ``without``; plugins/scene_tables.py
-#: decides what each means)
+#: what a render may leave out, as if the scene lacked it (plugins/scene_tables.py)
 SWITCHABLE_EFFECTS = ("shadows", "reflection", "refraction", "textures", "diffuse", "ambient")
-#: the article's model, or Mitsuba's stock path tracer
 INTEGRATORS = ("whitted", "path")
 INTEGRATOR = "whitted"
-#: How an image is displayed (PNG, the compare page, notebooks; whitted/images.py): plain
-#: sRGB clipped to [0, 1], or OpenColorIO's ACES 2.0 SDR view (highlights rolled off)
-VIEWS = ("clip", "aces")
-#: The path tracer's samples per pixel when none are asked for and the scene asks for fewer:
-#: a scene's ``samples`` (1 by default) is anti-aliasing for the article's deterministic model;
-#: the path tracer at 1 spp is speckled noise.
+VIEWS = ("clip", "aces")   #: how an image is displayed (whitted/images.py)
+#: the path tracer's fewest spp when none are asked for (at a scene's 1 it is speckled noise)
 PATH_MIN_SPP = 64
 
 
 def user_cache_folder() -> "Path":
-    """Where whitted keeps what it may compute again but would rather not (the compare
-    command's path-traced references): ``$XDG_CACHE_HOME/whitted``, or
-    ``~/.cache/whitted`` where that variable is unset, empty or not an absolute path (as
-    the XDG base directory specification says to treat it). Deleting it is always safe."""
+    """Where whitted caches what it can compute again: ``$XDG_CACHE_HOME/whitted`` (if
+    absolute), else ``~/.cache/whitted``."""
     import os
     from pathlib import Path
     base = os.environ.get("XDG_CACHE_HOME", "")
@@ -90,96 +71,71 @@ def user_cache_folder() -> "Path":
 
 
 def path_depth(depth: int) -> int:
-    """Mitsuba ``path``'s ``max_depth`` for the article's depth N: N + 1 (docs/radiometry.md,
-    "Depth": N surface interactions, each connected to the lights by one more segment)."""
+    """Mitsuba ``path``'s ``max_depth`` for the article's depth N (docs/radiometry.md, "Depth")."""
     return depth + 1
 
-#: The adaptive depth control (Hall and Greenberg; POV-Ray's adc_bailout): branches of the
-#: ray tree are left untraced as long as together they cannot change a pixel by more than
-#: this, one step of an 8-bit image (plugins/recursion.py); 0 traces the exact tree
+#: the adaptive depth control's bound on a pixel's change, one step of an 8-bit image
+#: (plugins/recursion.py); 0 traces the exact tree
 MIN_WEIGHT = 1 / 255
-#: camera samples per pass of the whitted integrator (0: as its tracer prefers; see plugins/recursion.py)
-WAVEFRONT_SIZE = 0
-#: the multiplier that spreads consecutive seeds over 32 bits (the golden ratio's, Knuth's
-#: multiplicative hash): a render's seed and its passes' seeds are far apart
-SEED_STRIDE = 0x9E3779B9
-#: the most samples per pixel a render accepts (API and CLI; Mitsuba's samplers count in 32 bits)
-MAX_SPP = 2 ** 31
+WAVEFRONT_SIZE = 0   #: camera samples per pass of the whitted integrator (0: its choice)
+SEED_STRIDE = 0x9E3779B9   #: spreads consecutive seeds over 32 bits (Knuth's multiplicative hash)
+MAX_SPP = 2 ** 31   #: the most samples per pixel a render accepts
 #: Mitsuba variants whitted runs in: the default when a libLLVM >= 16 exists, else the fallback
 VARIANTS = ("scalar_rgb", "llvm_ad_rgb", "cuda_ad_rgb")
 DEFAULT_VARIANT = "llvm_ad_rgb"
 FALLBACK_VARIANT = "scalar_rgb"
+#: the ``whitted`` integrator's checked properties and their defaults
+WHITTED_DEFAULTS = {"max_depth": DEPTH, "ambient": AMBIENT, "lighting": LIGHTING,
+                    "light_reference": LOOKAT, "min_weight": MIN_WEIGHT,
+                    "wavefront_size": WAVEFRONT_SIZE, "without": ""}
 
 
-# --- whitted compare ------------------------------------------------------------------------------
+# --- whitted compare (docs/compare.md) ---------------------------------------------------------
 COMPARE_REFERENCE_SPP = 4096              #: the path-traced reference's samples per pixel
 COMPARE_WHITTED_SPP = (1, 4, 16)          #: the Whitted sweep's spp ladder
 COMPARE_PATH_SPP = (1, 4, 16, 64, 256, 1024)   #: the path tracer's spp ladder
-#: Timing on a busy machine (whitted/compare/timing.py): once every setting of a scene is
-#: rendered and scored, each is timed once per round, the rounds interleaved, at least
-#: COMPARE_ROUNDS rounds; more while a headline ratio's interval (COMPARE_CONFIDENCE, for
-#: the median of its paired per-round ratios) is wider than 1 + COMPARE_SETTLED_WIDTH, up to
-#: COMPARE_MAX_ROUNDS rounds and COMPARE_ROUNDS_SECONDS of extra rounds per scene.
-#: The extra rounds time only the headlines' renders (their floor renders and the path
-#: renders their ratios are read between), back to back: COMPARE_HEADLINE_ROUNDS of them,
-#: then more while a headline is unsettled, all within COMPARE_ROUNDS_SECONDS (fewer where a
-#: headline round takes longer than COMPARE_ROUNDS_SECONDS / COMPARE_HEADLINE_ROUNDS).
+#: Timing (whitted/compare/timing.py): each setting timed once per round, at least
+#: COMPARE_ROUNDS rounds; then COMPARE_HEADLINE_ROUNDS of the headlines' renders, more while
+#: a headline ratio's COMPARE_CONFIDENCE interval is wider than 1 + COMPARE_SETTLED_WIDTH, up to
+#: COMPARE_MAX_ROUNDS rounds and COMPARE_ROUNDS_SECONDS per scene.
 COMPARE_ROUNDS = 3
 COMPARE_HEADLINE_ROUNDS = 8
 COMPARE_MAX_ROUNDS = 25
 COMPARE_ROUNDS_SECONDS = 20.0
 COMPARE_CONFIDENCE = 0.9
-#: Within a round, a render faster than COMPARE_ROUND_SECONDS is repeated back to back until
-#: its renders add up to that (at most COMPARE_ROUND_REPEATS), the fastest kept: a render of a
-#: few milliseconds is at the mercy of one scheduler tick.
+#: a render faster than COMPARE_ROUND_SECONDS is repeated (at most COMPARE_ROUND_REPEATS
+#: times), the fastest kept
 COMPARE_ROUND_SECONDS = 0.05
 COMPARE_ROUND_REPEATS = 8
 COMPARE_SETTLED_WIDTH = 0.25
-#: The timed rounds run Dr.Jit's LLVM backend on this many threads (None: as many as the
-#: process has), and read a render's time on COMPARE_CLOCK: "cpu" (the process's CPU time)
-#: or "wall". One thread and CPU time is the cost of a render's work on one core, which a
-#: busy machine hardly changes: on a quiet machine it equals the one-thread wall time;
-#: two threads beside two CPU-bound programs made a Whitted render 5x slower and a path
-#: render 3.5x (docs/compare.md, "Timing", has the measurements). CUDA variants read the
-#: wall clock whatever this says (the CPU only waits for the GPU).
+#: the timed rounds' LLVM threads (None: all) and clock ("cpu" or "wall"; CUDA reads the
+#: wall clock): one thread's CPU time is what a busy machine hardly changes (docs/compare.md)
 COMPARE_TIMING_THREADS = 1
 COMPARE_CLOCK = "cpu"
-#: Timed renders keep Dr.Jit's memory cache (a program rendering again and again keeps it),
-#: but after a setting's renders in a round the cache is handed back once the process holds
-#: more than this many bytes: it keeps blocks of every size the scene's settings used (a
-#: sphereflake of 66 431 spheres at 512x512 reached 1.9 GB without this bound).
+#: Dr.Jit's memory cache is handed back between settings once the process holds more than this
 COMPARE_KEPT_MEMORY = 1 << 30
-#: The equal-quality table's levels, from the data: each method's floor times (1 + this
-#: tolerance), and this many levels spaced evenly on log axes between the best and worst
-#: errors measured (--levels replaces them all).
+#: the equal-quality table's levels between the best and worst errors measured (--levels)
 COMPARE_DATA_LEVELS = 2
-#: The default Whitted sweep is 1…min(scene depth, this): deeper trees rarely change a pixel.
+#: the default Whitted sweep is 1…min(scene depth, this)
 COMPARE_MAX_DEFAULT_DEPTH = 8
-#: The reference is rendered in independent chunks of at most this many spp, each with its
-#: own seed, and averaged: a cluster renders the chunks on different workers, and a run
-#: in one process renders the same chunks, so both make the same reference.
+#: the reference is rendered in chunks of at most this many spp, each with its own seed
+#: (the same reference on a cluster or in one process)
 COMPARE_REFERENCE_CHUNK_SPP = 1024
-#: Seconds to wait for a Dask scheduler to answer (and for its first worker) before
-#: ``whitted compare --scheduler`` gives up.
+#: seconds to wait for a Dask scheduler (and its first worker)
 COMPARE_CONNECT_TIMEOUT = 5.0
-#: A Whitted method's floor is its cheapest render whose error is within this fraction of the
-#: method's best: more depth or samples past it buy less than that.
+#: a Whitted method's floor: its cheapest render within this fraction of its best error
 COMPARE_FLOOR_TOLERANCE = 0.05
-#: The model's limit (a Whitted method at the sweep's deepest depth, exact tree) is rendered
-#: in two halves of at least this many times the sweep's densest spp, doubled (up to
-#: COMPARE_LIMIT_MAX_SPP) until its own noise, estimated from the halves, is below
-#: COMPARE_LIMIT_NOISE_SHARE of the smallest difference it measures to a sweep render.
+#: the model's limit is rendered in two halves of at least COMPARE_LIMIT_SPP_FACTOR times the
+#: sweep's densest spp, doubled (up to COMPARE_LIMIT_MAX_SPP) until its noise is below
+#: COMPARE_LIMIT_NOISE_SHARE of the smallest difference it measures
 COMPARE_LIMIT_SPP_FACTOR = 16
 COMPARE_LIMIT_MAX_SPP = 4096
 COMPARE_LIMIT_NOISE_SHARE = 0.1
-#: Under --budget, the most of a scene's share its reference may take (the sweep gets the rest).
+#: under --budget: the reference's largest share of a scene's time, its fewest spp (else the
+#: scene is refused), the probe's render time, and the seconds kept back for the outputs
 COMPARE_REFERENCE_SHARE = 0.5
-#: Under --budget, a reference is scaled down to fit its share but not below this many spp
-#: (below it, its own noise would swamp the errors it is meant to measure): the scene is refused.
 COMPARE_MIN_REFERENCE_SPP = 8
-#: The probe that estimates a reference's cost doubles its spp until one render takes this long.
 COMPARE_PROBE_SECONDS = 0.1
-#: Seconds of --budget kept back per scene for writing its outputs (plots, report page).
 COMPARE_REPORT_SECONDS = 3.0
 
 
@@ -218,7 +174,7 @@ def check_size(size, what: str = "width") -> int:
 
 
 def _number(value, what: str, kind: str) -> float:
-    """``value`` as a float, or an error saying it must be ``kind`` (an RGB value is no number)."""
+    """``value`` as a float, or an error saying it must be ``kind``."""
     try:
         return float(value)
     except (TypeError, ValueError):
@@ -250,14 +206,19 @@ def check_ior(ior, what: str = "ior") -> float:
     return ior
 
 
-def check_color(color, what: str = "color") -> Vec3:
-    """A base color: three numbers, each in [0, 1] (the scene format's range, and what Mitsuba
-    loads as an RGB reflectance)."""
+def _triple(value) -> tuple:
+    """``value`` as three floats, or () when it is not three numbers."""
     try:
-        rgb = tuple(float(c) for c in color)
+        numbers = tuple(float(c) for c in value)
     except (TypeError, ValueError):
-        rgb = ()
-    if len(rgb) != 3:
+        return ()
+    return numbers if len(numbers) == 3 else ()
+
+
+def check_color(color, what: str = "color") -> Vec3:
+    """A base color: three numbers, each in [0, 1]."""
+    rgb = _triple(color)
+    if not rgb:
         raise WhittedError(f"{what} must be an RGB color (three numbers in [0, 1]), got {color!r}")
     if not all(math.isfinite(c) and 0.0 <= c <= 1.0 for c in rgb):
         raise WhittedError(f"{what} must have each component in [0, 1], got [{', '.join(f'{c:g}' for c in rgb)}]")
@@ -266,11 +227,8 @@ def check_color(color, what: str = "color") -> Vec3:
 
 def check_point(point, what: str = "point") -> Vec3:
     """A point: three finite numbers."""
-    try:
-        xyz = tuple(float(c) for c in point)
-    except (TypeError, ValueError):
-        xyz = ()
-    if len(xyz) != 3 or not all(map(math.isfinite, xyz)):
+    xyz = _triple(point)
+    if not xyz or not all(map(math.isfinite, xyz)):
         raise WhittedError(f"{what} must be a point (three finite numbers), got {point!r}")
     return xyz
 
@@ -291,8 +249,8 @@ def check_lighting(lighting, what: str = "lighting") -> str:
 
 
 def check_without(without, what: str = "without") -> tuple[str, ...]:
-    """Effects to leave out of a render: names of :data:`SWITCHABLE_EFFECTS`, given as a
-    string (comma-separated) or several; each once, in that tuple's order (None: none)."""
+    """Effects to leave out of a render, comma-separated names or several (None: none): each
+    once, in :data:`SWITCHABLE_EFFECTS`' order."""
     if without is None:
         return ()
     names = []
@@ -310,10 +268,8 @@ def check_without(without, what: str = "without") -> tuple[str, ...]:
     return tuple(name for name in SWITCHABLE_EFFECTS if name in names)
 
 
-#: The plugins' parameters and their checks: one rule for a property loaded (XML, a dict) and
-#: for an edit (``params.update()``, the plugins' ``parameters_changed``), by plugin (the name
-#: that starts its messages). ``color`` is a uniform base color (a texture's texels are not
-#: checked).
+#: The plugins' parameters and their checks, one rule for a property loaded and an edit, by
+#: plugin (the name that starts its messages).
 PLUGIN_PARAMETERS = {
     "article BSDF": {"color": check_color, "reflect": _unit_interval, "refract": _unit_interval,
                      "ior": check_ior},
@@ -324,9 +280,8 @@ PLUGIN_PARAMETERS = {
 
 
 def check_plugin_parameters(plugin: str, values: dict) -> dict:
-    """``values`` (name -> value as given) checked by :data:`PLUGIN_PARAMETERS`, and together
-    (an ``article`` BSDF's reflect + refract <= 1): the values to use, or a
-    :class:`~whitted.errors.ParameterError` (``PLUGIN: NAME must ..., got VALUE``)."""
+    """``values`` checked by :data:`PLUGIN_PARAMETERS` and together (reflect + refract <= 1),
+    or a :class:`~whitted.errors.ParameterError` (``PLUGIN: NAME must ..., got VALUE``)."""
     try:
         checked = {name: PLUGIN_PARAMETERS[plugin][name](value, f"{plugin}: {name}")
                    for name, value in values.items()}
@@ -346,9 +301,7 @@ def check_integrator(integrator) -> str:
 
 
 def check_seed(seed, what: str = "seed") -> int:
-    """A render's seed as Mitsuba takes it (32 bits): any integer from 0 to 2^64 - 1. Seeds
-    below 2^32 are themselves; a larger one folds its upper half into the lower (times
-    :data:`SEED_STRIDE`), so that seeds that differ above bit 32 still give other samples."""
+    """A render's seed (0 to 2^64 - 1) in Mitsuba's 32 bits, the upper half folded in."""
     seed = _integer(seed, what)
     if not 0 <= seed < 2 ** 64:
         raise WhittedError(f"{what} must be an integer from 0 to 2^64 - 1, got {seed}")
@@ -357,26 +310,16 @@ def check_seed(seed, what: str = "seed") -> int:
 
 # --------------------------------------------------------------------------- many scenes, video
 
-#: the image formats ``whitted render SCENES... -o OUT/`` writes per scene (``--format``; the first
-#: is the default)
-IMAGE_FORMATS = ("png", "exr")
-#: a video's frames per second unless ``--fps`` says (``whitted render --video``, ``whitted video``)
-DEFAULT_FPS = 24.0
+IMAGE_FORMATS = ("png", "exr")   #: what ``whitted render SCENES -o OUT/`` writes (first: default)
+DEFAULT_FPS = 24.0   #: a video's frames per second unless ``--fps`` says
 
-#: the fewest spheres of one radius that the loader and the portable XML group in an
-#: ``ellipsoids`` shape by default (whitted/sealed.py, ``MIN_GROUP``): below this the load time
-#: saved (~0.1 ms a sphere) is below a render's noise, and the scene is left as written. Here,
-#: not in sealed.py, so that the converter can tell a scene too small to group without numpy.
+#: the fewest spheres of one radius grouped in an ``ellipsoids`` shape by default
+#: (whitted/sealed.py): below it the load time saved is below a render's noise
 SEALED_MIN_GROUP = 1000
 
-
-#: The mesh cache (converter/giants.py: the meshes of giant spheres in scenes loaded without
-#: an XML file, in the temporary folder) keeps at most this many bytes: beyond it, the meshes
-#: used least recently go first (smallpt's box alone is 40 MB).
+#: the mesh cache's most bytes (converter/giants.py), the least recently used going first
 MESH_CACHE_BYTES = 256 * 2 ** 20
-#: A cached file or a writer's temporary file untouched for this many seconds is in use by no
-#: running process (a mesh is written and loaded in seconds, a cache entry written in
-#: seconds): only such files are removed from a cache.
+#: a cached or temporary file untouched this long is no running process's: it may be removed
 STALE_SECONDS = 600.0
 
 

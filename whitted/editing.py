@@ -1,29 +1,10 @@
 """Editing a loaded scene in its ``.scn`` file's own terms: :class:`SceneEditor`.
 
-Why. A notebook that moves a light or a sphere, or changes a color, wants the numbers of
-the file (``light 2 3 1``), and a render in milliseconds, not a reload. Mitsuba's
-parameters (``mi.traverse(scene)``) hold the scene as the converter wrote it: positions
-relative to ``lookat`` (converter/frame.py), a sphere as its ``to_world`` transform, and
-a light of article color c at distance d from ``lookat`` as a point emitter of intensity
-``I = c·π·d²`` (converter/description.py, ``light_intensity``). The whitted integrator
-reads the color back as ``I / (π·d²)``, d measured at render time (plugins/scene_tables.py,
-``article_color``). So writing only a light's ``position`` keeps I and changes d: the light's
-color, and every point it lights, scale by ``d_old² / d_new²`` (``light 5 8 4`` under
-``lookat 0 0.5 0`` moved to ``2 3 1``: 97.25 / 11.25, 8.6 times brighter), where in the
-article a light's color never depends on where it is.
-
-How. The editor keeps the scene's model (:class:`whitted.converter.Scene`) and its
-description (the one the loader built the scene from). An edit changes the model, describes
-it again with the converter's own code, and writes what changed into the scene through
-``mi.traverse`` and ``params.update()``: a light's position and its intensity for the new
-distance, a sphere's ``to_world``, a material's color, the camera's clip range. So the
-scene is the one the edited file loads, and renders the same image, bit for bit. An edit
-that changes how the scene is built (a sphere moved so far that it becomes a giant one,
-intersected in float64 from the integrator's ``exact_spheres``, or one that makes two
-materials equal) is refused in one line: load the edited scene (:meth:`SceneEditor.scn`)
-instead. The editor loads every sphere as a shape of its own (no ``ellipsoids`` groups:
-``load_scene(..., ellipsoids=False)``), which for a scene of thousands of spheres costs
-load time.
+An edit changes the scene's model, describes it again with the converter's own code and
+writes what changed through ``mi.traverse`` and ``params.update()`` (a light's intensity for
+its new distance too), so the scene renders as the edited file would, bit for bit; an edit
+that would rebuild the scene is refused (docs/notebook.md, "Editing a scene in the file's
+terms").
 """
 
 from __future__ import annotations
@@ -38,22 +19,14 @@ from .errors import WhittedError
 
 class SceneEditor:
     """A scene loaded from a ``.scn`` file (or its text, or a model), edited in the file's
-    coordinates (docs/notebook.md, "Editing a scene").
-
-    ``editor.scene`` is the ``mi.Scene`` (render it with :func:`whitted.render` or
-    ``mi.render``); ``editor.model`` the scene model as edited; :meth:`scn` its text.
-    ``overrides`` are :func:`whitted.load_scene`'s (``spp``, ``max_depth``, ``ambient``,
-    ``lighting``, ``width``, ``height``, ``without``).
-    """
+    coordinates: ``editor.scene`` the ``mi.Scene``, ``editor.model`` the model as edited,
+    :meth:`scn` its text; ``overrides`` as :func:`whitted.load_scene`'s."""
 
     def __init__(self, source, variant: str | None = None, **overrides):
         from .converter import Scene, parse_file
         from .converter.frame import warn_scene
-        from .loading import _checked, _leaving_out
-        from .variant import set_variant
-        set_variant(variant)
-        self._params = _checked(overrides)
-        self._without = self._params.pop("without", None)
+        from .loading import _leaving_out, prepared
+        self._params, self._without = prepared(variant, overrides)
         if isinstance(source, Scene):
             self.model = source
         else:
@@ -95,9 +68,8 @@ class SceneEditor:
         self._apply(replace(self.model, spheres=spheres))
 
     def set_color(self, k: int, color) -> None:
-        """The color of sphere ``k`` (from 0) to ``color`` (RGB in [0, 1], linear), and of every
-        sphere that shares its material (the same color, reflect, refract and IOR in the file:
-        the converter writes such spheres one material), as if each were edited in the file."""
+        """The color of sphere ``k`` (from 0) to ``color`` (linear RGB in [0, 1]), and of every
+        sphere that shares its material, as if each were edited in the file."""
         spheres = list(self.model.spheres)
         material = self._item(spheres, k, "sphere").material
         if material.texture is not None:
@@ -182,9 +154,8 @@ def _parameter(path: tuple, value, scene: dict):
 
 
 def _as(current, value):
-    """``value`` as the type of the parameter ``current``: a sphere's transform made as the
-    sphere plugin makes it from its properties (float32 ``translate(center)·scale(radius)``;
-    a matrix and its inverse in float64, then rounded), so that the bits are a loaded scene's."""
+    """``value`` as the type of the parameter ``current``, a sphere's transform made as the
+    sphere plugin makes it, so that the bits are a loaded scene's."""
     import mitsuba as mi
     import numpy as np
     if isinstance(value, tuple) and value and value[0] == "sphere":

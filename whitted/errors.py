@@ -26,22 +26,10 @@ class ParameterError(WhittedError, ValueError):
 
 
 class SceneError(WhittedError):
-    """The problems of a scene file, each located as ``FILE:LINE: message`` (or ``FILE: message``).
-
-    .. list-table::
-       :header-rows: 1
-
-       * - Attribute
-         - Meaning
-       * - ``path``, ``line``, ``message``
-         - the first problem (``line`` is None for a problem of the whole file)
-       * - ``errors``
-         - every problem as (path, line, message), in file order; the first is the above
-
-    ``str(error)`` is one line per problem, at most ``shown`` of them (the parser
-    passes :data:`whitted.defaults.MAX_REPORTED_ERRORS`), then a line that counts
-    the rest. The CLI prints each line as ``whitted: error: LINE``.
-    """
+    """The problems of a scene file: ``errors``, every one as (path, line, message) in file
+    order (``line`` None: the whole file's), the first also as ``path``, ``line``,
+    ``message``; ``str(error)`` is a line per problem (``FILE:LINE: message``), at most
+    ``shown``, then a count of the rest."""
 
     def __init__(self, path: str | os.PathLike, line: int | None, message: str, more=(),
                  shown: int | None = None):

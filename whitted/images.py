@@ -1,35 +1,11 @@
 """Images: what a render looks like on screen (an exposure and a view transform), and its files.
 
-A render is linear radiance, and that is what EXR files keep
-and what the relative MSE reads; but everything a person *looks at* (PNG files, the
-compare page and its contact sheet, an array shown in a notebook) needs those values
-turned into display colors, and there is more than one sensible way to do it:
-
-* ``clip`` — plain sRGB: values clipped to [0, 1], then the sRGB transfer curve. This is
-  the article's own output, and right for the article's model: its colors,
-  B·(A + (1 − A)·Σ s·light), are meant as display values and rarely exceed 1.
-* ``aces`` — OpenColorIO's built-in CG config (:data:`OCIO_CONFIG`), display
-  ``sRGB - Display``, view ``ACES 2.0 - SDR 100 nits (Rec.709)``: a filmic tone curve
-  that rolls highlights off towards white instead of clipping them. Physically lit
-  images (``--lighting physical``, the path tracer) fall off as 1/d² from each light, so
-  the surfaces near a light run far above 1 while those far away stay dim: clipped,
-  they show a white foreground over black shadows.
-
-An exposure of EV stops multiplies the linear image by 2^EV before the view.
-:func:`default_view` chooses the view from how the image was lit: ``clip`` for the
-article's model, ``aces`` for physical lighting and the path tracer. ``whitted compare``
-shows every image of a scene in one view, so that they compare: ``clip`` while its
-path-traced reference fits in [0, 1] (plain sRGB clips under 1 % of its pixels), else
-``aces`` (:func:`fitting_view`); FLIP, which scores images as displayed, scores them in
-that view (:func:`whitted.metrics.flip_map`). The relative MSE never sees a view.
-
-Images are processed in bands of rows (:data:`BAND_ROWS`), so that a 16384² render
-costs no whole-image float temporary.
-
-Files. EXR files keep the linear values as they are; PNG files keep what is displayed
-(8-bit sRGB after the exposure and the view). Reading and writing go through Mitsuba's
-``Bitmap``; writing is atomic (:mod:`whitted.atomic`): a failed write leaves no file behind.
-An image of 16384² pixels is 3 GiB of float32, so a PNG is converted band by band.
+A render is linear radiance (what EXR files keep and the relative MSE reads); what a person
+looks at (PNG files, the compare page, a notebook) is turned into display colors by a view:
+``clip`` (plain sRGB, the article's own output) or ``aces`` (OpenColorIO's ACES 2.0 SDR view,
+highlights rolled off, for physically lit images), after an exposure of EV stops
+(docs/display.md). Images are processed in bands of rows (:data:`BAND_ROWS`), so that a
+16384² render costs no whole-image float temporary; writing is atomic (:mod:`whitted.atomic`).
 """
 
 from __future__ import annotations
@@ -68,9 +44,8 @@ def default_view(integrator: str = "whitted", lighting: str | None = None) -> st
 
 
 def fitting_view(reference, exposure: float = 0.0) -> str:
-    """The view that shows every image of a comparison against ``reference`` (linear RGB):
-    ``clip`` while plain sRGB clips less than :data:`MOST_CLIPPED` of the reference's
-    pixels (its colors then stay as they are), else ``aces``."""
+    """The view of a comparison against ``reference``: ``clip`` while it clips less than
+    :data:`MOST_CLIPPED` of the reference's pixels, else ``aces``."""
     return "clip" if clipped_fraction(to_srgb(reference, exposure, "clip")) < MOST_CLIPPED else "aces"
 
 
@@ -112,9 +87,8 @@ def _aces_processor():
 
 
 def _exposed(band: np.ndarray, exposure: float) -> np.ndarray:
-    """A band of linear RGB (a float32 copy, changed in place) times 2^exposure, NaN and
-    negative values 0 (no negative light; OpenColorIO's curve expects none either), and
-    values above :data:`BRIGHTEST` (infinity too) that."""
+    """A band of linear RGB (changed in place) times 2^exposure, in [0, :data:`BRIGHTEST`]
+    (NaN 0)."""
     np.nan_to_num(band, copy=False, nan=0.0)
     if exposure:
         band *= np.float32(2.0 ** exposure)
@@ -164,11 +138,8 @@ def to_display(image, exposure: float = 0.0, view: str = "clip") -> np.ndarray:
 
 
 def to_srgb(image, exposure: float = 0.0, view: str = "clip", rows_done=None) -> np.ndarray:
-    """A linear RGB image (H, W, 3) as the 8-bit sRGB colors (uint8, H×W×3) a PNG holds and a
-    notebook shows (``plt.imshow(whitted.to_srgb(result.image, view="aces"))``).
-
-    ``exposure`` in stops (the image times 2^exposure), ``view`` one of :data:`VIEWS`;
-    ``rows_done(n)`` is called after each band of rows."""
+    """A linear RGB image (H, W, 3) as the 8-bit sRGB colors a PNG holds, after ``exposure``
+    (stops) and ``view``; ``rows_done(n)`` is called after each band of rows."""
     pixels, exposure, view = _checked(image), check_exposure(exposure), check_view(view)
     out = np.empty(pixels.shape, np.uint8)
     for start in range(0, pixels.shape[0], BAND_ROWS):
@@ -201,10 +172,8 @@ def image_format(path: str | os.PathLike) -> str:
 
 def write_image(path: str | os.PathLike, image, progress: bool = False, exposure: float = 0.0,
                 view: str = "clip") -> None:
-    """Write a linear RGB image (H, W, 3) as EXR (linear float, as it is) or PNG (8-bit sRGB,
-    as displayed: ``exposure`` in stops and ``view``, "clip" or "aces", see
-    :mod:`whitted.images`; an EXR ignores both); ``progress`` shows the conversion's rows
-    and the writing's time on stderr."""
+    """Write a linear RGB image (H, W, 3) as EXR (linear, ``exposure`` and ``view`` ignored) or
+    PNG (8-bit sRGB as displayed); ``progress`` shows the conversion and the writing on stderr."""
     import mitsuba as mi
 
     from .atomic import atomic_path
@@ -217,7 +186,7 @@ def write_image(path: str | os.PathLike, image, progress: bool = False, exposure
     name = Path(path).name
     if suffix == ".png":
         with progress_bar(progress, pixels.shape[0], f"encoding {name}", unit="row", unit_scale=False) as bar:
-            data = srgb8(pixels, bar.update, exposure=exposure, view=view)
+            data = to_srgb(pixels, exposure, view, rows_done=bar.update)
     else:
         data = np.ascontiguousarray(pixels)
     bitmap = mi.Bitmap(data, pixel_format=mi.Bitmap.PixelFormat.RGB)
@@ -227,13 +196,6 @@ def write_image(path: str | os.PathLike, image, progress: bool = False, exposure
             bitmap.write(str(tmp))
         except RuntimeError as error:
             raise WhittedError(f"{path}: could not write the image: {_first_line(error)}") from None
-
-
-def srgb8(pixels: np.ndarray, rows_done=None, exposure: float = 0.0, view: str = "clip") -> np.ndarray:
-    """A linear RGB image as 8-bit sRGB (H, W, 3), as PNG files hold it
-    (:func:`whitted.images.to_srgb`; ``rows_done(n)`` after each band of rows)."""
-
-    return to_srgb(pixels, exposure=exposure, view=view, rows_done=rows_done)
 
 
 def read_image(path: str | os.PathLike) -> np.ndarray:

@@ -1,12 +1,8 @@
 """Ctrl-C and SIGTERM: one clean stop, whatever was running.
 
-Python delivers SIGINT as a ``KeyboardInterrupt`` wherever the interpreter is,
-and some of the places it lands wrap it: an exception raised inside a Dr.Jit
-``custom`` operation (the ``article`` BSDF in Mitsuba's path tracer) comes back
-as a ``RuntimeError``. So the handler also *remembers* that a stop was asked
-for; code that must react to a stop (the CLI's exit status, ``compare``
-writing what finished) asks :func:`requested` instead of trusting the
-exception's type. SIGTERM is treated the same way.
+Some places wrap a ``KeyboardInterrupt`` (Dr.Jit returns one raised in a ``custom``
+operation as a ``RuntimeError``), so the handler also remembers the stop: code that reacts
+to one asks :func:`requested`, not the exception's type. SIGTERM is treated the same way.
 """
 
 from __future__ import annotations
@@ -51,8 +47,7 @@ def exit_status() -> int:
 
 
 def tell(outcome: str) -> None:
-    """Say what an interrupted command kept (``"the outputs in DIR hold what was done"``):
-    the CLI adds it to its one line, so that a stop is reported once."""
+    """Say what an interrupted command kept, for the CLI's one line (:func:`message`)."""
     global _outcome
     _outcome = outcome
 
@@ -64,16 +59,8 @@ def message() -> str:
 
 @contextlib.contextmanager
 def deferred():
-    """Hold a stop (Ctrl-C, SIGTERM) until the block ends, then raise it.
-
-    For work that must not be cut in the middle: importing Mitsuba and Dr.Jit and
-    setting a variant. A ``KeyboardInterrupt`` raised inside their initialisation
-    (Python code that C++ calls back, such as the plugins' registration) leaves them
-    half done: the signal can be swallowed (the render goes on), or the interpreter
-    can abort on its way out ("Fatal Python error: PyThreadState_Get") instead of
-    exiting with status 130. Without
-    :func:`install` (whitted used as a library) it changes nothing.
-    """
+    """Hold a stop (Ctrl-C, SIGTERM) until the block ends, then raise it: for work a
+    ``KeyboardInterrupt`` would leave half done (importing Mitsuba, setting a variant)."""
     global _deferring, _pending
     outer, _deferring = _deferring, True
     try:

@@ -1,13 +1,8 @@
 """``load_scene``: a ``mi.Scene`` from a legacy ``.scn`` or a converted ``.xml`` file.
 
-A ``.scn`` file goes from the scene model to Mitsuba without XML text: the
-converter's description (:mod:`whitted.converter.description`, the very one
-the XML writer writes out) is handed to ``mi.load_dict`` once its markers are
-made Mitsuba objects, so both routes build the same scene
-(tests/test_scene_building.py). Writing and re-parsing the text would add
-time and nothing else. Both are loaded serially: Mitsuba's per-sphere cost
-(~50-75 µs in llvm_ad_rgb) is the same from text or dict, and its parallel
-loading only adds to it (benchmarks/RESULTS.md, "Scene building").
+A ``.scn`` file's description (:mod:`whitted.converter.description`, the very one the XML
+writer writes out) goes to ``mi.load_dict`` without XML text: both routes build the same
+scene (tests/test_scene_building.py).
 """
 
 from __future__ import annotations
@@ -27,17 +22,14 @@ OVERRIDES = {"spp": D.check_spp, "max_depth": D.check_depth, "ambient": D.check_
              "lighting": check_lighting, "width": lambda v: D.check_size(v, "width"),
              "height": lambda v: D.check_size(v, "height"), "without": D.check_without}
 
-#: Mitsuba's parallel loading (``parallel=`` of ``mi.load_file``/``load_dict``): off. It
-#: cost 35-40 % more CPU time and more wall time on 2 cores at every size measured
-#: (benchmarks/RESULTS.md, "Scene building").
+#: Mitsuba's parallel loading: off, slower at every size measured (benchmarks/RESULTS.md,
+#: "Scene building").
 PARALLEL = False
 
 
 def mitsuba_dict(description, overrides: dict | None = None) -> dict:
-    """The description's scene as ``mi.load_dict`` takes it: markers made Mitsuba values.
-
-    ``overrides`` (name -> value) replace the defaults of the scene's parameters.
-    """
+    """The description's scene as ``mi.load_dict`` takes it, ``overrides`` replacing the
+    defaults of its parameters."""
     import mitsuba as mi
 
     from .converter.description import LookAt, Matrix, Mesh, Param
@@ -67,50 +59,32 @@ def _checked(overrides: dict) -> dict:
     return {k: OVERRIDES[k](v) for k, v in overrides.items() if v is not None}
 
 
+def prepared(variant: str | None, overrides: dict) -> tuple[dict, tuple | None]:
+    """Set ``variant``; the checked ``overrides`` but ``without``, and ``without``."""
+    from .variant import set_variant
+    set_variant(variant)
+    params = _checked(overrides)
+    return params, params.pop("without", None)
+
+
 def load_scene(path: str | os.PathLike, variant: str | None = None, *, model=None,
                ellipsoids: bool | None = None, integrator: str = D.INTEGRATOR, meshes: bool = True,
                **overrides):
-    """Load a ``.scn`` or ``.xml`` scene as a ``mi.Scene``.
+    """Load a ``.scn`` or ``.xml`` scene as a ``mi.Scene``, in ``variant`` (None: the current).
 
-    ``variant`` selects a Mitsuba variant first (default: keep the current one).
-    ``model`` is the already parsed scene model of a ``.scn`` ``path``
-    (``whitted.converter.Scene``): the file is then not read again.
-    ``ellipsoids``: load the *sealed* spheres of a ``.scn`` scene (opaque,
-    untextured, not holding the eye) of its commonest radius as Mitsuba
-    ``ellipsoids`` shapes, in a frame scaled to make that radius 1
-    (:mod:`whitted.sealed`: the same image; those spheres load a hundred times
-    faster than as ``sphere`` shapes), and those of up to ``sealed.MAX_LAYERS``
-    other radii as well, one shape per radius and material: for the whitted
-    integrator any radius (it traces each in a frame of its own), for Mitsuba's
-    own integrators (``integrator="path"``) only radii above the commonest,
-    where Mitsuba's ellipsoid test loses no hit. None (the default) does so when
-    at least ``sealed.MIN_GROUP`` spheres share the commonest radius, True
-    whenever one does, False never.
-    ``.xml`` files are loaded as written.
-    ``integrator`` ("whitted" or "path") is what the scene will be rendered with: a ``.scn``
-    file read here is warned about as that integrator needs (converter/frame.py).
-    ``meshes=False`` (a ``.scn`` to be rendered by the whitted integrator only): the giant
-    spheres that Mitsuba misplaces, which the converter describes as fine meshes for
-    Mitsuba's own integrators (converter/giants.py), stay plain ``sphere`` shapes. The
-    whitted integrator intersects them itself in float64 and never traces their shapes
-    (plugins/hits.py), so its image is the same, bit for bit; building a
-    mesh's acceleration structure costs about 0.4 s (a floor of radius 10^4: 170 000
-    triangles), far more than rendering a small frame. Mitsuba's path tracer would see
-    the float32 sphere. ``whitted render`` passes it for the whitted integrator.
-    ``overrides`` replace the scene's ``spp``, ``max_depth``, ``ambient``,
-    ``lighting`` ("article" or "physical"), ``width`` or ``height``; ``without`` (the
-    effects its whitted integrator leaves out: ``"shadows,reflection"`` or a list of names
-    of ``defaults.SWITCHABLE_EFFECTS``) is set on the loaded scene's integrator. A portable ``.xml``
-    (stock plugins, ``whitted convert --portable``) has only ``spp``, ``max_depth``,
-    ``width`` and ``height``, ``max_depth`` in Mitsuba's sense (the article's depth + 1).
+    ``model``: the ``.scn`` file's parsed model (not read again). ``ellipsoids``: load the
+    sealed spheres of a ``.scn`` as ``ellipsoids`` shapes (:mod:`whitted.sealed`: the same
+    image, loaded a hundred times faster; None: when at least ``sealed.MIN_GROUP`` share a
+    radius). ``integrator``: what the scene will be rendered with (warnings, groups).
+    ``meshes=False``: giant spheres stay ``sphere`` shapes, which the whitted integrator
+    never traces (it intersects them in float64), instead of meshes for Mitsuba's own
+    integrators. ``overrides``: ``spp``, ``max_depth``, ``ambient``, ``lighting``, ``width``,
+    ``height`` and ``without`` (a portable ``.xml`` has only the first two, width and height).
     """
     import mitsuba as mi
 
     from .converter.parser import check_scene_file
-    from .variant import set_variant
-    set_variant(variant)
-    params = _checked(overrides)
-    without = params.pop("without", None)
+    params, without = prepared(variant, overrides)
     path = Path(path)
     xml = path.suffix.lower() == ".xml"
     if xml or model is not None:
@@ -135,9 +109,8 @@ def load_scene(path: str | os.PathLike, variant: str | None = None, *, model=Non
         raise load_error(path, error) from None
 
 
-#: A plugin's exception as Mitsuba wraps it: ``At FILE (line N, col M): failed to instantiate
-#: ... plugin of type "whitted": Traceback (most recent call last):``, the frames, then
-#: ``TYPE: message``, the line a user needs.
+#: A plugin's exception as Mitsuba wraps it: ``At FILE (line N, col M): failed to
+#: instantiate ...``, a traceback, then ``TYPE: message``, the line a user needs.
 _WRAPPED = re.compile(r"^(?:\[[^]]*\] )?At [^\n]*?(?:\(line (\d+), col \d+\))?: failed to instantiate "
                       r".*?Traceback \(most recent call last\):\n(?:  .*\n)*(\w+): (.*)", re.S)
 #: the exceptions our plugins raise for a bad parameter: their message is the whole story
@@ -145,9 +118,8 @@ _PLAIN = ("WhittedError", "SceneError", "ParameterError", "ValueError")
 
 
 def load_error(where, error: BaseException) -> WhittedError:
-    """Mitsuba's error from loading the scene ``where`` as one clear line: a plugin's own
-    message (``FILE:LINE: message``, the line of the XML object) rather than the wrapper's
-    first line; else that first line."""
+    """Mitsuba's error from loading the scene ``where`` as one line: a plugin's own message
+    (``FILE:LINE: message``), else Mitsuba's first line."""
     text = str(error).strip()
     wrapped = _WRAPPED.match(text)
     if wrapped:
@@ -163,9 +135,8 @@ _FILENAME = re.compile(rb'<string\s+name="filename"\s+value="([^"$]*)"')
 
 
 def check_referenced_files(path: Path) -> None:
-    """One clear error naming the path the XML gives when a file it names (a texture, a mesh)
-    is not where the XML says, relative to the XML's folder: Mitsuba would also look in the
-    current folder and quietly take a same-named file from there."""
+    """An error when a file the XML names is not beside it where it says (Mitsuba would
+    quietly take a same-named file from the current folder)."""
     import html
 
     with open(path, "rb") as file:
@@ -179,24 +150,15 @@ def check_referenced_files(path: Path) -> None:
 
 def loads(text: str, variant: str | None = None, *, base_dir: str | os.PathLike = ".",
           ellipsoids: bool | None = None, integrator: str = D.INTEGRATOR, **overrides):
-    """Load a scene from its text (what a ``.scn`` file holds) as a ``mi.Scene``: for notebooks
-    and scripts, ``whitted.loads("sphere 0 0 0 1\\nlight 5 5 5")``.
-
-    Texture paths are relative to ``base_dir`` (default: the current folder); errors name
-    the text as ``<text>:LINE``. ``variant``, ``ellipsoids``, ``integrator`` and
-    ``overrides`` (``spp``, ``max_depth``, ``ambient``, ``lighting``, ``without``) are those of
-    :func:`load_scene`.
-    """
+    """Load a scene from its ``.scn`` text as a ``mi.Scene`` (texture paths relative to
+    ``base_dir``; errors name ``<text>:LINE``); the rest as :func:`load_scene`."""
     import mitsuba as mi  # noqa: F401  (the variant hook runs on import)
 
     from .converter import parse_text
     from .converter.frame import warn_scene
-    from .variant import set_variant
     if not isinstance(text, str):
         raise WhittedError(f"loads takes the scene's text as a str, got {type(text).__name__}")
-    set_variant(variant)
-    params = _checked(overrides)
-    without = params.pop("without", None)
+    params, without = prepared(variant, overrides)
     model = parse_text(text, Path(base_dir) / TEXT_NAME)
     warn_scene(model, integrator=integrator)
     try:
@@ -206,8 +168,7 @@ def loads(text: str, variant: str | None = None, *, base_dir: str | os.PathLike 
 
 
 def _leaving_out(scene, without, where):
-    """``scene``, its whitted integrator set to leave out the effects ``without`` (checked:
-    :func:`whitted.defaults.check_without`; None: as loaded)."""
+    """``scene``, its whitted integrator set to leave out the effects ``without`` (None: as loaded)."""
     if without is None:
         return scene
     from .plugins import whitted_or_none
@@ -225,9 +186,7 @@ TEXT_NAME = "<text>"
 
 def _load_model(model, params: dict, ellipsoids: bool | None, integrator: str, meshes: bool = True,
                 text: str | None = None):
-    """A parsed scene model as a ``mi.Scene`` (see :func:`load_scene`'s ``ellipsoids`` and
-    ``meshes``), remembered as loaded from ``model`` (:func:`recall`; ``text``: what
-    it was parsed from, when no file holds it)."""
+    """A parsed scene model as a ``mi.Scene``, remembered as loaded from it (:func:`recall`)."""
     scene, _, _, scale = _scene_dict(model, params, ellipsoids, integrator)
     loaded = _loaded(scene, meshes)
     remember(loaded, Source(model, scale, text))
@@ -235,16 +194,9 @@ def _load_model(model, params: dict, ellipsoids: bool | None, integrator: str, m
 
 
 def load_model_parts(model, params: dict, ellipsoids: bool | None, integrator: str, meshes: bool = True):
-    """:func:`_load_model`, and where the model's numbers went: ``(scene, bsdfs, described)``.
-
-    ``bsdfs``: each material of ``model`` (as the converter shares them:
-    ``converter.description._shared``) -> where its ``article`` BSDFs are: the ids of
-    BSDFs (``converter.description.material_ids``) and of the ``ellipsoids`` shapes of its
-    grouped spheres (``sealed_K``), whose BSDF is their own (``shape.bsdf()``: Mitsuba's ``ellipsoids``
-    does not traverse it); a material can have both. ``described``: the model as the scene
-    shows it (with the grouped spheres, lengths scaled: its lights' positions are the
-    scene's). What a fit (:mod:`whitted.fitting`) needs to write a material's color or a
-    light's into the scene."""
+    """``(scene, bsdfs, described)``, what a fit (:mod:`whitted.fitting`) writes into: the
+    loaded scene; each material -> the ids of its BSDFs and of its ``ellipsoids`` shapes
+    (``sealed_K``); the model as the scene shows it (grouped spheres, lengths scaled)."""
     from .converter.description import _shared, first_spheres, material_ids
     scene, described, grouped, _ = _scene_dict(model, params, ellipsoids, integrator)
     ids = material_ids(model)
@@ -255,9 +207,8 @@ def load_model_parts(model, params: dict, ellipsoids: bool | None, integrator: s
 
 
 def _scene_dict(model, params: dict, ellipsoids: bool | None, integrator: str) -> tuple[dict, object, list, float]:
-    """The ``mi.load_dict`` form of ``model``, the model it describes (the rest of the
-    scene, scaled, when spheres are grouped), the material of each group (``sealed_K``) and
-    the scale of its frame (1 unless spheres are grouped)."""
+    """The ``mi.load_dict`` form of ``model``, the model it describes, the material of each
+    group of spheres (``sealed_K``) and the scale of its frame."""
     from .converter.description import describe
     held = model.held_sphere_arrays()
     count = len(held) if held is not None else len(model.spheres)
@@ -280,9 +231,7 @@ def _loaded(scene: dict, meshes: bool):
 
 
 def _giants_as_spheres(scene: dict) -> dict:
-    """``scene`` (a ``mi.load_dict`` dict) with the meshes of the giant spheres that its
-    whitted integrator intersects itself (its ``exact_spheres``) made ``sphere`` shapes of
-    the listed center and radius again (see :func:`load_scene`'s ``meshes``)."""
+    """``scene`` with the meshes of its ``exact_spheres`` made ``sphere`` shapes again."""
     from .converter.giants import parse_exact_spheres
     listed = scene.get("integrator", {}).get("exact_spheres")
     if not listed:
@@ -295,14 +244,10 @@ def _giants_as_spheres(scene: dict) -> dict:
 
 
 def _sealed_dict(remaining, model, grouping, params: dict) -> tuple[dict, list]:
-    """The ``mi.load_dict`` form of ``model`` with its grouped spheres
-    (:func:`whitted.sealed.choose`) in ``ellipsoids`` shapes, one per material: the
-    description of the rest of the scene (``remaining``: :func:`whitted.sealed.remaining`)
-    in the scaled frame, plus those shapes (``sealed_K``); and the material of each."""
+    """The ``mi.load_dict`` form of ``model`` in the scaled frame, its grouped spheres in
+    ``ellipsoids`` shapes (``sealed_K``), one per material; and the material of each."""
     from . import sealed
     from .converter.description import clip_range, describe, material_dict, material_ids
-    # The grouped spheres (the commonest of radius 1 in the scaled frame) count among the
-    # scene's details.
     smallest = min([1.0, *(radius * grouping.scale for radius in grouping.radii)])
     description = describe(remaining, base_dir=None, smallest=smallest, ids=material_ids(model))
     scene = mitsuba_dict(description, params)
@@ -315,11 +260,7 @@ def _sealed_dict(remaining, model, grouping, params: dict) -> tuple[dict, list]:
     return scene, materials
 
 
-# Which ``.scn`` scene a loaded ``mi.Scene`` came from, and in what frame: what shows a scene
-# in the file's own terms (``whitted trace``: positions in the file's coordinates, spheres
-# named by their line) asks :func:`recall`. Scenes take no Python attributes, so they are
-# kept by address with a witness (:class:`whitted.plugins.scene_tables.KeptByScene`).
-
+# Which ``.scn`` scene a loaded ``mi.Scene`` came from, for ``whitted trace`` (:func:`recall`).
 
 #: how many scenes are remembered (the least recently loaded go first)
 REMEMBERED = 16

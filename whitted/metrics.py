@@ -1,23 +1,10 @@
 """How far an image is from a reference: relative MSE and FLIP, on linear RGB.
 
-Both take linear images of shape (H, W, 3), the test image first and the
-reference second, and are asymmetric: the reference sets the scale.
-
-* **Relative MSE** weighs each squared difference by the reference's own
-  brightness, so a bright highlight and a dark shadow count alike; the small
-  ``EPSILON`` keeps black reference pixels (an empty background) from dividing
-  by zero. It is the error measure of Monte Carlo rendering papers: for an
-  unbiased renderer it falls as 1/spp.
-* **FLIP** (NVIDIA's perceptual difference, the ``flip-evaluator`` package) in
-  its LDR mode, on the images as displayed (:func:`whitted.images.to_display`:
-  an exposure and a view, by default plain sRGB clipped to [0, 1]): what a
-  viewer compares on screen, the same as comparing the PNG outputs. 0 is
-  identical, 1 maximally different. Exposure and view change FLIP and nothing
-  else: the relative MSE reads the linear values. HDR-FLIP was
-  measured and not used: on a black background (the scene format's default)
-  its exposure range, set by the reference's median luminance, runs to 2^24
-  and one 640×400 evaluation takes 7 s, twenty times the LDR one; differences
-  above 1 are still seen by the relative MSE.
+Both take the test image first and the reference second (it sets the scale). The relative
+MSE weighs each squared difference by the reference's brightness (``EPSILON`` keeps black
+pixels finite), and falls as 1/spp for an unbiased renderer. FLIP (NVIDIA's ``flip-evaluator``)
+in its LDR mode scores the images as displayed (:func:`whitted.images.to_display`), as a
+viewer compares them; HDR-FLIP took twenty times as long on black backgrounds.
 """
 
 from __future__ import annotations

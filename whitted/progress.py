@@ -1,9 +1,5 @@
-"""Progress on stderr: tqdm's bar on a terminal, plain lines in a log.
-
-Long work (a render, a sweep) shows progress, but a bar redrawn with carriage
-returns turns a log file or a CI transcript into one unreadable line. So when
-stderr is not a terminal the same tqdm bar writes a whole line every
-:data:`LOG_INTERVAL` seconds instead. ``-q`` turns progress off and nothing else.
+"""Progress on stderr: tqdm's bar on a terminal, a whole line every :data:`LOG_INTERVAL`
+seconds in a log (a redrawn bar would be one unreadable line); ``-q`` turns it off.
 """
 
 from __future__ import annotations
@@ -45,9 +41,8 @@ def progress_bar(enabled: bool, total: int | None, what: str, unit: str = "sampl
 
 @contextlib.contextmanager
 def elapsed(enabled: bool, what: str):
-    """Show how long ``what`` has been running, for work that tells no progress of its own
-    (a library call writing a file, which releases the GIL): a line whose clock a
-    thread redraws while the block runs."""
+    """Show how long ``what`` has been running (a line a thread redraws), for work that tells
+    no progress of its own."""
     terminal = sys.stderr.isatty()
     with progress_bar(enabled, None, what, bar_format="{desc}: {elapsed}") as bar:
         stop = threading.Event()

@@ -1,12 +1,9 @@
 """Choosing Mitsuba's variant, and a libLLVM that Dr.Jit can use.
 
-Dr.Jit's llvm backend loads libLLVM lazily and *aborts the whole process* when
-the library is too old (libLLVM 15 fails with "Cannot select: fminimum"). An
-abort cannot be caught, so the library must be chosen before Dr.Jit starts:
-this module finds the newest libLLVM >= 16 on the machine and points
-``DRJIT_LIBLLVM_PATH`` at it. When none exists, the default variant falls back
-to ``scalar_rgb`` with a one-line warning. This is the only place that decides
-the variant.
+Dr.Jit's llvm backend *aborts the process* on a libLLVM older than 16, so before Dr.Jit
+starts the newest libLLVM >= 16 is found and ``DRJIT_LIBLLVM_PATH`` points at it; without
+one the default variant is ``scalar_rgb``, with a warning. The only place that decides the
+variant.
 """
 
 from __future__ import annotations
@@ -59,12 +56,8 @@ def llvm_version_of(path: str) -> int | None:
 
 
 def find_libllvm() -> str | None:
-    """The newest libLLVM with major version >= 16 on this machine, or None.
-
-    A path in ``DRJIT_LIBLLVM_PATH`` is the user's choice and wins when it exists;
-    ``WHITTED_LIBLLVM_DIRS`` (folders separated by ``os.pathsep``) replaces the
-    folders searched.
-    """
+    """The newest libLLVM >= 16 on this machine (``DRJIT_LIBLLVM_PATH`` if it exists; the
+    folders searched: ``WHITTED_LIBLLVM_DIRS``, else the usual ones), or None."""
     chosen = os.environ.get("DRJIT_LIBLLVM_PATH")
     if chosen and os.path.isfile(chosen):
         return chosen
@@ -119,11 +112,8 @@ def default_variant() -> str:
 
 
 def set_variant(variant: str | None = None) -> str:
-    """Select a Mitsuba variant and register the project's plugins for it.
-
-    ``None`` keeps a variant already chosen through Mitsuba, else takes the default.
-    A Ctrl-C meanwhile takes effect once it is done (:func:`whitted.interrupt.deferred`).
-    """
+    """Select a Mitsuba variant (None: the one set, else the default) and register the
+    plugins for it; a Ctrl-C meanwhile takes effect once it is done."""
     from .interrupt import deferred
     request(variant)
     with deferred():
@@ -131,10 +121,8 @@ def set_variant(variant: str | None = None) -> str:
 
 
 def request(variant: str | None) -> None:
-    """Ask for ``variant`` before Mitsuba is imported (the CLI does so first thing): when
-    something imports Mitsuba, its hook chooses this variant, so that it is set once rather
-    than the default first and this one after. Does nothing once Mitsuba is imported, or
-    for a variant whitted does not run in (:func:`set_variant` refuses that one)."""
+    """Ask for ``variant`` before Mitsuba is imported, so that its import hook sets this one
+    rather than the default first (nothing once Mitsuba is imported, or for an unsupported one)."""
     global _requested
     if variant in SUPPORTED_VARIANTS and "mitsuba" not in sys.modules:
         _requested = variant
@@ -175,21 +163,14 @@ def on_variant_changed(old: str | None, new: str | None) -> None:
 
 
 def ensure_llvm(allow_install: bool = True) -> str | None:
-    """Find a libLLVM >= 16; when none exists, install Debian's libllvm19 if allowed.
-
-    Installing needs apt-get and root (or password-less sudo) and no
-    ``$WHITTED_NO_APT``; otherwise this says what to do and whitted falls back
-    to scalar_rgb.
-    """
+    """Find a libLLVM >= 16, else install Debian's libllvm19 if allowed (apt-get, root or
+    password-less sudo, no ``$WHITTED_NO_APT``), else say what to do."""
     import shutil
     import subprocess
 
     path = find_libllvm()
-    if path is not None:
-        print(f"whitted: using {path} for the llvm variants")
-        return path
     apt = shutil.which("apt-get")
-    if allow_install and apt and not os.environ.get("WHITTED_NO_APT"):
+    if path is None and allow_install and apt and not os.environ.get("WHITTED_NO_APT"):
         prefix = []
         if os.geteuid() != 0:
             sudo = shutil.which("sudo")
@@ -203,10 +184,9 @@ def ensure_llvm(allow_install: bool = True) -> str | None:
             subprocess.run(prefix + [apt, "-qq", "update"], env=env, check=False)
             subprocess.run(prefix + [apt, "-qq", "install", "-y", "libllvm19"], env=env, check=False)
             path = find_libllvm()
-            if path is not None:
-                print(f"whitted: using {path} for the llvm variants")
-                return path
+    if path is not None:
+        print(f"whitted: using {path} for the llvm variants")
+        return path
     print(f"whitted: warning: no libLLVM >= {MIN_LLVM_VERSION}; install Debian's libllvm19 "
           f"(apt-get install libllvm19) or set DRJIT_LIBLLVM_PATH. Using {FALLBACK_VARIANT}.")
     return None
-

@@ -1,13 +1,8 @@
 """Frames to a video: ``whitted render FRAMES/ -o OUT/ --video OUT.mp4`` and ``whitted video``.
 
-A frame sequence is most often wanted as a film. The encoding is FFmpeg's, through
-imageio's ffmpeg plugin (imageio-ffmpeg ships the ``ffmpeg`` binary, so nothing is
-needed from the system): H.264 in yuv420p, which every player reads. yuv420p needs
-even sizes: a frame of odd width or height is padded by repeating its last column or
-row (never scaled). PNG frames are sent as their 8-bit sRGB bytes; EXR frames are
-encoded to sRGB as PNG output is (:func:`whitted.images.srgb8`). The file is written
-beside its target and renamed into place (:mod:`whitted.atomic`): an interruption
-leaves no partial video.
+H.264 in yuv420p (every player reads it) by imageio-ffmpeg's own ``ffmpeg``; a frame of odd
+size is padded by repeating its last column or row. EXR frames are encoded as PNG output
+is (:func:`whitted.images.to_srgb`); the file is written atomically (:mod:`whitted.atomic`).
 """
 
 from __future__ import annotations
@@ -22,8 +17,6 @@ from .errors import WhittedError
 VIDEO_SUFFIXES = (".mp4", ".mkv", ".mov")
 #: imageio-ffmpeg's quality, 0 to 10 (its default 5 blurs small frames: 5 levels of 255 off on 40x26)
 QUALITY = 8
-#: frames per second unless told
-DEFAULT_FPS = D.DEFAULT_FPS
 #: the images a folder of frames stands for, in this order of preference
 FRAME_SUFFIXES = (".png", ".exr")
 
@@ -68,9 +61,9 @@ def frame_pixels(path: Path):
     import mitsuba as mi
     import numpy as np
 
-    from .images import read_image, srgb8
+    from .images import read_image, to_srgb
     if path.suffix.lower() == ".exr":
-        return srgb8(read_image(path))
+        return to_srgb(read_image(path))
     try:
         bitmap = mi.Bitmap(str(path)).convert(mi.Bitmap.PixelFormat.RGB, mi.Struct.Type.UInt8,
                                               srgb_gamma=True)
@@ -88,7 +81,7 @@ def _even(pixels):
     return np.pad(pixels, ((0, height % 2), (0, width % 2), (0, 0)), mode="edge")
 
 
-def write_video(path: str | os.PathLike, frames: list[Path], fps: float = DEFAULT_FPS,
+def write_video(path: str | os.PathLike, frames: list[Path], fps: float = D.DEFAULT_FPS,
                 progress: bool = False) -> None:
     """Encode ``frames`` (image files, all of one size) as an H.264 video at ``fps``."""
     import imageio.v2 as iio

@@ -1,12 +1,7 @@
 """The ray tree of a pixel: the article's recursion made visible (``whitted trace``,
-:func:`whitted.trace_pixel`).
-
-:mod:`.record` keeps what the renderer computes at each level of a pixel's tree,
-:mod:`.nodes` holds the tree and writes it as text and JSON, :mod:`.pixel` traces pixels
-and puts the trees in the scene file's terms, :mod:`.page` draws them (an HTML page, a
-notebook's view) and :mod:`.cli` is the command. Importing this package loads none of
-them (the command line imports :mod:`.cli` to build its parser): the API below is
-imported on first use.
+:func:`whitted.trace_pixel`; docs/trace.md). :mod:`.record` keeps what the renderer computes,
+:mod:`.nodes` holds the tree, :mod:`.pixel` traces pixels in the scene file's terms and
+:mod:`.page` draws them; the API is imported on first use.
 """
 
 from __future__ import annotations

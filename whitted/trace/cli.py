@@ -1,8 +1,4 @@
-"""``whitted trace SCENE --pixel X Y [...] [--json] [-o PAGE.html]``: the ray trees of pixels.
-
-whitted/cli.py parses the arguments (:func:`add_arguments`) and calls :func:`trace_command`
-when the command runs; this module loads nothing heavy when imported.
-"""
+"""``whitted trace SCENE --pixel X Y [...] [--json] [-o PAGE.html]``: the ray trees of pixels."""
 
 from __future__ import annotations
 
@@ -42,8 +38,7 @@ def add_arguments(command) -> None:
 
 
 def pixel_coordinate(text: str):
-    """A ``--pixel`` coordinate: an integer, or a percentage (``"45%"``) kept as text for
-    :func:`.pixel.trace_pixels` to place once the image's size is known."""
+    """A ``--pixel`` coordinate: an integer, or a percentage (``"45%"``) kept as text."""
     import argparse
     try:
         if text.endswith("%"):
@@ -56,8 +51,7 @@ def pixel_coordinate(text: str):
 
 
 def trace_command(args) -> int:
-    """Trace the pixels, print their trees, write the page; everything checked before any
-    output, the page written atomically."""
+    """Trace the pixels, print their trees, write the page (everything checked first)."""
     from ..atomic import check_writable
     from ..converter.parser import check_scene_file
 
@@ -75,7 +69,7 @@ def trace_command(args) -> int:
                           min_weight=args.min_weight)
     if page is not None:
         from .page import write_page
-        write_page(page, traces, scene)   # atomically: whole or not at all
+        write_page(page, traces, scene)
     if args.json:
         print(json.dumps(traces.json(), indent=1))
     else:

@@ -1,12 +1,8 @@
 """The nodes of a pixel's ray tree, as the renderer computed them, and their text and JSON forms.
 
-A :class:`Node` is one ray of the tree (the camera ray, a reflected, refracted or totally
-reflected ray) with what the shader computed where it went: the sphere it hit, the
-normal, the material, the local terms (the ambient term and each light's diffuse term
-with its shadow ray), the weights of its children, its *contribution* to the pixel
-(``w·(1 − KR − KT)·point`` on a hit, ``w·background`` on a miss, ``w`` its path weight)
-and why its branch stops. The article's recursion is linear, so the pixel is the sum of
-its tree's contributions (:meth:`Node.total`).
+A :class:`Node` is one ray with what the shader computed where it went, its *contribution*
+to the pixel (``w·(1 − KR − KT)·point`` on a hit, ``w·background`` on a miss) and why its
+branch stops: the pixel is the sum of its tree's contributions (:meth:`Node.total`).
 """
 
 from __future__ import annotations
@@ -19,8 +15,7 @@ KINDS = ("camera", "reflection", "refraction", "total internal reflection")
 
 @dataclass
 class SphereRef:
-    """A sphere as the scene file names it: its index among the file's spheres, its line,
-    the statement and the comment on that line; its center and radius."""
+    """A sphere as the scene file names it: its index, line, statement and comment."""
     index: int
     center: tuple
     radius: float
@@ -48,8 +43,7 @@ class SphereRef:
 
 @dataclass
 class LightTerm:
-    """One light's share of a hit's color: ``s = max(0, N'·L)``, 0 when the light is behind
-    the surface or a sphere blocks the shadow ray (its segment to the light)."""
+    """One light's share of a hit's color: ``s = max(0, N'·L)``, 0 when behind or blocked."""
     index: int
     position: tuple
     color: tuple                 # the light's color (article) or intensity (physical)
@@ -148,16 +142,14 @@ def rgb(c) -> str:
 
 
 def xyz(p) -> str:
-    """A point or direction, each coordinate to 5 digits; one below a millionth of the
-    largest is shown as 0 (a camera ray's rounding off an axis)."""
+    """A point or direction to 5 digits, a coordinate below a millionth of the largest as 0."""
     largest = max(abs(c) for c in p)
     shown = [0.0 if abs(c) < 1e-6 * largest else c for c in p]
     return f"({shown[0]:.5g}, {shown[1]:.5g}, {shown[2]:.5g})"
 
 
 def text_tree(root: Node, physical: bool = False) -> list[str]:
-    """The tree as indented lines of text, a node and its terms, then its children
-    (``physical``: the point's formula is physical lighting's)."""
+    """The tree as indented lines of text, a node and its terms, then its children."""
     lines: list[str] = []
     _text(root, "", lines, physical)
     return lines

@@ -1,15 +1,8 @@
 """The ray trees drawn: a page to project (``whitted trace -o PAGE.html``) and a notebook's view.
 
-The page holds the rendered image (one sample per pixel, as the trees were traced) with
-the traced pixels marked and numbered, a 3D view of the scene and the rays (plotly,
-rotatable: the spheres as meshes, the lights, the rays coloured by kind, shadow rays to
-the lights solid when they reach it and dashed when a sphere blocks them), and each
-tree as a table. It is one file that works offline: the image is inlined as a PNG and
-plotly's script is in the page (no CDN, no network). A notebook shows the same 3D view
-and tables (:meth:`.pixel.PixelTree._repr_html_`).
-
-The page is a Jinja2 template (``templates/trace.html.j2``, shipped as package data),
-as the comparison report is (whitted/compare/page.py).
+The image (1 spp) with the pixels marked, a plotly 3D view of the spheres, lights and rays
+(shadow rays dashed where blocked) and each tree as a table, in one offline file from the
+Jinja2 template ``templates/trace.html.j2``; a notebook shows the view and the tables.
 """
 
 from __future__ import annotations
@@ -60,8 +53,7 @@ def _extent(view, trees) -> tuple[np.ndarray, float]:
 
 
 def _sphere_mesh(center, radius, toward, reach):
-    """A sphere as a triangle mesh: whole when it is small against the view's ``reach``, else
-    the cap of it that faces ``toward`` (a giant floor or dome as the patch the rays meet)."""
+    """A sphere as a triangle mesh: whole when small against ``reach``, else its cap facing ``toward``."""
     center = np.asarray(center, np.float64)
     axis = np.asarray(toward, np.float64) - center
     norm = np.linalg.norm(axis)
@@ -206,9 +198,8 @@ def _bounds(view, trees, segments) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _camera(view, trees, middle, span, aspect):
-    """Plotly's camera (in the view box's normalized units): looking at the middle of the
-    eye and the hits from behind the scene's eye, a little above and to the side so that
-    depth shows, far enough back to see the lights, with ``y`` up (the scene files' usual up)."""
+    """Plotly's camera: at the middle of the eye and the hits from behind the eye, a little
+    above and to the side so that depth shows, ``y`` up."""
     if view.eye is None:
         return {}
 

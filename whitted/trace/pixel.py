@@ -1,12 +1,9 @@
 """``trace_pixel``: the ray tree of a pixel, as the renderer computed it, in the scene file's terms.
 
-The integrator traces the pixels' center rays as a render at one sample per pixel does
-(:meth:`~whitted.plugins.integrator.WhittedIntegrator.trace_pixels`), and a
-:class:`~.record.Recorder` keeps every level (:mod:`.record`). This module moves the
-trees from the loaded scene's frame (Mitsuba's coordinates: the file's minus its
-``lookat``, scaled when spheres are grouped; converter/frame.py) back to the file's
-coordinates, and names each sphere hit or blocking a shadow ray by its line in the file
-(and its comment), each light by its line.
+The integrator traces the pixels' center rays as a 1 spp render does
+(:meth:`~whitted.plugins.integrator.WhittedIntegrator.trace_pixels`), recorded by
+:mod:`.record`; here the trees are moved to the file's coordinates and each sphere and
+light is named by its line in the file.
 """
 
 from __future__ import annotations
@@ -73,9 +70,8 @@ class SceneView:
                          name=f"{self.source}:{line}")
 
     def sphere_at(self, p, n) -> SphereRef | None:
-        """The sphere whose surface holds the scene point ``p`` (file coordinates) with outward
-        normal ``n``: the nearest surface, relative to the size of its numbers; of several
-        within float32's reach, the one whose normal there is ``n``."""
+        """The sphere whose surface holds the point ``p`` (file coordinates): the nearest relative
+        to its size; of several within float32's reach, the one whose normal there is ``n``."""
         if not len(self.radii):
             return None
         p, n = np.asarray(p, np.float64), np.asarray(n, np.float64)
@@ -106,9 +102,8 @@ class SceneView:
 
 
 def scene_view(scene) -> SceneView:
-    """The :class:`SceneView` of a loaded ``mi.Scene``: from the ``.scn`` model it was loaded
-    from (:func:`whitted.loading.recall`), else from the scene itself (its shapes' ids name spheres,
-    positions are Mitsuba's)."""
+    """The :class:`SceneView` of a loaded ``mi.Scene``: from its ``.scn`` model
+    (:func:`whitted.loading.recall`), else from the scene itself (shapes' ids name spheres)."""
     from ..loading import recall
     source = recall(scene)
     sensor = scene.sensors()[0]
@@ -158,10 +153,8 @@ def scene_view(scene) -> SceneView:
 
 @dataclass
 class PixelTree:
-    """The ray tree of pixel ``(x, y)`` (:func:`trace_pixel`). ``color`` is the color the
-    tracer returned for its center ray (what a 1-spp render puts in the pixel); the tree's
-    contributions add up to it (:meth:`total`). ``str()`` is the tree as indented text;
-    in a notebook it shows as the page's 3D view and table (:mod:`.page`)."""
+    """The ray tree of pixel ``(x, y)`` (:func:`trace_pixel`), whose contributions add up to
+    ``color`` (:meth:`total`); ``str()`` is the tree as text, a notebook shows :mod:`.page`'s view."""
     x: int
     y: int
     root: Node
@@ -197,8 +190,7 @@ class PixelTree:
 
 
 class Traces(list):
-    """The trees of several pixels of one scene (:func:`trace_pixels`): a list of
-    :class:`PixelTree`, shown together."""
+    """The trees of several pixels of one scene (:func:`trace_pixels`), shown together."""
 
     def __init__(self, trees, view: SceneView, settings: dict, scene=None):
         super().__init__(trees)
@@ -236,13 +228,11 @@ def _load(scene, variant, overrides: dict):
 def trace_pixels(scene, pixels, *, variant: str | None = None, max_depth: int | None = None,
                  ambient: float | None = None, lighting: str | None = None,
                  min_weight: float | None = None) -> Traces:
-    """The ray trees of ``pixels`` (``(x, y)`` each: column from the left, row from the top,
-    from 0; or each a percentage of the width or height, ``("50%", "45%")``) of ``scene`` (a
-    ``mi.Scene`` from :func:`whitted.load_scene`, or a scene file's path), traced by the
-    Whitted integrator exactly as a render at one sample per pixel traces them, with the
-    scene's settings or those given (as ``whitted render`` takes them)."""
+    """The ray trees of ``pixels`` (``(x, y)`` from the top left, or percentages such as
+    ``("50%", "45%")``) of ``scene`` (a ``mi.Scene`` or a file's path), traced as a 1 spp
+    render traces them, with the scene's settings or those given."""
     from .. import defaults as D
-    from ..rendering import check_article_materials, check_settings, integrator_of, quiet_mitsuba
+    from ..rendering import check_article_materials, check_settings, whitted_integrator
     check_settings(None, max_depth, lighting, "whitted", min_weight)
     if ambient is not None:
         D.check_ambient(ambient)
@@ -257,14 +247,10 @@ def trace_pixels(scene, pixels, *, variant: str | None = None, max_depth: int | 
             raise WhittedError(f"pixel ({x}, {y}) is outside the {width}x{height} image "
                                f"(x from 0 to {width - 1}, y from 0 to {height - 1})")
     check_article_materials(scene)
-    own = integrator_of(scene)
-    settings = own.settings()
-    with quiet_mitsuba():
-        integrator = own.with_settings(
-            max_depth=int(max_depth) if max_depth is not None else settings["max_depth"],
-            lighting=lighting or settings["lighting"],
-            min_weight=float(min_weight) if min_weight is not None else settings["min_weight"],
-            ambient=float(ambient) if ambient is not None else settings["ambient"])
+    integrator = whitted_integrator(
+        scene, max_depth=None if max_depth is None else int(max_depth), lighting=lighting,
+        ambient=None if ambient is None else float(ambient),
+        min_weight=None if min_weight is None else float(min_weight))
     from .record import Recorder
     recorder = Recorder()
     unique = list(dict.fromkeys(pixels))
@@ -284,8 +270,7 @@ def trace_pixels(scene, pixels, *, variant: str | None = None, max_depth: int | 
 
 
 def _coordinate(value, size: int) -> int:
-    """A pixel coordinate: an integer, or a percentage of ``size`` (``"45%"``; 100% is the last
-    pixel)."""
+    """A pixel coordinate: an integer, or a percentage of ``size`` (100% is the last pixel)."""
     if isinstance(value, str) and value.strip().endswith("%"):
         try:
             share = float(value.strip()[:-1]) / 100
@@ -306,8 +291,7 @@ def trace_pixel(scene, x: int, y: int, **options) -> PixelTree:
 
 
 def _to_file(root: Node, view: SceneView) -> None:
-    """Move a recorded tree from the loaded scene's frame to the file's, and name its spheres
-    and lights."""
+    """Move a recorded tree to the file's frame, and name its spheres and lights."""
     for node in root.walk():
         node.origin = view.position(node.origin)
         node.direction = tuple(float(c) for c in node.direction)

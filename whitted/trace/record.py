@@ -1,17 +1,10 @@
 """The renderer's own trees, recorded: what each level of a pixel's ray tree computed.
 
-The integrator traces a pixel's camera ray as a render does
-(:meth:`whitted.plugins.integrator.WhittedIntegrator.trace_pixels`): the same recursion and
-hit finders. :meth:`whitted.plugins.recursion.Recursion.step` shows each level it shades to
-a :class:`Recorder` (``Recursion.recorder``), and leaves that level's terms in
-``Recursion.record``: the hit, the facing normal, the material, each light's term and shadow
-ray, whether the refracted ray was totally reflected. The recorder reads them lane by lane
-(a wavefront in the JIT variants, one ray in the scalar ones) into :class:`~.nodes.Node`
-objects, and links each child to its parent by its ray: a child shaded at level L + 1 is
-the pending child of level L with the same origin, direction and weight, bit for bit.
-
-Everything here is in the frame of the loaded scene (Mitsuba's coordinates);
-:mod:`.pixel` moves the tree to the ``.scn`` file's coordinates and names its spheres.
+:meth:`whitted.plugins.recursion.Recursion.step` shows each level it shades to a
+:class:`Recorder` with its terms (``Recursion.record``); the recorder reads them lane by
+lane into :class:`~.nodes.Node` objects, a child linked to the pending child of its parent
+with the same origin, direction and weight, bit for bit. Coordinates are the loaded
+scene's; :mod:`.pixel` moves them to the file's.
 """
 
 from __future__ import annotations
@@ -46,14 +39,12 @@ def _lanes(value, n: int, vector: bool) -> np.ndarray:
 
 
 class Recorder:
-    """Collects the levels a tracer shades (see the module docstring) and makes them trees."""
+    """Collects the levels a tracer shades and makes them trees."""
 
     def __init__(self):
         self.levels: list[dict] = []
         self.weights: list[np.ndarray] = []   # each batch's camera ray weights (n, 3)
         self.recursion = None   # the render's recursion (whitted.plugins.recursion.Recursion)
-
-    # -- what the integrator calls -----------------------------------------------------------------
 
     def attach(self, recursion) -> None:
         """Be shown every level ``recursion`` shades, with its terms."""
@@ -110,8 +101,6 @@ class Recorder:
                             "batch": len(self.weights) - 1 if branch.level > 1 else len(self.weights)})
         if branch.level == 1:
             self.weights.append(_lanes(self._pending_weight, n, True))
-
-    # -- the trees ---------------------------------------------------------------------------------
 
     def trees(self) -> list[Node]:
         """The recorded trees, one per camera ray in the order traced (frame coordinates)."""
@@ -194,8 +183,6 @@ class Recorder:
                 value = light["value"][lane]
                 term.term = _t(base * value / np.pi if physical else base * (1 - ambient) * value)
             node.lights.append(term)
-
-    # -- the spheres that block shadow rays ---------------------------------------------------------
 
     def blockers(self, roots: list[Node]) -> None:
         """For each blocked shadow ray of the trees, where it meets its nearest blocker
