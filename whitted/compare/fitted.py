@@ -7,7 +7,7 @@ bounced between diffuse surfaces, sky light). The best ambient separates a
 first part in closed form (:func:`.curves.best_ambient`: the image is affine in
 A). With the whitted integrator's gradients the whole fit follows: every
 untextured material's color, the ambient and the lights' colors, by gradient
-descent (:func:`whitted.fitting.fit`: Adam, a fixed budget of steps, at low
+descent (:func:`whitted.fitting.fit`: Adam until the loss stops improving, at low
 resolution), starting from the best ambient, then scored at full resolution as
 the limit is (the exact tree at the limit's depth and samples per pixel). What
 remains is the model's own limit on the scene.

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import math
 
-from .analysis import TIMING, Analysis, equal_time_how, reach_text, speedup_text
+from .analysis import TIMING, Analysis, equal_time_how, reach_text, speedup_text, spread_text
 from .results import WHITTED_LIGHTING, WHITTED_METHODS, seconds_text
 from .timing import ratio_text
 from .verdict import verdict
@@ -24,29 +24,57 @@ def _table(rows: list[list[str]], indent: str = "  ") -> list[str]:
     return [indent + "   ".join(cell.ljust(w) for cell, w in zip(r, widths)).rstrip() for r in rows]
 
 
-def equal_quality_lines(analysis: Analysis) -> list[str]:
+def number(value: float) -> str:
+    return f"{value:.3g}" if math.isfinite(value) else "—"
+
+
+def equal_quality_rows(analysis: Analysis) -> list[dict]:
+    """The equal-quality table's rows, as cells of text (summary.txt and the page)."""
     methods = analysis.table_methods
     whitted = [m for m in WHITTED_METHODS if m in methods]
-    header = (["rel_mse ≤"] + methods + ["fastest"]
-              + [f"{WHITTED_LIGHTING[m]} vs path" for m in whitted])
-    rows = [header]
-    for row in analysis.equal_quality:
-        rows.append([f"{row.level:g}"] + [reach_text(row.reach.get(m)) for m in methods]
-                    + [row.fastest_method or "none"] + [speedup_text(row, m) for m in whitted])
-    return _table(rows)
+    return [{"level": f"{row.level:g}",
+             "cells": [{"text": reach_text(row.reach.get(m)),
+                        "reached": m in row.reach and row.reach[m].fastest is not None}
+                       for m in methods],
+             "fastest": row.fastest_method or "none",
+             "speedups": [speedup_text(row, m) for m in whitted]}
+            for row in analysis.equal_quality]
 
 
-def equal_time_lines(analysis: Analysis) -> list[str]:
-    rows = [["method", "setting", "time", "rel_mse", "path rel_mse then", "ratio", "flip",
-             "path flip then", "path read"]]
+def equal_time_rows(analysis: Analysis) -> list[dict]:
+    """The equal-time table's rows, as cells of text (summary.txt and the page); ``winner``:
+    the more accurate method, "" where the interval holds 1 or nothing was compared."""
+    rows = []
     for row in analysis.equal_time:
         m = row.whitted
         compared = row.rel_mse is not None and row.outside is None
-        rows.append([m.setting.method, m.setting.label, seconds_text(m.seconds), f"{m.rel_mse:.3g}",
-                     f"{row.rel_mse.value:.3g}" if compared else "—",
-                     ratio_text(row.interval) if math.isfinite(row.ratio) else "—", f"{m.flip:.3g}",
-                     f"{row.flip.value:.3g}" if compared and row.flip else "—", equal_time_how(row)])
-    return _table(rows)
+        winner = "" if row.interval is not None and row.interval.straddles_one else \
+            "whitted" if row.ratio < 1 else "path"
+        rows.append({
+            "method": m.setting.method, "label": m.setting.label,
+            "seconds": seconds_text(m.seconds), "time": spread_text(m), "rel_mse": number(m.rel_mse),
+            "path_rel_mse": number(row.rel_mse.value) if compared else "—",
+            "ratio": ratio_text(row.interval) if math.isfinite(row.ratio) else "—",
+            "winner": winner if math.isfinite(row.ratio) else "", "flip": number(m.flip),
+            "path_flip": number(row.flip.value) if compared and row.flip else "—",
+            "how": equal_time_how(row), "outside": row.outside is not None})
+    return rows
+
+
+def equal_quality_lines(analysis: Analysis) -> list[str]:
+    whitted = [m for m in WHITTED_METHODS if m in analysis.table_methods]
+    header = (["rel_mse ≤"] + analysis.table_methods + ["fastest"]
+              + [f"{WHITTED_LIGHTING[m]} vs path" for m in whitted])
+    return _table([header] + [[r["level"], *(c["text"] for c in r["cells"]), r["fastest"],
+                               *r["speedups"]] for r in equal_quality_rows(analysis)])
+
+
+def equal_time_lines(analysis: Analysis) -> list[str]:
+    columns = ["method", "label", "seconds", "rel_mse", "path_rel_mse", "ratio", "flip", "path_flip",
+               "how"]
+    return _table([["method", "setting", "time", "rel_mse", "path rel_mse then", "ratio", "flip",
+                    "path flip then", "path read"]]
+                  + [[r[c] for c in columns] for r in equal_time_rows(analysis)])
 
 
 def interruption_text(done: int, planned: int) -> str:
