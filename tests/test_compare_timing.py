@@ -315,10 +315,10 @@ def test_the_memory_cache_is_handed_back_above_the_bound(monkeypatch):
     flushes = []
     monkeypatch.setattr(dr, "flush_malloc_cache", lambda: flushes.append(1))
     _FakeRenders(lambda setting, call: 0.1, monkeypatch)
-    monkeypatch.setattr(sweep_module.memory, "resident_bytes", lambda: COMPARE_KEPT_MEMORY // 2)
+    monkeypatch.setattr(sweep_module.rendering, "resident_bytes", lambda: COMPARE_KEPT_MEMORY // 2)
     time_rounds(None, _sweep_entry(), 3)
     assert not flushes
-    monkeypatch.setattr(sweep_module.memory, "resident_bytes", lambda: COMPARE_KEPT_MEMORY + 1)
+    monkeypatch.setattr(sweep_module.rendering, "resident_bytes", lambda: COMPARE_KEPT_MEMORY + 1)
     entry = _sweep_entry()
     time_rounds(None, entry, 3)
     assert len(flushes) == sum(m.rounds for m in entry.measurements)   # once per setting and round

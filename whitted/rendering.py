@@ -144,7 +144,7 @@ def check_settings(spp, max_depth, lighting, integrator, min_weight=None, withou
                                "integrator only; the path tracer ends paths by Russian roulette")
 
 
-class _Clock:
+class Clock:
     """Wall time, CPU time and kernel compilation time of a block of work; with
     ``fresh_memory``, its own peak memory, from a freshly emptied allocator cache (without,
     the process's peak so far: a timed render skips the flush and the reset)."""
@@ -258,7 +258,7 @@ def render_checked(scene, integrator: str = D.INTEGRATOR, spp: int | None = None
                                         min_weight=min_weight, ambient=ambient,
                                         without=settings["without"] if without is None
                                         else D.check_without(without, "without"))
-        with progress_bar(progress, width * height * spp, "render") as bar, _Clock(fresh_memory) as clock:
+        with progress_bar(progress, width * height * spp, "render") as bar, Clock(fresh_memory) as clock:
             rendering = whitted.render_detailed(scene, sensor, seed=seed, spp=spp, progress=bar.update,
                                                tables=tables)
             # The developed image's own memory, not a copy (a 16384² image is 3 GiB).
@@ -270,7 +270,7 @@ def render_checked(scene, integrator: str = D.INTEGRATOR, spp: int | None = None
                     "error_bound": rendering.error_bound}
     else:
         path = _path_integrator(scene, max_depth, depth)
-        with progress_bar(progress, width * height * spp, "path tracing") as bar, _Clock(fresh_memory) as clock:
+        with progress_bar(progress, width * height * spp, "path tracing") as bar, Clock(fresh_memory) as clock:
             image = _render_path(scene, path, sensor, spp, seed, bar.update)
         # Mitsuba's path tracer counts nothing: only what the caller knows is reported.
         stats_rays, effects = {"camera": width * height * spp}, _effects_or_none(scene, depth)

@@ -74,7 +74,8 @@ def render_limit(loaded, entry: SceneResult, method: str, measured: list[tuple[M
     densest = max(m.setting.spp for m, _ in measured)
     ambient = (float(rendering.whitted_settings(loaded)["ambient"]) if lighting == "article"
                else math.nan)
-    per_spp = min(m.seconds / m.setting.spp for m, _ in measured if m.setting.max_depth == depth)
+    per_spp = min(m.render_seconds / m.setting.spp for m, _ in measured
+                  if m.setting.max_depth == depth)
     spp = max(1, COMPARE_LIMIT_SPP_FACTOR * densest // 2)  # per half
     renders = 2 if lighting == "article" else 1            # A = 0 and A = 1, or one
     seconds, limit = 0.0, None

@@ -94,8 +94,8 @@ class Measurement:
     =================== ===============================================================
     ``setting``         what was rendered
     ``seconds``         its render time, compilation excluded: the median of its timed
-                        rounds (:mod:`~whitted.compare.timing`), or its scored render's
-                        time until it has rounds
+                        rounds on the timing clock (:mod:`~whitted.compare.timing`), or
+                        :attr:`render_seconds` where the scene got no round
     ``compile_seconds`` kernel compilation (its scored render's: the first)
     ``rel_mse``         relative MSE against the reference (:mod:`whitted.metrics`)
     ``flip``            LDR-FLIP against the reference
@@ -111,6 +111,8 @@ class Measurement:
     ``error_map``       FLIP's per-pixel error against the reference, colored (PNG)
     ``rel_mse_limit``   relative MSE against the method's limit (:class:`Limit`): what
                         the render's depth and spp cost (NaN: no limit, or the path tracer)
+    ``render_seconds``  its scored render's wall time on all threads, compilation
+                        excluded: what the time of other renders is predicted from
     =================== ===============================================================
     """
     setting: Setting
@@ -125,6 +127,7 @@ class Measurement:
     image_png: str | None = None
     error_map: str | None = None
     rel_mse_limit: float = math.nan
+    render_seconds: float = math.nan
 
     @property
     def rounds(self) -> int:

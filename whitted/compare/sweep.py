@@ -52,7 +52,7 @@ from .reference import Chunk, ReferenceCache, ReferencePlan, reference_image
 from .results import Measurement, Options, SceneResult, Setting
 from .scenes import SceneFile
 from .sheet import thumbnail
-from .timing import median
+from .timing import interleaved, median
 
 #: The seed of every render of the sweep (the reference has its own).
 SWEEP_SEED = 0
@@ -121,7 +121,8 @@ def measure(loaded, setting: Setting, reference: np.ndarray,
              if out is not None else {})
     return Measurement(setting, float(result.seconds), float(result.compile_seconds),
                        metrics.relative_mse(image, reference), flip, _work(setting, result),
-                       thumbnail(image, exposure=exposure, view=view), **files)
+                       thumbnail(image, exposure=exposure, view=view), **files,
+                       render_seconds=float(result.seconds))
 
 
 def time_rounds(loaded, entry: SceneResult, rounds: int, deadline: float = math.inf,
@@ -177,7 +178,7 @@ def _rounds(loaded, entry: SceneResult, measured: list[Measurement], rounds: int
             break
         if progress is not None:
             progress.set_postfix_str(f"{entry.name}: timing, round {k + 1}", refresh=True)
-        for m in (measured if k % 2 == 0 else reversed(measured)):
+        for m in interleaved(measured, k):
             times[id(m)].append(_time_in_a_round(loaded, m.setting))
             _bound_memory()
         for m in measured:
@@ -286,7 +287,7 @@ def sweep_scene(scene: SceneFile, entry: SceneResult, settings: list[Setting], o
             measurement = measure(loaded, setting, reference, out, entry.folder, entry.exposure,
                                   entry.view)
             entry.measurements.append(measurement)
-            done.append((setting, measurement.seconds, time.monotonic() - start))
+            done.append((setting, measurement.render_seconds, time.monotonic() - start))
         if progress is not None:
             progress.update(1)
     time_rounds(loaded, entry, options.rounds, deadline, progress)

@@ -35,6 +35,12 @@ from typing import Callable
 from ..defaults import COMPARE_CONFIDENCE, COMPARE_SETTLED_WIDTH
 
 
+def interleaved(items: list, k: int):
+    """The order of round ``k``: forward, then backward, so that a drift within a round falls
+    on both ends alike."""
+    return items if k % 2 == 0 else reversed(items)
+
+
 def median(values) -> float:
     """The median of the finite ``values`` (NaN: none)."""
     finite = [v for v in values if math.isfinite(v)]
