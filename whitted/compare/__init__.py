@@ -31,13 +31,13 @@ The modules, in the order the work flows (each imports only those above it;
 ``csvfile``     results.csv: one row per render
 ``plot``        error_vs_time.png, its label placement, and each method's colour
 ``sheet``       contact_sheet.png, and the thumbnails it is made of
-``verdict``     the verdict in plain words that opens the page and the summary
-``summary``     summary.txt and findings.json: the conclusions in words and as JSON
-``page``        report.html, from its Jinja2 template (``templates/``)
+``summary``     the words: each scene's verdict and tables' rows, summary.txt (its Jinja2
+                template, ``templates/``) and findings.json
+``page``        report.html, from its Jinja2 template, with the summary's words
 ``report``      every output written in one go (:func:`write_all`)
 ``sweep``       one scene's work: reference, renders, scores (plain data in/out)
 ``cluster``     ``--workers``/``--scheduler``: the scenes' sweeps and the reference's
-                chunks as tasks on a Dask cluster (docs/cluster.md)
+                chunks as tasks on a Dask cluster (:mod:`whitted.cluster`, docs/cluster.md)
 ``run``         the whole run: read, plan, sweep every scene, write the outputs
 ``cli``         the ``compare`` subcommand's options and printed summary
 =============== ==================================================================

@@ -56,7 +56,7 @@ TIMING = ("the median of timed rounds in which every render of a scene is timed 
           f"{COMPARE_ROUNDS}, its extremes: {coverage(COMPARE_ROUNDS):.0%})")
 
 
-def _capital(text: str) -> str:
+def capital(text: str) -> str:
     return text[0].upper() + text[1:]
 
 
@@ -391,10 +391,10 @@ def floor_text(method: str, floor: Floor[Measurement], path: Reading | None,
     render = floor.render
     cheapest = (f"{render.setting.label} ({seconds_text(render.seconds)}) at {floor.error:.3g}")
     if floor.settled:
-        text = (f"{_capital(name)} stops improving at {floor.best:.3g} (relative MSE, its best): "
+        text = (f"{capital(name)} stops improving at {floor.best:.3g} (relative MSE, its best): "
                 f"its cheapest render within {tolerance:.0%} of that is {cheapest}")
     else:
-        text = (f"{_capital(name)} is still improving at its costliest render, {cheapest} "
+        text = (f"{capital(name)} is still improving at its costliest render, {cheapest} "
                 f"(relative MSE): no costlier render shows where it stops")
     if path is None and path_best is None:
         return text + "; the path tracer was not rendered." + _noise_caution(floor, reference_noise)

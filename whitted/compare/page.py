@@ -27,23 +27,13 @@ from .analysis import METHOD_NAMES, TIMING, Analysis, spread_text
 from .curves import pareto_front
 from .errormaps import colorbar
 from .plot import COLORS
-from .verdict import verdict
-from .results import METHODS, WHITTED_LIGHTING, WHITTED_METHODS, Measurement, SceneResult, seconds_text
-from .summary import equal_quality_rows, equal_time_rows, number
+from .results import METHODS, Measurement, SceneResult, seconds_text
+from .summary import environment, number, scene_words
 
 PAGE_NAME = "report.html"
 TEMPLATE = "report.html.j2"
 #: The viewer enlarges small images by a whole factor (pixels stay square) to at least this width.
 VIEWER_WIDTH = 640
-
-
-def _environment():
-    import jinja2
-
-    return jinja2.Environment(loader=jinja2.PackageLoader("whitted.compare", "templates"),
-                              autoescape=jinja2.select_autoescape(["html", "j2"]),
-                              undefined=jinja2.StrictUndefined, trim_blocks=True,
-                              lstrip_blocks=True)
 
 
 def _slug(name: str) -> str:
@@ -89,10 +79,9 @@ def scene_context(analysis: Analysis, plot: str, out: Path) -> dict:
     floor_render = analysis.floors[0].render if analysis.floors else None
     first = next((r for r, m in zip(renders, measurements) if m is floor_render),
                  renders[0] if renders else None)
-    methods = analysis.table_methods
     reference_exr = (os.path.relpath(entry.reference_file, out) if entry.reference_file else None)
     return {
-        "key": key, "name": entry.name, "width": entry.width, "height": entry.height,
+        **scene_words(analysis), "key": key,
         "display_width": entry.width * max(1, math.ceil(VIEWER_WIDTH / entry.width)),
         "variant": entry.variant, "path_depth": entry.path_depth,
         "reference": {"png": entry.reference_png, "exr": reference_exr, "spp": entry.reference_spp,
@@ -100,15 +89,8 @@ def scene_context(analysis: Analysis, plot: str, out: Path) -> dict:
                       "noise": number(entry.reference_noise),
                       "how": ("read from the cache" if entry.reference_cached
                               else f"rendered in {seconds_text(entry.reference_seconds)}")},
-        "notes": list(entry.notes), "floors": [f.text for f in analysis.floors],
-        "decompositions": [d.text for d in analysis.decompositions],
         "plot": plot, "groups": groups, "renders": renders, "first": first,
-        "cards": [r for r in renders if r["card"]],
-        "methods": methods,
-        "whitted": [WHITTED_LIGHTING[m] for m in WHITTED_METHODS if m in methods],
-        "equal_quality": equal_quality_rows(analysis), "equal_time": equal_time_rows(analysis),
-        "skipped": len(entry.skipped),
-        "verdict": verdict(analysis),
+        "cards": [r for r in renders if r["card"]], "skipped": len(entry.skipped),
         "view": view_text(entry.view, entry.exposure, entry.reference_clipped),
     }
 
@@ -121,7 +103,7 @@ def write_page(path: str | os.PathLike, analyses: list[Analysis], plots: dict[st
     relative to the page's folder; ``left_out`` are the scenes that got no reference
     (their notes say why); ``interrupted`` says at the top that the run was stopped."""
     path = Path(path)
-    template = _environment().get_template(TEMPLATE)
+    template = environment().get_template(TEMPLATE)
     text = template.render(
         scenes=[scene_context(a, plots[a.entry.name], path.parent) for a in analyses],
         left_out=[{"name": e.name, "notes": list(e.notes) or ["no reference"]} for e in left_out],
