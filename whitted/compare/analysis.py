@@ -1,30 +1,12 @@
 """What a scene's measurements say, as a rendering paper would put it: what accuracy
-costs (the floor, equal quality, equal time) and what the Whitted model's error is made of.
-
-* **The floor**: a ray tree leaves light out (the article's ambient term stands for
-  all the indirect light), so past some depth and spp a Whitted method stops improving.
-  Its floor is its cheapest render within ``COMPARE_FLOOR_TOLERANCE`` of its best
-  (:func:`~whitted.compare.curves.error_floor`), stated with the path tracer's time to
-  the same error: the headline a reader quotes.
-* **Equal quality**: for each error level, the cheapest setting of each method that
-  reaches it, and how many times faster the Whitted methods are than the path tracer
-  there. By default the levels come from the data (each method's floor, and levels
-  between the best and worst errors measured), so that each method reaches one.
-* **Equal time**: each Whitted setting beside the error the path tracer reaches in the
-  same time, read on its curve (:func:`~whitted.compare.curves.error_at_time`), only
-  where the path tracer was measured: a Whitted render faster than its fastest render
-  (or slower than its slowest) says so and is not compared.
-* **What the error is made of**: each Whitted method's *limit* (its deepest depth, every
-  ray of the tree, converged anti-aliasing: :class:`~whitted.compare.results.Limit`)
-  splits a render's error into what its depth and spp cost (its distance to the limit)
-  and the model's bias (the limit's distance to the reference); for the article's
-  lighting, the ambient that fits best tells how much of the bias its constant explains,
-  and the rest is light the model does not transport.
+costs (the floor, equal quality, equal time) and what the Whitted model's error is made
+of (its limit, its bias, the best ambient, the fit): docs/compare.md, "Equal time, equal
+quality, error floor" and "What the error is made of".
 
 Everything is computed from :class:`~whitted.compare.results.SceneResult` alone (plain
 data), in relative MSE, the measure whose trends are known (1/spp for an unbiased
-method); FLIP is given alongside at equal time. The reports (the text summary, the HTML
-page, ``findings.json``) read these; none computes anything of its own.
+method); FLIP is given alongside at equal time. The reports read these; none computes
+anything of its own.
 """
 
 from __future__ import annotations

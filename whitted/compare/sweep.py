@@ -1,31 +1,17 @@
 """One scene's share of the comparison: its reference, then each setting rendered,
-timed and scored.
+timed and scored, then each Whitted method's limit (:mod:`.limits`).
 
-This is the unit of work that can move to another process: :func:`sweep_scene`
-takes plain data (the :class:`~whitted.compare.scenes.SceneFile`, the settings,
-the :class:`~whitted.compare.results.Options` and a time share in seconds),
-loads its own ``mi.Scene`` when none is handed to it, reads and writes the
-reference cache by its folder, and returns a
-:class:`~whitted.compare.results.SceneResult` (images reduced to thumbnails). No
-Mitsuba object goes in or out unless the caller shares its process.
+This is the unit of work that can move to another process: :func:`sweep_scene` takes
+plain data, loads its own ``mi.Scene`` when none is handed to it, and returns a
+:class:`~whitted.compare.results.SceneResult` (images reduced to thumbnails).
 
-Each setting is rendered once and scored (the same seed gives the same image
-whenever it is rendered: :class:`whitted.plugins.recursion.Wavefronts`); then the scene's
-settings are timed together, in rounds (:mod:`.timing`: every setting once per
-round, so that what is compared is timed in the same moments of a busy machine).
-Kernel compilation is excluded (``result.seconds`` of the rendering API, and the
-scored render compiled every kernel before the rounds) and reported apart
-(``compile_seconds``). The relative MSE is measured on the linear images, FLIP on the
-images as displayed (:mod:`whitted.metrics`): every image of a scene is shown in one
-view, chosen from its reference (:func:`whitted.images.fitting_view`) unless ``--view``
-names one.
-
-After its renders, each Whitted method's limit is rendered (:mod:`.limits`) and every
-render of the method scored against it too.
-
-Every render is kept under the output folder (``renders/SCENE/``: its linear EXR,
-an sRGB PNG and FLIP's error map, :mod:`.errormaps`), written by whoever renders
-it: a worker process must share the output folder's file system.
+Each setting is rendered once and scored (the same seed gives the same image whenever it
+is rendered); then the scene's settings are timed together in rounds, compilation
+excluded (:mod:`.timing`; docs/compare.md, "Timing"). Relative MSE is measured on the
+linear images, FLIP on the images as displayed, every image of a scene in one view
+(:func:`whitted.images.fitting_view` of its reference unless ``--view`` names one). Every
+render is kept under ``renders/SCENE/`` (:mod:`.errormaps`), written by whoever renders
+it: a worker must share the output folder's file system.
 """
 
 from __future__ import annotations
