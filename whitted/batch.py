@@ -1,34 +1,21 @@
 """Rendering many scenes in one go: ``whitted render SCENE|FOLDER ... -o OUT/`` and
 :func:`render_scenes`.
 
-Why. Legacy ray tracers rendered collections and animations: a script wrote a scene
-file per frame and the renderer ran once per file. A ``whitted render`` process spends
-about a second importing Mitsuba, setting the variant and compiling (or finding) its
-kernels, for a small frame's tenth of a second of tracing; one process that renders
-every scene pays that once, and Dr.Jit's in-memory kernel cache serves every frame
-after the first.
+Why. A ``whitted render`` process spends about a second importing Mitsuba, setting the
+variant and compiling (or finding) its kernels, for a small frame's tenth of a second of
+tracing; one process that renders every scene of a collection or an animation pays that
+once, and Dr.Jit's in-memory kernel cache serves every frame after the first.
 
-Which scene writes which image is the converter's rule (:func:`whitted.converter.batch.plan`
-with the image's suffix, :func:`~whitted.converter.batch.prepare_folders`): ``X.scn``
-(or ``X.xml``) becomes ``OUT/X.png`` and/or ``OUT/X.exr``, a folder stands for its
-``.scn`` files (its ``.xml`` files when it has none), clashes are errors before any
-work, and the folder ``-o`` names is created.
+Which scene writes which image is the converter's rule (:func:`whitted.converter.batch.plan`):
+``X.scn`` (or ``X.xml``) becomes ``OUT/X.png`` and/or ``OUT/X.exr``, a folder stands for
+its scenes, clashes are errors before any work. A scene whose every image is newer than
+what it reads is skipped (so a stopped run goes on where it stopped); images are written
+atomically; a scene that cannot be rendered is reported and the others go on.
 
-Resuming. A scene whose every image is newer than the scene file and the files it
-reads (textures, meshes) is skipped (``force`` renders it again), so a run stopped by
-Ctrl-C goes on where it stopped. Images are written atomically: a stop leaves every
-finished frame and no partial file.
-
-Failures. A scene that cannot be rendered (a bad file: ``FILE:LINE: message``) is
-reported and the others go on; the caller counts the failures.
-
-Where. In this process, or spread over a Dask cluster (``workers`` / ``scheduler``,
-:mod:`whitted.cluster`, as ``whitted compare`` does). Only paths and
-settings travel: a worker loads, renders and writes the scene itself (the outputs'
-folder must be shared), and returns its statistics. A worker that dies has its
-scenes rendered by another (and the temporary file it was writing removed once every
-task has ended); an image depends on its scene and settings alone, so the images are
-those of a run in one process.
+Where. In this process, or on a Dask cluster (:mod:`whitted.cluster`, docs/cluster.md,
+"``whitted render`` of many scenes"): only paths and settings travel, a worker loads,
+renders and writes the scene itself (the outputs' folder must be shared), and the images
+are those of a run in one process.
 """
 
 from __future__ import annotations
@@ -43,14 +30,13 @@ from pathlib import Path
 from typing import Iterable, Iterator
 
 from . import defaults as D
+from .cluster import IN_PROCESS
 from .errors import WhittedError
 
 #: the scene files a render takes, and those a folder argument stands for (in that order)
 SCENE_SUFFIXES = (".scn", ".xml")
 #: the image formats of a render into a folder
 FORMATS = D.IMAGE_FORMATS
-#: what runs in the command's own process, in :attr:`SceneRender.worker`
-IN_PROCESS = "in-process"
 
 
 @dataclass(frozen=True)

@@ -29,6 +29,8 @@ from collections import Counter
 from .defaults import COMPARE_CONNECT_TIMEOUT
 from .errors import WhittedError
 
+#: Who rendered a task when no cluster did (a result's ``worker``).
+IN_PROCESS = "in-process"
 #: The fewest Dr.Jit threads a worker gets, even when its share of the cores is one:
 #: with a pool of one thread, Mitsuba 3.9's EXR reading and writing (``mi.Bitmap``,
 #: through OpenEXR's thread pool) never returns, and the reference cache is EXR.

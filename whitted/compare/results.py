@@ -16,6 +16,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from ..cluster import IN_PROCESS
 from ..defaults import (COMPARE_MAX_DEFAULT_DEPTH as MAX_DEFAULT_DEPTH,
                         COMPARE_PATH_SPP as DEFAULT_PATH_SPP,
                         COMPARE_REFERENCE_CHUNK_SPP as DEFAULT_REFERENCE_CHUNK_SPP,
@@ -41,8 +42,6 @@ WHITTED_LIGHTING = {method_of("whitted", lighting): lighting for lighting in LIG
 #: The Whitted integrator in its two lighting modes, then the path tracer.
 WHITTED_METHODS = tuple(WHITTED_LIGHTING)
 METHODS = WHITTED_METHODS + ("path",)
-#: Who rendered a scene's sweep when no cluster did (``SceneResult.worker``).
-IN_PROCESS = "in-process"
 
 __all__ = ["DEFAULT_PATH_SPP", "DEFAULT_REFERENCE_CHUNK_SPP", "DEFAULT_REFERENCE_SPP",
            "DEFAULT_ROUNDS", "DEFAULT_WHITTED_SPP", "IN_PROCESS", "MAX_DEFAULT_DEPTH", "MAX_DEPTH",

@@ -68,11 +68,8 @@ def _seconds(result) -> float:
 @contextlib.contextmanager
 def timing_threads():
     """Dr.Jit's LLVM backend on :data:`~whitted.defaults.COMPARE_TIMING_THREADS` threads
-    while rounds are timed, the process's own count restored after (even on Ctrl-C). On one
-    thread a render's CPU time is its work on one core: no thread of it waits at a kernel's
-    end for a sibling that another program pushed off its core (docs/compare.md,
-    "Timing"). A render's bits do not depend on the thread count. Yields how many times
-    slower a parallel render may be on them."""
+    while rounds are timed (docs/compare.md, "Timing"), the process's own count restored
+    after; yields how many times slower a parallel render may be on them."""
     import drjit as dr
     import mitsuba as mi
     if COMPARE_TIMING_THREADS is None or not mi.variant().startswith("llvm"):
@@ -113,16 +110,10 @@ def measure(loaded, setting: Setting, reference: np.ndarray,
 
 def time_rounds(loaded, entry: SceneResult, rounds: int, deadline: float = math.inf,
                 progress=None) -> None:
-    """Time every render of ``entry`` once per round, the rounds interleaved (forward, then
-    backward), ``rounds`` rounds; then extra rounds of the headlines' renders alone (each
-    Whitted method's floor render and the path renders its ratio is read between, back to
-    back), :data:`~whitted.defaults.COMPARE_HEADLINE_ROUNDS` of them and more while a
-    headline ratio is unsettled (:mod:`.timing`), up to
-    :data:`~whitted.defaults.COMPARE_MAX_ROUNDS` rounds in all and
-    :data:`~whitted.defaults.COMPARE_ROUNDS_SECONDS` of extra rounds (a ratio is paired over
-    the rounds that timed both its renders); never past ``deadline`` (a round predicted,
-    from the renders' times so far, to overrun either is not started). Each measurement's
-    ``times`` and ``seconds`` (their median) are set in place."""
+    """Time every render of ``entry`` once per round, ``rounds`` rounds, then extra rounds of
+    the headlines' renders alone while a headline ratio is unsettled (docs/compare.md,
+    "Timing"); never past ``deadline`` (a round predicted to overrun it is not started).
+    Each measurement's ``times`` and ``seconds`` (their median) are set in place."""
     measured = list(entry.measurements)
     if not measured:
         return
