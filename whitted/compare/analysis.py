@@ -19,7 +19,7 @@ from ..defaults import (COMPARE_CLOCK, COMPARE_CONFIDENCE, COMPARE_DATA_LEVELS, 
 from .fitted import fitted_text
 from .curves import Floor, Reading, error_at_time, error_floor, error_levels, time_to_reach
 from .results import METHODS, WHITTED_METHODS, Limit, Measurement, SceneResult, seconds_text
-from .timing import Interval, coverage, faster_text, paired, ratio_text
+from .timing import Interval, coverage, paired
 
 #: How the prose names each method.
 METHOD_NAMES = {"whitted-article": "the article's model",
@@ -40,6 +40,32 @@ TIMING = ("the median of timed rounds in which every render of a scene is timed 
 
 def capital(text: str) -> str:
     return text[0].upper() + text[1:]
+
+
+def faster_text(interval: Interval, name: str, other: str) -> str:
+    """Which of two methods is faster, in words, from the interval of ``other``'s time over
+    ``name``'s: "the article's model gets there 2.1× faster (1.9–2.4× over 9 rounds)", or
+    "no measurable difference ..." where the interval holds 1."""
+    if interval.straddles_one and interval.rounds >= 2:
+        return (f"no measurable difference in time between {name} and {other} "
+                f"({interval.value:.3g}×, {interval.range_text()})")
+    if interval.value < 1:
+        name, other = other, name
+        interval = Interval(1 / interval.value, 1 / interval.high, 1 / interval.low, interval.rounds)
+    flag = "" if interval.settled or interval.rounds < 2 else "; unsettled: the machine's load kept changing"
+    return f"{name} gets there {interval.value:.3g}× faster ({interval.range_text()}{flag})"
+
+
+def ratio_text(interval: Interval | None) -> str:
+    """A table cell: ``2.1× (1.9–2.4)``, ``≈ 1 (0.9–1.2)`` where the interval holds 1,
+    flagged ``?`` when unsettled; ``—`` when nothing was compared."""
+    if interval is None or not interval.known:
+        return "—"
+    if interval.rounds < 2:
+        return f"{interval.value:.3g}×"
+    flag = "" if interval.settled else " ?"
+    value = "≈ 1" if interval.straddles_one else f"{interval.value:.3g}×"
+    return f"{value} ({interval.low:.3g}–{interval.high:.3g}){flag}"
 
 
 @dataclass(frozen=True)

@@ -10,10 +10,9 @@ from __future__ import annotations
 
 import math
 
-from .analysis import (METHOD_NAMES, TIMING, Analysis, FloorStatement, capital, equal_time_how, reach_text,
-                       speedup_text, spread_text)
+from .analysis import (METHOD_NAMES, TIMING, Analysis, FloorStatement, capital, equal_time_how,
+                       ratio_text, reach_text, speedup_text, spread_text)
 from .results import WHITTED_LIGHTING, WHITTED_METHODS, seconds_text
-from .timing import ratio_text
 
 SUMMARY_NAME = "summary.txt"
 FINDINGS_NAME = "findings.json"
