@@ -29,7 +29,6 @@ import argparse
 import json
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parent.parent
@@ -39,16 +38,11 @@ def _measure(work) -> tuple[float, int, int]:
     """(seconds, Dr.Jit peak bytes, peak resident bytes) of ``work()``."""
     import drjit as dr
 
-    from whitted.rendering import peak_resident_bytes, reset_peak
-    dr.sync_thread()
-    dr.flush_malloc_cache()
-    dr.detail.malloc_clear_statistics()
-    reset_peak()
-    start = time.perf_counter()
-    work()
-    dr.sync_thread()
-    seconds = time.perf_counter() - start
-    return seconds, int(dr.detail.malloc_watermark(dr.JitBackend.LLVM)), peak_resident_bytes()
+    from whitted.rendering import Clock
+    with Clock() as clock:
+        work()
+        dr.sync_thread()
+    return clock.wall, clock.peak_memory, clock.peak_resident
 
 
 def main(argv=None) -> int:

@@ -1,15 +1,11 @@
 """Timing and memory for the benchmarks: medians of interleaved runs after warm-up.
 
-Each contender is a function that does one whole render (or kernel) and
-waits for it. All contenders of a comparison are warmed up first, so that
-every kernel they launch is compiled and in Dr.Jit's cache; a checked run
-with Dr.Jit's kernel history then confirms that no compilation is left in
-what is timed. The timed runs alternate between the contenders (in reverse
-order every other round) so that a drift of the machine's speed hits them
-alike, and the median of each is reported with its quartiles. A ratio of two
-contenders is the median of their per-round ratios: runs of one round are
-close in time, so a burst of load from another process on a shared machine
-scales both and leaves their ratio alone.
+Each contender is a function that does one whole render (or kernel) and waits for it.
+All are warmed up first, so that every kernel is compiled and cached; a checked run
+(the rendering's clock, :class:`whitted.rendering.Clock`) confirms that no compilation
+is left in what is timed. The timed runs are rounds as ``whitted compare``'s are
+(:mod:`whitted.compare.timing`: interleaved, a ratio the median of per-round ratios),
+and the median of each contender is reported with its quartiles.
 """
 
 from __future__ import annotations
@@ -23,6 +19,9 @@ from typing import Callable
 
 import drjit as dr
 import mitsuba as mi
+
+from whitted.compare.timing import interleaved, median
+from whitted.rendering import Clock
 
 
 #: an interquartile range above this fraction of the median (and above the jitter of a
@@ -48,7 +47,7 @@ class Timing:
 
     def over(self, other: "Timing") -> float:
         """This contender's time over ``other``'s: the median of their per-round ratios."""
-        return statistics.median(a / b for a, b in zip(self.times, other.times))
+        return median(a / b for a, b in zip(self.times, other.times))
 
 
 def _wait():
@@ -58,14 +57,10 @@ def _wait():
 
 def compile_seconds(run: Callable[[], object]) -> float:
     """Seconds the JIT backend spent compiling kernels during ``run()``."""
-    if not dr.is_jit_v(mi.Float):
-        return 0.0
-    with dr.scoped_set_flag(dr.JitFlag.KernelHistory, True):
-        _wait()
-        dr.kernel_history_clear()
+    with Clock(fresh_memory=False) as clock:
         run()
         _wait()
-        return sum(k.get("backend_time", 0.0) for k in dr.kernel_history()) / 1000.0
+    return clock.compile
 
 
 def measure(contenders: dict[str, Callable[[], object]], rounds: int, warmup: int = 2,
@@ -93,7 +88,7 @@ def measure(contenders: dict[str, Callable[[], object]], rounds: int, warmup: in
     gc.disable()
     try:
         for r in range(rounds):
-            for name in (names if r % 2 == 0 else reversed(names)):
+            for name in interleaved(names, r):
                 _wait()
                 start = time.perf_counter()
                 contenders[name]()
@@ -115,13 +110,6 @@ def cpu_seconds(run: Callable[[], object]) -> float:
     return time.process_time() - start
 
 
-def timed(make: Callable[[], object]) -> tuple[object, float, float]:
-    """``make()``'s result, wall seconds and CPU seconds."""
-    wall, cpu = time.perf_counter(), time.process_time()
-    result = make()
-    return result, time.perf_counter() - wall, time.process_time() - cpu
-
-
 def peak_memory(run: Callable[[], object]) -> int:
     """Dr.Jit's high-water mark of allocated bytes during ``run()`` (JIT variants; 0 in scalar).
 
@@ -130,9 +118,7 @@ def peak_memory(run: Callable[[], object]) -> int:
     """
     if not dr.is_jit_v(mi.Float):
         return 0
-    _wait()
-    dr.flush_malloc_cache()
-    dr.detail.malloc_clear_statistics()
-    run()
-    _wait()
-    return int(dr.detail.malloc_watermark(dr.backend_v(mi.Float)))
+    with Clock() as clock:
+        run()
+        _wait()
+    return clock.peak_memory

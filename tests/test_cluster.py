@@ -214,7 +214,7 @@ def test_a_budgeted_reference_is_the_same_in_process_and_in_chunks(llvm, write_s
 
 
 def test_threads_are_the_host_cores_shared_among_its_workers():
-    from whitted.compare.cluster import MIN_THREADS, worker_threads
+    from whitted.cluster import MIN_THREADS, worker_threads
     cores = {"tcp://10.0.0.1:1": 32, "tcp://10.0.0.1:2": 32, "tcp://10.0.0.1:3": 32,
              "tcp://10.0.0.2:1": 8, "tcp://10.0.0.3:7": 2, "tcp://10.0.0.3:8": 2}
     assert worker_threads(cores) == {"10.0.0.1": 10, "10.0.0.2": 8, "10.0.0.3": MIN_THREADS}
@@ -396,7 +396,7 @@ def test_ctrl_c_stops_the_local_cluster_in_one_line(attempt, scenes, tmp_path, b
 
 
 def test_unreachable_scheduler_is_one_line_before_any_work(scenes, tmp_path, capsys, monkeypatch):
-    import whitted.compare.cluster as cluster
+    import whitted.cluster as cluster
     monkeypatch.setattr(cluster, "COMPARE_CONNECT_TIMEOUT", 0.5)
     for address, message in [(f"tcp://127.0.0.1:{free_port()}", "cannot reach the Dask scheduler"),
                              ("127.0.0.1", "not a Dask scheduler address")]:

@@ -18,7 +18,8 @@ import whitted.compare as cmp
 from whitted.compare.analysis import analyse
 from whitted.compare.results import Measurement, SceneResult, Setting
 from whitted.compare.summary import findings, summary
-from whitted.compare.timing import Interval, _order_rank, faster_text, ratio_text
+from whitted.compare.analysis import faster_text, ratio_text
+from whitted.compare.timing import Interval, _order_rank
 from whitted.defaults import COMPARE_MAX_ROUNDS, COMPARE_SETTLED_WIDTH
 
 

@@ -1,36 +1,21 @@
 """Rendering many scenes in one go: ``whitted render SCENE|FOLDER ... -o OUT/`` and
 :func:`render_scenes`.
 
-Why. Legacy ray tracers rendered collections and animations: a script wrote a scene
-file per frame and the renderer ran once per file. A ``whitted render`` process spends
-about a second importing Mitsuba, setting the variant and compiling (or finding) its
-kernels, for a small frame's tenth of a second of tracing; one process that renders
-every scene pays that once, and Dr.Jit's in-memory kernel cache serves every frame
-after the first.
+Why. A ``whitted render`` process spends about a second importing Mitsuba, setting the
+variant and compiling (or finding) its kernels, for a small frame's tenth of a second of
+tracing; one process that renders every scene of a collection or an animation pays that
+once, and Dr.Jit's in-memory kernel cache serves every frame after the first.
 
-Which scene writes which image is the converter's rule (:func:`whitted.converter.batch.plan`
-with the image's suffix, :func:`~whitted.converter.batch.prepare_folders`): ``X.scn``
-(or ``X.xml``) becomes ``OUT/X.png`` and/or ``OUT/X.exr``, a folder stands for its
-``.scn`` files (its ``.xml`` files when it has none), clashes are errors before any
-work, and the folder ``-o`` names is created.
+Which scene writes which image is the converter's rule (:func:`whitted.converter.batch.plan`):
+``X.scn`` (or ``X.xml``) becomes ``OUT/X.png`` and/or ``OUT/X.exr``, a folder stands for
+its scenes, clashes are errors before any work. A scene whose every image is newer than
+what it reads is skipped (so a stopped run goes on where it stopped); images are written
+atomically; a scene that cannot be rendered is reported and the others go on.
 
-Resuming. A scene whose every image is newer than the scene file and the files it
-reads (textures, meshes) is skipped (``force`` renders it again), so a run stopped by
-Ctrl-C goes on where it stopped. Images are written atomically: a stop leaves every
-finished frame and no partial file.
-
-Failures. A scene that cannot be rendered (a bad file: ``FILE:LINE: message``) is
-reported and the others go on; the caller counts the failures.
-
-Where. In this process, or spread over a Dask cluster (``workers`` / ``scheduler``),
-with the machinery of ``whitted compare``'s cluster (:mod:`whitted.compare.cluster`:
-servers on 127.0.0.1 only and stopped, each worker prepared once with its share of
-the cores, one render at a time, a stop ends the renders under way). Only paths and
-settings travel: a worker loads, renders and writes the scene itself (the outputs'
-folder must be shared), and returns its statistics. A worker that dies has its
-scenes rendered by another (and the temporary file it was writing removed once every
-task has ended); an image depends on its scene and settings alone, so the images are
-those of a run in one process.
+Where. In this process, or on a Dask cluster (:mod:`whitted.cluster`, docs/cluster.md,
+"``whitted render`` of many scenes"): only paths and settings travel, a worker loads,
+renders and writes the scene itself (the outputs' folder must be shared), and the images
+are those of a run in one process.
 """
 
 from __future__ import annotations
@@ -45,14 +30,13 @@ from pathlib import Path
 from typing import Iterable, Iterator
 
 from . import defaults as D
+from .cluster import IN_PROCESS
 from .errors import WhittedError
 
 #: the scene files a render takes, and those a folder argument stands for (in that order)
 SCENE_SUFFIXES = (".scn", ".xml")
 #: the image formats of a render into a folder
 FORMATS = D.IMAGE_FORMATS
-#: what runs in the command's own process, in :attr:`SceneRender.worker`
-IN_PROCESS = "in-process"
 
 
 @dataclass(frozen=True)
@@ -310,20 +294,12 @@ def render_planned(todo: list[tuple[Path, tuple[Path, ...]]], settings: Settings
 def render_task(scene: str, outputs: tuple[str, ...], settings: Settings, keep_image: bool,
                 threads: dict[str, int]) -> SceneRender:
     """On a Dask worker: one scene (:func:`render_one`), the worker prepared once for the
-    variant and its share of the cores (:func:`whitted.compare.cluster._prepare`)."""
-    from .compare.cluster import _prepare, _rendering
-    with _rendering():
-        worker = _prepare(settings.variant, threads)
+    variant and its share of the cores (:func:`whitted.cluster.worker_task`)."""
+    from .cluster import worker_task
+    with worker_task(settings.variant, threads) as worker:
         item = render_one(Path(scene), tuple(map(Path, outputs)), settings, keep_image)
         item.worker = worker
         return item
-
-
-@dataclass
-class _Where:
-    """The two fields of compare's ``Options`` that :func:`whitted.compare.cluster.connect` reads."""
-    workers: int | None = None
-    scheduler: str | None = None
 
 
 def _on_cluster(todo, settings: Settings, keep: bool, workers: int | None,
@@ -332,19 +308,15 @@ def _on_cluster(todo, settings: Settings, keep: bool, workers: int | None,
     import uuid
     from dataclasses import replace
 
-    from .compare.cluster import _result, available_cores, cancel, connect, worker_threads
+    from .cluster import available_cores, cancel, check_where, connect, task_result, worker_threads
     from .variant import default_variant
 
-    if workers is not None and scheduler is not None:
-        raise WhittedError("--workers starts a local cluster, --scheduler uses a running one: "
-                           "give one of them")
-    if workers is not None and workers < 1:
-        raise WhittedError(f"--workers must be >= 1, got {workers}")
+    check_where(workers, scheduler)
     if not todo:
         return
     # The workers may start elsewhere: paths absolute, the variant decided here.
     settings = replace(settings, variant=settings.variant or default_variant())
-    with connect(_Where(workers, scheduler)) as client:
+    with connect(workers, scheduler) as client:
         from distributed import as_completed
         threads = worker_threads(client.run(available_cores))
         run = uuid.uuid4().hex[:8]
@@ -359,7 +331,7 @@ def _on_cluster(todo, settings: Settings, keep: bool, workers: int | None,
             for future in as_completed(list(tasks), loop=client.loop):
                 scene, outputs = tasks.pop(future)
                 try:
-                    item = _result(future, str(scene))
+                    item = task_result(future, str(scene))
                 except WhittedError as error:   # every worker that tried it died
                     item = SceneRender(scene, outputs, "failed", str(error))
                 else:

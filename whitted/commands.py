@@ -116,6 +116,7 @@ def render_many_command(args) -> int:
     from . import interrupt
     from .atomic import check_writable, write_text
     from .batch import IN_PROCESS, Settings, Tally, plan_batch, render_planned, report_failure
+    from .cluster import check_where
     from .defaults import check_without
     from .progress import progress_bar
 
@@ -125,8 +126,7 @@ def render_many_command(args) -> int:
                         variant=args.variant, exposure=getattr(args, "exposure", 0.0),
                         view=getattr(args, "view", None))
     settings.check()
-    if args.workers is not None and args.workers < 1:
-        raise WhittedError(f"--workers must be >= 1, got {args.workers}")
+    check_where(args.workers, args.scheduler)
     if args.video:
         from .video import check_fps, check_video_path
         check_video_path(args.video)

@@ -325,8 +325,12 @@ STALE_SECONDS = 600.0
 
 # --------------------------------------------------------------------------- fitting (whitted fit)
 
-#: gradient descent steps of a fit (``whitted fit``, compare's "the article's model fitted")
+#: the most gradient descent steps of a fit (``whitted fit``, compare's "the article's model fitted")
 FIT_ITERATIONS = 150
+#: a fit stops early when its best loss improved by less than FIT_MIN_GAIN (a fraction) over
+#: its last FIT_PATIENCE steps and its loss is within FIT_MIN_GAIN of that best
+FIT_PATIENCE = 10
+FIT_MIN_GAIN = 0.005
 #: the widest image a fit renders (the target is box-filtered down to it)
 FIT_WIDTH = 80
 #: the most samples per pixel compare's fit renders with (as many as the limit has, up to this)

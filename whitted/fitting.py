@@ -8,8 +8,9 @@ transport. Fitting the numbers separates them: what remains after the fit is
 the model's own limit. The Whitted integrator's gradients
 (:mod:`whitted.plugins.gradients`) make the fit a plain gradient descent:
 Mitsuba's ``mi.ad.Adam`` on the relative MSE (:func:`whitted.metrics.relative_mse`,
-the error ``compare`` reports) of a low-resolution render, a fixed budget of
-steps with a learning rate falling geometrically. Colors are kept in [0, 1], the
+the error ``compare`` reports) of a low-resolution render, with a learning rate
+falling geometrically over at most ``iterations`` steps, stopped early once the loss
+stops improving (``FIT_PATIENCE``, ``FIT_MIN_GAIN``). Colors are kept in [0, 1], the
 ambient in [0, 1] and light colors >= 0 (the format's ranges). What the fit
 leaves alone: reflection and refraction weights, textures, geometry, the background.
 
@@ -90,15 +91,18 @@ def _light_scale(model, light) -> float:
 
 def fit(scene, target, *, free=FREE, iterations: int = D.FIT_ITERATIONS, width: int = D.FIT_WIDTH,
         rate=D.FIT_RATE, spp: int | None = None, progress: bool = False, on_step=None,
-        target_name: str = "the target") -> FitResult:
+        target_name: str = "the target", min_gain: float = D.FIT_MIN_GAIN) -> FitResult:
     """Fit the article's model of ``scene`` (a ``.scn`` path or a ``whitted.converter.Scene``)
     to ``target`` (an EXR/PNG path or a linear (H, W, 3) array) by gradient descent.
 
-    ``free``: which of ``"ambient"``, ``"colors"``, ``"lights"`` move. ``iterations`` Adam
-    steps at a resolution at most ``width`` wide, the learning rate falling from ``rate[0]``
-    to ``rate[1]``; ``spp``: samples per pixel of the fit's renders (default: the scene's; more
-    match an anti-aliased target better; the same samples at every step); ``progress`` shows a tqdm bar with the loss; ``on_step(k, loss)`` is called
-    after each step. Runs in ``llvm_ad_rgb`` (or the current AD variant)."""
+    ``free``: which of ``"ambient"``, ``"colors"``, ``"lights"`` move. At most ``iterations``
+    Adam steps (fewer once the best loss improved by less than ``min_gain`` over the last
+    ``FIT_PATIENCE`` steps and the loss is back at it; 0: never) at a resolution at most ``width`` wide,
+    the learning rate falling from ``rate[0]`` to ``rate[1]``; ``spp``: samples per pixel of
+    the fit's renders (default: the scene's; more match an anti-aliased target better; the
+    same samples at every step); ``progress`` shows a tqdm bar with the loss;
+    ``on_step(k, loss)`` is called after each step. Runs in ``llvm_ad_rgb`` (or the current
+    AD variant)."""
     import drjit as dr
     import mitsuba as mi
 
@@ -191,6 +195,10 @@ def fit(scene, target, *, free=FREE, iterations: int = D.FIT_ITERATIONS, width: 
             bar.update(1)
             if on_step is not None:
                 on_step(k, losses[-1])
+            # settled: the best loss no better than FIT_PATIENCE steps ago, and this one at it
+            best, before = min(losses), min(losses[:-D.FIT_PATIENCE], default=math.inf)
+            if best > (1 - min_gain) * before and losses[-1] <= (1 + min_gain) * best:
+                break
     finally:
         bar.close()
 

@@ -97,9 +97,10 @@ def check_settings(spp, max_depth, lighting, integrator, min_weight=None, withou
                                "integrator only; the path tracer ends paths by Russian roulette")
 
 
-class _Clock:
-    """Wall, CPU and kernel compilation time of a block of work, and its peak memory (from
-    an emptied allocator cache with ``fresh_memory``, else the process's so far)."""
+class Clock:
+    """Wall time, CPU time and kernel compilation time of a block of work; with
+    ``fresh_memory``, its own peak memory, from a freshly emptied allocator cache (without,
+    the process's peak so far: a timed render skips the flush and the reset)."""
 
     def __init__(self, fresh_memory: bool = True):
         self.fresh_memory = fresh_memory
@@ -153,7 +154,7 @@ def render(scene, integrator: str = D.INTEGRATOR, spp: int | None = None, max_de
            min_weight: float | None = None, ambient: float | None = None, *,
            without=None, fresh_memory: bool = True) -> RenderResult:
     """Render ``scene`` (a ``mi.Scene``; docs/CONTRACTS.md), settings left None as the scene's;
-    ``fresh_memory``: measure this render's own peak memory (:class:`_Clock`)."""
+    ``fresh_memory``: measure this render's own peak memory (:class:`Clock`)."""
     check_settings(spp, max_depth, lighting, integrator, min_weight, without)
     return render_checked(scene, integrator, spp, max_depth, lighting, progress, seed, min_weight, ambient,
                           without=without, fresh_memory=fresh_memory)
@@ -185,7 +186,7 @@ def render_checked(scene, integrator: str = D.INTEGRATOR, spp: int | None = None
             min_weight=None if min_weight is None else float(min_weight),
             ambient=None if ambient is None else D.check_ambient(ambient, "ambient"),
             without=None if without is None else D.check_without(without, "without"))
-        with progress_bar(progress, width * height * spp, "render") as bar, _Clock(fresh_memory) as clock:
+        with progress_bar(progress, width * height * spp, "render") as bar, Clock(fresh_memory) as clock:
             rendering = whitted.render_detailed(scene, sensor, seed=seed, spp=spp, progress=bar.update,
                                                tables=tables)
             # The developed image's own memory, not a copy (a 16384² image is 3 GiB).
@@ -198,7 +199,7 @@ def render_checked(scene, integrator: str = D.INTEGRATOR, spp: int | None = None
                     "error_bound": rendering.error_bound}
     else:
         path = _path_integrator(scene, max_depth, depth)
-        with progress_bar(progress, width * height * spp, "path tracing") as bar, _Clock(fresh_memory) as clock:
+        with progress_bar(progress, width * height * spp, "path tracing") as bar, Clock(fresh_memory) as clock:
             image = _render_path(scene, path, sensor, spp, seed, bar.update)
         # Mitsuba's path tracer counts nothing: only what the caller knows is reported.
         stats_rays, effects = {"camera": width * height * spp}, _effects_or_none(scene, depth)

@@ -11,36 +11,8 @@ three methods are swept and every render is timed and scored against it:
 * ``path``: the path tracer itself over an spp ladder, which converges to the
   reference (its error falls as 1/spp until it meets the reference's own noise).
 
-The modules, in the order the work flows (each imports only those above it;
-:mod:`.results` imports none of them):
-
-=============== ==================================================================
-``results``     the plain data: settings, measurements, per-scene results, options
-``scenes``      the scene files of the command line, each read and parsed once
-``planning``    which renders each scene gets, cheapest first
-``curves``      the formulas: a method's curve read on log–log axes, the error
-                floor, the reference's noise from its two halves
-``budget``      ``--budget``: each scene's share of the time, the reference's
-                affordable spp (from a probe), each render's predicted cost
-``reference``   the path-traced reference: its plan (cache, budget probe, chunks and
-                seeds), its two halves and its on-disk cache
-``limits``      each Whitted method's limit (exact tree, converged anti-aliasing): what
-                a render's depth and spp cost, the model's bias, the best ambient
-``errormaps``   the images kept of each render: EXR, PNG, FLIP's error map
-``analysis``    the floors, equal quality, equal time, what the error is made of
-``csvfile``     results.csv: one row per render
-``plot``        error_vs_time.png, its label placement, and each method's colour
-``sheet``       contact_sheet.png, and the thumbnails it is made of
-``verdict``     the verdict in plain words that opens the page and the summary
-``summary``     summary.txt and findings.json: the conclusions in words and as JSON
-``page``        report.html, from its Jinja2 template (``templates/``)
-``report``      every output written in one go (:func:`write_all`)
-``sweep``       one scene's work: reference, renders, scores (plain data in/out)
-``cluster``     ``--workers``/``--scheduler``: the scenes' sweeps and the reference's
-                chunks as tasks on a Dask cluster (docs/cluster.md)
-``run``         the whole run: read, plan, sweep every scene, write the outputs
-``cli``         the ``compare`` subcommand's options and printed summary
-=============== ==================================================================
+The modules, each importing only those before it in the order the work flows, are
+listed in docs/compare.md, "Where the code lives".
 """
 
 from __future__ import annotations

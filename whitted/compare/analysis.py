@@ -1,30 +1,12 @@
 """What a scene's measurements say, as a rendering paper would put it: what accuracy
-costs (the floor, equal quality, equal time) and what the Whitted model's error is made of.
-
-* **The floor**: a ray tree leaves light out (the article's ambient term stands for
-  all the indirect light), so past some depth and spp a Whitted method stops improving.
-  Its floor is its cheapest render within ``COMPARE_FLOOR_TOLERANCE`` of its best
-  (:func:`~whitted.compare.curves.error_floor`), stated with the path tracer's time to
-  the same error: the headline a reader quotes.
-* **Equal quality**: for each error level, the cheapest setting of each method that
-  reaches it, and how many times faster the Whitted methods are than the path tracer
-  there. By default the levels come from the data (each method's floor, and levels
-  between the best and worst errors measured), so that each method reaches one.
-* **Equal time**: each Whitted setting beside the error the path tracer reaches in the
-  same time, read on its curve (:func:`~whitted.compare.curves.error_at_time`), only
-  where the path tracer was measured: a Whitted render faster than its fastest render
-  (or slower than its slowest) says so and is not compared.
-* **What the error is made of**: each Whitted method's *limit* (its deepest depth, every
-  ray of the tree, converged anti-aliasing: :class:`~whitted.compare.results.Limit`)
-  splits a render's error into what its depth and spp cost (its distance to the limit)
-  and the model's bias (the limit's distance to the reference); for the article's
-  lighting, the ambient that fits best tells how much of the bias its constant explains,
-  and the rest is light the model does not transport.
+costs (the floor, equal quality, equal time) and what the Whitted model's error is made
+of (its limit, its bias, the best ambient, the fit): docs/compare.md, "Equal time, equal
+quality, error floor" and "What the error is made of".
 
 Everything is computed from :class:`~whitted.compare.results.SceneResult` alone (plain
 data), in relative MSE, the measure whose trends are known (1/spp for an unbiased
-method); FLIP is given alongside at equal time. The reports (the text summary, the HTML
-page, ``findings.json``) read these; none computes anything of its own.
+method); FLIP is given alongside at equal time. The reports read these; none computes
+anything of its own.
 """
 
 from __future__ import annotations
@@ -37,7 +19,7 @@ from ..defaults import (COMPARE_CLOCK, COMPARE_CONFIDENCE, COMPARE_DATA_LEVELS, 
 from .fitted import fitted_text
 from .curves import Floor, Reading, error_at_time, error_floor, error_levels, time_to_reach
 from .results import METHODS, WHITTED_METHODS, Limit, Measurement, SceneResult, seconds_text
-from .timing import Interval, coverage, faster_text, paired, ratio_text
+from .timing import Interval, coverage, paired
 
 #: How the prose names each method.
 METHOD_NAMES = {"whitted-article": "the article's model",
@@ -56,8 +38,34 @@ TIMING = ("the median of timed rounds in which every render of a scene is timed 
           f"{COMPARE_ROUNDS}, its extremes: {coverage(COMPARE_ROUNDS):.0%})")
 
 
-def _capital(text: str) -> str:
+def capital(text: str) -> str:
     return text[0].upper() + text[1:]
+
+
+def faster_text(interval: Interval, name: str, other: str) -> str:
+    """Which of two methods is faster, in words, from the interval of ``other``'s time over
+    ``name``'s: "the article's model gets there 2.1× faster (1.9–2.4× over 9 rounds)", or
+    "no measurable difference ..." where the interval holds 1."""
+    if interval.straddles_one and interval.rounds >= 2:
+        return (f"no measurable difference in time between {name} and {other} "
+                f"({interval.value:.3g}×, {interval.range_text()})")
+    if interval.value < 1:
+        name, other = other, name
+        interval = Interval(1 / interval.value, 1 / interval.high, 1 / interval.low, interval.rounds)
+    flag = "" if interval.settled or interval.rounds < 2 else "; unsettled: the machine's load kept changing"
+    return f"{name} gets there {interval.value:.3g}× faster ({interval.range_text()}{flag})"
+
+
+def ratio_text(interval: Interval | None) -> str:
+    """A table cell: ``2.1× (1.9–2.4)``, ``≈ 1 (0.9–1.2)`` where the interval holds 1,
+    flagged ``?`` when unsettled; ``—`` when nothing was compared."""
+    if interval is None or not interval.known:
+        return "—"
+    if interval.rounds < 2:
+        return f"{interval.value:.3g}×"
+    flag = "" if interval.settled else " ?"
+    value = "≈ 1" if interval.straddles_one else f"{interval.value:.3g}×"
+    return f"{value} ({interval.low:.3g}–{interval.high:.3g}){flag}"
 
 
 @dataclass(frozen=True)
@@ -391,10 +399,10 @@ def floor_text(method: str, floor: Floor[Measurement], path: Reading | None,
     render = floor.render
     cheapest = (f"{render.setting.label} ({seconds_text(render.seconds)}) at {floor.error:.3g}")
     if floor.settled:
-        text = (f"{_capital(name)} stops improving at {floor.best:.3g} (relative MSE, its best): "
+        text = (f"{capital(name)} stops improving at {floor.best:.3g} (relative MSE, its best): "
                 f"its cheapest render within {tolerance:.0%} of that is {cheapest}")
     else:
-        text = (f"{_capital(name)} is still improving at its costliest render, {cheapest} "
+        text = (f"{capital(name)} is still improving at its costliest render, {cheapest} "
                 f"(relative MSE): no costlier render shows where it stops")
     if path is None and path_best is None:
         return text + "; the path tracer was not rendered." + _noise_caution(floor, reference_noise)

@@ -1,23 +1,12 @@
 """``--budget``: the whole command's wall-clock time, and how renders are fitted in it.
 
-Three decisions, kept apart from the sweep that acts on them: how much of the time
-left a scene may use (an even share among the scenes still to do, after a few
-seconds kept back for writing the outputs), how many samples its reference can
-afford (from probe renders: a cost per render call and per sample,
-:func:`fit_cost`, :func:`render_cost`), and whether a render fits in what the
-scene has left (predicted from what the same method already cost there). A share
-is a duration, not a clock reading, so it means the same in another process or on
-another machine.
-
-The reference comes first and is the costliest render of a scene, by far on some
-scenes, so its cost is measured on short probe renders before the rest is started
-(:func:`~whitted.compare.reference.plan_reference`), and it may take at most
-:data:`~whitted.defaults.COMPARE_REFERENCE_SHARE` of the scene's share: when the
-requested spp does not fit, the largest power of two that does is used, and below
-:data:`~whitted.defaults.COMPARE_MIN_REFERENCE_SPP` the scene is refused. The cost
-has two parts because a render call has a fixed cost of its own (tracing a kernel
-that dispatches to every BSDF of the scene: docs/compare.md has a measured case), so
-spp alone would misjudge it.
+Three decisions, kept apart from the sweep that acts on them: how much of the time left
+a scene may use (an even share among the scenes still to do), how many samples its
+reference can afford (from probe renders: a cost per render call and per sample,
+:func:`fit_cost`, :func:`render_cost`), and whether a render fits in what the scene has
+left (predicted from what the same method already cost there): docs/compare.md,
+"Budget". A share is a duration, not a clock reading, so it means the same in another
+process or on another machine.
 """
 
 from __future__ import annotations

@@ -174,15 +174,9 @@ def _two_digits_up(value: float) -> float:
 def best_ambient(dark: np.ndarray, lit: np.ndarray, reference: np.ndarray) -> tuple[float, float]:
     """The article's ambient A in [0, 1] that brings its image closest to ``reference`` in
     relative MSE, and that error, from two renders of one tree at A = 0 (``dark``) and
-    A = 1 (``lit``).
-
-    A lit point's color is B·(A + (1 − A)·Σ s·light), and reflected, refracted and
-    background light add to it linearly, so the whole image is affine in A:
-    I(A) = I₀ + A·D with D = I₁ − I₀, exactly. Its relative MSE,
-    mean(w·(I₀ − R + A·D)²) with w = 1/(R² + ε), is a parabola in A whose least value
-    lies at A* = mean(w·D·(R − I₀)) / mean(w·D²), clipped to [0, 1] (the parabola is
-    convex, so the clipped A* is the best A there). When no pixel depends on A, A is NaN
-    and the error that of ``dark``."""
+    A = 1 (``lit``): the image is affine in A, so the error is a parabola in A, least at
+    A* = mean(w·D·(R − I₀)) / mean(w·D²) clipped to [0, 1] (docs/compare.md, "What the
+    error is made of"). When no pixel depends on A, A is NaN and the error that of ``dark``."""
     from .. import metrics
 
     i0 = np.asarray(dark, dtype=np.float64)
@@ -198,19 +192,8 @@ def best_ambient(dark: np.ndarray, lit: np.ndarray, reference: np.ndarray) -> tu
 
 def reference_noise(half_a: np.ndarray, half_b: np.ndarray, count_a: int, count_b: int) -> float:
     """The relative MSE of a reference against the converged image, estimated from its two
-    independent halves A and B, of ``count_a`` and ``count_b`` spp (the reference is
-    R = (n_a·A + n_b·B) / N, N = n_a + n_b).
-
-    With σ² a pixel's variance per sample, A − B has variance σ²(1/n_a + 1/n_b) and R
-    has σ²/N, so R's variance is E[(A − B)²] · n_a·n_b / N² (a quarter of it for equal
-    halves). Weighed as :func:`whitted.metrics.relative_mse` weighs errors (by R² + ε):
-    mean((A − B)² / (R² + ε)) · n_a·n_b / N². A render of n spp scored against R then
-    has an expected relative MSE of about σ²/n (its own noise) plus this (the
-    reference's): the floor of the plot. Dividing by the noisy R² + ε rather than the
-    converged image's is the weighting every measured error gets too; for a reference
-    whose noise is small beside its values (what a reference is) the two agree
-    (tests/test_compare_curves.py checks it within 10% at a few percent of noise).
-    """
+    independent halves A and B, of ``count_a`` and ``count_b`` spp: mean((A − B)² / (R² + ε))
+    · n_a·n_b / N² (docs/compare.md, "The reference's noise", derives it)."""
     from .. import metrics
 
     a = np.asarray(half_a, dtype=np.float64)

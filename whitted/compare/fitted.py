@@ -1,16 +1,11 @@
 """The article's model fitted to the reference: what it reaches with its numbers at their best.
 
-Why. The article model's limit against the path-traced reference is its bias,
-and the bias mixes numbers that are off (an ambient guessed by the scene's
-author, colors chosen by eye) with light the model does not transport (light
-bounced between diffuse surfaces, sky light). The best ambient separates a
-first part in closed form (:func:`.curves.best_ambient`: the image is affine in
-A). With the whitted integrator's gradients the whole fit follows: every
-untextured material's color, the ambient and the lights' colors, by gradient
-descent (:func:`whitted.fitting.fit`: Adam, a fixed budget of steps, at low
-resolution), starting from the best ambient, then scored at full resolution as
-the limit is (the exact tree at the limit's depth and samples per pixel). What
-remains is the model's own limit on the scene.
+The limit's error against the reference mixes numbers that are off (an ambient guessed
+by the scene's author, colors chosen by eye) with light the model does not transport.
+The fit (:func:`whitted.fitting.fit`: every untextured material's color, the ambient and
+the lights' colors, from the best ambient, at low resolution) separates them; the fitted
+scene is scored at full resolution as the limit is. What remains is the model's own
+limit on the scene.
 """
 
 from __future__ import annotations

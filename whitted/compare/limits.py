@@ -1,28 +1,10 @@
 """A Whitted method's limit on a scene: what the model itself draws, with every ray of its
-tree and converged anti-aliasing, so that a render's error can be split in two.
-
-Every render is scored against the path-traced reference, and that error mixes what the
-user chose (the depth, the samples per pixel) with what the model cannot draw (the light
-a ray tree does not transport). The limit separates them: the method at the sweep's
-deepest depth, ``min_weight`` 0 (the exact tree, no ray culled), and enough samples per
-pixel that its own noise is below :data:`~whitted.defaults.COMPARE_LIMIT_NOISE_SHARE` of
-the smallest difference it measures to a sweep render. A render's distance to it
-(``rel_mse_limit``) is what its depth and spp cost; its distance to the reference is the
-model's bias.
-
-Its noise is estimated as the reference's is, from two independent halves
-(:func:`~whitted.compare.curves.reference_noise`); the halves start at
-:data:`~whitted.defaults.COMPARE_LIMIT_SPP_FACTOR` times the sweep's densest spp and
-double until the noise is small enough (up to :data:`~whitted.defaults.COMPARE_LIMIT_MAX_SPP`
-or the budget's end).
-
-In the article's lighting the image is affine in the ambient A (a lit point is
-B·(A + (1 − A)·Σ s·light), and reflected and refracted light add linearly), so the
-limit is rendered at A = 0 and A = 1 with the same seeds: the limit at the scene's A,
-and at the A that fits the reference best (:func:`~whitted.compare.curves.best_ambient`),
-follow exactly, with no further render. Then the article's model is fitted to the
-reference, every color, the ambient and the light colors (:mod:`.fitted`), and scored as the
-limit is: what the model reaches with its numbers at their best.
+tree and converged anti-aliasing, so that a render's error can be split in two: what its
+depth and spp cost (its distance to the limit, ``rel_mse_limit``) and the model's bias
+(the limit's distance to the reference). docs/compare.md, "What the error is made of",
+says how: two independent halves whose spp double until their noise is small enough, in
+the article's lighting rendered at A = 0 and A = 1 (the image is affine in the ambient),
+then the article's model fitted to the reference (:mod:`.fitted`).
 """
 
 from __future__ import annotations
@@ -74,7 +56,8 @@ def render_limit(loaded, entry: SceneResult, method: str, measured: list[tuple[M
     densest = max(m.setting.spp for m, _ in measured)
     ambient = (float(rendering.whitted_settings(loaded)["ambient"]) if lighting == "article"
                else math.nan)
-    per_spp = min(m.seconds / m.setting.spp for m, _ in measured if m.setting.max_depth == depth)
+    per_spp = min(m.render_seconds / m.setting.spp for m, _ in measured
+                  if m.setting.max_depth == depth)
     spp = max(1, COMPARE_LIMIT_SPP_FACTOR * densest // 2)  # per half
     renders = 2 if lighting == "article" else 1            # A = 0 and A = 1, or one
     seconds, limit = 0.0, None

@@ -23,32 +23,17 @@ from pathlib import Path
 from ..atomic import write_text
 from ..defaults import VERSION
 from ..images import view_text
-from .analysis import (METHOD_NAMES, TIMING, Analysis, equal_time_how, reach_text, speedup_text,
-                       spread_text)
+from .analysis import METHOD_NAMES, TIMING, Analysis, spread_text
 from .curves import pareto_front
 from .errormaps import colorbar
 from .plot import COLORS
-from .verdict import verdict
-from .results import METHODS, WHITTED_LIGHTING, WHITTED_METHODS, Measurement, SceneResult, seconds_text
-from .timing import ratio_text
+from .results import METHODS, Measurement, SceneResult, seconds_text
+from .summary import environment, number, scene_words
 
 PAGE_NAME = "report.html"
 TEMPLATE = "report.html.j2"
 #: The viewer enlarges small images by a whole factor (pixels stay square) to at least this width.
 VIEWER_WIDTH = 640
-
-
-def _environment():
-    import jinja2
-
-    return jinja2.Environment(loader=jinja2.PackageLoader("whitted.compare", "templates"),
-                              autoescape=jinja2.select_autoescape(["html", "j2"]),
-                              undefined=jinja2.StrictUndefined, trim_blocks=True,
-                              lstrip_blocks=True)
-
-
-def _number(value: float) -> str:
-    return f"{value:.3g}" if math.isfinite(value) else "—"
 
 
 def _slug(name: str) -> str:
@@ -57,14 +42,14 @@ def _slug(name: str) -> str:
 
 def _render(m: Measurement, index: str, card: bool) -> dict:
     s = m.setting
-    limit = (f", {_number(m.rel_mse_limit)} from its limit" if math.isfinite(m.rel_mse_limit) else "")
+    limit = (f", {number(m.rel_mse_limit)} from its limit" if math.isfinite(m.rel_mse_limit) else "")
     return {"id": index, "method": s.method, "method_name": METHOD_NAMES[s.method],
             "label": s.label, "depth": s.max_depth, "spp": s.spp, "time": spread_text(m),
-            "rel_mse": _number(m.rel_mse), "flip": _number(m.flip), "rounds": m.rounds,
+            "rel_mse": number(m.rel_mse), "flip": number(m.flip), "rounds": m.rounds,
             "png": m.image_png, "exr": m.image or "", "map": m.error_map or m.image_png,
             "title": f"{s.method} {s.label}", "card": card,
             "caption": f"{METHOD_NAMES[s.method]} ({s.method}), {s.label}: {spread_text(m)}, "
-                       f"relative MSE {_number(m.rel_mse)}{limit}, FLIP {_number(m.flip)}"}
+                       f"relative MSE {number(m.rel_mse)}{limit}, FLIP {number(m.flip)}"}
 
 
 def _on_curves(measurements: list[Measurement]) -> set[int]:
@@ -94,46 +79,18 @@ def scene_context(analysis: Analysis, plot: str, out: Path) -> dict:
     floor_render = analysis.floors[0].render if analysis.floors else None
     first = next((r for r, m in zip(renders, measurements) if m is floor_render),
                  renders[0] if renders else None)
-    methods = analysis.table_methods
-    whitted = [m for m in WHITTED_METHODS if m in methods]
-    equal_quality = [{"level": f"{row.level:g}",
-                      "cells": [{"text": reach_text(row.reach.get(m)),
-                                 "reached": m in row.reach and row.reach[m].fastest is not None}
-                                for m in methods],
-                      "fastest": row.fastest_method or "none",
-                      "speedups": [speedup_text(row, m) for m in whitted]}
-                     for row in analysis.equal_quality]
-    equal_time = []
-    for row in analysis.equal_time:
-        compared = row.rel_mse is not None and row.outside is None
-        equal_time.append({
-            "method": row.whitted.setting.method, "label": row.whitted.setting.label,
-            "time": spread_text(row.whitted), "rel_mse": _number(row.whitted.rel_mse),
-            "path_rel_mse": _number(row.rel_mse.value) if compared else "—",
-            "ratio": ratio_text(row.interval) if compared else "—",
-            "winner": (("" if row.interval is not None and row.interval.straddles_one
-                        else "whitted" if row.ratio < 1 else "path") if math.isfinite(row.ratio) else ""),
-            "flip": _number(row.whitted.flip),
-            "path_flip": _number(row.flip.value) if compared and row.flip else "—",
-            "how": equal_time_how(row), "outside": row.outside is not None})
     reference_exr = (os.path.relpath(entry.reference_file, out) if entry.reference_file else None)
     return {
-        "key": key, "name": entry.name, "width": entry.width, "height": entry.height,
+        **scene_words(analysis), "key": key,
         "display_width": entry.width * max(1, math.ceil(VIEWER_WIDTH / entry.width)),
         "variant": entry.variant, "path_depth": entry.path_depth,
         "reference": {"png": entry.reference_png, "exr": reference_exr, "spp": entry.reference_spp,
                       "requested": entry.reference_requested,
-                      "noise": _number(entry.reference_noise),
+                      "noise": number(entry.reference_noise),
                       "how": ("read from the cache" if entry.reference_cached
                               else f"rendered in {seconds_text(entry.reference_seconds)}")},
-        "notes": list(entry.notes), "floors": [f.text for f in analysis.floors],
-        "decompositions": [d.text for d in analysis.decompositions],
         "plot": plot, "groups": groups, "renders": renders, "first": first,
-        "cards": [r for r in renders if r["card"]],
-        "methods": methods, "whitted": [WHITTED_LIGHTING[m] for m in whitted],
-        "equal_quality": equal_quality, "equal_time": equal_time,
-        "skipped": len(entry.skipped),
-        "verdict": verdict(analysis),
+        "cards": [r for r in renders if r["card"]], "skipped": len(entry.skipped),
         "view": view_text(entry.view, entry.exposure, entry.reference_clipped),
     }
 
@@ -146,7 +103,7 @@ def write_page(path: str | os.PathLike, analyses: list[Analysis], plots: dict[st
     relative to the page's folder; ``left_out`` are the scenes that got no reference
     (their notes say why); ``interrupted`` says at the top that the run was stopped."""
     path = Path(path)
-    template = _environment().get_template(TEMPLATE)
+    template = environment().get_template(TEMPLATE)
     text = template.render(
         scenes=[scene_context(a, plots[a.entry.name], path.parent) for a in analyses],
         left_out=[{"name": e.name, "notes": list(e.notes) or ["no reference"]} for e in left_out],

@@ -1,33 +1,17 @@
 """The reference each render is scored against: how it is planned, rendered in chunks,
 put together, and kept on disk.
 
-A converged path-traced reference costs more than the rest of a scene's sweep,
-so it is rendered once and kept on disk (``DIR/references`` unless ``--cache``),
-named by a hash of everything it depends on: the scene file, its converted XML,
-its textures, the resolution, the reference's settings, the variant and the
-versions of whitted and Mitsuba. An entry is written atomically, image first and
-description second, and read only when both are whole: an interrupted run leaves
-either a complete entry or none.
-
-A reference is two independent halves (:class:`Halves`: half the samples each, their
-own seeds) averaged: the two halves disagree by exactly the noise the reference
-carries, so their difference estimates it
-(:func:`~whitted.compare.curves.reference_noise`), and the report draws it as the
-floor no render can measurably go below.
+A converged path-traced reference costs more than the rest of a scene's sweep, so it is
+kept on disk, named by a hash of everything it depends on (docs/compare.md, "The
+reference cache"). It is two independent halves (:class:`Halves`), whose difference
+estimates its noise (docs/compare.md, "The reference's noise").
 
 One plan makes every reference, with or without ``--budget``, in one process or on a
-cluster (:func:`plan_reference`, then :func:`reference_chunks`): each half is a list
-of *chunks* of at most ``--reference-chunk-spp`` samples per pixel, chunk ``i`` of
-half ``h`` rendered from the seed :func:`chunk_seed` ``(h, i)``. Under ``--budget``
-the first chunks of the first half are short probe renders (1, 2, 4, ... spp) that
-measure what a render and a sample cost; the reference is then scaled down to what
-the scene's share affords (:meth:`~whitted.compare.budget.Budget.reference_spp`) or
-refused, and the rest of both halves is planned as without a budget. The chunks to
-render follow from the plan alone, never from who renders them, so a cluster spreads
-them over its workers (:mod:`.cluster`) and makes the very image a run in one
-process makes from the same plan, bit for bit (a path-traced image depends only on
-its seed: :func:`whitted.rendering.path_passes`; the chunks are added in the plan's
-order, in float64).
+cluster (:func:`plan_reference`, then :func:`reference_chunks`): each half is a list of
+*chunks* of at most ``--reference-chunk-spp`` samples per pixel, each with its own seed
+(:func:`chunk_seed`); under ``--budget`` the first chunks are probe renders that measure
+what the reference will cost (docs/compare.md, "Budget"). The chunks follow from the plan
+alone, so a cluster makes the very image a run in one process makes, bit for bit.
 """
 
 from __future__ import annotations

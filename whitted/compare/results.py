@@ -16,6 +16,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from ..cluster import IN_PROCESS
 from ..defaults import (COMPARE_MAX_DEFAULT_DEPTH as MAX_DEFAULT_DEPTH,
                         COMPARE_PATH_SPP as DEFAULT_PATH_SPP,
                         COMPARE_REFERENCE_CHUNK_SPP as DEFAULT_REFERENCE_CHUNK_SPP,
@@ -41,8 +42,6 @@ WHITTED_LIGHTING = {method_of("whitted", lighting): lighting for lighting in LIG
 #: The Whitted integrator in its two lighting modes, then the path tracer.
 WHITTED_METHODS = tuple(WHITTED_LIGHTING)
 METHODS = WHITTED_METHODS + ("path",)
-#: Who rendered a scene's sweep when no cluster did (``SceneResult.worker``).
-IN_PROCESS = "in-process"
 
 __all__ = ["DEFAULT_PATH_SPP", "DEFAULT_REFERENCE_CHUNK_SPP", "DEFAULT_REFERENCE_SPP",
            "DEFAULT_ROUNDS", "DEFAULT_WHITTED_SPP", "IN_PROCESS", "MAX_DEFAULT_DEPTH", "MAX_DEPTH",
@@ -94,8 +93,8 @@ class Measurement:
     =================== ===============================================================
     ``setting``         what was rendered
     ``seconds``         its render time, compilation excluded: the median of its timed
-                        rounds (:mod:`~whitted.compare.timing`), or its scored render's
-                        time until it has rounds
+                        rounds on the timing clock (:mod:`~whitted.compare.timing`), or
+                        :attr:`render_seconds` where the scene got no round
     ``compile_seconds`` kernel compilation (its scored render's: the first)
     ``rel_mse``         relative MSE against the reference (:mod:`whitted.metrics`)
     ``flip``            LDR-FLIP against the reference
@@ -111,6 +110,8 @@ class Measurement:
     ``error_map``       FLIP's per-pixel error against the reference, colored (PNG)
     ``rel_mse_limit``   relative MSE against the method's limit (:class:`Limit`): what
                         the render's depth and spp cost (NaN: no limit, or the path tracer)
+    ``render_seconds``  its scored render's wall time on all threads, compilation
+                        excluded: what the time of other renders is predicted from
     =================== ===============================================================
     """
     setting: Setting
@@ -125,6 +126,7 @@ class Measurement:
     image_png: str | None = None
     error_map: str | None = None
     rel_mse_limit: float = math.nan
+    render_seconds: float = math.nan
 
     @property
     def rounds(self) -> int:

@@ -18,6 +18,7 @@ from pathlib import Path
 
 from .. import interrupt
 from ..atomic import check_folder_creatable
+from ..cluster import check_where, connect
 from ..defaults import check_depth
 from ..errors import WhittedError
 from ..progress import progress_bar
@@ -51,11 +52,7 @@ def check_options(options: Options) -> None:
     check_folder_creatable(cache_folder)
     if options.reference_chunk_spp < 1:
         raise WhittedError("--reference-chunk-spp must be >= 1")
-    if options.workers is not None and options.scheduler is not None:
-        raise WhittedError("--workers starts a local cluster, --scheduler uses a running one: "
-                           "give one of them")
-    if options.workers is not None and options.workers < 1:
-        raise WhittedError(f"--workers must be >= 1, got {options.workers}")
+    check_where(options.workers, options.scheduler)
     from ..images import check_exposure, check_view
     if options.view is not None:
         check_view(options.view)
@@ -114,11 +111,11 @@ def compare(scenes: list[str | os.PathLike], options: Options) -> Comparison:
 def _compare_on_cluster(scenes: list[SceneFile], entries: list[SceneResult], plans: list,
                         options: Options, budget: Budget) -> list[SceneResult]:
     """The sweep on a Dask cluster: connected (or started) before anything is written."""
-    from .cluster import connect, sweep_on_cluster
+    from .cluster import sweep_on_cluster
 
     out = Path(options.out)
     try:
-        with connect(options) as client:
+        with connect(options.workers, options.scheduler) as client:
             out.mkdir(parents=True, exist_ok=True)
             sweep_on_cluster(client, scenes, entries, plans, options, budget)
     except BaseException as error:  # the cluster is stopped by now: its cores are free to write

@@ -10,10 +10,9 @@ from __future__ import annotations
 
 import math
 
-from .analysis import TIMING, Analysis, equal_time_how, reach_text, speedup_text
+from .analysis import (METHOD_NAMES, TIMING, Analysis, FloorStatement, capital, equal_time_how,
+                       ratio_text, reach_text, speedup_text, spread_text)
 from .results import WHITTED_LIGHTING, WHITTED_METHODS, seconds_text
-from .timing import ratio_text
-from .verdict import verdict
 
 SUMMARY_NAME = "summary.txt"
 FINDINGS_NAME = "findings.json"
@@ -24,29 +23,100 @@ def _table(rows: list[list[str]], indent: str = "  ") -> list[str]:
     return [indent + "   ".join(cell.ljust(w) for cell, w in zip(r, widths)).rstrip() for r in rows]
 
 
-def equal_quality_lines(analysis: Analysis) -> list[str]:
+def method_verdict(statement: FloorStatement) -> str:
+    """One Whitted method's verdict, e.g. "The article's model is as good as it gets at
+    d3 · 1 spp, 7.1 ms (error 0.104); from about 46 ms on, the path tracer is more
+    accurate." """
+    name = METHOD_NAMES[statement.method]
+    render, floor = statement.render, statement.floor
+    where = f"{render.setting.label}, {seconds_text(render.seconds)} (error {floor.error:.3g})"
+    if floor.settled:
+        text = f"{capital(name)} is as good as it gets at {where}"
+    else:
+        text = f"{capital(name)} is still improving at its costliest render, {where}"
+    path, best = statement.path, statement.path_best
+    if path is None and best is None:
+        return text + "."
+    if path is None:
+        return (text + f"; the path tracer never got as close (its best: {best.rel_mse:.3g} at "
+                f"{best.setting.label}, {seconds_text(best.seconds)}).")
+    if path.how == "nearest":
+        first = path.between[0]
+        return (text + f"; the path tracer is more accurate from its fastest render on "
+                f"({first.setting.label}, {seconds_text(first.seconds)}).")
+    if path.value <= render.seconds:
+        return (text + f"; the path tracer is as accurate already from about {seconds_text(path.value)} "
+                f"on: faster there, and more accurate beyond.")
+    return text + f"; from about {seconds_text(path.value)} on, the path tracer is more accurate."
+
+
+def scale_text(reference_noise: float = math.nan) -> str:
+    """What the error numbers mean."""
+    noise = (f"; this reference's own noise is about {reference_noise:.2g}, and no render can "
+             f"measurably score below it" if math.isfinite(reference_noise) and reference_noise > 0 else "")
+    return ("Errors are relative MSE against the converged path-traced reference: 0 is identical, "
+            f"1 about as far off as a black image{noise}.")
+
+
+def verdict(analysis: Analysis) -> str:
+    """The scene's verdict: each Whitted method's sentence, then the error's scale."""
+    sentences = [method_verdict(s) for s in analysis.floors]
+    if not sentences:
+        sentences = ["No Whitted render was done: there is no verdict to state."]
+    return " ".join(sentences + [scale_text(analysis.entry.reference_noise)])
+
+
+def number(value: float) -> str:
+    return f"{value:.3g}" if math.isfinite(value) else "—"
+
+
+def equal_quality_rows(analysis: Analysis) -> list[dict]:
+    """The equal-quality table's rows, as cells of text (summary.txt and the page)."""
     methods = analysis.table_methods
     whitted = [m for m in WHITTED_METHODS if m in methods]
-    header = (["rel_mse ≤"] + methods + ["fastest"]
-              + [f"{WHITTED_LIGHTING[m]} vs path" for m in whitted])
-    rows = [header]
-    for row in analysis.equal_quality:
-        rows.append([f"{row.level:g}"] + [reach_text(row.reach.get(m)) for m in methods]
-                    + [row.fastest_method or "none"] + [speedup_text(row, m) for m in whitted])
-    return _table(rows)
+    return [{"level": f"{row.level:g}",
+             "cells": [{"text": reach_text(row.reach.get(m)),
+                        "reached": m in row.reach and row.reach[m].fastest is not None}
+                       for m in methods],
+             "fastest": row.fastest_method or "none",
+             "speedups": [speedup_text(row, m) for m in whitted]}
+            for row in analysis.equal_quality]
 
 
-def equal_time_lines(analysis: Analysis) -> list[str]:
-    rows = [["method", "setting", "time", "rel_mse", "path rel_mse then", "ratio", "flip",
-             "path flip then", "path read"]]
+def equal_time_rows(analysis: Analysis) -> list[dict]:
+    """The equal-time table's rows, as cells of text (summary.txt and the page); ``winner``:
+    the more accurate method, "" where the interval holds 1 or nothing was compared."""
+    rows = []
     for row in analysis.equal_time:
         m = row.whitted
         compared = row.rel_mse is not None and row.outside is None
-        rows.append([m.setting.method, m.setting.label, seconds_text(m.seconds), f"{m.rel_mse:.3g}",
-                     f"{row.rel_mse.value:.3g}" if compared else "—",
-                     ratio_text(row.interval) if math.isfinite(row.ratio) else "—", f"{m.flip:.3g}",
-                     f"{row.flip.value:.3g}" if compared and row.flip else "—", equal_time_how(row)])
-    return _table(rows)
+        winner = "" if row.interval is not None and row.interval.straddles_one else \
+            "whitted" if row.ratio < 1 else "path"
+        rows.append({
+            "method": m.setting.method, "label": m.setting.label,
+            "seconds": seconds_text(m.seconds), "time": spread_text(m), "rel_mse": number(m.rel_mse),
+            "path_rel_mse": number(row.rel_mse.value) if compared else "—",
+            "ratio": ratio_text(row.interval) if math.isfinite(row.ratio) else "—",
+            "winner": winner if math.isfinite(row.ratio) else "", "flip": number(m.flip),
+            "path_flip": number(row.flip.value) if compared and row.flip else "—",
+            "how": equal_time_how(row), "outside": row.outside is not None})
+    return rows
+
+
+def equal_quality_lines(analysis: Analysis) -> list[str]:
+    whitted = [m for m in WHITTED_METHODS if m in analysis.table_methods]
+    header = (["rel_mse ≤"] + analysis.table_methods + ["fastest"]
+              + [f"{WHITTED_LIGHTING[m]} vs path" for m in whitted])
+    return _table([header] + [[r["level"], *(c["text"] for c in r["cells"]), r["fastest"],
+                               *r["speedups"]] for r in equal_quality_rows(analysis)])
+
+
+def equal_time_lines(analysis: Analysis) -> list[str]:
+    columns = ["method", "label", "seconds", "rel_mse", "path_rel_mse", "ratio", "flip", "path_flip",
+               "how"]
+    return _table([["method", "setting", "time", "rel_mse", "path rel_mse then", "ratio", "flip",
+                    "path flip then", "path read"]]
+                  + [[r[c] for c in columns] for r in equal_time_rows(analysis)])
 
 
 def interruption_text(done: int, planned: int) -> str:
@@ -56,32 +126,44 @@ def interruption_text(done: int, planned: int) -> str:
     return f"Interrupted after {done} of {planned} renders; the conclusions are drawn from those."
 
 
+def scene_words(analysis: Analysis) -> dict:
+    """What summary.txt and the page say of one scene: its verdict, notes, floors, what its
+    error is made of and its tables' rows (both templates read this)."""
+    entry = analysis.entry
+    methods = analysis.table_methods
+    noisy = math.isfinite(entry.reference_noise) and entry.reference_noise > 0
+    return {
+        "name": entry.name, "width": entry.width, "height": entry.height, "verdict": verdict(analysis),
+        "notes": list(entry.notes), "floors": [f.text for f in analysis.floors],
+        "decompositions": [d.text for d in analysis.decompositions],
+        "noise_note": f", its noise ≈ {entry.reference_noise:.3g}" if noisy else "",
+        "methods": methods, "whitted": [WHITTED_LIGHTING[m] for m in WHITTED_METHODS if m in methods],
+        "equal_quality": equal_quality_rows(analysis), "equal_time": equal_time_rows(analysis),
+        "equal_quality_lines": (equal_quality_lines(analysis)
+                                if analysis.equal_quality and entry.measurements else []),
+        "equal_time_lines": equal_time_lines(analysis) if analysis.equal_time else []}
+
+
+def environment():
+    """The Jinja2 templates of summary.txt and report.html (``templates/``)."""
+    import jinja2
+
+    return jinja2.Environment(loader=jinja2.PackageLoader("whitted.compare", "templates"),
+                              autoescape=jinja2.select_autoescape(["html.j2"]),
+                              undefined=jinja2.StrictUndefined, trim_blocks=True,
+                              lstrip_blocks=True, keep_trailing_newline=False)
+
+
 def summary(analyses: list[Analysis], equal_time: bool = True,
             interrupted: tuple[int, int] | None = None) -> str:
-    """The summary in text: per scene, what the budget did, the floors and what the error is
-    made of in words, the equal-quality table and (with ``equal_time``) the equal-time
-    table; an interrupted run (``interrupted`` = (renders done, planned)) says so first."""
-    lines = [interruption_text(*interrupted), ""] if interrupted else []
-    lines += [f"Relative MSE and FLIP against the path-traced reference; render times are {TIMING}."]
-    for analysis in analyses:
-        entry = analysis.entry
-        noisy = math.isfinite(entry.reference_noise) and entry.reference_noise > 0
-        noise = f", its noise ≈ {entry.reference_noise:.3g}" if noisy else ""
-        lines += ["", f"{entry.name} ({entry.width}×{entry.height}; reference: path tracer, "
-                      f"{entry.reference_spp} spp{noise})"]
-        lines += [f"  {verdict(analysis)}"]
-        lines += [f"  note: {note}" for note in entry.notes]
-        lines += [f"  {floor.text}" for floor in analysis.floors]
-        lines += [f"  {decomposition.text}" for decomposition in analysis.decompositions]
-        if analysis.equal_quality and entry.measurements:
-            lines += ["", "  Equal quality: the cheapest render reaching each error level (a method "
-                          "that never does shows its best):"]
-            lines += equal_quality_lines(analysis)
-        if equal_time and analysis.equal_time:
-            lines += ["", "  Equal time: each Whitted render beside the path tracer given its time "
-                          "(read on the path tracer's log–log curve, only within its rendered range):"]
-            lines += equal_time_lines(analysis)
-    return "\n".join(lines)
+    """The summary in text (``templates/summary.txt.j2``): per scene, what the budget did,
+    the floors and what the error is made of in words, the equal-quality table and (with
+    ``equal_time``) the equal-time table; an interrupted run (``interrupted`` = (renders
+    done, planned)) says so first."""
+    scenes = [{**scene_words(a), "reference": {"spp": a.entry.reference_spp}} for a in analyses]
+    return environment().get_template("summary.txt.j2").render(
+        scenes=scenes, timing=TIMING, equal_time=equal_time,
+        interrupted=interruption_text(*interrupted) if interrupted else None).rstrip("\n")
 
 
 def findings(analyses: list[Analysis], interrupted: tuple[int, int] | None = None) -> dict:

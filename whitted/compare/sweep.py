@@ -1,31 +1,17 @@
 """One scene's share of the comparison: its reference, then each setting rendered,
-timed and scored.
+timed and scored, then each Whitted method's limit (:mod:`.limits`).
 
-This is the unit of work that can move to another process: :func:`sweep_scene`
-takes plain data (the :class:`~whitted.compare.scenes.SceneFile`, the settings,
-the :class:`~whitted.compare.results.Options` and a time share in seconds),
-loads its own ``mi.Scene`` when none is handed to it, reads and writes the
-reference cache by its folder, and returns a
-:class:`~whitted.compare.results.SceneResult` (images reduced to thumbnails). No
-Mitsuba object goes in or out unless the caller shares its process.
+This is the unit of work that can move to another process: :func:`sweep_scene` takes
+plain data, loads its own ``mi.Scene`` when none is handed to it, and returns a
+:class:`~whitted.compare.results.SceneResult` (images reduced to thumbnails).
 
-Each setting is rendered once and scored (the same seed gives the same image
-whenever it is rendered: :class:`whitted.plugins.recursion.Wavefronts`); then the scene's
-settings are timed together, in rounds (:mod:`.timing`: every setting once per
-round, so that what is compared is timed in the same moments of a busy machine).
-Kernel compilation is excluded (``result.seconds`` of the rendering API, and the
-scored render compiled every kernel before the rounds) and reported apart
-(``compile_seconds``). The relative MSE is measured on the linear images, FLIP on the
-images as displayed (:mod:`whitted.metrics`): every image of a scene is shown in one
-view, chosen from its reference (:func:`whitted.images.fitting_view`) unless ``--view``
-names one.
-
-After its renders, each Whitted method's limit is rendered (:mod:`.limits`) and every
-render of the method scored against it too.
-
-Every render is kept under the output folder (``renders/SCENE/``: its linear EXR,
-an sRGB PNG and FLIP's error map, :mod:`.errormaps`), written by whoever renders
-it: a worker process must share the output folder's file system.
+Each setting is rendered once and scored (the same seed gives the same image whenever it
+is rendered); then the scene's settings are timed together in rounds, compilation
+excluded (:mod:`.timing`; docs/compare.md, "Timing"). Relative MSE is measured on the
+linear images, FLIP on the images as displayed, every image of a scene in one view
+(:func:`whitted.images.fitting_view` of its reference unless ``--view`` names one). Every
+render is kept under ``renders/SCENE/`` (:mod:`.errormaps`), written by whoever renders
+it: a worker must share the output folder's file system.
 """
 
 from __future__ import annotations
@@ -52,7 +38,7 @@ from .reference import Chunk, ReferenceCache, ReferencePlan, reference_image
 from .results import Measurement, Options, SceneResult, Setting
 from .scenes import SceneFile
 from .sheet import thumbnail
-from .timing import median
+from .timing import interleaved, median
 
 #: The seed of every render of the sweep (the reference has its own).
 SWEEP_SEED = 0
@@ -82,11 +68,8 @@ def _seconds(result) -> float:
 @contextlib.contextmanager
 def timing_threads():
     """Dr.Jit's LLVM backend on :data:`~whitted.defaults.COMPARE_TIMING_THREADS` threads
-    while rounds are timed, the process's own count restored after (even on Ctrl-C). On one
-    thread a render's CPU time is its work on one core: no thread of it waits at a kernel's
-    end for a sibling that another program pushed off its core (docs/compare.md,
-    "Timing"). A render's bits do not depend on the thread count. Yields how many times
-    slower a parallel render may be on them."""
+    while rounds are timed (docs/compare.md, "Timing"), the process's own count restored
+    after; yields how many times slower a parallel render may be on them."""
     import drjit as dr
     import mitsuba as mi
     if COMPARE_TIMING_THREADS is None or not mi.variant().startswith("llvm"):
@@ -121,21 +104,16 @@ def measure(loaded, setting: Setting, reference: np.ndarray,
              if out is not None else {})
     return Measurement(setting, float(result.seconds), float(result.compile_seconds),
                        metrics.relative_mse(image, reference), flip, _work(setting, result),
-                       thumbnail(image, exposure=exposure, view=view), **files)
+                       thumbnail(image, exposure=exposure, view=view), **files,
+                       render_seconds=float(result.seconds))
 
 
 def time_rounds(loaded, entry: SceneResult, rounds: int, deadline: float = math.inf,
                 progress=None) -> None:
-    """Time every render of ``entry`` once per round, the rounds interleaved (forward, then
-    backward), ``rounds`` rounds; then extra rounds of the headlines' renders alone (each
-    Whitted method's floor render and the path renders its ratio is read between, back to
-    back), :data:`~whitted.defaults.COMPARE_HEADLINE_ROUNDS` of them and more while a
-    headline ratio is unsettled (:mod:`.timing`), up to
-    :data:`~whitted.defaults.COMPARE_MAX_ROUNDS` rounds in all and
-    :data:`~whitted.defaults.COMPARE_ROUNDS_SECONDS` of extra rounds (a ratio is paired over
-    the rounds that timed both its renders); never past ``deadline`` (a round predicted,
-    from the renders' times so far, to overrun either is not started). Each measurement's
-    ``times`` and ``seconds`` (their median) are set in place."""
+    """Time every render of ``entry`` once per round, ``rounds`` rounds, then extra rounds of
+    the headlines' renders alone while a headline ratio is unsettled (docs/compare.md,
+    "Timing"); never past ``deadline`` (a round predicted to overrun it is not started).
+    Each measurement's ``times`` and ``seconds`` (their median) are set in place."""
     measured = list(entry.measurements)
     if not measured:
         return
@@ -177,7 +155,7 @@ def _rounds(loaded, entry: SceneResult, measured: list[Measurement], rounds: int
             break
         if progress is not None:
             progress.set_postfix_str(f"{entry.name}: timing, round {k + 1}", refresh=True)
-        for m in (measured if k % 2 == 0 else reversed(measured)):
+        for m in interleaved(measured, k):
             times[id(m)].append(_time_in_a_round(loaded, m.setting))
             _bound_memory()
         for m in measured:
@@ -286,7 +264,7 @@ def sweep_scene(scene: SceneFile, entry: SceneResult, settings: list[Setting], o
             measurement = measure(loaded, setting, reference, out, entry.folder, entry.exposure,
                                   entry.view)
             entry.measurements.append(measurement)
-            done.append((setting, measurement.seconds, time.monotonic() - start))
+            done.append((setting, measurement.render_seconds, time.monotonic() - start))
         if progress is not None:
             progress.update(1)
     time_rounds(loaded, entry, options.rounds, deadline, progress)

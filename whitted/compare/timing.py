@@ -1,28 +1,11 @@
 """Render times that compare on a busy machine: rounds, paired ratios, intervals.
 
-On a shared machine a render's time moves 2–3× between moments minutes apart, but
-only ~1.2× within one moment. A ratio of two times taken minutes apart (a slow path
-render against a Whitted render timed while another program ran) says more about
-the machine than about the methods. So the sweep times what it compares *in the
-same moments*: once every setting of a scene has been rendered and scored, each is
-timed once per **round**, the rounds passing over all settings in turn (forward,
-then backward, so that a drift within a round falls on both ends alike). A change
-of load then falls on every method of a round alike.
-
-A render's time is the median of its rounds. A ratio of times (how many times
-faster one method is than another) is computed **per round**, from that round's
-times only, and reported as the median of those paired ratios with a
-distribution-free confidence interval for the median (order statistics: no
-assumption on how the machine's load is distributed), e.g. "2.1× (1.9–2.4× over 9
-rounds)". An interval that contains 1 is "no measurable difference"; one wider than
-:data:`~whitted.defaults.COMPARE_SETTLED_WIDTH` after the last round is *unsettled*
-and said to be. The sweep keeps timing rounds while a headline is unsettled, up to
-:data:`~whitted.defaults.COMPARE_MAX_ROUNDS` rounds or
-:data:`~whitted.defaults.COMPARE_ROUNDS_SECONDS` of extra rounds.
-
-Which clock: the rounds run on :data:`~whitted.defaults.COMPARE_TIMING_THREADS` threads
-and read :data:`~whitted.defaults.COMPARE_CLOCK` (one thread's CPU time: a render's work,
-which another program hardly changes; docs/compare.md, "Timing", has the measurements).
+On a shared machine a render's time moves 2–3× between moments minutes apart, but only
+~1.2× within one moment; so what is compared is timed in the same moments, in rounds
+(every setting once per round, :func:`interleaved`), a render's time the median of its
+rounds, and a ratio of times the median of its per-round ratios with a distribution-free
+confidence interval (:class:`Interval`): docs/compare.md, "Timing". The benchmarks time
+their contenders so too (benchmarks/timing.py).
 """
 
 from __future__ import annotations
@@ -33,6 +16,12 @@ from dataclasses import dataclass
 from typing import Callable
 
 from ..defaults import COMPARE_CONFIDENCE, COMPARE_SETTLED_WIDTH
+
+
+def interleaved(items: list, k: int):
+    """The order of round ``k``: forward, then backward, so that a drift within a round falls
+    on both ends alike."""
+    return items if k % 2 == 0 else reversed(items)
 
 
 def median(values) -> float:
@@ -124,29 +113,3 @@ class Interval:
 def paired(rounds: int, ratio_in_round: Callable[[int], float]) -> Interval:
     """The :class:`Interval` of ``ratio_in_round(r)`` over rounds r = 0 … rounds - 1."""
     return Interval.of(ratio_in_round(r) for r in range(rounds))
-
-
-def faster_text(interval: Interval, name: str, other: str) -> str:
-    """Which of two methods is faster, in words, from the interval of ``other``'s time over
-    ``name``'s: "the article's model gets there 2.1× faster (1.9–2.4× over 9 rounds)", or
-    "no measurable difference ..." where the interval holds 1."""
-    if interval.straddles_one and interval.rounds >= 2:
-        return (f"no measurable difference in time between {name} and {other} "
-                f"({interval.value:.3g}×, {interval.range_text()})")
-    if interval.value < 1:
-        name, other = other, name
-        interval = Interval(1 / interval.value, 1 / interval.high, 1 / interval.low, interval.rounds)
-    flag = "" if interval.settled or interval.rounds < 2 else "; unsettled: the machine's load kept changing"
-    return f"{name} gets there {interval.value:.3g}× faster ({interval.range_text()}{flag})"
-
-
-def ratio_text(interval: Interval | None) -> str:
-    """A table cell: ``2.1× (1.9–2.4)``, ``≈ 1 (0.9–1.2)`` where the interval holds 1,
-    flagged ``?`` when unsettled; ``—`` when nothing was compared."""
-    if interval is None or not interval.known:
-        return "—"
-    if interval.rounds < 2:
-        return f"{interval.value:.3g}×"
-    flag = "" if interval.settled else " ?"
-    value = "≈ 1" if interval.straddles_one else f"{interval.value:.3g}×"
-    return f"{value} ({interval.low:.3g}–{interval.high:.3g}){flag}"

@@ -1,0 +1,278 @@
+"""Dask clusters for ``whitted render --workers`` and ``whitted compare --workers``: starting or
+reaching one, preparing its workers, stopping their renders.
+
+Mitsuba renders on one machine: it has no network rendering of its own. Dask's
+``distributed`` runs Python functions in worker processes, on this machine (a
+``LocalCluster`` of ``--workers N`` processes, started here on 127.0.0.1 and stopped)
+or on many (the workers of a running scheduler, ``--scheduler tcp://host:port``), moves
+their plain-data arguments and results, and hands the tasks of a worker that dies to the
+others (a task may lose ``distributed.scheduler.allowed-failures`` workers, 3 by default).
+
+A worker process prepares itself on its first task (:func:`prepare`): the variant, the
+plugins, and Dr.Jit's (and FLIP's OpenMP) threads sized to its share of its machine's
+cores, at least :data:`MIN_THREADS`. It renders one task at a time (:func:`worker_task`):
+two renders at once would share one thread pool and slow each other down unevenly.
+Ctrl-C cancels the tasks and ends the renders under way (:func:`stop_rendering`), so that
+no worker has to be killed on the way out. A local cluster's log messages are silenced:
+a worker's failure reaches the user as the one-line error of its task (docs/cluster.md).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import signal
+import sys
+import threading
+from collections import Counter
+
+from .defaults import COMPARE_CONNECT_TIMEOUT
+from .errors import WhittedError
+
+#: Who rendered a task when no cluster did (a result's ``worker``).
+IN_PROCESS = "in-process"
+#: The fewest Dr.Jit threads a worker gets, even when its share of the cores is one:
+#: with a pool of one thread, Mitsuba 3.9's EXR reading and writing (``mi.Bitmap``,
+#: through OpenEXR's thread pool) never returns, and the reference cache is EXR.
+MIN_THREADS = 2
+#: One render at a time in a worker process (see the module docstring).
+_RENDERING = threading.Lock()
+#: The (variant, Dr.Jit threads) this worker process is prepared for.
+_prepared: tuple[str, int] | None = None
+#: The thread of the task rendering now in this worker process (None: none).
+_rendering_thread: int | None = None
+
+
+class Stopped(Exception):
+    """Raised in a worker's rendering thread when the client stops the run (Ctrl-C)."""
+
+
+#: Guards :data:`_rendering_thread` between a task's thread and :func:`stop_rendering`.
+_STOP_LOCK = threading.Lock()
+#: How long :func:`stop_rendering` keeps trying, and how often (seconds).
+STOP_PATIENCE, STOP_INTERVAL = 10.0, 0.1
+
+
+def _raise_in(thread: int, error: type[BaseException] | None) -> None:
+    """Have ``thread`` raise ``error`` at its next Python step (None: forget a pending one)."""
+    import ctypes
+    ctypes.pythonapi.PyThreadState_SetAsyncExc(ctypes.c_ulong(thread),
+                                               None if error is None else ctypes.py_object(error))
+
+
+@contextlib.contextmanager
+def worker_task(variant: str, threads: dict[str, int]):
+    """A task on a worker: the worker prepared (:func:`prepare`; yields its address), one render
+    at a time, its thread known so that :func:`stop_rendering` can end it."""
+    global _rendering_thread
+    with _RENDERING:
+        with _STOP_LOCK:
+            _rendering_thread = threading.get_ident()
+        try:
+            yield prepare(variant, threads)
+        finally:
+            with _STOP_LOCK:
+                _rendering_thread = None
+                _raise_in(threading.get_ident(), None)   # a stop that came too late is dropped
+
+
+def _ignore_stopped(unraisable) -> None:
+    """``sys.unraisablehook`` of a worker: :class:`Stopped` landing where Python cannot raise
+    it (a garbage collector's callback, a finalizer) is no news; it is sent again."""
+    if not isinstance(unraisable.exc_value, Stopped):
+        sys.__unraisablehook__(unraisable)
+
+
+def cancel(client, tasks) -> None:
+    """On an error or Ctrl-C: cancel ``tasks`` and end the renders under way on every worker."""
+    if tasks:
+        client.cancel(list(tasks), force=True)
+        with contextlib.suppress(Exception):   # the tasks running now end too
+            client.run(stop_rendering, wait=True)
+
+
+async def stop_rendering() -> bool:
+    """On a worker (through ``client.run``, on its event loop): end the task rendering there.
+
+    A task cannot be cancelled once it runs, and a worker busy with one can only be
+    killed on the way out, leaving the semaphores of its process to the resource
+    tracker (which warns about them). Instead its thread gets :class:`Stopped` at its
+    next Python step (between kernels, or between a pass's levels), the task ends with
+    that error (its future is cancelled already) and the worker stops cleanly. Where
+    Python had to drop it (raised inside a callback), it is sent again until the task
+    has ended, for :data:`STOP_PATIENCE` seconds at most; whether it ended is returned.
+    """
+    import asyncio
+    for _ in range(round(STOP_PATIENCE / STOP_INTERVAL)):
+        with _STOP_LOCK:
+            if _rendering_thread is None:
+                return True
+            _raise_in(_rendering_thread, Stopped)
+        await asyncio.sleep(STOP_INTERVAL)
+    return _rendering_thread is None
+
+
+def available_cores() -> int:
+    """The cores this process may run on (its CPU affinity, else the machine's)."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # not on Linux
+        return os.cpu_count() or 1
+
+
+def prepare(variant: str, threads: dict[str, int]) -> str:
+    """Make this worker process ready to render in ``variant`` with its share of its
+    machine's cores (``threads``: host -> Dr.Jit threads per worker there); returns the
+    worker's address."""
+    global _prepared
+    import drjit as dr
+    from distributed import get_worker
+    from distributed.comm import get_address_host
+
+    from .variant import set_variant
+
+    address = get_worker().address
+    count = threads.get(get_address_host(address)) or max(MIN_THREADS, available_cores())
+    if _prepared is None:
+        sys.unraisablehook = _ignore_stopped
+    if _prepared != (variant, count):
+        set_variant(variant)  # registers the plugins too
+        dr.set_thread_count(count)
+        if "flip_evaluator" not in sys.modules:  # its OpenMP reads this when it loads
+            os.environ["OMP_NUM_THREADS"] = str(count)
+        _prepared = (variant, count)
+    return address
+
+
+def check_where(workers: int | None, scheduler: str | None) -> None:
+    """One clean error for ``--workers`` and ``--scheduler`` that cannot work."""
+    if workers is not None and scheduler is not None:
+        raise WhittedError("--workers starts a local cluster, --scheduler uses a running one: "
+                           "give one of them")
+    if workers is not None and workers < 1:
+        raise WhittedError(f"--workers must be >= 1, got {workers}")
+
+
+@contextlib.contextmanager
+def connect(workers: int | None, scheduler: str | None):
+    """A Dask client of a local cluster of ``workers`` processes (started here on 127.0.0.1
+    without a dashboard, and stopped on leaving, also on error or Ctrl-C), or of the
+    scheduler at ``scheduler``."""
+    import logging
+
+    from distributed import Client, LocalCluster
+
+    cluster = client = None
+    try:
+        if workers is not None:
+            _check_start_method()
+            # Everything on 127.0.0.1, on free ports: without a dashboard the scheduler still
+            # serves health and metrics over HTTP, by default on port 8787.
+            with _workers_ignore_ctrl_c():
+                cluster = LocalCluster(n_workers=workers, threads_per_worker=1,
+                                       processes=True, host="127.0.0.1", dashboard_address=None,
+                                       scheduler_kwargs={"dashboard": False,
+                                                         "dashboard_address": "127.0.0.1:0"},
+                                       silence_logs=logging.CRITICAL)
+            client = Client(cluster, set_as_default=False)
+        else:
+            client = _connect_scheduler(scheduler)
+        yield client
+    finally:
+        if client is not None:
+            client.close()
+        if cluster is not None:
+            cluster.close()
+
+
+def _check_start_method() -> None:
+    """CUDA cannot run in a process forked from one that has started it: the local
+    cluster's worker processes must be spawned (Dask's default for its nannies)."""
+    import dask
+    import mitsuba as mi
+
+    method = dask.config.get("distributed.worker.multiprocessing-method")
+    if mi.variant().startswith("cuda") and method != "spawn":
+        raise WhittedError(f"--workers with {mi.variant()} needs Dask's worker processes spawned, "
+                           f"not '{method}': unset distributed.worker.multiprocessing-method")
+
+
+@contextlib.contextmanager
+def _workers_ignore_ctrl_c():
+    """Start processes that ignore SIGINT (an ignored signal stays ignored in a child,
+    and Python then keeps it so). A Ctrl-C on a terminal reaches its whole process
+    group, the local cluster's workers included; they should not each die with a
+    traceback, since this process cancels the work and stops them. A Ctrl-C while
+    the cluster starts is lost."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
+def _connect_scheduler(address: str):
+    """A client of the scheduler at ``address`` with at least one worker, or one clean error."""
+    import logging
+
+    from distributed import Client
+
+    from distributed.comm import parse_address, parse_host_port
+    from distributed.comm.registry import get_backend
+
+    try:  # checked first: a Client made from a bad address hangs on its way out
+        scheme, location = parse_address(address)
+        get_backend(scheme)
+        parse_host_port(location)
+    except ValueError as error:
+        raise WhittedError(f"{address}: not a Dask scheduler address like tcp://host:8786 "
+                           f"({error})") from None
+    timeout = COMPARE_CONNECT_TIMEOUT
+    quiet = logging.getLogger("distributed")
+    level = quiet.level
+    quiet.setLevel(logging.CRITICAL)  # the error below says it in one line
+    try:
+        client = Client(address, timeout=timeout, set_as_default=False)
+    except (OSError, TimeoutError, ValueError, TypeError) as error:
+        why = str(error).strip().splitlines()[0] if str(error).strip() else type(error).__name__
+        raise WhittedError(f"{address}: cannot reach the Dask scheduler within {timeout:g} s ({why})") \
+            from None
+    finally:
+        quiet.setLevel(level)
+    try:
+        client.wait_for_workers(1, timeout=timeout)
+    except TimeoutError:
+        client.close()
+        raise WhittedError(f"{address}: the Dask scheduler has no worker (none joined within "
+                           f"{timeout:g} s); start some with: dask worker {address} --nthreads 1") from None
+    return client
+
+
+def worker_threads(cores: dict[str, int]) -> dict[str, int]:
+    """Dr.Jit threads per worker on each host, from ``cores`` (worker address -> the cores
+    it may use): the host's cores shared evenly among its worker processes, but at least
+    :data:`MIN_THREADS`."""
+    from distributed.comm import get_address_host
+
+    per_host = Counter(get_address_host(address) for address in cores)
+    return {host: max(MIN_THREADS, min(c for a, c in cores.items() if get_address_host(a) == host) // n)
+            for host, n in per_host.items()}
+
+
+def task_result(future, name: str):
+    """The task's result; a task that lost every worker it ran on is one clean error."""
+    from concurrent.futures import CancelledError
+
+    from distributed import KilledWorker
+
+    try:
+        return future.result()
+    except KilledWorker:
+        raise WhittedError(f"{name}: the Dask workers that ran it died, every time it was tried; "
+                           "see the workers' logs (memory?)") from None
+    except CancelledError:
+        raise WhittedError(f"{name}: its task was cancelled: the connection to the Dask scheduler "
+                           "was lost?") from None
