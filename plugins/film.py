@@ -176,7 +176,8 @@ class FilmSplats:
         crop); ``alpha`` (Bool: whether the sample is opaque) for films with an alpha channel."""
         values = [color.x, color.y, color.z]
         if self.alpha:
-            values.append(mi.Float(1) if alpha is None else dr.select(alpha, mi.Float(1), mi.Float(0)))
+            values.append(mi.Float(1) if alpha is None
+                          else dr.select(alpha, mi.Float(1), mi.Float(0)))
         values.append(mi.Float(1))   # the sample's weight: the film develops the mean
         self.block.put(position, values)
 
@@ -257,5 +258,6 @@ class PixelMeans:
         index = dr.arange(mi.UInt32, 4 * self.width * self.height)
         channel = index & 3
         rgb = channel < 3
-        value = dr.select(rgb, dr.gather(mi.Float, self.image, (index >> 2) * 3 + channel, rgb), 1.0)
+        value = dr.select(rgb,
+                          dr.gather(mi.Float, self.image, (index >> 2) * 3 + channel, rgb), 1.0)
         return mi.TensorXf(value, (self.height, self.width, 4))

@@ -227,7 +227,8 @@ class SphereHits(_SceneHits):
         si.time = ray.time
         si.wavelengths = ray.wavelengths
         if self.need_uv:
-            si.uv = lat_long_uv(si.n, *(dr.gather(mi.Vector3f, axis, slot, hit) for axis in tables.frame))
+            si.uv = lat_long_uv(si.n,
+                                *(dr.gather(mi.Vector3f, axis, slot, hit) for axis in tables.frame))
         return hit, si, dr.gather(mi.UInt32, tables.bsdf, slot, hit), dr.gather(mi.Float, tables.error, slot, hit)
 
 
@@ -250,8 +251,10 @@ class LayeredHits:
         self.need_uv = need_uv
         self.primitives = tables.primitives
         # per-render constants are opaque: one kernel serves every scale
-        self.scales = [dr.opaque(mi.Float, layer.scale) if self.jit else layer.scale for layer in self.layers]
-        self.radii = [dr.opaque(mi.Float, layer.radius) if self.jit else layer.radius for layer in self.layers]
+        self.scales = [dr.opaque(mi.Float, layer.scale) if self.jit else layer.scale
+                       for layer in self.layers]
+        self.radii = [dr.opaque(mi.Float, layer.radius) if self.jit else layer.radius
+                      for layer in self.layers]
 
     def _ray(self, k: int, ray, maxt):
         """``ray`` in layer ``k``'s frame, up to ``maxt`` (in the scene's frame)."""
@@ -285,7 +288,8 @@ class LayeredHits:
             pi = layer.scene.ray_intersect_preliminary(self._ray(k, ray, best), coherent=coherent)
             t = pi.t / self.scales[k]
             nearer = pi.is_valid() & (t < best)
-            layer_slot = slot_of(layer.tables.base, dr.reinterpret_array(mi.UInt32, pi.shape), pi.prim_index, nearer)
+            layer_slot = slot_of(layer.tables.base, dr.reinterpret_array(mi.UInt32, pi.shape),
+                                 pi.prim_index, nearer)
             best, which, slot = dr.select(nearer, t, best), dr.select(nearer, k, which), dr.select(nearer, layer_slot, slot)
         if self.inner is not None:   # the other shapes, before the nearest layer hit
             bounded = mi.Ray3f(ray)
@@ -300,8 +304,10 @@ class LayeredHits:
             this = which == k
             center = dr.select(this, dr.gather(mi.Point3f, layer.tables.center, slot, this), center)
             radius = dr.select(this, self.radii[k], radius)
-            layer_bsdf = dr.select(this, dr.gather(mi.UInt32, layer.tables.bsdf, slot, this), layer_bsdf)
-            layer_error = dr.select(this, dr.gather(mi.Float, layer.tables.error, slot, this), layer_error)
+            layer_bsdf = dr.select(this,
+                                   dr.gather(mi.UInt32, layer.tables.bsdf, slot, this), layer_bsdf)
+            layer_error = dr.select(this, dr.gather(mi.Float, layer.tables.error, slot, this),
+                                    layer_error)
         n = dr.normalize(ray(best) - center)
         si.t = dr.select(layered, best, si.t)
         si.n = dr.select(layered, n, si.n)

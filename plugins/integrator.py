@@ -297,7 +297,8 @@ class WhittedIntegrator(mi.SamplingIntegrator):
         by_pixel = analysis.depth == 1 and image.takes_pixels and camera.sampler is None and not attached
         whole_pixels = by_pixel or camera.sampler is not None
         per_pass = self.wavefront_size or tracer.samples_per_pass
-        passes = tracer.passes(width * height * spp, max(spp, per_pass // spp * spp) if whole_pixels else per_pass)
+        per_pass = max(spp, per_pass // spp * spp) if whole_pixels else per_pass
+        passes = tracer.passes(width * height * spp, per_pass)
         for index, (first, count) in enumerate(passes):
             if by_pixel:
                 self._render_pixels(tracer, camera, image, first // spp, count // spp)
@@ -308,14 +309,16 @@ class WhittedIntegrator(mi.SamplingIntegrator):
                 self._render_pass(tracer, camera, image, first, count, progress, background_seen)
         rays = tracer.tally.read(camera=width * height * spp, max_depth_reached=tracer.deepest)
         error_bound = rays.sample_culled_weight * tracer.bright if rays.culled else 0.0
-        return DetailedRender(image.develop(), rays, analysis.effects, analysis.depth, len(passes), error_bound)
+        return DetailedRender(image.develop(), rays, analysis.effects, analysis.depth, len(passes),
+                              error_bound)
 
     def _render_pass(self, tracer, camera, image, first, count, progress, background_seen=False):
         """Samples first … first + count - 1 (pixel after pixel), as ``tracer`` takes them."""
         spp, width = camera.spp, camera.width
         # Counted from the pass's first pixel, so that 32-bit indices never overflow.
         first_pixel, first_sample = divmod(first, spp)
-        opaque_spp, opaque_first_sample = dr.opaque(mi.UInt32, spp), dr.opaque(mi.UInt32, first_sample)
+        opaque_spp = dr.opaque(mi.UInt32, spp)
+        opaque_first_sample = dr.opaque(mi.UInt32, first_sample)
         opaque_first_pixel, opaque_width = dr.opaque(mi.UInt32, first_pixel), dr.opaque(mi.UInt32, width)
         for index in tracer.samples(count):
             if spp == 1:
@@ -363,7 +366,8 @@ class WhittedIntegrator(mi.SamplingIntegrator):
             batches = [(x, y, k) for (x, y), k in zip(grid, index)]
         colors = []
         for x, y, pixel in batches:
-            ray, ray_weight, _ = camera.ray(x, y, pixel, 0 if isinstance(pixel, int) else mi.UInt32(0))
+            first = 0 if isinstance(pixel, int) else mi.UInt32(0)
+            ray, ray_weight, _ = camera.ray(x, y, pixel, first)
             recorder.camera(ray_weight)
             colors.append(tracer.trace(ray) * ray_weight)
         return colors

@@ -93,7 +93,8 @@ class Primitives:
                           (c - r, c + r, c, r, s)]
                 counts[k], start = len(r), k + 1
             parts.append((low[:, start:], high[:, start:], center[:, start:], radius[start:], sphere[start:]))
-            low, high, center, radius, sphere = (np.concatenate(column, axis=-1) for column in zip(*parts))
+            low, high, center, radius, sphere = (np.concatenate(column, axis=-1)
+                                                 for column in zip(*parts))
             first = np.concatenate([[0], np.cumsum(counts)[:-1]])
             frames = {int(first[k]): frame for k, frame in frames.items()}
         error = hit_error(radius, np.abs(center).max(axis=0, initial=0.0))
@@ -166,7 +167,8 @@ class Primitives:
         frame[0, 0] = frame[1, 1] = frame[2, 2] = 1.0
         for k, prim_frame in self.frames.items():
             mapped[slots[k]], frame[:, :, slots[k]] = True, prim_frame
-        tables = PrimitiveTables(mi.Float(error), mi.Bool(mapped), [mi.Vector3f(frame[axis]) for axis in range(3)])
+        tables = PrimitiveTables(mi.Float(error), mi.Bool(mapped),
+                                 [mi.Vector3f(frame[axis]) for axis in range(3)])
         if base is not None:
             tables.base = (mi.UInt32(base[0].astype(np.uint32)), mi.Bool(base[1]))
         if spheres:
@@ -263,8 +265,10 @@ def _layer(radius: float, parts) -> Layer:
     own = scene.shapes()
     if not dr.is_jit_v(mi.Float):
         first = np.cumsum([0] + [c.shape[1] for _, c in parts])[:-1].tolist()
-        tables = {id(shape): (start, parts[i][0].bsdf()) for i, (shape, start) in enumerate(zip(own, first))}
-        return Layer(scale, radius, scene, tables, [mi.Point3f(c) for c in center.T.tolist()], error.tolist())
+        tables = {id(shape): (start, parts[i][0].bsdf())
+                  for i, (shape, start) in enumerate(zip(own, first))}
+        return Layer(scale, radius, scene, tables, [mi.Point3f(c) for c in center.T.tolist()],
+                     error.tolist())
     rows = np.asarray(dr.reinterpret_array(mi.UInt32, scene.shapes_dr()), np.int64).reshape(-1)
     keys = np.array([bsdf_key(shape.bsdf()) for shape, _ in parts], np.int64)
     primitives = Primitives.read(own, corners(bounds(own)), np.full(len(own), int(mi.ShapeType.Ellipsoids)),

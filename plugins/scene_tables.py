@@ -180,7 +180,8 @@ class Materials:
         """The largest channel B can take, textures included (None when a texture's is not known)."""
         if self.largest_texel is None:
             return None
-        return max(float(self.rows[self.rows[:, TEXTURED] == 0, COLOR].max(initial=0.0)), self.largest_texel)
+        return max(float(self.rows[self.rows[:, TEXTURED] == 0, COLOR].max(initial=0.0)),
+                   self.largest_texel)
 
     def largest_gain(self) -> float:
         """The largest KR + KT."""
@@ -287,7 +288,8 @@ class SceneTables:
         jit = dr.is_jit_v(mi.Float)
         rows = np.asarray(dr.reinterpret_array(mi.UInt32, scene.shapes_dr()), np.int64).reshape(-1) \
             if jit and shapes else None
-        self.primitives = Primitives.read(shapes, corners(boxes), types, textured, rows, keys if jit else None)
+        self.primitives = Primitives.read(shapes, corners(boxes), types, textured, rows,
+                                          keys if jit else None)
         self._types = types
         self.spheres_only = bool(len(shapes)) and bool(self.primitives.sphere.all())
         self.sphere_shapes = bool((types == int(mi.ShapeType.Sphere)).any())
@@ -300,15 +302,18 @@ class SceneTables:
         # what the tables were built from (:meth:`matches`)
         self._boxes, self._changes = boxes, _changes(self.materials.bsdfs)
         ellipsoids = types == int(mi.ShapeType.Ellipsoids)
-        self._ellipsoids = {k: _ellipsoid_data(shapes[k]) for k in np.flatnonzero(ellipsoids).tolist()}
+        self._ellipsoids = {k: _ellipsoid_data(shapes[k])
+                            for k in np.flatnonzero(ellipsoids).tolist()}
         spheres = types == int(mi.ShapeType.Sphere)
-        self._frames = {k: _to_world(shapes[k]) for k in np.flatnonzero(textured & spheres).tolist()}
+        self._frames = {k: _to_world(shapes[k])
+                        for k in np.flatnonzero(textured & spheres).tolist()}
 
     def matches(self, scene) -> bool:
         """Whether these tables are still those of ``scene``."""
         shapes = scene.shapes()
         return (_changes(self.materials.bsdfs) == self._changes and bounds(shapes) == self._boxes
-                and all(_same_data(_ellipsoid_data(shapes[k]), data) for k, data in self._ellipsoids.items())
+                and all(_same_data(_ellipsoid_data(shapes[k]), data)
+                        for k, data in self._ellipsoids.items())
                 and all(_to_world(shapes[k]) == matrix for k, matrix in self._frames.items())
                 and point_lights(scene) == self.lights
                 and (scene.environment() is None) == (self.environment is None)
@@ -320,7 +325,8 @@ class SceneTables:
         key = tuple(sorted(left_out))
         if key not in self._rest_scenes:
             # keyed by the shapes' own ids: mi.load_dict names each shape by its key
-            rest = {shape.id() or f"shape_{k}": shape for k, shape in enumerate(scene.shapes()) if k not in left_out}
+            rest = {shape.id() or f"shape_{k}": shape for k, shape in enumerate(scene.shapes())
+                    if k not in left_out}
             self._rest_scenes[key] = (mi.load_dict({"type": "scene", **rest}) if rest else None,
                                       self._part(left_out))
         return self._rest_scenes[key]

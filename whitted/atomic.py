@@ -25,7 +25,8 @@ def atomic_path(target: str | os.PathLike):
     if not folder.is_dir():
         raise WhittedError(f"{target}: output folder {folder} does not exist")
     try:
-        fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=target.suffix or ".tmp", dir=folder)
+        fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=target.suffix or ".tmp",
+                                   dir=folder)
     except OSError as error:
         raise WhittedError(f"{target}: cannot write: {error.strerror or error}") from None
     os.close(fd)
@@ -72,7 +73,8 @@ def remove_stale_leftovers(folder: str | os.PathLike, older_than: float) -> list
         return removed
     for name in names:
         match = _TEMPORARY.fullmatch(name)
-        if not match or not (match["target"].endswith(match["suffix"]) or match["suffix"] == ".tmp"):
+        if not match or not (match["target"].endswith(match["suffix"])
+                             or match["suffix"] == ".tmp"):
             continue
         path = Path(folder) / name
         with contextlib.suppress(OSError):
@@ -114,7 +116,8 @@ def _probe(folder: Path, named: Path) -> None:
         fd, probe = tempfile.mkstemp(prefix=".whitted-", suffix=".probe", dir=folder)
     except OSError as error:
         # /proc and /sys answer ENOENT for a new file in a folder that exists.
-        why = "it accepts no new files" if error.errno == errno.ENOENT else (error.strerror or str(error))
+        why = ("it accepts no new files" if error.errno == errno.ENOENT
+               else error.strerror or str(error))
         raise WhittedError(f"{named}: cannot write in {folder}: {why}") from None
     os.close(fd)
     os.unlink(probe)

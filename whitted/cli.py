@@ -23,7 +23,8 @@ from . import interrupt
 from .errors import EXIT_USER_ERROR, WhittedError, report
 
 #: Options a user may try from the scene format's keywords, and the option that does it.
-SCENE_KEYWORD_OPTIONS = {"--samples": "--spp", "--depth": "--max-depth", "--minweight": "--min-weight"}
+SCENE_KEYWORD_OPTIONS = {"--samples": "--spp", "--depth": "--max-depth",
+                         "--minweight": "--min-weight"}
 
 
 def _body(module: str, function: str):
@@ -152,7 +153,8 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
         Encode frames (image files, or folders of them: their PNG files sorted by name, else their
         EXR files) as an H.264 video through FFmpeg (imageio-ffmpeg). EXR frames are encoded to sRGB
         as PNG output is.""")
-    video.add_argument("frames", nargs="+", metavar="FRAME", help="frames (.png or .exr), or folders of them")
+    video.add_argument("frames", nargs="+", metavar="FRAME",
+                       help="frames (.png or .exr), or folders of them")
     video.add_argument("-o", "--output", required=True, metavar="OUT.mp4",
                        help="the video (.mp4, .mkv or .mov)")
     video.add_argument("--fps", type=float, default=DEFAULT_FPS, metavar="N",
@@ -172,7 +174,8 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
     fit.add_argument("scene", metavar="SCENE.scn", help="the legacy scene to fit")
     fit.add_argument("--to", required=True, metavar="IMAGE.exr", dest="target",
                      help="the target image (EXR or PNG), of the scene's view (its aspect ratio)")
-    fit.add_argument("-o", "--output", required=True, metavar="FITTED.scn", help="the fitted scene to write")
+    fit.add_argument("-o", "--output", required=True, metavar="FITTED.scn",
+                     help="the fitted scene to write")
     fit.add_argument("--iterations", type=int, default=FIT_ITERATIONS, metavar="N",
                      help=f"gradient steps (default {FIT_ITERATIONS})")
     fit.add_argument("--width", type=int, default=FIT_WIDTH, metavar="W",

@@ -80,7 +80,8 @@ def render_single(args) -> None:
 
     output = Path(args.output)
     # Before the scene is loaded (seconds for a large one); once: render_checked trusts them.
-    check_settings(args.spp, args.max_depth, args.lighting, args.integrator, args.min_weight, args.without)
+    check_settings(args.spp, args.max_depth, args.lighting, args.integrator, args.min_weight,
+                   args.without)
     if args.ambient is not None:
         check_ambient(args.ambient)
     if args.stats and Path(args.stats).resolve() == output.resolve():
@@ -168,14 +169,16 @@ def render_many_command(args) -> int:
                            "run it again to render the rest")
             if args.stats:
                 with interrupt.deferred():
-                    write_text(args.stats, json.dumps(tally.json(interrupted=True), indent=2) + "\n")
+                    write_text(args.stats,
+                               json.dumps(tally.json(interrupted=True), indent=2) + "\n")
     failed = tally.count("failed")
     if args.stats:
         write_text(args.stats, json.dumps(tally.json(), indent=2) + "\n")
     print(tally.line(args.output), file=sys.stderr)
     if args.video:
         if failed:
-            print(f"whitted: no video: {failed} scene{'s' if failed > 1 else ''} failed", file=sys.stderr)
+            print(f"whitted: no video: {failed} scene{'s' if failed > 1 else ''} failed",
+                  file=sys.stderr)
         else:
             from .video import write_video
             write_video(args.video, [outputs[0] for _, outputs in planned], args.fps,

@@ -142,7 +142,8 @@ COMPARE_REPORT_SECONDS = 3.0
 # --- Validation, written once ----------------------------------------------------------------------
 
 def _integer(value, what: str) -> int:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) and not hasattr(value, "__index__"):
+    if isinstance(value, bool) or (not isinstance(value, (int, float))
+                                   and not hasattr(value, "__index__")):
         raise WhittedError(f"{what} must be an integer, got {value!r}")
     if isinstance(value, float) and not value.is_integer():
         raise WhittedError(f"{what} must be an integer, got {value}")

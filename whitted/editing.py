@@ -64,7 +64,8 @@ class SceneEditor:
         radius = sphere.radius if radius is None else float(radius)
         if not radius > 0:
             raise WhittedError(f"a sphere's radius must be > 0, got {radius}")
-        spheres[k] = replace(sphere, center=D.check_point(center, "a sphere's center"), radius=radius)
+        spheres[k] = replace(sphere, center=D.check_point(center, "a sphere's center"),
+                             radius=radius)
         self._apply(replace(self.model, spheres=spheres))
 
     def set_color(self, k: int, color) -> None:

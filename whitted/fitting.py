@@ -79,7 +79,8 @@ def resampled(image: np.ndarray, size) -> np.ndarray:
     import mitsuba as mi
     if image.shape[1::-1] == tuple(size):
         return image
-    bitmap = mi.Bitmap(np.ascontiguousarray(image, np.float32), pixel_format=mi.Bitmap.PixelFormat.RGB)
+    bitmap = mi.Bitmap(np.ascontiguousarray(image, np.float32),
+                       pixel_format=mi.Bitmap.PixelFormat.RGB)
     return np.array(bitmap.resample([int(size[0]), int(size[1])]), np.float32).reshape(size[1], size[0], 3)
 
 
@@ -139,11 +140,13 @@ def fit(scene, target, *, free=FREE, iterations: int = D.FIT_ITERATIONS, width: 
     params["integrator.min_weight"] = 0.0   # the exact tree: the loss is smooth
     params.update()
     # each fitted color's places: BSDFs among the scene's parameters, or a group's own
-    fitted = {mid: bsdfs[material] for material, mid in material_ids(model).items() if material.texture is None}
+    fitted = {mid: bsdfs[material] for material, mid in material_ids(model).items()
+              if material.texture is None}
     fitted_ids = list(fitted)
     scales = [_light_scale(described, light) for light in described.lights]
     shapes = {shape.id(): shape for shape in loaded.shapes()}
-    own = {name: mi.traverse(shapes[name].bsdf()) for names in fitted.values() for name in names if name in shapes}
+    own = {name: mi.traverse(shapes[name].bsdf()) for names in fitted.values() for name in names
+           if name in shapes}
     color_slots = {mid: [(own[name], "color.value") if name in own else (params, f"{name}.color.value")
                          for name in names] for mid, names in fitted.items()}
     # Only what the fit writes: mi.render and params.update() walk every kept parameter
@@ -211,7 +214,8 @@ def fit(scene, target, *, free=FREE, iterations: int = D.FIT_ITERATIONS, width: 
         write_parameters()
     final = np.array(mi.render(loaded), np.float32)
     fitted = fitted_model(model, ambient, colors, lights)
-    return FitResult(fitted, losses, relative_mse(final, reference), size, ambient, colors, lights, final)
+    return FitResult(fitted, losses, relative_mse(final, reference), size, ambient, colors,
+                     lights, final)
 
 
 def fitted_model(model, ambient: float, colors: dict, lights: list):
@@ -256,7 +260,8 @@ def fitted_lines(model, result: FitResult) -> list[str]:
     labels = material_labels(model)
     before = {mid: material.color for material, mid in material_ids(model).items()}
     return ([f"ambient {model.ambient:.4g} -> {result.ambient:.4g}"]
-            + [f"{labels[mid]}: color {rgb(before[mid])} -> {rgb(color)}" for mid, color in result.colors.items()]
+            + [f"{labels[mid]}: color {rgb(before[mid])} -> {rgb(color)}"
+               for mid, color in result.colors.items()]
             + [f"{line_label(model, light.line)}: light {rgb(light.color)} -> {rgb(color)}"
                for light, color in zip(model.lights, result.lights) if tuple(color) != tuple(light.color)])
 

@@ -209,7 +209,8 @@ def render_checked(scene, integrator: str = D.INTEGRATOR, spp: int | None = None
     stats = {"rays": stats_rays, "spp": spp, "seconds": clock.seconds, "compile_seconds": clock.compile,
              "effects": effects, "peak_memory_bytes": clock.peak_memory,
              "peak_resident_bytes": clock.peak_resident, **adaptive}
-    return RenderResult(np.ascontiguousarray(image), clock.seconds, clock.compile, stats, clock.cpu_seconds)
+    return RenderResult(np.ascontiguousarray(image), clock.seconds, clock.compile, stats,
+                        clock.cpu_seconds)
 
 
 def check_article_materials(scene, name: str | None = None):

@@ -182,7 +182,8 @@ def ensure_llvm(allow_install: bool = True) -> str | None:
             print("whitted: no libLLVM >= 16 found; installing Debian's libllvm19")
             env = dict(os.environ, DEBIAN_FRONTEND="noninteractive")
             subprocess.run(prefix + [apt, "-qq", "update"], env=env, check=False)
-            subprocess.run(prefix + [apt, "-qq", "install", "-y", "libllvm19"], env=env, check=False)
+            subprocess.run(prefix + [apt, "-qq", "install", "-y", "libllvm19"], env=env,
+                           check=False)
             path = find_libllvm()
     if path is not None:
         print(f"whitted: using {path} for the llvm variants")

@@ -124,4 +124,5 @@ def video_command(args) -> None:
     write_video(args.output, frames, args.fps, progress=not args.quiet)
     if args.verbose:
         import sys
-        print(f"whitted: wrote {args.output}: {len(frames)} frames at {args.fps:g} fps", file=sys.stderr)
+        print(f"whitted: wrote {args.output}: {len(frames)} frames at {args.fps:g} fps",
+              file=sys.stderr)

@@ -51,7 +51,8 @@ def faster_text(interval: Interval, name: str, other: str) -> str:
                 f"({interval.value:.3g}×, {interval.range_text()})")
     if interval.value < 1:
         name, other = other, name
-        interval = Interval(1 / interval.value, 1 / interval.high, 1 / interval.low, interval.rounds)
+        interval = Interval(1 / interval.value, 1 / interval.high, 1 / interval.low,
+                            interval.rounds)
     flag = "" if interval.settled or interval.rounds < 2 else "; unsettled: the machine's load kept changing"
     return f"{name} gets there {interval.value:.3g}× faster ({interval.range_text()}{flag})"
 
@@ -336,7 +337,8 @@ def analyse(entry: SceneResult, levels: tuple[float, ...] | None = None,
             own = reach.get(method)
             if own and own.fastest and path_reach and path_reach.fastest:
                 a, b = path_reach.fastest, own.fastest
-                speedups[method] = paired(rounds, lambda r, a=a, b=b: _over(a.seconds_in(r), b.seconds_in(r)))
+                speedups[method] = paired(
+                    rounds, lambda r, a=a, b=b: _over(a.seconds_in(r), b.seconds_in(r)))
         equal_quality.append(EqualQuality(level, reach, speedups))
 
     floors, decompositions = [], []

@@ -42,7 +42,8 @@ def _slug(name: str) -> str:
 
 def _render(m: Measurement, index: str, card: bool) -> dict:
     s = m.setting
-    limit = (f", {number(m.rel_mse_limit)} from its limit" if math.isfinite(m.rel_mse_limit) else "")
+    limit = (f", {number(m.rel_mse_limit)} from its limit"
+             if math.isfinite(m.rel_mse_limit) else "")
     return {"id": index, "method": s.method, "method_name": METHOD_NAMES[s.method],
             "label": s.label, "depth": s.max_depth, "spp": s.spp, "time": spread_text(m),
             "rel_mse": number(m.rel_mse), "flip": number(m.flip), "rounds": m.rounds,

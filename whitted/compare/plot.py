@@ -129,9 +129,12 @@ def error_vs_time_figure(entries: list[SceneResult]):
                     continue
                 color = COLORS[method]
                 xs, ys = [m.seconds for m in ms], [getattr(m, metric) for m in ms]
-                spread = [[m.seconds - m.seconds_min for m in ms], [m.seconds_max - m.seconds for m in ms]]
-                ax.errorbar(xs, ys, xerr=spread, fmt="none", ecolor=color, alpha=0.25, linewidth=0.8)
-                ax.scatter(xs, ys, s=12, color=color, alpha=0.3, marker=MARKERS[method], linewidths=0)
+                spread = [[m.seconds - m.seconds_min for m in ms],
+                          [m.seconds_max - m.seconds for m in ms]]
+                ax.errorbar(xs, ys, xerr=spread, fmt="none", ecolor=color, alpha=0.25,
+                            linewidth=0.8)
+                ax.scatter(xs, ys, s=12, color=color, alpha=0.3, marker=MARKERS[method],
+                           linewidths=0)
                 front = pareto_front(list(zip(xs, ys)))
                 ax.plot(*zip(*front), color=color, marker=MARKERS[method], markersize=4,
                         label=METHOD_NAMES[method] + f" ({method})")

@@ -137,7 +137,8 @@ def scene_words(analysis: Analysis) -> dict:
         "notes": list(entry.notes), "floors": [f.text for f in analysis.floors],
         "decompositions": [d.text for d in analysis.decompositions],
         "noise_note": f", its noise ≈ {entry.reference_noise:.3g}" if noisy else "",
-        "methods": methods, "whitted": [WHITTED_LIGHTING[m] for m in WHITTED_METHODS if m in methods],
+        "methods": methods, "whitted": [WHITTED_LIGHTING[m] for m in WHITTED_METHODS
+                                        if m in methods],
         "equal_quality": equal_quality_rows(analysis), "equal_time": equal_time_rows(analysis),
         "equal_quality_lines": (equal_quality_lines(analysis)
                                 if analysis.equal_quality and entry.measurements else []),

@@ -145,7 +145,8 @@ def _rounds(loaded, entry: SceneResult, measured: list[Measurement], rounds: int
                 # ones in every extra round, so that a round's index is one moment for all
                 measured = _headline_renders(entry)
                 predicted = _cost(measured)
-            wanted = k < rounds + COMPARE_HEADLINE_ROUNDS or _headline_renders(entry, unsettled=True)
+            wanted = (k < rounds + COMPARE_HEADLINE_ROUNDS
+                      or _headline_renders(entry, unsettled=True))
             if not measured or not wanted or started + predicted > extra_until:
                 break
         if started + predicted > deadline:
@@ -254,7 +255,8 @@ def sweep_scene(scene: SceneFile, entry: SceneResult, settings: list[Setting], o
     overran = 0
     for setting in settings:
         if progress is not None:
-            progress.set_postfix_str(f"{entry.name}: {setting.method} {setting.label}", refresh=False)
+            progress.set_postfix_str(f"{entry.name}: {setting.method} {setting.label}",
+                                     refresh=False)
         predicted = Budget.predict(setting, done, 1 + options.rounds)
         if time.monotonic() + predicted > deadline:
             entry.skipped.append(setting)
