@@ -44,25 +44,12 @@ from .scene import Scene, Sphere, SphereArrays, Vec3
 GIANT_FRACTION = 1e-2
 
 
-def _detail_near(scene: Scene, k: int) -> float:
+def _detail_near(spheres: SphereArrays, k: int) -> float:
     """The finest detail next to sphere ``k``'s surface: over the other spheres, the larger of
     a sphere's radius and its gap to that surface (a ball resting on it: its radius; one far
-    from it: the gap, which no ray offset of the surface's size can cross)."""
-    giant = scene.spheres[k]
-    (gx, gy, gz), gr = giant.center, giant.radius
-    finest = math.inf
-    for j, sphere in enumerate(scene.spheres):
-        (x, y, z), r = sphere.center, sphere.radius
-        if j != k and r < finest:
-            gap = abs(abs(math.sqrt((x - gx) ** 2 + (y - gy) ** 2 + (z - gz) ** 2) - gr) - r)
-            finest = min(finest, max(r, gap))
-    return finest
-
-
-def _detail_near_arrays(spheres: SphereArrays, k: int) -> float:
-    """:func:`_detail_near` of spheres given as arrays, bit for bit: computed with numpy for
-    every sphere, then again in :func:`_detail_near`'s arithmetic for those within rounding
-    of the least (``**`` is ``pow``, which may round x² unlike numpy's ``x * x``)."""
+    from it: the gap, which no ray offset of the surface's size can cross). Computed with
+    numpy, then again in Python floats (:func:`_detail_of`) for the spheres within rounding of
+    the least, so that the result does not depend on numpy's rounding."""
     import numpy as np
     center, radius = spheres.center, spheres.radius
     (gx, gy, gz), gr = center[k].tolist(), float(radius[k])
@@ -87,44 +74,18 @@ def _detail_of(c: Vec3, r: float, g: Vec3, gr: float) -> float:
 def coarse_spheres(scene: Scene, origin: Vec3, smallest: float | None = None,
                    spheres: SphereArrays | None = None) -> tuple[list[int], list[int]]:
     """``(giant, misplaced)``: the indices of the spheres of ``scene`` (written in the frame of
-    ``origin``) that are giant, and of those Mitsuba misplaces (:func:`mitsuba_misplaces`),
-    in one pass.
+    ``origin``) that are giant, and of those Mitsuba misplaces, in one pass.
 
     Giant: the float32 error bound exceeds :data:`GIANT_FRACTION` of the finest detail next
     to the sphere (:func:`_detail_near`). ``smallest`` is the smallest radius of spheres the
     scene holds elsewhere (the loader's ellipsoids: whitted/sealed.py), if any: they count
-    as resting on every sphere. ``spheres``: the scene's spheres as arrays, when the caller
-    has them; else those the scene holds (:meth:`~.scene.Scene.held_sphere_arrays`), else
-    its list.
+    as resting on every sphere. Misplaced: Mitsuba's float32 sphere test (off by about
+    ε·(r + max|C_i|)) is coarser than :data:`MISPLACED_RATIO` times its own ray offset near the
+    sphere, ``(1 + d)·RayEpsilon`` with d the sphere's distance from the frame's origin: its own
+    integrators show acne on it. ``spheres``: the scene's arrays, when the caller has them.
+    The result is kept with the arrays, which do not change: a conversion asks three times.
     """
-    if spheres is None:
-        spheres = scene.held_sphere_arrays()
-    if spheres is not None:
-        return _coarse_arrays(spheres, origin, smallest)
-    if not scene.spheres:
-        return [], []
-    detail = min(sphere.radius for sphere in scene.spheres)
-    if smallest is not None:
-        detail = min(detail, smallest)
-    ox, oy, oz = origin
-    candidates, misplaced = [], []
-    for k, sphere in enumerate(scene.spheres):
-        (x, y, z), r = sphere.center, sphere.radius
-        x, y, z = x - ox, y - oy, z - oz
-        c = max(abs(x), abs(y), abs(z))
-        error = hit_error(r, c)
-        if error > GIANT_FRACTION * detail:   # only these can be coarse against a detail
-            candidates.append((k, error))
-        if UNIT_ROUNDOFF * (r + c) > MISPLACED_RATIO * RAY_EPSILON * (1 + abs(math.sqrt(x * x + y * y + z * z) - r)):
-            misplaced.append(k)
-    limit = smallest if smallest is not None else math.inf
-    giant = [k for k, error in candidates if error > GIANT_FRACTION * min(_detail_near(scene, k), limit)]
-    return giant, misplaced
-
-
-def _coarse_arrays(spheres: SphereArrays, origin: Vec3, smallest: float | None) -> tuple[list[int], list[int]]:
-    """:func:`coarse_spheres` of spheres given as arrays, with numpy, bit for bit (kept with
-    the arrays, which do not change: a conversion asks three times)."""
+    spheres = scene.sphere_arrays() if spheres is None else spheres
     key = ("coarse", tuple(origin), smallest)
     cache = spheres.__dict__.setdefault("_cache", {})
     if key not in cache:
@@ -160,7 +121,7 @@ def _coarse_of(spheres: SphereArrays, origin: Vec3, smallest: float | None) -> t
                                (1 + np.abs(np.sqrt(x * x + y * y + z * z) - radius)))
     limit = smallest if smallest is not None else math.inf
     giant = [k for k in candidates.tolist()
-             if float(error[k]) > GIANT_FRACTION * min(_detail_near_arrays(spheres, k), limit)]
+             if float(error[k]) > GIANT_FRACTION * min(_detail_near(spheres, k), limit)]
     return giant, misplaced.tolist()
 
 
@@ -186,14 +147,6 @@ MIN_HEIGHT = 1e-2
 #: acne (docs/numerics.md, hazard 14); smallpt's walls (1.5 to 3.2) and floors of radius
 #: 10^4 under the eye (8.9) do not
 MISPLACED_RATIO = 1.4
-
-
-def mitsuba_misplaces(sphere: Sphere, origin: Vec3) -> bool:
-    """Whether Mitsuba's float32 sphere test (off by about ε·(r + max|C_i|)) is coarser than
-    :data:`MISPLACED_RATIO` times its own ray offset near the sphere, ``(1 + d)·RayEpsilon``
-    with d the sphere's distance from the frame's origin (the lookat): then Mitsuba's own
-    integrators show acne on it (:func:`coarse_spheres` for a whole scene)."""
-    return coarse_spheres(Scene(spheres=[sphere]), origin)[1] == [0]
 
 
 def sphere_mesh(center: Vec3, radius: float, eye: Vec3, view: float, tolerance: float = MESH_TOLERANCE):
