@@ -237,10 +237,9 @@ def test_the_example_scenes_convert_without_a_warning(tmp_path, capsys):
 
 
 def test_scenes_held_as_arrays_convert_as_lists_do(texture_png, tmp_path, capsys):
-    """A large file's scene holds its spheres as arrays (converter/scene.py), and the
-    description, the warnings and the XML are computed from them with numpy: the same
-    bytes as from the list of spheres, giant, meshed, textured and odd ones included."""
-    from whitted.converter import parser
+    """A parsed scene holds its spheres as arrays (converter/scene.py), written in a block
+    (converter/xml_writer.py): the same bytes as from a list of spheres, giant, meshed,
+    textured and odd ones included."""
     from whitted.converter.frame import warn_precision
     text = (f"size 16 12\neye 0 2e5 3\nlookat 0.5 0 0.25\nlight 1 2 3\n"
             f"sphere 0 -1e4 0 1e4 color 0.8 0.8 0.75 reflect 0.3\nsphere 0 1 0 1 reflect 0.5\n"
@@ -250,8 +249,9 @@ def test_scenes_held_as_arrays_convert_as_lists_do(texture_png, tmp_path, capsys
     for portable in (False, True):
         xml = []
         for arrays in (False, True):
-            scene = parser._parse(text, tmp_path / "s.scn", fast=True, arrays=arrays)
-            assert (scene.held_sphere_arrays() is not None) is arrays
+            scene = parse_text(text, tmp_path / "s.scn")
+            if not arrays:
+                scene.spheres = list(scene.spheres)
             xml.append(scene_to_xml(scene, tmp_path, portable=portable))
             warn_precision(scene, integrator="path")
             assert (scene.held_sphere_arrays() is not None) is arrays   # nothing made the list
@@ -271,8 +271,7 @@ def test_two_processes_write_the_same_bytes(write_scene, tmp_path):
     script = f"""
 import sys
 from whitted.cli import main
-from whitted.converter import parser, xml_writer
-parser.ARRAYS_FROM = 0
+from whitted.converter import xml_writer
 forks = []
 fork = xml_writer._fork_writer
 xml_writer._fork_writer = lambda *args: forks.append(1) or fork(*args)

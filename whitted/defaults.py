@@ -365,8 +365,7 @@ DEFAULT_FPS = 24.0
 
 #: the fewest spheres of one radius that the loader and the portable XML group in an
 #: ``ellipsoids`` shape by default (whitted/sealed.py, ``MIN_GROUP``): below this the load time
-#: saved (~0.1 ms a sphere) is below a render's noise, and the scene is left as written. Here,
-#: not in sealed.py, so that the converter can tell a scene too small to group without numpy.
+#: saved (~0.1 ms a sphere) is below a render's noise, and the scene is left as written.
 SEALED_MIN_GROUP = 1000
 
 
