@@ -1,33 +1,14 @@
 """Scene model -> one plain-Python description of the Mitsuba scene, in ``mi.load_dict`` form.
 
-Why one description. A converted scene reaches Mitsuba two ways: as XML text
-(``whitted convert``, :mod:`.xml_writer`) and, for ``whitted render x.scn``,
-straight from the model through ``mi.load_dict`` (:mod:`whitted.loading`),
-which skips writing and parsing text. Both are built from this description,
-so every formula (the frame, the light intensities, the texture frames, the
-clip range) is written once and the two paths give the same scene by
-construction (tests/test_scene_building.py checks it, parameter by
-parameter and render by render).
-
-The description is Mitsuba's dict form without Mitsuba: this module imports
-neither Mitsuba nor Dr.Jit (the converter runs without them). Values the
-dict form can only hold as Mitsuba objects, and the XML's ``$name``
-parameters, are small marker classes: :class:`LookAt` and :class:`Matrix`
-(a ``to_world`` transform), :class:`Param` (a scene parameter with a
-default, overridable when the scene is loaded). Points are 3-tuples, colors
-``{"type": "rgb", "value": (r, g, b)}``. Keys at the top level are the
-objects' ids; nested keys are property names.
-
-Radiometry (README, "Lights"): a point light of article color ``c`` becomes
-a Mitsuba ``point`` emitter of intensity ``I = c·π·d²``, ``d`` the light's
-distance to ``lookat`` (1 when zero). A physically lit white diffuse surface
-at ``lookat`` facing the light then receives, after the BSDF's 1/π, exactly
-the article's ``c``; the Whitted integrator divides the factor out again for
-article lighting (it gets ``lookat`` as ``light_reference``).
-
-Positions are written in the scene's frame (:mod:`.frame`): world
-coordinates minus the scene origin (``lookat``), which :attr:`Description.origin`
-keeps so that a reader can recover world coordinates.
+Why one description. A converted scene reaches Mitsuba as XML text (:mod:`.xml_writer`)
+and, for ``whitted render x.scn``, straight through ``mi.load_dict``
+(:mod:`whitted.loading`). Both are built from this description, so every formula (the
+frame, the light intensities, the texture frames, the clip range) is written once and the
+two paths give the same scene by construction (tests/test_scene_building.py checks it).
+It imports neither Mitsuba nor Dr.Jit: what the dict form can only hold as Mitsuba
+objects, and the XML's ``$name`` parameters, are marker classes (:class:`LookAt`,
+:class:`Matrix`, :class:`Param`). Light intensities follow docs/radiometry.md (``c·π·d²``,
+d the light's distance to ``lookat``); positions are in the scene's frame (:mod:`.frame`).
 """
 
 from __future__ import annotations
@@ -85,13 +66,11 @@ class Mesh:
 
 @dataclass(frozen=True, eq=False)
 class SphereBlock:
-    """Spheres a description holds as arrays rather than as dicts in its ``scene``
-    (``describe(..., block=True)``, for the XML writer): sphere ``k`` of the scene is the
-    object ``sphere_{names[k]}`` (:func:`sphere_names`), a ``sphere`` shape of center
-    ``center[k]`` (in the frame) and radius ``radius[k]`` whose ``bsdf`` refers to
-    ``material_ids[material[k]]``, unless ``k`` is in ``in_scene``: then ``scene`` describes
-    it under that id (a textured or meshed sphere).
-    Those objects come after every other one."""
+    """Spheres a description holds as arrays rather than in its ``scene`` (``describe(...,
+    block=True)``): sphere ``k`` is the ``sphere`` shape ``sphere_{names[k]}`` of center
+    ``center[k]`` (in the frame), radius ``radius[k]`` and BSDF ``material_ids[material[k]]``,
+    unless ``k`` is in ``in_scene`` (textured or meshed: ``scene`` describes it). Those
+    objects come after every other one."""
     center: np.ndarray
     radius: np.ndarray
     material: np.ndarray
@@ -277,16 +256,12 @@ def _sphere(sphere: Sphere, origin: Vec3, material_id: str, mesh: Mesh | None = 
 
 def describe(scene: Scene, base_dir: str | os.PathLike | None, smallest: float | None = None,
              block: bool = False, ids: dict | None = None) -> Description:
-    """The description of ``scene``. Texture paths are relative to ``base_dir`` (the folder
-    the XML will live in: Mitsuba resolves paths against it), or absolute when it is None.
-    ``smallest``: the smallest radius of spheres the scene holds elsewhere (the loader's
-    ellipsoids), which decides with its own which spheres are giant (:mod:`.giants`).
-    ``block``: when the scene holds its spheres as arrays (a parsed file), the plain ones
-    (untextured, not meshed) are left out of ``scene`` and held as arrays in
-    :attr:`Description.spheres` (what the XML writer reads fastest; ``mi.load_dict`` needs
-    them in ``scene``).
-    Objects are named by :func:`sphere_names` and :func:`material_ids`; ``ids``: the
-    material ids of a scene ``scene`` is part of (the loader's rest of a grouped scene)."""
+    """The description of ``scene``, its texture paths relative to ``base_dir`` (the XML's
+    folder) or absolute when it is None. ``smallest``: the smallest radius of spheres the
+    scene holds elsewhere (:func:`.giants.coarse_spheres`). ``block``: for the XML writer, the
+    plain spheres (untextured, not meshed) of a scene that holds arrays (a parsed file) go
+    in :attr:`Description.spheres` rather than ``scene``. ``ids``: the material ids of a
+    scene ``scene`` is part of (the loader's rest of a grouped scene)."""
     base_dir = None if base_dir is None else Path(os.path.abspath(base_dir))
     spheres = scene.sphere_arrays()
     sphere = spheres.sphere

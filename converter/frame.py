@@ -1,31 +1,16 @@
 """The frame the converted scene is written in: world coordinates minus the scene's ``lookat``.
 
-Why a frame of its own. Mitsuba stores every position in float32, whose
-spacing grows with the magnitude: a coordinate near 10^6 is only known to
-0.06, near 10^7 to 0.5. A scene written in the coordinates of its file loses
-its detail when the file puts it far from the origin (docs/numerics.md,
-"Scenes far from the origin"), although the article's model has no preferred
-origin: the image depends only on the scene relative to itself. So the
-converter subtracts one point of the scene, the *scene origin*, from every
-position (in float64, where the subtraction is exact to 10^-16 of the
-coordinates), and Mitsuba stores the small differences.
+Why. Mitsuba stores every position in float32, whose spacing grows with the magnitude,
+while the article's model has no preferred origin: subtracting one point of the scene
+(in float64) keeps its detail however far from the origin the file puts it. ``lookat``
+is where the camera looks, so what fills the image gets float32's finest spacing, and it
+is where the article's light colors are measured already (docs/numerics.md, hazard 6,
+which has the measurements).
 
-Why ``lookat``. It is where the camera looks, so the geometry that fills the
-image lies around it and gets float32's finest spacing; it is the point the
-article's light colors are measured at already (the integrator's
-``light_reference``), which in this frame is the origin. Measured on the
-hazard scenes (docs/numerics.md) it does as well as the eye everywhere and
-better where the eye is far from what it sees (a telephoto view from 10^4
-away), where an eye-centered frame would put the whole scene 10^4 out.
-
-What a frame cannot fix: a scene whose own extent is large against its
-smallest detail (a floor sphere of radius 10^7 under balls of radius 0.1: in
-float32 the floor's surface near them is only known to ~0.5 whatever the
-origin). Such giant spheres are handed to the integrator exactly
-(:mod:`.giants`); what remains is an eye far from small spheres.
-:func:`precision_warning` measures that from the model, for the converter to
-warn about, and :func:`path_warning` names the spheres Mitsuba's own
-integrators still misplace.
+What a frame cannot fix: giant spheres (handed to the integrator exactly, :mod:`.giants`)
+and an eye far from small spheres, which :func:`precision_warning` measures;
+:func:`path_warning` names the spheres Mitsuba's own integrators still misplace, and
+:func:`sight_warning` the scenes that draw nothing useful.
 """
 
 from __future__ import annotations
@@ -47,25 +32,21 @@ from .scene import Scene, SphereArrays, Vec3, length, normalize, sub
 SPREAD_WARNING = 0.1
 
 
-
 def scene_origin(scene: Scene) -> Vec3:
     """The world point the frame's origin stands for: the scene's ``lookat``."""
     return tuple(float(c) for c in scene.lookat)
 
 
-def to_frame(point: Vec3, origin: Vec3) -> Vec3:
-    """``point`` (world coordinates) in the frame whose origin is the world point ``origin``."""
-    return (point[0] - origin[0], point[1] - origin[1], point[2] - origin[2])
+#: ``to_frame(point, origin)``: a world point in the frame whose origin is the world point ``origin``
+to_frame = sub
 
 
 def farthest(origin: Vec3, points=(), spheres: SphereArrays | None = None,
              mask: np.ndarray | None = None) -> tuple[float, int | None]:
     """The largest distance from ``origin`` of ``points`` and of the surfaces of ``spheres``
-    (those of ``mask`` only, when given; a sphere counts as its center's distance plus its
-    radius: the size of the numbers that describe its surface), 0 when there are none, and
-    the index of the sphere that sets it (None: one of the points, or nothing). The one
-    computation of how far a scene reaches: its frame's extent, the camera's clip range and
-    the loader's scaled frame all ask it."""
+    (those of ``mask``; a sphere's is its center's distance plus its radius), 0 without
+    any, and the index of the sphere that sets it (None: a point, or nothing): the one
+    computation of how far a scene reaches (its frame's extent, the clip range, the loader)."""
     reach, which = 0.0, None
     for point in points:
         reach = max(reach, length(to_frame(point, origin)))
@@ -122,13 +103,9 @@ def precision_warning(scene: Scene) -> str | None:
 
 
 def path_warning(scene: Scene) -> str | None:
-    """One line naming the first sphere that Mitsuba's own integrators (``--integrator
-    path``) place less finely than their ray offset near the scene, else None.
-
-    Such spheres are handed to Mitsuba as meshes (:mod:`.giants`), but for textured ones,
-    whose lat/long mapping a mesh would not carry: those stay ``sphere`` shapes, and rays
-    leaving them meet them again (acne; docs/numerics.md, hazard 14).
-    """
+    """One line naming the first textured sphere that Mitsuba's own integrators place less
+    finely than their ray offset near it (acne: a mesh, which the others become, would not
+    carry its texture mapping; docs/numerics.md, hazard 14), else None."""
     spheres = scene.sphere_arrays()
     flags = spheres.textured()
     misplaced = coarse_spheres(scene, scene_origin(scene), spheres=spheres)[1] if flags.any() else ()

@@ -1,23 +1,12 @@
 """Giant spheres: the legacy floor, wall and sky, which float32 cannot place finely enough.
 
-Why. A format that knows only spheres makes its floors, walls and skies out
-of huge ones (``sphere 0 -100000 0 100000``; smallpt's box is six spheres of
-radius 10^5). Mitsuba stores a sphere's center and radius in float32 and, in
-its JIT variants, intersects it in float32 in world space, so it places the
-surface only to ulps of the radius: about 1 near a floor of radius 10^7, next
-to balls of radius 0.3 that must touch it. The Whitted integrator's ray
-offsets, which must clear that uncertainty, then lift shadow and reflection
-rays over those balls (docs/numerics.md, hazard 14).
-
-What the converter does. It decides which spheres are *giant*: those whose
-float32 error bound (the integrator's ``hit_error``: ε·(8 r + 4 max|C_i|) in
-the frame) exceeds :data:`GIANT_FRACTION` of the scene's smallest radius,
-where float32 can no longer keep the gaps the scene's details need. It lists
-them, with their centers (in the frame, subtracted in float64) and radii as
-float64 text, in the Whitted integrator's ``exact_spheres`` property, and the
-integrator intersects those spheres itself in float64 (plugins/hits.py).
-They stay ``sphere`` shapes too, for Mitsuba's own integrators and for
-readers of the XML. A scene without giant spheres has no ``exact_spheres``.
+Why. A format that knows only spheres makes its floors, walls and skies out of huge ones
+(smallpt's box is six spheres of radius 10^5); Mitsuba places a float32 sphere only to
+ulps of its radius, more than the gaps to the small spheres beside it
+(docs/numerics.md, hazard 14). The converter lists the *giant* spheres (:func:`coarse_spheres`)
+with their float64 centers and radii in the Whitted integrator's ``exact_spheres``, which
+intersects them in float64 (plugins/hits.py); they stay ``sphere`` shapes too. For
+Mitsuba's own integrators the spheres it misplaces become closed meshes (:func:`sphere_mesh`).
 """
 
 from __future__ import annotations
@@ -76,14 +65,12 @@ def coarse_spheres(scene: Scene, origin: Vec3, smallest: float | None = None,
     """``(giant, misplaced)``: the indices of the spheres of ``scene`` (written in the frame of
     ``origin``) that are giant, and of those Mitsuba misplaces, in one pass.
 
-    Giant: the float32 error bound exceeds :data:`GIANT_FRACTION` of the finest detail next
-    to the sphere (:func:`_detail_near`). ``smallest`` is the smallest radius of spheres the
-    scene holds elsewhere (the loader's ellipsoids: whitted/sealed.py), if any: they count
-    as resting on every sphere. Misplaced: Mitsuba's float32 sphere test (off by about
-    ε·(r + max|C_i|)) is coarser than :data:`MISPLACED_RATIO` times its own ray offset near the
-    sphere, ``(1 + d)·RayEpsilon`` with d the sphere's distance from the frame's origin: its own
-    integrators show acne on it. ``spheres``: the scene's arrays, when the caller has them.
-    The result is kept with the arrays, which do not change: a conversion asks three times.
+    Giant: the float32 error bound (``hit_error``) exceeds :data:`GIANT_FRACTION` of the
+    finest detail next to the sphere (:func:`_detail_near`); ``smallest``, the smallest
+    radius of spheres the scene holds elsewhere (the loader's ellipsoids), counts as resting
+    on every sphere. Misplaced: Mitsuba's float32 sphere test, off by about ε·(r + max|C_i|),
+    is coarser than :data:`MISPLACED_RATIO` times its ray offset ``(1 + d)·RayEpsilon`` there.
+    ``spheres``: the scene's arrays; the result is kept with them (a conversion asks thrice).
     """
     spheres = scene.sphere_arrays() if spheres is None else spheres
     key = ("coarse", tuple(origin), smallest)
@@ -154,16 +141,13 @@ def sphere_mesh(center: Vec3, radius: float, eye: Vec3, view: float, tolerance: 
     finest where the eye is nearest: ``(positions, normals, faces)`` as numpy arrays
     (float64 N×3, float64 N×3, int64 M×3), faces counter-clockwise seen from outside.
 
-    Rings of latitude around the sphere's point nearest the eye (the *anchor*), at polar
-    angles θ_k, each a regular polygon of M_k vertices; M doubles from one ring to the next
-    where needed (each vertex of the inner ring then meets three of the outer, no T-joints:
-    the mesh is watertight). The step from ring to ring is ``sqrt(2δ/r)``, δ = ``tolerance``
-    times twice a lower bound of the eye's distance to the ring, and M keeps the polygon's
-    sides below that step: each quad of two rings lies in a plane (an isosceles trapezoid)
-    whose circle has an angular radius of at most step/√2, so it lies within r·step²/4 = δ/2
-    of the sphere, ``tolerance`` times the distance (:func:`deviation` measures it). ``view`` is the distance from the eye to the
-    lookat: an eye closer to the surface than :data:`MIN_HEIGHT` of it is taken to be that
-    far (the mesh stays finite; the bound there is then relative to that height).
+    Rings of latitude around the sphere's point nearest the eye (the *anchor*), each a
+    regular polygon whose vertex count doubles from one ring to the next where needed (no
+    T-joints: the mesh is watertight). The step from ring to ring, ``sqrt(2δ/r)`` with δ =
+    ``tolerance`` times twice a lower bound of the eye's distance, keeps each planar quad
+    within δ/2 of the sphere (:func:`deviation`; docs/numerics.md, hazard 14). ``view``: the
+    distance from the eye to the lookat; an eye closer to the surface than
+    :data:`MIN_HEIGHT` of it is taken to be that far (the mesh stays finite).
     """
     import numpy as np
     c = np.asarray(center, np.float64)

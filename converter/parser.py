@@ -1,30 +1,15 @@
 """The legacy ``.scn`` text -> :class:`Scene`, checking every rule of the scene format
 (``docs/scene-format.md``, "Syntax" and "Errors").
 
-A file is accepted as a whole or rejected with one :class:`SceneError` that lists
-every problem in it, each with the file and the first line of its statement, so
-that nothing invalid ever reaches Mitsuba and a user fixes a file in one go:
-after a statement fails, reading goes on with the next. Reading happens in three
-layers, each small:
-
-* :func:`parse_file` turns bytes into text (missing, unreadable, binary and
-  non-UTF-8 files are rejected here);
-* :func:`_statements` turns text into statements: comments, blank lines, ``\\``
-  continuations and ``"quoted paths"``;
-* :class:`_Parser` gives each statement its meaning, defaults and constraints.
-
-Scenes of up to millions of spheres are read on the fast path of
-:mod:`.plain` (plain ``light`` and ``sphere`` lines, a megabyte at a time with
-numpy into arrays, :class:`_SphereList`); it hands every other line, and every
-doubt, to the one statement reader here (:meth:`_Parser.careful_line`,
-:meth:`_Parser.statement`), so that both paths accept, reject and word their
-messages alike (tests/test_parser.py checks it). :func:`parse_text` and
-:func:`parse_file` choose the path.
-
-Beyond the format's own constraints, numbers are kept where Mitsuba's 32-bit
-floats stay finite and meaningful (see :data:`MAX_MAGNITUDE` and
-:data:`MIN_POSITIVE`): a scene that passes here never makes the renderer
-divide by zero or overflow.
+A file is accepted as a whole or rejected with one :class:`SceneError` that lists every
+problem in it, each with the file and the first line of its statement, so that nothing
+invalid ever reaches Mitsuba and a user fixes a file in one go. :func:`parse_file` turns
+bytes into text, :func:`_statements` text into statements, and :class:`_Parser` gives each
+statement its meaning. Large scenes are read on the fast path of :mod:`.plain`, which
+hands every other line, and every doubt, to the one statement reader here
+(:meth:`_Parser.careful_line`), so that both paths accept, reject and word their messages
+alike (tests/test_parser.py checks it). Numbers are kept where Mitsuba's 32-bit floats
+stay finite and meaningful (:data:`MAX_MAGNITUDE`, :data:`MIN_POSITIVE`).
 """
 
 from __future__ import annotations
@@ -69,7 +54,6 @@ _NON_FINITE = re.compile(r"[+-]?(?:nan|inf|infinity)", re.IGNORECASE)
 _BLANKS = " \t\f\v"
 #: a sphere's (north, equator) when its statement gives neither (the fast path's spheres')
 _DEFAULT_ORIENTATION = (NORTH, EQUATOR)
-
 
 
 # --------------------------------------------------------------------------- text

@@ -80,14 +80,8 @@ class PlainReader:
         self._tails: dict[bytes, int] = {}    # attribute bytes -> material index, or -1
 
     def read_bytes(self, data: bytes) -> None:
-        """Parse the UTF-8 bytes of a text free of quotes, continuations and odd separators.
-
-        Every line is split on blanks; a plain ``light`` or ``sphere`` statement
-        whose numbers all lie clearly inside their ranges is taken as it is
-        (:meth:`read_chunk`, :meth:`light`). Any other line, or any doubt, goes to the
-        reader's ``careful_line``, which decides exactly as if the whole file had gone
-        the careful way.
-        """
+        """Parse the UTF-8 bytes of a text free of quotes, continuations and odd separators,
+        a chunk at a time (:meth:`read_chunk`)."""
         is_ascii = data.isascii()
         pos, line, n = 0, 1, len(data)
         while pos < n:
@@ -100,13 +94,10 @@ class PlainReader:
         """Parse the lines of ``data[pos:end]`` (whole lines; the first is line ``first``) and
         return the number of the line after them.
 
-        The plain sphere lines are read here, with numpy on the bytes: a line whose code
-        (the text before a ``#``) holds only ASCII without ``_`` and no control character
-        but the blanks splits on blanks as ``str.split`` would split it, and when its
-        first token is ``sphere`` (in any case), it has at least five tokens, its four
-        numbers are clearly in range and its attributes are a plain material
-        (:meth:`material`), it is taken. Every other line goes to :meth:`read_line`, in
-        file order.
+        A line whose code (the text before a ``#``) is ASCII without ``_`` or odd control
+        characters splits on blanks as ``str.split`` would; when it is ``sphere`` (any case)
+        and at least four more tokens, its numbers clearly in range and its attributes a
+        plain material (:meth:`material`), it is taken. The rest go to :meth:`read_line`.
         """
         import numpy as np
         b = np.frombuffer(data, np.uint8, end - pos, pos)

@@ -214,7 +214,6 @@ Scene.spheres = property(_get_spheres, _set_spheres,
 # checks, the description and the frame compute with the same formulas, bit for bit alike.
 
 
-
 def sub(a: Vec3, b: Vec3) -> Vec3:
     return (a[0] - b[0], a[1] - b[1], a[2] - b[2])
 
