@@ -183,9 +183,9 @@ class Scene:
         return SphereArrays.of(self.__dict__["_sphere_list"]) if arrays is None else arrays
 
     def held_sphere_arrays(self) -> SphereArrays | None:
-        """The spheres as arrays when the scene holds them so (the parser's for a large file,
-        or a :class:`SphereArrays` assigned to :attr:`spheres`), until :attr:`spheres` is first
-        read; else None."""
+        """The spheres as arrays when the scene holds them so (a parsed file's, or a
+        :class:`SphereArrays` assigned to :attr:`spheres`) until :attr:`spheres` is first read;
+        else None."""
         return self.__dict__.get("_sphere_arrays")
 
 
