@@ -170,10 +170,8 @@ def convert_file(source: Path, target: Path, portable: bool = False) -> None:
 def _portable_description(scene, folder: Path):
     """The description the portable XML is written from: the sealed spheres grouped as the path
     tracer's loader groups them (:func:`whitted.sealed.described`) when the scene has enough
-    spheres for a group; a smaller scene is described without numpy."""
-    arrays = scene.held_sphere_arrays()
-    count = len(scene.spheres) if arrays is None else len(arrays)
-    if count < SEALED_MIN_GROUP:
+    spheres for a group."""
+    if len(scene.sphere_arrays()) < SEALED_MIN_GROUP:
         return describe(scene, base_dir=folder, block=True)
     from ..sealed import described
     return described(scene, folder)

@@ -1,33 +1,14 @@
 """Scene model -> one plain-Python description of the Mitsuba scene, in ``mi.load_dict`` form.
 
-Why one description. A converted scene reaches Mitsuba two ways: as XML text
-(``whitted convert``, :mod:`.xml_writer`) and, for ``whitted render x.scn``,
-straight from the model through ``mi.load_dict`` (:mod:`whitted.loading`),
-which skips writing and parsing text. Both are built from this description,
-so every formula (the frame, the light intensities, the texture frames, the
-clip range) is written once and the two paths give the same scene by
-construction (tests/test_scene_building.py checks it, parameter by
-parameter and render by render).
-
-The description is Mitsuba's dict form without Mitsuba: this module imports
-neither Mitsuba nor Dr.Jit (the converter runs without them). Values the
-dict form can only hold as Mitsuba objects, and the XML's ``$name``
-parameters, are small marker classes: :class:`LookAt` and :class:`Matrix`
-(a ``to_world`` transform), :class:`Param` (a scene parameter with a
-default, overridable when the scene is loaded). Points are 3-tuples, colors
-``{"type": "rgb", "value": (r, g, b)}``. Keys at the top level are the
-objects' ids; nested keys are property names.
-
-Radiometry (README, "Lights"): a point light of article color ``c`` becomes
-a Mitsuba ``point`` emitter of intensity ``I = c·π·d²``, ``d`` the light's
-distance to ``lookat`` (1 when zero). A physically lit white diffuse surface
-at ``lookat`` facing the light then receives, after the BSDF's 1/π, exactly
-the article's ``c``; the Whitted integrator divides the factor out again for
-article lighting (it gets ``lookat`` as ``light_reference``).
-
-Positions are written in the scene's frame (:mod:`.frame`): world
-coordinates minus the scene origin (``lookat``), which :attr:`Description.origin`
-keeps so that a reader can recover world coordinates.
+Why one description. A converted scene reaches Mitsuba as XML text (:mod:`.xml_writer`)
+and, for ``whitted render x.scn``, straight through ``mi.load_dict``
+(:mod:`whitted.loading`). Both are built from this description, so every formula (the
+frame, the light intensities, the texture frames, the clip range) is written once and the
+two paths give the same scene by construction (tests/test_scene_building.py checks it).
+It imports neither Mitsuba nor Dr.Jit: what the dict form can only hold as Mitsuba
+objects, and the XML's ``$name`` parameters, are marker classes (:class:`LookAt`,
+:class:`Matrix`, :class:`Param`). Light intensities follow docs/radiometry.md (``c·π·d²``,
+d the light's distance to ``lookat``); positions are in the scene's frame (:mod:`.frame`).
 """
 
 from __future__ import annotations
@@ -42,7 +23,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from .. import defaults as D
-from .frame import farthest, farthest_index, scene_origin, to_frame
+from .frame import farthest, scene_origin, to_frame
 from .giants import cached, coarse_spheres, exact_spheres, mesh_bytes
 from .scene import Material, Scene, Sphere, SphereArrays, Vec3
 from .scene import cross, dot, normalize, sub
@@ -85,13 +66,11 @@ class Mesh:
 
 @dataclass(frozen=True, eq=False)
 class SphereBlock:
-    """Spheres a description holds as arrays rather than as dicts in its ``scene``
-    (``describe(..., block=True)``, for the XML writer): sphere ``k`` of the scene is the
-    object ``sphere_{names[k]}`` (:func:`sphere_names`), a ``sphere`` shape of center
-    ``center[k]`` (in the frame) and radius ``radius[k]`` whose ``bsdf`` refers to
-    ``material_ids[material[k]]``, unless ``k`` is in ``in_scene``: then ``scene`` describes
-    it under that id (a textured or meshed sphere).
-    Those objects come after every other one."""
+    """Spheres a description holds as arrays rather than in its ``scene`` (``describe(...,
+    block=True)``): sphere ``k`` is the ``sphere`` shape ``sphere_{names[k]}`` of center
+    ``center[k]`` (in the frame), radius ``radius[k]`` and BSDF ``material_ids[material[k]]``,
+    unless ``k`` is in ``in_scene`` (textured or meshed: ``scene`` describes it). Those
+    objects come after every other one."""
     center: np.ndarray
     radius: np.ndarray
     material: np.ndarray
@@ -149,13 +128,11 @@ def light_intensity(scene: Scene, position: Vec3, color: Vec3) -> Vec3:
     return tuple(c * math.pi * d2 for c in color)
 
 
-def clip_range(scene: Scene) -> tuple[float, float]:
-    """Near and far clip distances that contain every sphere seen from the eye."""
-    spheres = scene.held_sphere_arrays()
-    if spheres is None:
-        far = 4.0 * farthest(scene.eye, [scene.lookat], scene.spheres)[0]
-    else:
-        far = 4.0 * farthest_index(scene.eye, [scene.lookat], spheres)[0]
+def clip_range(scene: Scene, spheres: SphereArrays | None = None) -> tuple[float, float]:
+    """Near and far clip distances that contain every sphere seen from the eye (``spheres``:
+    the scene's arrays, when known)."""
+    spheres = scene.sphere_arrays() if spheres is None else spheres
+    far = 4.0 * farthest(scene.eye, [scene.lookat], spheres)[0]
     # Mitsuba starts primary rays on the near plane, not at the eye. A near/far
     # ratio of 1e-12 keeps them at the eye for any fov and aspect ratio while the
     # directions stay as float32-exact as with Mitsuba's defaults (measured: the
@@ -189,9 +166,9 @@ def sphere_names(scene: Scene, spheres: SphereArrays | None = None) -> list[str]
     """Per sphere of ``scene`` (``spheres``: its arrays), what its ids end in: ``l12_the_floor``
     for the sphere on line 12 whose comment is "the floor" (:func:`slug`), ``l12`` without a
     comment; its index for a sphere without a line of its own (0, or an earlier sphere's)."""
-    spheres = scene.held_sphere_arrays() if spheres is None else spheres
-    comments, order = scene.comments, None if spheres is None else spheres.line
-    if order is not None and len(order) and order[0] > 0 and (order[1:] > order[:-1]).all():
+    order = (scene.sphere_arrays() if spheres is None else spheres).line
+    comments = scene.comments
+    if len(order) and order[0] > 0 and (order[1:] > order[:-1]).all():
         names = list(map("l%d".__mod__, order.tolist()))   # a file's lines, in order: fast
         for line, text in comments.items():
             k = int(order.searchsorted(line))
@@ -199,7 +176,7 @@ def sphere_names(scene: Scene, spheres: SphereArrays | None = None) -> list[str]
                 names[k] = f"l{line}_{slug(text)}"
         return names
     seen, names = set(), []
-    for k, line in enumerate([sphere.line for sphere in scene.spheres] if order is None else order.tolist()):
+    for k, line in enumerate(order.tolist()):
         if line > 0 and line not in seen:
             seen.add(line)
             tag = slug(comments[line]) if line in comments else ""
@@ -211,14 +188,10 @@ def sphere_names(scene: Scene, spheres: SphereArrays | None = None) -> list[str]
 
 def first_spheres(scene: Scene, spheres: SphereArrays | None = None) -> dict:
     """Each distinct material of ``scene`` as written (:func:`_shared`) -> the index of its
-    first sphere, in order of first use (from the arrays when the scene holds them)."""
-    spheres = scene.held_sphere_arrays() if spheres is None else spheres
-    firsts: dict[Material, int] = {}
-    if spheres is None:
-        for k, sphere in enumerate(scene.spheres):
-            firsts.setdefault(_shared(sphere.material), k)
-        return firsts
+    first sphere, in order of first use (``spheres``: the scene's arrays, when known)."""
     import numpy as np
+    spheres = scene.sphere_arrays() if spheres is None else spheres
+    firsts: dict[Material, int] = {}
     for k in np.sort(np.unique(spheres.material, return_index=True)[1]).tolist():
         firsts.setdefault(_shared(spheres.materials[int(spheres.material[k])]), k)
     return firsts
@@ -244,10 +217,9 @@ def line_label(scene: Scene, line: int) -> str:
 def material_labels(scene: Scene) -> dict:
     """Each material id (:func:`material_ids`) -> its first sphere's :func:`line_label`, or
     the id when that sphere has no line."""
-    spheres = scene.held_sphere_arrays()
+    spheres = scene.sphere_arrays()
     names, firsts = sphere_names(scene, spheres), first_spheres(scene, spheres)
-    line = scene.spheres.__getitem__ if spheres is None else spheres.sphere
-    return {mid: line_label(scene, line(k).line) if names[k][0] == "l" else mid
+    return {mid: line_label(scene, int(spheres.line[k])) if names[k][0] == "l" else mid
             for mid, k in zip(material_ids(scene, names, firsts).values(), firsts.values())}
 
 
@@ -284,23 +256,19 @@ def _sphere(sphere: Sphere, origin: Vec3, material_id: str, mesh: Mesh | None = 
 
 def describe(scene: Scene, base_dir: str | os.PathLike | None, smallest: float | None = None,
              block: bool = False, ids: dict | None = None) -> Description:
-    """The description of ``scene``. Texture paths are relative to ``base_dir`` (the folder
-    the XML will live in: Mitsuba resolves paths against it), or absolute when it is None.
-    ``smallest``: the smallest radius of spheres the scene holds elsewhere (the loader's
-    ellipsoids), which decides with its own which spheres are giant (:mod:`.giants`).
-    ``block``: when the scene holds its spheres as arrays (:meth:`~.scene.Scene.held_sphere_arrays`),
-    the plain ones (untextured, not meshed) are left out of ``scene`` and held as arrays in
-    :attr:`Description.spheres` (what the XML writer reads fastest; ``mi.load_dict`` needs
-    them in ``scene``).
-    Objects are named by :func:`sphere_names` and :func:`material_ids`; ``ids``: the
-    material ids of a scene ``scene`` is part of (the loader's rest of a grouped scene)."""
+    """The description of ``scene``, its texture paths relative to ``base_dir`` (the XML's
+    folder) or absolute when it is None. ``smallest``: the smallest radius of spheres the
+    scene holds elsewhere (:func:`.giants.coarse_spheres`). ``block``: for the XML writer, the
+    plain spheres (untextured, not meshed) of a scene that holds arrays (a parsed file) go
+    in :attr:`Description.spheres` rather than ``scene``. ``ids``: the material ids of a
+    scene ``scene`` is part of (the loader's rest of a grouped scene)."""
     base_dir = None if base_dir is None else Path(os.path.abspath(base_dir))
-    spheres = scene.held_sphere_arrays()
-    sphere = scene.spheres.__getitem__ if spheres is None else spheres.sphere
+    spheres = scene.sphere_arrays()
+    sphere = spheres.sphere
     names, firsts = sphere_names(scene, spheres), first_spheres(scene, spheres)
     ids = material_ids(scene, names, firsts) if ids is None else ids
     origin = scene_origin(scene)
-    near, far = clip_range(scene)
+    near, far = clip_range(scene, spheres)
     defaults = {"spp": int(scene.samples), "max_depth": int(scene.depth),
                 "ambient": float(scene.ambient), "lighting": D.LIGHTING,
                 "width": int(scene.width), "height": int(scene.height)}
@@ -341,16 +309,7 @@ def describe(scene: Scene, base_dir: str | os.PathLike | None, smallest: float |
         objects[ids[material]] = material_dict(material, base_dir)
         if sphere(k).line > 0 and block:   # for the XML's readers
             description.notes[ids[material]] = _note(scene, sphere(k), base_dir)
-    if spheres is not None:
-        return _describe_arrays(scene, spheres, names, ids, meshed, base_dir, block, description)
-    meshed = set(meshed)
-    for i, sphere in enumerate(scene.spheres):
-        mesh = None
-        if i in meshed:
-            data = mesh_bytes(sphere, origin, scene.eye, scene.lookat)
-            mesh = Mesh(str(cached(data)) if base_dir is None else f"{file_stem(scene)}.sphere_{names[i]}.ply", data)
-        objects[f"sphere_{names[i]}"] = _sphere(sphere, origin, ids[_shared(sphere.material)], mesh)
-    return description
+    return _describe_spheres(scene, spheres, names, ids, meshed, base_dir, block, description)
 
 
 def _note(scene: Scene, sphere: Sphere, base_dir: Path | None) -> str:
@@ -362,16 +321,15 @@ def _note(scene: Scene, sphere: Sphere, base_dir: Path | None) -> str:
             + (f"  # {comment}" if comment else ""))
 
 
-def _describe_arrays(scene: Scene, spheres: SphereArrays, names: list[str], ids: dict, meshed: list[int],
-                     base_dir: Path | None, block: bool, description: Description) -> Description:
-    """The rest of :func:`describe` for a scene that holds its spheres as arrays: the
-    spheres, as :func:`describe` makes them from the list, with numpy."""
+def _describe_spheres(scene: Scene, spheres: SphereArrays, names: list[str], ids: dict, meshed: list[int],
+                      base_dir: Path | None, block: bool, description: Description) -> Description:
+    """The rest of :func:`describe`: the spheres."""
     origin = description.origin
     by_index = [ids.get(_shared(material), "") for material in spheres.materials]
     import numpy as np
     special = sorted(set(meshed) | set(np.flatnonzero(spheres.textured()).tolist()))
     center = spheres.center - origin
-    if block:
+    if block and scene.held_sphere_arrays() is not None:
         description.spheres = SphereBlock(center, spheres.radius, spheres.material, tuple(by_index), names,
                                           frozenset(special))
     else:
@@ -381,7 +339,7 @@ def _describe_arrays(scene: Scene, spheres: SphereArrays, names: list[str], ids:
             description.scene[f"sphere_{name}"] = {"type": "sphere", "center": (x, y, z), "radius": radius,
                                                    "bsdf": dict(bsdfs[material])}
     meshed = set(meshed)
-    for k in special:    # textured and meshed spheres, as from the list
+    for k in special:    # textured and meshed spheres
         mesh = None
         sphere = spheres.sphere(k)
         if k in meshed:

@@ -1,23 +1,12 @@
 """Giant spheres: the legacy floor, wall and sky, which float32 cannot place finely enough.
 
-Why. A format that knows only spheres makes its floors, walls and skies out
-of huge ones (``sphere 0 -100000 0 100000``; smallpt's box is six spheres of
-radius 10^5). Mitsuba stores a sphere's center and radius in float32 and, in
-its JIT variants, intersects it in float32 in world space, so it places the
-surface only to ulps of the radius: about 1 near a floor of radius 10^7, next
-to balls of radius 0.3 that must touch it. The Whitted integrator's ray
-offsets, which must clear that uncertainty, then lift shadow and reflection
-rays over those balls (docs/numerics.md, hazard 14).
-
-What the converter does. It decides which spheres are *giant*: those whose
-float32 error bound (the integrator's ``hit_error``: ε·(8 r + 4 max|C_i|) in
-the frame) exceeds :data:`GIANT_FRACTION` of the scene's smallest radius,
-where float32 can no longer keep the gaps the scene's details need. It lists
-them, with their centers (in the frame, subtracted in float64) and radii as
-float64 text, in the Whitted integrator's ``exact_spheres`` property, and the
-integrator intersects those spheres itself in float64 (plugins/hits.py).
-They stay ``sphere`` shapes too, for Mitsuba's own integrators and for
-readers of the XML. A scene without giant spheres has no ``exact_spheres``.
+Why. A format that knows only spheres makes its floors, walls and skies out of huge ones
+(smallpt's box is six spheres of radius 10^5); Mitsuba places a float32 sphere only to
+ulps of its radius, more than the gaps to the small spheres beside it
+(docs/numerics.md, hazard 14). The converter lists the *giant* spheres (:func:`coarse_spheres`)
+with their float64 centers and radii in the Whitted integrator's ``exact_spheres``, which
+intersects them in float64 (plugins/hits.py); they stay ``sphere`` shapes too. For
+Mitsuba's own integrators the spheres it misplaces become closed meshes (:func:`sphere_mesh`).
 """
 
 from __future__ import annotations
@@ -44,25 +33,12 @@ from .scene import Scene, Sphere, SphereArrays, Vec3
 GIANT_FRACTION = 1e-2
 
 
-def _detail_near(scene: Scene, k: int) -> float:
+def _detail_near(spheres: SphereArrays, k: int) -> float:
     """The finest detail next to sphere ``k``'s surface: over the other spheres, the larger of
     a sphere's radius and its gap to that surface (a ball resting on it: its radius; one far
-    from it: the gap, which no ray offset of the surface's size can cross)."""
-    giant = scene.spheres[k]
-    (gx, gy, gz), gr = giant.center, giant.radius
-    finest = math.inf
-    for j, sphere in enumerate(scene.spheres):
-        (x, y, z), r = sphere.center, sphere.radius
-        if j != k and r < finest:
-            gap = abs(abs(math.sqrt((x - gx) ** 2 + (y - gy) ** 2 + (z - gz) ** 2) - gr) - r)
-            finest = min(finest, max(r, gap))
-    return finest
-
-
-def _detail_near_arrays(spheres: SphereArrays, k: int) -> float:
-    """:func:`_detail_near` of spheres given as arrays, bit for bit: computed with numpy for
-    every sphere, then again in :func:`_detail_near`'s arithmetic for those within rounding
-    of the least (``**`` is ``pow``, which may round x² unlike numpy's ``x * x``)."""
+    from it: the gap, which no ray offset of the surface's size can cross). Computed with
+    numpy, then again in Python floats (:func:`_detail_of`) for the spheres within rounding of
+    the least, so that the result does not depend on numpy's rounding."""
     import numpy as np
     center, radius = spheres.center, spheres.radius
     (gx, gy, gz), gr = center[k].tolist(), float(radius[k])
@@ -87,44 +63,16 @@ def _detail_of(c: Vec3, r: float, g: Vec3, gr: float) -> float:
 def coarse_spheres(scene: Scene, origin: Vec3, smallest: float | None = None,
                    spheres: SphereArrays | None = None) -> tuple[list[int], list[int]]:
     """``(giant, misplaced)``: the indices of the spheres of ``scene`` (written in the frame of
-    ``origin``) that are giant, and of those Mitsuba misplaces (:func:`mitsuba_misplaces`),
-    in one pass.
+    ``origin``) that are giant, and of those Mitsuba misplaces, in one pass.
 
-    Giant: the float32 error bound exceeds :data:`GIANT_FRACTION` of the finest detail next
-    to the sphere (:func:`_detail_near`). ``smallest`` is the smallest radius of spheres the
-    scene holds elsewhere (the loader's ellipsoids: whitted/sealed.py), if any: they count
-    as resting on every sphere. ``spheres``: the scene's spheres as arrays, when the caller
-    has them; else those the scene holds (:meth:`~.scene.Scene.held_sphere_arrays`), else
-    its list.
+    Giant: the float32 error bound (``hit_error``) exceeds :data:`GIANT_FRACTION` of the
+    finest detail next to the sphere (:func:`_detail_near`); ``smallest``, the smallest
+    radius of spheres the scene holds elsewhere (the loader's ellipsoids), counts as resting
+    on every sphere. Misplaced: Mitsuba's float32 sphere test, off by about ε·(r + max|C_i|),
+    is coarser than :data:`MISPLACED_RATIO` times its ray offset ``(1 + d)·RayEpsilon`` there.
+    ``spheres``: the scene's arrays; the result is kept with them (a conversion asks thrice).
     """
-    if spheres is None:
-        spheres = scene.held_sphere_arrays()
-    if spheres is not None:
-        return _coarse_arrays(spheres, origin, smallest)
-    if not scene.spheres:
-        return [], []
-    detail = min(sphere.radius for sphere in scene.spheres)
-    if smallest is not None:
-        detail = min(detail, smallest)
-    ox, oy, oz = origin
-    candidates, misplaced = [], []
-    for k, sphere in enumerate(scene.spheres):
-        (x, y, z), r = sphere.center, sphere.radius
-        x, y, z = x - ox, y - oy, z - oz
-        c = max(abs(x), abs(y), abs(z))
-        error = hit_error(r, c)
-        if error > GIANT_FRACTION * detail:   # only these can be coarse against a detail
-            candidates.append((k, error))
-        if UNIT_ROUNDOFF * (r + c) > MISPLACED_RATIO * RAY_EPSILON * (1 + abs(math.sqrt(x * x + y * y + z * z) - r)):
-            misplaced.append(k)
-    limit = smallest if smallest is not None else math.inf
-    giant = [k for k, error in candidates if error > GIANT_FRACTION * min(_detail_near(scene, k), limit)]
-    return giant, misplaced
-
-
-def _coarse_arrays(spheres: SphereArrays, origin: Vec3, smallest: float | None) -> tuple[list[int], list[int]]:
-    """:func:`coarse_spheres` of spheres given as arrays, with numpy, bit for bit (kept with
-    the arrays, which do not change: a conversion asks three times)."""
+    spheres = scene.sphere_arrays() if spheres is None else spheres
     key = ("coarse", tuple(origin), smallest)
     cache = spheres.__dict__.setdefault("_cache", {})
     if key not in cache:
@@ -160,7 +108,7 @@ def _coarse_of(spheres: SphereArrays, origin: Vec3, smallest: float | None) -> t
                                (1 + np.abs(np.sqrt(x * x + y * y + z * z) - radius)))
     limit = smallest if smallest is not None else math.inf
     giant = [k for k in candidates.tolist()
-             if float(error[k]) > GIANT_FRACTION * min(_detail_near_arrays(spheres, k), limit)]
+             if float(error[k]) > GIANT_FRACTION * min(_detail_near(spheres, k), limit)]
     return giant, misplaced.tolist()
 
 
@@ -188,29 +136,18 @@ MIN_HEIGHT = 1e-2
 MISPLACED_RATIO = 1.4
 
 
-def mitsuba_misplaces(sphere: Sphere, origin: Vec3) -> bool:
-    """Whether Mitsuba's float32 sphere test (off by about ε·(r + max|C_i|)) is coarser than
-    :data:`MISPLACED_RATIO` times its own ray offset near the sphere, ``(1 + d)·RayEpsilon``
-    with d the sphere's distance from the frame's origin (the lookat): then Mitsuba's own
-    integrators show acne on it (:func:`coarse_spheres` for a whole scene)."""
-    return coarse_spheres(Scene(spheres=[sphere]), origin)[1] == [0]
-
-
 def sphere_mesh(center: Vec3, radius: float, eye: Vec3, view: float, tolerance: float = MESH_TOLERANCE):
     """A closed triangle mesh inscribed in the sphere (``center``, ``radius``; in the frame),
     finest where the eye is nearest: ``(positions, normals, faces)`` as numpy arrays
     (float64 N×3, float64 N×3, int64 M×3), faces counter-clockwise seen from outside.
 
-    Rings of latitude around the sphere's point nearest the eye (the *anchor*), at polar
-    angles θ_k, each a regular polygon of M_k vertices; M doubles from one ring to the next
-    where needed (each vertex of the inner ring then meets three of the outer, no T-joints:
-    the mesh is watertight). The step from ring to ring is ``sqrt(2δ/r)``, δ = ``tolerance``
-    times twice a lower bound of the eye's distance to the ring, and M keeps the polygon's
-    sides below that step: each quad of two rings lies in a plane (an isosceles trapezoid)
-    whose circle has an angular radius of at most step/√2, so it lies within r·step²/4 = δ/2
-    of the sphere, ``tolerance`` times the distance (:func:`deviation` measures it). ``view`` is the distance from the eye to the
-    lookat: an eye closer to the surface than :data:`MIN_HEIGHT` of it is taken to be that
-    far (the mesh stays finite; the bound there is then relative to that height).
+    Rings of latitude around the sphere's point nearest the eye (the *anchor*), each a
+    regular polygon whose vertex count doubles from one ring to the next where needed (no
+    T-joints: the mesh is watertight). The step from ring to ring, ``sqrt(2δ/r)`` with δ =
+    ``tolerance`` times twice a lower bound of the eye's distance, keeps each planar quad
+    within δ/2 of the sphere (:func:`deviation`; docs/numerics.md, hazard 14). ``view``: the
+    distance from the eye to the lookat; an eye closer to the surface than
+    :data:`MIN_HEIGHT` of it is taken to be that far (the mesh stays finite).
     """
     import numpy as np
     c = np.asarray(center, np.float64)

@@ -1,31 +1,15 @@
 """The legacy ``.scn`` text -> :class:`Scene`, checking every rule of the scene format
 (``docs/scene-format.md``, "Syntax" and "Errors").
 
-A file is accepted as a whole or rejected with one :class:`SceneError` that lists
-every problem in it, each with the file and the first line of its statement, so
-that nothing invalid ever reaches Mitsuba and a user fixes a file in one go:
-after a statement fails, reading goes on with the next. Reading happens in three
-layers, each small:
-
-* :func:`parse_file` turns bytes into text (missing, unreadable, binary and
-  non-UTF-8 files are rejected here);
-* :func:`_statements` turns text into statements: comments, blank lines, ``\\``
-  continuations and ``"quoted paths"``;
-* :class:`_Parser` gives each statement its meaning, defaults and constraints.
-
-Scenes of up to millions of spheres are read on the fast paths of
-:mod:`.plain` (plain ``light`` and ``sphere`` lines with ``float``, a megabyte
-at a time with numpy into arrays, :class:`_SphereList`); they hand every other
-line, and every doubt, to the one statement reader here
-(:meth:`_Parser.careful_line`, :meth:`_Parser.statement`), so that every path
-accepts, rejects and words its messages alike (tests/test_parser.py checks it).
-The three ways of reading a text (careful, plain lines, numpy chunks) are
-chosen in :func:`_parse` and :func:`parse_file`.
-
-Beyond the format's own constraints, numbers are kept where Mitsuba's 32-bit
-floats stay finite and meaningful (see :data:`MAX_MAGNITUDE` and
-:data:`MIN_POSITIVE`): a scene that passes here never makes the renderer
-divide by zero or overflow.
+A file is accepted as a whole or rejected with one :class:`SceneError` that lists every
+problem in it, each with the file and the first line of its statement, so that nothing
+invalid ever reaches Mitsuba and a user fixes a file in one go. :func:`parse_file` turns
+bytes into text, :func:`_statements` text into statements, and :class:`_Parser` gives each
+statement its meaning. Large scenes are read on the fast path of :mod:`.plain`, which
+hands every other line, and every doubt, to the one statement reader here
+(:meth:`_Parser.careful_line`), so that both paths accept, reject and word their messages
+alike (tests/test_parser.py checks it). Numbers are kept where Mitsuba's 32-bit floats
+stay finite and meaningful (:data:`MAX_MAGNITUDE`, :data:`MIN_POSITIVE`).
 """
 
 from __future__ import annotations
@@ -43,8 +27,8 @@ from .. import defaults
 from ..defaults import MAX_DEPTH, MAX_SAMPLES, MAX_SIZE, PARALLEL_SINE
 from ..errors import SceneError
 from .textures import image_problem
-from .plain import (ARRAYS_FROM, EQUATOR, LINE_BREAK, NORTH, NOT_PLAIN_BYTES, NOT_PLAIN_CHARACTERS,
-                    PlainReader, comment_text)
+from .plain import (EQUATOR, LINE_BREAK, NORTH, NOT_PLAIN_BYTES, NOT_PLAIN_CHARACTERS, PlainReader,
+                    comment_text)
 from .scene import Distinct, Light, Material, Scene, Sphere, SphereArrays, Vec3, first_use
 from .scene import cross, length, normalize
 
@@ -68,7 +52,8 @@ _NUMBER = re.compile(r"[+-]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][+-]?[0-9]+)?
 _INTEGER = re.compile(r"[+-]?[0-9]+")
 _NON_FINITE = re.compile(r"[+-]?(?:nan|inf|infinity)", re.IGNORECASE)
 _BLANKS = " \t\f\v"
-
+#: a sphere's (north, equator) when its statement gives neither (the fast path's spheres')
+_DEFAULT_ORIENTATION = (NORTH, EQUATOR)
 
 
 # --------------------------------------------------------------------------- text
@@ -78,7 +63,7 @@ def parse_file(path: str | os.PathLike) -> Scene:
     """Read and parse a ``.scn`` file; errors name ``path`` as given."""
     path = Path(path)
     data = read_scene_file(path)
-    if len(data) >= ARRAYS_FROM and data.isascii() and not any(c in data for c in NOT_PLAIN_BYTES):
+    if data.isascii() and not any(c in data for c in NOT_PLAIN_BYTES):
         # the fast path straight from the bytes: ASCII is UTF-8 without a BOM
         parser = _Parser(path)
         PlainReader(parser).read_bytes(data)
@@ -235,21 +220,15 @@ def _split_line(line: str, path, first: int) -> tuple[list[Token], bool, str | N
 def parse_text(text: str, source: str | os.PathLike, *, careful: bool = False) -> Scene:
     """Parse scene text; ``source`` names the file in messages and anchors relative textures.
 
-    ``careful=True`` reads every statement on the careful path, the one the
-    fast paths must agree with (the parser's benchmark times both).
+    ``careful=True`` reads every statement on the careful path, the one the fast path must
+    agree with (the parser's benchmark times both).
     """
-    return _parse(text, source, fast=not careful)
-
-
-def _parse(text: str, source: str | os.PathLike, *, fast: bool, arrays: bool | None = None) -> Scene:
-    """:func:`parse_text`; ``fast=False`` takes the careful path for every statement, and
-    ``arrays`` True or False the fast path with numpy or without, whatever the size (for tests)."""
     source = Path(source)
     if text.startswith("\ufeff"):
         text = text[1:]
     parser = _Parser(source)
-    if fast and not any(c in text for c in NOT_PLAIN_CHARACTERS):
-        PlainReader(parser).read_text(text, arrays)
+    if not careful and not any(c in text for c in NOT_PLAIN_CHARACTERS):
+        PlainReader(parser).read_bytes(text.encode("utf-8", "surrogatepass"))
     else:
         parser.parse(_statements(text, source, parser.errors, parser.scene.comments))
     return parser.finish()
@@ -282,6 +261,7 @@ class _Parser:
         self.line = 0
         self._images: dict[Path, str | None] = {}
         self.spheres = _SphereList()          # the spheres read so far
+        self._alike: dict[tuple, tuple] = {}  # attribute texts -> (material, (north, equator))
 
     def fail(self, message: str):
         raise SceneError(self.source, self.line, message)
@@ -370,7 +350,7 @@ class _Parser:
             self.errors.sort(key=lambda error: error[0] or 0)
             raise SceneError.collected([(self.source, line, message) for line, message in self.errors],
                                       defaults.MAX_REPORTED_ERRORS)
-        self.scene.spheres = self.spheres.result()
+        self.scene.spheres = self.spheres.arrays()
         return self.scene
 
     def statement(self, line: int, tokens: list[Token]) -> None:
@@ -398,7 +378,7 @@ class _Parser:
         getattr(self, f"statement_{name}")(args)
 
     def careful_line(self, number: int, line: str) -> None:
-        """Read one physical line (the fast paths' every doubt) as the careful path would."""
+        """Read one physical line (the fast path's every doubt) as the careful path would."""
         tokens, _, remark = _split_line(line, self.source, number)
         if tokens:
             self.statement(number, tokens)
@@ -517,7 +497,11 @@ class _Parser:
             ior=float(values.get("refract", (0, 1))[1]),
             texture=values.get("texture"),
         )
-        self.spheres.add(Sphere(_floats(center), float(radius), material, north, equator, line=self.line))
+        # spheres written alike share these objects, which _SphereList numbers by identity
+        given = "north" in values or "equator" in values
+        material, orientation = self._alike.setdefault(
+            tuple(t.text for t in args[4:]), (material, (north, equator) if given else _DEFAULT_ORIENTATION))
+        self.spheres.add(self.line, _floats(center), float(radius), material, orientation)
 
     def attributes(self, args: list[Token]) -> dict:
         """The sphere attributes after the radius, checked and converted."""
@@ -620,20 +604,20 @@ class _Parser:
 
 class _SphereList:
     """The spheres of a file as they are read: arrays of many (the fast path) and single
-    :class:`Sphere` objects, each with its line; :meth:`arrays` puts them in file order."""
+    ones (the careful path), each with its line; :meth:`arrays` puts them in file order."""
 
     def __init__(self):
         self.blocks: list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = []
-        self.singles: list[Sphere] = []
+        self.singles: list[tuple] = []   # (line, center, radius, material, (north, equator))
         self.materials = Distinct()
-        self.numpy = False    # whether numpy read spheres (else the singles are in file order)
 
     def material(self, material: Material) -> int:
         """The index of ``material`` (by value)."""
         return self.materials.index(material)
 
-    def add(self, sphere: Sphere) -> None:
-        self.singles.append(sphere)
+    def add(self, line: int, center: Vec3, radius: float, material: Material, orientation) -> None:
+        """One sphere; ``orientation``: its ``(north, equator)``."""
+        self.singles.append((line, center, radius, material, orientation))
 
     def add_arrays(self, lines, centers, radii, materials) -> None:
         """Spheres of the default orientation: their lines, centers (N×3), radii and
@@ -641,25 +625,17 @@ class _SphereList:
         if len(lines):
             self.blocks.append((lines, centers, radii, materials))
 
-    def result(self) -> list[Sphere] | SphereArrays:
-        """The spheres in file order: as :meth:`arrays` when numpy read some, else as a list."""
-        return self.arrays() if self.numpy else self.singles
-
     def arrays(self) -> SphereArrays:
         import numpy as np
         blocks = list(self.blocks)
         orientations = Distinct()
-        orientations.index((NORTH, EQUATOR))
+        orientations.index(_DEFAULT_ORIENTATION)
         if self.singles:
-            singles = self.singles
-            n = len(singles)
-            blocks.append((
-                np.fromiter((s.line for s in singles), np.int64, n),
-                np.array([s.center for s in singles], np.float64).reshape(n, 3),
-                np.fromiter((s.radius for s in singles), np.float64, n),
-                np.fromiter((self.material(s.material) for s in singles), np.int64, n)))
-            single_orientation = np.fromiter(
-                (orientations.index((s.north, s.equator)) for s in singles), np.int64, n)
+            n = len(self.singles)
+            lines, centers, radii, materials, pairs = zip(*self.singles)
+            blocks.append((np.array(lines, np.int64), np.array(centers, np.float64).reshape(n, 3),
+                           np.array(radii, np.float64), np.fromiter(map(self.material, materials), np.int64, n)))
+            single_orientation = np.fromiter(map(orientations.index, pairs), np.int64, n)
         if not blocks:
             return SphereArrays(np.zeros((0, 3)), np.zeros(0), np.zeros(0, np.int64), (),
                                 np.zeros(0, np.int64), np.zeros(0, np.int64), ())

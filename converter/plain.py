@@ -1,21 +1,19 @@
-"""The parser's fast paths: plain ``light`` and ``sphere`` lines read with ``float`` and numpy.
+"""The parser's fast path: plain ``light`` and ``sphere`` lines read with ``float`` and numpy.
 
 Why. Scenes of up to millions of spheres (the sphereflake of ``make bench``)
 must read fast, and only valid input needs to. A text without quotes,
-continuations or odd separators (:data:`NOT_PLAIN_CHARACTERS`) is split line
-by line, and a plain ``light`` or ``sphere`` line is converted with ``float``
-and accepted when every number lies clearly inside its range (a float compared
-strictly with a bound decides as the exact decimal would; at a bound the text
-itself is checked). Plain sphere lines are read a megabyte at a time with numpy
-(:meth:`PlainReader.read_chunk`): their tokens are found in the bytes, their
-four numbers converted in one pass and their attribute texts looked up once
-each, and the spheres go into arrays, one object per sphere never being made;
-a text below :data:`ARRAYS_FROM` bytes is read line by line in plain Python,
-which spares loading numpy.
+continuations or odd separators (:data:`NOT_PLAIN_CHARACTERS`) is read a
+megabyte at a time (:meth:`PlainReader.read_chunk`): the tokens of its plain
+sphere lines are found in the bytes with numpy, their four numbers converted in
+one pass and their attribute texts looked up once each, and the spheres go into
+arrays, one object per sphere never being made; a plain ``light`` line is
+converted with ``float``. A line is taken when every number lies clearly inside
+its range (a float compared strictly with a bound decides as the exact decimal
+would; at a bound the text itself is checked).
 
 Every other line, and every doubt, goes to the one statement reader
 (``_Parser.careful_line`` and ``_Parser.statement`` in converter/parser.py), so
-all paths accept, reject and word their messages alike (tests/test_parser.py
+both paths accept, reject and word their messages alike (tests/test_parser.py
 checks it). This module knows nothing of the reader but those two methods, its
 ``scene`` and its ``spheres``.
 """
@@ -27,26 +25,23 @@ import re
 from decimal import Decimal
 
 from .. import defaults
-from .scene import Light, Material, Sphere
+from .scene import Light, Material
 
 LINE_BREAK = re.compile(r"\r\n|\r|\n")
 
-# The fast path (PlainReader.read_text). A text holding none of these characters splits into
+# The fast path (PlainReader.read_bytes). A text holding none of these characters splits into
 # the careful tokenizer's tokens with str.split(): no quotes, no continuations, no NUL, and
 # none of the ASCII separators that str.split() takes for blanks but the format does not.
 NOT_PLAIN_CHARACTERS = ('"', "\\", "\x00", "\x1c", "\x1d", "\x1e", "\x1f")
 NOT_PLAIN_BYTES = tuple(c.encode() for c in NOT_PLAIN_CHARACTERS)
 #: the bytes :meth:`PlainReader.read_bytes` reads at a time (a chunk ends at a line break)
 _CHUNK = 1 << 20
-#: texts from this many bytes on are read with numpy into arrays (:meth:`PlainReader.read_chunk`)
-ARRAYS_FROM = 1 << 20
 _PLAIN_ATTRIBUTES = ("color", "reflect", "refract")
 _MAX = float(defaults.MAX_MAGNITUDE)        # |x| < this: inside the magnitude limit
 _MIN = float(defaults.MIN_POSITIVE)         # x > this: at least MIN_POSITIVE
 _BELOW_ONE = 1.0 - 1e-12                    # reflect + refract clearly <= 1
 _WHITE = (1.0, 1.0, 1.0)
 _PLAIN = Material(_WHITE, 0.0, 0.0, 1.0, None)   # a sphere without attributes
-_UNKNOWN = object()
 NORTH = tuple(float(c) for c in defaults.NORTH)
 EQUATOR = tuple(float(c) for c in defaults.EQUATOR)
 
@@ -81,34 +76,12 @@ class PlainReader:
         self.reader = reader
         self.scene = reader.scene
         self.spheres = reader.spheres
-        self.exact: set[str] = set()                          # tokens exactly 0 or 1
-        self._materials: dict[str, Material | None] = {}     # attribute text -> material
+        self.exact: set[str] = set()          # tokens exactly 0 or 1
         self._tails: dict[bytes, int] = {}    # attribute bytes -> material index, or -1
 
-
-    def read_text(self, text: str, arrays: bool | None = None) -> None:
-        """Parse a text free of quotes, continuations and odd separators (see :data:`NOT_PLAIN_CHARACTERS`):
-        :meth:`read_bytes` of its UTF-8 bytes when it is large (or ``arrays``), else line
-        by line (:meth:`read_line`)."""
-        if arrays or arrays is None and len(text) >= ARRAYS_FROM:
-            self.read_bytes(text.encode("utf-8", "surrogatepass"))
-            return
-        lines = LINE_BREAK.split(text) if "\r" in text else text.split("\n")
-        if len(lines) > 1 and lines[-1] == "":
-            lines.pop()  # the final line break ends the last line; no empty line follows it
-        for number, line in enumerate(lines, start=1):
-            self.read_line(number, line)
-
     def read_bytes(self, data: bytes) -> None:
-        """Parse the UTF-8 bytes of a text free of quotes, continuations and odd separators.
-
-        Every line is split on blanks; a plain ``light`` or ``sphere`` statement
-        whose numbers all lie clearly inside their ranges is taken as it is
-        (:meth:`read_chunk`, :meth:`light`, :meth:`sphere`). Any other line, or any
-        doubt, goes to the reader's ``careful_line``, which decides exactly as if the
-        whole file had gone the careful way.
-        """
-        self.spheres.numpy = True
+        """Parse the UTF-8 bytes of a text free of quotes, continuations and odd separators,
+        a chunk at a time (:meth:`read_chunk`)."""
         is_ascii = data.isascii()
         pos, line, n = 0, 1, len(data)
         while pos < n:
@@ -121,13 +94,10 @@ class PlainReader:
         """Parse the lines of ``data[pos:end]`` (whole lines; the first is line ``first``) and
         return the number of the line after them.
 
-        The plain sphere lines are read here, with numpy on the bytes: a line whose code
-        (the text before a ``#``) holds only ASCII without ``_`` and no control character
-        but the blanks splits on blanks as ``str.split`` would split it, and when its
-        first token is ``sphere`` (in any case), it has at least five tokens, its four
-        numbers are clearly in range and its attributes are a plain material
-        (:meth:`material`), it is the sphere :meth:`sphere` would make of it.
-        Every other line goes to :meth:`read_line`, in file order.
+        A line whose code (the text before a ``#``) is ASCII without ``_`` or odd control
+        characters splits on blanks as ``str.split`` would; when it is ``sphere`` (any case)
+        and at least four more tokens, its numbers clearly in range and its attributes a
+        plain material (:meth:`material`), it is taken. The rest go to :meth:`read_line`.
         """
         import numpy as np
         b = np.frombuffer(data, np.uint8, end - pos, pos)
@@ -255,23 +225,20 @@ class PlainReader:
         return index
 
     def read_line(self, number: int, line: str) -> None:
-        """One line of a plain text, on the fast path if it can, else on the careful one."""
+        """A line that is not a plain sphere: a plain light (:meth:`light`), else the careful way."""
         comment_at = line.find("#")
         code = line if comment_at < 0 else line[:comment_at]
-        tokens = code.split(None, 5)
+        tokens = code.split()
         if not tokens:
             if not code.isascii():  # blanks the format does not know may be tokens
                 self.reader.careful_line(number, line)
             return
         # Python's float() reads exactly the format's numbers in ASCII text without '_'
         # (and nan/inf, which fail every range check).
-        if code.isascii() and "_" not in code:
-            keyword = tokens[0]
-            if ((keyword == "sphere" or keyword.lower() == "sphere") and self.sphere(number, tokens)
-                    or (keyword == "light" or keyword.lower() == "light") and self.light(number, code.split())):
-                if comment_at >= 0:
-                    self.comment(number, line[comment_at + 1:])
-                return
+        if code.isascii() and "_" not in code and tokens[0].lower() == "light" and self.light(number, tokens):
+            if comment_at >= 0:
+                self.comment(number, line[comment_at + 1:])
+            return
         self.reader.careful_line(number, line)
 
     def comment(self, number: int, text: str) -> None:
@@ -308,34 +275,6 @@ class PlainReader:
                 if not (0.0 < c < _MAX or token in self.exact or c == 0.0 and self.bound(token, c)):
                     return False
         self.scene.lights.append(Light(position, color, line=line))
-        return True
-
-    def sphere(self, line: int, tokens: list[str]) -> bool:
-        """Add ``sphere CX CY CZ R [attributes]`` and return True, or False to leave it to
-        the reader. ``tokens`` are the line split at its first five blanks: the
-        attributes come as one text, :meth:`material` reads them (once per text).
-
-        A float compared strictly with a bound decides as the exact decimal would
-        (correctly rounded conversion is monotonic); a float equal to a bound is
-        accepted only when its text is exactly that bound (:meth:`bound`).
-        """
-        if len(tokens) < 5:
-            return False
-        try:
-            x, y, z, radius = map(float, tokens[1:5])
-        except ValueError:
-            return False
-        if not (-_MAX < x < _MAX and -_MAX < y < _MAX and -_MAX < z < _MAX and _MIN < radius < _MAX):
-            return False
-        if len(tokens) == 5:
-            material = _PLAIN
-        else:
-            material = self._materials.get(tokens[5], _UNKNOWN)
-            if material is _UNKNOWN:
-                material = self._materials[tokens[5]] = self.material(tokens[5].split())
-            if material is None:
-                return False
-        self.spheres.add(Sphere((x, y, z), radius, material, NORTH, EQUATOR, line=line))
         return True
 
     def material(self, tokens: list[str]) -> Material | None:

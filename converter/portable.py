@@ -1,35 +1,12 @@
 """The converter's description -> one that names only Mitsuba's stock plugins (``whitted convert --portable``).
 
-Why a second form. The default XML holds the article's exact model, but its
-``whitted`` integrator and ``article`` BSDF are Python plugins that exist only
-in a Python process that imports ``whitted``: the ``mitsuba`` command, a
-render farm, or a colleague without this package cannot load it. The portable
-form is the same scene read physically, as ``whitted render --integrator path``
-renders it (docs/radiometry.md), in plugins every Mitsuba 3 build has.
-
-Why built on the description. Everything but the materials and the integrator
-is taken as :mod:`.description` wrote it (sensor, film, frame, spheres, lights,
-background, textures): however the description represents a sphere or a light,
-the portable XML represents it the same way. Only three things change:
-
-* the ``whitted`` integrator becomes ``path`` with ``max_depth`` = the
-  article's depth + 1 (:func:`whitted.defaults.path_depth`), as ``--integrator
-  path`` renders it; ``$spp``, ``$max_depth``, ``$width`` and ``$height`` are
-  parameters (``mitsuba -D spp=256 ...``);
-* each ``article`` BSDF becomes the stock mixture of its three lobes
-  (:func:`stock_material`), whose weights are the article's 1 − KR − KT, KR, KT;
-* the notes say which materials' stock form is not exact, and why (the XML
-  writes them as a comment at the top).
-
-What is not exact (docs/portable.md has the measurements): refraction by
-``dielectric`` always applies Fresnel (a share F of KT goes to the mirror
-direction; the article refracts all of it, except under total internal
-reflection, where both send everything to the mirror); and Mitsuba 3.8 to at
-least 3.9.1's ``blendbsdf`` under-weights a mirror reflection mixed with a
-diffuse lobe whose color is not white. Pure diffuse (textured or not), pure
-mirror, white mirror-and-diffuse materials, and glass of IOR 1 are exact.
-
-This module imports neither Mitsuba nor Dr.Jit, like the rest of the converter.
+Why a second form. The default XML's ``whitted`` integrator and ``article`` BSDF are
+Python plugins that exist only in a process that imports ``whitted``; the portable form
+is the same scene read physically, as ``whitted render --integrator path`` renders it, in
+plugins every Mitsuba 3 build has. Everything but the integrator (``path``, depth + 1)
+and the materials (:func:`stock_material`) is taken as :mod:`.description` wrote it, and
+notes say which materials are not exact. docs/portable.md has the mapping, what is not
+exact and why, and the measurements.
 """
 
 from __future__ import annotations

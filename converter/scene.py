@@ -4,14 +4,11 @@ Data flows one way: text -> :class:`Scene` (parser) -> Mitsuba XML (xml_writer)
 -> ``mi.Scene``. The defaults are the format's (``docs/scene-format.md``), taken from
 :mod:`whitted.defaults`, their one home.
 
-A scene's spheres come in two forms: :attr:`Scene.spheres`, a list of :class:`Sphere`,
-and :class:`SphereArrays`, the same spheres as numpy arrays. The parser reads a large
-file into arrays, making no object per sphere (:meth:`Scene.held_sphere_arrays`); the
-list is made from them the first time someone asks for it (a million :class:`Sphere`
-objects take seconds and hundreds of megabytes, the arrays a few tens of megabytes).
-Code that reads every sphere of a large scene (the description, the XML writer) reads
-the arrays when the scene holds them, and the list otherwise: small scenes never load
-numpy (``whitted convert`` of a small file stays quick).
+The converter computes with a scene's spheres as numpy arrays (:class:`SphereArrays`,
+:meth:`Scene.sphere_arrays`). The parser reads a large file into arrays, making no object per
+sphere; :attr:`Scene.spheres`, the list of :class:`Sphere` objects a program reads and
+changes, is made from them the first time someone asks for it (a million objects take
+seconds and hundreds of megabytes, the arrays a few tens of megabytes).
 """
 
 from __future__ import annotations
@@ -186,9 +183,9 @@ class Scene:
         return SphereArrays.of(self.__dict__["_sphere_list"]) if arrays is None else arrays
 
     def held_sphere_arrays(self) -> SphereArrays | None:
-        """The spheres as arrays when the scene holds them so (the parser's for a large file,
-        or a :class:`SphereArrays` assigned to :attr:`spheres`), until :attr:`spheres` is first
-        read; else None."""
+        """The spheres as arrays when the scene holds them so (a parsed file's, or a
+        :class:`SphereArrays` assigned to :attr:`spheres`) until :attr:`spheres` is first read;
+        else None."""
         return self.__dict__.get("_sphere_arrays")
 
 
@@ -215,7 +212,6 @@ Scene.spheres = property(_get_spheres, _set_spheres,
 
 # The converter's vector arithmetic on 3-tuples of Python floats, written once: the parser's
 # checks, the description and the frame compute with the same formulas, bit for bit alike.
-
 
 
 def sub(a: Vec3, b: Vec3) -> Vec3:

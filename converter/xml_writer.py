@@ -1,28 +1,14 @@
 """Scene description -> Mitsuba 3 XML (format version 3.0.0).
 
-The default XML holds everything needed to render the scene with stock Mitsuba
-plus the project's plugins (``import whitted`` registers them): the perspective
-sensor, spheres, point lights, background, the article's materials and textures,
-and the Whitted integrator; a comment at its top says what renders it
-(:func:`usage_notes`). The portable XML (:mod:`.portable`) holds the same
-scene in Mitsuba's stock plugins only, with a comment at the top saying what
-differs from the article's model. What the scene holds, and every formula behind it
-(frame, light intensities, texture frames), is decided once in
-:mod:`.description`; this module only writes that description as text, so the
-XML and ``mi.load_dict`` of the same description are the same scene.
+What the scene holds, and every formula behind it, is decided once in :mod:`.description`;
+this module only writes that description as text (docs/conversion.md, "The XML"), so the
+XML and ``mi.load_dict`` of the same description are the same scene. The output is
+deterministic (the same scene, byte-identical XML); each :class:`~.description.Param`
+becomes ``$name`` with a ``<default>``. The frame's origin is written in a comment only:
+no property could use it, so it is no parameter, which overriding would silently ignore.
 
-Output is deterministic: the same scene gives byte-identical XML. Objects at
-the top level carry their key as ``id``, nested ones as ``name``; each
-:class:`~.description.Param` becomes ``$name`` with a ``<default>``, which
-``mi.load_file(..., name=value)`` overrides: the spp, the depth, the ambient
-term, the lighting, the image's width and height (and the minimum weight where
-the scene sets one). The frame's origin is written in a comment only (world
-coordinates = XML coordinates + that point): no property could use it, so it is
-no parameter, which overriding would silently ignore.
-
-A scene of a million spheres makes about 150 MB of XML. The spheres a description
-holds as arrays (:class:`~.description.SphereBlock`) are written a batch at a time,
-with one format operation per sphere and each radius's text made once, and
+A scene of a million spheres makes about 150 MB of XML: the spheres a description holds
+as arrays (:class:`~.description.SphereBlock`) are written a batch at a time, and
 :func:`write_xml` hands the text to a file piece by piece, never holding all of it.
 """
 
@@ -325,12 +311,9 @@ def _fork_writer(text: _Block, half: int, spill) -> int | None:
 
 
 def scene_to_xml(scene: Scene, base_dir: str | os.PathLike | None, portable: bool = False) -> str:
-    """The Mitsuba XML of ``scene``. Texture paths are written relative to ``base_dir``
-    (the folder the XML will live in: Mitsuba resolves paths against it), or
-    absolute when ``base_dir`` is None (XML loaded from memory). So are the mesh files
-    of giant spheres (:mod:`.giants`): beside the XML, where the caller writes them
-    (:func:`.description.meshes`; ``whitted convert`` does), or in the mesh cache.
-    ``portable``: the form that names only Mitsuba's stock plugins (:mod:`.portable`)."""
+    """The Mitsuba XML of ``scene`` (``portable``: in stock plugins only, :mod:`.portable`),
+    its texture and mesh paths relative to ``base_dir`` (where the caller writes the meshes:
+    :func:`.description.meshes`), or absolute (the mesh cache) when it is None."""
     return xml_of(describe(scene, base_dir, block=True), portable)
 
 

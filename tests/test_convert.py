@@ -181,13 +181,13 @@ def test_two_inputs_that_would_write_one_file_are_refused_before_any_work(tmp_pa
 
 def test_convert_loads_neither_mitsuba_nor_drjit(write_scene, tmp_path):
     """The converter stands alone: importing it, and the whole ``whitted convert`` command,
-    leave Mitsuba, Dr.Jit and numpy unloaded (checked in a fresh interpreter)."""
+    leave Mitsuba and Dr.Jit unloaded (checked in a fresh interpreter)."""
     scene = write_scene("size 8 8\nlight 1 1 1\nsphere 0 0 0 1 reflect 0.5\n", "light.scn")
     code = ("import sys\n"
             "import whitted.converter as c\n"
             "from whitted.cli import main\n"
             f"status = main(['convert', {str(scene)!r}])\n"
-            "heavy = sorted(m for m in ('mitsuba', 'drjit', 'numpy') if m in sys.modules)\n"
+            "heavy = sorted(m for m in ('mitsuba', 'drjit') if m in sys.modules)\n"
             "print(status, ','.join(heavy) or '-')\n")
     run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=tmp_path)
     assert run.returncode == 0, run.stderr
@@ -237,10 +237,9 @@ def test_the_example_scenes_convert_without_a_warning(tmp_path, capsys):
 
 
 def test_scenes_held_as_arrays_convert_as_lists_do(texture_png, tmp_path, capsys):
-    """A large file's scene holds its spheres as arrays (converter/scene.py), and the
-    description, the warnings and the XML are computed from them with numpy: the same
-    bytes as from the list of spheres, giant, meshed, textured and odd ones included."""
-    from whitted.converter import parser
+    """A parsed scene holds its spheres as arrays (converter/scene.py), written in a block
+    (converter/xml_writer.py): the same bytes as from a list of spheres, giant, meshed,
+    textured and odd ones included."""
     from whitted.converter.frame import warn_precision
     text = (f"size 16 12\neye 0 2e5 3\nlookat 0.5 0 0.25\nlight 1 2 3\n"
             f"sphere 0 -1e4 0 1e4 color 0.8 0.8 0.75 reflect 0.3\nsphere 0 1 0 1 reflect 0.5\n"
@@ -250,8 +249,9 @@ def test_scenes_held_as_arrays_convert_as_lists_do(texture_png, tmp_path, capsys
     for portable in (False, True):
         xml = []
         for arrays in (False, True):
-            scene = parser._parse(text, tmp_path / "s.scn", fast=True, arrays=arrays)
-            assert (scene.held_sphere_arrays() is not None) is arrays
+            scene = parse_text(text, tmp_path / "s.scn")
+            if not arrays:
+                scene.spheres = list(scene.spheres)
             xml.append(scene_to_xml(scene, tmp_path, portable=portable))
             warn_precision(scene, integrator="path")
             assert (scene.held_sphere_arrays() is not None) is arrays   # nothing made the list
@@ -271,8 +271,7 @@ def test_two_processes_write_the_same_bytes(write_scene, tmp_path):
     script = f"""
 import sys
 from whitted.cli import main
-from whitted.converter import parser, xml_writer
-parser.ARRAYS_FROM = 0
+from whitted.converter import xml_writer
 forks = []
 fork = xml_writer._fork_writer
 xml_writer._fork_writer = lambda *args: forks.append(1) or fork(*args)

@@ -14,7 +14,6 @@ import whitted
 from conftest import REPO
 from whitted.converter import Light, Material, Scene, Sphere, parse_file, parse_text, scene_to_xml
 from whitted.converter.description import material_ids, material_labels, slug
-from whitted.converter.parser import _parse
 
 MIRRORS = REPO / "scenes" / "mirrors.scn"
 
@@ -63,7 +62,9 @@ def test_a_shared_material_is_named_by_its_first_sphere_and_equal_comments_stay_
     text = ("light 5 5 5\nsphere 0 0 0 1  color 0.5 0.5 0.5  # ball\nsphere 2 0 0 1 color 0.5 0.5 0.5 # ball\n"
             "\n# a comment on its own line\nsphere 4 0 0 1  color 0.1 0.5 0.5  # ball\n")
     shapes, materials = expected_names(text)
-    xmls = [scene_to_xml(_parse(text, "balls.scn", fast=True, arrays=arrays), None) for arrays in (False, True)]
+    scenes = [parse_text(text, "balls.scn") for _ in range(2)]
+    scenes[1].spheres = list(scenes[1].spheres)
+    xmls = [scene_to_xml(scene, None) for scene in scenes]
     assert xmls[0] == xmls[1]   # spheres held as a list or as arrays
     shape_ids, refs, bsdf_ids = ids_of(xmls[0])
     assert shape_ids == ["sphere_l2_ball", "sphere_l3_ball", "sphere_l6_ball"] == list(shapes.values())
@@ -106,11 +107,11 @@ COMMENTED = ("# a header\nsize 8 6   # small\nlight 0 5 5 # key\nsphere 0 0 0 1 
 
 @pytest.mark.parametrize("text", [COMMENTED, COMMENTED.replace("\n", "\r\n"), COMMENTED.replace("é", "e")])
 def test_comments_are_read_alike_on_every_path(text):
-    """The careful path, plain lines and numpy chunks keep the same comments (a statement's,
-    never one on a line of its own)."""
+    """The careful path and the fast path keep the same comments (a statement's, never one on
+    a line of its own)."""
     expected = {2: "small", 3: "key", 4: "ball", 6: "é" if "é" in text else "e"}
-    for fast, arrays in ((False, None), (True, False), (True, True)):
-        assert _parse(text, "c.scn", fast=fast, arrays=arrays).comments == expected, (fast, arrays)
+    for careful in (True, False):
+        assert parse_text(text, "c.scn", careful=careful).comments == expected, careful
 
 
 def test_a_statement_over_several_lines_keeps_its_first_comment():

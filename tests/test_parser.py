@@ -598,29 +598,20 @@ def _any_line(draw):
     return line
 
 
-def _outcome(text: str, fast: bool, arrays: bool | None = None):
+def _outcome(text: str, fast: bool):
     """The parsed scene's full repr (floats and -0.0 included), or the error's text and line."""
     try:
-        return "scene", repr(parser_module._parse(text, "scene.scn", fast=fast, arrays=arrays))
+        return "scene", repr(parse_text(text, "scene.scn", careful=not fast))
     except SceneError as error:
         return "error", str(error), error.line
 
 
-@settings(max_examples=400, deadline=None, suppress_health_check=[HealthCheck.too_slow])
-@given(st.lists(_any_line(), min_size=1, max_size=8), st.sampled_from(["\n", "\r\n", "\r"]),
+@settings(max_examples=800, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(st.lists(_any_line(), min_size=1, max_size=12), st.sampled_from(["\n", "\r\n", "\r"]),
        st.booleans())
 def test_fast_path_and_careful_path_agree(lines, ending, final_break):
     text = ending.join(lines) + (ending if final_break else "")
     assert _outcome(text, fast=True) == _outcome(text, fast=False)
-
-
-@settings(max_examples=400, deadline=None, suppress_health_check=[HealthCheck.too_slow])
-@given(st.lists(_any_line(), min_size=1, max_size=12), st.sampled_from(["\n", "\r\n", "\r"]),
-       st.booleans())
-def test_fast_path_with_numpy_and_careful_path_agree(lines, ending, final_break):
-    """A large text's fast path (numpy on the bytes, spheres as arrays) on small texts."""
-    text = ending.join(lines) + (ending if final_break else "")
-    assert _outcome(text, fast=True, arrays=True) == _outcome(text, fast=False)
 
 
 def test_fast_path_with_numpy_across_chunks(monkeypatch):
@@ -633,8 +624,8 @@ def test_fast_path_with_numpy_across_chunks(monkeypatch):
                       f"sphere {i} 3 0 1 reflect 0.2 color 0.5 0.5 0.5\t", ""][i % 6])
     for ending in ("\n", "\r\n"):
         text = ending.join(lines)
-        assert _outcome(text, fast=True, arrays=True) == _outcome(text, fast=False)
-        scene = parser_module._parse(text, "s.scn", fast=True, arrays=True)
+        assert _outcome(text, fast=True) == _outcome(text, fast=False)
+        scene = parse_text(text, "s.scn")
         assert scene.held_sphere_arrays() is not None
         assert [s.line for s in scene.spheres] == [n for n, line in enumerate(lines, 1)
                                                    if line.lower().startswith("sphere")]
@@ -650,7 +641,6 @@ def test_fast_path_at_every_bound(template):
         text = f"size 8 8\n{template.format(v=value)}\nsphere 1 2 3 0.5 color 1 0 0.5\n"
         careful = _outcome(text, fast=False)
         assert _outcome(text, fast=True) == careful, text
-        assert _outcome(text, fast=True, arrays=True) == careful, text
 
 
 def test_fast_path_reads_plain_spheres_itself(monkeypatch):
@@ -708,7 +698,7 @@ ambient 2
 @pytest.mark.parametrize("fast", [True, False])
 def test_every_error_of_a_file_in_file_order(fast):
     with pytest.raises(SceneError) as info:
-        parser_module._parse(SEVERAL_ERRORS, "s.scn", fast=fast)
+        parse_text(SEVERAL_ERRORS, "s.scn", careful=not fast)
     error = info.value
     expected = [
         ("s.scn", 2, "unknown statement 'sphre'; did you mean 'sphere'?"),
@@ -745,9 +735,9 @@ def test_camera_errors_come_in_file_order_and_do_not_follow_from_others():
 
 def test_at_most_twenty_errors_are_listed_then_counted():
     text = "".join(f"sphere 0 0 0 -{i}\n" for i in range(1, 26))
-    for fast, arrays in ((True, None), (True, True), (False, None)):
+    for careful in (False, True):
         with pytest.raises(SceneError) as info:
-            parser_module._parse(text, "many.scn", fast=fast, arrays=arrays)
+            parse_text(text, "many.scn", careful=careful)
         lines = str(info.value).split("\n")
         assert len(info.value.errors) == 25 and len(lines) == 21
         assert lines[0] == "many.scn:1: sphere radius must be > 0, got -1"

@@ -6,8 +6,8 @@ no traceback, no output file. Ctrl-C and SIGTERM print one line and exit with
 status 130 (143 for SIGTERM), leaving no partial output.
 
 This module imports only what argument parsing needs: ``whitted convert``
-never loads Mitsuba, Dr.Jit or numpy (each command imports its own module
-when it runs).
+never loads Mitsuba or Dr.Jit (each command imports its own module when it
+runs).
 """
 
 from __future__ import annotations

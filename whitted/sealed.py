@@ -150,7 +150,7 @@ def _coarse(scene: Scene, spheres: SphereArrays) -> np.ndarray:
 
 def light_reach(scene: Scene) -> float:
     """The largest distance from ``lookat`` of a light (what light intensities grow with)."""
-    return farthest(scene.lookat, [light.position for light in scene.lights], [])[0]
+    return farthest(scene.lookat, [light.position for light in scene.lights])[0]
 
 
 def _about(point, origin, scale):
