@@ -351,6 +351,7 @@ class _Parser:
             raise SceneError.collected([(self.source, line, message) for line, message in self.errors],
                                       defaults.MAX_REPORTED_ERRORS)
         self.scene.spheres = self.spheres.arrays()
+        self.scene.comments = dict(sorted(self.scene.comments.items()))   # by line, on every path
         return self.scene
 
     def statement(self, line: int, tokens: list[Token]) -> None:
