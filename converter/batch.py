@@ -18,7 +18,8 @@ import os
 import sys
 from pathlib import Path
 
-from ..atomic import atomic_path, check_folder, check_folder_creatable, writable_folder
+from ..atomic import (atomic_path, check_folder, check_folder_creatable, names_folder,
+                      writable_folder)
 from ..defaults import SEALED_MIN_GROUP
 from ..errors import WhittedError
 from .description import describe, meshes
@@ -67,14 +68,6 @@ def expand_folders(inputs: list[str | os.PathLike], accepted: tuple[str, ...], w
     return files
 
 
-def names_folder(inputs: list[str | os.PathLike], output: str | os.PathLike | None) -> bool:
-    """Whether ``output`` (``-o``) names the folder that receives every output, rather than
-    the one output file: several inputs, a folder among them, an existing folder, or a
-    trailing path separator."""
-    if output is None:
-        return False
-    return (len(inputs) != 1 or Path(inputs[0]).is_dir() or Path(output).is_dir()
-            or str(output).endswith(("/", os.sep)))
 
 
 def plan(inputs: list[str | os.PathLike], output: str | os.PathLike | None = None,
@@ -85,7 +78,7 @@ def plan(inputs: list[str | os.PathLike], output: str | os.PathLike | None = Non
     suffixes a folder is searched for, see :func:`folder_scenes`). Without
     ``output`` every ``X.scn`` becomes ``X.xml`` (``X`` + ``suffix``) beside it.
     With one input file, ``output`` names the XML file, unless it is an existing
-    folder or ends with a path separator (:func:`names_folder`); otherwise it is the
+    folder or ends with a path separator (:func:`whitted.atomic.names_folder`); otherwise it is the
     folder that receives every ``X.xml``.
     """
     if not inputs:

@@ -1,4 +1,5 @@
-"""Atomic output: a file appears complete or not at all (written beside, renamed into place)."""
+"""Output paths: a file appears complete or not at all (written beside, renamed into place),
+and whether ``-o`` names one file or a folder of outputs."""
 
 from __future__ import annotations
 
@@ -153,3 +154,13 @@ def writable_folder(folder: str | os.PathLike) -> Path:
 def write_text(target: str | os.PathLike, text: str) -> None:
     with atomic_path(target) as tmp:
         tmp.write_text(text, encoding="utf-8")
+
+
+def names_folder(inputs: list[str | os.PathLike], output: str | os.PathLike | None) -> bool:
+    """Whether ``output`` (``-o``) names the folder that receives every output, rather than
+    the one output file: several inputs, a folder among them, an existing folder, or a
+    trailing path separator."""
+    if output is None:
+        return False
+    return (len(inputs) != 1 or Path(inputs[0]).is_dir() or Path(output).is_dir()
+            or str(output).endswith(("/", os.sep)))

@@ -56,7 +56,7 @@ def _summary(args, result, sensor) -> str:
 
 def render_command(args) -> int:
     """``whitted render SCENE -o OUT``, or several scenes into a folder (:func:`render_many_command`)."""
-    from .converter.batch import names_folder
+    from .atomic import names_folder
     if names_folder(args.scenes, args.output):
         return render_many_command(args)
     for given, option in ((args.format, "--format"), (args.video, "--video"), (args.workers, "--workers"),
