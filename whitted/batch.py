@@ -361,7 +361,7 @@ def _remove_leftovers(outputs) -> None:
 
 
 @dataclass
-class Tally:
+class Totals:
     """A batch's counts and times, for the summary line and the ``--stats`` JSON."""
     planned: int = 0
     items: list = field(default_factory=list)

@@ -116,7 +116,7 @@ def render_many_command(args) -> int:
     (:mod:`whitted.batch`); 2 if any failed."""
     from . import interrupt
     from .atomic import check_writable, write_text
-    from .batch import IN_PROCESS, Settings, Tally, plan_batch, render_planned, report_failure
+    from .batch import IN_PROCESS, Settings, Totals, plan_batch, render_planned, report_failure
     from .cluster import check_where
     from .defaults import check_without
     from .progress import progress_bar
@@ -141,7 +141,7 @@ def render_many_command(args) -> int:
     if args.stats:
         check_writable(args.stats, inputs=tuple(scene for scene, _ in planned))
 
-    tally = Tally(planned=len(planned))
+    tally = Totals(planned=len(planned))
     for item in skipped:
         tally.add(item)
     interrupted = True
