@@ -68,6 +68,15 @@ class LightTerm:
                 {k: (list(v) if isinstance(v, tuple) else v) for k, v in self.shadow.items()},
                 "term": list(self.term)}
 
+    def state(self) -> tuple[str, str]:
+        """What the light does at the hit, in words, and as ``off``, ``blocked`` or ``lit``."""
+        if not self.facing:
+            return "behind the surface (s = 0)", "off"
+        if self.blocked:
+            by = self.blocker.short() if self.blocker else "a surface"
+            return f"s = {self.cos:.4g}, blocked by {by}", "blocked"
+        return f"s = {self.cos:.4g}, adds {rgb(self.term)}", "lit"
+
 
 @dataclass
 class Node:
@@ -177,14 +186,7 @@ def _text(node: Node, indent: str, lines: list[str], physical: bool) -> None:
             lines.append(f"{pad}ambient B·A {rgb(node.ambient)}")
         for term in node.lights:
             name = f"light {term.index + 1}" + (f" (line {term.line})" if term.line else "")
-            if not term.facing:
-                state = "behind the surface (s = 0)"
-            elif term.blocked:
-                by = term.blocker.short() if term.blocker else "a surface"
-                state = f"s = {term.cos:.4g}, blocked by {by}"
-            else:
-                state = f"s = {term.cos:.4g}, adds {rgb(term.term)}"
-            lines.append(f"{pad}{name}: {state}")
+            lines.append(f"{pad}{name}: {term.state()[0]}")
         formula = "(B/π)·Σ I·s/r²" if physical else "B·(A + (1 − A)·Σ s·light)"
         lines.append(f"{pad}point {formula} = {rgb(node.local)}")
         lines.append(f"{pad}contribution w·(1 − KR − KT)·point = {node.weight:.4g} × {node.diffuse_weight:.4g} "

@@ -38,18 +38,11 @@ def _environment():
 
 # -- the 3D view --------------------------------------------------------------------------------
 
-def _extent(view, trees) -> tuple[np.ndarray, float]:
-    """The center and size of the box the rays span (the eye, the hits, the lights)."""
-    points = [view.eye] if view.eye is not None else []
-    for tree in trees:
-        for node in tree.root.walk():
-            points.append(node.origin)
-            if node.hit:
-                points.append(node.position)
-    points += [p for p, _, _ in view.lights]
+def _box(view, points) -> tuple[np.ndarray, np.ndarray]:
+    """The lowest and highest corners of the box around ``points``, the lights and the eye."""
+    points = [*points, *(p for p, _, _ in view.lights)] + ([view.eye] if view.eye is not None else [])
     points = np.array(points, np.float64)
-    low, high = points.min(axis=0), points.max(axis=0)
-    return (low + high) / 2, max(float(np.max(high - low)), 1e-9)
+    return points.min(axis=0), points.max(axis=0)
 
 
 def _sphere_mesh(center, radius, toward, reach):
@@ -97,7 +90,9 @@ def figure(view, trees):
     """The plotly figure of the scene and the trees' rays (see the module docstring)."""
     import plotly.graph_objects as go
 
-    center, size = _extent(view, trees)
+    low, high = _box(view, [p for tree in trees for node in tree.root.walk()
+                            for p in (node.origin, node.position) if p is not None])
+    center, size = (low + high) / 2, max(float(np.max(high - low)), 1e-9)
     reach = 2.0 * size
     fig = go.Figure()
     used = set()
@@ -171,7 +166,9 @@ def figure(view, trees):
         b = np.array(blockers)
         fig.add_trace(go.Scatter3d(x=b[:, 0], y=b[:, 1], z=b[:, 2], mode="markers", name="where blocked",
                                    marker=dict(size=4, color="#555555", symbol="x"), hoverinfo="name"))
-    low, high = _bounds(view, trees, segments)
+    low, high = _box(view, [p for xs, _ in segments.values() for p in xs if p[0] is not None])
+    pad = 0.08 * float(np.max(high - low)) + 1e-9
+    low, high = low - pad, high + pad
     span = np.maximum(high - low, 1e-3 * float(np.max(high - low)))
     aspect = span / float(span.max())
     fig.update_layout(
@@ -183,18 +180,6 @@ def figure(view, trees):
         legend=dict(x=1, xanchor="right", y=1, bgcolor="rgba(255,255,255,.75)", font=dict(size=11)),
         uirevision="keep")
     return fig
-
-
-def _bounds(view, trees, segments) -> tuple[np.ndarray, np.ndarray]:
-    """The box the view shows: the eye, the lights and every ray drawn, a little wider."""
-    points = [p for xs, _ in segments.values() for p in xs if p[0] is not None]
-    points += [p for p, _, _ in view.lights]
-    if view.eye is not None:
-        points.append(view.eye)
-    points = np.array(points, np.float64)
-    low, high = points.min(axis=0), points.max(axis=0)
-    pad = 0.08 * float(np.max(high - low)) + 1e-9
-    return low - pad, high + pad
 
 
 def _camera(view, trees, middle, span, aspect):
@@ -231,16 +216,7 @@ def _rows(tree) -> list[dict]:
 
     def visit(node: Node, label: str):
         m = node.material
-        lights = []
-        for term in node.lights:
-            name = f"light {term.index + 1}"
-            if not term.facing:
-                lights.append((name, "behind (s = 0)", "off"))
-            elif term.blocked:
-                by = term.blocker.short() if term.blocker else "a surface"
-                lights.append((name, f"s = {term.cos:.3g}, blocked by {by}", "blocked"))
-            else:
-                lights.append((name, f"s = {term.cos:.3g}, lit", "lit"))
+        lights = [(f"light {term.index + 1}", *term.state()) for term in node.lights]
         stops = [f"{u['kind']} (weight {u['weight']:.3g}) not traced: {u['why']}" for u in node.untraced]
         if node.stop and node.hit and not node.untraced:
             stops.append(node.stop)

@@ -191,24 +191,20 @@ class Recorder:
                  if term.blocked and term.shadow is not None]
         if not terms:
             return
-        hits = self.recursion.hits
         origins = np.array([t.shadow["origin"] for t in terms])
         directions = np.array([t.shadow["direction"] for t in terms])
         lengths = np.array([t.shadow["length"] for t in terms])
-        if dr.is_jit_v(mi.Float):
-            ray = mi.Ray3f(mi.Point3f(*origins.T), mi.Vector3f(*directions.T))
-            ray.maxt = mi.Float(lengths)
-            hit, si, _, _ = hits.intersect(ray, False)
-            found, points, normals = np.asarray(hit, bool), np.asarray(si.p).T, np.asarray(si.n).T
-        else:
-            found, points, normals = [], [], []
-            for o, d, maxt in zip(origins, directions, lengths):
-                ray = mi.Ray3f(mi.Point3f(*o), mi.Vector3f(*d))
-                ray.maxt = float(maxt)
-                hit, si, _, _ = hits.intersect(ray, False)
-                found.append(bool(hit))
-                points.append(np.asarray(si.p, np.float64) if hit else np.zeros(3))
-                normals.append(np.asarray(si.n, np.float64) if hit else np.zeros(3))
+        # one batch of every ray where the variant is vectorized, one ray at a time in a scalar one
+        batches = ([(origins.T, directions.T, lengths)] if dr.is_jit_v(mi.Float)
+                   else zip(origins, directions, lengths))
+        found, points, normals = [], [], []
+        for o, d, maxt in batches:
+            ray = mi.Ray3f(mi.Point3f(*o), mi.Vector3f(*d))
+            ray.maxt = mi.Float(maxt)
+            hit, si, _, _ = self.recursion.hits.intersect(ray, False)
+            found.extend(np.asarray(hit, bool).reshape(-1))
+            points.extend(np.asarray(si.p, np.float64).reshape(3, -1).T)
+            normals.extend(np.asarray(si.n, np.float64).reshape(3, -1).T)
         for term, ok, p, n in zip(terms, found, points, normals):
             if ok:
                 term.blocker_point, term.blocker_normal = tuple(map(float, p)), tuple(map(float, n))
