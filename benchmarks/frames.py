@@ -14,7 +14,7 @@ with a mirror) and renders it, side by side:
   exr --min-weight 0 --force``.
 
 Each is timed as a user waits for it (the wall time of the whole loop, or of the one
-process). The targets of issue 30: the folder run takes at most 0.5× POV-Ray's time and
+process). The targets: the folder run takes at most 0.5× POV-Ray's time and
 0.25× the per-frame loop's. And each frame of the folder run must equal the frame
 rendered alone, bit for bit (the EXR files are compared): the exit status is 1 if one
 differs.
@@ -45,7 +45,7 @@ from pathlib import Path
 
 from . import povray, process
 
-#: the issue's targets: the folder run's time over POV-Ray's, and over the per-frame loop's
+#: the targets: the folder run's time over POV-Ray's, and over the per-frame loop's
 TARGET_POVRAY, TARGET_LOOP = 0.5, 0.25
 COLORS = [(0.9, 0.2, 0.2), (0.2, 0.8, 0.3), (0.2, 0.3, 0.9), (0.9, 0.8, 0.2), (0.8, 0.3, 0.8),
           (0.2, 0.8, 0.8)]

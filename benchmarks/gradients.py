@@ -1,4 +1,4 @@
-"""What a gradient of the article's model costs beside its plain render (issue 33).
+"""What a gradient of the article's model costs beside its plain render.
 
 A gradient (``mi.render(scene, params)`` then ``dr.backward``) records the whole
 render as Dr.Jit's AD graph and walks it back: its time and memory grow with the

@@ -19,7 +19,7 @@ Usage::
     python -m benchmarks.run [--quick] [--markdown benchmarks/RESULTS.md] [--json FILE]
     python -m benchmarks.run --quick --only left_out     # one section
 
-The exit status is 1 when an acceptance target (issue 6) is missed.
+The exit status is 1 when an acceptance target (``TARGET_DEPTH``, ``TARGET_DIRECT``) is missed.
 """
 
 from __future__ import annotations
@@ -43,7 +43,7 @@ from .machine import machine
 from .tables import Table, mib, ms
 from .timing import NOISY, measure, peak_memory
 
-#: acceptance targets of issue 6 (ratios of median times)
+#: acceptance targets (ratios of median times)
 TARGET_DEPTH = 1.15
 TARGET_DIRECT = 1.25
 
