@@ -95,14 +95,8 @@ def figure(view, trees):
     center, size = (low + high) / 2, max(float(np.max(high - low)), 1e-9)
     reach = 2.0 * size
     fig = go.Figure()
-    used = set()
-    for tree in trees:
-        for node in tree.root.walk():
-            if node.sphere is not None:
-                used.add(node.sphere.index)
-            for term in node.lights:
-                if term.blocker is not None:
-                    used.add(term.blocker.index)
+    used = {ref.index for tree in trees for node in tree.root.walk()
+            for ref in (node.sphere, *(term.blocker for term in node.lights)) if ref is not None}
     shown = range(len(view.radii)) if len(view.radii) <= MAX_SPHERES else sorted(used)
     for k in shown:
         ref = view.sphere(k)
@@ -139,12 +133,10 @@ def figure(view, trees):
                 for term in node.lights:
                     if term.shadow is None:
                         continue
-                    o, d, length = term.shadow["origin"], np.asarray(term.shadow["direction"]), term.shadow["length"]
-                    end = tuple(np.asarray(o) + d * length)
-                    state = f"blocked by {term.blocker.short()}" if term.blocked and term.blocker else \
-                        ("blocked" if term.blocked else "lit")
+                    ray = term.shadow
+                    end = tuple(np.asarray(ray["origin"]) + np.asarray(ray["direction"]) * ray["length"])
                     add("blocked" if term.blocked else "shadow", node.position, end,
-                        f"pixel {number}: shadow ray to light {term.index + 1}, {state}")
+                        f"pixel {number}: shadow ray to light {term.index + 1}, {term.state()[0]}")
             else:
                 end = tuple(np.asarray(node.origin) + np.asarray(node.direction) * escape)
                 add("background", node.origin, end, label + ", missed: background")
@@ -183,8 +175,7 @@ def figure(view, trees):
 
 
 def _camera(view, trees, middle, span, aspect):
-    """Plotly's camera: at the middle of the eye and the hits from behind the eye, a little
-    above and to the side so that depth shows, ``y`` up."""
+    """Plotly's camera: behind the eye, a little above and aside so that depth shows, ``y`` up."""
     if view.eye is None:
         return {}
 
@@ -276,8 +267,7 @@ def fragment(view, trees) -> str:
 # -- the page -------------------------------------------------------------------------------------
 
 def _image(traces) -> tuple[str, int, int, int]:
-    """The scene rendered at one sample per pixel with the trees' settings, as a PNG data URI;
-    its size and the factor it is shown enlarged by."""
+    """The 1 spp image as a PNG data URI, its size and the factor it is shown enlarged by."""
     from PIL import Image
 
     from ..images import default_view, to_srgb

@@ -1,9 +1,5 @@
-"""``trace_pixel``: the ray tree of a pixel, as the renderer computed it, in the scene file's terms.
-
-The integrator traces the pixels' center rays as a 1 spp render does
-(:meth:`~whitted.plugins.integrator.WhittedIntegrator.trace_pixels`), recorded by
-:mod:`.record`; here the trees are moved to the file's coordinates and each sphere and
-light is named by its line in the file.
+"""``trace_pixel``: the ray tree of a pixel, as the renderer computed it (recorded by
+:mod:`.record`), moved to the scene file's coordinates, each sphere and light named by its line.
 """
 
 from __future__ import annotations
@@ -64,8 +60,7 @@ class SceneView:
             name = self.names[k] if self.names else f"sphere {k}"
             return SphereRef(k, center, radius, name=name)
         line = int(self.lines[k])
-        statement, comment = (_comment(self.text[line - 1]) if self.text and 0 < line <= len(self.text)
-                              else (None, None))
+        statement, comment = self.words(line)
         return SphereRef(k, center, radius, line=line, statement=statement, comment=comment,
                          name=f"{self.source}:{line}")
 
@@ -95,10 +90,11 @@ class SceneView:
         spots = np.array([p for p, _, _ in self.lights], np.float64)
         return int(np.argmin(np.linalg.norm(spots - np.asarray(position), axis=1)))
 
-    def statement(self, line: int | None) -> str | None:
-        if not line or not self.text or line > len(self.text):
-            return None
-        return _comment(self.text[line - 1])[0]
+    def words(self, line: int | None) -> tuple[str | None, str | None]:
+        """The statement and the comment of the file's line ``line`` (None, None: no such line)."""
+        if not line or not self.text or not 0 < line <= len(self.text):
+            return None, None
+        return _comment(self.text[line - 1])
 
 
 def scene_view(scene) -> SceneView:
@@ -305,7 +301,7 @@ def _to_file(root: Node, view: SceneView) -> None:
             if k is not None:
                 term.index = k
                 _, _, term.line = view.lights[k]
-                term.statement = view.statement(term.line)
+                term.statement = view.words(term.line)[0]
             if term.shadow is not None:
                 term.shadow = {"origin": view.position(term.shadow["origin"]),
                                "direction": tuple(float(c) for c in term.shadow["direction"]),

@@ -1,10 +1,8 @@
 """The renderer's own trees, recorded: what each level of a pixel's ray tree computed.
 
-:meth:`whitted.plugins.recursion.Recursion.step` shows each level it shades to a
-:class:`Recorder` with its terms (``Recursion.record``); the recorder reads them lane by
-lane into :class:`~.nodes.Node` objects, a child linked to the pending child of its parent
-with the same origin, direction and weight, bit for bit. Coordinates are the loaded
-scene's; :mod:`.pixel` moves them to the file's.
+The recursion shows each level it shades to a :class:`Recorder`, which reads it lane by lane
+into :class:`~.nodes.Node` objects, a child linked to the pending child of its parent with
+the same origin, direction and weight, bit for bit (the loaded scene's coordinates).
 """
 
 from __future__ import annotations
@@ -185,8 +183,7 @@ class Recorder:
             node.lights.append(term)
 
     def blockers(self, roots: list[Node]) -> None:
-        """For each blocked shadow ray of the trees, where it meets its nearest blocker
-        (``term.blocker_point``, frame coordinates), through the render's own hit finder."""
+        """Where each blocked shadow ray meets its blocker (the render's own hit finder)."""
         terms = [term for root in roots for node in root.walk() for term in node.lights
                  if term.blocked and term.shadow is not None]
         if not terms:
