@@ -28,14 +28,6 @@ MAX_SPHERES = 200
 IMAGE_WIDTH = 560
 
 
-def _environment():
-    import jinja2
-
-    return jinja2.Environment(loader=jinja2.PackageLoader("whitted.trace", "templates"),
-                              autoescape=jinja2.select_autoescape(["html", "j2"]),
-                              undefined=jinja2.StrictUndefined, trim_blocks=True, lstrip_blocks=True)
-
-
 # -- the 3D view --------------------------------------------------------------------------------
 
 def _box(view, points) -> tuple[np.ndarray, np.ndarray]:
@@ -225,8 +217,7 @@ def _rows(tree) -> list[dict]:
             "normal": xyz(node.normal) if node.hit else "",
             "side": ("inside" if node.inside else "outside") if node.hit else "",
             "base": _swatch(m["color"]) if m else None,
-            "coefficients": f"KR {m['reflect']:.3g}, KT {m['refract']:.3g}" + (f", IOR {m['ior']:.3g}" if m["refract"] > 0 else "")
-            if m else "",
+            "coefficients": node.coefficients() if m else "",
             "ambient": _swatch(node.ambient) if node.hit else None,
             "lights": lights,
             "local": _swatch(node.local) if node.hit else None,
@@ -250,18 +241,24 @@ def _pixels(trees) -> list[dict]:
              "rows": _rows(t)} for n, t in enumerate(trees, start=1)]
 
 
-def _legend() -> list[dict]:
-    return [{"name": name, "color": COLORS[key]} for key, name in (
-        ("camera", "camera"), ("reflection", "reflection"), ("refraction", "refraction"),
-        ("total internal reflection", "total internal reflection"), ("shadow", "shadow ray, lit"),
-        ("blocked", "shadow ray, blocked (dashed)"), ("background", "missed (dashed)"))]
+def _render(view, trees, div_id: str, **parts) -> str:
+    """The template with the trees' 3D view and tables, and the ``parts`` of a page or a fragment."""
+    import jinja2
+
+    environment = jinja2.Environment(loader=jinja2.PackageLoader("whitted.trace", "templates"),
+                                     autoescape=jinja2.select_autoescape(["html", "j2"]),
+                                     undefined=jinja2.StrictUndefined, trim_blocks=True, lstrip_blocks=True)
+    legend = [*((kind, kind) for kind in KINDS), ("shadow", "shadow ray, lit"),
+              ("blocked", "shadow ray, blocked (dashed)"), ("background", "missed (dashed)")]
+    return environment.get_template(TEMPLATE).render(
+        pixels=_pixels(trees), figure=figure_html(view, trees, div_id=div_id), version=VERSION,
+        legend=[{"name": name, "color": COLORS[key]} for key, name in legend], **parts)
 
 
 def fragment(view, trees) -> str:
     """The 3D view and the tables, for a notebook (no image: nothing is rendered)."""
-    return _environment().get_template(TEMPLATE).render(
-        page=False, scene=view.source, settings="", image=None, marks=[], pixels=_pixels(trees),
-        figure=figure_html(view, trees, div_id=f"trace-3d-{id(trees):x}"), legend=_legend(), version=VERSION)
+    return _render(view, trees, f"trace-3d-{id(trees):x}", page=False, scene=view.source, settings="",
+                   image=None, marks=[])
 
 
 # -- the page -------------------------------------------------------------------------------------
@@ -294,11 +291,8 @@ def page_html(traces, scene_name: str) -> str:
         # the number beside its circle, inside the image
         marks.append({"number": n, "x": x, "y": y, "tx": x + 12 if x < width * zoom - 30 else x - 26,
                       "ty": y - 8 if y > 24 else y + 24})
-    return _environment().get_template(TEMPLATE).render(
-        page=True, scene=scene_name, settings=settings, image={"uri": uri, "width": width * zoom,
-                                                                "height": height * zoom},
-        marks=marks, pixels=_pixels(traces), figure=figure_html(traces.view, list(traces)),
-        legend=_legend(), version=VERSION)
+    return _render(traces.view, list(traces), "trace-3d", page=True, scene=scene_name, settings=settings,
+                   image={"uri": uri, "width": width * zoom, "height": height * zoom}, marks=marks)
 
 
 def write_page(path, traces, scene) -> None:

@@ -290,7 +290,6 @@ def _to_file(root: Node, view: SceneView) -> None:
     """Move a recorded tree to the file's frame, and name its spheres and lights."""
     for node in root.walk():
         node.origin = view.position(node.origin)
-        node.direction = tuple(float(c) for c in node.direction)
         if node.hit:
             node.position = view.position(node.position)
             node.distance = view.length(node.distance)
@@ -303,9 +302,8 @@ def _to_file(root: Node, view: SceneView) -> None:
                 _, _, term.line = view.lights[k]
                 term.statement = view.words(term.line)[0]
             if term.shadow is not None:
-                term.shadow = {"origin": view.position(term.shadow["origin"]),
-                               "direction": tuple(float(c) for c in term.shadow["direction"]),
-                               "length": view.length(term.shadow["length"])}
+                term.shadow.update(origin=view.position(term.shadow["origin"]),
+                                   length=view.length(term.shadow["length"]))
             if term.blocker_point is not None:
                 term.blocker_point = view.position(term.blocker_point)
                 term.blocker = view.sphere_at(term.blocker_point, term.blocker_normal)
