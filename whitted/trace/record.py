@@ -76,14 +76,10 @@ class Recorder:
             if "value" in terms:
                 light["value"] = terms["value"]
             lights.append(light)
-        entries = []
-        for child in children:
-            entry = {"child_o": child.branch.ray.o, "child_d": child.branch.ray.d,
-                     "weight": child.branch.weight, "traced": child.traced}
-            if child.merged is not None:
-                entry["merged"] = child.merged
-            entries.append((child.kind, entry))
-        children = entries
+        children = [(child.kind, {"child_o": child.branch.ray.o, "child_d": child.branch.ray.d,
+                                  "weight": child.branch.weight, "traced": child.traced,
+                                  **({} if child.merged is None else {"merged": child.merged})})
+                    for child in children]
         jit = dr.is_jit_v(mi.Float)
         if jit:
             flat = [*values.values(), *(v for light in lights for v in light.values()),
@@ -126,11 +122,9 @@ class Recorder:
                 for kind, entry in level["children"]:
                     w = float(entry["weight"][lane])
                     merged = bool(entry["merged"][lane]) if "merged" in entry else False
-                    named = kind
-                    if kind == "reflection" and merged:
-                        named = "total internal reflection"
-                    elif kind == "refraction" and "tir" in v and bool(v["tir"][lane]):
-                        named = "total internal reflection"
+                    tir = merged if kind == "reflection" else (
+                        kind == "refraction" and "tir" in v and bool(v["tir"][lane]))
+                    named = "total internal reflection" if tir else kind
                     if bool(entry["traced"][lane]):
                         key = (level["level"] + 1, _t(entry["child_o"][lane]), _t(entry["child_d"][lane]), w)
                         pending[key].append((node, named, merged))
