@@ -32,8 +32,8 @@ IMAGE_WIDTH = 560
 
 def _box(view, points) -> tuple[np.ndarray, np.ndarray]:
     """The lowest and highest corners of the box around ``points``, the lights and the eye."""
-    points = [*points, *(p for p, _, _ in view.lights)] + ([view.eye] if view.eye is not None else [])
-    points = np.array(points, np.float64)
+    eye = [view.eye] if view.eye is not None else []
+    points = np.array([*points, *(p for p, _, _ in view.lights), *eye], np.float64)
     return points.min(axis=0), points.max(axis=0)
 
 
@@ -126,8 +126,8 @@ def figure(view, trees):
                     if term.shadow is None:
                         continue
                     ray = term.shadow
-                    end = tuple(np.asarray(ray["origin"]) + np.asarray(ray["direction"]) * ray["length"])
-                    add("blocked" if term.blocked else "shadow", node.position, end,
+                    end = np.asarray(ray["origin"]) + np.asarray(ray["direction"]) * ray["length"]
+                    add("blocked" if term.blocked else "shadow", node.position, tuple(end),
                         f"pixel {number}: shadow ray to light {term.index + 1}, {term.state()[0]}")
             else:
                 end = tuple(np.asarray(node.origin) + np.asarray(node.direction) * escape)
@@ -242,12 +242,13 @@ def _pixels(trees) -> list[dict]:
 
 
 def _render(view, trees, div_id: str, **parts) -> str:
-    """The template with the trees' 3D view and tables, and the ``parts`` of a page or a fragment."""
+    """The template with the trees' view and tables, and a page's or a fragment's ``parts``."""
     import jinja2
 
     environment = jinja2.Environment(loader=jinja2.PackageLoader("whitted.trace", "templates"),
                                      autoescape=jinja2.select_autoescape(["html", "j2"]),
-                                     undefined=jinja2.StrictUndefined, trim_blocks=True, lstrip_blocks=True)
+                                     undefined=jinja2.StrictUndefined, trim_blocks=True,
+                                     lstrip_blocks=True)
     legend = [*((kind, kind) for kind in KINDS), ("shadow", "shadow ray, lit"),
               ("blocked", "shadow ray, blocked (dashed)"), ("background", "missed (dashed)")]
     return environment.get_template(TEMPLATE).render(
@@ -257,8 +258,8 @@ def _render(view, trees, div_id: str, **parts) -> str:
 
 def fragment(view, trees) -> str:
     """The 3D view and the tables, for a notebook (no image: nothing is rendered)."""
-    return _render(view, trees, f"trace-3d-{id(trees):x}", page=False, scene=view.source, settings="",
-                   image=None, marks=[])
+    return _render(view, trees, f"trace-3d-{id(trees):x}", page=False, scene=view.source,
+                   settings="", image=None, marks=[])
 
 
 # -- the page -------------------------------------------------------------------------------------
@@ -291,8 +292,9 @@ def page_html(traces, scene_name: str) -> str:
         # the number beside its circle, inside the image
         marks.append({"number": n, "x": x, "y": y, "tx": x + 12 if x < width * zoom - 30 else x - 26,
                       "ty": y - 8 if y > 24 else y + 24})
-    return _render(traces.view, list(traces), "trace-3d", page=True, scene=scene_name, settings=settings,
-                   image={"uri": uri, "width": width * zoom, "height": height * zoom}, marks=marks)
+    return _render(traces.view, list(traces), "trace-3d", page=True, scene=scene_name,
+                   settings=settings, marks=marks,
+                   image={"uri": uri, "width": width * zoom, "height": height * zoom})
 
 
 def write_page(path, traces, scene) -> None:
