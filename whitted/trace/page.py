@@ -186,7 +186,7 @@ def _camera(view, trees, middle, span, aspect):
                 center=dict(x=float(target[0]), y=float(target[1]), z=float(target[2])), up=dict(x=0, y=1, z=0))
 
 
-def figure_html(view, trees, div_id: str = "trace-3d") -> str:
+def figure_html(view, trees, div_id: str) -> str:
     """The figure as HTML with plotly's script in it (offline)."""
     return figure(view, trees).to_html(full_html=False, include_plotlyjs=True, div_id=div_id,
                                        config={"displaylogo": False, "responsive": True})

@@ -43,10 +43,6 @@ class SceneView:
     text: list | None = None      # the file's lines
     lights: list = field(default_factory=list)   # (position, color, line) in the file's terms
     eye: tuple | None = None
-    lookat: tuple | None = None
-    width: int = 0
-    height: int = 0
-    background: tuple = (0.0, 0.0, 0.0)
 
     def position(self, p) -> tuple:
         return tuple(float(c) for c in np.asarray(p, np.float64) / self.scale + self.origin)
@@ -103,7 +99,6 @@ def scene_view(scene) -> SceneView:
     from ..loading import recall
     source = recall(scene)
     sensor = scene.sensors()[0]
-    width, height = (int(c) for c in sensor.film().crop_size())
     if source is not None:
         model = source.model
         arrays = model.sphere_arrays()
@@ -123,8 +118,7 @@ def scene_view(scene) -> SceneView:
                              np.asarray(arrays.material, np.int64)],
                          text=None if text is None else text.splitlines(),
                          lights=[(tuple(light.position), tuple(light.color), light.line) for light in model.lights],
-                         eye=tuple(model.eye), lookat=tuple(model.lookat), width=width, height=height,
-                         background=tuple(model.background))
+                         eye=tuple(model.eye))
     from ..plugins.scene_tables import scene_tables
     tables = scene_tables(scene)
     primitives = tables.primitives
@@ -142,7 +136,7 @@ def scene_view(scene) -> SceneView:
                      centers=primitives.center[:, spheres].T.copy(), radii=primitives.radius[spheres].copy(),
                      lines=None, names=names,
                      lights=[(tuple(map(float, p)), tuple(map(float, c)), None) for p, c in tables.lights],
-                     eye=eye, width=width, height=height)
+                     eye=eye)
 
 
 # -- one pixel's tree ---------------------------------------------------------------------------------

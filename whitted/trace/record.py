@@ -208,8 +208,4 @@ def _stop(node: Node) -> str | None:
     if node.children:
         return None
     whys = [u["why"] for u in node.untraced]
-    if "max depth" in whys:
-        return "max depth"
-    if "cut by weight" in whys:
-        return "cut by weight"
-    return "no reflection or refraction"
+    return next((why for why in ("max depth", "cut by weight") if why in whys), "no reflection or refraction")
