@@ -1,20 +1,9 @@
 """The ray-casting floor: the rays of a Whitted render at depth 1, and nothing else.
 
-For a diffuse scene under one point light, a Whitted render traces one
-camera ray per sample and one shadow ray from each hit that faces the light.
-The floor traces exactly those rays in one Dr.Jit kernel: the integrator's
-own camera rays (the same pixel positions), the nearest hit, the facing test,
-Mitsuba's ``ray_test`` towards the light, and one float per sample written
-out (the cosine where lit) so that nothing is optimised away. No material,
-no film, no image. What a render costs above it is the price of shading and
-of accumulating the image. With ``film=True`` the floor also splats that
-value into Mitsuba's film as a grey sample and develops the image, as the
-integrators do: the floor of any renderer that hands back a Mitsuba image.
-
-Two ways to the nearest hit are timed, and the faster one is the floor:
-Mitsuba's ``scene.ray_intersect`` (a surface interaction from the hit
-shape) and the integrator's sphere table (Embree's preliminary hit, then the
-sphere's normal from a table; :mod:`whitted.plugins.hits`).
+For a diffuse scene under one point light: the integrator's camera rays, the nearest hit,
+the facing test and the shadow ray, in one Dr.Jit kernel with no shading and no film
+(``film=True`` adds Mitsuba's film). What a render costs above it is the price of shading;
+benchmarks/run_notes.md ("The ray-casting floor") says how it is compared.
 """
 
 from __future__ import annotations

@@ -1,27 +1,14 @@
 """A frame sequence three ways: what one process for many scenes saves (``make bench``).
 
-Legacy ray tracers rendered animations as a scene file per frame, the renderer run
-once per file. This benchmark generates such a sequence (48 frames by default,
-320×200, depth 6: six balls orbiting a glass ball above a floor sphere of radius 10⁴,
-with a mirror) and renders it, side by side:
-
-* **POV-Ray 3.7, a process per frame**: each frame written as a POV-Ray scene by
-  povray.py (the same ray trees: ``max_trace_level 6``, ``adc_bailout 0``), with as
-  many threads as cores;
-* **whitted, a process per frame**: ``whitted render frameK.scn -o frameK.exr
-  --min-weight 0`` (the exact tree, as POV-Ray's), a process each;
-* **whitted, one process for the folder**: ``whitted render FRAMES/ -o OUT/ --format
-  exr --min-weight 0 --force``.
-
-Each is timed as a user waits for it (the wall time of the whole loop, or of the one
-process). The targets of issue 30: the folder run takes at most 0.5× POV-Ray's time and
-0.25× the per-frame loop's. And each frame of the folder run must equal the frame
-rendered alone, bit for bit (the EXR files are compared): the exit status is 1 if one
-differs.
-
-On a shared machine a render's time moves 2-3× between runs minutes apart: the three
-ways run in rounds, each round all three one after the other (``--rounds``), after
-one untimed warm-up frame of each (Dr.Jit's kernel cache on disk, the page cache).
+Legacy ray tracers rendered animations as a scene file per frame, the renderer run once
+per file. This renders such a sequence (six balls orbiting a glass ball above a floor
+sphere, beside a mirror; the exact tree, depth 6) three ways, each timed as a user waits
+for it: POV-Ray 3.7 a process per frame (povray.py), ``whitted render`` a process per
+frame, and one ``whitted render FRAMES/ -o OUT/`` for the folder. The targets: the folder
+run takes at most 0.5× POV-Ray's time and 0.25× the per-frame loop's; and each frame of
+the folder run must equal the frame rendered alone, bit for bit (else the exit status is 1).
+The three ways run in rounds, after one untimed warm-up frame of each, as a shared
+machine's speed drifts between runs minutes apart.
 
 Usage::
 
@@ -45,7 +32,7 @@ from pathlib import Path
 
 from . import povray, process
 
-#: the issue's targets: the folder run's time over POV-Ray's, and over the per-frame loop's
+#: the targets: the folder run's time over POV-Ray's, and over the per-frame loop's
 TARGET_POVRAY, TARGET_LOOP = 0.5, 0.25
 COLORS = [(0.9, 0.2, 0.2), (0.2, 0.8, 0.3), (0.2, 0.3, 0.9), (0.9, 0.8, 0.2), (0.8, 0.3, 0.8),
           (0.2, 0.8, 0.8)]

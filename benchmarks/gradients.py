@@ -1,20 +1,10 @@
-"""What a gradient of the article's model costs beside its plain render (issue 33).
+"""What a gradient of the article's model costs beside its plain render.
 
-A gradient (``mi.render(scene, params)`` then ``dr.backward``) records the whole
-render as Dr.Jit's AD graph and walks it back: its time and memory grow with the
-ray tree, where a plain render keeps only one level of it. This benchmark renders
-one example at the same size and samples both ways, side by side, in interleaved
-rounds (a shared machine's speed drifts between runs minutes apart), after one
-untimed warm-up of each (kernels compiled and cached):
-
-* **primal**: ``mi.render(scene)`` (the fast, non-AD path);
-* **gradient**: every untextured ``article`` color, the ambient and every light's
-  intensity with gradients on, ``mi.render(scene, params)`` then ``dr.backward`` of
-  the mean pixel, the gradients evaluated.
-
-For each: the fastest round's wall time, Dr.Jit's peak memory (its allocator's
-high-water mark) and the process's peak resident size. Each measurement runs in a
-process of its own (its warm-up first), so that neither peak carries over.
+A gradient (``mi.render(scene, params)`` then ``dr.backward``) records the whole render
+as Dr.Jit's AD graph, where a plain render keeps one level of the ray tree. This renders
+one example both ways (primal; every untextured color, the ambient and the lights with
+gradients on) in interleaved rounds after a warm-up, each measurement in a process of its
+own: the fastest round's wall time, Dr.Jit's peak memory and the process's peak RSS.
 
 Usage::
 

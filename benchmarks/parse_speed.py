@@ -1,19 +1,10 @@
 """How fast the converter reads a big scene: the level-5 sphereflake (66 431 spheres).
 
-The parser reads plain light and sphere lines on a fast path and everything
-else on the careful path (converter/parser.py). This times both on the same
-text, interleaved (a burst of load from another process hits both alike):
-"careful" is the parser as it was before the fast path existed, statement by
-statement, and "fast" is :func:`whitted.converter.parse_text`. A second file
-of 66 000 spheres, each with its own random color and reflection coefficient,
-shows the fast path where no two spheres share their attributes. Times are
-CPU seconds of this process (``time.process_time``), medians of ``rounds``.
-
-What a user waits for is more than the parser: ``--convert`` also times the
-whole ``whitted convert flake.scn -o flake.xml`` process (Python's start-up,
-imports, parsing, writing the XML), its wall time and its peak memory
-(process.py). vs_povray.py sets that beside POV-Ray's own Parse Time of the
-same scene, level 6 included.
+The parser reads plain light and sphere lines on a fast path and everything else
+statement by statement, the careful path (converter/parser.py); this times both on the
+same text, interleaved, in CPU seconds (RESULTS.md, "Parsing a big scene"). ``--convert``
+also times the whole ``whitted convert`` process, wall time and peak memory, as
+vs_povray.py does beside POV-Ray's Parse Time.
 
 Usage::
 

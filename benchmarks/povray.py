@@ -2,8 +2,7 @@
 
 Why POV-Ray: it is the long-lived, widely installed classic ray tracer of the
 article's kind (point lights, hard shadows, recursive mirrors and glass), written
-in C++ with its own bounding hierarchy; ``make bench`` times whitted against it
-on the sphereflake (spd.py).
+in C++ with its own bounding hierarchy.
 
 The scene is written to make POV-Ray trace the tree whitted traces and shade it
 with the article's model:

@@ -1,22 +1,13 @@
 """One program run as a user runs it: its wall time, its own peak memory, a time limit.
 
-The peak resident set size is the program's own, from the ``os.wait4`` that
-reaps it (``resource.getrusage(RUSAGE_CHILDREN)`` would give the maximum over
-every child ever waited for). Two pitfalls are avoided: Linux's ``ru_maxrss``
-carries over the high-water mark of the process that forked the program (the
-memory the child shared before its ``exec``), so a big benchmark process
-would lend the program its own size; and a wrapper that waits is needed
-anyway to get one child's usage. So each program is started by a small
-wrapper, ``python -I -S`` of about 9 MiB (GNU ``time`` not needed), which
-forks it, waits for it with ``os.wait4`` and writes its exit status, peak
-memory and wall time to a file. A program smaller than the wrapper would read
-as the wrapper's size; whitted and POV-Ray are larger (POV-Ray's
-``--version`` alone takes 13 MiB). ``ru_maxrss`` counts the program's threads,
-not programs it starts (whitted and POV-Ray start none); Linux gives it in KiB.
+The peak resident set size is the program's own: Linux's ``ru_maxrss`` would carry
+over the high-water mark of the process that forked it (a big benchmark process would lend
+the program its size), so a small ``python -I -S`` wrapper (about 9 MiB; whitted and
+POV-Ray are larger) forks the program, reaps it with ``os.wait4`` and writes its exit
+status, peak memory (KiB, its threads included) and wall time to a file.
 
-A run past its time limit is killed (SIGKILL) and reported as not finished,
-with the memory it had reached by then, so that a benchmark of a program that
-is slow today records that fact and goes on.
+A run past its time limit is killed (SIGKILL) and reported as not finished, with the
+memory it had reached, so that the benchmark records it and goes on.
 """
 
 from __future__ import annotations

@@ -1,25 +1,15 @@
 """Benchmarks of the Whitted integrator (``make bench``; ``--quick`` for a short run).
 
-Every comparison is measured in this one process, as the median of
-interleaved runs after warm-up (compilation excluded; see timing.py), and
-printed as a ratio against the fastest honest alternative doing the same work:
-
-1. Whitted vs Mitsuba's C++ ``direct`` integrator on a diffuse scene under one
-   point light (camera and shadow rays only, same spp), and vs the bare
-   ray-casting floor (floor.py): the same rays and nothing else.
-2. A diffuse scene at depth 16 vs depth 1 (the acceptance scene: 1024×768, 4 spp).
-3. Cost against sphere count (10 → 10 000), resolution and spp, with peak memory.
-4. Each effect: a scene with every effect vs the same scene without that one; and the
-   same scene with each effect left out by the integrator (``whitted render --without``):
-   a render without an effect must be no slower than with it.
-5. Adaptive depth control: a deep render with and without a minimum path weight.
+Every comparison is measured in this one process, as the median of interleaved runs
+after warm-up, against the fastest honest alternative doing the same work; run_notes.md,
+which RESULTS.md includes, says how and what is compared.
 
 Usage::
 
     python -m benchmarks.run [--quick] [--markdown benchmarks/RESULTS.md] [--json FILE]
     python -m benchmarks.run --quick --only left_out     # one section
 
-The exit status is 1 when an acceptance target (issue 6) is missed.
+The exit status is 1 when an acceptance target (``TARGET_DEPTH``, ``TARGET_DIRECT``) is missed.
 """
 
 from __future__ import annotations
@@ -43,7 +33,7 @@ from .machine import machine
 from .tables import Table, mib, ms
 from .timing import NOISY, measure, peak_memory
 
-#: acceptance targets of issue 6 (ratios of median times)
+#: acceptance targets (ratios of median times)
 TARGET_DEPTH = 1.15
 TARGET_DIRECT = 1.25
 

@@ -92,22 +92,6 @@ def _children_directions() -> list[Vec3]:
 CHILDREN = _children_directions()
 
 
-def _turn_z_to(axis: Vec3, v: Vec3) -> Vec3:
-    """``v`` turned by the smallest rotation that takes +Z onto the unit vector ``axis``."""
-    ax, ay, az = axis
-    s = math.hypot(ax, ay)                 # sin of the angle between +Z and axis
-    if s == 0.0:                           # axis = +Z, or -Z: half a turn about Y
-        return v if az > 0 else (-v[0], v[1], -v[2])
-    kx, ky = -ay / s, ax / s               # the rotation's unit axis, +Z × axis, normalized
-    c = az
-    x, y, z = v
-    k_dot_v = kx * x + ky * y
-    # Rodrigues: v cos + (k × v) sin + k (k·v)(1 - cos), with k = (kx, ky, 0)
-    return (x * c + ky * z * s + kx * k_dot_v * (1 - c),
-            y * c - kx * z * s + ky * k_dot_v * (1 - c),
-            z * c + (kx * y - ky * x) * s)
-
-
 @dataclass(frozen=True)
 class FlakeSphere:
     """One sphere of the flake: its ``parent``'s index (-1 for the first) and ``level`` (0 first)."""
@@ -129,8 +113,9 @@ class FlakeArrays:
 
 
 def _turn_z_to_many(axes: np.ndarray, v: Vec3) -> np.ndarray:
-    """:func:`_turn_z_to` of every row of ``axes`` (unit vectors), the same float operations in
-    the same order, so that the result is bit for bit the scalar one's."""
+    """``v`` turned by the smallest rotation that takes +Z onto each row of ``axes`` (unit
+    vectors), by Rodrigues' formula in the float operations of the SPD's sphere-at-a-time
+    recursion (tests/test_sphereflake.py holds it to that recursion, bit for bit)."""
     ax, ay, az = axes[:, 0], axes[:, 1], axes[:, 2]
     # math.hypot, not np.hypot: the two round differently in the last bit now and then
     s = np.fromiter(map(math.hypot, ax.tolist(), ay.tolist()), dtype=np.float64, count=len(ax))

@@ -1,44 +1,10 @@
 """whitted against POV-Ray 3.7 on Eric Haines' sphereflake, levels 1 to 6 (``make bench``).
 
-What is compared: the same scene (sphereflake.py: the SPD's spheres, lights
-and view, 512×512, depth 5, one ray per pixel) rendered by two whole programs,
-each started as a user starts it:
-
-* ``whitted render flakeL.scn -o X.png --min-weight 0 --stats S.json``
-  (the exact ray tree: adaptive depth control off);
-* ``povray +IflakeL.pov ... +WT<cores>`` on the same model written by
-  povray.py (``max_trace_level 5``, ``adc_bailout 0``: no adaptive depth
-  control either; no anti-aliasing);
-* ``whitted render flakeL.scn -o X.png --integrator path --spp 1`` beside
-  whitted's own render: Mitsuba's path tracer on the same scene (its rays cost
-  more; the table says what its scene costs: whitted/sealed.py groups the
-  spheres for it as for the Whitted integrator).
-
-Every level is rendered twice, on a floor sphere of radius 10³ and of 10⁴
-(its top at the same height): the larger, flatter floor is harder on 32-bit
-intersections. Level 6 has 597 872 spheres.
-
-For each: the whole process (wall clock of the subprocess: start-up, reading
-the scene, building the acceleration structure, rendering, writing the PNG)
-and its peak resident memory (process.py: the program's own, not the
-benchmark's), and the render alone as each program reports it: whitted's
-``--stats`` ``seconds`` (kernel compilation excluded, reported beside it) and
-POV-Ray's "Trace Time". Ratios are whitted / POV-Ray (below 1: whitted is
-faster or smaller). That both trace the same tree is checked, not assumed: the
-table shows both programs' shadow and reflected ray counts and the mean
-difference of their 8-bit images.
-
-Reading the scene, side by side: the whole ``whitted convert flakeL.scn -o
-X.xml`` process (wall time, peak memory; parse_speed.py) against POV-Ray's own
-"Parse Time" of the same scene in the render runs above (its "Bounding Time",
-building its hierarchy, beside it), and whitted's parser alone in this process.
-
-Each number is the median of a few runs, the two programs alternating; one
-untimed run of each first fills the disk caches (Dr.Jit's kernel cache, the
-page cache). Level 6 is timed once per floor (each run takes minutes). A run
-past ``--timeout`` seconds is killed and its cell says so; the rest goes on.
-The cost curve (time against sphere count, log-log, one panel per floor) is
-drawn with matplotlib.
+Both whole programs render the same scene (sphereflake.py; povray.py writes POV-Ray's), each
+started as a user starts it, with no adaptive depth control, on a floor sphere of radius 10³
+and of 10⁴; Mitsuba's path tracer, and ``whitted convert`` against POV-Ray's Parse Time, run
+beside them. The section this writes in benchmarks/RESULTS.md says what each column measures;
+the cost curve is drawn with matplotlib.
 
 Usage::
 

@@ -50,6 +50,22 @@ def test_level_5_and_6_counts_without_building_them():
     assert sphereflake.count(6) == 597871 and 6 in sphereflake.LEVELS
 
 
+def _turn_z_to(axis, v):
+    """``v`` turned by the smallest rotation that takes +Z onto the unit vector ``axis``."""
+    ax, ay, az = axis
+    s = math.hypot(ax, ay)                 # sin of the angle between +Z and axis
+    if s == 0.0:                           # axis = +Z, or -Z: half a turn about Y
+        return v if az > 0 else (-v[0], v[1], -v[2])
+    kx, ky = -ay / s, ax / s               # the rotation's unit axis, +Z × axis, normalized
+    c = az
+    x, y, z = v
+    k_dot_v = kx * x + ky * y
+    # Rodrigues: v cos + (k × v) sin + k (k·v)(1 - cos), with k = (kx, ky, 0)
+    return (x * c + ky * z * s + kx * k_dot_v * (1 - c),
+            y * c - kx * z * s + ky * k_dot_v * (1 - c),
+            z * c + (kx * y - ky * x) * s)
+
+
 def _recursive_flake(level):
     """The flake as the SPD builds it, a sphere at a time (depth first): what the arrays must equal."""
     spheres = []
@@ -62,7 +78,7 @@ def _recursive_flake(level):
         child_radius = radius * sphereflake.SCALE
         distance = radius + child_radius
         for direction in sphereflake.CHILDREN:
-            d = sphereflake._turn_z_to(axis, direction)
+            d = _turn_z_to(axis, direction)
             grow(tuple(c + distance * e for c, e in zip(center, d)), child_radius, d, index, depth + 1)
 
     grow((0.0, 0.0, 0.0), sphereflake.RADIUS, (0.0, 0.0, 1.0), -1, 0)

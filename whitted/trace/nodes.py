@@ -64,9 +64,17 @@ class LightTerm:
                 "s": self.cos, "blocked": self.blocked,
                 "blocker": self.blocker.json() if self.blocker else None,
                 "blocker_point": list(self.blocker_point) if self.blocker_point else None,
-                "shadow_ray": None if self.shadow is None else
-                {k: (list(v) if isinstance(v, tuple) else v) for k, v in self.shadow.items()},
+                "shadow_ray": None if self.shadow is None else _lists(self.shadow),
                 "term": list(self.term)}
+
+    def state(self) -> tuple[str, str]:
+        """What the light does at the hit, in words, and as ``off``, ``blocked`` or ``lit``."""
+        if not self.facing:
+            return "behind the surface (s = 0)", "off"
+        if self.blocked:
+            by = self.blocker.short() if self.blocker else "a surface"
+            return f"s = {self.cos:.4g}, blocked by {by}", "blocked"
+        return f"s = {self.cos:.4g}, adds {rgb(self.term)}", "lit"
 
 
 @dataclass
@@ -109,6 +117,12 @@ class Node:
             for c in range(3):
                 sums[c] += node.contribution[c]
         return tuple(sums)
+
+    def coefficients(self) -> str:
+        """``KR 0.5, KT 0.4, IOR 1.5`` of the surface hit (the IOR where it refracts)."""
+        m = self.material
+        ior = f", IOR {m['ior']:.4g}" if m["refract"] > 0 else ""
+        return f"KR {m['reflect']:.4g}, KT {m['refract']:.4g}{ior}"
 
     def count(self) -> int:
         return sum(1 for _ in self.walk())
@@ -167,24 +181,15 @@ def _text(node: Node, indent: str, lines: list[str], physical: bool) -> None:
     else:
         where = node.sphere.label() if node.sphere else "a surface"
         side = "inside" if node.inside else "outside"
-        m = node.material
         lines.append(f"{pad}hits {where}")
         lines.append(f"{pad}at {xyz(node.position)}, distance {node.distance:.5g}, normal {xyz(node.normal)}, "
                      f"from {side}")
-        lines.append(f"{pad}color B {rgb(m['color'])}, KR {m['reflect']:.4g}, KT {m['refract']:.4g}"
-                     + (f", IOR {m['ior']:.4g}" if m["refract"] > 0 else ""))
+        lines.append(f"{pad}color B {rgb(node.material['color'])}, {node.coefficients()}")
         if not physical:
             lines.append(f"{pad}ambient B·A {rgb(node.ambient)}")
         for term in node.lights:
             name = f"light {term.index + 1}" + (f" (line {term.line})" if term.line else "")
-            if not term.facing:
-                state = "behind the surface (s = 0)"
-            elif term.blocked:
-                by = term.blocker.short() if term.blocker else "a surface"
-                state = f"s = {term.cos:.4g}, blocked by {by}"
-            else:
-                state = f"s = {term.cos:.4g}, adds {rgb(term.term)}"
-            lines.append(f"{pad}{name}: {state}")
+            lines.append(f"{pad}{name}: {term.state()[0]}")
         formula = "(B/π)·Σ I·s/r²" if physical else "B·(A + (1 − A)·Σ s·light)"
         lines.append(f"{pad}point {formula} = {rgb(node.local)}")
         lines.append(f"{pad}contribution w·(1 − KR − KT)·point = {node.weight:.4g} × {node.diffuse_weight:.4g} "

@@ -28,28 +28,13 @@ MAX_SPHERES = 200
 IMAGE_WIDTH = 560
 
 
-def _environment():
-    import jinja2
-
-    return jinja2.Environment(loader=jinja2.PackageLoader("whitted.trace", "templates"),
-                              autoescape=jinja2.select_autoescape(["html", "j2"]),
-                              undefined=jinja2.StrictUndefined, trim_blocks=True, lstrip_blocks=True)
-
-
 # -- the 3D view --------------------------------------------------------------------------------
 
-def _extent(view, trees) -> tuple[np.ndarray, float]:
-    """The center and size of the box the rays span (the eye, the hits, the lights)."""
-    points = [view.eye] if view.eye is not None else []
-    for tree in trees:
-        for node in tree.root.walk():
-            points.append(node.origin)
-            if node.hit:
-                points.append(node.position)
-    points += [p for p, _, _ in view.lights]
-    points = np.array(points, np.float64)
-    low, high = points.min(axis=0), points.max(axis=0)
-    return (low + high) / 2, max(float(np.max(high - low)), 1e-9)
+def _box(view, points) -> tuple[np.ndarray, np.ndarray]:
+    """The lowest and highest corners of the box around ``points``, the lights and the eye."""
+    eye = [view.eye] if view.eye is not None else []
+    points = np.array([*points, *(p for p, _, _ in view.lights), *eye], np.float64)
+    return points.min(axis=0), points.max(axis=0)
 
 
 def _sphere_mesh(center, radius, toward, reach):
@@ -97,17 +82,13 @@ def figure(view, trees):
     """The plotly figure of the scene and the trees' rays (see the module docstring)."""
     import plotly.graph_objects as go
 
-    center, size = _extent(view, trees)
+    low, high = _box(view, [p for tree in trees for node in tree.root.walk()
+                            for p in (node.origin, node.position) if p is not None])
+    center, size = (low + high) / 2, max(float(np.max(high - low)), 1e-9)
     reach = 2.0 * size
     fig = go.Figure()
-    used = set()
-    for tree in trees:
-        for node in tree.root.walk():
-            if node.sphere is not None:
-                used.add(node.sphere.index)
-            for term in node.lights:
-                if term.blocker is not None:
-                    used.add(term.blocker.index)
+    used = {ref.index for tree in trees for node in tree.root.walk()
+            for ref in (node.sphere, *(term.blocker for term in node.lights)) if ref is not None}
     shown = range(len(view.radii)) if len(view.radii) <= MAX_SPHERES else sorted(used)
     for k in shown:
         ref = view.sphere(k)
@@ -144,12 +125,10 @@ def figure(view, trees):
                 for term in node.lights:
                     if term.shadow is None:
                         continue
-                    o, d, length = term.shadow["origin"], np.asarray(term.shadow["direction"]), term.shadow["length"]
-                    end = tuple(np.asarray(o) + d * length)
-                    state = f"blocked by {term.blocker.short()}" if term.blocked and term.blocker else \
-                        ("blocked" if term.blocked else "lit")
-                    add("blocked" if term.blocked else "shadow", node.position, end,
-                        f"pixel {number}: shadow ray to light {term.index + 1}, {state}")
+                    ray = term.shadow
+                    end = np.asarray(ray["origin"]) + np.asarray(ray["direction"]) * ray["length"]
+                    add("blocked" if term.blocked else "shadow", node.position, tuple(end),
+                        f"pixel {number}: shadow ray to light {term.index + 1}, {term.state()[0]}")
             else:
                 end = tuple(np.asarray(node.origin) + np.asarray(node.direction) * escape)
                 add("background", node.origin, end, label + ", missed: background")
@@ -171,7 +150,9 @@ def figure(view, trees):
         b = np.array(blockers)
         fig.add_trace(go.Scatter3d(x=b[:, 0], y=b[:, 1], z=b[:, 2], mode="markers", name="where blocked",
                                    marker=dict(size=4, color="#555555", symbol="x"), hoverinfo="name"))
-    low, high = _bounds(view, trees, segments)
+    low, high = _box(view, [p for xs, _ in segments.values() for p in xs if p[0] is not None])
+    pad = 0.08 * float(np.max(high - low)) + 1e-9
+    low, high = low - pad, high + pad
     span = np.maximum(high - low, 1e-3 * float(np.max(high - low)))
     aspect = span / float(span.max())
     fig.update_layout(
@@ -185,21 +166,8 @@ def figure(view, trees):
     return fig
 
 
-def _bounds(view, trees, segments) -> tuple[np.ndarray, np.ndarray]:
-    """The box the view shows: the eye, the lights and every ray drawn, a little wider."""
-    points = [p for xs, _ in segments.values() for p in xs if p[0] is not None]
-    points += [p for p, _, _ in view.lights]
-    if view.eye is not None:
-        points.append(view.eye)
-    points = np.array(points, np.float64)
-    low, high = points.min(axis=0), points.max(axis=0)
-    pad = 0.08 * float(np.max(high - low)) + 1e-9
-    return low - pad, high + pad
-
-
 def _camera(view, trees, middle, span, aspect):
-    """Plotly's camera: at the middle of the eye and the hits from behind the eye, a little
-    above and to the side so that depth shows, ``y`` up."""
+    """Plotly's camera: behind the eye, a little above and aside so that depth shows, ``y`` up."""
     if view.eye is None:
         return {}
 
@@ -218,7 +186,7 @@ def _camera(view, trees, middle, span, aspect):
                 center=dict(x=float(target[0]), y=float(target[1]), z=float(target[2])), up=dict(x=0, y=1, z=0))
 
 
-def figure_html(view, trees, div_id: str = "trace-3d") -> str:
+def figure_html(view, trees, div_id: str) -> str:
     """The figure as HTML with plotly's script in it (offline)."""
     return figure(view, trees).to_html(full_html=False, include_plotlyjs=True, div_id=div_id,
                                        config={"displaylogo": False, "responsive": True})
@@ -231,16 +199,7 @@ def _rows(tree) -> list[dict]:
 
     def visit(node: Node, label: str):
         m = node.material
-        lights = []
-        for term in node.lights:
-            name = f"light {term.index + 1}"
-            if not term.facing:
-                lights.append((name, "behind (s = 0)", "off"))
-            elif term.blocked:
-                by = term.blocker.short() if term.blocker else "a surface"
-                lights.append((name, f"s = {term.cos:.3g}, blocked by {by}", "blocked"))
-            else:
-                lights.append((name, f"s = {term.cos:.3g}, lit", "lit"))
+        lights = [(f"light {term.index + 1}", *term.state()) for term in node.lights]
         stops = [f"{u['kind']} (weight {u['weight']:.3g}) not traced: {u['why']}" for u in node.untraced]
         if node.stop and node.hit and not node.untraced:
             stops.append(node.stop)
@@ -258,8 +217,7 @@ def _rows(tree) -> list[dict]:
             "normal": xyz(node.normal) if node.hit else "",
             "side": ("inside" if node.inside else "outside") if node.hit else "",
             "base": _swatch(m["color"]) if m else None,
-            "coefficients": f"KR {m['reflect']:.3g}, KT {m['refract']:.3g}" + (f", IOR {m['ior']:.3g}" if m["refract"] > 0 else "")
-            if m else "",
+            "coefficients": node.coefficients() if m else "",
             "ambient": _swatch(node.ambient) if node.hit else None,
             "lights": lights,
             "local": _swatch(node.local) if node.hit else None,
@@ -283,25 +241,31 @@ def _pixels(trees) -> list[dict]:
              "rows": _rows(t)} for n, t in enumerate(trees, start=1)]
 
 
-def _legend() -> list[dict]:
-    return [{"name": name, "color": COLORS[key]} for key, name in (
-        ("camera", "camera"), ("reflection", "reflection"), ("refraction", "refraction"),
-        ("total internal reflection", "total internal reflection"), ("shadow", "shadow ray, lit"),
-        ("blocked", "shadow ray, blocked (dashed)"), ("background", "missed (dashed)"))]
+def _render(view, trees, div_id: str, **parts) -> str:
+    """The template with the trees' view and tables, and a page's or a fragment's ``parts``."""
+    import jinja2
+
+    environment = jinja2.Environment(loader=jinja2.PackageLoader("whitted.trace", "templates"),
+                                     autoescape=jinja2.select_autoescape(["html", "j2"]),
+                                     undefined=jinja2.StrictUndefined, trim_blocks=True,
+                                     lstrip_blocks=True)
+    legend = [*((kind, kind) for kind in KINDS), ("shadow", "shadow ray, lit"),
+              ("blocked", "shadow ray, blocked (dashed)"), ("background", "missed (dashed)")]
+    return environment.get_template(TEMPLATE).render(
+        pixels=_pixels(trees), figure=figure_html(view, trees, div_id=div_id), version=VERSION,
+        legend=[{"name": name, "color": COLORS[key]} for key, name in legend], **parts)
 
 
 def fragment(view, trees) -> str:
     """The 3D view and the tables, for a notebook (no image: nothing is rendered)."""
-    return _environment().get_template(TEMPLATE).render(
-        page=False, scene=view.source, settings="", image=None, marks=[], pixels=_pixels(trees),
-        figure=figure_html(view, trees, div_id=f"trace-3d-{id(trees):x}"), legend=_legend(), version=VERSION)
+    return _render(view, trees, f"trace-3d-{id(trees):x}", page=False, scene=view.source,
+                   settings="", image=None, marks=[])
 
 
 # -- the page -------------------------------------------------------------------------------------
 
 def _image(traces) -> tuple[str, int, int, int]:
-    """The scene rendered at one sample per pixel with the trees' settings, as a PNG data URI;
-    its size and the factor it is shown enlarged by."""
+    """The 1 spp image as a PNG data URI, its size and the factor it is shown enlarged by."""
     from PIL import Image
 
     from ..images import default_view, to_srgb
@@ -328,11 +292,9 @@ def page_html(traces, scene_name: str) -> str:
         # the number beside its circle, inside the image
         marks.append({"number": n, "x": x, "y": y, "tx": x + 12 if x < width * zoom - 30 else x - 26,
                       "ty": y - 8 if y > 24 else y + 24})
-    return _environment().get_template(TEMPLATE).render(
-        page=True, scene=scene_name, settings=settings, image={"uri": uri, "width": width * zoom,
-                                                                "height": height * zoom},
-        marks=marks, pixels=_pixels(traces), figure=figure_html(traces.view, list(traces)),
-        legend=_legend(), version=VERSION)
+    return _render(traces.view, list(traces), "trace-3d", page=True, scene=scene_name,
+                   settings=settings, marks=marks,
+                   image={"uri": uri, "width": width * zoom, "height": height * zoom})
 
 
 def write_page(path, traces, scene) -> None:

@@ -1,9 +1,5 @@
-"""``trace_pixel``: the ray tree of a pixel, as the renderer computed it, in the scene file's terms.
-
-The integrator traces the pixels' center rays as a 1 spp render does
-(:meth:`~whitted.plugins.integrator.WhittedIntegrator.trace_pixels`), recorded by
-:mod:`.record`; here the trees are moved to the file's coordinates and each sphere and
-light is named by its line in the file.
+"""``trace_pixel``: the ray tree of a pixel, as the renderer computed it (recorded by
+:mod:`.record`), moved to the scene file's coordinates, each sphere and light named by its line.
 """
 
 from __future__ import annotations
@@ -47,10 +43,6 @@ class SceneView:
     text: list | None = None      # the file's lines
     lights: list = field(default_factory=list)   # (position, color, line) in the file's terms
     eye: tuple | None = None
-    lookat: tuple | None = None
-    width: int = 0
-    height: int = 0
-    background: tuple = (0.0, 0.0, 0.0)
 
     def position(self, p) -> tuple:
         return tuple(float(c) for c in np.asarray(p, np.float64) / self.scale + self.origin)
@@ -64,8 +56,7 @@ class SceneView:
             name = self.names[k] if self.names else f"sphere {k}"
             return SphereRef(k, center, radius, name=name)
         line = int(self.lines[k])
-        statement, comment = (_comment(self.text[line - 1]) if self.text and 0 < line <= len(self.text)
-                              else (None, None))
+        statement, comment = self.words(line)
         return SphereRef(k, center, radius, line=line, statement=statement, comment=comment,
                          name=f"{self.source}:{line}")
 
@@ -95,10 +86,11 @@ class SceneView:
         spots = np.array([p for p, _, _ in self.lights], np.float64)
         return int(np.argmin(np.linalg.norm(spots - np.asarray(position), axis=1)))
 
-    def statement(self, line: int | None) -> str | None:
-        if not line or not self.text or line > len(self.text):
-            return None
-        return _comment(self.text[line - 1])[0]
+    def words(self, line: int | None) -> tuple[str | None, str | None]:
+        """The statement and the comment of the file's line ``line`` (None, None: no such line)."""
+        if not line or not self.text or not 0 < line <= len(self.text):
+            return None, None
+        return _comment(self.text[line - 1])
 
 
 def scene_view(scene) -> SceneView:
@@ -107,7 +99,6 @@ def scene_view(scene) -> SceneView:
     from ..loading import recall
     source = recall(scene)
     sensor = scene.sensors()[0]
-    width, height = (int(c) for c in sensor.film().crop_size())
     if source is not None:
         model = source.model
         arrays = model.sphere_arrays()
@@ -127,8 +118,7 @@ def scene_view(scene) -> SceneView:
                              np.asarray(arrays.material, np.int64)],
                          text=None if text is None else text.splitlines(),
                          lights=[(tuple(light.position), tuple(light.color), light.line) for light in model.lights],
-                         eye=tuple(model.eye), lookat=tuple(model.lookat), width=width, height=height,
-                         background=tuple(model.background))
+                         eye=tuple(model.eye))
     from ..plugins.scene_tables import scene_tables
     tables = scene_tables(scene)
     primitives = tables.primitives
@@ -146,7 +136,7 @@ def scene_view(scene) -> SceneView:
                      centers=primitives.center[:, spheres].T.copy(), radii=primitives.radius[spheres].copy(),
                      lines=None, names=names,
                      lights=[(tuple(map(float, p)), tuple(map(float, c)), None) for p, c in tables.lights],
-                     eye=eye, width=width, height=height)
+                     eye=eye)
 
 
 # -- one pixel's tree ---------------------------------------------------------------------------------
@@ -294,7 +284,6 @@ def _to_file(root: Node, view: SceneView) -> None:
     """Move a recorded tree to the file's frame, and name its spheres and lights."""
     for node in root.walk():
         node.origin = view.position(node.origin)
-        node.direction = tuple(float(c) for c in node.direction)
         if node.hit:
             node.position = view.position(node.position)
             node.distance = view.length(node.distance)
@@ -305,11 +294,10 @@ def _to_file(root: Node, view: SceneView) -> None:
             if k is not None:
                 term.index = k
                 _, _, term.line = view.lights[k]
-                term.statement = view.statement(term.line)
+                term.statement = view.words(term.line)[0]
             if term.shadow is not None:
-                term.shadow = {"origin": view.position(term.shadow["origin"]),
-                               "direction": tuple(float(c) for c in term.shadow["direction"]),
-                               "length": view.length(term.shadow["length"])}
+                term.shadow.update(origin=view.position(term.shadow["origin"]),
+                                   length=view.length(term.shadow["length"]))
             if term.blocker_point is not None:
                 term.blocker_point = view.position(term.blocker_point)
                 term.blocker = view.sphere_at(term.blocker_point, term.blocker_normal)

@@ -1,10 +1,8 @@
 """The renderer's own trees, recorded: what each level of a pixel's ray tree computed.
 
-:meth:`whitted.plugins.recursion.Recursion.step` shows each level it shades to a
-:class:`Recorder` with its terms (``Recursion.record``); the recorder reads them lane by
-lane into :class:`~.nodes.Node` objects, a child linked to the pending child of its parent
-with the same origin, direction and weight, bit for bit. Coordinates are the loaded
-scene's; :mod:`.pixel` moves them to the file's.
+The recursion shows each level it shades to a :class:`Recorder`, which reads it lane by lane
+into :class:`~.nodes.Node` objects, a child linked to the pending child of its parent with
+the same origin, direction and weight, bit for bit (the loaded scene's coordinates).
 """
 
 from __future__ import annotations
@@ -78,14 +76,10 @@ class Recorder:
             if "value" in terms:
                 light["value"] = terms["value"]
             lights.append(light)
-        entries = []
-        for child in children:
-            entry = {"child_o": child.branch.ray.o, "child_d": child.branch.ray.d,
-                     "weight": child.branch.weight, "traced": child.traced}
-            if child.merged is not None:
-                entry["merged"] = child.merged
-            entries.append((child.kind, entry))
-        children = entries
+        children = [(child.kind, {"child_o": child.branch.ray.o, "child_d": child.branch.ray.d,
+                                  "weight": child.branch.weight, "traced": child.traced,
+                                  **({} if child.merged is None else {"merged": child.merged})})
+                    for child in children]
         jit = dr.is_jit_v(mi.Float)
         if jit:
             flat = [*values.values(), *(v for light in lights for v in light.values()),
@@ -128,11 +122,9 @@ class Recorder:
                 for kind, entry in level["children"]:
                     w = float(entry["weight"][lane])
                     merged = bool(entry["merged"][lane]) if "merged" in entry else False
-                    named = kind
-                    if kind == "reflection" and merged:
-                        named = "total internal reflection"
-                    elif kind == "refraction" and "tir" in v and bool(v["tir"][lane]):
-                        named = "total internal reflection"
+                    tir = merged if kind == "reflection" else (
+                        kind == "refraction" and "tir" in v and bool(v["tir"][lane]))
+                    named = "total internal reflection" if tir else kind
                     if bool(entry["traced"][lane]):
                         key = (level["level"] + 1, _t(entry["child_o"][lane]), _t(entry["child_d"][lane]), w)
                         pending[key].append((node, named, merged))
@@ -185,30 +177,25 @@ class Recorder:
             node.lights.append(term)
 
     def blockers(self, roots: list[Node]) -> None:
-        """For each blocked shadow ray of the trees, where it meets its nearest blocker
-        (``term.blocker_point``, frame coordinates), through the render's own hit finder."""
+        """Where each blocked shadow ray meets its blocker (the render's own hit finder)."""
         terms = [term for root in roots for node in root.walk() for term in node.lights
                  if term.blocked and term.shadow is not None]
         if not terms:
             return
-        hits = self.recursion.hits
         origins = np.array([t.shadow["origin"] for t in terms])
         directions = np.array([t.shadow["direction"] for t in terms])
         lengths = np.array([t.shadow["length"] for t in terms])
-        if dr.is_jit_v(mi.Float):
-            ray = mi.Ray3f(mi.Point3f(*origins.T), mi.Vector3f(*directions.T))
-            ray.maxt = mi.Float(lengths)
-            hit, si, _, _ = hits.intersect(ray, False)
-            found, points, normals = np.asarray(hit, bool), np.asarray(si.p).T, np.asarray(si.n).T
-        else:
-            found, points, normals = [], [], []
-            for o, d, maxt in zip(origins, directions, lengths):
-                ray = mi.Ray3f(mi.Point3f(*o), mi.Vector3f(*d))
-                ray.maxt = float(maxt)
-                hit, si, _, _ = hits.intersect(ray, False)
-                found.append(bool(hit))
-                points.append(np.asarray(si.p, np.float64) if hit else np.zeros(3))
-                normals.append(np.asarray(si.n, np.float64) if hit else np.zeros(3))
+        # one batch of every ray where the variant is vectorized, one ray at a time in a scalar one
+        batches = ([(origins.T, directions.T, lengths)] if dr.is_jit_v(mi.Float)
+                   else zip(origins, directions, lengths))
+        found, points, normals = [], [], []
+        for o, d, maxt in batches:
+            ray = mi.Ray3f(mi.Point3f(*o), mi.Vector3f(*d))
+            ray.maxt = mi.Float(maxt)
+            hit, si, _, _ = self.recursion.hits.intersect(ray, False)
+            found.extend(np.asarray(hit, bool).reshape(-1))
+            points.extend(np.asarray(si.p, np.float64).reshape(3, -1).T)
+            normals.extend(np.asarray(si.n, np.float64).reshape(3, -1).T)
         for term, ok, p, n in zip(terms, found, points, normals):
             if ok:
                 term.blocker_point, term.blocker_normal = tuple(map(float, p)), tuple(map(float, n))
@@ -221,8 +208,4 @@ def _stop(node: Node) -> str | None:
     if node.children:
         return None
     whys = [u["why"] for u in node.untraced]
-    if "max depth" in whys:
-        return "max depth"
-    if "cut by weight" in whys:
-        return "cut by weight"
-    return "no reflection or refraction"
+    return next((why for why in ("max depth", "cut by weight") if why in whys), "no reflection or refraction")
