@@ -36,7 +36,7 @@ from .errormaps import write_render
 from .limits import render_limit
 from .planning import limit_methods
 from .reference import Chunk, ReferenceCache, ReferencePlan, reference_image
-from .results import Measurement, Options, SceneResult, Setting
+from .results import WHITTED_LIGHTING, Measurement, Options, SceneResult, Setting
 from .scenes import SceneFile
 from .sheet import thumbnail
 from .timing import interleaved, median
@@ -320,8 +320,9 @@ def _limits(loaded, entry: SceneResult, settings: list[Setting], reference: np.n
     """Each Whitted method's limit (:func:`~whitted.compare.limits.render_limit`), its
     renders read back from their kept EXRs and scored against it."""
     methods = limit_methods(settings)
+    weights = [2 if WHITTED_LIGHTING[m] == "article" else 1 for m in methods]  # its renders
     for k, method in enumerate(methods):   # each its share of the time left
-        until = time.monotonic() + (deadline - time.monotonic()) / (len(methods) - k)
+        until = time.monotonic() + (deadline - time.monotonic()) * weights[k] / sum(weights[k:])
         if progress is not None:
             progress.set_postfix_str(f"{entry.name}: {method} limit", refresh=False)
         measured = [(m, read_image(out / m.image)) for m in entry.measurements
