@@ -620,3 +620,44 @@ def test_progress_estimate_comes_from_the_renders_not_the_reference(sweep, mirro
     assert bar.n == bar.total == len(settings) + 2  # the renders and the two limits
     assert bar.format_dict["elapsed"] == pytest.approx(len(settings) * 1.0)  # not 100 s more
     bar.close()
+
+
+def test_a_budgeted_run_ends_within_its_budget_and_says_what_it_cut(mirror_scene, tmp_path):
+    """--budget bounds the whole command, the report included, and every output names the cuts."""
+    import html
+    import json
+    budget, out = 12.0, tmp_path / "out"
+    start = time.monotonic()
+    status = main(["compare", str(mirror_scene), "--out", str(out),
+                   "--cache", str(tmp_path / "refs"), "--budget", str(budget),
+                   "--reference-spp", str(1 << 16), "-q",
+                   "--path-spp", ",".join(str(4 ** k) for k in range(9))])
+    elapsed = time.monotonic() - start
+    assert status == 0 and elapsed < 1.2 * budget   # the margin: a loaded 2-core machine
+    notes = json.loads((out / "findings.json").read_text())["scenes"]["mirror"]["notes"]
+    assert any("--budget" in note for note in notes)
+    summary = (out / "summary.txt").read_text()
+    assert all(note in summary for note in notes)
+    page = html.unescape(" ".join((out / "report.html").read_text().split()))
+    assert all(note in page for note in notes)
+
+
+@pytest.mark.parametrize("given, wins", [
+    ([], {}), (["--budget", "60", "--spp", "2", "--depths", "3"],
+               {"budget": 60.0, "whitted_spp": (2,), "depths": (3,)})])
+def test_quick_sets_what_the_docs_say_and_options_beside_it_win(mirror_scene, tmp_path,
+                                                                 monkeypatch, given, wins):
+    from whitted.compare.cli import quick_text
+    from whitted.errors import WhittedError
+    seen = []
+
+    def fake_compare(scenes, options):
+        seen.append(options)
+        raise WhittedError("enough")
+    monkeypatch.setattr("whitted.compare.run.compare", fake_compare)
+    assert main(["compare", str(mirror_scene), "--out", str(tmp_path), "--quick", *given]) == 2
+    expected = {"reference_spp": 256, "depths": (1, 2, 4, 8), "whitted_spp": (1, 4),
+                "path_spp": (1, 4, 16, 64), "rounds": 2, "budget": 25.0, **wins}
+    assert {name: getattr(seen[0], name) for name in expected} == expected
+    docs = " ".join((Path(__file__).parents[1] / "docs" / "compare.md").read_text().split())
+    assert f"`--quick` stands for `{quick_text()}`" in docs

@@ -198,3 +198,19 @@ def test_compare_s_fitted_text_names_materials_and_lights_as_the_file_does(llvm)
                           for part in ("# the floor", "# the key", "reflect 0.6"))
     assert f"colors line {floor} (the floor): " in said and f", line {mirror}: " in said
     assert f"lights line {key} (the key): " in said and "material_" not in said
+
+
+def test_a_fit_at_its_deadline_stops_between_steps_and_keeps_its_numbers(truth):
+    """compare's fit under --budget: a deadline that comes during the fit stops it after the
+    step that reached it, and the fitted scene is still scored and reported as stopped."""
+    import time
+
+    from whitted.compare.fitted import fit_to_reference
+    from whitted.defaults import FIT_ITERATIONS
+    target = render(truth)
+    fitted = fit_to_reference(perturbed(truth), target, truth.depth, 1, 0,
+                              deadline=time.monotonic() + 0.05)
+    assert 1 <= fitted.stopped < FIT_ITERATIONS
+    assert np.isfinite(fitted.rel_mse) and 0 <= fitted.ambient <= 1
+    assert fit_to_reference(truth, target, truth.depth, 1, 0, deadline=time.monotonic() + 1,
+                            score_seconds=1) is None    # not even its scoring render fits

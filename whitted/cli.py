@@ -15,6 +15,7 @@ from __future__ import annotations
 import argparse
 import os
 import sys
+import time
 
 from .defaults import INTEGRATOR, INTEGRATORS, LIGHTING_MODES, PATH_MIN_SPP, VERSION, VIEWS
 from .defaults import DEFAULT_FPS, IMAGE_FORMATS as FORMATS
@@ -232,11 +233,24 @@ def suggestion(parser: argparse.ArgumentParser, unknown: list[str]) -> str:
     return ""
 
 
+def process_start() -> float:
+    """When this process started, as a ``time.monotonic`` reading (now where ``/proc`` cannot
+    say): ``compare --budget`` counts the interpreter's start and imports too."""
+    try:
+        with open("/proc/self/stat") as stat:
+            ticks = int(stat.read().rsplit(")", 1)[1].split()[19])
+        age = time.clock_gettime(time.CLOCK_BOOTTIME) - ticks / os.sysconf("SC_CLK_TCK")
+        return time.monotonic() - min(max(0.0, age), 60.0)
+    except (OSError, ValueError, AttributeError, IndexError):
+        return time.monotonic()
+
+
 def main(argv: list[str] | None = None) -> int:
     interrupt.install()
     words = sys.argv[1:] if argv is None else argv
     parser = build_parser(next((w for w in words if not w.startswith("-")), None))
     args, unknown = parser.parse_known_args(argv)
+    args.started = process_start() if argv is None else time.monotonic()   # a test's: now
     if unknown:   # the command's own usage, not the top-level one
         args.parser.error(f"unrecognized arguments: {' '.join(unknown)}{suggestion(args.parser, unknown)}")
     try:

@@ -137,6 +137,13 @@ COMPARE_REFERENCE_SHARE = 0.5
 COMPARE_MIN_REFERENCE_SPP = 8
 COMPARE_PROBE_SECONDS = 0.1
 COMPARE_REPORT_SECONDS = 3.0
+#: under --budget, the shares of a scene's time after its reference kept for the timing rounds
+#: (beyond what the renders predict for theirs) and for the limits and fit
+COMPARE_ROUNDS_SHARE = 0.2
+COMPARE_LIMITS_SHARE = 0.25
+#: --quick: a settled verdict on an example scene in under 30 s on a 2-core laptop
+COMPARE_QUICK = {"reference_spp": 256, "depths": (1, 2, 4, 8), "spp": (1, 4),
+                 "path_spp": (1, 4, 16, 64), "rounds": 2, "budget": 25.0}
 
 
 # --- Validation, written once ----------------------------------------------------------------------

@@ -102,8 +102,8 @@ def fit(scene, target, *, free=FREE, iterations: int = D.FIT_ITERATIONS, width: 
     the learning rate falling from ``rate[0]`` to ``rate[1]``; ``spp``: samples per pixel of
     the fit's renders (default: the scene's; more match an anti-aliased target better; the
     same samples at every step); ``progress`` shows a tqdm bar with the loss;
-    ``on_step(k, loss)`` is called after each step. Runs in ``llvm_ad_rgb`` (or the current
-    AD variant)."""
+    ``on_step(k, loss)`` is called after each step; a true return stops the fit there. Runs in
+    ``llvm_ad_rgb`` (or the current AD variant)."""
     import drjit as dr
     import mitsuba as mi
 
@@ -196,8 +196,8 @@ def fit(scene, target, *, free=FREE, iterations: int = D.FIT_ITERATIONS, width: 
             losses.append(float(loss[0]))
             bar.set_postfix(loss=f"{losses[-1]:.3g}", refresh=False)
             bar.update(1)
-            if on_step is not None:
-                on_step(k, losses[-1])
+            if on_step is not None and on_step(k, losses[-1]):
+                break   # the caller's word: out of time
             # settled: the best loss no better than FIT_PATIENCE steps ago, and this one at it
             best, before = min(losses), min(losses[:-D.FIT_PATIENCE], default=math.inf)
             if best > (1 - min_gain) * before and losses[-1] <= (1 + min_gain) * best:

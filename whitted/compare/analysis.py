@@ -241,14 +241,15 @@ class Analysis:
                                            "colors": {k: list(v) for k, v in fitted.colors.items()},
                                            "lights": [list(c) for c in fitted.lights],
                                            "fit_size": list(fitted.size), "fit_rel_mse": fitted.fit_rel_mse,
-                                           "seconds": fitted.seconds}
+                                           "seconds": fitted.seconds,
+                                           "stopped_after_steps": fitted.stopped or None}
                 found["text"] = decomposition.text
             methods[statement.method] = found
         entry = self.entry
         return {"levels": list(self.levels), "reference_spp": entry.reference_spp,
                 "reference_noise": _json_number(entry.reference_noise),
                 "renders": len(entry.measurements), "skipped": len(entry.skipped),
-                "timed_rounds": rounds_of(entry), "methods": methods,
+                "timed_rounds": rounds_of(entry), "methods": methods, "notes": list(entry.notes),
                 "equal_quality": [{"rel_mse": row.level,
                                    "path_time_over": {m: i.as_dict() for m, i in row.speedups.items()}}
                                   for row in self.equal_quality]}
@@ -462,7 +463,9 @@ def decomposition_text(method: str, floor: Floor[Measurement], limit: Limit,
         best = (f"the best ambient ({limit.best_ambient:.2g} instead of {limit.ambient:.2g}) brings it "
                 f"to {limit.rel_mse_at_best_ambient:.3g}; " if math.isfinite(limit.best_ambient) else "")
         rest = fitted.rel_mse
-        text += (f"; {best}fitted, the article's model reaches {rest:.3g} ({fitted_text(fitted)}); "
+        cut = f", stopped by --budget after {fitted.stopped} steps" if fitted.stopped else ""
+        text += (f"; {best}fitted{cut}, the article's model reaches {rest:.3g} "
+                 f"({fitted_text(fitted)}); "
                  f"the remaining {rest:.2g}")
     elif article and math.isfinite(limit.best_ambient):
         text += (f"; the best ambient ({limit.best_ambient:.2g} instead of {limit.ambient:.2g}) "

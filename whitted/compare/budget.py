@@ -28,14 +28,14 @@ class Budget:
     would overrun; a render that has begun is not interrupted.
 
     ============ ==================================================================
-    ``seconds``  the whole command's time (None: unbounded); the clock starts when
-                 the budget is made
+    ``seconds``  the whole command's time (None: unbounded)
+    ``start``    when its clock started (a ``time.monotonic`` reading; None: now)
     ============ ==================================================================
     """
 
-    def __init__(self, seconds: float | None):
+    def __init__(self, seconds: float | None, start: float | None = None):
         self.seconds = seconds
-        self.start = time.monotonic()
+        self.start = time.monotonic() if start is None else start
 
     def reserve(self, scenes_left: int) -> float:
         """Seconds kept back for writing the outputs of ``scenes_left`` scenes (plots,
@@ -73,19 +73,17 @@ class Budget:
         return None
 
     @staticmethod
-    def predict(setting: Setting, done: list[tuple[Setting, float, float]], renders: int) -> float:
-        """Seconds the setting will take if rendered ``renders`` times (its scored render and
-        its timed rounds), from ``done`` = [(setting, seconds of its scored render, wall time
-        of it with scoring)]; 0 when this method has not run yet (its first render is always
+    def predict(setting: Setting, done: list[tuple[Setting, float, float]]) -> tuple[float, float]:
+        """Seconds the setting's render will take, and its scoring and compilation on top,
+        from ``done`` = [(setting, seconds of its scored render, wall time of it with
+        scoring)]; (0, 0) when this method has not run yet (its first render is always
         tried)."""
-        estimates = []
+        estimates = [(0.0, 0.0)]
         for other, seconds, wall in done:
-            if other.method != setting.method:
-                continue
-            scale = setting.spp / other.spp * max(1.0, setting.max_depth / other.max_depth)
-            overhead = max(0.0, wall - seconds)  # compilation, scoring
-            estimates.append(renders * seconds * scale + overhead)
-        return max(estimates, default=0.0)
+            if other.method == setting.method:
+                scale = setting.spp / other.spp * max(1.0, setting.max_depth / other.max_depth)
+                estimates.append((seconds * scale, max(0.0, wall - seconds)))
+        return max(estimates, key=sum)
 
 
 def fit_cost(points: list[tuple[int, float]]) -> tuple[float, float]:

@@ -14,7 +14,7 @@ import time
 from pathlib import Path
 
 from ..defaults import VARIANTS as SUPPORTED_VARIANTS
-from ..defaults import VIEWS
+from ..defaults import COMPARE_QUICK, VIEWS
 from .results import (DEFAULT_PATH_SPP, DEFAULT_REFERENCE_CHUNK_SPP,
                       DEFAULT_REFERENCE_SPP, DEFAULT_ROUNDS, DEFAULT_WHITTED_SPP, MAX_DEFAULT_DEPTH,
                       Options)
@@ -52,32 +52,43 @@ def float_list(text: str) -> tuple[float, ...]:
     return tuple(sorted(values, reverse=True))
 
 
+def quick_text() -> str:
+    """What ``--quick`` stands for, as options: ``--reference-spp 256 ... --budget 25``."""
+    def value(v):
+        return ",".join(map(str, v)) if isinstance(v, tuple) else f"{v:g}"
+    return " ".join(f"--{name.replace('_', '-')} {value(v)}" for name, v in COMPARE_QUICK.items())
+
+
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """The ``compare`` subcommand's options (the CLI builds the subparser)."""
     parser.add_argument("scenes", nargs="+", metavar="SCENE",
                         help="scenes (.scn or .xml), or folders of them")
     parser.add_argument("-o", "--out", required=True, metavar="DIR", help="output folder")
-    parser.add_argument("--reference-spp", type=int, default=DEFAULT_REFERENCE_SPP, metavar="N",
+    parser.add_argument("--reference-spp", type=int, metavar="N",
                         help=f"the reference's samples per pixel (default {DEFAULT_REFERENCE_SPP})")
     parser.add_argument("--depths", type=int_list, metavar="LIST",
                         help="Whitted max depths, e.g. 1-5 or 1,2,4 (default: 1 to the scene's depth, "
                              f"at most {MAX_DEFAULT_DEPTH})")
-    parser.add_argument("--spp", type=int_list, default=DEFAULT_WHITTED_SPP, metavar="LIST",
+    parser.add_argument("--spp", type=int_list, metavar="LIST",
                         help="the Whitted integrator's spp ladder (default "
                              f"{','.join(map(str, DEFAULT_WHITTED_SPP))})")
-    parser.add_argument("--path-spp", type=int_list, default=DEFAULT_PATH_SPP, metavar="LIST",
+    parser.add_argument("--path-spp", type=int_list, metavar="LIST",
                         help="the path tracer's spp ladder (default "
                              f"{','.join(map(str, DEFAULT_PATH_SPP))})")
     parser.add_argument("--path-depth", type=int, metavar="N",
                         help="the path tracer's max depth, for the reference too (default: the scene's)")
-    parser.add_argument("--rounds", type=int, default=DEFAULT_ROUNDS, metavar="N",
+    parser.add_argument("--rounds", type=int, metavar="N",
                         help="timed rounds over each scene's renders, at least: every render is "
                              "timed once per round, so that methods are timed in the same moments; "
                              f"then rounds of the headlines' renders alone (default {DEFAULT_ROUNDS})")
     # the former name (each render repeated back to back): old scripts keep working
     parser.add_argument("--repeats", dest="rounds", type=int, help=argparse.SUPPRESS)
     parser.add_argument("--budget", type=float, metavar="SECONDS",
-                        help="bound the whole command's time: renders that would overrun are skipped")
+                        help="bound the whole command's time: renders, timing rounds, limits and "
+                             "the fit that would overrun are skipped or cut short")
+    parser.add_argument("--quick", action="store_true",
+                        help=f"a quick verdict (under 30 s a scene on 2 cores): {quick_text()}; "
+                             "options given beside it win")
     parser.add_argument("--levels", type=float_list, metavar="LIST",
                         help="relative MSE levels of the equal-quality table, e.g. 0.1,0.03 "
                              "(default: from the data: each method's floor, and levels between "
@@ -113,9 +124,15 @@ def compare_command(args: argparse.Namespace) -> None:
     from .run import compare
     from .summary import summary
 
-    options = Options(out=Path(args.out), reference_spp=args.reference_spp, depths=args.depths,
-                      whitted_spp=args.spp, path_spp=args.path_spp, path_depth=args.path_depth,
-                      rounds=args.rounds, budget=args.budget, levels=args.levels,
+    chosen = {"reference_spp": DEFAULT_REFERENCE_SPP, "depths": None, "spp": DEFAULT_WHITTED_SPP,
+              "path_spp": DEFAULT_PATH_SPP, "rounds": DEFAULT_ROUNDS, "budget": None}
+    chosen.update(COMPARE_QUICK if args.quick else {})   # then what the command line gives
+    chosen.update({name: getattr(args, name) for name in chosen if getattr(args, name) is not None})
+    options = Options(out=Path(args.out), reference_spp=chosen["reference_spp"],
+                      depths=chosen["depths"], whitted_spp=chosen["spp"],
+                      path_spp=chosen["path_spp"],
+                      path_depth=args.path_depth, rounds=chosen["rounds"], budget=chosen["budget"],
+                      levels=args.levels, started=getattr(args, "started", None),
                       cache=Path(args.cache) if args.cache else None, variant=args.variant,
                       quiet=args.quiet, reference_chunk_spp=args.reference_chunk_spp,
                       workers=args.workers, scheduler=args.scheduler, view=args.view,

@@ -33,15 +33,18 @@ class Fitted:
     fit_rel_mse: float      # at the fit's resolution
     size: tuple
     names: dict = field(default_factory=dict)
+    stopped: int = 0        # the steps done when the deadline stopped the fit (0: it was not)
 
 
 def fit_to_reference(model, reference: np.ndarray, depth: int, spp: int, seed: int,
-                     start_ambient: float = math.nan, deadline: float = math.inf) -> Fitted | None:
+                     start_ambient: float = math.nan, deadline: float = math.inf,
+                     score_seconds: float = 0.0) -> Fitted | None:
     """Fit the article's model of the scene ``model`` (a parsed ``.scn``:
     ``whitted.converter.Scene``) to ``reference`` (full resolution) and score the fitted scene
     there at ``depth`` and ``spp`` (the exact tree, ``seed``). None without a model (an XML
-    scene), or when the fit's first steps show it would run past ``deadline`` (a
-    ``time.monotonic`` reading)."""
+    scene), or when not even its scoring render (``score_seconds``) fits before ``deadline`` (a
+    ``time.monotonic`` reading); a fit whose next step would run past it stops, its numbers
+    those of its last step (:attr:`Fitted.stopped`)."""
     from ..converter.description import line_label, material_labels
     from ..defaults import FIT_ITERATIONS, FIT_SPP
     from ..fitting import fit
@@ -52,20 +55,22 @@ def fit_to_reference(model, reference: np.ndarray, depth: int, spp: int, seed: i
     if model is None or not dr.is_diff_v(mi.Float):
         return None   # (gradients need an AD variant: the sweep's is kept)
     start = time.monotonic()
+    if start + 2 * score_seconds > deadline:
+        return None
     model = replace(model, depth=depth)
     if math.isfinite(start_ambient):
         model = replace(model, ambient=start_ambient)
-    steps = []
+    steps, stopped = [start], []
 
-    def on_step(k, loss):
+    def on_step(k, loss):   # stop when the next step and the scoring render would overrun
         steps.append(time.monotonic())
-        if k == 1 and time.monotonic() + (steps[1] - steps[0]) * FIT_ITERATIONS > deadline:
-            raise _OutOfTime
-    try:
-        # anti-aliased as the limit is (its samples, up to FIT_SPP): the reference is
-        result = fit(model, reference, on_step=on_step, spp=min(spp, FIT_SPP))
-    except _OutOfTime:
-        return None
+        next_step = steps[-1] - steps[-2]
+        if steps[-1] + next_step + score_seconds > deadline and k + 1 < FIT_ITERATIONS:
+            stopped.append(k + 1)
+            return True
+        return False
+    # anti-aliased as the limit is (its samples, up to FIT_SPP): the reference is
+    result = fit(model, reference, on_step=on_step, spp=min(spp, FIT_SPP))
     loaded = _load_model(result.model, {}, None, "whitted", False)   # grouped, as the sweep's scene
     image = rendering.render(loaded, integrator="whitted", spp=spp, max_depth=depth, lighting="article",
                              seed=seed, min_weight=0.0, ambient=result.ambient).image
@@ -73,11 +78,7 @@ def fit_to_reference(model, reference: np.ndarray, depth: int, spp: int, seed: i
     names = {**material_labels(model), **{f"light_{k}": line_label(model, light.line)
                                           for k, light in enumerate(model.lights) if light.line}}
     return Fitted(error, result.ambient, result.colors, list(result.lights), time.monotonic() - start,
-                  result.error, result.size, names)
-
-
-class _OutOfTime(Exception):
-    pass
+                  result.error, result.size, names, sum(stopped))
 
 
 def fitted_text(fitted: Fitted) -> str:

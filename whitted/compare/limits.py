@@ -61,8 +61,12 @@ def render_limit(loaded, entry: SceneResult, method: str, measured: list[tuple[M
     spp = max(1, COMPARE_LIMIT_SPP_FACTOR * densest // 2)  # per half
     renders = 2 if lighting == "article" else 1            # A = 0 and A = 1, or one
     seconds, limit = 0.0, None
+    # the article's limit leaves half of its time to the fit
+    halves_until = deadline if model is None or lighting != "article" else \
+        (time.monotonic() + deadline) / 2
     while True:
-        if time.monotonic() + 2 * renders * spp * per_spp > deadline:
+        until = deadline if limit is None else halves_until   # the first halves: any time left
+        if time.monotonic() + 2 * renders * spp * per_spp > until:
             break
         if lighting == "article":
             dark, took_dark = _halves(loaded, lighting, depth, spp, 0.0)
@@ -90,7 +94,14 @@ def render_limit(loaded, entry: SceneResult, method: str, measured: list[tuple[M
     if limit is not None and lighting == "article":
         # the article's model at its best: its colors, ambient and light colors fitted
         limit.fitted = fit_to_reference(model, reference, depth, limit.spp, LIMIT_SEED,
-                                        limit.best_ambient, deadline)
+                                        limit.best_ambient, deadline, seconds / 4)
+        fitted = limit.fitted
+        if fitted is None and model is not None and time.monotonic() + seconds / 2 > deadline:
+            entry.notes.append(f"{method}: not fitted: the fit would have overrun the scene's "
+                               f"share of --budget")
+        elif fitted is not None and fitted.stopped:
+            entry.notes.append(f"{method}: the fit stopped at the scene's share of --budget after "
+                               f"{fitted.stopped} steps: its numbers are its last step's")
     if limit is not None:
         limit.image = f"{entry.folder}/{method}-limit-d{depth}-{limit.spp}spp.exr"
         write_image(Path(out) / limit.image, image.astype(np.float32))

@@ -293,6 +293,8 @@ class Options:
                             "aces"; None: per scene, :func:`whitted.images.fitting_view`
                             of its reference)
     ``exposure``            the displayed images' exposure, in stops
+    ``started``             when ``budget``'s clock started (``time.monotonic``; None:
+                            when :func:`~whitted.compare.compare` is called)
     ======================= ==========================================================
     """
     out: Path
@@ -312,6 +314,7 @@ class Options:
     scheduler: str | None = None
     view: str | None = None
     exposure: float = 0.0
+    started: float | None = None
 
     @property
     def cache_folder(self) -> Path:

@@ -65,7 +65,7 @@ def compare(scenes: list[str | os.PathLike], options: Options) -> Comparison:
     analyses and ``findings`` (the content of ``findings.json``)."""
     from ..variant import set_variant
 
-    budget = Budget(options.budget)
+    budget = Budget(options.budget, options.started)
     check_options(options)
     out = Path(options.out)
     variant = set_variant(options.variant)

@@ -26,8 +26,9 @@ import numpy as np
 from .. import metrics
 from .. import rendering  # rendering.render looked up at call time: tests count calls
 from ..defaults import (COMPARE_CLOCK, COMPARE_HEADLINE_ROUNDS, COMPARE_KEPT_MEMORY,
-                        COMPARE_MAX_ROUNDS, COMPARE_ROUND_REPEATS, COMPARE_ROUND_SECONDS,
-                        COMPARE_ROUNDS_SECONDS, COMPARE_TIMING_THREADS)
+                        COMPARE_LIMITS_SHARE, COMPARE_MAX_ROUNDS, COMPARE_ROUND_REPEATS,
+                        COMPARE_ROUND_SECONDS, COMPARE_ROUNDS_SECONDS, COMPARE_ROUNDS_SHARE,
+                        COMPARE_TIMING_THREADS)
 from ..images import clipped_fraction, fitting_view, read_image, to_srgb, write_image
 from .analysis import analyse
 from .budget import Budget
@@ -35,7 +36,7 @@ from .errormaps import write_render
 from .limits import render_limit
 from .planning import limit_methods
 from .reference import Chunk, ReferenceCache, ReferencePlan, reference_image
-from .results import Measurement, Options, SceneResult, Setting
+from .results import WHITTED_LIGHTING, Measurement, Options, SceneResult, Setting
 from .scenes import SceneFile
 from .sheet import thumbnail
 from .timing import interleaved, median
@@ -71,16 +72,26 @@ def timing_threads():
     while rounds are timed (docs/compare.md, "Timing"), the process's own count restored
     after; yields how many times slower a parallel render may be on them."""
     import drjit as dr
-    import mitsuba as mi
-    if COMPARE_TIMING_THREADS is None or not mi.variant().startswith("llvm"):
+    slower = _slower()
+    if slower == 0:
         yield 1.0
         return
     before = dr.thread_count()
     dr.set_thread_count(COMPARE_TIMING_THREADS)
     try:
-        yield max(1.0, before / COMPARE_TIMING_THREADS)
+        yield slower
     finally:
         dr.set_thread_count(before)
+
+
+def _slower() -> float:
+    """How many times slower a parallel render may be on the timing threads (0: they are not
+    set, on a GPU or without :data:`~whitted.defaults.COMPARE_TIMING_THREADS`)."""
+    import drjit as dr
+    import mitsuba as mi
+    if COMPARE_TIMING_THREADS is None or not mi.variant().startswith("llvm"):
+        return 0.0
+    return max(1.0, dr.thread_count() / COMPARE_TIMING_THREADS)
 
 
 def _work(setting: Setting, result) -> int:
@@ -119,13 +130,13 @@ def time_rounds(loaded, entry: SceneResult, rounds: int, deadline: float = math.
         return
     with timing_threads() as slower:
         # the scored renders' times (all threads): a round on fewer threads takes longer
-        _rounds(loaded, entry, measured, rounds, deadline, progress, _cost(measured) * slower)
+        _rounds(loaded, entry, measured, rounds, deadline, progress, _cost(measured, slower))
 
 
-def _cost(ms: list[Measurement]) -> float:
-    """What a round of ``ms`` will take: each render's time, or the time it is repeated for
-    when it is faster (:func:`_time_in_a_round`)."""
-    return sum(max(m.seconds, COMPARE_ROUND_SECONDS) for m in ms)
+def _cost(ms: list[Measurement], slower: float = 1.0) -> float:
+    """What a round of ``ms`` will take: each render's time (``slower`` times it), or the
+    time it is repeated for when it is faster (:func:`_time_in_a_round`)."""
+    return sum(max(m.seconds * slower, COMPARE_ROUND_SECONDS) for m in ms)
 
 
 def _rounds(loaded, entry: SceneResult, measured: list[Measurement], rounds: int, deadline: float,
@@ -253,12 +264,17 @@ def sweep_scene(scene: SceneFile, entry: SceneResult, settings: list[Setting], o
     settings = _below_the_reference(entry, settings, progress)
     done: list[tuple[Setting, float, float]] = []
     overran = 0
+    # what is left, shared: the renders, then their timing rounds, then the limits and fit
+    left, slower = (deadline - time.monotonic() if seconds < math.inf else 0.0), _slower()
+    timed_until = deadline - COMPARE_LIMITS_SHARE * left
+    renders_until = timed_until - COMPARE_ROUNDS_SHARE * left
     for setting in settings:
         if progress is not None:
             progress.set_postfix_str(f"{entry.name}: {setting.method} {setting.label}",
                                      refresh=False)
-        predicted = Budget.predict(setting, done, 1 + options.rounds)
-        if time.monotonic() + predicted > deadline:
+        render, scoring = Budget.predict(setting, done)   # then its rounds, on the timing threads
+        rounds = options.rounds * max(render * max(1.0, slower), COMPARE_ROUND_SECONDS)
+        if time.monotonic() + render + scoring + rounds > renders_until:
             entry.skipped.append(setting)
             overran += 1
         else:
@@ -269,7 +285,7 @@ def sweep_scene(scene: SceneFile, entry: SceneResult, settings: list[Setting], o
             done.append((setting, measurement.render_seconds, time.monotonic() - start))
         if progress is not None:
             progress.update(1)
-    time_rounds(loaded, entry, options.rounds, deadline, progress)
+    time_rounds(loaded, entry, options.rounds, timed_until, progress)
     _limits(loaded, entry, settings, reference, out, deadline, progress, scene.model)
     if settings and not entry.measurements:
         took = ("was read from the cache" if entry.reference_cached
@@ -303,12 +319,15 @@ def _limits(loaded, entry: SceneResult, settings: list[Setting], reference: np.n
             deadline: float, progress, model=None) -> None:
     """Each Whitted method's limit (:func:`~whitted.compare.limits.render_limit`), its
     renders read back from their kept EXRs and scored against it."""
-    for method in limit_methods(settings):
+    methods = limit_methods(settings)
+    weights = [2 if WHITTED_LIGHTING[m] == "article" else 1 for m in methods]  # its renders
+    for k, method in enumerate(methods):   # each its share of the time left
+        until = time.monotonic() + (deadline - time.monotonic()) * weights[k] / sum(weights[k:])
         if progress is not None:
             progress.set_postfix_str(f"{entry.name}: {method} limit", refresh=False)
         measured = [(m, read_image(out / m.image)) for m in entry.measurements
                     if m.setting.method == method and m.image]
-        limit = render_limit(loaded, entry, method, measured, reference, out, deadline, model)
+        limit = render_limit(loaded, entry, method, measured, reference, out, until, model)
         if limit is not None:
             entry.limits[method] = limit
         elif measured:
