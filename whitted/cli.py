@@ -44,6 +44,14 @@ def _command(sub, name: str, run, help: str, description: str) -> argparse.Argum
     return command
 
 
+def _talk(command, verbose: str | None, quiet: str | None = "no progress bar") -> None:
+    """A command's ``-v`` and ``-q`` options, with their help (None: the command has none)."""
+    if verbose:
+        command.add_argument("-v", "--verbose", action="store_true", help=verbose)
+    if quiet:
+        command.add_argument("-q", "--quiet", action="store_true", help=quiet)
+
+
 def build_parser(command: str | None = None) -> argparse.ArgumentParser:
     """The parser of every command, or, given ``command``, one whose other commands have no
     options yet (their help is the same; their code is not imported)."""
@@ -75,7 +83,7 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
                          help="write X.portable.xml in Mitsuba's stock plugins only (path integrator, "
                               "stock BSDFs): the scene read physically, for any Mitsuba 3 tool; a "
                               "comment at its top says what differs from the article's model")
-    convert.add_argument("-v", "--verbose", action="store_true", help="say what was written")
+    _talk(convert, "say what was written", None)
 
     render = _command(
         sub, "render", _body(".commands", "render_command"),
@@ -144,8 +152,7 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
     render.add_argument("--stats", metavar="FILE.json",
                         help="write ray counts and timings as JSON (for several scenes: one file, "
                              "every scene's and the totals)")
-    render.add_argument("-v", "--verbose", action="store_true", help="print a one-line summary")
-    render.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
+    _talk(render, "print a one-line summary")
 
     video = _command(
         sub, "video", _body(".video", "video_command"),
@@ -160,8 +167,7 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
                        help="the video (.mp4, .mkv or .mov)")
     video.add_argument("--fps", type=float, default=DEFAULT_FPS, metavar="N",
                        help=f"frames per second (default {DEFAULT_FPS:g})")
-    video.add_argument("-v", "--verbose", action="store_true", help="say what was written")
-    video.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
+    _talk(video, "say what was written")
 
     from .defaults import FIT_ITERATIONS, FIT_WIDTH
     fit = _command(
@@ -181,7 +187,7 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
                      help=f"gradient steps (default {FIT_ITERATIONS})")
     fit.add_argument("--width", type=int, default=FIT_WIDTH, metavar="W",
                      help=f"the widest image the fit renders (default {FIT_WIDTH})")
-    fit.add_argument("-q", "--quiet", action="store_true", help="no progress bar, no losses")
+    _talk(fit, None, "no progress bar, no losses")
 
     trace = _command(
         sub, "trace", _body(".trace.cli", "trace_command"),
