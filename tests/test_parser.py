@@ -606,7 +606,7 @@ def _outcome(text: str, fast: bool):
         return "error", str(error), error.line
 
 
-@settings(max_examples=800, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(max_examples=400, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(st.lists(_any_line(), min_size=1, max_size=12), st.sampled_from(["\n", "\r\n", "\r"]),
        st.booleans())
 def test_fast_path_and_careful_path_agree(lines, ending, final_break):
