@@ -227,3 +227,18 @@ def test_a_stop_inside_deferred_waits_for_its_end():
     finally:
         signal.signal(signal.SIGINT, previous)
         signal.signal(signal.SIGTERM, signal.SIG_DFL)
+
+
+def test_a_stop_that_mitsuba_wraps_while_loading_stays_a_stop(monkeypatch):
+    """Ctrl-C in a Python plugin's constructor comes back from Mitsuba's loader as a
+    RuntimeError ("failed to instantiate ... Traceback"): it is raised as a stop, not
+    reported as a scene that could not load (which would exit 2 instead of 130)."""
+    from whitted import interrupt
+    from whitted.errors import WhittedError
+    from whitted.loading import load_error
+    wrapped = RuntimeError('[parser.cpp:1718] At dictionary node "integrator": failed to '
+                           'instantiate unknown plugin of type "whitted": Traceback ...')
+    assert isinstance(load_error("frame003.scn", wrapped), WhittedError)   # no stop asked
+    monkeypatch.setattr(interrupt, "_received", signal.SIGINT)
+    with pytest.raises(KeyboardInterrupt):
+        load_error("frame003.scn", wrapped)

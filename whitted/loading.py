@@ -119,7 +119,11 @@ _PLAIN = ("WhittedError", "SceneError", "ParameterError", "ValueError")
 
 def load_error(where, error: BaseException) -> WhittedError:
     """Mitsuba's error from loading the scene ``where`` as one line: a plugin's own message
-    (``FILE:LINE: message``), else Mitsuba's first line."""
+    (``FILE:LINE: message``), else Mitsuba's first line. A Ctrl-C that landed in a plugin's
+    constructor comes back wrapped too: it is raised as the stop it is."""
+    from .interrupt import requested
+    if requested(error):
+        raise KeyboardInterrupt from None
     text = str(error).strip()
     wrapped = _WRAPPED.match(text)
     if wrapped:
