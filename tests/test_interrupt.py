@@ -227,6 +227,7 @@ def test_a_stop_inside_deferred_waits_for_its_end():
     finally:
         signal.signal(signal.SIGINT, previous)
         signal.signal(signal.SIGTERM, signal.SIG_DFL)
+        interrupt._received = None   # the stop is handled: this process renders on
 
 
 def test_a_stop_that_mitsuba_wraps_while_loading_stays_a_stop(monkeypatch):
@@ -238,7 +239,21 @@ def test_a_stop_that_mitsuba_wraps_while_loading_stays_a_stop(monkeypatch):
     from whitted.loading import load_error
     wrapped = RuntimeError('[parser.cpp:1718] At dictionary node "integrator": failed to '
                            'instantiate unknown plugin of type "whitted": Traceback ...')
+    monkeypatch.setattr(interrupt, "_received", None)   # an earlier test's stop forgotten
     assert isinstance(load_error("frame003.scn", wrapped), WhittedError)   # no stop asked
     monkeypatch.setattr(interrupt, "_received", signal.SIGINT)
     with pytest.raises(KeyboardInterrupt):
         load_error("frame003.scn", wrapped)
+
+
+def test_a_stop_swallowed_where_it_landed_ends_the_next_render(monkeypatch):
+    """Python ignores an exception raised in a ``__del__`` (tqdm's, when SIGINT lands there):
+    the stop is remembered, and the next render raises it instead of starting."""
+    import whitted
+    from whitted import interrupt
+    monkeypatch.setattr(interrupt, "_received", None)   # an earlier test's stop forgotten
+    scene = whitted.loads("size 8 6\nlight 0 5 5\nsphere 0 0 0 1 color 1 0 0\n")
+    assert whitted.render(scene).image.shape == (6, 8, 3)   # no stop asked
+    monkeypatch.setattr(interrupt, "_received", signal.SIGINT)
+    with pytest.raises(KeyboardInterrupt):
+        whitted.render(scene)

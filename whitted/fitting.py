@@ -32,6 +32,7 @@ from pathlib import Path
 import numpy as np
 
 from . import defaults as D
+from . import interrupt
 from .converter.description import material_ids
 from .errors import WhittedError
 
@@ -184,6 +185,7 @@ def fit(scene, target, *, free=FREE, iterations: int = D.FIT_ITERATIONS, width: 
     bar = progress_bar(progress, iterations, "fit", unit="step", unit_scale=False)
     try:
         for k in range(iterations):
+            interrupt.check()   # a stop swallowed since the last step
             opt.set_learning_rate(rate[0] * (rate[1] / rate[0]) ** (k / max(1, iterations - 1)))
             write_parameters()
             image = mi.render(loaded, params)

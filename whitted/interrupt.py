@@ -36,6 +36,14 @@ def install() -> None:
         signal.signal(number, _handler)
 
 
+def check() -> None:
+    """Raise the stop asked for, between units of work: the ``KeyboardInterrupt`` the handler
+    raised may have been swallowed where it landed (Python ignores an exception raised in a
+    ``__del__``, tqdm's for one)."""
+    if _received is not None and not _deferring:
+        raise KeyboardInterrupt
+
+
 def requested(error: BaseException | None = None) -> bool:
     """Whether the user asked to stop (``error``: the exception being handled, if any)."""
     return _received is not None or isinstance(error, KeyboardInterrupt)

@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from . import defaults as D
+from . import interrupt
 from .errors import WhittedError
 from .progress import progress_bar
 
@@ -165,6 +166,7 @@ def render_checked(scene, integrator: str = D.INTEGRATOR, spp: int | None = None
                    seed: int = 0, min_weight: float | None = None,
                    ambient: float | None = None, *, without=None, fresh_memory: bool = True) -> RenderResult:
     """:func:`render` for settings :func:`check_settings` has passed (the CLI checks them first)."""
+    interrupt.check()   # a stop swallowed since the last render
     seed = D.check_seed(seed)
     spp_asked = spp
     if not scene.sensors():
