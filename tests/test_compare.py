@@ -633,9 +633,10 @@ def test_a_budgeted_run_ends_within_its_budget_and_says_what_it_cut(mirror_scene
                    "--reference-spp", str(1 << 16), "-q",
                    "--path-spp", ",".join(str(4 ** k) for k in range(9))])
     elapsed = time.monotonic() - start
-    # unbounded, this run takes minutes; the margin is a loaded 2-core machine's (the
-    # wall-time target itself is measured, not asserted: docs/compare.md, Budget)
-    assert status == 0 and elapsed < budget + 10.0
+    # unbounded, this run takes minutes; the margin is a loaded 2-core machine's, where the
+    # report's plots alone can take tens of seconds (the wall-time target itself is measured,
+    # not asserted: docs/compare.md, Budget)
+    assert status == 0 and elapsed < budget + 60.0
     notes = json.loads((out / "findings.json").read_text())["scenes"]["mirror"]["notes"]
     assert any("--budget" in note for note in notes)
     summary = (out / "summary.txt").read_text()

@@ -257,7 +257,7 @@ def test_workers_with_one_killed_mid_run_give_the_plain_images(tmp_path):
     for bit; no process of the run is left."""
     psutil = pytest.importorskip("psutil")
     pytest.importorskip("distributed")
-    frames = 24
+    frames = 48   # long enough that a loaded machine still kills a worker mid-run
     scenes = write_frames(tmp_path / "frames", frames, width=200, height=130)
     out = tmp_path / "out"
     run = subprocess.Popen([sys.executable, "-m", "whitted", "render", str(tmp_path / "frames"), "-o",
