@@ -356,8 +356,7 @@ def busy_machine():
 SLOW_SCENE = SCENES["glass"].replace("size 32 24", "size 240 180")
 
 
-@pytest.mark.parametrize("attempt", range(3))
-def test_ctrl_c_stops_the_local_cluster_in_one_line(attempt, scenes, tmp_path, busy_machine):
+def test_ctrl_c_stops_the_local_cluster_in_one_line(scenes, tmp_path, busy_machine):
     """SIGINT to the command's process group, as a terminal's Ctrl-C, on a loaded machine,
     while a worker is busy rendering: exit status 130, one line on stderr (no worker's
     traceback, no resource tracker's warning about what a killed worker left), the scenes
