@@ -64,25 +64,27 @@ def test_every_image_of_a_scene_is_shown_and_scored_in_one_view(examples):
 
 
 def test_the_page_opens_with_the_verdict_in_plain_words(examples):
+    """Each scene's section opens with the article model's verdict in one sentence; the
+    physically lit ray tree's and the error's scale follow the images."""
     out, entries = examples
     page = (out / "report.html").read_text(encoding="utf-8")
-    body = page[page.index("<body>"):]
-    first = re.search(r"<p[^>]*>(.*?)</p>", body, re.S)
-    assert 'class="verdict"' in first.group(0)
     findings = entries.findings["scenes"]
     for entry in entries:
-        verdict = html.unescape(re.search(rf'<p class="verdict"><a href="#scene-{entry.name}">{entry.name}'
-                                          rf'</a>: (.*?)</p>', page, re.S).group(1))
-        assert "0 is identical, 1 about as far off as a black image" in verdict
-        for method, name in (("whitted-article", "The article's model"),
-                             ("whitted-physical", "The physically lit ray tree")):
+        section = page[page.index(f'<section class="scene" id="scene-{entry.name}">'):]
+        section = section[:section.index("</section>")]
+        first = re.search(r"<p[^>]*>(.*?)</p>", section, re.S)
+        assert 'class="verdict"' in first.group(0)
+        more = html.unescape(re.search(r'<p class="more">(.*?)</p>', section, re.S).group(1))
+        assert "0 is identical, 1 about as far off as a black image" in more
+        for method, name, text in (("whitted-article", "The article's model", html.unescape(first.group(1))),
+                                   ("whitted-physical", "The physically lit ray tree", more)):
             found = findings[entry.name]["methods"][method]
             floor = found["floor"]
             label = f"d{floor['max_depth']} · {floor['spp']} spp"
             assert re.search(rf"{name} is (as good as it gets at|still improving at its costliest render,) "
-                             rf"{re.escape(label)}, [^(]+ \(error {floor['rel_mse']:.3g}\)", verdict), verdict
+                             rf"{re.escape(label)}, [^(]+ \(error {floor['rel_mse']:.3g}\)", text), text
             if found["path_seconds_to_floor"] is not None and found["path_seconds_how"] != "nearest":
-                assert "the path tracer is" in verdict
+                assert "the path tracer is" in text
 
 
 def test_plot_labels_do_not_overlap_on_the_four_examples(examples):

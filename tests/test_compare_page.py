@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import csv
 import itertools
+import math
 import os
 import shutil
 import statistics
@@ -283,6 +284,78 @@ def test_viewer_lists_every_render_and_shows_those_without_a_card(browser_page, 
     viewer.locator("select.pick").select_option(value.first.get_attribute("value"))
     assert viewer.locator("img.shown").get_attribute("src") == m.image_png
     assert m.setting.label in viewer.locator(".shown-caption").inner_text()
+    assert not errors, errors
+
+
+#: The terms a reader meets on the first screen, each with the glossary entry that defines it.
+TERMS = {"article's model": "g-article", "physically lit": "g-physical", "path tracer": "g-path",
+         "reference": "g-reference", "spp": "g-spp", "sample per pixel": "g-spp",
+         "samples per pixel": "g-spp", "depth": "g-depth", "relative MSE": "g-rel-mse",
+         "rel. MSE": "g-rel-mse", "FLIP": "g-flip", "error map": "g-flip", "noise": "g-noise",
+         "bias": "g-bias", "as good as it gets": "g-floor", "floor": "g-floor", "limit": "g-limit",
+         "interval": "g-interval", "unsettled": "g-unsettled", "llvm_ad_rgb": "g-variant",
+         "scalar_rgb": "g-variant", "cuda_ad_rgb": "g-variant"}
+#: What the glossary must define whatever the first screen says (the words of the tables below).
+GLOSSARY = ("spp", "depth", "relative MSE", "FLIP", "reference", "floor", "limit", "interval",
+            "unsettled")
+#: The text of the page in reading order up to the first image, and the text drawn on the first
+#: screen (a text node whose box starts above the window's bottom edge).
+TEXT_BEFORE_FIRST_IMAGE = """() => {
+  const walker = document.createTreeWalker(document.body, NodeFilter.SHOW_TEXT);
+  const image = document.images[0], parts = [];
+  while (walker.nextNode()) {
+    const node = walker.currentNode;
+    if (image.compareDocumentPosition(node) & Node.DOCUMENT_POSITION_FOLLOWING) break;
+    if (!node.parentElement.closest("script, style")) parts.push(node.textContent);
+  }
+  return parts.join(" ");
+}"""
+TEXT_ON_FIRST_SCREEN = """() => {
+  const walker = document.createTreeWalker(document.body, NodeFilter.SHOW_TEXT), parts = [];
+  while (walker.nextNode()) {
+    const node = walker.currentNode, range = document.createRange();
+    range.selectNodeContents(node);
+    const box = range.getBoundingClientRect();
+    if (!node.parentElement.closest("script, style") && box.height > 0 && box.top < innerHeight)
+      parts.push(node.textContent);
+  }
+  return parts.join(" ");
+}"""
+
+
+def test_first_screen_is_the_verdict_and_the_images_with_every_term_defined(browser_page, report):
+    """At 1280x800 a student sees the verdict, then the article's render, the path tracer's, the
+    reference and their error maps, after at most 150 words; every term on that screen is
+    defined on the page."""
+    page, errors = browser_page
+    page.set_viewport_size({"width": 1280, "height": 800})
+    page.evaluate("window.scrollTo(0, 0)")
+    page.wait_for_function("Array.from(document.images).every(i => i.complete)")
+    _, results = report
+    (entry,) = results
+    strip = page.eval_on_selector_all(".strip img", "all => all.map(i => [i.getAttribute('src'), "
+                                      "i.getBoundingClientRect().bottom])")
+    found = results.findings["scenes"][entry.name]["methods"]["whitted-article"]["floor"]
+    (floor,) = [m for m in entry.measurements if m.setting.method == "whitted-article"
+                and (m.setting.max_depth, m.setting.spp) == (found["max_depth"], found["spp"])]
+    near = min((m for m in entry.measurements if m.setting.method == "path"),
+               key=lambda m: abs(math.log(m.seconds / floor.seconds)))
+    sources = [src for src, _ in strip]
+    assert sources == [floor.image_png, near.image_png, entry.reference_png, floor.error_map,
+                       near.error_map]
+    assert all(bottom <= 800 for _, bottom in strip), strip  # all five above the fold
+    assert page.locator("img").first.get_attribute("src") == sources[0]
+    assert page.locator(".verdict").first.bounding_box()["y"] < strip[0][1]
+    before = page.evaluate(TEXT_BEFORE_FIRST_IMAGE).split()
+    assert 0 < len(before) <= 150, " ".join(before)
+    screen = " ".join(page.evaluate(TEXT_ON_FIRST_SCREEN).split())
+    met = {term for term in TERMS if term.lower() in screen.lower()}
+    assert {"spp", "depth", "relative MSE", "reference", "FLIP", "path tracer"} <= met, screen
+    defined = dict(page.eval_on_selector_all(".glossary dt", "all => all.map(d => [d.id, d.innerText])"))
+    for term in met:
+        assert TERMS[term] in defined, f"{term!r} is on the first screen but not in the glossary"
+    for term in GLOSSARY:
+        assert any(term.lower() in text.lower() for text in defined.values()), term
     assert not errors, errors
 
 

@@ -28,7 +28,7 @@ from .curves import pareto_front
 from .errormaps import colorbar
 from .plot import COLORS
 from .results import METHODS, Measurement, SceneResult, seconds_text
-from .summary import environment, number, scene_words
+from .summary import environment, method_verdict, number, scale_text, scene_words
 
 PAGE_NAME = "report.html"
 TEMPLATE = "report.html.j2"
@@ -46,6 +46,7 @@ def _render(m: Measurement, index: str, card: bool) -> dict:
              if math.isfinite(m.rel_mse_limit) else "")
     return {"id": index, "method": s.method, "method_name": METHOD_NAMES[s.method],
             "label": s.label, "depth": s.max_depth, "spp": s.spp, "time": spread_text(m),
+            "seconds": seconds_text(m.seconds),
             "rel_mse": number(m.rel_mse), "flip": number(m.flip), "rounds": m.rounds,
             "png": m.image_png, "exr": m.image or "", "map": m.error_map or m.image_png,
             "title": f"{s.method} {s.label}", "card": card,
@@ -81,7 +82,15 @@ def scene_context(analysis: Analysis, plot: str, out: Path) -> dict:
     first = next((r for r, m in zip(renders, measurements) if m is floor_render),
                  renders[0] if renders else None)
     reference_exr = (os.path.relpath(entry.reference_file, out) if entry.reference_file else None)
+    # the first screen: the article's floor render beside the path tracer's nearest in time
+    paths = [(r, m) for r, m in zip(renders, measurements) if m.setting.method == "path"]
+    near = (min(paths, key=lambda p: abs(math.log(p[1].seconds / floor_render.seconds)))[0]
+            if paths and floor_render else None)
     return {
+        "headline": method_verdict(analysis.floors[0]) if analysis.floors else None,
+        "more": " ".join([method_verdict(f) for f in analysis.floors[1:]]
+                         + [scale_text(entry.reference_noise)]),
+        "path_near": near,
         **scene_words(analysis), "key": key,
         "display_width": entry.width * max(1, math.ceil(VIEWER_WIDTH / entry.width)),
         "variant": entry.variant, "path_depth": entry.path_depth,
