@@ -380,3 +380,16 @@ def test_a_render_missing_from_some_rounds_pairs_the_rounds_it_has():
     assert analysis.floors[0].interval.rounds == 7          # d3 · 1 spp has all its rounds
     rows = {r.whitted.setting.max_depth: r for r in analysis.equal_time if r.interval is not None}
     assert rows[5].interval.rounds == rows[6].interval.rounds == 3   # within the path tracer's range
+
+
+def test_a_timed_render_whose_clock_did_not_move_is_not_a_time(monkeypatch):
+    """A round's time of 0 (a CPU clock that did not move once the compilation is taken off,
+    seen on Dask workers) is rendered again, never reported; NaN when nothing measured."""
+    from whitted.compare import sweep
+    monkeypatch.setattr(sweep, "_render", lambda loaded, setting, timed=False: None)
+    monkeypatch.setattr(sweep, "COMPARE_ROUND_REPEATS", 3)
+    values = iter([0.0, 0.003, 0.002])
+    monkeypatch.setattr(sweep, "_seconds", lambda result: next(values))
+    assert sweep._time_in_a_round(None, None) == 0.002
+    monkeypatch.setattr(sweep, "_seconds", lambda result: 0.0)
+    assert math.isnan(sweep._time_in_a_round(None, None))

@@ -83,9 +83,10 @@ def scene_context(analysis: Analysis, plot: str, out: Path) -> dict:
                  renders[0] if renders else None)
     reference_exr = (os.path.relpath(entry.reference_file, out) if entry.reference_file else None)
     # the first screen: the article's floor render beside the path tracer's nearest in time
-    paths = [(r, m) for r, m in zip(renders, measurements) if m.setting.method == "path"]
+    paths = [(r, m) for r, m in zip(renders, measurements)
+             if m.setting.method == "path" and m.seconds > 0]
     near = (min(paths, key=lambda p: abs(math.log(p[1].seconds / floor_render.seconds)))[0]
-            if paths and floor_render else None)
+            if paths and floor_render and floor_render.seconds > 0 else None)
     return {
         "headline": method_verdict(analysis.floors[0]) if analysis.floors else None,
         "more": " ".join([method_verdict(f) for f in analysis.floors[1:]]

@@ -189,13 +189,17 @@ def _time_in_a_round(loaded, setting: Setting) -> float:
     less than :data:`~whitted.defaults.COMPARE_ROUND_SECONDS` (at most
     :data:`~whitted.defaults.COMPARE_ROUND_REPEATS` renders), and the fastest kept. A render
     of a few milliseconds is at the mercy of one scheduler tick; a few of them in one
-    moment are not all delayed (another program only ever adds time)."""
+    moment are not all delayed (another program only ever adds time). A render whose clock
+    did not move (0 once its compilation is taken off: seen on Dask workers) measured
+    nothing and is rendered again; NaN if no render measured anything."""
     fastest, start = math.inf, time.monotonic()
     for _ in range(COMPARE_ROUND_REPEATS):
-        fastest = min(fastest, _seconds(_render(loaded, setting, timed=True)))
-        if time.monotonic() - start >= COMPARE_ROUND_SECONDS:
+        seconds = _seconds(_render(loaded, setting, timed=True))
+        if seconds > 0:
+            fastest = min(fastest, seconds)
+        if time.monotonic() - start >= COMPARE_ROUND_SECONDS and fastest < math.inf:
             break
-    return fastest
+    return fastest if fastest < math.inf else math.nan
 
 
 def _headline_renders(entry: SceneResult, unsettled: bool = False) -> list[Measurement]:
