@@ -54,7 +54,7 @@ def convert(scn: Path, xml: Path, runs: int = 1, timeout: float | None = None) -
     the first that fails or runs past ``timeout`` seconds ends the list."""
     done = []
     for _ in range(runs):
-        run = process.run(process.whitted_command() + ["convert", str(scn), "-o", str(xml)], timeout)
+        run = process.whitted("convert", scn, "-o", xml, timeout=timeout)
         done.append(run)
         if not run.ok:
             break
