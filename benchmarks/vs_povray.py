@@ -102,9 +102,7 @@ class ReadRow:
     spheres: int
     lines: int
     megabytes: float
-    convert_wall: list = field(default_factory=list)
-    convert_rss: list = field(default_factory=list)
-    convert_failure: str = ""
+    convert: Runs = field(default_factory=Runs)
     parse_cpu: float | None = None      # whitted's parse_text alone, CPU s, in this process
     pov: Row | None = None              # the render row whose POV-Ray runs give Parse Time
 
@@ -212,15 +210,14 @@ def bench_read(level: int, runs: int, rows: list[Row], folder: Path, timeout: fl
     row = ReadRow(level, sphereflake.count(level) + 1, text.count("\n"), len(text.encode()) / 1e6, pov=render)
     for run in parse_speed.convert(scn, folder / f"flake{level}.xml", runs, timeout):
         if run.ok:
-            row.convert_wall.append(run.wall_seconds)
-            row.convert_rss.append(run.peak_rss)
+            row.convert.add(run.wall_seconds, None, run.peak_rss)
         else:
-            row.convert_failure = run.failure() + (f": {run.stderr.strip()[-200:]}" if not run.timed_out else "")
+            row.convert.failure = run.failure() + (f": {run.stderr.strip()[-200:]}" if not run.timed_out else "")
     row.parse_cpu = parse_speed.fast_seconds(text)
     del text
     pov = f", POV-Ray parse {_median(render.pov_parse):.2f} s" if render and render.pov_parse else ""
-    convert = (f"whitted convert {_median(row.convert_wall):.2f} s ({_median(row.convert_rss) / MIB:.0f} MiB)"
-               if row.convert_wall else f"whitted convert: {row.convert_failure}")
+    convert = (f"whitted convert {_median(row.convert.wall):.2f} s ({_median(row.convert.rss) / MIB:.0f} MiB)"
+               if row.convert.wall else f"whitted convert: {row.convert.failure}")
     print(f"reading level {level}: {convert}, parse_text {row.parse_cpu:.2f} s CPU{pov}", file=out, flush=True)
     return row
 
@@ -275,12 +272,10 @@ READ_COLUMNS = ["level", "spheres", ".scn MB", "runs", "whitted convert process 
 def read_rows(rows: list[ReadRow]) -> list[list[str]]:
     out = []
     for r in rows:
-        cw = _median(r.convert_wall)
+        cw = _median(r.convert.wall)
         parse = _median(r.pov.pov_parse) if r.pov else None
-        process_cell = seconds(cw) if cw is not None else \
-            (r.convert_failure if r.convert_failure.startswith("did not finish") else "failed (see below)")
-        out.append([str(r.level), str(r.spheres), f"{r.megabytes:.1f}", str(len(r.convert_wall)), process_cell,
-                    _mib(_median(r.convert_rss)), seconds(parse), ratio(cw, parse),
+        out.append([str(r.level), str(r.spheres), f"{r.megabytes:.1f}", str(len(r.convert.wall)),
+                    *r.convert.cells(), seconds(parse), ratio(cw, parse),
                     seconds(_median(r.pov.pov_bounding)) if r.pov else "—",
                     seconds(_median(r.pov.pov.wall)) if r.pov else "—", seconds(r.parse_cpu)])
     return out
@@ -293,8 +288,8 @@ def failures(rows: list[Row], reads: list[ReadRow], pov_missing: str = "") -> li
         lines += [f"level {r.level}, floor {_floor_name(r.floor)}: {who}: {why}"
                   for who, why in r.failures(but=("not run", pov_missing))]
     for r in reads:
-        if r.convert_failure:
-            lines.append(f"level {r.level}: whitted convert: {r.convert_failure}")
+        if r.convert.failure:
+            lines.append(f"level {r.level}: whitted convert: {r.convert.failure}")
     return lines
 
 

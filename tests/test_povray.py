@@ -112,7 +112,7 @@ def test_benchmark_table_has_both_floors_memory_and_says_what_did_not_finish():
     assert cells[1]["whitted peak RSS MiB"] == "≥ 9216" and cells[1]["process whitted / POV"] == "—"
     assert vs_povray.failures([done, late], []) == ["level 6, floor 10^4: whitted: did not finish in 600 s"]
 
-    read = vs_povray.ReadRow(6, 597872, 597885, 69.7, convert_wall=[2.0], convert_rss=[400 * 2 ** 20],
+    read = vs_povray.ReadRow(6, 597872, 597885, 69.7, convert=Runs([2.0], rss=[400 * 2 ** 20]),
                              parse_cpu=1.5, pov=done)
     cell = dict(zip(vs_povray.READ_COLUMNS, vs_povray.read_rows([read])[0]))
     assert cell["whitted convert process s"] == "2.000" and cell["POV-Ray Parse Time s"] == "2.500"
