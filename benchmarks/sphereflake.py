@@ -67,19 +67,10 @@ def _children_directions() -> list[Vec3]:
 CHILDREN = _children_directions()
 
 
-@dataclass(frozen=True)
-class FlakeSphere:
-    """One sphere of the flake, its ``parent``'s index (-1 for the first) and ``level``."""
-    center: Vec3
-    radius: float
-    axis: Vec3
-    parent: int
-    level: int
-
-
 @dataclass
 class FlakeArrays:
-    """:class:`FlakeSphere`'s fields as arrays, one row per sphere, in :func:`flake`'s order."""
+    """The flake, one row per sphere, each parent before its children (depth first): its
+    ``axes`` point from the parent to it (+Z for the first), its ``parents`` index (-1 first)."""
     centers: np.ndarray
     radii: np.ndarray
     axes: np.ndarray
@@ -110,7 +101,7 @@ def _turn_z_to_many(axes: np.ndarray, v: Vec3) -> np.ndarray:
 
 
 def flake_arrays(level: int) -> FlakeArrays:
-    """The flake's spheres down to ``level`` as arrays, a level at a time with numpy (level 6
+    """The flake's spheres down to ``level``, a level at a time with numpy (level 6
     in about a second), each value by the float operations of the sphere-by-sphere recursion."""
     if level not in LEVELS:
         raise ValueError(f"the sphereflake's level must be in {LEVELS.start}…{LEVELS.stop - 1}, got {level}")
@@ -136,14 +127,6 @@ def flake_arrays(level: int) -> FlakeArrays:
         parents[child_index], levels[child_index] = np.repeat(index, 9), depth + 1
         index, radius = child_index, child_radius
     return FlakeArrays(centers, radii, axes, parents, levels)
-
-
-def flake(level: int) -> list[FlakeSphere]:
-    """The flake's spheres down to ``level``, each parent before its children (depth first)."""
-    f = flake_arrays(level)
-    return [FlakeSphere(tuple(center), radius, tuple(axis), parent, depth)
-            for center, radius, axis, parent, depth in
-            zip(f.centers.tolist(), f.radii.tolist(), f.axes.tolist(), f.parents.tolist(), f.levels.tolist())]
 
 
 def count(level: int) -> int:
