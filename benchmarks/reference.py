@@ -205,18 +205,14 @@ class Reference:
     max_depth: int | None = None       # None: the scene's depth
     ambient: float | None = None
     lighting: str = "article"          # or "physical": (B/π)·I·cos/r², I = color·π·d_ref²
-    #: effects left out (``whitted render --without``), read from docs: ``shadows`` (no shadow
-    #: test), ``reflection``/``refraction`` (no such rays, their share black), ``textures``
-    #: (textured spheres white)
-    without: tuple = ()
+    without: tuple = ()                # effects left out, as by ``whitted render --without``
 
     def __post_init__(self):
         self.depth = self.scene.depth if self.max_depth is None else self.max_depth
         self.a = self.scene.ambient if self.ambient is None else self.ambient
         self._textures = {}
         self.tir_events = 0            # how often total internal reflection happened
-        # rays traced, as --stats counts them; a shadow ray is cast towards every light
-        # in front of the shading point (N'·L > 0)
+        # rays traced, as --stats counts them (a shadow ray towards every light in front)
         self.rays = {"camera": 0, "shadow": 0, "reflection": 0, "refraction": 0}
         self.deepest = 0               # the deepest level that traced a ray
 
@@ -305,8 +301,7 @@ class Reference:
         return image
 
 
-def render_reference(scene, **options) -> np.ndarray:
-    subsamples = options.pop("subsamples", 1)
+def render_reference(scene, subsamples: int = 1, **options) -> np.ndarray:
     return Reference(scene, **options).render(subsamples)
 
 

@@ -57,9 +57,8 @@ def _rays(r) -> str:
 
 
 class Bench:
-    def __init__(self, settings: dict, out, folder: Path):
+    def __init__(self, settings: dict, folder: Path):
         self.s = settings
-        self.out = out
         self.folder = folder    # for the texture
         self.tables: list[Table] = []
         self.summary: dict[str, float] = {}
@@ -74,7 +73,7 @@ class Bench:
 
     def show(self, table: Table):
         self.tables.append(table)
-        print(table.text(), file=self.out, flush=True)
+        print(table.text(), flush=True)
 
     # -- 1 and 2: the acceptance scene ---------------------------------------------------------------
 
@@ -314,7 +313,7 @@ def main(argv=None) -> int:
           f"{info['variant']}, Mitsuba {info['mitsuba']}, Dr.Jit {info['drjit']}", flush=True)
     start = time.perf_counter()
     with tempfile.TemporaryDirectory() as folder:
-        bench = Bench(QUICK if args.quick else FULL, sys.stdout, Path(folder))
+        bench = Bench(QUICK if args.quick else FULL, Path(folder))
         for section in [args.only] if args.only else SECTIONS:
             getattr(bench, section)()
         if args.only:
