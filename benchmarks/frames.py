@@ -5,10 +5,6 @@ times such a sequence as a user waits for it, in rounds after a warm-up frame: P
 and ``whitted render`` a process per frame, and one ``whitted render FRAMES/ -o OUT/``,
 whose frames must equal those rendered alone, bit for bit (else the exit status is 1).
 
-Usage::
-
-    python -m benchmarks.frames [--quick] [--frames 48] [--size 320 200] [--rounds 1]
-
 ``--quick``: 6 frames of 160×100, for a check that it works. Options of run.py that
 ``make bench BENCHFLAGS=...`` passes along are ignored.
 """

@@ -4,10 +4,6 @@ A gradient records the whole render as Dr.Jit's AD graph, where a plain render k
 level of the ray tree. Both are measured in interleaved rounds, each in a process of its
 own (every untextured color, the ambient and the lights with gradients on).
 
-Usage::
-
-    python benchmarks/gradients.py [--quick] [--scene scenes/tir.scn] [--size 640 400] [--spp 4] [--rounds 3]
-
 ``--quick``: 160×100, one round, for a check that it works.
 """
 

@@ -5,10 +5,6 @@ statement by statement, the careful path (converter/parser.py); this times both 
 same text, interleaved, in CPU seconds (RESULTS.md, "Parsing a big scene"). ``--convert``
 also times the whole ``whitted convert`` process, wall time and peak memory, as
 vs_povray.py does beside POV-Ray's Parse Time.
-
-Usage::
-
-    python -m benchmarks.parse_speed [--rounds 5] [--level 5] [--convert]
 """
 
 from __future__ import annotations

@@ -4,11 +4,6 @@ Every comparison is measured in this one process, as the median of interleaved r
 after warm-up, against the fastest honest alternative doing the same work; run_notes.md,
 which RESULTS.md includes, says how and what is compared.
 
-Usage::
-
-    python -m benchmarks.run [--quick] [--markdown benchmarks/RESULTS.md] [--json FILE]
-    python -m benchmarks.run --quick --only left_out     # one section
-
 The exit status is 1 when an acceptance target (``TARGET_DEPTH``, ``TARGET_DIRECT``) is missed.
 """
 

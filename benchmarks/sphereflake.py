@@ -8,10 +8,6 @@ three above), turned from +Z onto that axis as in the SPD. The SPD's view, light
 materials are kept; its square floor becomes a sphere of radius :data:`FLOOR_RADIUS` with
 its top at the square's height, and its ambient 0.2 and 0.5 specular reflection become the
 article's A = 0.2 and a reflection of 0.5.
-
-Usage::
-
-    python -m benchmarks.sphereflake LEVEL [--floor-radius R] -o FILE.scn
 """
 
 from __future__ import annotations

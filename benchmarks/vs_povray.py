@@ -38,8 +38,6 @@ QUICK = {"levels": (1, 2, 3), "floors": FLOORS, "runs": {1: 1, 2: 1, 3: 1},
 #: seconds after which a run is killed and reported as not finished
 TIMEOUT = 600.0
 PROGRAMS = ("whitted", "povray", "path", "convert")
-#: what each program is called in failure messages
-NAMES = {"whitted": "whitted", "path": "whitted (path)", "pov": "POV-Ray"}
 
 
 @dataclass
@@ -125,7 +123,7 @@ def run_whitted(scene: Path, image: Path, stats: Path, timeout: float | None,
     stats.unlink(missing_ok=True)
     result = process.whitted("render", scene, "-o", image, *options, "--stats", stats, "-q",
                              timeout=timeout)
-    process.succeeded(result, NAMES["path" if path else "whitted"], scene.name)
+    process.succeeded(result, "whitted (path)" if path else "whitted", scene.name)
     return result, json.loads(stats.read_text())
 
 
@@ -145,7 +143,7 @@ def _attempt(row: Row, program: str, run):
     try:
         return run()
     except process.DidNotFinish as error:
-        runs.failure = str(error).removeprefix(NAMES[program] + " ")
+        runs.failure = error.run.failure()
         runs.failed_rss = error.run.peak_rss
     except RuntimeError as error:
         runs.failure = str(error)
@@ -153,7 +151,7 @@ def _attempt(row: Row, program: str, run):
 
 
 def bench_level(level: int, floor: float, runs: int, folder: Path, pov_exe: str | None, pov_missing: str,
-                threads: int, out, timeout: float | None = TIMEOUT, programs=PROGRAMS) -> Row:
+                threads: int, timeout: float | None = TIMEOUT, programs=PROGRAMS) -> Row:
     name = f"flake{level}-{floor:g}"
     model = sphereflake.scene(level, floor)
     scn = folder / f"{name}.scn"
@@ -198,11 +196,11 @@ def bench_level(level: int, floor: float, runs: int, folder: Path, pov_exe: str 
     failures = "".join(f"; {who}: {why}" for who, why in row.failures())
     print(f"level {level}, floor {_floor_name(floor)}: {row.spheres} spheres, "
           f"{row.whitted.said('whitted', 'render')}, {row.pov.said('POV-Ray', 'trace')}{path_text}"
-          f"{failures}", file=out, flush=True)
+          f"{failures}", flush=True)
     return row
 
 
-def bench_read(level: int, runs: int, rows: list[Row], folder: Path, timeout: float | None, out) -> ReadRow:
+def bench_read(level: int, runs: int, rows: list[Row], folder: Path, timeout: float | None) -> ReadRow:
     """``whitted convert`` of the level's scene (floor 10³), beside POV-Ray's Parse Time of it."""
     render = next((r for r in rows if r.level == level and r.floor == sphereflake.FLOOR_RADIUS), None)
     scn = render.scn if render else sphereflake.write(level, folder / f"flake{level}-read.scn")
@@ -218,7 +216,7 @@ def bench_read(level: int, runs: int, rows: list[Row], folder: Path, timeout: fl
     pov = f", POV-Ray parse {_median(render.pov_parse):.2f} s" if render and render.pov_parse else ""
     convert = (f"whitted convert {_median(row.convert.wall):.2f} s ({_median(row.convert.rss) / MIB:.0f} MiB)"
                if row.convert.wall else f"whitted convert: {row.convert.failure}")
-    print(f"reading level {level}: {convert}, parse_text {row.parse_cpu:.2f} s CPU{pov}", file=out, flush=True)
+    print(f"reading level {level}: {convert}, parse_text {row.parse_cpu:.2f} s CPU{pov}", flush=True)
     return row
 
 
@@ -392,10 +390,10 @@ def main(argv=None) -> int:
     start = time.perf_counter()
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
-        rows = [bench_level(level, floor, runs[level], folder, pov_exe, pov_missing, threads, sys.stdout,
-                            timeout, args.programs)
+        rows = [bench_level(level, floor, runs[level], folder, pov_exe, pov_missing, threads, timeout,
+                            args.programs)
                 for level in settings["levels"] for floor in settings["floors"]]
-        reads = [bench_read(level, read_runs[level], rows, folder, timeout, sys.stdout)
+        reads = [bench_read(level, read_runs[level], rows, folder, timeout)
                  for level in settings["read_levels"]]
     total = time.perf_counter() - start
     load = max(load, os.getloadavg()[0])
