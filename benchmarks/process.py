@@ -21,7 +21,6 @@ from pathlib import Path
 
 @dataclass
 class ProcessRun:
-    command: list
     returncode: int          # negative: killed by that signal
     wall_seconds: float      # from start to exit, as the user waits for it
     peak_rss: int            # bytes: the process's own high-water mark of resident memory
@@ -124,7 +123,7 @@ def run(command: list, timeout: float | None = None, cwd=None, env=None) -> Proc
             returncode, peak_kib, wall = int(status), int(peak_kib), float(wall)
         out.seek(0)
         err.seek(0)
-        return ProcessRun(command, returncode, wall, peak_kib * 1024, killed.is_set(), timeout,
+        return ProcessRun(returncode, wall, peak_kib * 1024, killed.is_set(), timeout,
                           out.read().decode(errors="replace"), err.read().decode(errors="replace"))
 
 
