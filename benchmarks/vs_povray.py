@@ -363,7 +363,6 @@ def main(argv=None) -> int:
                         help=f"kill a run after S seconds and say so (default {TIMEOUT:g})")
     parser.add_argument("--programs", nargs="+", choices=PROGRAMS, default=list(PROGRAMS),
                         help="what to run: whitted render, POV-Ray, whitted convert (default: all)")
-    # `make bench BENCHFLAGS=...` passes run.py's options here too: those are not this script's.
     args, _ = parser.parse_known_args(argv)
     settings = dict(QUICK if args.quick else FULL)
     if args.levels:
