@@ -15,17 +15,15 @@ HIT_FINDERS = ("ray_intersect", "sphere table")
 
 
 class RayCastingFloor:
-    def __init__(self, scene, light_position, spp: int, hit_finder: str, seed: int = 0, film: bool = False):
+    def __init__(self, scene, light_position, spp: int, hit_finder: str, film: bool = False):
         from whitted.plugins.film import CameraSamples
         from whitted.plugins.scene_tables import scene_tables
         from whitted.plugins.hits import SphereHits
-        if hit_finder not in HIT_FINDERS:
-            raise ValueError(f"hit_finder must be one of {HIT_FINDERS}")
-        self.scene, self.spp, self.seed, self.film = scene, spp, seed, film
+        self.scene, self.spp, self.film = scene, spp, film
         self.light = mi.Point3f(light_position)
         self.table = SphereHits(scene, scene_tables(scene), need_uv=False) if hit_finder == "sphere table" else None
         # the integrator's own camera rays (the same code, the same kernels)
-        self.camera = CameraSamples(scene.sensors()[0], spp, seed)
+        self.camera = CameraSamples(scene.sensors()[0], spp, 0)
 
     def trace(self):
         """``(hit, shadow_ray_cast, value)`` per sample, not yet evaluated."""

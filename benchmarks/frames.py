@@ -1,18 +1,9 @@
 """A frame sequence three ways: what one process for many scenes saves (``make bench``).
 
-Legacy ray tracers rendered animations as a scene file per frame, the renderer run once
-per file. This renders such a sequence (six balls orbiting a glass ball above a floor
-sphere, beside a mirror; the exact tree, depth 6) three ways, each timed as a user waits
-for it: POV-Ray 3.7 a process per frame (povray.py), ``whitted render`` a process per
-frame, and one ``whitted render FRAMES/ -o OUT/`` for the folder. The targets: the folder
-run takes at most 0.5× POV-Ray's time and 0.25× the per-frame loop's; and each frame of
-the folder run must equal the frame rendered alone, bit for bit (else the exit status is 1).
-The three ways run in rounds, after one untimed warm-up frame of each, as a shared
-machine's speed drifts between runs minutes apart.
-
-Usage::
-
-    python -m benchmarks.frames [--quick] [--frames 48] [--size 320 200] [--rounds 1]
+Legacy ray tracers rendered an animation as a scene file per frame, a process each. This
+times such a sequence as a user waits for it, in rounds after a warm-up frame: POV-Ray 3.7
+and ``whitted render`` a process per frame, and one ``whitted render FRAMES/ -o OUT/``,
+whose frames must equal those rendered alone, bit for bit (else the exit status is 1).
 
 ``--quick``: 6 frames of 160×100, for a check that it works. Options of run.py that
 ``make bench BENCHFLAGS=...`` passes along are ignored.
@@ -39,8 +30,8 @@ COLORS = [(0.9, 0.2, 0.2), (0.2, 0.8, 0.3), (0.2, 0.3, 0.9), (0.9, 0.8, 0.2), (0
 
 
 def frame_scene(k: int, frames: int, width: int = 320, height: int = 200, depth: int = 6) -> str:
-    """Frame ``k`` of ``frames``: six balls orbit a glass ball once over the sequence,
-    bobbing, above a floor sphere of radius 10⁴ (its top at y = 0), beside a mirror."""
+    """Frame ``k`` of ``frames``: six balls orbit a glass ball, bobbing, above a floor sphere
+    of radius 10⁴, beside a mirror."""
     lines = [f"# frame {k + 1} of {frames} (benchmarks/frames.py)", f"size {width} {height}",
              "eye 0 3.5 12", "lookat 0 0.8 0", "fov 50", f"depth {depth}", "background 0.25 0.35 0.55",
              "light 8 14 10", "light -10 9 4 0.4 0.4 0.5",
@@ -67,20 +58,13 @@ def write_sequence(folder: Path, frames: int, width: int, height: int) -> list[P
     return scenes
 
 
-def cores() -> int:
-    try:
-        return len(os.sched_getaffinity(0))
-    except AttributeError:
-        return os.cpu_count() or 1
-
-
 def povray_loop(exe: str, root: Path, scenes: list[Path], width: int, height: int) -> float:
     out = root / "povray"
     out.mkdir(exist_ok=True)
     start = time.perf_counter()
     for scene in scenes:
         povray.run(exe, root / "pov" / f"{scene.stem}.pov", out / f"{scene.stem}.png", width, height,
-                   threads=cores())
+                   threads=len(os.sched_getaffinity(0)))
     return time.perf_counter() - start
 
 
@@ -89,20 +73,16 @@ def whitted_loop(root: Path, scenes: list[Path]) -> float:
     out.mkdir(exist_ok=True)
     start = time.perf_counter()
     for scene in scenes:
-        run = process.run(process.whitted_command() + ["render", str(scene), "-o", str(out / f"{scene.stem}.exr"),
-                                                       "--min-weight", "0", "-q"])
-        if not run.ok:
-            raise RuntimeError(f"whitted render {scene.name} failed ({run.failure()}): {run.stderr.strip()[-300:]}")
+        run = process.whitted("render", scene, "-o", out / f"{scene.stem}.exr", "--min-weight", "0", "-q")
+        process.succeeded(run, "whitted render", scene.name)
     return time.perf_counter() - start
 
 
 def whitted_folder(root: Path) -> float:
     start = time.perf_counter()
-    run = process.run(process.whitted_command() + ["render", str(root / "frames"), "-o", str(root / "folder") + "/",
-                                                   "--format", "exr", "--min-weight", "0", "--force", "-q",
-                                                   "--stats", str(root / "folder-stats.json")])
-    if not run.ok:
-        raise RuntimeError(f"whitted render FRAMES/ failed ({run.failure()}): {run.stderr.strip()[-300:]}")
+    run = process.whitted("render", root / "frames", "-o", f"{root / 'folder'}/", "--format", "exr",
+                          "--min-weight", "0", "--force", "-q", "--stats", root / "folder-stats.json")
+    process.succeeded(run, "whitted render", "FRAMES/")
     return time.perf_counter() - start
 
 
@@ -131,7 +111,7 @@ def main(argv=None) -> int:
         root = Path(folder)
         scenes = write_sequence(root / "frames", frames, width, height)
         print(f"{frames} frames of {width}x{height}, depth 6, a floor sphere of radius 1e4; "
-              f"{cores()} cores; POV-Ray: {exe or why}", flush=True)
+              f"{len(os.sched_getaffinity(0))} cores; POV-Ray: {exe or why}", flush=True)
         # warm-up, untimed: a frame each (kernel cache on disk, page cache)
         whitted_loop(root, scenes[:1])
         if exe:

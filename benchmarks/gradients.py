@@ -1,14 +1,8 @@
 """What a gradient of the article's model costs beside its plain render.
 
-A gradient (``mi.render(scene, params)`` then ``dr.backward``) records the whole render
-as Dr.Jit's AD graph, where a plain render keeps one level of the ray tree. This renders
-one example both ways (primal; every untextured color, the ambient and the lights with
-gradients on) in interleaved rounds after a warm-up, each measurement in a process of its
-own: the fastest round's wall time, Dr.Jit's peak memory and the process's peak RSS.
-
-Usage::
-
-    python benchmarks/gradients.py [--quick] [--scene scenes/tir.scn] [--size 640 400] [--spp 4] [--rounds 3]
+A gradient records the whole render as Dr.Jit's AD graph, where a plain render keeps one
+level of the ray tree. Both are measured in interleaved rounds, each in a process of its
+own (every untextured color, the ambient and the lights with gradients on).
 
 ``--quick``: 160×100, one round, for a check that it works.
 """
@@ -22,17 +16,6 @@ import sys
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parent.parent
-
-
-def _measure(work) -> tuple[float, int, int]:
-    """(seconds, Dr.Jit peak bytes, peak resident bytes) of ``work()``."""
-    import drjit as dr
-
-    from whitted.rendering import Clock
-    with Clock() as clock:
-        work()
-        dr.sync_thread()
-    return clock.wall, clock.peak_memory, clock.peak_resident
 
 
 def main(argv=None) -> int:
@@ -53,6 +36,7 @@ def main(argv=None) -> int:
     import mitsuba as mi
 
     import whitted
+    from whitted.rendering import Clock
     scene = whitted.load_scene(args.scene, variant="llvm_ad_rgb", ellipsoids=False, spp=args.spp,
                                width=args.size[0], height=args.size[1])
     params = mi.traverse(scene)
@@ -76,9 +60,11 @@ def main(argv=None) -> int:
 
     work = primal if args.only == "primal" else gradient
     work()   # warm-up: kernels compiled (or read from Dr.Jit's cache)
-    seconds, peak, resident = _measure(work)
-    print(json.dumps({"seconds": seconds, "peak": peak, "resident": resident, "parameters": len(keys),
-                      "threads": dr.thread_count()}))
+    with Clock() as clock:
+        work()
+        dr.sync_thread()
+    print(json.dumps({"seconds": clock.wall, "peak": clock.peak_memory, "resident": clock.peak_resident,
+                      "parameters": len(keys), "threads": dr.thread_count()}))
     return 0
 
 

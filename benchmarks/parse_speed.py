@@ -5,10 +5,6 @@ statement by statement, the careful path (converter/parser.py); this times both 
 same text, interleaved, in CPU seconds (RESULTS.md, "Parsing a big scene"). ``--convert``
 also times the whole ``whitted convert`` process, wall time and peak memory, as
 vs_povray.py does beside POV-Ray's Parse Time.
-
-Usage::
-
-    python -m benchmarks.parse_speed [--rounds 5] [--level 5] [--convert]
 """
 
 from __future__ import annotations
@@ -25,18 +21,11 @@ from . import process, scenes, sphereflake
 from .timing import cpu_seconds
 
 
-def distinct_spheres(count: int) -> str:
-    """``count`` random spheres, each with its own color and reflection (no two attribute lists
-    alike), as ``.scn`` text."""
-    return scenes.to_scn(Scene(width=64, height=64, lights=[Light((1.0, 2.0, 3.0))],
-                               spheres=scenes.random_spheres(count, reflect=0.5)))
-
-
 def measure(text: str, rounds: int) -> dict:
     """Median CPU seconds of the careful and the fast path on ``text``, and their ratio."""
     fast, careful = [], []
     for _ in range(rounds):
-        fast.append(cpu_seconds(lambda: parse_text(text, "bench.scn")))
+        fast.append(fast_seconds(text))
         careful.append(cpu_seconds(lambda: parse_text(text, "bench.scn", careful=True)))
     lines = text.count("\n")
     f, c = statistics.median(fast), statistics.median(careful)
@@ -44,9 +33,9 @@ def measure(text: str, rounds: int) -> dict:
             "fast_us_per_line": 1e6 * f / lines, "careful_us_per_line": 1e6 * c / lines}
 
 
-def fast_seconds(text: str, rounds: int = 1) -> float:
-    """Median CPU seconds of :func:`whitted.converter.parse_text`'s path (the fast one) on ``text``."""
-    return statistics.median(cpu_seconds(lambda: parse_text(text, "bench.scn")) for _ in range(rounds))
+def fast_seconds(text: str) -> float:
+    """CPU seconds of :func:`whitted.converter.parse_text`'s own path (the fast one) on ``text``."""
+    return cpu_seconds(lambda: parse_text(text, "bench.scn"))
 
 
 def convert(scn: Path, xml: Path, runs: int = 1, timeout: float | None = None) -> list[process.ProcessRun]:
@@ -54,20 +43,20 @@ def convert(scn: Path, xml: Path, runs: int = 1, timeout: float | None = None) -
     the first that fails or runs past ``timeout`` seconds ends the list."""
     done = []
     for _ in range(runs):
-        run = process.run(process.whitted_command() + ["convert", str(scn), "-o", str(xml)], timeout)
+        run = process.whitted("convert", scn, "-o", xml, timeout=timeout)
         done.append(run)
         if not run.ok:
             break
     return done
 
 
-def table(rounds: int = 5, level: int = 5, distinct: bool = True) -> list[tuple[str, dict]]:
-    """The sphereflake at ``level``, and (``distinct``) 66 000 spheres of distinct attributes."""
+def table(rounds: int = 5, level: int = 5) -> list[tuple[str, dict]]:
+    """The sphereflake at ``level``, and 66 000 spheres with no two attribute lists alike."""
     flake = scenes.to_scn(sphereflake.scene(level))
-    rows = [(f"sphereflake level {level} ({sphereflake.count(level) + 1} spheres)", measure(flake, rounds))]
-    if distinct:
-        rows.append(("66 000 spheres, each with its own attributes", measure(distinct_spheres(66_000), rounds)))
-    return rows
+    distinct = scenes.to_scn(Scene(width=64, height=64, lights=[Light((1.0, 2.0, 3.0))],
+                                   spheres=scenes.random_spheres(66_000, reflect=0.5)))
+    return [(f"sphereflake level {level} ({sphereflake.count(level) + 1} spheres)", measure(flake, rounds)),
+            ("66 000 spheres, each with its own attributes", measure(distinct, rounds))]
 
 
 def markdown(rows) -> str:

@@ -1,33 +1,14 @@
 """POV-Ray 3.7 as a yardstick: the same scene model written as a POV-Ray scene, and run.
 
-Why POV-Ray: it is the long-lived, widely installed classic ray tracer of the
-article's kind (point lights, hard shadows, recursive mirrors and glass), written
-in C++ with its own bounding hierarchy.
-
-The scene is written to make POV-Ray trace the tree whitted traces and shade it
-with the article's model:
-
-* point lights with no distance fall-off (POV-Ray's default ``fade_power 0``),
-  hard shadows; the light's color is the article's;
-* per sphere, with KR, KT its reflection and transparency and A the ambient
-  coefficient: ``finish { ambient (1-KR-KT)·A  diffuse (1-KR-KT)·(1-A)
-  reflection KR  specular 0  phong 0 }``, so that the local color is
-  (1 - KR - KT) · B · (A + (1 - A) Σ s·light) as in the article (POV-Ray adds
-  the reflected color on top of the local one, so the local terms carry the
-  article's weight 1 - KR - KT). ``global_settings { ambient_light 1 }`` leaves
-  the ambient term as it is;
-* refraction: ``filter``-free ``transmit KT`` with ``interior { ior IOR }``
-  (the sphereflake has none; the benchmark does not compare images, only time);
-* ``max_trace_level N`` for the article's depth N (primary rays are level 1)
-  and ``adc_bailout 0``: no adaptive depth control, as whitted's
-  ``--min-weight 0``; no anti-aliasing: one ray per pixel;
-* the camera: ``location`` eye, ``look_at``, ``sky`` up and ``angle`` the
-  horizontal field of view; ``right -x·W/H`` makes POV-Ray's left-handed frame
-  the scene format's right-handed one (the image is not mirrored).
-
-POV-Ray 3.7 refuses every option unless ``~/.povray/3.7/povray.conf`` exists;
-:func:`run` gives it a private home with an empty one, so nothing of the user's
-is touched.
+POV-Ray is the long-lived, widely installed classic ray tracer of the article's kind, in
+C++ with its own bounding hierarchy. The scene written makes it trace whitted's tree and
+shade it with the article's model: point lights without fall-off, hard shadows; per sphere
+``finish { ambient (1-KR-KT)·A  diffuse (1-KR-KT)·(1-A)  reflection KR }`` (POV-Ray adds the
+reflected color to the local one), ``transmit KT`` with ``interior { ior IOR }``;
+``max_trace_level`` the depth with ``adc_bailout 0`` (whitted's ``--min-weight 0``), one ray
+per pixel; ``right -x·W/H`` turns its left-handed frame into the scene format's. POV-Ray 3.7
+refuses every option without ``~/.povray/3.7/povray.conf``: :func:`run` gives it a private
+home with an empty one.
 
 Usage::
 
@@ -62,7 +43,7 @@ def _f(x: float) -> str:
 
 
 def scene_to_pov(scene: Scene) -> str:
-    """The POV-Ray 3.7 scene of ``scene`` (see the module docstring for the mapping)."""
+    """The POV-Ray 3.7 scene of ``scene`` (the module docstring says how)."""
     if any(s.material.texture is not None for s in scene.spheres):
         raise ValueError("the POV-Ray writer handles untextured spheres only")
     a = scene.ambient
@@ -103,9 +84,6 @@ def scene_to_pov(scene: Scene) -> str:
     return "\n".join(out) + "\n"
 
 
-# --------------------------------------------------------------------------- running
-
-
 def find() -> tuple[str | None, str]:
     """POV-Ray 3.7's executable, or None and why it is missing."""
     exe = shutil.which("povray")
@@ -144,8 +122,7 @@ def ensure_povray() -> None:
 
 
 def _env(home: Path) -> dict:
-    """A private home whose ``.povray/3.7/povray.conf`` exists (empty), without which
-    POV-Ray 3.7 rejects every option."""
+    """A private home with the ``.povray/3.7/povray.conf`` POV-Ray 3.7 needs."""
     (home / ".povray" / "3.7").mkdir(parents=True, exist_ok=True)
     (home / ".povray" / "3.7" / "povray.conf").touch()
     return {**os.environ, "HOME": str(home)}
@@ -167,9 +144,8 @@ _TIME = r"{}:\s+\d+ hours?\s+\d+ minutes?\s+\d+ seconds? \(([\d.]+) seconds?\)"
 
 def run(exe: str, pov: Path, image: Path, width: int, height: int, threads: int = 2,
         timeout: float | None = None) -> PovRun:
-    """Render ``pov`` to the PNG ``image`` with ``threads`` threads; times from POV-Ray's report,
-    the whole process's wall time and peak memory measured (process.py). Past ``timeout``
-    seconds POV-Ray is killed and :class:`process.DidNotFinish` raised."""
+    """Render ``pov`` to the PNG ``image``; times from POV-Ray's report, the process's wall time
+    and peak memory measured (process.py); :class:`process.DidNotFinish` past ``timeout``."""
     pov, image = Path(pov).resolve(), Path(image).resolve()
     image.unlink(missing_ok=True)
     with tempfile.TemporaryDirectory() as home:

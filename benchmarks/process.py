@@ -1,13 +1,9 @@
 """One program run as a user runs it: its wall time, its own peak memory, a time limit.
 
-The peak resident set size is the program's own: Linux's ``ru_maxrss`` would carry
-over the high-water mark of the process that forked it (a big benchmark process would lend
-the program its size), so a small ``python -I -S`` wrapper (about 9 MiB; whitted and
-POV-Ray are larger) forks the program, reaps it with ``os.wait4`` and writes its exit
-status, peak memory (KiB, its threads included) and wall time to a file.
-
-A run past its time limit is killed (SIGKILL) and reported as not finished, with the
-memory it had reached, so that the benchmark records it and goes on.
+Linux's ``ru_maxrss`` would carry over the high-water mark of the process that forked it,
+so a small ``python -I -S`` wrapper (about 9 MiB) forks the program, reaps it with
+``os.wait4`` and reports its exit status, peak memory and wall time. A run past its time
+limit is killed and reported as not finished, with the memory it had reached.
 """
 
 from __future__ import annotations
@@ -23,15 +19,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 
-def whitted_command() -> list[str]:
-    """The ``whitted`` command of this Python environment."""
-    script = Path(sys.executable).parent / "whitted"
-    return [str(script)] if script.exists() else [sys.executable, "-m", "whitted"]
-
-
 @dataclass
 class ProcessRun:
-    command: list
     returncode: int          # negative: killed by that signal
     wall_seconds: float      # from start to exit, as the user waits for it
     peak_rss: int            # bytes: the process's own high-water mark of resident memory
@@ -134,5 +123,21 @@ def run(command: list, timeout: float | None = None, cwd=None, env=None) -> Proc
             returncode, peak_kib, wall = int(status), int(peak_kib), float(wall)
         out.seek(0)
         err.seek(0)
-        return ProcessRun(command, returncode, wall, peak_kib * 1024, killed.is_set(), timeout,
+        return ProcessRun(returncode, wall, peak_kib * 1024, killed.is_set(), timeout,
                           out.read().decode(errors="replace"), err.read().decode(errors="replace"))
+
+
+def whitted(*args, timeout: float | None = None) -> ProcessRun:
+    """``whitted ARGS``, this Python environment's, run by :func:`run`."""
+    script = Path(sys.executable).parent / "whitted"
+    command = [str(script)] if script.exists() else [sys.executable, "-m", "whitted"]
+    return run(command + list(args), timeout)
+
+
+def succeeded(result: ProcessRun, program: str, scene: str) -> ProcessRun:
+    """``result``, or its failure raised: :class:`DidNotFinish` past its time limit, else RuntimeError."""
+    if result.timed_out:
+        raise DidNotFinish(program, result)
+    if not result.ok:
+        raise RuntimeError(f"{program} failed ({result.failure()}) on {scene}: {result.stderr.strip()[-300:]}")
+    return result

@@ -1,17 +1,10 @@
 """A float64 reference renderer of the article's model, written from docs/scene-format.md.
 
-The tests hold the integrator to it, and the benchmarks measure against it; it lives
-with the benchmarks' library so that both import it as ``benchmarks.reference``.
-
-It shares no code with the integrator: its own camera formula, sphere
-intersection, shading recursion and texture mapping, in plain Python floats
-(float64) on the scene *model* (``whitted.converter.Scene``), not on Mitsuba's
-scene. Only reading an image file's raw texels goes through ``mi.Bitmap`` (no
-color conversion: 8-bit sRGB is decoded here with the sRGB formula).
-
-Secondary and shadow rays start exactly at the hit point; in float64 the
-surface they leave is re-found at |t| ~ 1e-15, far below the ``EPSILON``
-threshold used to skip it.
+The tests hold the integrator to it. It shares no code with the integrator: its own camera,
+sphere intersection, shading and texture mapping, in plain Python floats on the scene model
+(``whitted.converter.Scene``); only an image file's raw texels are read by ``mi.Bitmap``.
+Its numerics (the stable discriminant, the exact ``|o − C|² − r²``): docs/numerics.md,
+sections 4 ("The quadratic's cancellation") and 14 ("Giant spheres").
 """
 
 from __future__ import annotations
@@ -94,9 +87,7 @@ def _difference(a, b):
 
 
 def _squares_minus(origin, center, r):
-    """|origin − center|² − r², from the exact differences, rounded once: near a sphere of
-    radius 10^7 the rounded difference alone would move the origin by 2e-9, beyond
-    EPSILON from its surface."""
+    """|origin − center|² − r², from the exact differences, rounded once."""
     terms = []
     for o, c in zip(origin, center):
         high, low = _difference(o, c)
@@ -106,16 +97,8 @@ def _squares_minus(origin, center, r):
 
 
 def intersect(sphere, origin, direction):
-    """Both roots t of |origin + t·direction − C| = r (direction unit), or None.
-
-    The discriminant is r² − |f − (f·d)d|² (f = origin − C), not (f·d)² − (|f|² − r²):
-    the latter loses its digits to cancellation when the ray starts far from the
-    sphere (even float64 is off by ~5e-9 at 10^4 radii, more than EPSILON). For the same
-    reason c = |f|² − r² is summed exactly (:func:`_squares_minus`): on a floor of radius
-    10^7 the plain float64 difference loses 0.05, which put the other root of a ray leaving
-    the floor at a grazing angle microns in front of it, beyond EPSILON (acne near the
-    horizon).
-    """
+    """Both roots t of |origin + t·direction − C| = r (direction unit), or None, free of
+    cancellation (docs/numerics.md, "4. The quadratic's cancellation")."""
     f = sub(origin, sphere.center)
     b = dot(f, direction)
     c = dot(f, f) - sphere.radius ** 2
@@ -132,7 +115,6 @@ def intersect(sphere, origin, direction):
 
 
 def _skip(origin):
-    """Hits closer than this to a ray's ends are the surfaces the ray starts or ends on."""
     return EPSILON * (1 + norm(origin))
 
 
@@ -153,11 +135,8 @@ def nearest_hit(scene, origin, direction):
 
 
 def blocked(scene, point, light_position):
-    """True when a sphere crosses the segment from ``point`` to the light.
-
-    Hits within the skip distance of either end are the surfaces the segment
-    starts or ends on: a light sitting exactly on a surface is not hidden by it.
-    """
+    """True when a sphere crosses the segment from ``point`` to the light (a light on a
+    surface is not hidden by it)."""
     to_light = sub(light_position, point)
     distance = norm(to_light)
     direction = mul(to_light, 1 / distance)
@@ -177,10 +156,8 @@ def srgb_to_linear(c):
 
 
 def load_texels(path) -> np.ndarray:
-    """The texture's texels as linear RGB float64, (H, W, 3), row 0 at the top.
-
-    8-bit images are sRGB-encoded and decoded here; floating-point ones are linear.
-    """
+    """The texture's texels as linear RGB float64, (H, W, 3), row 0 at the top (integer
+    images decoded from sRGB here)."""
     import mitsuba as mi
     raw = np.array(mi.Bitmap(str(path)))
     if raw.ndim == 2:
@@ -228,18 +205,14 @@ class Reference:
     max_depth: int | None = None       # None: the scene's depth
     ambient: float | None = None
     lighting: str = "article"          # or "physical": (B/π)·I·cos/r², I = color·π·d_ref²
-    #: effects left out (``whitted render --without``), read from docs: ``shadows`` (no shadow
-    #: test), ``reflection``/``refraction`` (no such rays, their share black), ``textures``
-    #: (textured spheres white)
-    without: tuple = ()
+    without: tuple = ()                # effects left out, as by ``whitted render --without``
 
     def __post_init__(self):
         self.depth = self.scene.depth if self.max_depth is None else self.max_depth
         self.a = self.scene.ambient if self.ambient is None else self.ambient
         self._textures = {}
         self.tir_events = 0            # how often total internal reflection happened
-        # rays traced, as --stats counts them; a shadow ray is cast towards every light
-        # in front of the shading point (N'·L > 0)
+        # rays traced, as --stats counts them (a shadow ray towards every light in front)
         self.rays = {"camera": 0, "shadow": 0, "reflection": 0, "refraction": 0}
         self.deepest = 0               # the deepest level that traced a ray
 
@@ -328,8 +301,7 @@ class Reference:
         return image
 
 
-def render_reference(scene, **options) -> np.ndarray:
-    subsamples = options.pop("subsamples", 1)
+def render_reference(scene, subsamples: int = 1, **options) -> np.ndarray:
     return Reference(scene, **options).render(subsamples)
 
 

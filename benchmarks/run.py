@@ -4,11 +4,6 @@ Every comparison is measured in this one process, as the median of interleaved r
 after warm-up, against the fastest honest alternative doing the same work; run_notes.md,
 which RESULTS.md includes, says how and what is compared.
 
-Usage::
-
-    python -m benchmarks.run [--quick] [--markdown benchmarks/RESULTS.md] [--json FILE]
-    python -m benchmarks.run --quick --only left_out     # one section
-
 The exit status is 1 when an acceptance target (``TARGET_DEPTH``, ``TARGET_DIRECT``) is missed.
 """
 
@@ -52,10 +47,14 @@ def renderer(scene, integrator, spp: int):
     return run
 
 
+def _rays(r) -> str:
+    return f"{r.camera}/{r.shadow}/{r.reflection}/{r.refraction}"
+
+
 class Bench:
-    def __init__(self, settings: dict, out):
+    def __init__(self, settings: dict, folder: Path):
         self.s = settings
-        self.out = out
+        self.folder = folder    # for the texture
         self.tables: list[Table] = []
         self.summary: dict[str, float] = {}
         self.data: dict = {}
@@ -69,7 +68,7 @@ class Bench:
 
     def show(self, table: Table):
         self.tables.append(table)
-        print(table.text(), file=self.out, flush=True)
+        print(table.text(), flush=True)
 
     # -- 1 and 2: the acceptance scene ---------------------------------------------------------------
 
@@ -193,9 +192,9 @@ class Bench:
 
     # -- 4 and 5: effects and adaptive depth ----------------------------------------------------------
 
-    def effects(self, folder: Path):
+    def effects(self):
         width, height, spp = 512, 384, 4
-        model = scenes.every_effect(scenes.write_texture(folder / "checker.png"), width, height, spp)
+        model = scenes.every_effect(scenes.write_texture(self.folder / "checker.png"), width, height, spp)
         variants = {"every effect": model, **{f"without {e}": scenes.without(model, e) for e in scenes.EFFECTS}}
         loaded = {name: (scenes.load(m), scenes.load_whitted(m)) for name, m in variants.items()}
         timing = self.measure({name: renderer(s, i, spp) for name, (s, i) in loaded.items()}, self.s["rounds"])
@@ -209,16 +208,15 @@ class Bench:
             r = rendering.rays
             t = timing[name]
             table.add(name, ms(t.median), t.spread(), full.over(t), " ".join(rendering.effects) or "none",
-                      f"{r.camera}/{r.shadow}/{r.reflection}/{r.refraction}")
+                      _rays(r))
             self.data["effects"][name] = {**vars(t), "rays": r.rays(), "effects": list(rendering.effects)}
         self.show(table)
 
-    def left_out(self, folder: Path):
-        """The every-effect scene rendered with each effect left out by the integrator's
-        ``without`` (``whitted render --without``), timed side by side with the full render."""
+    def left_out(self):
+        """The every-effect scene with each effect left out by ``whitted render --without``."""
         from whitted.defaults import SWITCHABLE_EFFECTS
         width, height, spp = 512, 384, 4
-        model = scenes.every_effect(scenes.write_texture(folder / "checker.png"), width, height, spp)
+        model = scenes.every_effect(scenes.write_texture(self.folder / "checker.png"), width, height, spp)
         scene = scenes.load(model)
         integrators = {"every effect": scenes.load_whitted(model),
                        **{f"--without {e}": scenes.load_whitted(model, without=e) for e in SWITCHABLE_EFFECTS}}
@@ -232,14 +230,13 @@ class Bench:
         for name, integrator in integrators.items():
             r = integrator.render_detailed(scene, spp=spp).rays
             t = timing[name]
-            table.add(name, ms(t.median), t.spread(), t.over(full),
-                      f"{r.camera}/{r.shadow}/{r.reflection}/{r.refraction}")
+            table.add(name, ms(t.median), t.spread(), t.over(full), _rays(r))
             self.data["left_out"][name] = {**vars(t), "rays": r.rays(), "over_full": t.over(full)}
         self.show(table)
 
-    def adaptive(self, folder: Path):
+    def adaptive(self):
         width, height, spp = 512, 384, 4
-        model = scenes.every_effect(folder / "checker.png", width, height, spp, depth=16)
+        model = scenes.every_effect(self.folder / "checker.png", width, height, spp, depth=16)
         scene = scenes.load(model)
         thresholds = (0.0, 0.001, 0.01, 0.05)
         integrators = {w: scenes.load_whitted(model, min_weight=w) for w in thresholds}
@@ -310,18 +307,12 @@ def main(argv=None) -> int:
     print(f"whitted benchmarks ({'quick' if args.quick else 'full'}): {info['cpu']}, {info['cores']} cores, "
           f"{info['variant']}, Mitsuba {info['mitsuba']}, Dr.Jit {info['drjit']}", flush=True)
     start = time.perf_counter()
-    bench = Bench(QUICK if args.quick else FULL, sys.stdout)
     with tempfile.TemporaryDirectory() as folder:
+        bench = Bench(QUICK if args.quick else FULL, Path(folder))
+        for section in [args.only] if args.only else SECTIONS:
+            getattr(bench, section)()
         if args.only:
-            section = getattr(bench, args.only)
-            section(Path(folder)) if args.only in ("effects", "left_out", "adaptive") else section()
             return 0
-        bench.against_direct_and_floor()
-        bench.depth()
-        bench.scaling()
-        bench.effects(Path(folder))
-        bench.left_out(Path(folder))
-        bench.adaptive(Path(folder))
     seconds = time.perf_counter() - start
 
     print("\n== Acceptance (ratios of median times)")

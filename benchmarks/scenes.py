@@ -1,10 +1,7 @@
 """The benchmark scenes, written as scene models and converted like any user scene.
 
-Every scene goes through the project's own pipeline (scene model →
-``scene_to_xml`` → ``mi.load_string``). For Mitsuba's ``direct`` integrator the
-same XML gets Mitsuba's C++ ``diffuse`` BSDF in place of each ``article`` BSDF
-(same reflectance), so both integrators see the same sensor, film, spheres
-and light, and Mitsuba runs entirely in C++.
+For Mitsuba's ``direct`` integrator the same XML gets Mitsuba's C++ ``diffuse`` BSDF in
+place of each ``article`` BSDF, so that both see the same scene and Mitsuba runs in C++.
 """
 
 from __future__ import annotations
@@ -24,17 +21,10 @@ EFFECTS = ("lights", "reflection", "refraction", "textures", "background")
 
 def random_spheres(count: int, seed: int = 1, *, materials: int | None = None, reflect: float = 0.0,
                    low=(-5.0, -5.0, -5.0), high=(5.0, 5.0, 5.0)) -> list[Sphere]:
-    """``count`` non-overlapping spheres in the box from ``low`` to ``high``.
-
-    The box is cut into a grid of about ``count`` cells a side cubed; each
-    sphere takes a cell of its own, chosen at random, and is jittered inside it
-    (radius 0.2 to 0.45 of the cell's smallest side), so their radius shrinks
-    as ``count^(-1/3)`` and they cover about as much of a view whatever their
-    number. With ``materials`` a number, the spheres share that many materials
-    (random colors, every other one reflecting ``reflect``); with None each has
-    its own color and a reflection up to ``reflect`` (no two attribute lists
-    alike).
-    """
+    """``count`` non-overlapping spheres in the box from ``low`` to ``high``, each jittered in a
+    grid cell of its own, so that they cover about as much of a view whatever their number.
+    They share ``materials`` materials (every other one reflecting ``reflect``), or each has
+    its own color and a reflection up to ``reflect``."""
     rng = np.random.default_rng(seed)
     side = max(1, math.ceil(round(count ** (1 / 3), 9)))
     low, high = np.asarray(low, float), np.asarray(high, float)

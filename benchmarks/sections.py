@@ -1,9 +1,6 @@
-"""Sections of benchmarks/RESULTS.md that belong to one benchmark each.
-
-Several benchmarks record their results in the one file RESULTS.md; each owns
-the text between ``<!-- begin NAME -->`` and ``<!-- end NAME -->`` and rewrites
-only that, so that re-running one benchmark keeps the others' results
-(run.py keeps every marked section when it rewrites its own part).
+"""Sections of benchmarks/RESULTS.md that belong to one benchmark each: the text between
+``<!-- begin NAME -->`` and ``<!-- end NAME -->``, rewritten alone, so that re-running one
+benchmark keeps the others' results.
 """
 
 from __future__ import annotations

@@ -1,11 +1,9 @@
 """Timing and memory for the benchmarks: medians of interleaved runs after warm-up.
 
-Each contender is a function that does one whole render (or kernel) and waits for it.
-All are warmed up first, so that every kernel is compiled and cached; a checked run
-(the rendering's clock, :class:`whitted.rendering.Clock`) confirms that no compilation
-is left in what is timed. The timed runs are rounds as ``whitted compare``'s are
-(:mod:`whitted.compare.timing`: interleaved, a ratio the median of per-round ratios),
-and the median of each contender is reported with its quartiles.
+Each contender does one whole render and waits for it. All are warmed up first, then the
+rounds run as ``whitted compare``'s do (:mod:`whitted.compare.timing`: interleaved, a
+ratio the median of per-round ratios), with a checked run confirming that no compilation
+is left in what is timed.
 """
 
 from __future__ import annotations
@@ -55,31 +53,29 @@ def _wait():
         dr.sync_thread()
 
 
-def compile_seconds(run: Callable[[], object]) -> float:
-    """Seconds the JIT backend spent compiling kernels during ``run()``."""
-    with Clock(fresh_memory=False) as clock:
-        run()
-        _wait()
-    return clock.compile
+def _done(run: Callable[[], object]) -> None:
+    run()
+    _wait()
+
+
+def _clocked(run: Callable[[], object], fresh_memory: bool = True) -> Clock:
+    with Clock(fresh_memory=fresh_memory) as clock:
+        _done(run)
+    return clock
 
 
 def measure(contenders: dict[str, Callable[[], object]], rounds: int, warmup: int = 2,
             min_seconds: float = 0.5, max_rounds: int = 200) -> dict[str, Timing]:
-    """Median wall time of each contender over at least ``rounds`` interleaved runs.
-
-    Quick contenders get more rounds, up to ``max_rounds``, until the timed
-    runs take about ``min_seconds`` in all: a millisecond render timed five
-    times says little on a shared machine.
-    """
+    """Median wall time of each contender over at least ``rounds`` interleaved runs, more (up to
+    ``max_rounds``) until they take about ``min_seconds``: a millisecond render timed five
+    times says little on a shared machine."""
     for run in contenders.values():
         for _ in range(warmup):
-            run()
-            _wait()
-    compiled = {name: compile_seconds(run) for name, run in contenders.items()}
+            _done(run)
+    compiled = {name: _clocked(run, fresh_memory=False).compile for name, run in contenders.items()}
     start = time.perf_counter()
     for run in contenders.values():
-        run()
-        _wait()
+        _done(run)
     one_round = time.perf_counter() - start
     rounds = max(rounds, min(max_rounds, math.ceil(min_seconds / max(one_round, 1e-6))))
     times = {name: [] for name in contenders}
@@ -111,14 +107,6 @@ def cpu_seconds(run: Callable[[], object]) -> float:
 
 
 def peak_memory(run: Callable[[], object]) -> int:
-    """Dr.Jit's high-water mark of allocated bytes during ``run()`` (JIT variants; 0 in scalar).
-
-    Counts every array Dr.Jit holds (the scene's, the integrator's and the
-    image), not Embree's acceleration structure or Python's heap.
-    """
-    if not dr.is_jit_v(mi.Float):
-        return 0
-    with Clock() as clock:
-        run()
-        _wait()
-    return clock.peak_memory
+    """Dr.Jit's high-water mark of allocated bytes during ``run()`` (0 in scalar variants): every
+    array it holds, not Embree's acceleration structure or Python's heap."""
+    return _clocked(run).peak_memory if dr.is_jit_v(mi.Float) else 0

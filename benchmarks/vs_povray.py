@@ -1,17 +1,9 @@
 """whitted against POV-Ray 3.7 on Eric Haines' sphereflake, levels 1 to 6 (``make bench``).
 
 Both whole programs render the same scene (sphereflake.py; povray.py writes POV-Ray's), each
-started as a user starts it, with no adaptive depth control, on a floor sphere of radius 10³
-and of 10⁴; Mitsuba's path tracer, and ``whitted convert`` against POV-Ray's Parse Time, run
-beside them. The section this writes in benchmarks/RESULTS.md says what each column measures;
-the cost curve is drawn with matplotlib.
-
-Usage::
-
-    python -m benchmarks.vs_povray [--quick] [--markdown benchmarks/RESULTS.md] [--plot PNG]
-        [--levels 1 2 ...] [--floors 1000 10000] [--runs N] [--timeout 600]
-        [--programs whitted povray path convert]
-
+started as a user starts it, with no adaptive depth control, on floor spheres of radius 10³
+and 10⁴; Mitsuba's path tracer, and ``whitted convert`` against POV-Ray's Parse Time, run
+beside them. The section written in benchmarks/RESULTS.md says what each column measures.
 Options of run.py that ``make bench BENCHFLAGS=...`` passes along are ignored.
 """
 
@@ -49,33 +41,56 @@ PROGRAMS = ("whitted", "povray", "path", "convert")
 
 
 @dataclass
+class Runs:
+    """One program's runs at one level and floor; ``failure``: why they stopped ('not run')."""
+    wall: list = field(default_factory=list)
+    render: list = field(default_factory=list)     # whitted's --stats seconds, POV-Ray's Trace Time
+    rss: list = field(default_factory=list)
+    failure: str = ""
+    failed_rss: int = 0         # bytes reached by a run that did not finish
+
+    def add(self, wall: float, render: float, rss: int) -> None:
+        self.wall.append(wall)
+        self.render.append(render)
+        self.rss.append(rss)
+
+    def said(self, name: str, render: str) -> str:
+        """The runs in a few words for the progress line."""
+        if self.wall:
+            return (f"{name} {_median(self.wall):.2f} s ({render} {_median(self.render):.3f} s, "
+                    f"{_median(self.rss) / MIB:.0f} MiB)")
+        return f"{name} not run" if self.failure == "not run" else f"{name}: —"
+
+    def cells(self) -> tuple[str, str]:
+        """The process cell and the peak-memory cell of a table."""
+        if self.wall:
+            return seconds(_median(self.wall)), _mib(_median(self.rss))
+        short = "not run" if self.failure == "not run" else \
+            self.failure if self.failure.startswith("did not finish") else "failed (see below)"
+        return short, (f"≥ {self.failed_rss / MIB:.0f}" if self.failed_rss else "—")
+
+
+@dataclass
 class Row:
     level: int
     floor: float
     spheres: int
     runs: int = 0
-    whitted_wall: list = field(default_factory=list)
-    whitted_render: list = field(default_factory=list)
+    whitted: Runs = field(default_factory=Runs)
+    pov: Runs = field(default_factory=Runs)
+    path: Runs = field(default_factory=Runs)        # whitted render --integrator path --spp 1
     whitted_compile: list = field(default_factory=list)
-    whitted_rss: list = field(default_factory=list)
     whitted_rays: dict = field(default_factory=dict)
-    whitted_failure: str = ""           # why a whitted run failed ('not run': left out)
-    whitted_failed_rss: int = 0         # bytes reached by a run that did not finish
-    pov_wall: list = field(default_factory=list)
-    pov_trace: list = field(default_factory=list)
     pov_parse: list = field(default_factory=list)
     pov_bounding: list = field(default_factory=list)
-    pov_rss: list = field(default_factory=list)
     pov_rays: tuple = (0, 0)
-    pov_failure: str = ""
-    pov_failed_rss: int = 0
-    path_wall: list = field(default_factory=list)    # whitted render --integrator path --spp 1
-    path_render: list = field(default_factory=list)
-    path_rss: list = field(default_factory=list)
-    path_failure: str = ""
-    path_failed_rss: int = 0
     image_difference: float | None = None   # mean |whitted - POV-Ray|, 8-bit levels
     scn: Path | None = None
+
+    def failures(self, but=("not run",)) -> list[tuple[str, str]]:
+        """(program, why) of each program that failed, but for the reasons ``but``."""
+        programs = (("whitted", self.whitted), ("POV-Ray", self.pov), ("path", self.path))
+        return [(who, runs.failure) for who, runs in programs if runs.failure not in ("", *but)]
 
 
 @dataclass
@@ -85,9 +100,7 @@ class ReadRow:
     spheres: int
     lines: int
     megabytes: float
-    convert_wall: list = field(default_factory=list)
-    convert_rss: list = field(default_factory=list)
-    convert_failure: str = ""
+    convert: Runs = field(default_factory=Runs)
     parse_cpu: float | None = None      # whitted's parse_text alone, CPU s, in this process
     pov: Row | None = None              # the render row whose POV-Ray runs give Parse Time
 
@@ -102,24 +115,15 @@ def _floor_name(radius: float) -> str:
     return f"10^{exponent:.0f}" if exponent == int(exponent) else f"{radius:g}"
 
 
-#: what each program is called in failure messages (``_attempt``)
-NAMES = {"whitted": "whitted", "path": "whitted (path)", "pov": "POV-Ray"}
-
-
 def run_whitted(scene: Path, image: Path, stats: Path, timeout: float | None,
                 path: bool = False) -> tuple[process.ProcessRun, dict]:
     """``whitted render`` of ``scene``: the Whitted integrator's exact tree, or (``path``)
     Mitsuba's path tracer at one sample per pixel."""
     options = ["--integrator", "path", "--spp", "1"] if path else ["--min-weight", "0"]
-    command = process.whitted_command() + ["render", str(scene), "-o", str(image), *options,
-                                           "--stats", str(stats), "-q"]
-    name = NAMES["path" if path else "whitted"]
     stats.unlink(missing_ok=True)
-    result = process.run(command, timeout)
-    if result.timed_out:
-        raise process.DidNotFinish(name, result)
-    if not result.ok:
-        raise RuntimeError(f"{name} failed ({result.failure()}) on {scene.name}: {result.stderr.strip()[-300:]}")
+    result = process.whitted("render", scene, "-o", image, *options, "--stats", stats, "-q",
+                             timeout=timeout)
+    process.succeeded(result, "whitted (path)" if path else "whitted", scene.name)
     return result, json.loads(stats.read_text())
 
 
@@ -133,28 +137,21 @@ def image_difference(a: Path, b: Path) -> float:
 def _attempt(row: Row, program: str, run):
     """``run()`` unless ``program`` ("whitted", "path" or "pov") failed already on ``row``; None
     when it fails now, the failure (a timeout with its memory) recorded on the row."""
-    if getattr(row, f"{program}_failure"):
+    runs = getattr(row, program)
+    if runs.failure:
         return None
     try:
         return run()
     except process.DidNotFinish as error:
-        setattr(row, f"{program}_failure", str(error).removeprefix(NAMES[program] + " "))
-        setattr(row, f"{program}_failed_rss", error.run.peak_rss)
+        runs.failure = error.run.failure()
+        runs.failed_rss = error.run.peak_rss
     except RuntimeError as error:
-        setattr(row, f"{program}_failure", str(error))
+        runs.failure = str(error)
     return None
 
 
-def _record(done, walls: list, peaks: list, renders: list) -> None:
-    """A whitted process's run (``done``: the process, its ``--stats``) into a row's lists."""
-    run, stats = done
-    walls.append(run.wall_seconds)
-    peaks.append(run.peak_rss)
-    renders.append(stats["seconds"])
-
-
 def bench_level(level: int, floor: float, runs: int, folder: Path, pov_exe: str | None, pov_missing: str,
-                threads: int, out, timeout: float | None = TIMEOUT, programs=PROGRAMS) -> Row:
+                threads: int, timeout: float | None = TIMEOUT, programs=PROGRAMS) -> Row:
     name = f"flake{level}-{floor:g}"
     model = sphereflake.scene(level, floor)
     scn = folder / f"{name}.scn"
@@ -163,9 +160,9 @@ def bench_level(level: int, floor: float, runs: int, folder: Path, pov_exe: str 
     pov.write_text(povray.scene_to_pov(model))
     width, height = model.width, model.height
     row = Row(level, floor, len(model.spheres), runs, scn=scn,
-              whitted_failure="" if "whitted" in programs else "not run",
-              path_failure="" if "path" in programs else "not run",
-              pov_failure=("" if "povray" in programs else "not run") if pov_exe else pov_missing)
+              whitted=Runs(failure="" if "whitted" in programs else "not run"),
+              path=Runs(failure="" if "path" in programs else "not run"),
+              pov=Runs(failure=("" if "povray" in programs else "not run") if pov_exe else pov_missing))
     del model   # level 6: some 600 MB of Python objects
     w_image, p_image, stats = folder / f"whitted-{name}.png", folder / f"povray-{name}.png", folder / "stats.json"
     run_w = lambda: run_whitted(scn, w_image, stats, timeout)   # noqa: E731
@@ -180,39 +177,30 @@ def bench_level(level: int, floor: float, runs: int, folder: Path, pov_exe: str 
     for _ in range(runs):
         done = _attempt(row, "whitted", run_w)
         if done is not None:
-            _record(done, row.whitted_wall, row.whitted_rss, row.whitted_render)
-            row.whitted_compile.append(done[1]["compile_seconds"])
-            row.whitted_rays = done[1]["rays"]
+            result, stats_read = done
+            row.whitted.add(result.wall_seconds, stats_read["seconds"], result.peak_rss)
+            row.whitted_compile.append(stats_read["compile_seconds"])
+            row.whitted_rays = stats_read["rays"]
         p = _attempt(row, "pov", run_p)
         if p is not None:
-            row.pov_wall.append(p.wall_seconds)
-            row.pov_trace.append(p.trace_seconds)
+            row.pov.add(p.wall_seconds, p.trace_seconds, p.peak_rss)
             row.pov_parse.append(p.parse_seconds)
             row.pov_bounding.append(p.bounding_seconds)
-            row.pov_rss.append(p.peak_rss)
             row.pov_rays = (p.shadow_rays, p.reflected_rays)
         done = _attempt(row, "path", run_path)
         if done is not None:
-            _record(done, row.path_wall, row.path_rss, row.path_render)
-    if row.whitted_wall and row.pov_wall and not (row.whitted_failure or row.pov_failure):
+            row.path.add(done[0].wall_seconds, done[1]["seconds"], done[0].peak_rss)
+    if row.whitted.wall and row.pov.wall and not (row.whitted.failure or row.pov.failure):
         row.image_difference = image_difference(w_image, p_image)
-    w_text = (f"whitted {_median(row.whitted_wall):.2f} s (render {_median(row.whitted_render):.3f} s, "
-              f"{_median(row.whitted_rss) / MIB:.0f} MiB)" if row.whitted_wall else "whitted: —"
-              if row.whitted_failure != "not run" else "whitted not run")
-    p_text = (f"POV-Ray {_median(row.pov_wall):.2f} s (trace {_median(row.pov_trace):.3f} s, "
-              f"{_median(row.pov_rss) / MIB:.0f} MiB)" if row.pov_wall else "POV-Ray: —"
-              if row.pov_failure != "not run" else "POV-Ray not run")
-    path_text = (f", path {_median(row.path_wall):.2f} s (render {_median(row.path_render):.3f} s, "
-                 f"{_median(row.path_rss) / MIB:.0f} MiB)" if row.path_wall else "")
-    failures = "".join(f"; {who}: {why}" for who, why in (("whitted", row.whitted_failure),
-                                                           ("POV-Ray", row.pov_failure),
-                                                           ("path", row.path_failure)) if why and why != "not run")
-    print(f"level {level}, floor {_floor_name(floor)}: {row.spheres} spheres, {w_text}, {p_text}{path_text}"
-          f"{failures}", file=out, flush=True)
+    path_text = f", {row.path.said('path', 'render')}" if row.path.wall else ""
+    failures = "".join(f"; {who}: {why}" for who, why in row.failures())
+    print(f"level {level}, floor {_floor_name(floor)}: {row.spheres} spheres, "
+          f"{row.whitted.said('whitted', 'render')}, {row.pov.said('POV-Ray', 'trace')}{path_text}"
+          f"{failures}", flush=True)
     return row
 
 
-def bench_read(level: int, runs: int, rows: list[Row], folder: Path, timeout: float | None, out) -> ReadRow:
+def bench_read(level: int, runs: int, rows: list[Row], folder: Path, timeout: float | None) -> ReadRow:
     """``whitted convert`` of the level's scene (floor 10³), beside POV-Ray's Parse Time of it."""
     render = next((r for r in rows if r.level == level and r.floor == sphereflake.FLOOR_RADIUS), None)
     scn = render.scn if render else sphereflake.write(level, folder / f"flake{level}-read.scn")
@@ -220,20 +208,16 @@ def bench_read(level: int, runs: int, rows: list[Row], folder: Path, timeout: fl
     row = ReadRow(level, sphereflake.count(level) + 1, text.count("\n"), len(text.encode()) / 1e6, pov=render)
     for run in parse_speed.convert(scn, folder / f"flake{level}.xml", runs, timeout):
         if run.ok:
-            row.convert_wall.append(run.wall_seconds)
-            row.convert_rss.append(run.peak_rss)
+            row.convert.add(run.wall_seconds, None, run.peak_rss)
         else:
-            row.convert_failure = run.failure() + (f": {run.stderr.strip()[-200:]}" if not run.timed_out else "")
-    row.parse_cpu = parse_speed.fast_seconds(text, 1)
+            row.convert.failure = run.failure() + (f": {run.stderr.strip()[-200:]}" if not run.timed_out else "")
+    row.parse_cpu = parse_speed.fast_seconds(text)
     del text
     pov = f", POV-Ray parse {_median(render.pov_parse):.2f} s" if render and render.pov_parse else ""
-    convert = (f"whitted convert {_median(row.convert_wall):.2f} s ({_median(row.convert_rss) / MIB:.0f} MiB)"
-               if row.convert_wall else f"whitted convert: {row.convert_failure}")
-    print(f"reading level {level}: {convert}, parse_text {row.parse_cpu:.2f} s CPU{pov}", file=out, flush=True)
+    convert = (f"whitted convert {_median(row.convert.wall):.2f} s ({_median(row.convert.rss) / MIB:.0f} MiB)"
+               if row.convert.wall else f"whitted convert: {row.convert.failure}")
+    print(f"reading level {level}: {convert}, parse_text {row.parse_cpu:.2f} s CPU{pov}", flush=True)
     return row
-
-
-
 
 
 COLUMNS = ["level", "floor radius", "spheres", "runs", "whitted process s", "POV-Ray process s",
@@ -242,25 +226,16 @@ COLUMNS = ["level", "floor radius", "spheres", "runs", "whitted process s", "POV
            "shadow rays whitted / POV", "reflected rays whitted / POV", "image Δ (8-bit levels)"]
 
 
-def _failed(failure: str, peak: int) -> tuple[str, str]:
-    """A failed program's process cell and peak-memory cell."""
-    short = "not run" if failure == "not run" else \
-        failure if failure.startswith("did not finish") else "failed (see below)"
-    return short, (f"≥ {peak / MIB:.0f}" if peak else "—")
-
-
 def table_rows(rows: list[Row]) -> list[list[str]]:
     out = []
     for r in rows:
-        ww, pw = _median(r.whitted_wall), _median(r.pov_wall)
-        wr, pt = _median(r.whitted_render), _median(r.pov_trace)
-        wm, pm = _median(r.whitted_rss), _median(r.pov_rss)
-        both = r.whitted_wall and r.pov_wall
+        ww, pw, wr, pt, wm, pm = (_median(v) for v in (r.whitted.wall, r.pov.wall, r.whitted.render,
+                                                        r.pov.render, r.whitted.rss, r.pov.rss))
+        both = r.whitted.wall and r.pov.wall
         shadow = f"{r.whitted_rays.get('shadow', 0)} / {r.pov_rays[0]}" if both else "—"
         reflected = f"{r.whitted_rays.get('reflection', 0)} / {r.pov_rays[1]}" if both else "—"
-        w_process, w_rss = (seconds(ww), _mib(wm)) if ww is not None else _failed(r.whitted_failure, r.whitted_failed_rss)
-        p_process, p_rss = (seconds(pw), _mib(pm)) if pw is not None else _failed(r.pov_failure, r.pov_failed_rss)
-        runs = {len(r.whitted_wall), len(r.pov_wall)} - {0}
+        (w_process, w_rss), (p_process, p_rss) = r.whitted.cells(), r.pov.cells()
+        runs = {len(r.whitted.wall), len(r.pov.wall)} - {0}
         out.append([str(r.level), _floor_name(r.floor), str(r.spheres),
                     "/".join(str(n) for n in sorted(runs)) or "0", w_process, p_process, ratio(ww, pw),
                     seconds(wr), seconds(pt), ratio(wr, pt), w_rss, p_rss, ratio(wm, pm),
@@ -278,13 +253,12 @@ def path_rows(rows: list[Row]) -> list[list[str]]:
     """The path tracer's runs (``--integrator path --spp 1``) beside the Whitted render's."""
     out = []
     for r in rows:
-        if r.path_failure == "not run":
+        if r.path.failure == "not run":
             continue
-        ww, pw, wm, pm = (_median(v) for v in (r.whitted_wall, r.path_wall, r.whitted_rss, r.path_rss))
-        w_process, w_rss = (seconds(ww), _mib(wm)) if ww is not None else _failed(r.whitted_failure, r.whitted_failed_rss)
-        p_process, p_rss = (seconds(pw), _mib(pm)) if pw is not None else _failed(r.path_failure, r.path_failed_rss)
-        out.append([str(r.level), _floor_name(r.floor), str(r.spheres), str(len(r.path_wall)), w_process,
-                    p_process, ratio(pw, ww), seconds(_median(r.path_render)), w_rss, p_rss, ratio(pm, wm)])
+        ww, pw, wm, pm = (_median(v) for v in (r.whitted.wall, r.path.wall, r.whitted.rss, r.path.rss))
+        (w_process, w_rss), (p_process, p_rss) = r.whitted.cells(), r.path.cells()
+        out.append([str(r.level), _floor_name(r.floor), str(r.spheres), str(len(r.path.wall)), w_process,
+                    p_process, ratio(pw, ww), seconds(_median(r.path.render)), w_rss, p_rss, ratio(pm, wm)])
     return out
 
 
@@ -296,14 +270,12 @@ READ_COLUMNS = ["level", "spheres", ".scn MB", "runs", "whitted convert process 
 def read_rows(rows: list[ReadRow]) -> list[list[str]]:
     out = []
     for r in rows:
-        cw = _median(r.convert_wall)
+        cw = _median(r.convert.wall)
         parse = _median(r.pov.pov_parse) if r.pov else None
-        process_cell = seconds(cw) if cw is not None else \
-            (r.convert_failure if r.convert_failure.startswith("did not finish") else "failed (see below)")
-        out.append([str(r.level), str(r.spheres), f"{r.megabytes:.1f}", str(len(r.convert_wall)), process_cell,
-                    _mib(_median(r.convert_rss)), seconds(parse), ratio(cw, parse),
+        out.append([str(r.level), str(r.spheres), f"{r.megabytes:.1f}", str(len(r.convert.wall)),
+                    *r.convert.cells(), seconds(parse), ratio(cw, parse),
                     seconds(_median(r.pov.pov_bounding)) if r.pov else "—",
-                    seconds(_median(r.pov.pov_wall)) if r.pov else "—", seconds(r.parse_cpu)])
+                    seconds(_median(r.pov.pov.wall)) if r.pov else "—", seconds(r.parse_cpu)])
     return out
 
 
@@ -311,12 +283,11 @@ def failures(rows: list[Row], reads: list[ReadRow], pov_missing: str = "") -> li
     """One line per program that failed or did not finish, with why (POV-Ray's absence is said apart)."""
     lines = []
     for r in rows:
-        for who, why in (("whitted", r.whitted_failure), ("POV-Ray", r.pov_failure), ("path", r.path_failure)):
-            if why and why not in ("not run", pov_missing):
-                lines.append(f"level {r.level}, floor {_floor_name(r.floor)}: {who}: {why}")
+        lines += [f"level {r.level}, floor {_floor_name(r.floor)}: {who}: {why}"
+                  for who, why in r.failures(but=("not run", pov_missing))]
     for r in reads:
-        if r.convert_failure:
-            lines.append(f"level {r.level}: whitted convert: {r.convert_failure}")
+        if r.convert.failure:
+            lines.append(f"level {r.level}: whitted convert: {r.convert.failure}")
     return lines
 
 
@@ -331,10 +302,10 @@ def plot(rows: list[Row], path: Path, title: str) -> None:
     for ax, floor in zip(axes[0], floors):
         these = [r for r in rows if r.floor == floor]
         counts = [r.spheres for r in these]
-        series = [("whitted, whole process", [_median(r.whitted_wall) for r in these], "C0", "-"),
-                  ("whitted, render", [_median(r.whitted_render) for r in these], "C0", "--"),
-                  ("POV-Ray 3.7, whole process", [_median(r.pov_wall) for r in these], "C1", "-"),
-                  ("POV-Ray 3.7, trace", [_median(r.pov_trace) for r in these], "C1", "--")]
+        series = [("whitted, whole process", [_median(r.whitted.wall) for r in these], "C0", "-"),
+                  ("whitted, render", [_median(r.whitted.render) for r in these], "C0", "--"),
+                  ("POV-Ray 3.7, whole process", [_median(r.pov.wall) for r in these], "C1", "-"),
+                  ("POV-Ray 3.7, trace", [_median(r.pov.render) for r in these], "C1", "--")]
         for label, values, color, style in series:
             points = [(c, v) for c, v in zip(counts, values) if v is not None]
             if points:
@@ -392,7 +363,6 @@ def main(argv=None) -> int:
                         help=f"kill a run after S seconds and say so (default {TIMEOUT:g})")
     parser.add_argument("--programs", nargs="+", choices=PROGRAMS, default=list(PROGRAMS),
                         help="what to run: whitted render, POV-Ray, whitted convert (default: all)")
-    # `make bench BENCHFLAGS=...` passes run.py's options here too: those are not this script's.
     args, _ = parser.parse_known_args(argv)
     settings = dict(QUICK if args.quick else FULL)
     if args.levels:
@@ -419,10 +389,10 @@ def main(argv=None) -> int:
     start = time.perf_counter()
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
-        rows = [bench_level(level, floor, runs[level], folder, pov_exe, pov_missing, threads, sys.stdout,
-                            timeout, args.programs)
+        rows = [bench_level(level, floor, runs[level], folder, pov_exe, pov_missing, threads, timeout,
+                            args.programs)
                 for level in settings["levels"] for floor in settings["floors"]]
-        reads = [bench_read(level, read_runs[level], rows, folder, timeout, sys.stdout)
+        reads = [bench_read(level, read_runs[level], rows, folder, timeout)
                  for level in settings["read_levels"]]
     total = time.perf_counter() - start
     load = max(load, os.getloadavg()[0])

@@ -20,6 +20,7 @@ import numpy as np
 import pytest
 
 from benchmarks import povray, process, sphereflake, vs_povray
+from benchmarks.vs_povray import Runs
 from whitted.converter.scene import Light, Material, Scene, Sphere
 
 
@@ -97,12 +98,12 @@ def test_povray_reports_parse_time_and_memory_and_keeps_to_its_limit(tmp_path):
 
 
 def test_benchmark_table_has_both_floors_memory_and_says_what_did_not_finish():
-    done = vs_povray.Row(6, 1e3, 597872, 1, whitted_wall=[90.0], whitted_render=[2.0], whitted_compile=[0.0],
-                         whitted_rss=[11 * 2 ** 30], whitted_rays={"shadow": 10, "reflection": 4},
-                         pov_wall=[8.0], pov_trace=[1.8], pov_parse=[2.5], pov_bounding=[2.5],
-                         pov_rss=[610 * 2 ** 20], pov_rays=(10, 5), image_difference=0.3)
-    late = vs_povray.Row(6, 1e4, 597872, 1, whitted_failure="did not finish in 600 s",
-                         whitted_failed_rss=9 * 2 ** 30, pov_wall=[8.0], pov_trace=[1.8], pov_rss=[610 * 2 ** 20])
+    pov = Runs([8.0], [1.8], [610 * 2 ** 20])
+    done = vs_povray.Row(6, 1e3, 597872, 1, whitted=Runs([90.0], [2.0], [11 * 2 ** 30]),
+                         whitted_compile=[0.0], whitted_rays={"shadow": 10, "reflection": 4}, pov=pov,
+                         pov_parse=[2.5], pov_bounding=[2.5], pov_rays=(10, 5), image_difference=0.3)
+    late = vs_povray.Row(6, 1e4, 597872, 1, pov=pov,
+                         whitted=Runs(failure="did not finish in 600 s", failed_rss=9 * 2 ** 30))
     cells = [dict(zip(vs_povray.COLUMNS, row)) for row in vs_povray.table_rows([done, late])]
     assert [c["floor radius"] for c in cells] == ["10^3", "10^4"]
     assert cells[0]["whitted peak RSS MiB"] == "11264" and cells[0]["POV-Ray peak RSS MiB"] == "610"
@@ -111,7 +112,7 @@ def test_benchmark_table_has_both_floors_memory_and_says_what_did_not_finish():
     assert cells[1]["whitted peak RSS MiB"] == "≥ 9216" and cells[1]["process whitted / POV"] == "—"
     assert vs_povray.failures([done, late], []) == ["level 6, floor 10^4: whitted: did not finish in 600 s"]
 
-    read = vs_povray.ReadRow(6, 597872, 597885, 69.7, convert_wall=[2.0], convert_rss=[400 * 2 ** 20],
+    read = vs_povray.ReadRow(6, 597872, 597885, 69.7, convert=Runs([2.0], rss=[400 * 2 ** 20]),
                              parse_cpu=1.5, pov=done)
     cell = dict(zip(vs_povray.READ_COLUMNS, vs_povray.read_rows([read])[0]))
     assert cell["whitted convert process s"] == "2.000" and cell["POV-Ray Parse Time s"] == "2.500"
@@ -119,11 +120,11 @@ def test_benchmark_table_has_both_floors_memory_and_says_what_did_not_finish():
 
 
 def test_path_tracer_rows_stand_beside_the_whitted_render():
-    done = vs_povray.Row(6, 1e3, 597872, 1, whitted_wall=[5.0], whitted_rss=[500 * 2 ** 20],
-                         path_wall=[12.5], path_render=[6.0], path_rss=[600 * 2 ** 20])
-    late = vs_povray.Row(6, 1e4, 597872, 1, whitted_wall=[5.0], whitted_rss=[500 * 2 ** 20],
-                         path_failure="did not finish in 600 s", path_failed_rss=3 * 2 ** 30)
-    left_out = vs_povray.Row(5, 1e3, 66431, 1, whitted_wall=[3.0], path_failure="not run")
+    whitted = Runs([5.0], rss=[500 * 2 ** 20])
+    done = vs_povray.Row(6, 1e3, 597872, 1, whitted=whitted, path=Runs([12.5], [6.0], [600 * 2 ** 20]))
+    late = vs_povray.Row(6, 1e4, 597872, 1, whitted=whitted,
+                         path=Runs(failure="did not finish in 600 s", failed_rss=3 * 2 ** 30))
+    left_out = vs_povray.Row(5, 1e3, 66431, 1, whitted=Runs([3.0]), path=Runs(failure="not run"))
     cells = [dict(zip(vs_povray.PATH_COLUMNS, row)) for row in vs_povray.path_rows([done, late, left_out])]
     assert len(cells) == 2
     assert cells[0]["process path / whitted"] == "2.50" and cells[0]["RSS path / whitted"] == "1.20"

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import itertools
 import math
+from types import SimpleNamespace
 
 import pytest
 
@@ -35,9 +36,16 @@ def _dot(a, b):
     return sum(x * y for x, y in zip(a, b))
 
 
+def _flake(level):
+    """The flake's spheres, one record each (center, radius, axis, parent, level)."""
+    f = sphereflake.flake_arrays(level)
+    return [SimpleNamespace(center=tuple(c), radius=r, axis=tuple(a), parent=p, level=n) for c, r, a, p, n in
+            zip(f.centers.tolist(), f.radii.tolist(), f.axes.tolist(), f.parents.tolist(), f.levels.tolist())]
+
+
 @pytest.mark.parametrize("level, total", [(0, 1), (1, 10), (2, 91), (3, 820), (4, 7381)])
 def test_sphere_counts_per_level(level, total):
-    spheres = sphereflake.flake(level)
+    spheres = _flake(level)
     assert len(spheres) == total == sphereflake.count(level)
     for n in range(level + 1):
         at_n = [s for s in spheres if s.level == n]
@@ -87,12 +95,12 @@ def _recursive_flake(level):
 
 @pytest.mark.parametrize("level", [0, 1, 3])
 def test_arrays_are_the_recursion_bit_for_bit(level):
-    built = [(s.center, s.radius, s.axis, s.parent, s.level) for s in sphereflake.flake(level)]
+    built = [(s.center, s.radius, s.axis, s.parent, s.level) for s in _flake(level)]
     assert built == _recursive_flake(level)   # == on floats: the same bits, the same order
 
 
 def test_children_touch_their_parent_on_its_equator_and_above():
-    spheres = sphereflake.flake(3)
+    spheres = _flake(3)
     children = {i: [] for i in range(len(spheres))}
     for s in spheres[1:]:
         children[s.parent].append(s)
@@ -115,7 +123,7 @@ def test_children_touch_their_parent_on_its_equator_and_above():
 
 
 def test_siblings_do_not_overlap():
-    spheres = sphereflake.flake(2)
+    spheres = _flake(2)
     for parent in range(len(spheres)):
         kids = [s for s in spheres if s.parent == parent]
         for a, b in itertools.combinations(kids, 2):
