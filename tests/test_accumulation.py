@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 import whitted
-from benchmarks.reference import assert_matches, render_reference
+from float64_reference import assert_matches, render_reference
 from whitted.converter import Light, Material, Scene, Sphere, scene_to_xml
 from whitted.plugins.film import FilmSplats, PixelMeans, image_for
 

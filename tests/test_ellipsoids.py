@@ -12,7 +12,7 @@ import pytest
 
 import whitted
 from benchmarks import sphereflake
-from benchmarks.reference import assert_matches, render_reference
+from float64_reference import assert_matches, render_reference
 from whitted import float32, sealed
 from whitted.converter import Light, Material, Scene, Sphere
 

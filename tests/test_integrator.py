@@ -1,4 +1,4 @@
-"""The Whitted integrator against the float64 reference renderer (benchmarks/reference.py).
+"""The Whitted integrator against the float64 reference renderer (tests/float64_reference.py).
 
 Scenes are built with the scene model and converted with the XML writer (no
 parser involved), rendered at 1 spp in llvm_ad_rgb and scalar_rgb, and must
@@ -20,7 +20,7 @@ import pytest
 
 import whitted
 import whitted.rendering
-from benchmarks.reference import Reference, assert_matches, camera_ray, render_reference
+from float64_reference import Reference, assert_matches, camera_ray, render_reference
 from whitted.converter import Light, Material, Scene, Sphere, scene_to_xml
 
 from conftest import VARIANTS

@@ -13,7 +13,7 @@ import pytest
 
 import whitted
 from conftest import aimed_rays
-from benchmarks.reference import assert_matches, render_reference
+from float64_reference import assert_matches, render_reference
 from whitted import sealed
 from whitted.converter import Light, Material, Scene, Sphere
 

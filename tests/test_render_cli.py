@@ -18,7 +18,7 @@ import pytest
 import whitted
 import whitted.rendering
 from whitted import defaults as D
-from benchmarks.reference import render_reference, srgb_to_linear
+from float64_reference import render_reference, srgb_to_linear
 from whitted.cli import main
 from whitted.converter import Light, Material, Scene, Sphere, scene_to_xml
 from whitted.images import read_image

@@ -1,7 +1,7 @@
 """Ray statistics and effect analysis: only the effects a scene calls for are simulated.
 
 Ray counts are checked against the float64 reference renderer's own counts
-(benchmarks/reference.py counts the rays its recursion traces), and the kernels of
+(tests/float64_reference.py counts the rays its recursion traces), and the kernels of
 a diffuse scene at depth 16 against those at depth 1.
 """
 
@@ -14,7 +14,7 @@ import pytest
 
 import whitted
 import whitted.rendering
-from benchmarks.reference import Reference
+from float64_reference import Reference
 from whitted.converter import Light, Material, Scene, Sphere, scene_to_xml
 
 from conftest import VARIANTS

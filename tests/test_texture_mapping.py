@@ -1,7 +1,7 @@
 """Texture mapping: Mitsuba's UV on the converted sphere is the article's lat/long mapping,
 and the integrator shows the texel the row/column rule picks, on every face and at the poles.
 
-Expectations come from the spec's formulas as written in benchmarks/reference.py (float64).
+Expectations come from the spec's formulas as written in tests/float64_reference.py (float64).
 Scenes use ambient 1 and no lights, so a pixel's color is its texel B.
 """
 
@@ -15,7 +15,7 @@ import pytest
 
 import whitted
 import whitted.rendering
-from benchmarks.reference import camera_ray, cross, lat_long, load_texels, nearest_hit, normalize, srgb_to_linear, sub, texel
+from float64_reference import camera_ray, cross, lat_long, load_texels, nearest_hit, normalize, srgb_to_linear, sub, texel
 from whitted.converter import Material, Scene, Sphere, scene_to_xml
 
 from conftest import VARIANTS

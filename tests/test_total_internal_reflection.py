@@ -20,7 +20,7 @@ import mitsuba as mi
 import pytest
 
 import whitted
-from benchmarks.reference import Reference, assert_matches
+from float64_reference import Reference, assert_matches
 from whitted.converter import Material, Scene, Sphere, scene_to_xml
 
 W, H = 8, 6

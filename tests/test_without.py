@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 import whitted
-from benchmarks.reference import Reference, assert_matches
+from float64_reference import Reference, assert_matches
 from whitted.cli import main
 from whitted.converter import Light, Material, Scene, Sphere, scene_to_xml
 from whitted.converter.scn_writer import scene_to_scn

@@ -15,7 +15,7 @@ import pytest
 import hazard_scenes as hs
 import whitted
 from conftest import VARIANTS
-from benchmarks.reference import assert_matches, render_reference
+from float64_reference import assert_matches, render_reference
 from whitted.cli import main
 from whitted.converter import Sphere, parse_file, scene_to_xml
 from whitted.converter.frame import SPREAD_WARNING, float32_spread, path_warning, precision_warning

@@ -17,7 +17,7 @@ import pytest
 import hazard_scenes as hs
 import whitted
 from conftest import VARIANTS
-from benchmarks.reference import Reference, assert_matches
+from float64_reference import Reference, assert_matches
 from whitted.cli import main
 from whitted.converter import Light, Scene, Sphere, scene_to_xml
 from whitted.converter.description import describe, meshes

@@ -19,7 +19,7 @@ import hazard_scenes as hs
 import whitted
 import whitted.rendering
 from conftest import VARIANTS
-from benchmarks.reference import Reference, assert_matches, lat_long, load_texels, texel
+from float64_reference import Reference, assert_matches, lat_long, load_texels, texel
 from whitted.converter import scene_to_xml
 
 

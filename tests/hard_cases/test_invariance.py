@@ -21,7 +21,7 @@ import hazard_scenes as hs
 import whitted
 import whitted.rendering
 from conftest import VARIANTS
-from benchmarks.reference import assert_matches, render_reference
+from float64_reference import assert_matches, render_reference
 from whitted.converter import scene_to_xml
 
 SCENES = list(hs.HAZARDS) + ["mirror_and_glass"]
