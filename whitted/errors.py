@@ -12,6 +12,12 @@ def report(error: BaseException) -> None:
         print(f"whitted: error: {line}", file=sys.stderr)
 
 
+def first_line(error: BaseException) -> str:
+    """An exception's first line of text, else its type's name."""
+    text = str(error).strip()
+    return text.splitlines()[0] if text else type(error).__name__
+
+
 #: the exit status of a command that a user error stopped
 EXIT_USER_ERROR = 2
 

@@ -11,7 +11,7 @@ import os
 from pathlib import Path
 
 from . import defaults as D
-from .errors import WhittedError
+from .errors import WhittedError, first_line
 
 #: the containers written (H.264 in each)
 VIDEO_SUFFIXES = (".mp4", ".mkv", ".mov")
@@ -68,7 +68,7 @@ def frame_pixels(path: Path):
         bitmap = mi.Bitmap(str(path)).convert(mi.Bitmap.PixelFormat.RGB, mi.Struct.Type.UInt8,
                                               srgb_gamma=True)
     except RuntimeError as error:
-        raise WhittedError(f"{path}: could not read the frame: {str(error).strip().splitlines()[0]}") from None
+        raise WhittedError(f"{path}: could not read the frame: {first_line(error)}") from None
     return np.array(bitmap, dtype=np.uint8).reshape(bitmap.height(), bitmap.width(), 3)
 
 
