@@ -129,30 +129,38 @@ def up_to_date(scene: Path, outputs: tuple[Path, ...]) -> bool:
         return False
 
 
+def render_file(scene, settings: Settings, progress: bool = False, spp: int | None = None):
+    """The render of the scene file ``scene`` (settings checked) and its PNG view; ``spp`` for
+    the render itself (None: the scene's, and the path tracer's least)."""
+    from .images import default_view
+    from .loading import load_scene
+    from .rendering import quiet_mitsuba, render_checked, whitted_settings
+    with quiet_mitsuba():
+        loaded = load_scene(scene, variant=settings.variant, integrator=settings.integrator,
+                            meshes=settings.integrator != "whitted", spp=settings.spp,
+                            max_depth=settings.max_depth, ambient=settings.ambient,
+                            lighting=settings.lighting)
+    try:
+        result = render_checked(loaded, integrator=settings.integrator, progress=progress,
+                                min_weight=settings.min_weight, spp=spp, without=settings.without)
+    except WhittedError as error:
+        raise WhittedError(f"{scene}: {error}") from None
+    view = settings.view or default_view(settings.integrator,
+                                         settings.lighting or whitted_settings(loaded)["lighting"])
+    return result, view
+
+
 def render_one(scene: Path, outputs: tuple[Path, ...], settings: Settings,
                keep_image: bool = False) -> SceneRender:
     """Load, render and write one scene here; a user error makes a failed :class:`SceneRender`."""
     from . import interrupt
-    from .images import default_view, write_image
-    from .loading import load_scene
-    from .rendering import peak_resident_bytes, quiet_mitsuba, render, whitted_settings
+    from .images import write_image
+    from .rendering import peak_resident_bytes
 
     start = time.perf_counter()
     item = SceneRender(scene, outputs)
     try:
-        with quiet_mitsuba():
-            loaded = load_scene(scene, variant=settings.variant, integrator=settings.integrator,
-                                meshes=settings.integrator != "whitted", spp=settings.spp,
-                                max_depth=settings.max_depth, ambient=settings.ambient,
-                                lighting=settings.lighting)
-        try:
-            result = render(loaded, integrator=settings.integrator, min_weight=settings.min_weight,
-                            without=settings.without)
-        except WhittedError as error:
-            raise WhittedError(f"{scene}: {error}") from None
-        view = settings.view or default_view(settings.integrator,
-                                             settings.lighting or whitted_settings(loaded)["lighting"])
-        del loaded
+        result, view = render_file(scene, settings)
         for output in outputs:
             write_image(output, result.image, exposure=settings.exposure, view=view)
     except WhittedError as error:

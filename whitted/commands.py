@@ -35,11 +35,11 @@ def convert_command(args) -> int:
     return EXIT_USER_ERROR if failed else 0
 
 
-def _summary(args, result, sensor) -> str:
+def _summary(args, result) -> str:
     import mitsuba as mi
 
     from .defaults import check_without
-    width, height = (int(c) for c in sensor.film().crop_size())
+    height, width = result.image.shape[:2]
     s = result.stats
     rays = ", ".join(f"{v} {k}" for k, v in s["rays"].items())
     depth = f"depth reached {s['max_depth_reached']}; " if "max_depth_reached" in s else ""
@@ -67,16 +67,26 @@ def render_command(args) -> int:
     return 0
 
 
+def _settings(args):
+    """The render options of ``args`` as :class:`whitted.batch.Settings`."""
+    from .batch import Settings
+    from .defaults import check_without
+    return Settings(integrator=args.integrator, spp=args.spp, max_depth=args.max_depth,
+                    ambient=args.ambient, lighting=args.lighting, min_weight=args.min_weight,
+                    without=check_without(args.without, "--without") if args.without else None,
+                    variant=args.variant, exposure=getattr(args, "exposure", 0.0),
+                    view=getattr(args, "view", None))
+
+
 def render_single(args) -> None:
     """``whitted render SCENE -o OUT``: everything is checked before anything is written."""
     from .atomic import check_writable, write_text
     from .defaults import check_ambient
     from .interrupt import deferred
-    from .loading import load_scene
     with deferred():   # numpy's C extension is not cut mid-import by a Ctrl-C (see deferred)
-        from .images import check_exposure, default_view, image_format, write_image
-        from .rendering import (check_settings, peak_resident_bytes, quiet_mitsuba, render_checked,
-                                whitted_settings)
+        from .batch import render_file
+        from .images import check_exposure, image_format, write_image
+        from .rendering import check_settings, peak_resident_bytes
 
     output = Path(args.output)
     # Before the scene is loaded (seconds for a large one); once: render_checked trusts them.
@@ -92,23 +102,13 @@ def render_single(args) -> None:
     if args.stats:
         check_writable(args.stats, inputs=(args.scenes[0],))
 
-    with quiet_mitsuba():
-        loaded = load_scene(args.scenes[0], variant=args.variant, integrator=args.integrator,
-                            meshes=args.integrator != "whitted", spp=args.spp,
-                            max_depth=args.max_depth, ambient=args.ambient, lighting=args.lighting)
-    try:   # render checks the scene (a sensor; the article's materials) before it starts
-        result = render_checked(loaded, integrator=args.integrator, progress=not args.quiet,
-                                min_weight=args.min_weight, spp=args.spp, without=args.without)
-    except WhittedError as error:
-        raise WhittedError(f"{args.scenes[0]}: {error}") from None
-    view = getattr(args, "view", None) or default_view(
-        args.integrator, args.lighting or whitted_settings(loaded)["lighting"])
+    result, view = render_file(args.scenes[0], _settings(args), not args.quiet, args.spp)
     write_image(output, result.image, progress=not args.quiet, exposure=exposure, view=view)
     result.stats["peak_resident_bytes"] = peak_resident_bytes()   # the writing included
     if args.stats:
         write_text(args.stats, json.dumps(result.stats, indent=2) + "\n")
     if args.verbose:
-        print(_summary(args, result, loaded.sensors()[0]), file=sys.stderr)
+        print(_summary(args, result), file=sys.stderr)
 
 
 def render_many_command(args) -> int:
@@ -116,16 +116,11 @@ def render_many_command(args) -> int:
     (:mod:`whitted.batch`); 2 if any failed."""
     from . import interrupt
     from .atomic import check_writable, write_text
-    from .batch import IN_PROCESS, Settings, Totals, plan_batch, render_planned, report_failure
+    from .batch import IN_PROCESS, Totals, plan_batch, render_planned, report_failure
     from .cluster import check_where
-    from .defaults import check_without
     from .progress import progress_bar
 
-    settings = Settings(integrator=args.integrator, spp=args.spp, max_depth=args.max_depth,
-                        ambient=args.ambient, lighting=args.lighting, min_weight=args.min_weight,
-                        without=check_without(args.without, "--without") if args.without else None,
-                        variant=args.variant, exposure=getattr(args, "exposure", 0.0),
-                        view=getattr(args, "view", None))
+    settings = _settings(args)
     settings.check()
     check_where(args.workers, args.scheduler)
     if args.video:
