@@ -1,7 +1,5 @@
-"""The bodies of ``whitted convert`` and ``whitted render`` (``whitted/cli.py`` parses their
-arguments): everything a user can get wrong is checked before any long work, and outputs
-are written atomically.
-"""
+"""The bodies of ``whitted convert`` and ``whitted render``: everything a user can get wrong
+is checked before any long work."""
 
 from __future__ import annotations
 
@@ -13,8 +11,7 @@ from .errors import EXIT_USER_ERROR, WhittedError, report
 
 
 def convert_command(args) -> int:
-    """``whitted convert SCENE... [-o OUT] [--portable]``: every file converted that can be;
-    2 if any failed."""
+    """``whitted convert``: every file converted that can be; 2 if any failed."""
     from .converter.batch import PORTABLE_SUFFIX, XML_SUFFIX, convert_file, plan, prepare_folders
 
     portable = getattr(args, "portable", False)
@@ -55,7 +52,7 @@ def _summary(args, result) -> str:
 
 
 def render_command(args) -> int:
-    """``whitted render SCENE -o OUT``, or several scenes into a folder (:func:`render_many_command`)."""
+    """``whitted render``, of one scene or into a folder."""
     from .atomic import names_folder
     if names_folder(args.scenes, args.output):
         return render_many_command(args)
@@ -112,8 +109,7 @@ def render_single(args) -> None:
 
 
 def render_many_command(args) -> int:
-    """``whitted render SCENE|FOLDER... -o OUT/``: every scene rendered that can be
-    (:mod:`whitted.batch`); 2 if any failed."""
+    """``whitted render SCENE|FOLDER... -o OUT/``: every scene rendered that can be; 2 if any failed."""
     from . import interrupt
     from .atomic import check_writable, write_text
     from .batch import IN_PROCESS, Totals, plan_batch, render_planned, report_failure

@@ -93,7 +93,7 @@ def choose(scene: Scene, min_group: int = MIN_GROUP, classes: int = 0,
 
 
 def _coarse(scene: Scene, spheres: SphereArrays) -> np.ndarray:
-    """Per sphere: whether it may be giant (converter/giants.py: the converter judges it)."""
+    """Per sphere: whether it may be giant (the converter judges it: converter/giants.py)."""
     return coarse_candidates(spheres, tuple(scene.lookat))[1]
 
 
