@@ -181,11 +181,6 @@ def _camera(view, trees, middle, span, aspect):
                 center=dict(x=float(target[0]), y=float(target[1]), z=float(target[2])), up=dict(x=0, y=1, z=0))
 
 
-def figure_html(view, trees, div_id: str) -> str:
-    return figure(view, trees).to_html(full_html=False, include_plotlyjs=True, div_id=div_id,
-                                       config={"displaylogo": False, "responsive": True})
-
-
 def _rows(tree) -> list[dict]:
     rows = []
 
@@ -243,7 +238,9 @@ def _render(view, trees, div_id: str, **parts) -> str:
     legend = [*((kind, kind) for kind in KINDS), ("shadow", "shadow ray, lit"),
               ("blocked", "shadow ray, blocked (dashed)"), ("background", "missed (dashed)")]
     return environment.get_template(TEMPLATE).render(
-        pixels=_pixels(trees), figure=figure_html(view, trees, div_id=div_id), version=VERSION,
+        pixels=_pixels(trees), version=VERSION,
+        figure=figure(view, trees).to_html(full_html=False, include_plotlyjs=True, div_id=div_id,
+                                           config={"displaylogo": False, "responsive": True}),
         legend=[{"name": name, "color": COLORS[key]} for key, name in legend], **parts)
 
 
@@ -270,7 +267,9 @@ def _image(traces) -> tuple[str, int, int, int]:
             width, height, max(1, math.ceil(IMAGE_WIDTH / width)))
 
 
-def page_html(traces, scene_name: str) -> str:
+def write_page(path, traces, scene) -> None:
+    """The page of ``traces`` of the scene file ``scene`` at ``path``."""
+    from pathlib import Path
     uri, width, height, zoom = _image(traces)
     s = traces.settings
     settings = (f"depth {s['max_depth']}, ambient {s['ambient']:.3g}, {s['lighting']} lighting, "
@@ -281,11 +280,6 @@ def page_html(traces, scene_name: str) -> str:
         # the number beside its circle, inside the image
         marks.append({"number": n, "x": x, "y": y, "tx": x + 12 if x < width * zoom - 30 else x - 26,
                       "ty": y - 8 if y > 24 else y + 24})
-    return _render(traces.view, list(traces), "trace-3d", page=True, scene=scene_name,
-                   settings=settings, marks=marks,
-                   image={"uri": uri, "width": width * zoom, "height": height * zoom})
-
-
-def write_page(path, traces, scene) -> None:
-    from pathlib import Path
-    write_text(path, page_html(traces, Path(scene).name))
+    write_text(path, _render(traces.view, list(traces), "trace-3d", page=True,
+                             scene=Path(scene).name, settings=settings, marks=marks,
+                             image={"uri": uri, "width": width * zoom, "height": height * zoom}))
