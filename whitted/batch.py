@@ -9,7 +9,6 @@ from __future__ import annotations
 import contextlib
 import os
 import re
-import sys
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -294,9 +293,6 @@ class Totals:
     items: list = field(default_factory=list)
     start: float = field(default_factory=time.perf_counter)
 
-    def add(self, item: SceneRender) -> None:
-        self.items.append(item)
-
     def count(self, status: str) -> int:
         return sum(item.status == status for item in self.items)
 
@@ -327,10 +323,3 @@ class Totals:
                   "scene_seconds": sum(item.seconds for item in self.items),
                   "rays": rays}
         return {"scenes": [item.summary() for item in self.items], "totals": totals}
-
-
-def report_failure(item: SceneRender, write=None) -> None:
-    """A failed scene's lines, as the CLI prints user errors (``whitted: error: ...``)."""
-    write = write or (lambda line: print(line, file=sys.stderr))
-    for line in (item.error or f"{item.scene}: failed").splitlines():
-        write(f"whitted: error: {line}")

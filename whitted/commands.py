@@ -112,7 +112,7 @@ def render_many_command(args) -> int:
     """``whitted render SCENE|FOLDER... -o OUT/``: every scene rendered that can be; 2 if any failed."""
     from . import interrupt
     from .atomic import check_writable, write_text
-    from .batch import IN_PROCESS, Totals, plan_batch, render_planned, report_failure
+    from .batch import IN_PROCESS, Totals, plan_batch, render_planned
     from .cluster import check_where
     from .progress import progress_bar
 
@@ -132,18 +132,17 @@ def render_many_command(args) -> int:
     if args.stats:
         check_writable(args.stats, inputs=tuple(scene for scene, _ in planned))
 
-    tally = Totals(planned=len(planned))
-    for item in skipped:
-        tally.add(item)
+    tally = Totals(planned=len(planned), items=list(skipped))
     interrupted = True
     bar = progress_bar(not args.quiet, len(planned), "render", unit="scene", unit_scale=False,
                        initial=len(skipped))
     rendering = render_planned(todo, settings, workers=args.workers, scheduler=args.scheduler)
     try:
         for item in rendering:
-            tally.add(item)
-            if item.status == "failed":
-                report_failure(item, lambda line: bar.write(line, file=sys.stderr))
+            tally.items.append(item)
+            if item.status == "failed":   # as the CLI prints a user error
+                for line in item.error.splitlines():
+                    bar.write(f"whitted: error: {line}", file=sys.stderr)
             elif args.verbose:
                 where = f" on {item.worker}" if item.worker != IN_PROCESS else ""
                 bar.write(f"whitted: wrote {', '.join(map(str, item.outputs))} "
