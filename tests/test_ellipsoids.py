@@ -14,6 +14,7 @@ import whitted
 from benchmarks import sphereflake
 from float64_reference import assert_matches, render_reference
 from whitted import float32, sealed
+from whitted.plugins.primitives import ellipsoids_shape
 from whitted.converter import Light, Material, Scene, Sphere
 
 
@@ -40,8 +41,8 @@ def scene_dict(center, red, grouped):
     floor = {"type": "sphere", "center": [0.0, -1001.0, 0.0], "radius": 1000.0, "bsdf": FLOOR_BSDF}
     scene = {"type": "scene", "floor": floor}
     if grouped:
-        scene["red"] = sealed.ellipsoids(center[red], RED_BSDF)
-        scene["mirror"] = sealed.ellipsoids(center[~red], MIRROR_BSDF)
+        scene["red"] = ellipsoids_shape(center[red], RED_BSDF)
+        scene["mirror"] = ellipsoids_shape(center[~red], MIRROR_BSDF)
     else:
         for k, c in enumerate(center):
             scene[f"ball_{k}"] = {"type": "sphere", "center": c.tolist(), "radius": 1.0,
@@ -130,13 +131,13 @@ def test_a_light_on_a_grouped_sphere_is_found_on_it(llvm):
 def test_ellipsoids_that_are_not_spheres_leave_the_sphere_table_out(llvm):
     from whitted.plugins.scene_tables import scene_tables
     from whitted.plugins import hits as geometry
-    shape = sealed.ellipsoids(np.zeros((2, 3)), RED_BSDF)
+    shape = ellipsoids_shape(np.zeros((2, 3)), RED_BSDF)
     shape["scales"] = mi.TensorXf(np.array([[1, 1, 1], [1, 2, 1]], np.float32))
     assert not scene_tables(mi.load_dict({"type": "scene", "e": shape})).spheres_only
-    shape = sealed.ellipsoids(np.zeros((2, 3)), RED_BSDF)
+    shape = ellipsoids_shape(np.zeros((2, 3)), RED_BSDF)
     shape["quaternions"] = mi.TensorXf(np.array([[0, 0, 0, 1], [0, 0.6, 0, 0.8]], np.float32))
     assert not scene_tables(mi.load_dict({"type": "scene", "e": shape})).spheres_only
-    spheres = sealed.ellipsoids(np.zeros((2, 3)), RED_BSDF)
+    spheres = ellipsoids_shape(np.zeros((2, 3)), RED_BSDF)
     assert scene_tables(mi.load_dict({"type": "scene", "e": spheres})).spheres_only
 
 
@@ -267,7 +268,7 @@ def test_no_ray_meets_the_unit_ellipsoid_it_leaves(llvm, center):
     from whitted.plugins.scene_tables import scene_tables
     from whitted.plugins import hits as geometry
     center = np.array(center)
-    scene = mi.load_dict({"type": "scene", "ball": sealed.ellipsoids(center[None], RED_BSDF)})
+    scene = mi.load_dict({"type": "scene", "ball": ellipsoids_shape(center[None], RED_BSDF)})
     hits = geometry.hit_finder(scene, scene_tables(scene), need_uv=False)
     assert isinstance(hits, geometry.SphereHits)
     n, outward, _, shadowed = failures_jit(scene, hits, center, 1.0, np.pi, RAYS["llvm_ad_rgb"],

@@ -15,6 +15,7 @@ import whitted
 from conftest import aimed_rays
 from float64_reference import assert_matches, render_reference
 from whitted import sealed
+from whitted.plugins.primitives import ellipsoids_shape
 from whitted.converter import Light, Material, Scene, Sphere
 
 GLASS = Material(color=(1.0, 1.0, 1.0), reflect=0.1, refract=0.85, ior=1.5)
@@ -101,7 +102,7 @@ def test_layers_find_the_hits_mitsubas_ellipsoid_test_loses(llvm):
     rng = np.random.default_rng(5)
     radius, count = 0.01, 400
     centers = np.c_[rng.uniform(-1, 1, (count, 2)), np.zeros(count)]
-    scene = mi.load_dict({"type": "scene", "balls": sealed.ellipsoids(
+    scene = mi.load_dict({"type": "scene", "balls": ellipsoids_shape(
         centers, {"type": "article"}, radius)})
     # from a random direction, 300 r away, at a random impact parameter b below 0.9 r
     origin, direction = aimed_rays(rng, centers, radius, 0.9)

@@ -17,6 +17,7 @@ import whitted
 from conftest import aimed_rays
 from test_layers import GLASS, many_radii
 from whitted import sealed
+from whitted.plugins.primitives import ellipsoids_shape
 from whitted.converter import Light, Material, Scene, Sphere
 from whitted.loading import _sealed_dict
 from whitted.metrics import relative_mse
@@ -105,7 +106,7 @@ def test_mitsubas_ellipsoid_test_loses_no_hit_at_radius_one_and_above(llvm, radi
 
     def shoot(r: float, count: int = 2000):
         centers = np.c_[rng.uniform(-1, 1, (count, 2)) * 1e3 * r, np.zeros(count)]
-        scene = mi.load_dict({"type": "scene", "balls": sealed.ellipsoids(centers, {"type": "diffuse"}, r)})
+        scene = mi.load_dict({"type": "scene", "balls": ellipsoids_shape(centers, {"type": "diffuse"}, r)})
         origin, direction = aimed_rays(rng, centers, r, 0.99)
         found = scene.ray_intersect_preliminary(mi.Ray3f(mi.Point3f(origin.T), mi.Vector3f(direction.T)))
         # the float64 distance along each float32 ray to its own sphere (the spheres lie

@@ -18,29 +18,19 @@ from .variant import prepare_llvm as _prepare_llvm
 
 _prepare_llvm()  # only sets an environment variable: Dr.Jit reads it when it starts
 
-#: public name -> (module, attribute): the API, imported on first use
-_LAZY = {
-    "load_scene": ("whitted.loading", "load_scene"),
-    "loads": ("whitted.loading", "loads"),
-    "render": ("whitted.rendering", "render"),
-    "render_scenes": ("whitted.batch", "render_scenes"),
-    "RenderResult": ("whitted.rendering", "RenderResult"),
-    "write_image": ("whitted.images", "write_image"),
-    "read_image": ("whitted.images", "read_image"),
-    "to_srgb": ("whitted.images", "to_srgb"),
-    "set_variant": ("whitted.variant", "set_variant"),
-    "fit": ("whitted.fitting", "fit"),
-    "SceneEditor": ("whitted.editing", "SceneEditor"),
-    "trace_pixel": ("whitted.trace", "trace_pixel"),
-}
+#: module -> the public names it holds: the API, imported on first use
+_API = {"loading": ("load_scene", "loads"), "rendering": ("render", "RenderResult"),
+        "batch": ("render_scenes",), "images": ("write_image", "read_image", "to_srgb"),
+        "variant": ("set_variant",), "fitting": ("fit",), "editing": ("SceneEditor",),
+        "trace": ("trace_pixel",)}
+_LAZY = {name: f"whitted.{module}" for module, names in _API.items() for name in names}
 
 __all__ = ["SceneError", "WhittedError", "__version__", *_LAZY]
 
 
 def __getattr__(name: str):
     if name in _LAZY:
-        module, attribute = _LAZY[name]
-        value = getattr(importlib.import_module(module), attribute)
+        value = getattr(importlib.import_module(_LAZY[name]), name)
         globals()[name] = value
         return value
     raise AttributeError(f"module 'whitted' has no attribute '{name}'")

@@ -35,19 +35,16 @@ def atomic_path(target: str | os.PathLike):
         yield Path(tmp)
         os.chmod(tmp, 0o644)
         os.replace(tmp, target)
-    except OSError as error:
+    except BaseException as error:
         with contextlib.suppress(OSError):
             os.unlink(tmp)
-        raise WhittedError(f"{target}: cannot write: {error.strerror or error}") from None
-    except BaseException:
-        with contextlib.suppress(OSError):
-            os.unlink(tmp)
+        if isinstance(error, OSError):
+            raise WhittedError(f"{target}: cannot write: {error.strerror or error}") from None
         raise
 
 
 def leftovers(target: str | os.PathLike) -> list[Path]:
-    """The temporary files of :func:`atomic_path` for ``target`` that a writer killed
-    outright left beside it (only whoever knows no writer runs may delete them)."""
+    """The temporary files of :func:`atomic_path` that killed writers left beside ``target``."""
     target = Path(target)
     folder = _folder(target)
     prefix, suffix = f".{target.name}.", target.suffix or ".tmp"
@@ -58,14 +55,12 @@ def leftovers(target: str | os.PathLike) -> list[Path]:
         return []
 
 
-#: the name :func:`atomic_path` gives a temporary file: ``.TARGET.XXXXXXXX`` + the target's
-#: suffix (``.tmp`` for a target without one), the X from :func:`tempfile.mkstemp`
+#: :func:`atomic_path`'s temporary file: ``.TARGET.XXXXXXXX`` + the suffix (or ``.tmp``)
 _TEMPORARY = re.compile(r"\.(?P<target>.+)\.[a-z0-9_]{8}(?P<suffix>\.[^.]+)")
 
 
 def remove_stale_leftovers(folder: str | os.PathLike, older_than: float) -> list[Path]:
-    """Remove from ``folder`` (one whitted alone writes) the temporary files of
-    :func:`atomic_path` untouched for ``older_than`` seconds, and return them."""
+    """Remove (and return) the temporary files in ``folder`` untouched for ``older_than`` s."""
     removed = []
     now = time.time()
     try:
@@ -86,8 +81,7 @@ def remove_stale_leftovers(folder: str | os.PathLike, older_than: float) -> list
 
 
 def check_writable(target: str | os.PathLike, inputs: tuple = ()) -> Path:
-    """Fail now, with one line naming ``target``, if it could not be written later: a regular
-    file, not one of ``inputs``, in a folder where a probe file can be created."""
+    """Fail now, naming ``target``, if it could not be written later (or is one of ``inputs``)."""
     target = Path(target)
     folder = _folder(target)
     if target.is_dir():
@@ -112,7 +106,6 @@ def check_folder(folder: str | os.PathLike, named: str | os.PathLike) -> Path:
 
 
 def _probe(folder: Path, named: Path) -> None:
-    """Create and remove a file in ``folder``; a clean error naming ``named`` when that fails."""
     try:
         fd, probe = tempfile.mkstemp(prefix=".whitted-", suffix=".probe", dir=folder)
     except OSError as error:
@@ -125,8 +118,7 @@ def _probe(folder: Path, named: Path) -> None:
 
 
 def check_folder_creatable(folder: str | os.PathLike, named: str | os.PathLike | None = None) -> Path:
-    """Check, creating nothing, that ``folder`` accepts files or can be made (its nearest
-    existing ancestor accepts files); errors name ``named`` (default: ``folder``)."""
+    """Check, creating nothing, that ``folder`` accepts files or can be made."""
     folder = Path(folder)
     named = folder if named is None else Path(named)
     existing = folder
@@ -139,7 +131,7 @@ def check_folder_creatable(folder: str | os.PathLike, named: str | os.PathLike |
 
 
 def writable_folder(folder: str | os.PathLike) -> Path:
-    """Create ``folder`` if needed and check it accepts files (see :func:`check_writable`)."""
+    """Create ``folder`` if needed and check it accepts files."""
     folder = Path(folder)
     try:
         folder.mkdir(parents=True, exist_ok=True)
@@ -157,9 +149,8 @@ def write_text(target: str | os.PathLike, text: str) -> None:
 
 
 def names_folder(inputs: list[str | os.PathLike], output: str | os.PathLike | None) -> bool:
-    """Whether ``output`` (``-o``) names the folder that receives every output, rather than
-    the one output file: several inputs, a folder among them, an existing folder, or a
-    trailing path separator."""
+    """Whether ``-o`` names a folder of outputs: several inputs, a folder among them, an
+    existing folder, or a trailing separator."""
     if output is None:
         return False
     return (len(inputs) != 1 or Path(inputs[0]).is_dir() or Path(output).is_dir()

@@ -1,21 +1,7 @@
-"""Rendering many scenes in one go: ``whitted render SCENE|FOLDER ... -o OUT/`` and
-:func:`render_scenes`.
-
-Why. A ``whitted render`` process spends about a second importing Mitsuba, setting the
-variant and compiling (or finding) its kernels, for a small frame's tenth of a second of
-tracing; one process that renders every scene of a collection or an animation pays that
-once, and Dr.Jit's in-memory kernel cache serves every frame after the first.
-
-Which scene writes which image is the converter's rule (:func:`whitted.converter.batch.plan`):
-``X.scn`` (or ``X.xml``) becomes ``OUT/X.png`` and/or ``OUT/X.exr``, a folder stands for
-its scenes, clashes are errors before any work. A scene whose every image is newer than
-what it reads is skipped (so a stopped run goes on where it stopped); images are written
-atomically; a scene that cannot be rendered is reported and the others go on.
-
-Where. In this process, or on a Dask cluster (:mod:`whitted.cluster`, docs/cluster.md,
-"``whitted render`` of many scenes"): only paths and settings travel, a worker loads,
-renders and writes the scene itself (the outputs' folder must be shared), and the images
-are those of a run in one process.
+"""Rendering many scenes in one process, or on a Dask cluster (docs/cluster.md): Mitsuba's
+import, the variant and the kernels are paid for once, not per scene. ``X.scn`` becomes
+``OUT/X.png`` (the converter's rule, :func:`whitted.converter.batch.plan`); a scene whose
+images are newer than what it reads is skipped, so a stopped run goes on where it stopped.
 """
 
 from __future__ import annotations
@@ -23,7 +9,6 @@ from __future__ import annotations
 import contextlib
 import os
 import re
-import sys
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -31,32 +16,15 @@ from typing import Iterable, Iterator
 
 from . import defaults as D
 from .cluster import IN_PROCESS
-from .errors import WhittedError
+from .errors import WhittedError, first_line
 
-#: the scene files a render takes, and those a folder argument stands for (in that order)
 SCENE_SUFFIXES = (".scn", ".xml")
-#: the image formats of a render into a folder
-FORMATS = D.IMAGE_FORMATS
 
 
 @dataclass(frozen=True)
 class Settings:
-    """How every scene of a batch is rendered: ``whitted render``'s options (None: the
-    scene's own), plain data for the workers of a cluster.
-
-    ============== ==================================================================
-    ``integrator`` ``"whitted"`` (the article's model) or ``"path"``
-    ``spp``        samples per pixel
-    ``max_depth``  the article's maximum depth (primary rays: 1)
-    ``ambient``    the article's ambient coefficient
-    ``lighting``   ``"article"`` or ``"physical"`` (whitted only)
-    ``min_weight`` the adaptive depth control's bound (whitted only; 0: exact tree)
-    ``without``    the effects left out (whitted only; ``defaults.SWITCHABLE_EFFECTS``)
-    ``variant``    Mitsuba's variant (None: the default, see :mod:`whitted.variant`)
-    ``exposure``   a PNG's exposure in stops (:mod:`whitted.images`; never in EXR)
-    ``view``       a PNG's view transform (None: as for one scene, :func:`~whitted.images.default_view`)
-    ============== ==================================================================
-    """
+    """``whitted render``'s options for every scene of a batch (None: the scene's own), plain
+    data for a cluster's workers."""
     integrator: str = D.INTEGRATOR
     spp: int | None = None
     max_depth: int | None = None
@@ -69,7 +37,6 @@ class Settings:
     view: str | None = None
 
     def check(self) -> None:
-        """Every option validated before any scene is read."""
         from .images import check_exposure
         from .rendering import check_settings
         check_settings(self.spp, self.max_depth, self.lighting, self.integrator, self.min_weight,
@@ -81,30 +48,17 @@ class Settings:
 
 @dataclass
 class SceneRender:
-    """What became of one scene of a batch.
-
-    =========== =====================================================================
-    ``scene``   the scene file
-    ``outputs`` the images written for it (none when rendering to memory)
-    ``status``  ``"rendered"``, ``"skipped"`` (its images are up to date) or ``"failed"``
-    ``error``   why it failed (one or more lines, ``FILE:LINE: message``), else None
-    ``image``   the linear RGB image (H, W, 3) when kept (see :func:`render_scenes`)
-    ``stats``   the render's statistics (:mod:`whitted.rendering`), else None
-    ``seconds`` wall time spent on the scene: loading, rendering, writing
-    ``worker``  who rendered it: ``"in-process"`` or a Dask worker's address
-    =========== =====================================================================
-    """
+    """What became of one scene of a batch."""
     scene: Path
-    outputs: tuple[Path, ...] = ()
-    status: str = "rendered"
-    error: str | None = None
-    image: object = None
+    outputs: tuple[Path, ...] = ()   # none when rendering to memory
+    status: str = "rendered"   # or "skipped" (up to date) or "failed"
+    error: str | None = None   # FILE:LINE: message lines
+    image: object = None   # the linear RGB image when kept
     stats: dict | None = None
-    seconds: float = 0.0
-    worker: str = IN_PROCESS
+    seconds: float = 0.0   # loading, rendering, writing
+    worker: str = IN_PROCESS   # or a Dask worker's address
 
     def summary(self) -> dict:
-        """The scene's entry of the run's ``--stats`` JSON."""
         entry = {"scene": str(self.scene), "outputs": [str(p) for p in self.outputs],
                  "status": self.status, "seconds": self.seconds, "worker": self.worker}
         if self.error is not None:
@@ -114,18 +68,15 @@ class SceneRender:
         return entry
 
 
-# --------------------------------------------------------------------------- planning
-
-
 def plan_outputs(inputs: list[str | os.PathLike], out: str | os.PathLike | None,
                  formats: Iterable[str] = ("png",)) -> list[tuple[Path, tuple[Path, ...]]]:
-    """Each scene file of ``inputs`` (files, or folders of them) with the images it is to
-    write into the folder ``out``, one per format (none when ``out`` is None)."""
+    """Each scene of ``inputs`` (files or folders) with its images in ``out``, one per format."""
     from .converter.batch import folder_scenes, plan
     formats = tuple(dict.fromkeys(formats))
     for name in formats:
-        if name not in FORMATS:
-            raise WhittedError(f"unknown image format '{name}'; choose from {', '.join(FORMATS)}")
+        if name not in D.IMAGE_FORMATS:
+            raise WhittedError(f"unknown image format '{name}'; "
+                               f"choose from {', '.join(D.IMAGE_FORMATS)}")
     if out is None:
         scenes: list[Path] = []
         for item in map(Path, inputs):
@@ -140,8 +91,7 @@ def plan_outputs(inputs: list[str | os.PathLike], out: str | os.PathLike | None,
 
 
 def scene_inputs(scene: Path, model=None) -> list[Path]:
-    """The files a scene's image depends on: the scene file, its textures, and for an
-    ``.xml`` the files it names (textures, meshes)."""
+    """The files a scene's image depends on: itself, its textures, an XML's meshes."""
     files = [scene]
     if scene.suffix.lower() == ".xml":
         try:
@@ -158,8 +108,7 @@ def scene_inputs(scene: Path, model=None) -> list[Path]:
 
 
 def up_to_date(scene: Path, outputs: tuple[Path, ...]) -> bool:
-    """Whether every image of ``scene`` exists and is newer than the scene and what it reads
-    (a ``.scn`` is parsed for its textures; a bad one is never up to date)."""
+    """Whether every image of ``scene`` is newer than what it reads (a bad .scn: never)."""
     if not outputs:
         return False
     try:
@@ -179,36 +128,38 @@ def up_to_date(scene: Path, outputs: tuple[Path, ...]) -> bool:
         return False
 
 
-# --------------------------------------------------------------------------- rendering one
+def render_file(scene, settings: Settings, progress: bool = False, spp: int | None = None):
+    """The render of the scene file ``scene`` (settings checked) and its PNG view; ``spp`` for
+    the render itself (None: the scene's, and the path tracer's least)."""
+    from .images import default_view
+    from .loading import load_scene
+    from .rendering import quiet_mitsuba, render_checked, whitted_settings
+    with quiet_mitsuba():
+        loaded = load_scene(scene, variant=settings.variant, integrator=settings.integrator,
+                            meshes=settings.integrator != "whitted", spp=settings.spp,
+                            max_depth=settings.max_depth, ambient=settings.ambient,
+                            lighting=settings.lighting)
+    try:
+        result = render_checked(loaded, integrator=settings.integrator, progress=progress,
+                                min_weight=settings.min_weight, spp=spp, without=settings.without)
+    except WhittedError as error:
+        raise WhittedError(f"{scene}: {error}") from None
+    view = settings.view or default_view(settings.integrator,
+                                         settings.lighting or whitted_settings(loaded)["lighting"])
+    return result, view
 
 
 def render_one(scene: Path, outputs: tuple[Path, ...], settings: Settings,
                keep_image: bool = False) -> SceneRender:
-    """Load, render and write one scene in this process; a user error is returned as a
-    failed :class:`SceneRender`, not raised (an interruption is raised)."""
+    """Load, render and write one scene here; a user error makes a failed :class:`SceneRender`."""
     from . import interrupt
-    from .images import default_view
     from .images import write_image
-    from .loading import load_scene
     from .rendering import peak_resident_bytes
-    from .rendering import quiet_mitsuba, render, whitted_settings
 
     start = time.perf_counter()
     item = SceneRender(scene, outputs)
     try:
-        with quiet_mitsuba():
-            loaded = load_scene(scene, variant=settings.variant, integrator=settings.integrator,
-                                meshes=settings.integrator != "whitted", spp=settings.spp,
-                                max_depth=settings.max_depth, ambient=settings.ambient,
-                                lighting=settings.lighting)
-        try:
-            result = render(loaded, integrator=settings.integrator, min_weight=settings.min_weight,
-                            without=settings.without)
-        except WhittedError as error:
-            raise WhittedError(f"{scene}: {error}") from None
-        view = settings.view or default_view(settings.integrator,
-                                             settings.lighting or whitted_settings(loaded)["lighting"])
-        del loaded
+        result, view = render_file(scene, settings)
         for output in outputs:
             write_image(output, result.image, exposure=settings.exposure, view=view)
     except WhittedError as error:
@@ -216,8 +167,7 @@ def render_one(scene: Path, outputs: tuple[Path, ...], settings: Settings,
     except RuntimeError as error:   # Mitsuba's or Dr.Jit's, for this scene
         if interrupt.requested(error):
             raise
-        first = str(error).strip().splitlines()[0] if str(error).strip() else type(error).__name__
-        item.status, item.error = "failed", f"{scene}: {first}"
+        item.status, item.error = "failed", f"{scene}: {first_line(error)}"
     else:
         result.stats["peak_resident_bytes"] = peak_resident_bytes()
         item.stats = result.stats
@@ -226,29 +176,18 @@ def render_one(scene: Path, outputs: tuple[Path, ...], settings: Settings,
     return item
 
 
-# --------------------------------------------------------------------------- many
-
-
 def render_scenes(scenes: Iterable[str | os.PathLike], out: str | os.PathLike | None = None,
                   formats: Iterable[str] = ("png",), *, force: bool = False,
                   keep_images: bool | None = None, workers: int | None = None,
                   scheduler: str | None = None, settings: Settings | None = None,
                   **options) -> Iterator[SceneRender]:
-    """Render scene files (``.scn`` or ``.xml``; a folder stands for its scenes), yielding a
-    :class:`SceneRender` for each as it is done.
+    """Render scene files (a folder stands for its scenes), yielding a :class:`SceneRender`
+    for each as it is done; a failed one does not stop the others.
 
-    ``out``: the folder that receives ``NAME.png`` and/or ``NAME.exr`` per scene
-    (``formats``), created when missing; scenes whose images are up to date are
-    skipped unless ``force``. Without ``out`` nothing is written and each result keeps
-    its image (``keep_images`` decides either way). ``options`` are :class:`Settings`'
-    fields (``integrator``, ``spp``, ``max_depth``, ``ambient``, ``lighting``,
-    ``min_weight``, ``variant``), or give ``settings``. ``workers`` (a local Dask cluster
-    of that many processes) or ``scheduler`` (a running one's address) spread the scenes
-    over a cluster; results then come in the order they finish. A scene that fails is
-    yielded with ``status == "failed"`` and its error; the others go on::
-
-        for done in whitted.render_scenes(["frames/"], "out/frames"):
-            print(done.scene, done.status, done.seconds)
+    ``out``: the folder of ``NAME.png``/``NAME.exr`` (``formats``); up-to-date scenes are
+    skipped unless ``force``. Without ``out`` each result keeps its image. ``options``:
+    :class:`Settings`' fields. ``workers`` (a local Dask cluster) or ``scheduler`` (a running
+    one's address): results come in the order they finish.
     """
     settings = settings if settings is not None else Settings(**options)
     settings.check()
@@ -260,10 +199,8 @@ def render_scenes(scenes: Iterable[str | os.PathLike], out: str | os.PathLike | 
 
 def plan_batch(scenes: Iterable[str | os.PathLike], out: str | os.PathLike | None,
                formats: Iterable[str] = ("png",), force: bool = False):
-    """``(plan, skipped, todo)``: every (scene, outputs) pair in the order of the inputs
-    (a video's frame order), the scenes whose images are up to date (as
-    :class:`SceneRender`) and the pairs to render; the output folders are checked, and
-    the one ``out`` names created, before anything is rendered."""
+    """``(plan, skipped, todo)``: every (scene, outputs) pair in input order, the up-to-date
+    scenes, and the pairs to render; the output folders are checked and made first."""
     plan = plan_outputs([os.fspath(s) for s in scenes], out, formats)
     if out is not None:
         from .converter.batch import prepare_folders
@@ -279,8 +216,6 @@ def plan_batch(scenes: Iterable[str | os.PathLike], out: str | os.PathLike | Non
 
 def render_planned(todo: list[tuple[Path, tuple[Path, ...]]], settings: Settings, keep_images: bool = False,
                    workers: int | None = None, scheduler: str | None = None) -> Iterator[SceneRender]:
-    """Render the (scene, outputs) pairs of ``todo`` here, or on a cluster (see
-    :func:`render_scenes`), yielding each as it is done."""
     if workers is not None or scheduler is not None:
         yield from _on_cluster(todo, settings, keep_images, workers, scheduler)
     else:
@@ -288,13 +223,9 @@ def render_planned(todo: list[tuple[Path, tuple[Path, ...]]], settings: Settings
             yield render_one(scene, outputs, settings, keep_images)
 
 
-# --------------------------------------------------------------------------- on a cluster
-
-
 def render_task(scene: str, outputs: tuple[str, ...], settings: Settings, keep_image: bool,
                 threads: dict[str, int]) -> SceneRender:
-    """On a Dask worker: one scene (:func:`render_one`), the worker prepared once for the
-    variant and its share of the cores (:func:`whitted.cluster.worker_task`)."""
+    """One scene on a Dask worker (:func:`whitted.cluster.worker_task`)."""
     from .cluster import worker_task
     with worker_task(settings.variant, threads) as worker:
         item = render_one(Path(scene), tuple(map(Path, outputs)), settings, keep_image)
@@ -304,7 +235,6 @@ def render_task(scene: str, outputs: tuple[str, ...], settings: Settings, keep_i
 
 def _on_cluster(todo, settings: Settings, keep: bool, workers: int | None,
                 scheduler: str | None) -> Iterator[SceneRender]:
-    """The scenes of ``todo`` rendered on a Dask cluster, yielded as they finish."""
     import uuid
     from dataclasses import replace
 
@@ -347,17 +277,13 @@ def _on_cluster(todo, settings: Settings, keep: bool, workers: int | None,
 
 
 def _remove_leftovers(outputs) -> None:
-    """Delete the temporary files that workers killed while writing left beside ``outputs``
-    (:func:`whitted.atomic.leftovers`)."""
+    """Delete the temporary files of workers killed while writing ``outputs``."""
     from .atomic import leftovers
     for images in outputs:
         for image in images:
             for litter in leftovers(image):
                 with contextlib.suppress(OSError):
                     litter.unlink()
-
-
-# --------------------------------------------------------------------------- the run's stats
 
 
 @dataclass
@@ -367,14 +293,10 @@ class Totals:
     items: list = field(default_factory=list)
     start: float = field(default_factory=time.perf_counter)
 
-    def add(self, item: SceneRender) -> None:
-        self.items.append(item)
-
     def count(self, status: str) -> int:
         return sum(item.status == status for item in self.items)
 
     def line(self, out, interrupted: bool = False) -> str:
-        """One line: what was rendered, skipped and failed, in how long, where."""
         rendered, skipped, failed = self.count("rendered"), self.count("skipped"), self.count("failed")
         parts = [f"rendered {rendered} of {self.planned} scenes"]
         if skipped:
@@ -387,7 +309,6 @@ class Totals:
         return f"whitted: {', '.join(parts)} in {time.perf_counter() - self.start:.1f} s{where}"
 
     def json(self, interrupted: bool = False) -> dict:
-        """The run's statistics: every scene's entry, and totals."""
         rendered = [item for item in self.items if item.stats is not None]
         rays: dict[str, int] = {}
         for item in rendered:
@@ -402,10 +323,3 @@ class Totals:
                   "scene_seconds": sum(item.seconds for item in self.items),
                   "rays": rays}
         return {"scenes": [item.summary() for item in self.items], "totals": totals}
-
-
-def report_failure(item: SceneRender, write=None) -> None:
-    """A failed scene's lines, as the CLI prints user errors (``whitted: error: ...``)."""
-    write = write or (lambda line: print(line, file=sys.stderr))
-    for line in (item.error or f"{item.scene}: failed").splitlines():
-        write(f"whitted: error: {line}")

@@ -1,13 +1,6 @@
-"""The ``whitted`` command: convert, render and compare legacy scenes.
-
-User errors (bad scene files, missing files, bad options, bad environment
-variables) print one line on stderr (one per problem) and exit with status 2;
-no traceback, no output file. Ctrl-C and SIGTERM print one line and exit with
-status 130 (143 for SIGTERM), leaving no partial output.
-
-This module imports only what argument parsing needs: ``whitted convert``
-never loads Mitsuba or Dr.Jit (each command imports its own module when it
-runs).
+"""The ``whitted`` command. A user error prints one line per problem and exits with 2, a
+Ctrl-C (SIGTERM) one line and 130 (143), no partial output either way. Only what parsing
+needs is imported here: each command imports its own module when it runs.
 """
 
 from __future__ import annotations
@@ -18,7 +11,7 @@ import sys
 import time
 
 from .defaults import INTEGRATOR, INTEGRATORS, LIGHTING_MODES, PATH_MIN_SPP, VERSION, VIEWS
-from .defaults import DEFAULT_FPS, IMAGE_FORMATS as FORMATS
+from .defaults import DEFAULT_FPS, IMAGE_FORMATS
 from .defaults import VARIANTS as SUPPORTED_VARIANTS
 from . import interrupt
 from .errors import EXIT_USER_ERROR, WhittedError, report
@@ -29,7 +22,6 @@ SCENE_KEYWORD_OPTIONS = {"--samples": "--spp", "--depth": "--max-depth",
 
 
 def _body(module: str, function: str):
-    """A command's body, ``module.function(args)``, imported only when the command runs."""
     def run(args: argparse.Namespace):
         import importlib
         return getattr(importlib.import_module(module, __package__), function)(args)
@@ -37,15 +29,14 @@ def _body(module: str, function: str):
 
 
 def _command(sub, name: str, run, help: str, description: str) -> argparse.ArgumentParser:
-    """The subcommand ``name``'s parser, which runs ``run`` with the parsed arguments (its
-    own parser at hand, to report a bad option in its terms)."""
+    """The subcommand ``name``'s parser (kept in the arguments: errors speak its terms)."""
     command = sub.add_parser(name, help=help, description=description)
     command.set_defaults(run=run, parser=command)
     return command
 
 
 def _talk(command, verbose: str | None, quiet: str | None = "no progress bar") -> None:
-    """A command's ``-v`` and ``-q`` options, with their help (None: the command has none)."""
+    """A command's ``-v`` and ``-q`` options, with their help (None: none)."""
     if verbose:
         command.add_argument("-v", "--verbose", action="store_true", help=verbose)
     if quiet:
@@ -102,7 +93,7 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
     render.add_argument("-o", "--output", required=True, metavar="OUT",
                         help="output image, .exr (linear) or .png (sRGB); for several scenes or a "
                              "folder, the folder that receives every image (created when missing)")
-    render.add_argument("--format", action="append", choices=FORMATS, metavar="{png,exr}",
+    render.add_argument("--format", action="append", choices=IMAGE_FORMATS, metavar="{png,exr}",
                         help="the images written into an output folder: png (default) or exr; "
                              "give it twice for both")
     render.add_argument("--force", action="store_true",
@@ -222,8 +213,7 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
 
 
 def suggestion(parser: argparse.ArgumentParser, unknown: list[str]) -> str:
-    """``(did you mean --spp?)`` for the first unknown option that resembles one of ``parser``'s
-    (a scene-format keyword as an option, or a near spelling), else ''."""
+    """``(did you mean --spp?)`` for the first unknown option like one of ``parser``'s, else ''."""
     import difflib
 
     options = [o for action in parser._actions for o in action.option_strings if o.startswith("--")]
@@ -240,8 +230,7 @@ def suggestion(parser: argparse.ArgumentParser, unknown: list[str]) -> str:
 
 
 def process_start() -> float:
-    """When this process started, as a ``time.monotonic`` reading (now where ``/proc`` cannot
-    say): ``compare --budget`` counts the interpreter's start and imports too."""
+    """When this process started, in ``time.monotonic`` (for ``compare --budget``; else now)."""
     try:
         with open("/proc/self/stat") as stat:
             ticks = int(stat.read().rsplit(")", 1)[1].split()[19])

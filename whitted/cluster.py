@@ -1,20 +1,6 @@
-"""Dask clusters for ``whitted render --workers`` and ``whitted compare --workers``: starting or
-reaching one, preparing its workers, stopping their renders.
-
-Mitsuba renders on one machine: it has no network rendering of its own. Dask's
-``distributed`` runs Python functions in worker processes, on this machine (a
-``LocalCluster`` of ``--workers N`` processes, started here on 127.0.0.1 and stopped)
-or on many (the workers of a running scheduler, ``--scheduler tcp://host:port``), moves
-their plain-data arguments and results, and hands the tasks of a worker that dies to the
-others (a task may lose ``distributed.scheduler.allowed-failures`` workers, 3 by default).
-
-A worker process prepares itself on its first task (:func:`prepare`): the variant, the
-plugins, and Dr.Jit's (and FLIP's OpenMP) threads sized to its share of its machine's
-cores, at least :data:`MIN_THREADS`. It renders one task at a time (:func:`worker_task`):
-two renders at once would share one thread pool and slow each other down unevenly.
-Ctrl-C cancels the tasks and ends the renders under way (:func:`stop_rendering`), so that
-no worker has to be killed on the way out. A local cluster's log messages are silenced:
-a worker's failure reaches the user as the one-line error of its task (docs/cluster.md).
+"""Dask clusters for ``--workers`` and ``--scheduler`` (Mitsuba has no network rendering of
+its own): starting or reaching one, preparing its workers, stopping their renders. What
+runs where, and what a failure does: docs/cluster.md.
 """
 
 from __future__ import annotations
@@ -27,19 +13,15 @@ import threading
 from collections import Counter
 
 from .defaults import COMPARE_CONNECT_TIMEOUT
-from .errors import WhittedError
+from .errors import WhittedError, first_line
 
-#: Who rendered a task when no cluster did (a result's ``worker``).
+#: a result's ``worker`` when no cluster rendered it
 IN_PROCESS = "in-process"
-#: The fewest Dr.Jit threads a worker gets, even when its share of the cores is one:
-#: with a pool of one thread, Mitsuba 3.9's EXR reading and writing (``mi.Bitmap``,
-#: through OpenEXR's thread pool) never returns, and the reference cache is EXR.
+#: a worker's fewest Dr.Jit threads: with one, Mitsuba 3.9 never returns from an EXR's I/O
 MIN_THREADS = 2
-#: One render at a time in a worker process (see the module docstring).
+#: one render at a time in a worker: two would share its thread pool unevenly
 _RENDERING = threading.Lock()
-#: The (variant, Dr.Jit threads) this worker process is prepared for.
-_prepared: tuple[str, int] | None = None
-#: The thread of the task rendering now in this worker process (None: none).
+_prepared: tuple[str, int] | None = None   # (variant, Dr.Jit threads) of this worker
 _rendering_thread: int | None = None
 
 
@@ -47,9 +29,7 @@ class Stopped(Exception):
     """Raised in a worker's rendering thread when the client stops the run (Ctrl-C)."""
 
 
-#: Guards :data:`_rendering_thread` between a task's thread and :func:`stop_rendering`.
-_STOP_LOCK = threading.Lock()
-#: How long :func:`stop_rendering` keeps trying, and how often (seconds).
+_STOP_LOCK = threading.Lock()   # guards _rendering_thread
 STOP_PATIENCE, STOP_INTERVAL = 10.0, 0.1
 
 
@@ -62,8 +42,7 @@ def _raise_in(thread: int, error: type[BaseException] | None) -> None:
 
 @contextlib.contextmanager
 def worker_task(variant: str, threads: dict[str, int]):
-    """A task on a worker: the worker prepared (:func:`prepare`; yields its address), one render
-    at a time, its thread known so that :func:`stop_rendering` can end it."""
+    """A task on a worker, prepared (yields its address), its thread known to :func:`stop_rendering`."""
     global _rendering_thread
     with _RENDERING:
         with _STOP_LOCK:
@@ -77,8 +56,7 @@ def worker_task(variant: str, threads: dict[str, int]):
 
 
 def _ignore_stopped(unraisable) -> None:
-    """``sys.unraisablehook`` of a worker: :class:`Stopped` landing where Python cannot raise
-    it (a garbage collector's callback, a finalizer) is no news; it is sent again."""
+    """A worker's ``sys.unraisablehook``: a :class:`Stopped` dropped in a callback is sent again."""
     if not isinstance(unraisable.exc_value, Stopped):
         sys.__unraisablehook__(unraisable)
 
@@ -92,16 +70,9 @@ def cancel(client, tasks) -> None:
 
 
 async def stop_rendering() -> bool:
-    """On a worker (through ``client.run``, on its event loop): end the task rendering there.
-
-    A task cannot be cancelled once it runs, and a worker busy with one can only be
-    killed on the way out, leaving the semaphores of its process to the resource
-    tracker (which warns about them). Instead its thread gets :class:`Stopped` at its
-    next Python step (between kernels, or between a pass's levels), the task ends with
-    that error (its future is cancelled already) and the worker stops cleanly. Where
-    Python had to drop it (raised inside a callback), it is sent again until the task
-    has ended, for :data:`STOP_PATIENCE` seconds at most; whether it ended is returned.
-    """
+    """On a worker (``client.run``): end the task rendering there, which Dask cannot cancel,
+    by raising :class:`Stopped` in its thread (again while dropped, up to
+    :data:`STOP_PATIENCE` s), so that no worker is killed; whether it ended."""
     import asyncio
     for _ in range(round(STOP_PATIENCE / STOP_INTERVAL)):
         with _STOP_LOCK:
@@ -113,7 +84,6 @@ async def stop_rendering() -> bool:
 
 
 def available_cores() -> int:
-    """The cores this process may run on (its CPU affinity, else the machine's)."""
     try:
         return len(os.sched_getaffinity(0))
     except AttributeError:  # not on Linux
@@ -121,9 +91,8 @@ def available_cores() -> int:
 
 
 def prepare(variant: str, threads: dict[str, int]) -> str:
-    """Make this worker process ready to render in ``variant`` with its share of its
-    machine's cores (``threads``: host -> Dr.Jit threads per worker there); returns the
-    worker's address."""
+    """This worker ready for ``variant`` with its share of the cores (``threads`` by host);
+    returns its address."""
     global _prepared
     import drjit as dr
     from distributed import get_worker
@@ -155,9 +124,8 @@ def check_where(workers: int | None, scheduler: str | None) -> None:
 
 @contextlib.contextmanager
 def connect(workers: int | None, scheduler: str | None):
-    """A Dask client of a local cluster of ``workers`` processes (started here on 127.0.0.1
-    without a dashboard, and stopped on leaving, also on error or Ctrl-C), or of the
-    scheduler at ``scheduler``."""
+    """A Dask client of a local cluster of ``workers`` processes (stopped on leaving), or of
+    the scheduler at ``scheduler``."""
     import logging
 
     from distributed import Client, LocalCluster
@@ -186,8 +154,7 @@ def connect(workers: int | None, scheduler: str | None):
 
 
 def _check_start_method() -> None:
-    """CUDA cannot run in a process forked from one that has started it: the local
-    cluster's worker processes must be spawned (Dask's default for its nannies)."""
+    """CUDA cannot run in a forked process: a CUDA variant's workers must be spawned."""
     import dask
     import mitsuba as mi
 
@@ -199,11 +166,8 @@ def _check_start_method() -> None:
 
 @contextlib.contextmanager
 def _workers_ignore_ctrl_c():
-    """Start processes that ignore SIGINT (an ignored signal stays ignored in a child,
-    and Python then keeps it so). A Ctrl-C on a terminal reaches its whole process
-    group, the local cluster's workers included; they should not each die with a
-    traceback, since this process cancels the work and stops them. A Ctrl-C while
-    the cluster starts is lost."""
+    """Start processes that ignore SIGINT (a child keeps it ignored): the terminal's Ctrl-C is
+    this process's to handle, not each worker's traceback."""
     if threading.current_thread() is not threading.main_thread():
         yield
         return
@@ -237,9 +201,8 @@ def _connect_scheduler(address: str):
     try:
         client = Client(address, timeout=timeout, set_as_default=False)
     except (OSError, TimeoutError, ValueError, TypeError) as error:
-        why = str(error).strip().splitlines()[0] if str(error).strip() else type(error).__name__
-        raise WhittedError(f"{address}: cannot reach the Dask scheduler within {timeout:g} s ({why})") \
-            from None
+        raise WhittedError(f"{address}: cannot reach the Dask scheduler within {timeout:g} s "
+                           f"({first_line(error)})") from None
     finally:
         quiet.setLevel(level)
     try:
@@ -252,9 +215,8 @@ def _connect_scheduler(address: str):
 
 
 def worker_threads(cores: dict[str, int]) -> dict[str, int]:
-    """Dr.Jit threads per worker on each host, from ``cores`` (worker address -> the cores
-    it may use): the host's cores shared evenly among its worker processes, but at least
-    :data:`MIN_THREADS`."""
+    """Dr.Jit threads per worker by host: its cores shared among its workers, at least
+    :data:`MIN_THREADS` (``cores``: worker address -> cores)."""
     from distributed.comm import get_address_host
 
     per_host = Counter(get_address_host(address) for address in cores)

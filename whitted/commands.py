@@ -1,7 +1,5 @@
-"""The bodies of ``whitted convert`` and ``whitted render`` (``whitted/cli.py`` parses their
-arguments): everything a user can get wrong is checked before any long work, and outputs
-are written atomically.
-"""
+"""The bodies of ``whitted convert`` and ``whitted render``: everything a user can get wrong
+is checked before any long work."""
 
 from __future__ import annotations
 
@@ -13,8 +11,7 @@ from .errors import EXIT_USER_ERROR, WhittedError, report
 
 
 def convert_command(args) -> int:
-    """``whitted convert SCENE... [-o OUT] [--portable]``: every file converted that can be;
-    2 if any failed."""
+    """``whitted convert``: every file converted that can be; 2 if any failed."""
     from .converter.batch import PORTABLE_SUFFIX, XML_SUFFIX, convert_file, plan, prepare_folders
 
     portable = getattr(args, "portable", False)
@@ -35,11 +32,11 @@ def convert_command(args) -> int:
     return EXIT_USER_ERROR if failed else 0
 
 
-def _summary(args, result, sensor) -> str:
+def _summary(args, result) -> str:
     import mitsuba as mi
 
     from .defaults import check_without
-    width, height = (int(c) for c in sensor.film().crop_size())
+    height, width = result.image.shape[:2]
     s = result.stats
     rays = ", ".join(f"{v} {k}" for k, v in s["rays"].items())
     depth = f"depth reached {s['max_depth_reached']}; " if "max_depth_reached" in s else ""
@@ -55,7 +52,7 @@ def _summary(args, result, sensor) -> str:
 
 
 def render_command(args) -> int:
-    """``whitted render SCENE -o OUT``, or several scenes into a folder (:func:`render_many_command`)."""
+    """``whitted render``, of one scene or into a folder."""
     from .atomic import names_folder
     if names_folder(args.scenes, args.output):
         return render_many_command(args)
@@ -67,16 +64,26 @@ def render_command(args) -> int:
     return 0
 
 
+def _settings(args):
+    """The render options of ``args`` as :class:`whitted.batch.Settings`."""
+    from .batch import Settings
+    from .defaults import check_without
+    return Settings(integrator=args.integrator, spp=args.spp, max_depth=args.max_depth,
+                    ambient=args.ambient, lighting=args.lighting, min_weight=args.min_weight,
+                    without=check_without(args.without, "--without") if args.without else None,
+                    variant=args.variant, exposure=getattr(args, "exposure", 0.0),
+                    view=getattr(args, "view", None))
+
+
 def render_single(args) -> None:
     """``whitted render SCENE -o OUT``: everything is checked before anything is written."""
     from .atomic import check_writable, write_text
     from .defaults import check_ambient
     from .interrupt import deferred
-    from .loading import load_scene
     with deferred():   # numpy's C extension is not cut mid-import by a Ctrl-C (see deferred)
-        from .images import check_exposure, default_view, image_format, write_image
-        from .rendering import (check_settings, peak_resident_bytes, quiet_mitsuba, render_checked,
-                                whitted_settings)
+        from .batch import render_file
+        from .images import check_exposure, image_format, write_image
+        from .rendering import check_settings, peak_resident_bytes
 
     output = Path(args.output)
     # Before the scene is loaded (seconds for a large one); once: render_checked trusts them.
@@ -92,40 +99,24 @@ def render_single(args) -> None:
     if args.stats:
         check_writable(args.stats, inputs=(args.scenes[0],))
 
-    with quiet_mitsuba():
-        loaded = load_scene(args.scenes[0], variant=args.variant, integrator=args.integrator,
-                            meshes=args.integrator != "whitted", spp=args.spp,
-                            max_depth=args.max_depth, ambient=args.ambient, lighting=args.lighting)
-    try:   # render checks the scene (a sensor; the article's materials) before it starts
-        result = render_checked(loaded, integrator=args.integrator, progress=not args.quiet,
-                                min_weight=args.min_weight, spp=args.spp, without=args.without)
-    except WhittedError as error:
-        raise WhittedError(f"{args.scenes[0]}: {error}") from None
-    view = getattr(args, "view", None) or default_view(
-        args.integrator, args.lighting or whitted_settings(loaded)["lighting"])
+    result, view = render_file(args.scenes[0], _settings(args), not args.quiet, args.spp)
     write_image(output, result.image, progress=not args.quiet, exposure=exposure, view=view)
     result.stats["peak_resident_bytes"] = peak_resident_bytes()   # the writing included
     if args.stats:
         write_text(args.stats, json.dumps(result.stats, indent=2) + "\n")
     if args.verbose:
-        print(_summary(args, result, loaded.sensors()[0]), file=sys.stderr)
+        print(_summary(args, result), file=sys.stderr)
 
 
 def render_many_command(args) -> int:
-    """``whitted render SCENE|FOLDER... -o OUT/``: every scene rendered that can be
-    (:mod:`whitted.batch`); 2 if any failed."""
+    """``whitted render SCENE|FOLDER... -o OUT/``: every scene rendered that can be; 2 if any failed."""
     from . import interrupt
     from .atomic import check_writable, write_text
-    from .batch import IN_PROCESS, Settings, Totals, plan_batch, render_planned, report_failure
+    from .batch import IN_PROCESS, Totals, plan_batch, render_planned
     from .cluster import check_where
-    from .defaults import check_without
     from .progress import progress_bar
 
-    settings = Settings(integrator=args.integrator, spp=args.spp, max_depth=args.max_depth,
-                        ambient=args.ambient, lighting=args.lighting, min_weight=args.min_weight,
-                        without=check_without(args.without, "--without") if args.without else None,
-                        variant=args.variant, exposure=getattr(args, "exposure", 0.0),
-                        view=getattr(args, "view", None))
+    settings = _settings(args)
     settings.check()
     check_where(args.workers, args.scheduler)
     if args.video:
@@ -141,18 +132,17 @@ def render_many_command(args) -> int:
     if args.stats:
         check_writable(args.stats, inputs=tuple(scene for scene, _ in planned))
 
-    tally = Totals(planned=len(planned))
-    for item in skipped:
-        tally.add(item)
+    tally = Totals(planned=len(planned), items=list(skipped))
     interrupted = True
     bar = progress_bar(not args.quiet, len(planned), "render", unit="scene", unit_scale=False,
                        initial=len(skipped))
     rendering = render_planned(todo, settings, workers=args.workers, scheduler=args.scheduler)
     try:
         for item in rendering:
-            tally.add(item)
-            if item.status == "failed":
-                report_failure(item, lambda line: bar.write(line, file=sys.stderr))
+            tally.items.append(item)
+            if item.status == "failed":   # as the CLI prints a user error
+                for line in item.error.splitlines():
+                    bar.write(f"whitted: error: {line}", file=sys.stderr)
             elif args.verbose:
                 where = f" on {item.worker}" if item.worker != IN_PROCESS else ""
                 bar.write(f"whitted: wrote {', '.join(map(str, item.outputs))} "

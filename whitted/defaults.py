@@ -60,8 +60,7 @@ PATH_MIN_SPP = 64
 
 
 def user_cache_folder() -> "Path":
-    """Where whitted caches what it can compute again: ``$XDG_CACHE_HOME/whitted`` (if
-    absolute), else ``~/.cache/whitted``."""
+    """``$XDG_CACHE_HOME/whitted`` (if absolute), else ``~/.cache/whitted``."""
     import os
     from pathlib import Path
     base = os.environ.get("XDG_CACHE_HOME", "")
@@ -158,7 +157,6 @@ def _integer(value, what: str) -> int:
 
 
 def check_depth(depth, what: str = "max depth") -> int:
-    """The ray tree's maximum depth, 1 ... :data:`MAX_DEPTH` (primary rays have depth 1)."""
     depth = _integer(depth, what)
     if not 1 <= depth <= MAX_DEPTH:
         raise WhittedError(f"{what} must be in 1…{MAX_DEPTH} (primary rays have depth 1), got {depth}")
@@ -166,7 +164,6 @@ def check_depth(depth, what: str = "max depth") -> int:
 
 
 def check_spp(spp, what: str = "spp") -> int:
-    """Samples per pixel, 1 ... :data:`MAX_SPP`."""
     spp = _integer(spp, what)
     if not 1 <= spp <= MAX_SPP:
         raise WhittedError(f"{what} must be a positive integer up to 2^31, got {spp}")
@@ -174,7 +171,6 @@ def check_spp(spp, what: str = "spp") -> int:
 
 
 def check_size(size, what: str = "width") -> int:
-    """An image's width or height, 1 ... :data:`MAX_SIZE` pixels (the scene format's range)."""
     size = _integer(size, what)
     if not 1 <= size <= MAX_SIZE:
         raise WhittedError(f"{what} must be in 1…{MAX_SIZE} pixels, got {size}")
@@ -182,7 +178,6 @@ def check_size(size, what: str = "width") -> int:
 
 
 def _number(value, what: str, kind: str) -> float:
-    """``value`` as a float, or an error saying it must be ``kind``."""
     try:
         return float(value)
     except (TypeError, ValueError):
@@ -197,7 +192,6 @@ def _unit_interval(value, what: str) -> float:
 
 
 def check_ambient(ambient, what: str = "ambient") -> float:
-    """The article's ambient coefficient A in [0, 1]."""
     return _unit_interval(ambient, what)
 
 
@@ -207,7 +201,6 @@ def check_min_weight(min_weight, what: str = "min weight") -> float:
 
 
 def check_ior(ior, what: str = "ior") -> float:
-    """An index of refraction: a finite number > 0."""
     ior = _number(ior, what, "a number > 0")
     if not (math.isfinite(ior) and ior > 0.0):
         raise WhittedError(f"{what} must be > 0, got {ior}")
@@ -215,7 +208,6 @@ def check_ior(ior, what: str = "ior") -> float:
 
 
 def _triple(value) -> tuple:
-    """``value`` as three floats, or () when it is not three numbers."""
     try:
         numbers = tuple(float(c) for c in value)
     except (TypeError, ValueError):
@@ -224,7 +216,6 @@ def _triple(value) -> tuple:
 
 
 def check_color(color, what: str = "color") -> Vec3:
-    """A base color: three numbers, each in [0, 1]."""
     rgb = _triple(color)
     if not rgb:
         raise WhittedError(f"{what} must be an RGB color (three numbers in [0, 1]), got {color!r}")
@@ -234,7 +225,6 @@ def check_color(color, what: str = "color") -> Vec3:
 
 
 def check_point(point, what: str = "point") -> Vec3:
-    """A point: three finite numbers."""
     xyz = _triple(point)
     if not xyz or not all(map(math.isfinite, xyz)):
         raise WhittedError(f"{what} must be a point (three finite numbers), got {point!r}")
@@ -250,7 +240,6 @@ def check_wavefront_size(size, what: str = "wavefront_size") -> int:
 
 
 def check_lighting(lighting, what: str = "lighting") -> str:
-    """One of :data:`LIGHTING_MODES`."""
     if lighting not in LIGHTING_MODES:
         raise WhittedError(f"{what} must be one of {', '.join(LIGHTING_MODES)}, got '{lighting}'")
     return lighting
@@ -302,7 +291,6 @@ def check_plugin_parameters(plugin: str, values: dict) -> dict:
 
 
 def check_integrator(integrator) -> str:
-    """One of :data:`INTEGRATORS`."""
     if integrator not in INTEGRATORS:
         raise WhittedError(f"unknown integrator '{integrator}'; choose one of {', '.join(INTEGRATORS)}")
     return integrator

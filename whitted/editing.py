@@ -1,10 +1,6 @@
-"""Editing a loaded scene in its ``.scn`` file's own terms: :class:`SceneEditor`.
-
-An edit changes the scene's model, describes it again with the converter's own code and
-writes what changed through ``mi.traverse`` and ``params.update()`` (a light's intensity for
-its new distance too), so the scene renders as the edited file would, bit for bit; an edit
-that would rebuild the scene is refused (docs/notebook.md, "Editing a scene in the file's
-terms").
+"""Editing a loaded scene in its ``.scn`` file's terms: the edited model is described again
+and what changed written through ``mi.traverse``, so the scene renders as the edited file
+would, bit for bit (docs/notebook.md, "Editing a scene in the file's terms").
 """
 
 from __future__ import annotations
@@ -33,12 +29,14 @@ class SceneEditor:
             self.model = parse_file(Path(source))
             warn_scene(self.model)
         self._description = self._describe(self.model)
-        self.scene = _leaving_out(self._load(self._description), self._without, self.model.source)
+        from .loading import _loaded, mitsuba_dict
+        loaded = _loaded(mitsuba_dict(self._description, self._params), meshes=True)
+        self.scene = _leaving_out(loaded, self._without, self.model.source)
 
     @classmethod
     def loads(cls, text: str, variant: str | None = None, *, base_dir: str | os.PathLike = ".",
               **overrides) -> "SceneEditor":
-        """An editor of the scene whose ``.scn`` text is ``text`` (as :func:`whitted.loads`)."""
+        """An editor of a scene's ``.scn`` text (as :func:`whitted.loads`)."""
         from .converter import parse_text
         from .converter.frame import warn_scene
         from .loading import TEXT_NAME
@@ -46,19 +44,15 @@ class SceneEditor:
         warn_scene(model)
         return cls(model, variant, **overrides)
 
-    # -- the edits ------------------------------------------------------------------------------
-
     def move_light(self, k: int, position) -> None:
-        """Light ``k`` (from 0, in the file's order) to ``position`` (x, y, z in the file's
-        coordinates), its color kept."""
+        """Light ``k`` (from 0, in the file's order) to ``position`` (the file's coordinates)."""
         lights = list(self.model.lights)
         light = self._item(lights, k, "light")
         lights[k] = replace(light, position=D.check_point(position, "a light's position"))
         self._apply(replace(self.model, lights=lights))
 
     def move_sphere(self, k: int, center, radius: float | None = None) -> None:
-        """Sphere ``k`` (from 0, in the file's order) to ``center`` (the file's coordinates),
-        with radius ``radius`` (None: kept)."""
+        """Sphere ``k`` (from 0) to ``center`` (the file's coordinates), ``radius`` (None: kept)."""
         spheres = list(self.model.spheres)
         sphere = self._item(spheres, k, "sphere")
         radius = sphere.radius if radius is None else float(radius)
@@ -69,8 +63,7 @@ class SceneEditor:
         self._apply(replace(self.model, spheres=spheres))
 
     def set_color(self, k: int, color) -> None:
-        """The color of sphere ``k`` (from 0) to ``color`` (linear RGB in [0, 1]), and of every
-        sphere that shares its material, as if each were edited in the file."""
+        """The color of sphere ``k`` (from 0), and of every sphere sharing its material."""
         spheres = list(self.model.spheres)
         material = self._item(spheres, k, "sphere").material
         if material.texture is not None:
@@ -80,12 +73,9 @@ class SceneEditor:
                                                  for s in spheres]))
 
     def scn(self, folder: str | os.PathLike = ".") -> str:
-        """The edited scene as ``.scn`` text, for a file in ``folder`` (texture paths relative
-        to it): what loads as :attr:`scene`."""
+        """The edited scene as ``.scn`` text for a file in ``folder`` (textures relative to it)."""
         from .converter.scn_writer import scene_to_scn
         return scene_to_scn(self.model, folder)
-
-    # -- how ------------------------------------------------------------------------------------
 
     @staticmethod
     def _item(items: list, k: int, what: str):
@@ -97,12 +87,7 @@ class SceneEditor:
         from .converter.description import describe
         return describe(model, base_dir=None)
 
-    def _load(self, description):
-        from .loading import _loaded, mitsuba_dict
-        return _loaded(mitsuba_dict(description, self._params), meshes=True)
-
     def _apply(self, model) -> None:
-        """Write into :attr:`scene` what changes from the current model to ``model``, or refuse."""
         import mitsuba as mi
         description = self._describe(model)
         changes = _differences(self._description.scene, description.scene)
@@ -122,8 +107,7 @@ class SceneEditor:
 
 
 def _differences(old, new, path=()) -> list:
-    """``(path, new value)`` of every leaf where the descriptions ``old`` and ``new`` differ (a
-    key present in one only is a difference at that key)."""
+    """``(path, new value)`` of every leaf where the descriptions ``old`` and ``new`` differ."""
     if isinstance(old, dict) and isinstance(new, dict):
         found = []
         for key in dict.fromkeys([*old, *new]):
@@ -136,16 +120,13 @@ def _differences(old, new, path=()) -> list:
 
 
 def _parameter(path: tuple, value, scene: dict):
-    """``(key, value)`` of the Mitsuba parameter that makes the change ``path`` -> ``value`` of a
-    description, or None (the change needs a new scene)."""
+    """``(key, value)`` of the Mitsuba parameter that makes a change, or None (a new scene)."""
     from .converter.description import Matrix
     obj = scene.get(path[0]) if path else None
     kind = obj.get("type") if isinstance(obj, dict) else None
-    if kind == "point" and path[1:] in (("position",), ("intensity", "value")):
-        return ".".join(path), value
-    if kind == "article" and path[1:] == ("color", "value"):
-        return ".".join(path), value
-    if path in (("sensor", "near_clip"), ("sensor", "far_clip")):
+    if ((kind == "point" and path[1:] in (("position",), ("intensity", "value")))
+            or (kind == "article" and path[1:] == ("color", "value"))
+            or path in (("sensor", "near_clip"), ("sensor", "far_clip"))):
         return ".".join(path), value
     if kind == "sphere" and path[1:] in (("center",), ("radius",)):
         return f"{path[0]}.to_world", ("sphere", obj["center"], obj["radius"])
@@ -155,8 +136,7 @@ def _parameter(path: tuple, value, scene: dict):
 
 
 def _as(current, value):
-    """``value`` as the type of the parameter ``current``, a sphere's transform made as the
-    sphere plugin makes it, so that the bits are a loaded scene's."""
+    """``value`` as the type of ``current``, a sphere's transform made as its plugin makes it."""
     import mitsuba as mi
     import numpy as np
     if isinstance(value, tuple) and value and value[0] == "sphere":

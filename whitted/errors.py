@@ -12,6 +12,12 @@ def report(error: BaseException) -> None:
         print(f"whitted: error: {line}", file=sys.stderr)
 
 
+def first_line(error: BaseException) -> str:
+    """An exception's first line of text, else its type's name."""
+    text = str(error).strip()
+    return text.splitlines()[0] if text else type(error).__name__
+
+
 #: the exit status of a command that a user error stopped
 EXIT_USER_ERROR = 2
 
@@ -21,15 +27,11 @@ class WhittedError(Exception):
 
 
 class ParameterError(WhittedError, ValueError):
-    """A plugin parameter out of its range (:func:`whitted.defaults.check_plugin_parameters`),
-    loaded or edited: ``PLUGIN: NAME must ..., got VALUE``."""
+    """A plugin parameter out of its range: ``PLUGIN: NAME must ..., got VALUE``."""
 
 
 class SceneError(WhittedError):
-    """The problems of a scene file: ``errors``, every one as (path, line, message) in file
-    order (``line`` None: the whole file's), the first also as ``path``, ``line``,
-    ``message``; ``str(error)`` is a line per problem (``FILE:LINE: message``), at most
-    ``shown``, then a count of the rest."""
+    """The problems of a scene file (docs/CONTRACTS.md, "Scene errors")."""
 
     def __init__(self, path: str | os.PathLike, line: int | None, message: str, more=(),
                  shown: int | None = None):
@@ -43,8 +45,7 @@ class SceneError(WhittedError):
 
     @classmethod
     def collected(cls, errors, shown: int | None = None) -> "SceneError":
-        """One error for all of ``errors``, (path, line, message) in file order; ``str()``
-        lists the first ``shown`` (default: all)."""
+        """One error for all of ``errors``, (path, line, message) in file order."""
         (path, line, message), *more = errors
         return cls(path, line, message, more, shown)
 

@@ -1,24 +1,6 @@
-"""The article's model fitted to an image: its colors, ambient and light colors by gradient descent.
-
-Why. The article's model has few numbers: each material's base color B, the
-ambient A and each light's color. A path-traced reference (or a photograph
-of the same view) says what the image should be; how far the model is from
-it mixes two things, numbers that are off and light the model does not
-transport. Fitting the numbers separates them: what remains after the fit is
-the model's own limit. The Whitted integrator's gradients
-(:mod:`whitted.plugins.gradients`) make the fit a plain gradient descent:
-Mitsuba's ``mi.ad.Adam`` on the relative MSE (:func:`whitted.metrics.relative_mse`,
-the error ``compare`` reports) of a low-resolution render, with a learning rate
-falling geometrically over at most ``iterations`` steps, stopped early once the loss
-stops improving (``FIT_PATIENCE``, ``FIT_MIN_GAIN``). Colors are kept in [0, 1], the
-ambient in [0, 1] and light colors >= 0 (the format's ranges). What the fit
-leaves alone: reflection and refraction weights, textures, geometry, the background.
-
-Which parameters are free: ``free`` names them, ``"ambient"``, ``"colors"``
-(every untextured material) and ``"lights"``. With only the ambient free the
-fit is the one-parameter case :func:`whitted.compare.curves.best_ambient` solves
-in closed form. (With both the lights and the ambient free the fit has a
-one-parameter family of equal optima: B·A and B·(1 − A)·light can trade scale.)
+"""The article's model fitted to an image by gradient descent: its colors, ambient and light
+colors. What remains after the fit is the model's own limit, apart from numbers that were
+merely off (docs/gradients.md, "Fitting").
 """
 
 from __future__ import annotations
@@ -41,30 +23,19 @@ FREE = ("ambient", "colors", "lights")
 
 @dataclass
 class FitResult:
-    """What :func:`fit` found.
-
-    ========== ============================================================================
-    model      the fitted scene model (``whitted.converter.Scene``), at the scene's own size
-    losses     the relative MSE at each step, before it (low resolution)
-    error      the fitted parameters' relative MSE at the fit's resolution
-    size       the fit's resolution (width, height)
-    ambient    the fitted ambient; ``colors``: each material's fitted color (by its id);
-               ``lights``: each light's fitted color
-    ========== ============================================================================
-    """
-    model: object
-    losses: list
+    """What :func:`fit` found; ``error``, ``size`` and ``image`` at the fit's resolution."""
+    model: object   # the fitted whitted.converter.Scene
+    losses: list   # the relative MSE before each step
     error: float
     size: tuple
     ambient: float
-    colors: dict
+    colors: dict   # by material id
     lights: list
-    image: object   # the fitted render at the fit's resolution (numpy)
+    image: object
 
 
 def fit_size(scene_size, target_size, width: int = D.FIT_WIDTH, source: str = "the target") -> tuple[int, int]:
-    """The resolution a fit renders at: the target's, or its shape at most ``width`` wide.
-    The target must show the scene's view: its aspect ratio (within a pixel's rounding)."""
+    """The target's resolution at most ``width`` wide; the target must have the scene's aspect."""
     (w, h), (tw, th) = scene_size, target_size
     if abs(tw * h - th * w) > max(w, h, tw, th):
         raise WhittedError(f"{source} is {tw}x{th}, but the scene renders {w}x{h}: give an image of the "
@@ -75,8 +46,7 @@ def fit_size(scene_size, target_size, width: int = D.FIT_WIDTH, source: str = "t
 
 
 def resampled(image: np.ndarray, size) -> np.ndarray:
-    """``image`` (H, W, 3) at ``size`` (width, height): Mitsuba's Bitmap resampling (a box filter
-    when shrinking)."""
+    """``image`` at ``size`` (width, height) by Mitsuba's Bitmap resampling."""
     import mitsuba as mi
     if image.shape[1::-1] == tuple(size):
         return image
@@ -86,7 +56,7 @@ def resampled(image: np.ndarray, size) -> np.ndarray:
 
 
 def _light_scale(model, light) -> float:
-    """``π d²``: a light's intensity over its article color (see converter.description.light_intensity)."""
+    """``π d²``: a light's intensity over its article color."""
     from .converter.description import light_intensity
     return light_intensity(model, light.position, (1.0, 1.0, 1.0))[0]
 
@@ -94,17 +64,13 @@ def _light_scale(model, light) -> float:
 def fit(scene, target, *, free=FREE, iterations: int = D.FIT_ITERATIONS, width: int = D.FIT_WIDTH,
         rate=D.FIT_RATE, spp: int | None = None, progress: bool = False, on_step=None,
         target_name: str = "the target", min_gain: float = D.FIT_MIN_GAIN) -> FitResult:
-    """Fit the article's model of ``scene`` (a ``.scn`` path or a ``whitted.converter.Scene``)
-    to ``target`` (an EXR/PNG path or a linear (H, W, 3) array) by gradient descent.
+    """Fit the article's model of ``scene`` (a ``.scn`` path or model) to ``target`` (an image
+    path or a linear (H, W, 3) array) by Adam steps on the relative MSE.
 
-    ``free``: which of ``"ambient"``, ``"colors"``, ``"lights"`` move. At most ``iterations``
-    Adam steps (fewer once the best loss improved by less than ``min_gain`` over the last
-    ``FIT_PATIENCE`` steps and the loss is back at it; 0: never) at a resolution at most ``width`` wide,
-    the learning rate falling from ``rate[0]`` to ``rate[1]``; ``spp``: samples per pixel of
-    the fit's renders (default: the scene's; more match an anti-aliased target better; the
-    same samples at every step); ``progress`` shows a tqdm bar with the loss;
-    ``on_step(k, loss)`` is called after each step; a true return stops the fit there. Runs in
-    ``llvm_ad_rgb`` (or the current AD variant)."""
+    ``free``: which of :data:`FREE` move. At most ``iterations`` steps (fewer once the best
+    loss gained less than ``min_gain`` in ``FIT_PATIENCE`` steps; 0: never stop early), at
+    most ``width`` wide, the rate falling from ``rate[0]`` to ``rate[1]``; ``spp``: the
+    renders' (default: the scene's). ``on_step(k, loss)`` returning true stops the fit."""
     import drjit as dr
     import mitsuba as mi
 
@@ -233,10 +199,8 @@ def fitted_model(model, ambient: float, colors: dict, lights: list):
 
 
 def write_fitted(result: FitResult, path, source_name: str = "", text: str | None = None) -> None:
-    """Write the fitted model as a ``.scn`` file (atomically): ``text``, the file the model was
-    read from, with the fitted numbers put in place (its comments and layout kept:
-    ``converter.scn_writer.edited_scn``), or the model written anew without ``text`` (or
-    when the edit would not read back as the fitted model)."""
+    """Write the fitted model as ``.scn``: ``text`` (the file it was read from) with the fitted
+    numbers put in place, else (or if that would not read back) the model written anew."""
     from .atomic import write_text
     from .converter import parse_text
     from .converter.scn_writer import edited_scn, scene_to_scn
@@ -253,8 +217,7 @@ def write_fitted(result: FitResult, path, source_name: str = "", text: str | Non
 
 
 def fitted_lines(model, result: FitResult) -> list[str]:
-    """What a fit of ``model`` changed, a line each, named as the file names it:
-    ``line 14 (the floor): color 0.6 0.65 0.6 -> 0.52 0.6 0.55``."""
+    """What a fit changed, a line each: ``line 14 (the floor): color 0.6 0.65 0.6 -> 0.52 ...``."""
     from .converter.description import line_label, material_labels
 
     def rgb(color):

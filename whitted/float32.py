@@ -1,10 +1,6 @@
-"""How far Mitsuba's 32-bit numbers may place a surface: the bound both sides of the project use.
-
-The converter decides by it which spheres are too coarse for float32 (converter/giants.py)
-and the integrator moves rays off a surface by it (plugins/hits.py): one definition, so that
-what the converter promises is what the integrator does (docs/numerics.md, "The error bound
-behind the ray offsets"). Also the ``exact_spheres`` text both share. Plain arithmetic: no
-Mitsuba needed.
+"""How far Mitsuba's 32-bit numbers may place a surface, and the ``exact_spheres`` text: one
+definition for the converter (which spheres are too coarse) and the integrator (its ray
+offsets), docs/numerics.md, "The error bound behind the ray offsets".
 """
 
 from __future__ import annotations
@@ -36,8 +32,7 @@ def exact_spheres(entries) -> str:
 
 
 def parse_exact_spheres(text: str) -> list[tuple[str, Vec3, float]]:
-    """``(id, center, radius)`` of each entry of an ``exact_spheres`` property (ValueError
-    when malformed)."""
+    """``(id, center, radius)`` of each entry of an ``exact_spheres`` property."""
     entries = []
     for part in (p.strip() for p in text.split(";")):
         if not part:

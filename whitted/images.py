@@ -1,11 +1,7 @@
-"""Images: what a render looks like on screen (an exposure and a view transform), and its files.
-
-A render is linear radiance (what EXR files keep and the relative MSE reads); what a person
-looks at (PNG files, the compare page, a notebook) is turned into display colors by a view:
-``clip`` (plain sRGB, the article's own output) or ``aces`` (OpenColorIO's ACES 2.0 SDR view,
-highlights rolled off, for physically lit images), after an exposure of EV stops
-(docs/display.md). Images are processed in bands of rows (:data:`BAND_ROWS`), so that a
-16384² render costs no whole-image float temporary; writing is atomic (:mod:`whitted.atomic`).
+"""Images: a render's files, and what it looks like on screen. A render is linear radiance
+(EXR keeps it); what a person sees (PNG, the compare page) goes through an exposure and a
+view, ``clip`` or ``aces`` (docs/display.md), in bands of rows so that a 16384² render
+costs no whole-image float temporary.
 """
 
 from __future__ import annotations
@@ -18,10 +14,9 @@ from pathlib import Path
 import numpy as np
 
 from .defaults import VIEWS
-from .errors import WhittedError
+from .errors import WhittedError, first_line
 
-#: OpenColorIO's built-in config (in the ``opencolorio`` package since 2.5), pinned by
-#: version so that an image looks the same whatever OpenColorIO is installed.
+#: OpenColorIO's built-in config, pinned so an image looks the same whatever OCIO is installed
 OCIO_CONFIG = "cg-config-v4.0.0_aces-v2.0_ocio-v2.5"
 OCIO_SOURCE = "Linear Rec.709 (sRGB)"     #: the working space of Mitsuba's RGB variants
 OCIO_DISPLAY = "sRGB - Display"
@@ -78,7 +73,6 @@ def check_exposure(exposure) -> float:
 
 @functools.lru_cache(maxsize=None)
 def _aces_processor():
-    """OpenColorIO's CPU processor for the ``aces`` view (built once per process)."""
     import PyOpenColorIO as ocio
 
     config = ocio.Config.CreateFromBuiltinConfig(OCIO_CONFIG)
@@ -87,8 +81,7 @@ def _aces_processor():
 
 
 def _exposed(band: np.ndarray, exposure: float) -> np.ndarray:
-    """A band of linear RGB (changed in place) times 2^exposure, in [0, :data:`BRIGHTEST`]
-    (NaN 0)."""
+    """A band of linear RGB (in place) times 2^exposure, in [0, :data:`BRIGHTEST`] (NaN 0)."""
     np.nan_to_num(band, copy=False, nan=0.0)
     if exposure:
         band *= np.float32(2.0 ** exposure)
@@ -96,13 +89,11 @@ def _exposed(band: np.ndarray, exposure: float) -> np.ndarray:
 
 
 def _clipped(band: np.ndarray, exposure: float) -> np.ndarray:
-    """The ``clip`` view's linear values: exposed, then clipped to [0, 1]."""
     return np.minimum(_exposed(band, exposure), 1.0, out=band)
 
 
 def _display_band(band: np.ndarray, exposure: float, view: str) -> np.ndarray:
-    """One band of linear RGB (a float32 copy, changed in place) as display values in [0, 1],
-    sRGB-encoded."""
+    """A band of linear RGB (in place) as sRGB-encoded display values in [0, 1]."""
     if view == "aces":
         _aces_processor().applyRGB(_exposed(band, exposure))
         return np.clip(band, 0.0, 1.0, out=band)
@@ -110,8 +101,7 @@ def _display_band(band: np.ndarray, exposure: float, view: str) -> np.ndarray:
 
 
 def _srgb_encoded(band: np.ndarray, kind: str) -> np.ndarray:
-    """Linear values in [0, 1] sRGB-encoded by Mitsuba's own ``Bitmap`` conversion, as
-    ``kind`` ("Float32", or "UInt8": what PNG files hold, which Mitsuba dithers)."""
+    """Linear values in [0, 1] sRGB-encoded by Mitsuba's ``Bitmap`` as ``kind`` ("Float32", "UInt8")."""
     import mitsuba as mi
 
     bitmap = mi.Bitmap(band, pixel_format=mi.Bitmap.PixelFormat.RGB)
@@ -126,31 +116,34 @@ def _checked(image) -> np.ndarray:
     return pixels
 
 
+def _banded(image, exposure, view, dtype, encode, rows_done=None) -> np.ndarray:
+    """``encode(band, exposure, view)`` of each band of rows of a linear RGB image."""
+    pixels, exposure, view = _checked(image), check_exposure(exposure), check_view(view)
+    out = np.empty(pixels.shape, dtype)
+    for start in range(0, pixels.shape[0], BAND_ROWS):
+        band = np.array(pixels[start:start + BAND_ROWS], dtype=np.float32)
+        out[start:start + BAND_ROWS] = encode(band, exposure, view)
+        if rows_done is not None:
+            rows_done(band.shape[0])
+    return out
+
+
 def to_display(image, exposure: float = 0.0, view: str = "clip") -> np.ndarray:
     """A linear RGB image (H, W, 3) as float32 display values in [0, 1], sRGB-encoded:
     what FLIP scores and what :func:`to_srgb` rounds to 8 bits."""
-    pixels, exposure, view = _checked(image), check_exposure(exposure), check_view(view)
-    out = np.empty(pixels.shape, np.float32)
-    for start in range(0, pixels.shape[0], BAND_ROWS):
-        out[start:start + BAND_ROWS] = _display_band(
-            np.array(pixels[start:start + BAND_ROWS], dtype=np.float32), exposure, view)
-    return out
+    return _banded(image, exposure, view, np.float32, _display_band)
+
+
+def _srgb8_band(band: np.ndarray, exposure: float, view: str) -> np.ndarray:
+    if view == "clip":   # Mitsuba's own 8-bit sRGB encoding, as PNGs were always written
+        return _srgb_encoded(_clipped(band, exposure), "UInt8")
+    return np.rint(_display_band(band, exposure, view) * 255.0)
 
 
 def to_srgb(image, exposure: float = 0.0, view: str = "clip", rows_done=None) -> np.ndarray:
     """A linear RGB image (H, W, 3) as the 8-bit sRGB colors a PNG holds, after ``exposure``
     (stops) and ``view``; ``rows_done(n)`` is called after each band of rows."""
-    pixels, exposure, view = _checked(image), check_exposure(exposure), check_view(view)
-    out = np.empty(pixels.shape, np.uint8)
-    for start in range(0, pixels.shape[0], BAND_ROWS):
-        band = np.array(pixels[start:start + BAND_ROWS], dtype=np.float32)
-        if view == "clip":   # Mitsuba's own 8-bit sRGB encoding, as PNGs were always written
-            out[start:start + BAND_ROWS] = _srgb_encoded(_clipped(band, exposure), "UInt8")
-        else:
-            out[start:start + BAND_ROWS] = np.rint(_display_band(band, exposure, view) * 255.0)
-        if rows_done is not None:
-            rows_done(band.shape[0])
-    return out
+    return _banded(image, exposure, view, np.uint8, _srgb8_band, rows_done)
 
 
 def clipped_fraction(srgb8: np.ndarray) -> float:
@@ -195,7 +188,7 @@ def write_image(path: str | os.PathLike, image, progress: bool = False, exposure
         try:
             bitmap.write(str(tmp))
         except RuntimeError as error:
-            raise WhittedError(f"{path}: could not write the image: {_first_line(error)}") from None
+            raise WhittedError(f"{path}: could not write the image: {first_line(error)}") from None
 
 
 def read_image(path: str | os.PathLike) -> np.ndarray:
@@ -208,11 +201,6 @@ def read_image(path: str | os.PathLike) -> np.ndarray:
     try:
         bitmap = mi.Bitmap(str(path))
     except RuntimeError as error:
-        raise WhittedError(f"{path}: could not read the image: {_first_line(error)}") from None
+        raise WhittedError(f"{path}: could not read the image: {first_line(error)}") from None
     bitmap = bitmap.convert(mi.Bitmap.PixelFormat.RGB, mi.Struct.Type.Float32, srgb_gamma=False)
     return np.array(bitmap, dtype=np.float32).reshape(bitmap.height(), bitmap.width(), 3)
-
-
-def _first_line(error: Exception) -> str:
-    text = str(error).strip()
-    return text.splitlines()[0] if text else type(error).__name__

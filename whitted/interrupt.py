@@ -11,7 +11,6 @@ import contextlib
 import signal
 
 _received: int | None = None
-#: What the stop left behind, for the one line the CLI prints (see :func:`tell`).
 _outcome: str | None = None
 #: Inside :func:`deferred`: a stop is remembered (``_pending``), and raised when the block ends.
 _deferring = False
@@ -37,9 +36,7 @@ def install() -> None:
 
 
 def check() -> None:
-    """Raise the stop asked for, between units of work: the ``KeyboardInterrupt`` the handler
-    raised may have been swallowed where it landed (Python ignores an exception raised in a
-    ``__del__``, tqdm's for one)."""
+    """Raise a stop between units of work: the handler's may have been swallowed (in a ``__del__``)."""
     if _received is not None and not _deferring:
         raise KeyboardInterrupt
 
@@ -55,7 +52,6 @@ def exit_status() -> int:
 
 
 def tell(outcome: str) -> None:
-    """Say what an interrupted command kept, for the CLI's one line (:func:`message`)."""
     global _outcome
     _outcome = outcome
 
@@ -67,8 +63,8 @@ def message() -> str:
 
 @contextlib.contextmanager
 def deferred():
-    """Hold a stop (Ctrl-C, SIGTERM) until the block ends, then raise it: for work a
-    ``KeyboardInterrupt`` would leave half done (importing Mitsuba, setting a variant)."""
+    """Hold a stop until the block ends, then raise it: for work a ``KeyboardInterrupt`` would
+    leave half done (importing Mitsuba, setting a variant)."""
     global _deferring, _pending
     outer, _deferring = _deferring, True
     try:

@@ -1,8 +1,5 @@
-"""``load_scene``: a ``mi.Scene`` from a legacy ``.scn`` or a converted ``.xml`` file.
-
-A ``.scn`` file's description (:mod:`whitted.converter.description`, the very one the XML
-writer writes out) goes to ``mi.load_dict`` without XML text: both routes build the same
-scene (tests/test_scene_building.py).
+"""``load_scene``: a ``mi.Scene`` from a ``.scn`` or ``.xml`` file. A ``.scn`` file's
+description, the one the XML writer writes out, goes to ``mi.load_dict`` without XML text.
 """
 
 from __future__ import annotations
@@ -14,10 +11,9 @@ from pathlib import Path
 
 from . import defaults as D
 from .defaults import check_lighting
-from .errors import WhittedError
+from .errors import WhittedError, first_line
 
-#: Scene parameters that can be overridden at load time (``<default>`` entries of the XML),
-#: with the check each override goes through.
+#: the scene parameters a load may override (the XML's ``<default>``s), and their checks
 OVERRIDES = {"spp": D.check_spp, "max_depth": D.check_depth, "ambient": D.check_ambient,
              "lighting": check_lighting, "width": lambda v: D.check_size(v, "width"),
              "height": lambda v: D.check_size(v, "height"), "without": D.check_without}
@@ -28,8 +24,7 @@ PARALLEL = False
 
 
 def mitsuba_dict(description, overrides: dict | None = None) -> dict:
-    """The description's scene as ``mi.load_dict`` takes it, ``overrides`` replacing the
-    defaults of its parameters."""
+    """The description's scene as ``mi.load_dict`` takes it, with ``overrides``."""
     import mitsuba as mi
 
     from .converter.description import LookAt, Matrix, Mesh, Param
@@ -72,14 +67,10 @@ def load_scene(path: str | os.PathLike, variant: str | None = None, *, model=Non
                **overrides):
     """Load a ``.scn`` or ``.xml`` scene as a ``mi.Scene``, in ``variant`` (None: the current).
 
-    ``model``: the ``.scn`` file's parsed model (not read again). ``ellipsoids``: load the
-    sealed spheres of a ``.scn`` as ``ellipsoids`` shapes (:mod:`whitted.sealed`: the same
-    image, loaded a hundred times faster; None: when at least ``sealed.MIN_GROUP`` share a
-    radius). ``integrator``: what the scene will be rendered with (warnings, groups).
-    ``meshes=False``: giant spheres stay ``sphere`` shapes, which the whitted integrator
-    never traces (it intersects them in float64), instead of meshes for Mitsuba's own
-    integrators. ``overrides``: ``spp``, ``max_depth``, ``ambient``, ``lighting``, ``width``,
-    ``height`` and ``without`` (a portable ``.xml`` has only the first two, width and height).
+    ``model``: the ``.scn`` file's parsed model. ``ellipsoids``: sealed spheres as
+    ``ellipsoids`` shapes (:mod:`whitted.sealed`; None: for large groups). ``integrator``:
+    what will render it. ``meshes=False``: giant spheres stay spheres (the whitted
+    integrator intersects them in float64). ``overrides``: :data:`OVERRIDES`.
     """
     import mitsuba as mi
 
@@ -118,9 +109,8 @@ _PLAIN = ("WhittedError", "SceneError", "ParameterError", "ValueError")
 
 
 def load_error(where, error: BaseException) -> WhittedError:
-    """Mitsuba's error from loading the scene ``where`` as one line: a plugin's own message
-    (``FILE:LINE: message``), else Mitsuba's first line. A Ctrl-C that landed in a plugin's
-    constructor comes back wrapped too: it is raised as the stop it is."""
+    """Mitsuba's load error as one line: a plugin's own message, else Mitsuba's first line
+    (a wrapped Ctrl-C is raised as the stop it is)."""
     from .interrupt import requested
     if requested(error):
         raise KeyboardInterrupt from None
@@ -130,17 +120,15 @@ def load_error(where, error: BaseException) -> WhittedError:
         line, kind, message = wrapped.groups()
         place = f"{where}:{line}" if line else f"{where}"
         return WhittedError(f"{place}: {message if kind in _PLAIN else f'{kind}: {message}'}")
-    first = text.splitlines()[0] if text else type(error).__name__
-    return WhittedError(f"{where}: Mitsuba could not load the scene: {first}")
+    return WhittedError(f"{where}: Mitsuba could not load the scene: {first_line(error)}")
 
 
-#: A file an XML scene names (a texture's image, a giant sphere's mesh): ``<string name="filename" value="…"/>``.
+#: a file an XML scene names (a texture, a giant sphere's mesh)
 _FILENAME = re.compile(rb'<string\s+name="filename"\s+value="([^"$]*)"')
 
 
 def check_referenced_files(path: Path) -> None:
-    """An error when a file the XML names is not beside it where it says (Mitsuba would
-    quietly take a same-named file from the current folder)."""
+    """An error when a file the XML names is missing (Mitsuba would take one from the cwd)."""
     import html
 
     with open(path, "rb") as file:
@@ -154,8 +142,7 @@ def check_referenced_files(path: Path) -> None:
 
 def loads(text: str, variant: str | None = None, *, base_dir: str | os.PathLike = ".",
           ellipsoids: bool | None = None, integrator: str = D.INTEGRATOR, **overrides):
-    """Load a scene from its ``.scn`` text as a ``mi.Scene`` (texture paths relative to
-    ``base_dir``; errors name ``<text>:LINE``); the rest as :func:`load_scene`."""
+    """:func:`load_scene` of ``.scn`` text (textures relative to ``base_dir``)."""
     import mitsuba as mi  # noqa: F401  (the variant hook runs on import)
 
     from .converter import parse_text
@@ -172,7 +159,6 @@ def loads(text: str, variant: str | None = None, *, base_dir: str | os.PathLike 
 
 
 def _leaving_out(scene, without, where):
-    """``scene``, its whitted integrator set to leave out the effects ``without`` (None: as loaded)."""
     if without is None:
         return scene
     from .plugins import whitted_or_none
@@ -184,23 +170,20 @@ def _leaving_out(scene, without, where):
     return scene
 
 
-#: How :func:`loads` names scene text in messages (``<text>:3: ...``).
 TEXT_NAME = "<text>"
 
 
 def _load_model(model, params: dict, ellipsoids: bool | None, integrator: str, meshes: bool = True,
                 text: str | None = None):
-    """A parsed scene model as a ``mi.Scene``, remembered as loaded from it (:func:`recall`)."""
     scene, _, _, scale = _scene_dict(model, params, ellipsoids, integrator)
     loaded = _loaded(scene, meshes)
-    remember(loaded, Source(model, scale, text))
+    _store().put(loaded, Source(model, scale, text))
     return loaded
 
 
 def load_model_parts(model, params: dict, ellipsoids: bool | None, integrator: str, meshes: bool = True):
-    """``(scene, bsdfs, described)``, what a fit (:mod:`whitted.fitting`) writes into: the
-    loaded scene; each material -> the ids of its BSDFs and of its ``ellipsoids`` shapes
-    (``sealed_K``); the model as the scene shows it (grouped spheres, lengths scaled)."""
+    """``(scene, bsdfs, described)`` for a fit: the loaded scene, each material's BSDF and
+    ``sealed_K`` ids, and the model as the scene shows it."""
     from .converter.description import _shared, first_spheres, material_ids
     scene, described, grouped, _ = _scene_dict(model, params, ellipsoids, integrator)
     ids = material_ids(model)
@@ -211,8 +194,7 @@ def load_model_parts(model, params: dict, ellipsoids: bool | None, integrator: s
 
 
 def _scene_dict(model, params: dict, ellipsoids: bool | None, integrator: str) -> tuple[dict, object, list, float]:
-    """The ``mi.load_dict`` form of ``model``, the model it describes, the material of each
-    group of spheres (``sealed_K``) and the scale of its frame."""
+    """``model``'s ``mi.load_dict`` form, the model it shows, each group's material, the scale."""
     from .converter.description import describe
     held = model.held_sphere_arrays()
     count = len(held) if held is not None else len(model.spheres)
@@ -229,13 +211,11 @@ def _scene_dict(model, params: dict, ellipsoids: bool | None, integrator: str) -
 
 
 def _loaded(scene: dict, meshes: bool):
-    """``mi.load_dict`` of ``scene`` (its giant spheres' meshes made spheres again unless ``meshes``)."""
     import mitsuba as mi
     return mi.load_dict(scene if meshes else _giants_as_spheres(scene), parallel=PARALLEL)
 
 
 def _giants_as_spheres(scene: dict) -> dict:
-    """``scene`` with the meshes of its ``exact_spheres`` made ``sphere`` shapes again."""
     from .converter.giants import parse_exact_spheres
     listed = scene.get("integrator", {}).get("exact_spheres")
     if not listed:
@@ -248,10 +228,10 @@ def _giants_as_spheres(scene: dict) -> dict:
 
 
 def _sealed_dict(remaining, model, grouping, params: dict) -> tuple[dict, list]:
-    """The ``mi.load_dict`` form of ``model`` in the scaled frame, its grouped spheres in
-    ``ellipsoids`` shapes (``sealed_K``), one per material; and the material of each."""
+    """``model`` in the scaled frame, its grouped spheres in ``sealed_K`` shapes; each's material."""
     from . import sealed
     from .converter.description import clip_range, describe, material_dict, material_ids
+    from .plugins.primitives import ellipsoids_shape
     smallest = min([1.0, *(radius * grouping.scale for radius in grouping.radii)])
     description = describe(remaining, base_dir=None, smallest=smallest, ids=material_ids(model))
     scene = mitsuba_dict(description, params)
@@ -259,21 +239,18 @@ def _sealed_dict(remaining, model, grouping, params: dict) -> tuple[dict, list]:
     scene["sensor"]["near_clip"], scene["sensor"]["far_clip"] = (d * grouping.scale for d in clip_range(model))
     materials = []
     for k, (material, radius, centers) in enumerate(sealed.groups(model, grouping, description.origin)):
-        scene[f"sealed_{k}"] = sealed.ellipsoids(centers, material_dict(material, base_dir=None), radius)
+        scene[f"sealed_{k}"] = ellipsoids_shape(centers, material_dict(material, base_dir=None), radius)
         materials.append(material)
     return scene, materials
 
 
-# Which ``.scn`` scene a loaded ``mi.Scene`` came from, for ``whitted trace`` (:func:`recall`).
-
-#: how many scenes are remembered (the least recently loaded go first)
+#: how many loaded scenes' sources ``whitted trace`` can recall (least recent go first)
 REMEMBERED = 16
 
 
 @dataclass(frozen=True)
 class Source:
-    """A loaded scene's model (``whitted.converter.Scene``), its frame (world = frame / scale
-    + ``model.lookat``) and the text it was parsed from when it came from no file (``loads``)."""
+    """A loaded scene's model, its frame (world = frame / scale + lookat), :func:`loads`' text."""
     model: object
     scale: float = 1.0
     text: str | None = None
@@ -283,7 +260,6 @@ _kept = None
 
 
 def _store():
-    """The scenes remembered (:class:`whitted.plugins.scene_tables.KeptByScene`, made on first use)."""
     global _kept
     if _kept is None:
         from .plugins.scene_tables import KeptByScene
@@ -291,11 +267,6 @@ def _store():
     return _kept
 
 
-def remember(scene, source: Source) -> None:
-    """``scene`` was loaded from ``source``."""
-    _store().put(scene, source)
-
-
 def recall(scene) -> Source | None:
-    """What ``scene`` was loaded from, if :func:`remember` was told and it is still held."""
+    """What ``scene`` was loaded from, if it is still held."""
     return _store().get(scene)

@@ -22,16 +22,14 @@ def relative_mse(image: np.ndarray, reference: np.ndarray) -> float:
 
 
 def flip(image: np.ndarray, reference: np.ndarray, exposure: float = 0.0, view: str = "clip") -> float:
-    """Mean LDR-FLIP error of ``image`` against ``reference`` (both linear RGB), as displayed
-    with ``exposure`` and ``view`` (:mod:`whitted.images`)."""
+    """Mean LDR-FLIP error of ``image`` against ``reference``, as displayed."""
     return flip_map(image, reference, exposure, view)[1]
 
 
 def flip_map(image: np.ndarray, reference: np.ndarray, exposure: float = 0.0,
              view: str = "clip") -> tuple[np.ndarray, float]:
-    """LDR-FLIP's per-pixel error map (H, W) in [0, 1] and its mean (what :func:`flip`
-    returns), from one evaluation: where the image differs from the reference, as seen
-    (both displayed with ``exposure`` and ``view``)."""
+    """LDR-FLIP's per-pixel error map (H, W) in [0, 1] and its mean, both images displayed
+    with ``exposure`` and ``view``."""
     import flip_evaluator
 
     from .images import to_display

@@ -41,8 +41,7 @@ def progress_bar(enabled: bool, total: int | None, what: str, unit: str = "sampl
 
 @contextlib.contextmanager
 def elapsed(enabled: bool, what: str):
-    """Show how long ``what`` has been running (a line a thread redraws), for work that tells
-    no progress of its own."""
+    """Show how long ``what`` has been running, for work that tells no progress of its own."""
     terminal = sys.stderr.isatty()
     with progress_bar(enabled, None, what, bar_format="{desc}: {elapsed}") as bar:
         stop = threading.Event()

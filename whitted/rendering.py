@@ -1,10 +1,6 @@
-"""The rendering API: ``whitted.render`` (the ``whitted render`` command is in
-:mod:`whitted.commands`).
-
-:func:`render` renders a loaded ``mi.Scene`` with the article's model (the ``whitted``
-integrator) or Mitsuba's stock ``path`` integrator, and reports its time (kernel
-compilation apart, as Dr.Jit's kernel history measures it) and statistics: what each
-means is in docs/statistics.md, the API in docs/CONTRACTS.md.
+"""``whitted.render``: a loaded ``mi.Scene`` rendered with the article's model or Mitsuba's
+``path`` integrator, timed apart from kernel compilation, with the statistics of
+docs/statistics.md.
 """
 
 from __future__ import annotations
@@ -48,8 +44,7 @@ def whitted_settings(scene) -> dict:
 
 
 def whitted_integrator(scene, **changes):
-    """The ``whitted`` integrator that renders ``scene``: its own, else one with the defaults,
-    with the settings in ``changes`` that are not None changed."""
+    """The scene's ``whitted`` integrator (else a default one), ``changes`` not None applied."""
     import mitsuba as mi
 
     from .plugins import whitted_or_none
@@ -99,9 +94,8 @@ def check_settings(spp, max_depth, lighting, integrator, min_weight=None, withou
 
 
 class Clock:
-    """Wall time, CPU time and kernel compilation time of a block of work; with
-    ``fresh_memory``, its own peak memory, from a freshly emptied allocator cache (without,
-    the process's peak so far: a timed render skips the flush and the reset)."""
+    """Wall, CPU and kernel compilation time of a block of work, and its peak memory (without
+    ``fresh_memory``: the process's so far, sparing a timed render the flush)."""
 
     def __init__(self, fresh_memory: bool = True):
         self.fresh_memory = fresh_memory
@@ -154,8 +148,7 @@ def render(scene, integrator: str = D.INTEGRATOR, spp: int | None = None, max_de
            lighting: str | None = None, progress: bool = False, seed: int = 0,
            min_weight: float | None = None, ambient: float | None = None, *,
            without=None, fresh_memory: bool = True) -> RenderResult:
-    """Render ``scene`` (a ``mi.Scene``; docs/CONTRACTS.md), settings left None as the scene's;
-    ``fresh_memory``: measure this render's own peak memory (:class:`Clock`)."""
+    """Render ``scene`` (a ``mi.Scene``), settings left None as the scene's."""
     check_settings(spp, max_depth, lighting, integrator, min_weight, without)
     return render_checked(scene, integrator, spp, max_depth, lighting, progress, seed, min_weight, ambient,
                           without=without, fresh_memory=fresh_memory)
@@ -216,8 +209,7 @@ def render_checked(scene, integrator: str = D.INTEGRATOR, spp: int | None = None
 
 
 def check_article_materials(scene, name: str | None = None):
-    """The scene's tables (:func:`whitted.plugins.check_scene`), or one error naming the
-    scene file ``name`` and what to do instead."""
+    """The scene's tables (:func:`whitted.plugins.check_scene`), or an error saying what to do."""
     from .plugins import check_scene
     try:
         return check_scene(scene)
@@ -228,8 +220,7 @@ def check_article_materials(scene, name: str | None = None):
 
 
 def _path_integrator(scene, max_depth: int | None, depth: int):
-    """The path tracer for the article's ``depth``: the scene's own (a portable scene's) when
-    no depth is asked for, else a new one."""
+    """The scene's own path tracer when no depth is asked for, else one for ``depth``."""
     import mitsuba as mi
     own = scene.integrator()
     if max_depth is None and own is not None and own.class_name() == "PathIntegrator":
@@ -238,10 +229,8 @@ def _path_integrator(scene, max_depth: int | None, depth: int):
 
 
 def path_passes(spp: int, pixels: int) -> list[int]:
-    """The samples per pixel of each pass of the path tracer, at most
-    :data:`PATH_SAMPLES_PER_PASS` camera samples: powers of two, so that a pixel's samples
-    lie in one block of the LLVM backend, added by one thread in a fixed order (the same
-    bits at any thread count)."""
+    """The spp of each path tracing pass (at most :data:`PATH_SAMPLES_PER_PASS` camera
+    samples): powers of two, so one LLVM thread adds a pixel's samples (same bits anywhere)."""
     most = max(1, min(spp, PATH_SAMPLES_PER_PASS // pixels))
     most = 1 << (most.bit_length() - 1)
     passes = [most] * (spp // most)
@@ -253,7 +242,6 @@ def path_passes(spp: int, pixels: int) -> list[int]:
 
 
 def _render_path(scene, integrator, sensor, spp, seed, progress) -> np.ndarray:
-    """Mitsuba's path tracer in passes of whole samples per pixel (:func:`path_passes`), averaged."""
     import mitsuba as mi
     width, height = (int(c) for c in sensor.film().crop_size())
     total = None
@@ -271,7 +259,6 @@ def _render_path(scene, integrator, sensor, spp, seed, progress) -> np.ndarray:
 
 
 def _effects_or_none(scene, depth: int) -> list:
-    """The effects of an article scene (for the stats of a path-traced render), else []."""
     from .plugins import scene_effects
     try:
         return list(scene_effects(scene, depth))
@@ -287,7 +274,6 @@ _CLEAR_REFS = Path("/proc/self/clear_refs")
 
 
 def _status(key: str) -> int | None:
-    """A ``kB`` entry of /proc/self/status in bytes (None where there is none)."""
     with contextlib.suppress(OSError):
         for line in _STATUS.read_text().splitlines():
             if line.startswith(key + ":"):
@@ -296,12 +282,10 @@ def _status(key: str) -> int | None:
 
 
 def resident_bytes() -> int | None:
-    """The process's resident set size now (Linux; None elsewhere)."""
     return _status("VmRSS")
 
 
 def reset_peak() -> None:
-    """Start measuring the peak resident size afresh (Linux; elsewhere nothing happens)."""
     with contextlib.suppress(OSError):
         _CLEAR_REFS.write_text("5")
 

@@ -36,8 +36,7 @@ _VERSION_PATTERNS = (
     re.compile(r"^libLLVM\.(\d+)(?:\.\d+)*\.dylib$"),
 )
 _fallback_warned = False
-#: the variant a caller asked for before Mitsuba was imported: importing it (whose hook
-#: chooses a variant, whitted/__init__.py) then chooses this one, so it is set once
+#: the variant asked for before Mitsuba's import, whose hook then sets it (set once)
 _requested: str | None = None
 
 
@@ -56,8 +55,8 @@ def llvm_version_of(path: str) -> int | None:
 
 
 def find_libllvm() -> str | None:
-    """The newest libLLVM >= 16 on this machine (``DRJIT_LIBLLVM_PATH`` if it exists; the
-    folders searched: ``WHITTED_LIBLLVM_DIRS``, else the usual ones), or None."""
+    """``$DRJIT_LIBLLVM_PATH``, else the newest libLLVM >= 16 in ``$WHITTED_LIBLLVM_DIRS`` (else
+    the usual folders), or None."""
     chosen = os.environ.get("DRJIT_LIBLLVM_PATH")
     if chosen and os.path.isfile(chosen):
         return chosen
@@ -112,8 +111,7 @@ def default_variant() -> str:
 
 
 def set_variant(variant: str | None = None) -> str:
-    """Select a Mitsuba variant (None: the one set, else the default) and register the
-    plugins for it; a Ctrl-C meanwhile takes effect once it is done."""
+    """Select a Mitsuba variant (None: the one set, else the default) and register the plugins."""
     from .interrupt import deferred
     request(variant)
     with deferred():
@@ -121,8 +119,7 @@ def set_variant(variant: str | None = None) -> str:
 
 
 def request(variant: str | None) -> None:
-    """Ask for ``variant`` before Mitsuba is imported, so that its import hook sets this one
-    rather than the default first (nothing once Mitsuba is imported, or for an unsupported one)."""
+    """Ask for ``variant`` before Mitsuba is imported: its import hook then sets this one."""
     global _requested
     if variant in SUPPORTED_VARIANTS and "mitsuba" not in sys.modules:
         _requested = variant
@@ -153,8 +150,7 @@ def _set_variant(variant: str | None) -> str:
 
 
 def on_variant_changed(old: str | None, new: str | None) -> None:
-    """Mitsuba's variant callback: register the plugins for each variant the user sets, and
-    in a variant they do not run in, names that refuse with the reason."""
+    """Mitsuba's variant callback: the plugins registered, or refusing where they do not run."""
     from whitted import plugins
     if new in SUPPORTED_VARIANTS:
         plugins.register()
@@ -162,22 +158,19 @@ def on_variant_changed(old: str | None, new: str | None) -> None:
         plugins.refuse(SUPPORTED_VARIANTS)
 
 
-def ensure_llvm(allow_install: bool = True) -> str | None:
-    """Find a libLLVM >= 16, else install Debian's libllvm19 if allowed (apt-get, root or
-    password-less sudo, no ``$WHITTED_NO_APT``), else say what to do."""
+def ensure_llvm() -> str | None:
+    """``make``'s: find a libLLVM >= 16, else install Debian's libllvm19 (apt-get, as root or
+    by password-less sudo, unless ``$WHITTED_NO_APT``), else say what to do."""
     import shutil
     import subprocess
 
     path = find_libllvm()
-    apt = shutil.which("apt-get")
-    if path is None and allow_install and apt and not os.environ.get("WHITTED_NO_APT"):
-        prefix = []
-        if os.geteuid() != 0:
-            sudo = shutil.which("sudo")
-            if sudo and subprocess.run([sudo, "-n", "true"], capture_output=True).returncode == 0:
-                prefix = [sudo, "-n"]
-            else:
-                prefix = None
+    apt, sudo = shutil.which("apt-get"), shutil.which("sudo")
+    if path is None and apt and not os.environ.get("WHITTED_NO_APT"):
+        prefix = [] if os.geteuid() == 0 else None
+        if prefix is None and sudo and subprocess.run([sudo, "-n", "true"],
+                                                      capture_output=True).returncode == 0:
+            prefix = [sudo, "-n"]
         if prefix is not None:
             print("whitted: no libLLVM >= 16 found; installing Debian's libllvm19")
             env = dict(os.environ, DEBIAN_FRONTEND="noninteractive")

@@ -1,8 +1,5 @@
-"""Frames to a video: ``whitted render FRAMES/ -o OUT/ --video OUT.mp4`` and ``whitted video``.
-
-H.264 in yuv420p (every player reads it) by imageio-ffmpeg's own ``ffmpeg``; a frame of odd
-size is padded by repeating its last column or row. EXR frames are encoded as PNG output
-is (:func:`whitted.images.to_srgb`); the file is written atomically (:mod:`whitted.atomic`).
+"""Frames to an H.264 video in yuv420p (every player reads it) by imageio-ffmpeg's
+``ffmpeg``: ``whitted video``, and ``whitted render ... --video``.
 """
 
 from __future__ import annotations
@@ -11,7 +8,7 @@ import os
 from pathlib import Path
 
 from . import defaults as D
-from .errors import WhittedError
+from .errors import WhittedError, first_line
 
 #: the containers written (H.264 in each)
 VIDEO_SUFFIXES = (".mp4", ".mkv", ".mov")
@@ -22,7 +19,6 @@ FRAME_SUFFIXES = (".png", ".exr")
 
 
 def check_video_path(path: str | os.PathLike) -> Path:
-    """A clean error unless ``path`` can receive a video (its suffix, its folder)."""
     from .atomic import check_writable
     path = Path(path)
     if path.suffix.lower() not in VIDEO_SUFFIXES:
@@ -39,8 +35,7 @@ def check_fps(fps: float) -> float:
 
 
 def video_frames(inputs: list[str | os.PathLike]) -> list[Path]:
-    """The frames that ``inputs`` name, in order: image files as given, a folder's PNG
-    files sorted by name (its EXR files when it has no PNG)."""
+    """The frames ``inputs`` name: files as given, a folder's PNGs by name (else its EXRs)."""
     from .converter.batch import expand_folders
     frames = expand_folders(inputs, FRAME_SUFFIXES, ".png or .exr frames", _check_frame)
     if not frames:
@@ -49,7 +44,6 @@ def video_frames(inputs: list[str | os.PathLike]) -> list[Path]:
 
 
 def _check_frame(path: Path) -> None:
-    """Refuse a frame argument that is not an existing .png or .exr file."""
     if path.suffix.lower() not in FRAME_SUFFIXES:
         raise WhittedError(f"{path}: not a frame (.png or .exr)")
     if not path.is_file():
@@ -68,7 +62,7 @@ def frame_pixels(path: Path):
         bitmap = mi.Bitmap(str(path)).convert(mi.Bitmap.PixelFormat.RGB, mi.Struct.Type.UInt8,
                                               srgb_gamma=True)
     except RuntimeError as error:
-        raise WhittedError(f"{path}: could not read the frame: {str(error).strip().splitlines()[0]}") from None
+        raise WhittedError(f"{path}: could not read the frame: {first_line(error)}") from None
     return np.array(bitmap, dtype=np.uint8).reshape(bitmap.height(), bitmap.width(), 3)
 
 

@@ -1,7 +1,5 @@
 """The ray tree of a pixel: the article's recursion made visible (``whitted trace``,
-:func:`whitted.trace_pixel`; docs/trace.md). :mod:`.record` keeps what the renderer computes,
-:mod:`.nodes` holds the tree, :mod:`.pixel` traces pixels in the scene file's terms and
-:mod:`.page` draws them; the API is imported on first use.
+docs/trace.md); the API is imported on first use.
 """
 
 from __future__ import annotations

@@ -10,7 +10,6 @@ from ..errors import WhittedError
 
 
 def add_arguments(command) -> None:
-    """``whitted trace``'s options on its parser ``command``."""
     from ..defaults import LIGHTING_MODES, VARIANTS
     command.add_argument("scene", metavar="SCENE", help="the scene (.scn, or a converted .xml)")
     command.add_argument("--pixel", nargs=2, type=pixel_coordinate, action="append", required=True,

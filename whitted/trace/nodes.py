@@ -1,8 +1,6 @@
-"""The nodes of a pixel's ray tree, as the renderer computed them, and their text and JSON forms.
-
-A :class:`Node` is one ray with what the shader computed where it went, its *contribution*
-to the pixel (``w·(1 − KR − KT)·point`` on a hit, ``w·background`` on a miss) and why its
-branch stops: the pixel is the sum of its tree's contributions (:meth:`Node.total`).
+"""The nodes of a pixel's ray tree and their text and JSON forms. A :class:`Node` is one ray,
+what the shader computed where it went, its *contribution* to the pixel and why its branch
+stops: the pixel is the sum of its tree's contributions.
 """
 
 from __future__ import annotations
@@ -25,14 +23,14 @@ class SphereRef:
     name: str = ""   # how the text names it: "tir.scn:17", or the shape's id
 
     def label(self) -> str:
-        """The name, the statement and its comment: ``tir.scn:19: sphere 0 0.9 0 1.4 ... # the glass ball``."""
+        """``tir.scn:19: sphere 0 0.9 0 1.4 ... # the glass ball``."""
         if not self.statement:
             return self.short()
         comment = f"  # {self.comment}" if self.comment else ""
         return f"{self.name}: {' '.join(self.statement.split())}{comment}"
 
     def short(self) -> str:
-        """The name and the comment: ``tir.scn:19 (the glass ball)``."""
+        """``tir.scn:19 (the glass ball)``."""
         return f"{self.name} ({self.comment})" if self.comment else self.name
 
     def json(self) -> dict:
@@ -79,7 +77,6 @@ class LightTerm:
 
 @dataclass
 class Node:
-    """One ray of a pixel's tree (see the module docstring)."""
     kind: str
     level: int
     weight: float
@@ -112,11 +109,7 @@ class Node:
 
     def total(self) -> tuple:
         """The sum of the contributions of this node's tree (float64)."""
-        sums = [0.0, 0.0, 0.0]
-        for node in self.walk():
-            for c in range(3):
-                sums[c] += node.contribution[c]
-        return tuple(sums)
+        return tuple(sum(node.contribution[c] for node in self.walk()) for c in range(3))
 
     def coefficients(self) -> str:
         """``KR 0.5, KT 0.4, IOR 1.5`` of the surface hit (the IOR where it refracts)."""
@@ -162,18 +155,11 @@ def xyz(p) -> str:
     return f"({shown[0]:.5g}, {shown[1]:.5g}, {shown[2]:.5g})"
 
 
-def text_tree(root: Node, physical: bool = False) -> list[str]:
+def text_tree(node: Node, physical: bool = False, indent: str = "") -> list[str]:
     """The tree as indented lines of text, a node and its terms, then its children."""
-    lines: list[str] = []
-    _text(root, "", lines, physical)
-    return lines
-
-
-def _text(node: Node, indent: str, lines: list[str], physical: bool) -> None:
     merged = " (carries KR + KT)" if node.merged else ""
-    head = (f"{indent}{node.kind}{merged}, level {node.level}, weight {node.weight:.4g}: "
-            f"from {xyz(node.origin)} along {xyz(node.direction)}")
-    lines.append(head)
+    lines = [f"{indent}{node.kind}{merged}, level {node.level}, weight {node.weight:.4g}: "
+             f"from {xyz(node.origin)} along {xyz(node.direction)}"]
     pad = indent + "  "
     if not node.hit:
         lines.append(f"{pad}missed: the background")
@@ -199,4 +185,5 @@ def _text(node: Node, indent: str, lines: list[str], physical: bool) -> None:
     if node.stop and node.hit:
         lines.append(f"{pad}branch ends: {node.stop}")
     for child in node.children:
-        _text(child, pad, lines, physical)
+        lines += text_tree(child, physical, pad)
+    return lines

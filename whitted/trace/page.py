@@ -1,8 +1,6 @@
-"""The ray trees drawn: a page to project (``whitted trace -o PAGE.html``) and a notebook's view.
-
-The image (1 spp) with the pixels marked, a plotly 3D view of the spheres, lights and rays
-(shadow rays dashed where blocked) and each tree as a table, in one offline file from the
-Jinja2 template ``templates/trace.html.j2``; a notebook shows the view and the tables.
+"""The ray trees drawn: a page to project (``whitted trace -o PAGE.html``: the 1 spp image
+with the pixels marked, a plotly 3D view of the rays and each tree as a table, offline) and
+a notebook's view (the 3D view and the tables).
 """
 
 from __future__ import annotations
@@ -28,10 +26,7 @@ MAX_SPHERES = 200
 IMAGE_WIDTH = 560
 
 
-# -- the 3D view --------------------------------------------------------------------------------
-
 def _box(view, points) -> tuple[np.ndarray, np.ndarray]:
-    """The lowest and highest corners of the box around ``points``, the lights and the eye."""
     eye = [view.eye] if view.eye is not None else []
     points = np.array([*points, *(p for p, _, _ in view.lights), *eye], np.float64)
     return points.min(axis=0), points.max(axis=0)
@@ -67,7 +62,7 @@ def _sphere_mesh(center, radius, toward, reach):
 
 
 def _sphere_color(view, k: int) -> str:
-    """A sphere's color in the view: its own, glass tinted blue so that it shows."""
+    """A sphere's color in the view, glass tinted blue so that it shows."""
     if view.glass is not None and view.glass[k]:
         return "rgb(140,190,225)"
     return _color(view.colors[k]) if view.colors is not None else "rgb(190,190,190)"
@@ -79,7 +74,7 @@ def _color(rgb) -> str:
 
 
 def figure(view, trees):
-    """The plotly figure of the scene and the trees' rays (see the module docstring)."""
+    """The plotly figure of the scene and the trees' rays (shadow rays dashed where blocked)."""
     import plotly.graph_objects as go
 
     low, high = _box(view, [p for tree in trees for node in tree.root.walk()
@@ -186,14 +181,6 @@ def _camera(view, trees, middle, span, aspect):
                 center=dict(x=float(target[0]), y=float(target[1]), z=float(target[2])), up=dict(x=0, y=1, z=0))
 
 
-def figure_html(view, trees, div_id: str) -> str:
-    """The figure as HTML with plotly's script in it (offline)."""
-    return figure(view, trees).to_html(full_html=False, include_plotlyjs=True, div_id=div_id,
-                                       config={"displaylogo": False, "responsive": True})
-
-
-# -- the tables ---------------------------------------------------------------------------------
-
 def _rows(tree) -> list[dict]:
     rows = []
 
@@ -242,7 +229,6 @@ def _pixels(trees) -> list[dict]:
 
 
 def _render(view, trees, div_id: str, **parts) -> str:
-    """The template with the trees' view and tables, and a page's or a fragment's ``parts``."""
     import jinja2
 
     environment = jinja2.Environment(loader=jinja2.PackageLoader("whitted.trace", "templates"),
@@ -252,7 +238,9 @@ def _render(view, trees, div_id: str, **parts) -> str:
     legend = [*((kind, kind) for kind in KINDS), ("shadow", "shadow ray, lit"),
               ("blocked", "shadow ray, blocked (dashed)"), ("background", "missed (dashed)")]
     return environment.get_template(TEMPLATE).render(
-        pixels=_pixels(trees), figure=figure_html(view, trees, div_id=div_id), version=VERSION,
+        pixels=_pixels(trees), version=VERSION,
+        figure=figure(view, trees).to_html(full_html=False, include_plotlyjs=True, div_id=div_id,
+                                           config={"displaylogo": False, "responsive": True}),
         legend=[{"name": name, "color": COLORS[key]} for key, name in legend], **parts)
 
 
@@ -262,10 +250,8 @@ def fragment(view, trees) -> str:
                    settings="", image=None, marks=[])
 
 
-# -- the page -------------------------------------------------------------------------------------
-
 def _image(traces) -> tuple[str, int, int, int]:
-    """The 1 spp image as a PNG data URI, its size and the factor it is shown enlarged by."""
+    """The 1 spp image as a PNG data URI, its size and its zoom."""
     from PIL import Image
 
     from ..images import default_view, to_srgb
@@ -281,7 +267,9 @@ def _image(traces) -> tuple[str, int, int, int]:
             width, height, max(1, math.ceil(IMAGE_WIDTH / width)))
 
 
-def page_html(traces, scene_name: str) -> str:
+def write_page(path, traces, scene) -> None:
+    """The page of ``traces`` of the scene file ``scene`` at ``path``."""
+    from pathlib import Path
     uri, width, height, zoom = _image(traces)
     s = traces.settings
     settings = (f"depth {s['max_depth']}, ambient {s['ambient']:.3g}, {s['lighting']} lighting, "
@@ -292,12 +280,6 @@ def page_html(traces, scene_name: str) -> str:
         # the number beside its circle, inside the image
         marks.append({"number": n, "x": x, "y": y, "tx": x + 12 if x < width * zoom - 30 else x - 26,
                       "ty": y - 8 if y > 24 else y + 24})
-    return _render(traces.view, list(traces), "trace-3d", page=True, scene=scene_name,
-                   settings=settings, marks=marks,
-                   image={"uri": uri, "width": width * zoom, "height": height * zoom})
-
-
-def write_page(path, traces, scene) -> None:
-    """The page of ``traces`` (of the scene file ``scene``) at ``path``."""
-    from pathlib import Path
-    write_text(path, page_html(traces, Path(scene).name))
+    write_text(path, _render(traces.view, list(traces), "trace-3d", page=True,
+                             scene=Path(scene).name, settings=settings, marks=marks,
+                             image={"uri": uri, "width": width * zoom, "height": height * zoom}))

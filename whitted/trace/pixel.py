@@ -14,10 +14,7 @@ from ..errors import WhittedError
 from .nodes import Node, SphereRef, text_tree
 
 
-# -- the scene file's frame and names ------------------------------------------------------------
-
 def _comment(line: str) -> tuple[str, str | None]:
-    """``(statement, comment)`` of one line of a scene file (``#`` outside quotes)."""
     quoted = False
     for i, c in enumerate(line):
         if c == '"':
@@ -29,8 +26,8 @@ def _comment(line: str) -> tuple[str, str | None]:
 
 @dataclass
 class SceneView:
-    """What the trees are shown against: the scene's spheres and lights in the file's
-    coordinates (world = frame / ``scale`` + ``origin``), named as the file names them."""
+    """The scene's spheres and lights in the file's coordinates and names (world = frame /
+    ``scale`` + ``origin``)."""
     source: str                   # the file's name ("tir.scn"), or what the scene was loaded from
     origin: np.ndarray
     scale: float
@@ -80,22 +77,19 @@ class SceneView:
         return self.sphere(int(near[0]))
 
     def light(self, position) -> int | None:
-        """The index of the light at ``position`` (file coordinates)."""
         if not self.lights:
             return None
         spots = np.array([p for p, _, _ in self.lights], np.float64)
         return int(np.argmin(np.linalg.norm(spots - np.asarray(position), axis=1)))
 
     def words(self, line: int | None) -> tuple[str | None, str | None]:
-        """The statement and the comment of the file's line ``line`` (None, None: no such line)."""
         if not line or not self.text or not 0 < line <= len(self.text):
             return None, None
         return _comment(self.text[line - 1])
 
 
 def scene_view(scene) -> SceneView:
-    """The :class:`SceneView` of a loaded ``mi.Scene``: from its ``.scn`` model
-    (:func:`whitted.loading.recall`), else from the scene itself (shapes' ids name spheres)."""
+    """A loaded scene's :class:`SceneView`: from its ``.scn`` model, else from its shapes' ids."""
     from ..loading import recall
     source = recall(scene)
     sensor = scene.sensors()[0]
@@ -139,12 +133,9 @@ def scene_view(scene) -> SceneView:
                      eye=eye)
 
 
-# -- one pixel's tree ---------------------------------------------------------------------------------
-
 @dataclass
 class PixelTree:
-    """The ray tree of pixel ``(x, y)`` (:func:`trace_pixel`), whose contributions add up to
-    ``color`` (:meth:`total`); ``str()`` is the tree as text, a notebook shows :mod:`.page`'s view."""
+    """The ray tree of pixel ``(x, y)``, whose contributions add up to ``color``."""
     x: int
     y: int
     root: Node
@@ -153,7 +144,6 @@ class PixelTree:
     settings: dict = field(default_factory=dict, repr=False)
 
     def total(self) -> tuple:
-        """The sum of the tree's contributions (float64)."""
         return self.root.total()
 
     def nodes(self) -> list[Node]:
@@ -200,10 +190,7 @@ class Traces(list):
         return fragment(self.view, list(self))
 
 
-# -- tracing ----------------------------------------------------------------------------------------
-
 def _load(scene, variant, overrides: dict):
-    """``scene`` as a loaded ``mi.Scene`` (a path is loaded as ``whitted render`` loads it)."""
     if isinstance(scene, (str, os.PathLike)):
         from ..loading import load_scene
         from ..rendering import quiet_mitsuba
@@ -219,8 +206,7 @@ def trace_pixels(scene, pixels, *, variant: str | None = None, max_depth: int | 
                  ambient: float | None = None, lighting: str | None = None,
                  min_weight: float | None = None) -> Traces:
     """The ray trees of ``pixels`` (``(x, y)`` from the top left, or percentages such as
-    ``("50%", "45%")``) of ``scene`` (a ``mi.Scene`` or a file's path), traced as a 1 spp
-    render traces them, with the scene's settings or those given."""
+    ``("50%", "45%")``) of ``scene`` (a ``mi.Scene`` or a path), as a 1 spp render traces them."""
     from .. import defaults as D
     from ..rendering import check_article_materials, check_settings, whitted_integrator
     check_settings(None, max_depth, lighting, "whitted", min_weight)
@@ -260,7 +246,6 @@ def trace_pixels(scene, pixels, *, variant: str | None = None, max_depth: int | 
 
 
 def _coordinate(value, size: int) -> int:
-    """A pixel coordinate: an integer, or a percentage of ``size`` (100% is the last pixel)."""
     if isinstance(value, str) and value.strip().endswith("%"):
         try:
             share = float(value.strip()[:-1]) / 100
@@ -276,12 +261,11 @@ def _coordinate(value, size: int) -> int:
 
 
 def trace_pixel(scene, x: int, y: int, **options) -> PixelTree:
-    """The ray tree of pixel ``(x, y)`` of ``scene`` (:func:`trace_pixels`, whose options it takes)."""
+    """The ray tree of pixel ``(x, y)`` of ``scene`` (:func:`trace_pixels`' options)."""
     return trace_pixels(scene, [(x, y)], **options)[0]
 
 
 def _to_file(root: Node, view: SceneView) -> None:
-    """Move a recorded tree to the file's frame, and name its spheres and lights."""
     for node in root.walk():
         node.origin = view.position(node.origin)
         if node.hit:

@@ -1,8 +1,6 @@
-"""The renderer's own trees, recorded: what each level of a pixel's ray tree computed.
-
-The recursion shows each level it shades to a :class:`Recorder`, which reads it lane by lane
-into :class:`~.nodes.Node` objects, a child linked to the pending child of its parent with
-the same origin, direction and weight, bit for bit (the loaded scene's coordinates).
+"""The renderer's own trees, recorded: the recursion shows each level it shades to a
+:class:`Recorder`, which links each ray to the pending child of its parent with the same
+origin, direction and weight, bit for bit.
 """
 
 from __future__ import annotations
@@ -20,7 +18,6 @@ _VECTORS = {"o", "d", "color", "p", "n", "n_facing", "base", "point", "position"
 
 
 def _t(values) -> tuple:
-    """Numbers as a tuple of Python floats."""
     return tuple(float(c) for c in values)
 
 
@@ -45,17 +42,14 @@ class Recorder:
         self.recursion = None   # the render's recursion (whitted.plugins.recursion.Recursion)
 
     def attach(self, recursion) -> None:
-        """Be shown every level ``recursion`` shades, with its terms."""
         self.recursion = recursion
         recursion.recorder = self
         recursion.record = {}
 
     def camera(self, weight) -> None:
-        """The camera rays of the next batch have the ray weight ``weight`` (mi.Color3f)."""
         self._pending_weight = weight
 
     def level(self, branch, color, hit, children) -> None:
-        """One level shaded: its rays, their colors, its terms and the children."""
         record = self.recursion.record
         si = record["si"]
         values = {"o": branch.ray.o, "d": branch.ray.d, "weight": branch.weight,
@@ -144,7 +138,6 @@ class Recorder:
         return roots
 
     def _shade(self, node: Node, level: dict, lane: int, ambient: float) -> None:
-        """The shading terms of ``node`` from lane ``lane`` of ``level``."""
         v = level["values"]
         node.contribution = _t(v["color"][lane] * np.asarray(node.camera_weight))
         node.hit = bool(v["hit"][lane])
