@@ -87,6 +87,21 @@ def test_a_bad_scene_among_good_ones(tmp_path, capsys):
         np.testing.assert_array_equal(read_image(out / f"{scene.stem}.exr"), alone(scene))
 
 
+@pytest.mark.parametrize("integrator, spp", [("path", 2), ("whitted", 3)])
+def test_a_folder_is_rendered_with_the_options_one_file_is(tmp_path, integrator, spp):
+    """``-o out/`` renders each scene as ``-o one.exr`` does, the spp asked included (the path
+    tracer's least of 64 is for renders that ask for none)."""
+    (scene,) = write_frames(tmp_path / "scenes", 1)
+    assert main(["render", str(scene), "-o", str(tmp_path / "one.exr"), "--integrator", integrator,
+                 "--spp", str(spp), "-q"]) == 0
+    assert main(["render", str(scene), "-o", f"{tmp_path / 'out'}/", "--format", "exr",
+                 "--integrator", integrator, "--spp", str(spp), "-q"]) == 0
+    one, batch = read_image(tmp_path / "one.exr"), read_image(tmp_path / "out" / f"{scene.stem}.exr")
+    assert one.tobytes() == batch.tobytes()
+    expected = whitted.render(whitted.load_scene(scene), integrator=integrator, spp=spp).image
+    assert np.array_equal(one, expected)
+
+
 def test_files_and_folders_name_their_images_as_convert_does(tmp_path, capsys):
     """Several inputs: OUT/NAME.png and .exr per scene (the folder created); two scenes of
     one name clash before anything is rendered; --format needs a folder."""

@@ -128,9 +128,8 @@ def up_to_date(scene: Path, outputs: tuple[Path, ...]) -> bool:
         return False
 
 
-def render_file(scene, settings: Settings, progress: bool = False, spp: int | None = None):
-    """The render of the scene file ``scene`` (settings checked) and its PNG view; ``spp`` for
-    the render itself (None: the scene's, and the path tracer's least)."""
+def render_file(scene, settings: Settings, progress: bool = False):
+    """The render of the scene file ``scene`` (settings checked) and its PNG view."""
     from .images import default_view
     from .loading import load_scene
     from .rendering import quiet_mitsuba, render_checked, whitted_settings
@@ -141,7 +140,8 @@ def render_file(scene, settings: Settings, progress: bool = False, spp: int | No
                             lighting=settings.lighting)
     try:
         result = render_checked(loaded, integrator=settings.integrator, progress=progress,
-                                min_weight=settings.min_weight, spp=spp, without=settings.without)
+                                min_weight=settings.min_weight, spp=settings.spp,
+                                without=settings.without)
     except WhittedError as error:
         raise WhittedError(f"{scene}: {error}") from None
     view = settings.view or default_view(settings.integrator,

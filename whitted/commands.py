@@ -99,7 +99,7 @@ def render_single(args) -> None:
     if args.stats:
         check_writable(args.stats, inputs=(args.scenes[0],))
 
-    result, view = render_file(args.scenes[0], _settings(args), not args.quiet, args.spp)
+    result, view = render_file(args.scenes[0], _settings(args), not args.quiet)
     write_image(output, result.image, progress=not args.quiet, exposure=exposure, view=view)
     result.stats["peak_resident_bytes"] = peak_resident_bytes()   # the writing included
     if args.stats:
