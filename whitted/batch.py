@@ -15,7 +15,6 @@ from pathlib import Path
 from typing import Iterable, Iterator
 
 from . import defaults as D
-from .cluster import IN_PROCESS
 from .errors import WhittedError, first_line
 
 SCENE_SUFFIXES = (".scn", ".xml")
@@ -56,7 +55,7 @@ class SceneRender:
     image: object = None   # the linear RGB image when kept
     stats: dict | None = None
     seconds: float = 0.0   # loading, rendering, writing
-    worker: str = IN_PROCESS   # or a Dask worker's address
+    worker: str = D.IN_PROCESS   # or a Dask worker's address
 
     def summary(self) -> dict:
         entry = {"scene": str(self.scene), "outputs": [str(p) for p in self.outputs],

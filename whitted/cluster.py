@@ -15,8 +15,6 @@ from collections import Counter
 from .defaults import COMPARE_CONNECT_TIMEOUT
 from .errors import WhittedError, first_line
 
-#: a result's ``worker`` when no cluster rendered it
-IN_PROCESS = "in-process"
 #: a worker's fewest Dr.Jit threads: with one, Mitsuba 3.9 never returns from an EXR's I/O
 MIN_THREADS = 2
 #: one render at a time in a worker: two would share its thread pool unevenly

@@ -112,7 +112,8 @@ def render_many_command(args) -> int:
     """``whitted render SCENE|FOLDER... -o OUT/``: every scene rendered that can be; 2 if any failed."""
     from . import interrupt
     from .atomic import check_writable, write_text
-    from .batch import IN_PROCESS, Totals, plan_batch, render_planned
+    from .batch import Totals, plan_batch, render_planned
+    from .defaults import IN_PROCESS
     from .cluster import check_where
     from .progress import progress_bar
 

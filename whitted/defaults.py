@@ -54,6 +54,7 @@ LIGHTING = "article"
 SWITCHABLE_EFFECTS = ("shadows", "reflection", "refraction", "textures", "diffuse", "ambient")
 INTEGRATORS = ("whitted", "path")
 INTEGRATOR = "whitted"
+IN_PROCESS = "in-process"   #: where a scene was rendered without a Dask cluster
 VIEWS = ("clip", "aces")   #: how an image is displayed (whitted/images.py)
 #: the path tracer's fewest spp when none are asked for (at a scene's 1 it is speckled noise)
 PATH_MIN_SPP = 64
