@@ -14,7 +14,7 @@ from ..defaults import (COMPARE_CLOCK, COMPARE_CONFIDENCE, COMPARE_DATA_LEVELS, 
 from .fitted import fitted_text
 from .curves import Floor, Reading, error_at_time, error_floor, error_levels, time_to_reach
 from .results import METHODS, WHITTED_METHODS, Limit, Measurement, SceneResult, seconds_text
-from .timing import Interval, coverage, paired
+from .timing import Interval, coverage, finite_or_none, paired
 
 #: How the prose names each method.
 METHOD_NAMES = {"whitted-article": "the article's model",
@@ -170,12 +170,12 @@ class Analysis:
                                   "converged": limit.converged, "seconds": limit.seconds}
                 found["depth_and_sampling_rel_mse"] = decomposition.sampling
                 if statement.method == "whitted-article":
-                    found["scene_ambient"] = _json_number(limit.ambient)
-                    found["best_ambient"] = _json_number(limit.best_ambient)
-                    found["rel_mse_at_best_ambient"] = _json_number(limit.rel_mse_at_best_ambient)
+                    found["scene_ambient"] = finite_or_none(limit.ambient)
+                    found["best_ambient"] = finite_or_none(limit.best_ambient)
+                    found["rel_mse_at_best_ambient"] = finite_or_none(limit.rel_mse_at_best_ambient)
                     if limit.fitted is not None:
                         fitted = limit.fitted
-                        found["fitted"] = {"rel_mse": _json_number(fitted.rel_mse), "ambient": fitted.ambient,
+                        found["fitted"] = {"rel_mse": finite_or_none(fitted.rel_mse), "ambient": fitted.ambient,
                                            "colors": {k: list(v) for k, v in fitted.colors.items()},
                                            "lights": [list(c) for c in fitted.lights],
                                            "fit_size": list(fitted.size), "fit_rel_mse": fitted.fit_rel_mse,
@@ -185,16 +185,12 @@ class Analysis:
             methods[statement.method] = found
         entry = self.entry
         return {"levels": list(self.levels), "reference_spp": entry.reference_spp,
-                "reference_noise": _json_number(entry.reference_noise),
+                "reference_noise": finite_or_none(entry.reference_noise),
                 "renders": len(entry.measurements), "skipped": len(entry.skipped),
                 "timed_rounds": rounds_of(entry), "methods": methods, "notes": list(entry.notes),
                 "equal_quality": [{"rel_mse": row.level,
                                    "path_time_over": {m: i.as_dict() for m, i in row.speedups.items()}}
                                   for row in self.equal_quality]}
-
-
-def _json_number(value: float) -> float | None:
-    return value if math.isfinite(value) else None
 
 
 def _curve(measurements: list[Measurement], metric: str,

@@ -1,9 +1,5 @@
-"""The ``compare`` subcommand of the ``whitted`` CLI: its options, and what it prints.
-
-``whitted.cli`` builds the subparser and calls :func:`add_arguments` and
-:func:`compare_command`; the comparison itself is :func:`whitted.compare.compare`,
-which a script can call with an :class:`~whitted.compare.results.Options`.
-"""
+"""The ``compare`` subcommand of the ``whitted`` CLI: its options, and what it prints (the
+comparison itself is :func:`whitted.compare.compare`, which a script can call)."""
 
 from __future__ import annotations
 
@@ -53,14 +49,12 @@ def float_list(text: str) -> tuple[float, ...]:
 
 
 def quick_text() -> str:
-    """What ``--quick`` stands for, as options: ``--reference-spp 256 ... --budget 25``."""
     def value(v):
         return ",".join(map(str, v)) if isinstance(v, tuple) else f"{v:g}"
     return " ".join(f"--{name.replace('_', '-')} {value(v)}" for name, v in COMPARE_QUICK.items())
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    """The ``compare`` subcommand's options (the CLI builds the subparser)."""
     parser.add_argument("scenes", nargs="+", metavar="SCENE",
                         help="scenes (.scn or .xml), or folders of them")
     parser.add_argument("-o", "--out", required=True, metavar="DIR", help="output folder")
@@ -69,12 +63,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--depths", type=int_list, metavar="LIST",
                         help="Whitted max depths, e.g. 1-5 or 1,2,4 (default: 1 to the scene's depth, "
                              f"at most {MAX_DEFAULT_DEPTH})")
-    parser.add_argument("--spp", type=int_list, metavar="LIST",
-                        help="the Whitted integrator's spp ladder (default "
-                             f"{','.join(map(str, DEFAULT_WHITTED_SPP))})")
-    parser.add_argument("--path-spp", type=int_list, metavar="LIST",
-                        help="the path tracer's spp ladder (default "
-                             f"{','.join(map(str, DEFAULT_PATH_SPP))})")
+    for flag, whose, ladder in (("--spp", "the Whitted integrator's", DEFAULT_WHITTED_SPP),
+                                ("--path-spp", "the path tracer's", DEFAULT_PATH_SPP)):
+        parser.add_argument(flag, type=int_list, metavar="LIST",
+                            help=f"{whose} spp ladder (default {','.join(map(str, ladder))})")
     parser.add_argument("--path-depth", type=int, metavar="N",
                         help="the path tracer's max depth, for the reference too (default: the scene's)")
     parser.add_argument("--rounds", type=int, metavar="N",
@@ -119,7 +111,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def compare_command(args: argparse.Namespace) -> None:
-    """The CLI's ``compare`` subcommand."""
     from .report import output_files
     from .run import compare
     from .summary import summary
