@@ -9,11 +9,11 @@ import sys
 import time
 from pathlib import Path
 
+from ..defaults import (COMPARE_MAX_DEFAULT_DEPTH, COMPARE_PATH_SPP, COMPARE_QUICK,
+                        COMPARE_REFERENCE_CHUNK_SPP, COMPARE_REFERENCE_SPP, COMPARE_ROUNDS,
+                        COMPARE_WHITTED_SPP, VIEWS)
 from ..defaults import VARIANTS as SUPPORTED_VARIANTS
-from ..defaults import COMPARE_QUICK, VIEWS
-from .results import (DEFAULT_PATH_SPP, DEFAULT_REFERENCE_CHUNK_SPP,
-                      DEFAULT_REFERENCE_SPP, DEFAULT_ROUNDS, DEFAULT_WHITTED_SPP, MAX_DEFAULT_DEPTH,
-                      Options)
+from .results import Options
 
 
 def int_list(text: str) -> tuple[int, ...]:
@@ -59,12 +59,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="scenes (.scn or .xml), or folders of them")
     parser.add_argument("-o", "--out", required=True, metavar="DIR", help="output folder")
     parser.add_argument("--reference-spp", type=int, metavar="N",
-                        help=f"the reference's samples per pixel (default {DEFAULT_REFERENCE_SPP})")
+                        help=f"the reference's samples per pixel (default {COMPARE_REFERENCE_SPP})")
     parser.add_argument("--depths", type=int_list, metavar="LIST",
                         help="Whitted max depths, e.g. 1-5 or 1,2,4 (default: 1 to the scene's depth, "
-                             f"at most {MAX_DEFAULT_DEPTH})")
-    for flag, whose, ladder in (("--spp", "the Whitted integrator's", DEFAULT_WHITTED_SPP),
-                                ("--path-spp", "the path tracer's", DEFAULT_PATH_SPP)):
+                             f"at most {COMPARE_MAX_DEFAULT_DEPTH})")
+    for flag, whose, ladder in (("--spp", "the Whitted integrator's", COMPARE_WHITTED_SPP),
+                                ("--path-spp", "the path tracer's", COMPARE_PATH_SPP)):
         parser.add_argument(flag, type=int_list, metavar="LIST",
                             help=f"{whose} spp ladder (default {','.join(map(str, ladder))})")
     parser.add_argument("--path-depth", type=int, metavar="N",
@@ -72,7 +72,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--rounds", type=int, metavar="N",
                         help="timed rounds over each scene's renders, at least: every render is "
                              "timed once per round, so that methods are timed in the same moments; "
-                             f"then rounds of the headlines' renders alone (default {DEFAULT_ROUNDS})")
+                             f"then rounds of the headlines' renders alone (default {COMPARE_ROUNDS})")
     # the former name (each render repeated back to back): old scripts keep working
     parser.add_argument("--repeats", dest="rounds", type=int, help=argparse.SUPPRESS)
     parser.add_argument("--budget", type=float, metavar="SECONDS",
@@ -89,10 +89,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "$XDG_CACHE_HOME/whitted/references; shared by every run; safe to delete)")
     parser.add_argument("--variant", choices=SUPPORTED_VARIANTS,
                         help="Mitsuba variant (default as for render)")
-    parser.add_argument("--reference-chunk-spp", type=int, default=DEFAULT_REFERENCE_CHUNK_SPP,
+    parser.add_argument("--reference-chunk-spp", type=int, default=COMPARE_REFERENCE_CHUNK_SPP,
                         metavar="N", help="render the reference in chunks of N spp, each with its "
                                           "own seed, averaged; a cluster spreads them over its "
-                                          f"workers (default {DEFAULT_REFERENCE_CHUNK_SPP})")
+                                          f"workers (default {COMPARE_REFERENCE_CHUNK_SPP})")
     where = parser.add_mutually_exclusive_group()
     where.add_argument("--workers", type=int, metavar="N",
                        help="sweep on a local Dask cluster of N worker processes (each scene's "
@@ -115,15 +115,12 @@ def compare_command(args: argparse.Namespace) -> None:
     from .run import compare
     from .summary import summary
 
-    chosen = {"reference_spp": DEFAULT_REFERENCE_SPP, "depths": None, "spp": DEFAULT_WHITTED_SPP,
-              "path_spp": DEFAULT_PATH_SPP, "rounds": DEFAULT_ROUNDS, "budget": None}
-    chosen.update(COMPARE_QUICK if args.quick else {})   # then what the command line gives
-    chosen.update({name: getattr(args, name) for name in chosen if getattr(args, name) is not None})
-    options = Options(out=Path(args.out), reference_spp=chosen["reference_spp"],
-                      depths=chosen["depths"], whitted_spp=chosen["spp"],
-                      path_spp=chosen["path_spp"],
-                      path_depth=args.path_depth, rounds=chosen["rounds"], budget=chosen["budget"],
-                      levels=args.levels, started=getattr(args, "started", None),
+    chosen = dict(COMPARE_QUICK if args.quick else {})   # then what the command line gives
+    chosen.update({name: getattr(args, name) for name in COMPARE_QUICK
+                   if getattr(args, name) is not None})
+    if "spp" in chosen:
+        chosen["whitted_spp"] = chosen.pop("spp")
+    options = Options(out=Path(args.out), **chosen, path_depth=args.path_depth, levels=args.levels, started=getattr(args, "started", None),
                       cache=Path(args.cache) if args.cache else None, variant=args.variant,
                       quiet=args.quiet, reference_chunk_spp=args.reference_chunk_spp,
                       workers=args.workers, scheduler=args.scheduler, view=args.view,

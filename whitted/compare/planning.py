@@ -5,8 +5,8 @@ there rather than all of one method.
 
 from __future__ import annotations
 
-from ..defaults import DEPTH, LIGHTING_MODES
-from .results import MAX_DEFAULT_DEPTH, METHODS, WHITTED_METHODS, Options, SceneResult, Setting
+from ..defaults import COMPARE_MAX_DEFAULT_DEPTH, DEPTH, LIGHTING_MODES
+from .results import METHODS, WHITTED_METHODS, Options, SceneResult, Setting
 from .scenes import SceneFile
 
 
@@ -26,7 +26,7 @@ def plan_scene(scene: SceneFile, loaded, options: Options,
     film gives the size and integrator the depth a file does not state)."""
     width, height = (int(v) for v in loaded.sensors()[0].film().crop_size())
     depth = scene.depth if scene.depth is not None else int(getattr(loaded.integrator(), "max_depth", DEPTH))
-    depths = options.depths or tuple(range(1, min(depth, MAX_DEFAULT_DEPTH) + 1))
+    depths = options.depths or tuple(range(1, min(depth, COMPARE_MAX_DEFAULT_DEPTH) + 1))
     path_depth = options.path_depth or depth
     result = SceneResult(scene.name, scene.path, width, height, variant, options.reference_spp,
                          path_depth, whitted_spp=options.whitted_spp, path_spp=options.path_spp,

@@ -19,11 +19,12 @@ from pathlib import Path
 import numpy as np
 
 from .. import rendering  # rendering.render looked up at call time: tests count calls
+from ..cluster import IN_PROCESS
 from ..defaults import COMPARE_MIN_REFERENCE_SPP, COMPARE_PROBE_SECONDS, COMPARE_REFERENCE_SHARE
 from ..progress import progress_bar
 from .budget import Budget, fit_cost, render_cost
 from .curves import reference_noise
-from .results import IN_PROCESS, Options, SceneResult, seconds_text
+from .results import Options, SceneResult, seconds_text
 from .scenes import SceneFile
 
 #: The first seed of the reference's chunks: far from the sweep's, whose noise would

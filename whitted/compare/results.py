@@ -10,12 +10,8 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from ..cluster import IN_PROCESS
-from ..defaults import (COMPARE_MAX_DEFAULT_DEPTH as MAX_DEFAULT_DEPTH,
-                        COMPARE_PATH_SPP as DEFAULT_PATH_SPP,
-                        COMPARE_REFERENCE_CHUNK_SPP as DEFAULT_REFERENCE_CHUNK_SPP,
-                        COMPARE_REFERENCE_SPP as DEFAULT_REFERENCE_SPP,
-                        COMPARE_ROUNDS as DEFAULT_ROUNDS, COMPARE_WHITTED_SPP as DEFAULT_WHITTED_SPP,
-                        LIGHTING_MODES, MAX_DEPTH, user_cache_folder)
+from ..defaults import (COMPARE_PATH_SPP, COMPARE_REFERENCE_CHUNK_SPP, COMPARE_REFERENCE_SPP,
+                        COMPARE_ROUNDS, COMPARE_WHITTED_SPP, LIGHTING_MODES, user_cache_folder)
 
 if TYPE_CHECKING:
     import numpy as np
@@ -31,11 +27,6 @@ WHITTED_LIGHTING = {method_of("whitted", lighting): lighting for lighting in LIG
 #: The Whitted integrator in its two lighting modes, then the path tracer.
 WHITTED_METHODS = tuple(WHITTED_LIGHTING)
 METHODS = WHITTED_METHODS + ("path",)
-
-__all__ = ["DEFAULT_PATH_SPP", "DEFAULT_REFERENCE_CHUNK_SPP", "DEFAULT_REFERENCE_SPP",
-           "DEFAULT_ROUNDS", "DEFAULT_WHITTED_SPP", "IN_PROCESS", "MAX_DEFAULT_DEPTH", "MAX_DEPTH",
-           "METHODS", "WHITTED_LIGHTING", "WHITTED_METHODS", "Comparison", "Limit", "Measurement",
-           "Options", "SceneResult", "Setting", "method_of", "seconds_text"]
 
 
 @dataclass(frozen=True)
@@ -161,18 +152,18 @@ class SceneResult:
 class Options:
     """The command's options (``whitted compare --help`` describes each)."""
     out: Path
-    reference_spp: int = DEFAULT_REFERENCE_SPP
+    reference_spp: int = COMPARE_REFERENCE_SPP
     depths: tuple[int, ...] | None = None
-    whitted_spp: tuple[int, ...] = DEFAULT_WHITTED_SPP
-    path_spp: tuple[int, ...] = DEFAULT_PATH_SPP
+    whitted_spp: tuple[int, ...] = COMPARE_WHITTED_SPP
+    path_spp: tuple[int, ...] = COMPARE_PATH_SPP
     path_depth: int | None = None
-    rounds: int = DEFAULT_ROUNDS
+    rounds: int = COMPARE_ROUNDS
     budget: float | None = None
     levels: tuple[float, ...] | None = None
     cache: Path | None = None
     variant: str | None = None
     quiet: bool = False
-    reference_chunk_spp: int = DEFAULT_REFERENCE_CHUNK_SPP
+    reference_chunk_spp: int = COMPARE_REFERENCE_CHUNK_SPP
     workers: int | None = None
     scheduler: str | None = None
     view: str | None = None

@@ -20,6 +20,7 @@ from ..defaults import (COMPARE_CLOCK, COMPARE_HEADLINE_ROUNDS, COMPARE_KEPT_MEM
                         COMPARE_ROUND_SECONDS, COMPARE_ROUNDS_SECONDS, COMPARE_ROUNDS_SHARE,
                         COMPARE_TIMING_THREADS)
 from ..images import clipped_fraction, fitting_view, read_image, to_srgb, write_image
+from ..progress import progress_bar
 from .analysis import analyse
 from .budget import Budget
 from .errormaps import write_render
@@ -109,6 +110,8 @@ def time_rounds(loaded, entry: SceneResult, rounds: int, deadline: float = math.
     measured = list(entry.measurements)
     if not measured:
         return
+    if progress is None:
+        progress = progress_bar(False, 0, "")   # silent
     with timing_threads() as slower:
         # the scored renders' times (all threads): a round on fewer threads takes longer
         _rounds(loaded, entry, measured, rounds, deadline, progress, _cost(measured, slower))
@@ -139,8 +142,7 @@ def _rounds(loaded, entry: SceneResult, measured: list[Measurement], rounds: int
                 entry.notes.append(f"timed in {k} rounds, not {rounds}: the next would have overrun "
                                    f"the scene's share of --budget")
             break
-        if progress is not None:
-            progress.set_postfix_str(f"{entry.name}: timing, round {k + 1}", refresh=True)
+        progress.set_postfix_str(f"{entry.name}: timing, round {k + 1}", refresh=True)
         for m in interleaved(measured, k):
             times[id(m)].append(_time_in_a_round(loaded, m.setting))
             _bound_memory()
@@ -186,6 +188,8 @@ def sweep_scene(scene: SceneFile, entry: SceneResult, settings: list[Setting], o
     filling ``entry`` in place so that an interruption keeps what was done; ``plan`` and
     ``chunks``: the reference's, when made elsewhere (a cluster)."""
     deadline = time.monotonic() + seconds
+    if progress is None:
+        progress = progress_bar(False, 0, "")   # silent
     if loaded is None:
         loaded = scene.load(entry.variant)
     out = Path(options.out)
@@ -194,11 +198,9 @@ def sweep_scene(scene: SceneFile, entry: SceneResult, settings: list[Setting], o
                                 seconds=deadline - time.monotonic(), plan=plan, chunks=chunks)
     if reference is None:
         entry.skipped.extend(settings)
-        if progress is not None:
-            progress.update(len(settings) + len(limit_methods(settings)))
+        progress.update(len(settings) + len(limit_methods(settings)))
         return entry
-    if progress is not None:  # the estimate of the time left: from the renders' own rate
-        progress.unpause()
+    progress.unpause()  # the estimate of the time left: from the renders' own rate
     entry.exposure = options.exposure
     entry.reference_clipped = clipped_fraction(to_srgb(reference, entry.exposure, "clip"))
     entry.view = options.view or fitting_view(reference, entry.exposure)
@@ -214,9 +216,7 @@ def sweep_scene(scene: SceneFile, entry: SceneResult, settings: list[Setting], o
     timed_until = deadline - COMPARE_LIMITS_SHARE * left
     renders_until = timed_until - COMPARE_ROUNDS_SHARE * left
     for setting in settings:
-        if progress is not None:
-            progress.set_postfix_str(f"{entry.name}: {setting.method} {setting.label}",
-                                     refresh=False)
+        progress.set_postfix_str(f"{entry.name}: {setting.method} {setting.label}", refresh=False)
         render, scoring = Budget.predict(setting, done)   # then its rounds, on the timing threads
         rounds = options.rounds * max(render * max(1.0, slower), COMPARE_ROUND_SECONDS)
         if time.monotonic() + render + scoring + rounds > renders_until:
@@ -228,8 +228,7 @@ def sweep_scene(scene: SceneFile, entry: SceneResult, settings: list[Setting], o
                                   entry.view)
             entry.measurements.append(measurement)
             done.append((setting, measurement.render_seconds, time.monotonic() - start))
-        if progress is not None:
-            progress.update(1)
+        progress.update(1)
     time_rounds(loaded, entry, options.rounds, timed_until, progress)
     _limits(loaded, entry, settings, reference, out, deadline, progress, scene.model)
     if settings and not entry.measurements:
@@ -254,8 +253,7 @@ def _below_the_reference(entry: SceneResult, settings: list[Setting], progress) 
         entry.skipped.extend(dropped)
         entry.notes.append(f"the path tracer's renders of {min(s.spp for s in dropped)} spp and more "
                            f"skipped: not below the scaled-down reference's {entry.reference_spp} spp")
-        if progress is not None:
-            progress.update(len(dropped))
+        progress.update(len(dropped))
     return kept
 
 
@@ -266,8 +264,7 @@ def _limits(loaded, entry: SceneResult, settings: list[Setting], reference: np.n
     weights = [2 if WHITTED_LIGHTING[m] == "article" else 1 for m in methods]  # its renders
     for k, method in enumerate(methods):   # each its share of the time left
         until = time.monotonic() + (deadline - time.monotonic()) * weights[k] / sum(weights[k:])
-        if progress is not None:
-            progress.set_postfix_str(f"{entry.name}: {method} limit", refresh=False)
+        progress.set_postfix_str(f"{entry.name}: {method} limit", refresh=False)
         measured = [(m, read_image(out / m.image)) for m in entry.measurements
                     if m.setting.method == method and m.image]
         limit = render_limit(loaded, entry, method, measured, reference, out, until, model)
@@ -276,5 +273,4 @@ def _limits(loaded, entry: SceneResult, settings: list[Setting], reference: np.n
         elif measured:
             entry.notes.append(f"{method}: its limit was not rendered: it would have overrun the "
                                f"scene's share of --budget")
-        if progress is not None:
-            progress.update(1)
+        progress.update(1)
