@@ -433,19 +433,15 @@ def speedup_text(row: EqualQuality, method: str) -> str:
     return "only it" if own_hit else "only path" if path_hit else "neither"
 
 
-def reading_how(reading: Reading[Measurement] | None) -> str:
-    if reading is None:
-        return "no path render"
-    if reading.how == "interpolated":
-        a, b = reading.between
-        return f"interpolated {a.setting.spp}–{b.setting.spp} spp"
-    return f"{reading.how}: {reading.between[0].setting.spp} spp"
-
-
 def equal_time_how(row: EqualTime) -> str:
     if row.outside is not None:
         first = row.rel_mse.between[0]
         which = "fastest" if row.outside == "faster" else "slowest"
         return (f"{row.outside} than the path tracer's {which} render ({first.setting.label}, "
                 f"{seconds_text(first.seconds)})")
-    return reading_how(row.rel_mse)
+    if row.rel_mse is None:
+        return "no path render"
+    if row.rel_mse.how == "interpolated":
+        a, b = row.rel_mse.between
+        return f"interpolated {a.setting.spp}–{b.setting.spp} spp"
+    return f"{row.rel_mse.how}: {row.rel_mse.between[0].setting.spp} spp"
