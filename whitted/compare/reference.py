@@ -133,7 +133,7 @@ class ReferenceCache:
         return self.folder / f"{stem}.exr", self.folder / f"{stem}.json"
 
     def load(self, name: str, key: str, shape: tuple[int, int]) -> tuple[np.ndarray, dict] | None:
-        """Add a chunk to its half in float64: the same chunks in the same order, the same bits."""
+        """The cached (image, description); None when missing, damaged or of another key."""
         from ..images import read_image
 
         self.clean()
@@ -173,8 +173,7 @@ class Halves:
             self.add(chunk)
 
     def add(self, chunk: Chunk) -> None:
-        """Add a rendered chunk to its half (in float64: the same chunks in the same
-        order give the same bits)."""
+        """Add a chunk to its half in float64: the same chunks in the same order, the same bits."""
         image = chunk.image.astype(np.float64) * chunk.spp
         half = chunk.half
         self.sums[half] = image if self.sums[half] is None else self.sums[half] + image

@@ -23,6 +23,7 @@ def finite_or_none(value: float) -> float | None:
 
 
 def median(values) -> float:
+    """The median of the finite ``values`` (NaN: none)."""
     finite = [v for v in values if math.isfinite(v)]
     return statistics.median(finite) if finite else math.nan
 
