@@ -249,7 +249,8 @@ def analyse(entry: SceneResult, levels: tuple[float, ...] | None = None,
                 outside = "faster" if m.seconds < reading.between[0].seconds else "slower"
             interval = None
             if reading is not None and outside is None:
-                interval = paired(rounds, lambda r, m=m: _error_ratio_in(path, m, r))
+                interval = paired(rounds, lambda r, m=m: _over(
+                    m.rel_mse, _path_in_round(path, r, m.seconds_in(r))))
             equal_time.append(EqualTime(m, reading, error_at_time(path_flip, m.seconds), outside, interval))
 
     equal_quality = []
@@ -281,7 +282,9 @@ def analyse(entry: SceneResult, levels: tuple[float, ...] | None = None,
         reading = time_to_reach(path_mse, floor.error) if path else None
         interval = None
         if reading is not None and reading.how != "nearest":
-            interval = paired(rounds, lambda r, floor=floor: _path_time_over_in(path, floor, r))
+            own = floor.render
+            interval = paired(rounds, lambda r: _over(
+                _path_in_round(path, r, own.seconds_in(r), floor.error), own.seconds_in(r)))
         floors.append(FloorStatement(method, floor, reading, path_best,
                                      floor_text(method, floor, reading, path_best,
                                                 entry.reference_noise, tolerance, interval), interval))
@@ -299,20 +302,15 @@ def _over(a: float, b: float) -> float:
     return a / b if b > 0 and math.isfinite(a) and math.isfinite(b) else math.nan
 
 
-def _path_time_over_in(path: list[Measurement], floor: Floor[Measurement], timed_round: int) -> float:
-    own = floor.render.seconds_in(timed_round)
-    reading = time_to_reach(_curve(path, "rel_mse", timed_round), floor.error) if math.isfinite(own) else None
-    if reading is None or reading.how == "nearest":
+def _path_in_round(path: list[Measurement], timed_round: int, own: float,
+                   error: float | None = None) -> float:
+    """In one timed round, the path tracer's error at ``own`` seconds or, given ``error``, its
+    time to reach it (NaN: outside its rendered range)."""
+    if not math.isfinite(own):
         return math.nan
-    return _over(reading.value, own)
-
-
-def _error_ratio_in(path: list[Measurement], m: Measurement, timed_round: int) -> float:
-    own = m.seconds_in(timed_round)
-    reading = error_at_time(_curve(path, "rel_mse", timed_round), own) if math.isfinite(own) else None
-    if reading is None or reading.how == "nearest" or not reading.value > 0:
-        return math.nan
-    return m.rel_mse / reading.value
+    curve = _curve(path, "rel_mse", timed_round)
+    reading = error_at_time(curve, own) if error is None else time_to_reach(curve, error)
+    return math.nan if reading is None or reading.how == "nearest" else reading.value
 
 
 def floor_text(method: str, floor: Floor[Measurement], path: Reading | None,
