@@ -1,26 +1,13 @@
-"""``whitted compare``: what accuracy costs in time.
-
-For each scene, a converged path-traced image is the reference (Mitsuba's
-``path`` integrator at a high sample count, on the same converted scene). Then
-three methods are swept and every render is timed and scored against it:
-
-* ``whitted-article``: the article's model, max depth 1…D × an spp ladder;
-* ``whitted-physical``: the same ray tree lit physically (inverse-square
-  fall-off, albedo/π, no ambient), so the remaining gap to the reference is the
-  indirect light the ray tree leaves out;
-* ``path``: the path tracer itself over an spp ladder, which converges to the
-  reference (its error falls as 1/spp until it meets the reference's own noise).
-
-The modules, each importing only those before it in the order the work flows, are
-listed in docs/compare.md, "Where the code lives".
+"""``whitted compare``: what accuracy costs in time. Each scene's converged path-traced
+reference scores the article's model, the same ray tree lit physically, and the path tracer
+itself, each over a ladder of depths and spp; docs/compare.md says how, and where the code lives.
 """
 
 from __future__ import annotations
 
 import importlib
 
-#: public name -> submodule: imported on first use, so that building the CLI's
-#: parser (which needs only :mod:`.cli`'s options) loads no numpy or Mitsuba
+#: public name -> submodule, imported on first use: the CLI's parser loads no numpy or Mitsuba
 _EXPORTS = {
     "Budget": "budget", "add_arguments": "cli", "compare_command": "cli", "float_list": "cli",
     "int_list": "cli", "plan": "planning", "plan_scene": "planning", "ReferenceCache": "reference",

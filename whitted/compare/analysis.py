@@ -1,12 +1,7 @@
-"""What a scene's measurements say, as a rendering paper would put it: what accuracy
-costs (the floor, equal quality, equal time) and what the Whitted model's error is made
-of (its limit, its bias, the best ambient, the fit): docs/compare.md, "Equal time, equal
-quality, error floor" and "What the error is made of".
-
-Everything is computed from :class:`~whitted.compare.results.SceneResult` alone (plain
-data), in relative MSE, the measure whose trends are known (1/spp for an unbiased
-method); FLIP is given alongside at equal time. The reports read these; none computes
-anything of its own.
+"""What a scene's measurements say: what accuracy costs (floor, equal quality, equal time)
+and what the Whitted model's error is made of (docs/compare.md, "Equal time, equal quality,
+error floor" and "What the error is made of"), computed once from plain data, for every
+report to read.
 """
 
 from __future__ import annotations
@@ -19,7 +14,7 @@ from ..defaults import (COMPARE_CLOCK, COMPARE_CONFIDENCE, COMPARE_DATA_LEVELS, 
 from .fitted import fitted_text
 from .curves import Floor, Reading, error_at_time, error_floor, error_levels, time_to_reach
 from .results import METHODS, WHITTED_METHODS, Limit, Measurement, SceneResult, seconds_text
-from .timing import Interval, coverage, paired
+from .timing import Interval, coverage, finite_or_none, paired
 
 #: How the prose names each method.
 METHOD_NAMES = {"whitted-article": "the article's model",
@@ -43,9 +38,7 @@ def capital(text: str) -> str:
 
 
 def faster_text(interval: Interval, name: str, other: str) -> str:
-    """Which of two methods is faster, in words, from the interval of ``other``'s time over
-    ``name``'s: "the article's model gets there 2.1× faster (1.9–2.4× over 9 rounds)", or
-    "no measurable difference ..." where the interval holds 1."""
+    """Which of two methods is faster, from the interval of ``other``'s time over ``name``'s."""
     if interval.straddles_one and interval.rounds >= 2:
         return (f"no measurable difference in time between {name} and {other} "
                 f"({interval.value:.3g}×, {interval.range_text()})")
@@ -58,8 +51,7 @@ def faster_text(interval: Interval, name: str, other: str) -> str:
 
 
 def ratio_text(interval: Interval | None) -> str:
-    """A table cell: ``2.1× (1.9–2.4)``, ``≈ 1 (0.9–1.2)`` where the interval holds 1,
-    flagged ``?`` when unsettled; ``—`` when nothing was compared."""
+    """A table cell: ``2.1× (1.9–2.4)``, ``≈ 1 (...)`` holding 1, ``?`` unsettled, ``—``."""
     if interval is None or not interval.known:
         return "—"
     if interval.rounds < 2:
@@ -71,21 +63,8 @@ def ratio_text(interval: Interval | None) -> str:
 
 @dataclass(frozen=True)
 class EqualTime:
-    """One Whitted render beside the path tracer given the same time.
-
-    ============= ===================================================================
-    ``whitted``   the Whitted render
-    ``rel_mse``   the path tracer's relative MSE at the Whitted render's time (None: no
-                  path render was done)
-    ``flip``      the same for FLIP
-    ``outside``   ``"faster"`` or ``"slower"`` when the Whitted render is faster than
-                  the path tracer's fastest render or slower than its slowest: the path
-                  tracer was not measured at that time, so nothing is compared (None:
-                  within its range)
-    ``interval``  :attr:`ratio` per timed round (each round's times), its median and
-                  interval (None: nothing compared)
-    ============= ===================================================================
-    """
+    """One Whitted render beside the path tracer given the same time (``outside``: the
+    render is ``"faster"`` or ``"slower"`` than every path render, so nothing is compared)."""
     whitted: Measurement
     rel_mse: Reading[Measurement] | None
     flip: Reading[Measurement] | None
@@ -94,8 +73,7 @@ class EqualTime:
 
     @property
     def ratio(self) -> float:
-        """The Whitted render's relative MSE over the path tracer's (< 1: Whitted wins);
-        NaN where the path tracer was not measured at that time."""
+        """The Whitted render's relative MSE over the path tracer's (< 1: Whitted wins)."""
         if self.rel_mse is None or self.outside or not self.rel_mse.value > 0:
             return math.nan
         return self.whitted.rel_mse / self.rel_mse.value
@@ -103,14 +81,7 @@ class EqualTime:
 
 @dataclass(frozen=True)
 class Reach:
-    """One method at one error level.
-
-    =========== =====================================================================
-    ``method``  the method
-    ``fastest`` its cheapest render at or below the level (None: none reaches it)
-    ``best``    its most accurate render, shown when none reaches the level
-    =========== =====================================================================
-    """
+    """One method at one error level: its cheapest render reaching it, and its best."""
     method: str
     fastest: Measurement | None
     best: Measurement | None
@@ -118,16 +89,8 @@ class Reach:
 
 @dataclass(frozen=True)
 class EqualQuality:
-    """One error level: each method's cheapest render reaching it, and the speed-ups.
-
-    ============ ====================================================================
-    ``level``    the relative MSE level
-    ``reach``    method -> :class:`Reach`, for every method that rendered anything
-    ``speedups`` Whitted method -> the path tracer's time over its time at this level
-                 (> 1: the Whitted method is faster), per timed round: its median and
-                 interval; only where both reach it
-    ============ ====================================================================
-    """
+    """One error level: each method's cheapest render reaching it, and the path tracer's
+    time over each Whitted method's there, per timed round."""
     level: float
     reach: dict[str, Reach]
     speedups: dict[str, Interval] = field(default_factory=dict)
@@ -140,20 +103,8 @@ class EqualQuality:
 
 @dataclass(frozen=True)
 class FloorStatement:
-    """A Whitted method's floor and what it costs the path tracer to match it.
-
-    ============= ====================================================================
-    ``method``    the Whitted method
-    ``floor``     its :class:`~whitted.compare.curves.Floor` (``floor.render``: its
-                  cheapest render within the tolerance of its best)
-    ``path``      the path tracer's time to reach the floor's error (None: it never does)
-    ``path_best`` the path tracer's most accurate render (None: no path render)
-    ``text``      the statement in words
-    ``interval``  the path tracer's time to the floor's error over the floor render's,
-                  per timed round: the headline ratio, its median and interval (None:
-                  the path tracer does not reach it within its rendered range)
-    ============= ====================================================================
-    """
+    """A Whitted method's floor and what it costs the path tracer to match it
+    (``interval``: the headline ratio of times, per timed round)."""
     method: str
     floor: Floor[Measurement]
     path: Reading[Measurement] | None
@@ -168,18 +119,8 @@ class FloorStatement:
 
 @dataclass(frozen=True)
 class Decomposition:
-    """What a Whitted method's error at its floor is made of.
-
-    ============ ====================================================================
-    ``method``   the Whitted method
-    ``floor``    its floor (its error against the reference)
-    ``limit``    its :class:`~whitted.compare.results.Limit` (the model's bias:
-                 ``limit.rel_mse``)
-    ``gone``     its cheapest render within the tolerance's share of the bias from the
-                 limit: where depth and sampling stop mattering (None: none is)
-    ``text``     the decomposition in words
-    ============ ====================================================================
-    """
+    """What a Whitted method's error at its floor is made of (``gone``: its cheapest
+    render within the tolerance's share of the bias from its limit)."""
     method: str
     floor: Floor[Measurement]
     limit: Limit
@@ -188,9 +129,7 @@ class Decomposition:
 
     @property
     def sampling(self) -> float:
-        """The part of the floor's error its depth and spp account for: the floor's error
-        less the model's bias (relative MSEs of independent parts add; 0 when the floor
-        is no worse than the limit)."""
+        """The floor's error less the model's bias (relative MSEs of independent parts add)."""
         return max(0.0, self.floor.error - self.limit.rel_mse)
 
 
@@ -206,7 +145,6 @@ class Analysis:
 
     @property
     def table_methods(self) -> list[str]:
-        """The methods the equal-quality table has a column for, in :data:`METHODS` order."""
         return [m for m in METHODS if any(m in row.reach for row in self.equal_quality)]
 
     def findings(self) -> dict:
@@ -232,12 +170,12 @@ class Analysis:
                                   "converged": limit.converged, "seconds": limit.seconds}
                 found["depth_and_sampling_rel_mse"] = decomposition.sampling
                 if statement.method == "whitted-article":
-                    found["scene_ambient"] = _json_number(limit.ambient)
-                    found["best_ambient"] = _json_number(limit.best_ambient)
-                    found["rel_mse_at_best_ambient"] = _json_number(limit.rel_mse_at_best_ambient)
+                    found["scene_ambient"] = finite_or_none(limit.ambient)
+                    found["best_ambient"] = finite_or_none(limit.best_ambient)
+                    found["rel_mse_at_best_ambient"] = finite_or_none(limit.rel_mse_at_best_ambient)
                     if limit.fitted is not None:
                         fitted = limit.fitted
-                        found["fitted"] = {"rel_mse": _json_number(fitted.rel_mse), "ambient": fitted.ambient,
+                        found["fitted"] = {"rel_mse": finite_or_none(fitted.rel_mse), "ambient": fitted.ambient,
                                            "colors": {k: list(v) for k, v in fitted.colors.items()},
                                            "lights": [list(c) for c in fitted.lights],
                                            "fit_size": list(fitted.size), "fit_rel_mse": fitted.fit_rel_mse,
@@ -247,7 +185,7 @@ class Analysis:
             methods[statement.method] = found
         entry = self.entry
         return {"levels": list(self.levels), "reference_spp": entry.reference_spp,
-                "reference_noise": _json_number(entry.reference_noise),
+                "reference_noise": finite_or_none(entry.reference_noise),
                 "renders": len(entry.measurements), "skipped": len(entry.skipped),
                 "timed_rounds": rounds_of(entry), "methods": methods, "notes": list(entry.notes),
                 "equal_quality": [{"rel_mse": row.level,
@@ -255,21 +193,15 @@ class Analysis:
                                   for row in self.equal_quality]}
 
 
-def _json_number(value: float) -> float | None:
-    return value if math.isfinite(value) else None
-
-
 def _curve(measurements: list[Measurement], metric: str,
            timed_round: int | None = None) -> list[tuple[float, float, Measurement]]:
-    """(time, error, render) of ``measurements``: their times (medians), or those of timed
-    round ``timed_round`` (the renders that round did not time are left out)."""
+    """(time, error, render): their median times, or those of one timed round."""
     points = [(m.seconds if timed_round is None else m.seconds_in(timed_round), getattr(m, metric), m)
               for m in measurements]
     return [p for p in points if not math.isnan(p[0])]
 
 
 def rounds_of(entry: SceneResult) -> int:
-    """How many timed rounds the scene's renders have (1 when untimed: their one time)."""
     return max([m.rounds for m in entry.measurements] + [1])
 
 
@@ -279,15 +211,12 @@ def _work(m: Measurement) -> float:
 
 
 def _cheapest(ms: list[Measurement]) -> Measurement:
-    """The render of least work (ties: the faster)."""
     return min(ms, key=lambda m: (_work(m), m.seconds))
 
 
 def data_levels(entry: SceneResult, tolerance: float = COMPARE_FLOOR_TOLERANCE) -> tuple[float, ...]:
-    """The equal-quality levels the data suggest: each method's floor (the path tracer's:
-    its best error) times (1 + ``tolerance``), and levels between the best and worst
-    errors measured (:func:`~whitted.compare.curves.error_levels`), so that every method
-    reaches at least one."""
+    """The equal-quality levels the data suggest: each method's floor, and levels between
+    the best and worst errors measured, so that every method reaches at least one."""
     errors = [m.rel_mse for m in entry.measurements if math.isfinite(m.rel_mse) and m.rel_mse > 0]
     if not errors:
         return ()
@@ -320,7 +249,8 @@ def analyse(entry: SceneResult, levels: tuple[float, ...] | None = None,
                 outside = "faster" if m.seconds < reading.between[0].seconds else "slower"
             interval = None
             if reading is not None and outside is None:
-                interval = paired(rounds, lambda r, m=m: _error_ratio_in(path, m, r))
+                interval = paired(rounds, lambda r, m=m: _over(
+                    m.rel_mse, _path_in_round(path, r, m.seconds_in(r))))
             equal_time.append(EqualTime(m, reading, error_at_time(path_flip, m.seconds), outside, interval))
 
     equal_quality = []
@@ -352,7 +282,9 @@ def analyse(entry: SceneResult, levels: tuple[float, ...] | None = None,
         reading = time_to_reach(path_mse, floor.error) if path else None
         interval = None
         if reading is not None and reading.how != "nearest":
-            interval = paired(rounds, lambda r, floor=floor: _path_time_over_in(path, floor, r))
+            own = floor.render
+            interval = paired(rounds, lambda r: _over(
+                _path_in_round(path, r, own.seconds_in(r), floor.error), own.seconds_in(r)))
         floors.append(FloorStatement(method, floor, reading, path_best,
                                      floor_text(method, floor, reading, path_best,
                                                 entry.reference_noise, tolerance, interval), interval))
@@ -370,34 +302,22 @@ def _over(a: float, b: float) -> float:
     return a / b if b > 0 and math.isfinite(a) and math.isfinite(b) else math.nan
 
 
-def _path_time_over_in(path: list[Measurement], floor: Floor[Measurement], timed_round: int) -> float:
-    """In timed round ``timed_round``: the path tracer's time to the floor's error (read on its
-    curve of that round's times) over the floor render's time in that round."""
-    own = floor.render.seconds_in(timed_round)
-    reading = time_to_reach(_curve(path, "rel_mse", timed_round), floor.error) if math.isfinite(own) else None
-    if reading is None or reading.how == "nearest":
+def _path_in_round(path: list[Measurement], timed_round: int, own: float,
+                   error: float | None = None) -> float:
+    """In one timed round, the path tracer's error at ``own`` seconds or, given ``error``, its
+    time to reach it (NaN: outside its rendered range)."""
+    if not math.isfinite(own):
         return math.nan
-    return _over(reading.value, own)
-
-
-def _error_ratio_in(path: list[Measurement], m: Measurement, timed_round: int) -> float:
-    """In timed round ``timed_round``: ``m``'s relative MSE over the path tracer's at ``m``'s time
-    (read on its curve of that round's times)."""
-    own = m.seconds_in(timed_round)
-    reading = error_at_time(_curve(path, "rel_mse", timed_round), own) if math.isfinite(own) else None
-    if reading is None or reading.how == "nearest" or not reading.value > 0:
-        return math.nan
-    return m.rel_mse / reading.value
+    curve = _curve(path, "rel_mse", timed_round)
+    reading = error_at_time(curve, own) if error is None else time_to_reach(curve, error)
+    return math.nan if reading is None or reading.how == "nearest" else reading.value
 
 
 def floor_text(method: str, floor: Floor[Measurement], path: Reading | None,
                path_best: Measurement | None, reference_noise: float, tolerance: float,
                interval: Interval | None = None) -> str:
-    """The floor in words, e.g. "The article's model's best error is 0.175 ...: its
-    cheapest render within 5% of it is d5 · 1 spp (12.3 ms) at 0.180, which the path
-    tracer reaches in 18.6 ms ...; the article's model gets there 1.51× faster (1.4–1.6×
-    over 5 rounds)". The cheapest render is the one of least work (rays traced), so that
-    the choice does not follow timing noise."""
+    """The floor in words; its cheapest render is the one of least work (rays traced), so
+    that timing noise does not choose it."""
     name = METHOD_NAMES[method]
     render = floor.render
     cheapest = (f"{render.setting.label} ({seconds_text(render.seconds)}) at {floor.error:.3g}")
@@ -439,9 +359,7 @@ def _noise_caution(floor: Floor, reference_noise: float) -> str:
 def decomposition_text(method: str, floor: Floor[Measurement], limit: Limit,
                        gone: Measurement | None, reference_noise: float = math.nan,
                        tolerance: float = COMPARE_FLOOR_TOLERANCE) -> str:
-    """What the floor's error is made of, in words, e.g. "Of the article's model's 0.180
-    (at d5 · 1 spp), 0.003 is its depth and sampling ...; the best ambient (0.41 instead
-    of 0.2) brings it to 0.11; the remaining 0.11 is light the model does not transport"."""
+    """What the floor's error is made of, in words."""
     possessive = POSSESSIVES[method]
     sampling = max(0.0, floor.error - limit.rel_mse)
     how = f"d{limit.max_depth}, every ray of the tree, {limit.spp} spp"
@@ -487,8 +405,7 @@ def decomposition_text(method: str, floor: Floor[Measurement], limit: Limit,
 
 
 def spread_text(m: Measurement) -> str:
-    """A render's time (the median of its timed rounds) and their range: ``11.9 ms
-    (11.2–13.0 ms)``."""
+    """A render's median time and its rounds' range: ``11.9 ms (11.2–13.0 ms)``."""
     if len(m.times) < 2:
         return seconds_text(m.seconds)
     low, high = m.seconds_min, m.seconds_max
@@ -497,8 +414,7 @@ def spread_text(m: Measurement) -> str:
 
 
 def reach_text(reach: Reach | None) -> str:
-    """One cell of the equal-quality table: the cheapest render reaching the level, or
-    the method's best render when none does."""
+    """An equal-quality cell: the cheapest render reaching the level, else the best."""
     if reach is None:
         return "not rendered"
     if reach.fastest is not None:
@@ -507,7 +423,6 @@ def reach_text(reach: Reach | None) -> str:
 
 
 def speedup_text(row: EqualQuality, method: str) -> str:
-    """How many times faster ``method`` reaches the row's level than the path tracer."""
     if method in row.speedups:
         return ratio_text(row.speedups[method])
     own, path = row.reach.get(method), row.reach.get("path")
@@ -516,21 +431,15 @@ def speedup_text(row: EqualQuality, method: str) -> str:
     return "only it" if own_hit else "only path" if path_hit else "neither"
 
 
-def reading_how(reading: Reading[Measurement] | None) -> str:
-    """How an equal-time value was read off the path tracer's curve."""
-    if reading is None:
-        return "no path render"
-    if reading.how == "interpolated":
-        a, b = reading.between
-        return f"interpolated {a.setting.spp}–{b.setting.spp} spp"
-    return f"{reading.how}: {reading.between[0].setting.spp} spp"
-
-
 def equal_time_how(row: EqualTime) -> str:
-    """How the path tracer's value at a Whitted render's time was read, or why there is none."""
     if row.outside is not None:
         first = row.rel_mse.between[0]
         which = "fastest" if row.outside == "faster" else "slowest"
         return (f"{row.outside} than the path tracer's {which} render ({first.setting.label}, "
                 f"{seconds_text(first.seconds)})")
-    return reading_how(row.rel_mse)
+    if row.rel_mse is None:
+        return "no path render"
+    if row.rel_mse.how == "interpolated":
+        a, b = row.rel_mse.between
+        return f"interpolated {a.setting.spp}–{b.setting.spp} spp"
+    return f"{row.rel_mse.how}: {row.rel_mse.between[0].setting.spp} spp"

@@ -1,9 +1,5 @@
-"""The ``compare`` subcommand of the ``whitted`` CLI: its options, and what it prints.
-
-``whitted.cli`` builds the subparser and calls :func:`add_arguments` and
-:func:`compare_command`; the comparison itself is :func:`whitted.compare.compare`,
-which a script can call with an :class:`~whitted.compare.results.Options`.
-"""
+"""The ``compare`` subcommand of the ``whitted`` CLI: its options, and what it prints (the
+comparison itself is :func:`whitted.compare.compare`, which a script can call)."""
 
 from __future__ import annotations
 
@@ -13,11 +9,11 @@ import sys
 import time
 from pathlib import Path
 
+from ..defaults import (COMPARE_MAX_DEFAULT_DEPTH, COMPARE_PATH_SPP, COMPARE_QUICK,
+                        COMPARE_REFERENCE_CHUNK_SPP, COMPARE_REFERENCE_SPP, COMPARE_ROUNDS,
+                        COMPARE_WHITTED_SPP, VIEWS)
 from ..defaults import VARIANTS as SUPPORTED_VARIANTS
-from ..defaults import COMPARE_QUICK, VIEWS
-from .results import (DEFAULT_PATH_SPP, DEFAULT_REFERENCE_CHUNK_SPP,
-                      DEFAULT_REFERENCE_SPP, DEFAULT_ROUNDS, DEFAULT_WHITTED_SPP, MAX_DEFAULT_DEPTH,
-                      Options)
+from .results import Options
 
 
 def int_list(text: str) -> tuple[int, ...]:
@@ -53,34 +49,30 @@ def float_list(text: str) -> tuple[float, ...]:
 
 
 def quick_text() -> str:
-    """What ``--quick`` stands for, as options: ``--reference-spp 256 ... --budget 25``."""
     def value(v):
         return ",".join(map(str, v)) if isinstance(v, tuple) else f"{v:g}"
     return " ".join(f"--{name.replace('_', '-')} {value(v)}" for name, v in COMPARE_QUICK.items())
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    """The ``compare`` subcommand's options (the CLI builds the subparser)."""
     parser.add_argument("scenes", nargs="+", metavar="SCENE",
                         help="scenes (.scn or .xml), or folders of them")
     parser.add_argument("-o", "--out", required=True, metavar="DIR", help="output folder")
     parser.add_argument("--reference-spp", type=int, metavar="N",
-                        help=f"the reference's samples per pixel (default {DEFAULT_REFERENCE_SPP})")
+                        help=f"the reference's samples per pixel (default {COMPARE_REFERENCE_SPP})")
     parser.add_argument("--depths", type=int_list, metavar="LIST",
                         help="Whitted max depths, e.g. 1-5 or 1,2,4 (default: 1 to the scene's depth, "
-                             f"at most {MAX_DEFAULT_DEPTH})")
-    parser.add_argument("--spp", type=int_list, metavar="LIST",
-                        help="the Whitted integrator's spp ladder (default "
-                             f"{','.join(map(str, DEFAULT_WHITTED_SPP))})")
-    parser.add_argument("--path-spp", type=int_list, metavar="LIST",
-                        help="the path tracer's spp ladder (default "
-                             f"{','.join(map(str, DEFAULT_PATH_SPP))})")
+                             f"at most {COMPARE_MAX_DEFAULT_DEPTH})")
+    for flag, whose, ladder in (("--spp", "the Whitted integrator's", COMPARE_WHITTED_SPP),
+                                ("--path-spp", "the path tracer's", COMPARE_PATH_SPP)):
+        parser.add_argument(flag, type=int_list, metavar="LIST",
+                            help=f"{whose} spp ladder (default {','.join(map(str, ladder))})")
     parser.add_argument("--path-depth", type=int, metavar="N",
                         help="the path tracer's max depth, for the reference too (default: the scene's)")
     parser.add_argument("--rounds", type=int, metavar="N",
                         help="timed rounds over each scene's renders, at least: every render is "
                              "timed once per round, so that methods are timed in the same moments; "
-                             f"then rounds of the headlines' renders alone (default {DEFAULT_ROUNDS})")
+                             f"then rounds of the headlines' renders alone (default {COMPARE_ROUNDS})")
     # the former name (each render repeated back to back): old scripts keep working
     parser.add_argument("--repeats", dest="rounds", type=int, help=argparse.SUPPRESS)
     parser.add_argument("--budget", type=float, metavar="SECONDS",
@@ -97,10 +89,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "$XDG_CACHE_HOME/whitted/references; shared by every run; safe to delete)")
     parser.add_argument("--variant", choices=SUPPORTED_VARIANTS,
                         help="Mitsuba variant (default as for render)")
-    parser.add_argument("--reference-chunk-spp", type=int, default=DEFAULT_REFERENCE_CHUNK_SPP,
+    parser.add_argument("--reference-chunk-spp", type=int, default=COMPARE_REFERENCE_CHUNK_SPP,
                         metavar="N", help="render the reference in chunks of N spp, each with its "
                                           "own seed, averaged; a cluster spreads them over its "
-                                          f"workers (default {DEFAULT_REFERENCE_CHUNK_SPP})")
+                                          f"workers (default {COMPARE_REFERENCE_CHUNK_SPP})")
     where = parser.add_mutually_exclusive_group()
     where.add_argument("--workers", type=int, metavar="N",
                        help="sweep on a local Dask cluster of N worker processes (each scene's "
@@ -119,20 +111,16 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def compare_command(args: argparse.Namespace) -> None:
-    """The CLI's ``compare`` subcommand."""
     from .report import output_files
     from .run import compare
     from .summary import summary
 
-    chosen = {"reference_spp": DEFAULT_REFERENCE_SPP, "depths": None, "spp": DEFAULT_WHITTED_SPP,
-              "path_spp": DEFAULT_PATH_SPP, "rounds": DEFAULT_ROUNDS, "budget": None}
-    chosen.update(COMPARE_QUICK if args.quick else {})   # then what the command line gives
-    chosen.update({name: getattr(args, name) for name in chosen if getattr(args, name) is not None})
-    options = Options(out=Path(args.out), reference_spp=chosen["reference_spp"],
-                      depths=chosen["depths"], whitted_spp=chosen["spp"],
-                      path_spp=chosen["path_spp"],
-                      path_depth=args.path_depth, rounds=chosen["rounds"], budget=chosen["budget"],
-                      levels=args.levels, started=getattr(args, "started", None),
+    chosen = dict(COMPARE_QUICK if args.quick else {})   # then what the command line gives
+    chosen.update({name: getattr(args, name) for name in COMPARE_QUICK
+                   if getattr(args, name) is not None})
+    if "spp" in chosen:
+        chosen["whitted_spp"] = chosen.pop("spp")
+    options = Options(out=Path(args.out), **chosen, path_depth=args.path_depth, levels=args.levels, started=getattr(args, "started", None),
                       cache=Path(args.cache) if args.cache else None, variant=args.variant,
                       quiet=args.quiet, reference_chunk_spp=args.reference_chunk_spp,
                       workers=args.workers, scheduler=args.scheduler, view=args.view,

@@ -1,25 +1,7 @@
-"""``whitted compare --workers N`` and ``--scheduler ADDRESS``: the sweep on a Dask cluster
-(:mod:`whitted.cluster`: the cluster, its workers' preparation, the stop on Ctrl-C).
-
-The client reads, loads and plans every scene as a run in one process does (a bad scene
-fails at once), then submits three kinds of task on plain data only, since Mitsuba
-objects do not pickle (the :class:`~whitted.compare.scenes.SceneFile`, the settings, the
-:class:`~whitted.compare.results.Options`):
-
-* under ``--budget``, a scene's *probe*: the plan of its reference
-  (:func:`~whitted.compare.reference.plan_reference`); without a budget the client plans
-  each reference itself, since that renders nothing;
-* a *chunk* of a reference not in the cache
-  (:meth:`~whitted.compare.reference.ReferencePlan.chunks`), on any worker;
-* a scene's *sweep* (:func:`~whitted.compare.sweep.sweep_scene`): the reference averaged
-  from its chunks and cached, then every setting on that one worker, so that a scene's
-  times are measured under the same conditions. Under ``--budget`` a scene's share counts
-  from its probe.
-
-Without ``--budget`` a cluster writes the results.csv of a run in one process, the time
-columns and ``worker`` aside: the chunks follow from the plan, and every image from its
-seed alone, whatever the worker's thread count. A scene's result is the return value of
-one whole task, so a worker that dies loses or counts nothing twice.
+"""``whitted compare --workers N`` and ``--scheduler ADDRESS``: the sweep on a Dask cluster, as
+tasks on plain data only (Mitsuba objects do not pickle): a reference's probe and chunks on
+any worker, a scene's sweep on one (so that its times compare). docs/cluster.md says which
+task does what and why a dead worker loses or counts nothing twice.
 """
 
 from __future__ import annotations
@@ -42,7 +24,6 @@ from .sweep import sweep_scene
 
 def chunk_task(scene: SceneFile, variant: str, max_depth: int, spp: int, seed: int, half: int,
                threads: dict[str, int]) -> Chunk:
-    """One chunk of a reference (:func:`~whitted.compare.reference.reference_chunks`)."""
     with worker_task(variant, threads) as worker:
         chunk = render_chunk(scene.load(variant), spp, seed, half, max_depth)
         chunk.worker = worker
@@ -50,8 +31,7 @@ def chunk_task(scene: SceneFile, variant: str, max_depth: int, spp: int, seed: i
 
 
 def _seconds(seconds: float, end: float | None, began: float | None = None) -> float:
-    """A scene's time left now: its share ``seconds`` less what passed since its work
-    ``began``, and none past the budget's ``end`` (``time.time()`` readings)."""
+    """A scene's time left now: its share less what passed since ``began``, none past ``end``."""
     now = time.time()
     if began is not None:
         seconds -= max(0.0, now - began)
@@ -60,8 +40,6 @@ def _seconds(seconds: float, end: float | None, began: float | None = None) -> f
 
 def probe_task(scene: SceneFile, entry: SceneResult, options: Options, seconds: float,
                end: float | None, threads: dict[str, int]) -> ReferencePlan:
-    """Under ``--budget``, the plan of a scene's reference
-    (:func:`~whitted.compare.reference.plan_reference`: its probe renders, here)."""
     with worker_task(entry.variant, threads) as worker:
         plan = plan_reference(scene, scene.load(entry.variant), entry,
                               ReferenceCache(options.cache_folder), options, _seconds(seconds, end))
@@ -73,8 +51,7 @@ def probe_task(scene: SceneFile, entry: SceneResult, options: Options, seconds: 
 def sweep_task(scene: SceneFile, entry: SceneResult, settings: list[Setting], options: Options,
                seconds: float, end: float | None, threads: dict[str, int],
                plan: ReferencePlan | None, chunks: list[Chunk] | None) -> SceneResult:
-    """One scene's sweep on this worker: its result, with ``worker`` set. With ``plan``
-    the scene's time counts from when its reference was planned."""
+    """One scene's sweep on this worker; with ``plan``, its time counts from the planning."""
     with worker_task(entry.variant, threads) as worker:
         seconds = _seconds(seconds, end, plan.began if plan is not None else None)
         result = sweep_scene(scene, entry, settings, options, seconds, plan=plan, chunks=chunks)
@@ -84,14 +61,9 @@ def sweep_task(scene: SceneFile, entry: SceneResult, settings: list[Setting], op
 
 def sweep_on_cluster(client, scenes: list[SceneFile], entries: list[SceneResult],
                      plans: list[list[Setting]], options: Options, budget: Budget) -> None:
-    """Sweep every scene on the cluster of ``client``.
-
-    ``entries`` (the planned results, one per scene) are replaced by the workers'
-    results as they come, and ``results.csv`` rewritten, so that an interruption
-    keeps what finished. With a budget, each scene may take its even share of the
-    time times the number of workers (that many scenes run at once), and none
-    runs past the budget's end (the workers' clocks are taken to agree).
-    """
+    """Sweep every scene on the cluster of ``client``, ``entries`` replaced by the workers'
+    results as they come and ``results.csv`` rewritten, so that an interruption keeps
+    what finished; with a budget, each scene's share is multiplied by the scenes run at once."""
     from distributed import as_completed
     from tqdm import tqdm
 

@@ -1,10 +1,5 @@
-"""``results.csv``: one row per render that was done, for spreadsheets and scripts.
-
-Its columns are :data:`CSV_COLUMNS`, new ones added at the end so that readers of
-the old keep working (``repeats`` counts a render's timed rounds, ``seconds_each`` lists
-them, ``work`` is what chose the floor: rays traced, or the path tracer's samples).
-It is rewritten (atomically, whitted.atomic) after every
-scene, so an interrupted run keeps the rows of the scenes that finished.
+"""``results.csv``: one row per render that was done, rewritten after every scene so that an
+interrupted run keeps the rows of the scenes that finished (columns: docs/compare.md).
 """
 
 from __future__ import annotations
@@ -42,7 +37,6 @@ def _row(entry: SceneResult, m: Measurement) -> dict:
 
 
 def write_csv(path: str | os.PathLike, entries: list[SceneResult]) -> None:
-    """One row per render that was done (skipped ones are absent)."""
     buffer = io.StringIO()
     writer = csv.DictWriter(buffer, fieldnames=CSV_COLUMNS, lineterminator="\n")
     writer.writeheader()

@@ -1,13 +1,7 @@
-"""The formulas of the report, written once: a method's error-against-time curve, reading
-it at a given time or error, a Whitted method's error floor, the equal-quality levels
-drawn from the data, the ambient that fits the reference best, and the reference's noise.
-
-Why these and not a fit: a method's curve is known only at the settings rendered, and
-between two of them the honest guess is the straight line on log–log axes, since error
-and time follow power laws (an unbiased renderer's relative MSE falls as 1/spp, its time
-grows as spp). Outside the rendered range nothing is guessed: the nearest render is
-used, and the caller says so. Everything here is plain Python on (time, error) pairs, so
-each formula has a unit test against values computed by hand (tests/test_compare_curves.py).
+"""The formulas of the report, written once and unit-tested on hand-computed values: a
+method's error-against-time curve read at a time or an error, its error floor, the
+equal-quality levels, the best ambient and the reference's noise (docs/compare.md,
+"Equal time, equal quality, error floor", "What the error is made of", "The reference's noise").
 """
 
 from __future__ import annotations
@@ -22,15 +16,12 @@ T = TypeVar("T")
 
 
 def pareto_front(points: list[tuple[float, float]]) -> list[tuple[float, float]]:
-    """The (time, error) points that no faster point beats, by increasing time: the best
-    error a method buys for a given time (points with a non-positive or infinite value,
-    which log–log axes cannot show, are left out)."""
+    """The (time, error) points that no faster point beats, by increasing time."""
     return [(seconds, error) for seconds, error, _ in _front([(x, y, None) for x, y in points])]
 
 
 def loglog_between(x: float, p0: tuple[float, float], p1: tuple[float, float]) -> float:
-    """y at ``x`` on the straight line through ``p0`` and ``p1`` on log–log axes:
-    y = y0 · (x / x0) ** s, with the slope s = ln(y1 / y0) / ln(x1 / x0)."""
+    """y at ``x`` on the straight line through ``p0`` and ``p1`` on log–log axes."""
     (x0, y0), (x1, y1) = p0, p1
     if x1 == x0:
         return min(y0, y1)
@@ -40,23 +31,14 @@ def loglog_between(x: float, p0: tuple[float, float], p1: tuple[float, float]) -
 
 @dataclass(frozen=True)
 class Reading(Generic[T]):
-    """A curve read at one point.
-
-    ============ =====================================================================
-    ``value``    the value read (an error at a time, or a time at an error)
-    ``how``      ``"interpolated"`` (on the log–log line between two renders),
-                 ``"rendered"`` (a render lies exactly there), or ``"nearest"`` (outside
-                 the rendered range: the nearest render's value, not an extrapolation)
-    ``between``  the payloads of the render(s) read: one, or the two interpolated
-    ============ =====================================================================
-    """
+    """A curve read at one point: ``how`` is ``"interpolated"``, ``"rendered"`` or ``"nearest"``
+    (outside the rendered range: the nearest render's value); ``between``: the renders read."""
     value: float
     how: str
     between: tuple[T, ...]
 
 
 def _front(curve: list[tuple[float, float, T]]) -> list[tuple[float, float, T]]:
-    """The Pareto front of (time, error, payload) triples, payloads kept."""
     front, best = [], math.inf
     for seconds, error, payload in sorted(curve, key=lambda p: (p[0], p[1])):
         if 0 < seconds < math.inf and 0 < error < best:
@@ -66,9 +48,7 @@ def _front(curve: list[tuple[float, float, T]]) -> list[tuple[float, float, T]]:
 
 
 def error_at_time(curve: list[tuple[float, float, T]], seconds: float) -> Reading[T] | None:
-    """A method's error if given ``seconds``: its curve (time, error, payload), reduced to
-    its Pareto front, read on the log–log line between the two renders around ``seconds``;
-    outside them, the nearest render's error (``how="nearest"``). None for an empty curve."""
+    """A method's error if given ``seconds``, read on its Pareto front; None for an empty curve."""
     front = _front(curve)
     if not front:
         return None
@@ -85,11 +65,7 @@ def error_at_time(curve: list[tuple[float, float, T]], seconds: float) -> Readin
 
 
 def time_to_reach(curve: list[tuple[float, float, T]], error: float) -> Reading[T] | None:
-    """The time a method needs to reach ``error``: on its Pareto front, the log–log line
-    between the last render above ``error`` and the first at or below it, solved for time
-    (x = x0 · (error / y0) ** (1 / s)). When its fastest render is already at or below
-    ``error``, that render's time (``how="nearest"``: it may need less). None when no
-    render reaches ``error``."""
+    """The time a method needs to reach ``error`` on its Pareto front; None when none does."""
     front = _front(curve)
     for index, (x1, y1, b) in enumerate(front):
         if y1 <= error:
@@ -105,18 +81,8 @@ def time_to_reach(curve: list[tuple[float, float, T]], error: float) -> Reading[
 
 @dataclass(frozen=True)
 class Floor(Generic[T]):
-    """Where more depth and samples stop paying for a Whitted method.
-
-    =========== =======================================================================
-    ``render``  the payload of its cheapest render whose error is within the tolerance
-                of its best: the render a reader would choose
-    ``seconds`` that render's time
-    ``error``   that render's error: the method's floor
-    ``best``    the best error of any of its renders (at most ``error``)
-    ``settled`` whether a costlier render was made and bought less than the tolerance
-                (False: the floor is its costliest render, so the error may fall further)
-    =========== =======================================================================
-    """
+    """Where more depth and samples stop paying for a Whitted method (``settled`` False: its
+    floor is its costliest render, so the error may fall further)."""
     render: T
     seconds: float
     error: float
@@ -126,12 +92,8 @@ class Floor(Generic[T]):
 
 def error_floor(curve: list[tuple[float, float, T]], tolerance: float,
                 work: Callable[[T], float] | None = None) -> Floor[T] | None:
-    """The floor of a method's renders (time, error, payload): with e* the least error of
-    them all, the cheapest render whose error is at most e* · (1 + ``tolerance``). With
-    ``work`` (payload -> what the render does, e.g. its rays), the cheapest is the one of
-    least work, whatever the clock said (ties: the faster, then the more accurate), so
-    that timing noise cannot choose; without it, the fastest (the more accurate of two
-    equally fast). None when no render has a finite error."""
+    """The cheapest render within ``tolerance`` of the best error; cheapest by ``work`` when
+    given, so that timing noise cannot choose. None when no error is finite."""
     usable = [p for p in curve if math.isfinite(p[1]) and math.isfinite(p[0])]
     if not usable:
         return None
@@ -147,12 +109,8 @@ def error_floor(curve: list[tuple[float, float, T]], tolerance: float,
 
 def error_levels(floors: list[float], lowest: float, highest: float, count: int,
                  tolerance: float) -> tuple[float, ...]:
-    """Error levels for an equal-quality table, from the data: each of ``floors`` times
-    (1 + ``tolerance``), so that each method reaches at least the level of its own
-    floor, and ``count`` levels evenly spaced on log axes strictly between the
-    ``lowest`` and ``highest`` error measured; each rounded *up* to two significant
-    digits (reaching a level stays true), a level within 10% of a larger one left out
-    (whoever reaches it reaches the larger), largest first."""
+    """Equal-quality levels: each of ``floors`` times (1 + ``tolerance``) and ``count`` levels
+    log-spaced between ``lowest`` and ``highest``, rounded up to two digits, largest first."""
     candidates = [f * (1.0 + tolerance) for f in floors if math.isfinite(f) and f > 0]
     if 0 < lowest < highest < math.inf:
         ratio = highest / lowest
@@ -165,18 +123,14 @@ def error_levels(floors: list[float], lowest: float, highest: float, count: int,
 
 
 def _two_digits_up(value: float) -> float:
-    """``value`` rounded up to two significant digits (0.1234 -> 0.13, 0.12 -> 0.12)."""
     exponent = math.floor(math.log10(value)) - 1
     digits = math.ceil(value / 10.0 ** exponent - 1e-9)
     return float(f"{digits}e{exponent}")
 
 
 def best_ambient(dark: np.ndarray, lit: np.ndarray, reference: np.ndarray) -> tuple[float, float]:
-    """The article's ambient A in [0, 1] that brings its image closest to ``reference`` in
-    relative MSE, and that error, from two renders of one tree at A = 0 (``dark``) and
-    A = 1 (``lit``): the image is affine in A, so the error is a parabola in A, least at
-    A* = mean(w·D·(R − I₀)) / mean(w·D²) clipped to [0, 1] (docs/compare.md, "What the
-    error is made of"). When no pixel depends on A, A is NaN and the error that of ``dark``."""
+    """The article's ambient in [0, 1] closest to ``reference`` in relative MSE, and that
+    error, from renders at A = 0 and A = 1 (NaN: no pixel depends on A)."""
     from .. import metrics
 
     i0 = np.asarray(dark, dtype=np.float64)
@@ -191,14 +145,12 @@ def best_ambient(dark: np.ndarray, lit: np.ndarray, reference: np.ndarray) -> tu
 
 
 def reference_noise(half_a: np.ndarray, half_b: np.ndarray, count_a: int, count_b: int) -> float:
-    """The relative MSE of a reference against the converged image, estimated from its two
-    independent halves A and B, of ``count_a`` and ``count_b`` spp: mean((A − B)² / (R² + ε))
-    · n_a·n_b / N² (docs/compare.md, "The reference's noise", derives it)."""
+    """The relative MSE of a reference against the converged image, from its two halves."""
     from .. import metrics
 
     a = np.asarray(half_a, dtype=np.float64)
     b = np.asarray(half_b, dtype=np.float64)
     total = count_a + count_b
     combined = (count_a * a + count_b * b) / total
-    # relative_mse(x, R) = mean((x − R)² / (R² + ε)); with x = R + (A − B) that is the mean above
+    # relative_mse(R + (A − B), R) = mean((A − B)² / (R² + ε))
     return metrics.relative_mse(combined + (a - b), combined) * count_a * count_b / total ** 2

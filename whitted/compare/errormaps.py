@@ -1,11 +1,6 @@
-"""The images a comparison keeps of every render: the render itself (linear EXR, and an
-sRGB PNG for the page) and where it is wrong (FLIP's per-pixel error map, in color).
-
-The error map is FLIP's own (:func:`whitted.metrics.flip_map`, the same evaluation that
-gives the mean FLIP of the CSV), colored with matplotlib's ``magma`` map from 0 (black:
-no visible difference) to 1 (pale yellow: the most visible), as FLIP's tool draws it;
-:func:`colorbar` gives the page the same colors for its scale, so map and color bar
-cannot disagree. The PNG holds the colors as they are (they are display values already).
+"""The images kept of every render: the render itself (linear EXR, sRGB PNG) and FLIP's
+per-pixel error map in :data:`COLORMAP`, as FLIP draws it; :func:`colorbar` gives the page
+the same colors, so that map and scale cannot disagree.
 """
 
 from __future__ import annotations
@@ -20,7 +15,6 @@ COLORMAP = "magma"
 
 
 def colorize(error_map: np.ndarray) -> np.ndarray:
-    """An (H, W) error map in [0, 1] as (H, W, 3) uint8 display colors of :data:`COLORMAP`."""
     import matplotlib
 
     values = np.clip(np.nan_to_num(np.asarray(error_map, dtype=np.float64)), 0.0, 1.0)
@@ -37,7 +31,7 @@ def colorbar(stops: int = 11) -> list[str]:
 
 
 def write_display_png(path: str | os.PathLike, pixels: np.ndarray) -> None:
-    """Write (H, W, 3) uint8 display colors as a PNG, atomically, without any transfer curve."""
+    """Write (H, W, 3) uint8 display colors as a PNG, atomically, with no transfer curve."""
     import mitsuba as mi
 
     from ..atomic import atomic_path
@@ -50,9 +44,8 @@ def write_display_png(path: str | os.PathLike, pixels: np.ndarray) -> None:
 
 def write_render(out: Path, stem: str, image: np.ndarray, error_map: np.ndarray | None,
                  exposure: float = 0.0, view: str = "clip") -> dict:
-    """Keep one render under ``out``: ``STEM.exr`` (linear), ``STEM.png`` (as displayed, with
-    ``exposure`` and ``view``) and, with an error map, ``STEM-flip.png``; returns their paths
-    relative to ``out`` by kind (``image``, ``image_png``, ``error_map``)."""
+    """Keep one render: ``STEM.exr`` (linear), ``STEM.png`` (as displayed) and its
+    ``STEM-flip.png``; returns their paths relative to ``out`` by kind."""
     from ..images import write_image
 
     (out / stem).parent.mkdir(parents=True, exist_ok=True)

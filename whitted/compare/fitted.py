@@ -1,11 +1,6 @@
-"""The article's model fitted to the reference: what it reaches with its numbers at their best.
-
-The limit's error against the reference mixes numbers that are off (an ambient guessed
-by the scene's author, colors chosen by eye) with light the model does not transport.
-The fit (:func:`whitted.fitting.fit`: every untextured material's color, the ambient and
-the lights' colors, from the best ambient, at low resolution) separates them; the fitted
-scene is scored at full resolution as the limit is. What remains is the model's own
-limit on the scene.
+"""The article's model fitted to the reference (:func:`whitted.fitting.fit`), so that the
+limit's error splits into numbers that are off (a guessed ambient, colors chosen by eye)
+and light the model does not transport.
 """
 
 from __future__ import annotations
@@ -39,12 +34,9 @@ class Fitted:
 def fit_to_reference(model, reference: np.ndarray, depth: int, spp: int, seed: int,
                      start_ambient: float = math.nan, deadline: float = math.inf,
                      score_seconds: float = 0.0) -> Fitted | None:
-    """Fit the article's model of the scene ``model`` (a parsed ``.scn``:
-    ``whitted.converter.Scene``) to ``reference`` (full resolution) and score the fitted scene
-    there at ``depth`` and ``spp`` (the exact tree, ``seed``). None without a model (an XML
-    scene), or when not even its scoring render (``score_seconds``) fits before ``deadline`` (a
-    ``time.monotonic`` reading); a fit whose next step would run past it stops, its numbers
-    those of its last step (:attr:`Fitted.stopped`)."""
+    """Fit the article's model of the parsed ``.scn`` ``model`` to ``reference`` and score it
+    there as the limit is; None without a model, or when its scoring does not fit before
+    ``deadline``. A fit whose next step would overrun stops (:attr:`Fitted.stopped`)."""
     from ..converter.description import line_label, material_labels
     from ..defaults import FIT_ITERATIONS, FIT_SPP
     from ..fitting import fit
@@ -82,8 +74,7 @@ def fit_to_reference(model, reference: np.ndarray, depth: int, spp: int, seed: i
 
 
 def fitted_text(fitted: Fitted) -> str:
-    """"ambient 0.31; colors line 14 (the floor): 0.52 0.6 0.55, …; lights line 11: 0.9 0.9 0.9, …",
-    each named as the scene file names it (:attr:`Fitted.names`)."""
+    """``ambient 0.31; colors line 14 (the floor): 0.52 0.6 0.55, …; lights …``."""
     def rgb(c):
         return " ".join(f"{v:.2g}" for v in c)
     names = fitted.names

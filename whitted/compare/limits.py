@@ -1,10 +1,6 @@
-"""A Whitted method's limit on a scene: what the model itself draws, with every ray of its
-tree and converged anti-aliasing, so that a render's error can be split in two: what its
-depth and spp cost (its distance to the limit, ``rel_mse_limit``) and the model's bias
-(the limit's distance to the reference). docs/compare.md, "What the error is made of",
-says how: two independent halves whose spp double until their noise is small enough, in
-the article's lighting rendered at A = 0 and A = 1 (the image is affine in the ambient),
-then the article's model fitted to the reference (:mod:`.fitted`).
+"""A Whitted method's limit on a scene: its full ray tree, anti-aliasing converged, which
+splits a render's error into what its depth and spp cost and the model's bias
+(docs/compare.md, "What the error is made of").
 """
 
 from __future__ import annotations
@@ -24,14 +20,11 @@ from .curves import best_ambient, reference_noise
 from .fitted import fit_to_reference
 from .results import WHITTED_LIGHTING, Limit, Measurement, SceneResult
 
-#: The seeds of a limit's halves: this, and this plus one. Independent of the sweep's
-#: (0, and its later passes 1, 2, ...) and of the reference's (0x5EED0000 and up).
+#: The seeds of a limit's halves: this and the next, apart from the sweep's and the reference's.
 LIMIT_SEED = 0x11A10000
 
 
 def _halves(loaded, lighting: str, depth: int, spp: int, ambient: float | None) -> tuple[list, float]:
-    """Two independent renders of ``spp`` spp each (seeds :data:`LIMIT_SEED` + 0, 1) of the
-    exact tree; returns ([image, image], their render seconds)."""
     images, seconds = [], 0.0
     for half in (0, 1):
         result = rendering.render(loaded, integrator="whitted", spp=spp, max_depth=depth,
@@ -44,11 +37,9 @@ def _halves(loaded, lighting: str, depth: int, spp: int, ambient: float | None) 
 
 def render_limit(loaded, entry: SceneResult, method: str, measured: list[tuple[Measurement, np.ndarray]],
                  reference: np.ndarray, out: Path, deadline: float = math.inf, model=None) -> Limit | None:
-    """The limit of ``method`` (a Whitted method) on ``entry``'s scene (``loaded``: its
-    ``mi.Scene``), scored against ``reference``; every render of ``measured`` (each with
-    its image) gets its ``rel_mse_limit``. None when ``measured`` is empty or not even
-    the first halves fit before ``deadline`` (a ``time.monotonic`` reading). ``model``: the
-    scene's parsed model (a ``.scn`` scene's, for the fit; None: no fit)."""
+    """The limit of a Whitted method on the scene, scored against ``reference``; sets each
+    measured render's ``rel_mse_limit``. None when nothing fits before ``deadline``;
+    ``model``: the parsed ``.scn`` scene, for the fit (None: no fit)."""
     if not measured:
         return None
     lighting = WHITTED_LIGHTING[method]

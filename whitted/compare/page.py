@@ -1,16 +1,7 @@
-"""``report.html``: the comparison as one static page, the way a rendering paper shows it.
-
-Why a page and not more PNGs: the question "where is Whitted wrong?" is answered by
-looking at the images themselves, flipping between a render, the reference and the
-render's error map in place (as one does in the tev viewer), and a page is the one
-format that does that and opens anywhere. It is static: no server, no network (no CDN:
-the script and style are in the page), and every image is a file under the output
-folder referenced by a relative path, so the folder can be moved or zipped whole.
-
-The page is a Jinja2 template (``templates/report.html.j2``, shipped as package data);
-this module only turns the :class:`~whitted.compare.analysis.Analysis` of each scene
-into plain strings for it. Nothing is computed here that the text summary does not
-also say: both read the same analysis.
+"""``report.html``: one static page that opens anywhere, where a render, the reference and
+its error map flip in place, every image a file of the output folder by relative path.
+The template (``templates/report.html.j2``) shows plain strings made here from the same
+analysis the text summary reads.
 """
 
 from __future__ import annotations
@@ -55,8 +46,7 @@ def _render(m: Measurement, index: str, card: bool) -> dict:
 
 
 def _on_curves(measurements: list[Measurement]) -> set[int]:
-    """The renders worth a card (by ``id``): those on their method's curve (no faster render of
-    the method beats them in relative MSE); the others look much like a card's."""
+    """The renders worth a card (by ``id``): those on their method's Pareto front."""
     chosen = set()
     for method in METHODS:
         ms = [m for m in measurements if m.setting.method == method]
@@ -66,7 +56,6 @@ def _on_curves(measurements: list[Measurement]) -> set[int]:
 
 
 def scene_context(analysis: Analysis, plot: str, out: Path) -> dict:
-    """The template's view of one scene: plain strings and numbers only."""
     entry = analysis.entry
     key = _slug(entry.name)
     order = {m: i for i, m in enumerate(METHODS)}
@@ -109,10 +98,8 @@ def scene_context(analysis: Analysis, plot: str, out: Path) -> dict:
 def write_page(path: str | os.PathLike, analyses: list[Analysis], plots: dict[str, str],
                files: dict[str, str], left_out: list[SceneResult] = (),
                interrupted: str | None = None) -> None:
-    """Write the report page at ``path`` (atomically); ``plots`` maps a scene's name to its
-    plot, ``files`` names the other outputs (csv, plot, sheet, summary, findings), all
-    relative to the page's folder; ``left_out`` are the scenes that got no reference
-    (their notes say why); ``interrupted`` says at the top that the run was stopped."""
+    """Write the report page (atomically); ``plots``, ``files``: the outputs relative to its
+    folder; ``left_out``: the scenes without a reference."""
     path = Path(path)
     template = environment().get_template(TEMPLATE)
     text = template.render(

@@ -1,22 +1,6 @@
-"""``error_vs_time.png``: error against render time, one row per scene (and the
-scene's own plot, for the page), with each front point labelled where its label fits.
-
-How to read it: relative MSE on the left and FLIP on the right, against the render
-time (the median of its timed rounds, compilation excluded; the bars reach the fastest
-and slowest round), both axes logarithmic. Each method has one colour (:data:`COLORS`, the
-page's too); its faint dots are every setting that was rendered, and its line joins
-the settings that no faster setting of the same method beats (its Pareto front):
-the best error that method buys for a given time. Only the front's points are
-labelled (``d3·4``: depth 3 at 4 spp; ``64``: the path tracer at 64 spp), each label
-placed where it overlaps no other label, point or line (:func:`place_labels`), and
-dropped when no place is free. A curve that flattens is a bias showing: more samples
-or depth no longer bring the image closer to the reference. The dashed line is the
-reference's own noise (estimated from its two independent halves,
-:func:`~whitted.compare.curves.reference_noise`): no render can measurably score
-below it.
-
-Figures use matplotlib's object API with the Agg canvas, never pyplot's global
-state, and are written atomically (:func:`save_figure`).
+"""``error_vs_time.png``: error against render time, one row per scene (and each scene's
+own plot, for the page); docs/compare.md, "How to read the plot". Figures use
+matplotlib's object API on the Agg canvas, never pyplot's global state.
 """
 
 from __future__ import annotations
@@ -53,8 +37,7 @@ LABEL_GAP = 3
 
 
 def line_boxes(ax, line: list[tuple[float, float]], step: float = 3.0) -> list:
-    """Small display-space boxes along a polyline of data points (one every ``step``
-    pixels), so that labels keep off the lines drawn, not only off their points."""
+    """Small display-space boxes along a polyline, so that labels keep off the lines drawn."""
     from matplotlib.transforms import Bbox
 
     points = [ax.transData.transform(p) for p in line]
@@ -68,10 +51,8 @@ def line_boxes(ax, line: list[tuple[float, float]], step: float = 3.0) -> list:
 
 
 def place_labels(fig, ax, labels: list[tuple[float, float, str, str]], taken: list) -> int:
-    """Annotate ``labels`` = [(x, y, text, color)] in ``ax`` where each overlaps neither
-    a label placed before, a data point nor anything in ``taken`` (display-space boxes,
-    extended in place); a label with no free place is left out. Needs a drawn figure
-    (its layout final). Returns how many were placed."""
+    """Annotate ``labels`` [(x, y, text, color)] where each overlaps no label placed before
+    nor anything in ``taken`` (extended in place), else leave it out; needs a drawn figure."""
     from matplotlib.transforms import Bbox
 
     renderer = fig.canvas.get_renderer()
@@ -107,7 +88,6 @@ Y_MARGIN = 0.12
 
 
 def error_vs_time_figure(entries: list[SceneResult]):
-    """The figure of :func:`plot_error_vs_time`, its labels placed (a matplotlib ``Figure``)."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
     from matplotlib.transforms import Bbox
@@ -176,8 +156,8 @@ def error_vs_time_figure(entries: list[SceneResult]):
 
 
 def _time_axis(ax, seconds: list[float]) -> None:
-    """Label a log time axis in words (``2 ms``, ``1.5 s``); minor ticks are labelled
-    only when the data span less than a decade (else their labels would collide)."""
+    """Label a log time axis in words; minor ticks only when the data span less than a
+    decade (else their labels would collide)."""
     from matplotlib.ticker import FuncFormatter, NullFormatter
 
     def label(value, _position=None):
@@ -190,7 +170,6 @@ def _time_axis(ax, seconds: list[float]) -> None:
 
 
 def _leading(value: float) -> int:
-    """The leading digit of a positive number (2 for 0.0021)."""
     return int(round(value / 10 ** math.floor(math.log10(value) + 1e-9)))
 
 

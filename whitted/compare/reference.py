@@ -1,17 +1,8 @@
-"""The reference each render is scored against: how it is planned, rendered in chunks,
-put together, and kept on disk.
-
-A converged path-traced reference costs more than the rest of a scene's sweep, so it is
-kept on disk, named by a hash of everything it depends on (docs/compare.md, "The
-reference cache"). It is two independent halves (:class:`Halves`), whose difference
-estimates its noise (docs/compare.md, "The reference's noise").
-
-One plan makes every reference, with or without ``--budget``, in one process or on a
-cluster (:func:`plan_reference`, then :func:`reference_chunks`): each half is a list of
-*chunks* of at most ``--reference-chunk-spp`` samples per pixel, each with its own seed
-(:func:`chunk_seed`); under ``--budget`` the first chunks are probe renders that measure
-what the reference will cost (docs/compare.md, "Budget"). The chunks follow from the plan
-alone, so a cluster makes the very image a run in one process makes, bit for bit.
+"""The reference each render is scored against: planned, rendered in chunks, put together
+from two independent halves (whose difference estimates its noise) and cached on disk,
+since it costs more than the rest of a scene's sweep (docs/compare.md, "The reference
+cache", "The reference's noise", "Budget"). The chunks and their seeds follow from one
+plan alone, so a cluster makes the very image one process makes, bit for bit.
 """
 
 from __future__ import annotations
@@ -28,38 +19,30 @@ from pathlib import Path
 import numpy as np
 
 from .. import rendering  # rendering.render looked up at call time: tests count calls
+from ..cluster import IN_PROCESS
 from ..defaults import COMPARE_MIN_REFERENCE_SPP, COMPARE_PROBE_SECONDS, COMPARE_REFERENCE_SHARE
 from ..progress import progress_bar
 from .budget import Budget, fit_cost, render_cost
 from .curves import reference_noise
-from .results import IN_PROCESS, Options, SceneResult, seconds_text
+from .results import Options, SceneResult, seconds_text
 from .scenes import SceneFile
 
-#: The seeds of the reference's chunks are this plus a running count (:func:`chunk_seed`).
-#: Its samples must be independent of the sweep's (seed 0, whose later passes use seeds
-#: derived from it), or its noise would correlate with theirs and flatter the path
-#: tracer; and the halves must be independent of each other, or their difference would
-#: understate the noise.
+#: The first seed of the reference's chunks: far from the sweep's, whose noise would
+#: otherwise correlate with the reference's and flatter the path tracer.
 REFERENCE_SEED = 0x5EED0000
-#: Bumped when the meaning of a cached reference changes (2: two halves, noise estimated;
-#: 3: rendered from the scene as ``--integrator path`` loads it, sealed spheres grouped).
+#: Bumped when the meaning of a cached reference changes.
 CACHE_FORMAT = "whitted-compare-reference/3"
 
 
 def chunk_seed(half: int, index: int) -> int:
-    """The seed of chunk ``index`` of ``half`` (0 or 1): the halves' seeds interleave, so
-    neither half's seeds depend on how many chunks the other has."""
+    """Interleaved: neither half's seeds depend on how many chunks the other has."""
     return REFERENCE_SEED + 2 * index + half
 
 
 def reference_chunks(reference_spp: int, chunk_spp: int,
                      done: list[tuple[int, int, int]] = ()) -> list[tuple[int, int, int]]:
-    """The chunks still to render of a reference of ``reference_spp``, as (spp, seed, half),
-    in order, after those ``done`` already (the same triples: under ``--budget``, the
-    probe's, in the first half): each half (``reference_spp // 2`` samples per pixel,
-    then the rest) completed in chunks of at most ``chunk_spp``, chunk ``i`` of half
-    ``h`` (counting those done) seeded :func:`chunk_seed` ``(h, i)``. A half that the
-    chunks done fill already gets none."""
+    """The chunks (spp, seed, half) still to render of a reference of ``reference_spp``
+    after those ``done`` (the probe's): each half in chunks of at most ``chunk_spp``."""
     chunks = []
     for half, spp in enumerate((reference_spp // 2, reference_spp - reference_spp // 2)):
         had = [n for n, _, h in done if h == half]
@@ -71,17 +54,7 @@ def reference_chunks(reference_spp: int, chunk_spp: int,
 
 @dataclass
 class Chunk:
-    """One chunk of a reference, rendered (plain data: it travels between processes).
-
-    =================== ===============================================================
-    ``spp``, ``seed``,  what was rendered, for which half (one entry of
-    ``half``            :func:`reference_chunks`)
-    ``image``           the linear image, float32 (H, W, 3)
-    ``seconds``         its render time, compilation excluded
-    ``compile_seconds`` kernel compilation
-    ``worker``          who rendered it (a Dask worker's address, or ``in-process``)
-    =================== ===============================================================
-    """
+    """One chunk of a reference, rendered (plain data: it travels between processes)."""
     spp: int
     seed: int
     half: int
@@ -92,14 +65,11 @@ class Chunk:
 
     @property
     def planned(self) -> tuple[int, int, int]:
-        """(spp, seed, half): the entry of :func:`reference_chunks` it renders."""
         return self.spp, self.seed, self.half
 
 
 def render_chunk(loaded, spp: int, seed: int, half: int, max_depth: int,
                  progress: bool = False) -> Chunk:
-    """Render one chunk of a reference with Mitsuba's path tracer (``loaded``: the
-    ``mi.Scene``)."""
     result = rendering.render(loaded, integrator="path", spp=spp, max_depth=max_depth, seed=seed,
                               progress=progress)
     return Chunk(spp, seed, half, np.asarray(result.image, dtype=np.float32),
@@ -114,25 +84,16 @@ def reference_settings(entry: SceneResult, spp: int) -> dict:
 
 
 class ReferenceCache:
-    """Converged path-traced references on disk, keyed by everything they depend on.
-
-    An entry is ``NAME-KEY.exr`` (the linear image, via whitted.images) and
-    ``NAME-KEY.json`` (the settings and render time). Both are written atomically,
-    the JSON last, and an entry is used only when the JSON names the same key and
-    the image reads back whole with the expected size.
-
-    ========== ====================================================================
-    ``folder`` where the entries live (made on the first store)
-    ========== ====================================================================
-    """
+    """Converged references on disk: ``NAME-KEY.exr`` and ``NAME-KEY.json``, both written
+    atomically, the JSON last; an entry is used only when it names the same key and the
+    image reads back whole at the expected size."""
 
     def __init__(self, folder: Path):
         self.folder = Path(folder)
         self._cleaned = False
 
     def clean(self) -> None:
-        """Once per cache object: remove the hidden temporary files that writers killed
-        outright left in the folder (:func:`whitted.atomic.remove_stale_leftovers`)."""
+        """Once per cache object: remove the temporary files that killed writers left."""
         if not self._cleaned:
             from ..atomic import remove_stale_leftovers
             from ..defaults import STALE_SECONDS
@@ -168,13 +129,11 @@ class ReferenceCache:
         return digest.hexdigest()
 
     def entry(self, name: str, key: str) -> tuple[Path, Path]:
-        """The entry's image and description files."""
         stem = f"{name.replace('/', '_')}-{key[:16]}"
         return self.folder / f"{stem}.exr", self.folder / f"{stem}.json"
 
     def load(self, name: str, key: str, shape: tuple[int, int]) -> tuple[np.ndarray, dict] | None:
-        """The cached (image, description) of ``shape`` = (height, width); None when the
-        entry is missing, damaged or of another key."""
+        """The cached (image, description); None when missing, damaged or of another key."""
         from ..images import read_image
 
         self.clean()
@@ -191,7 +150,6 @@ class ReferenceCache:
         return image, info
 
     def store(self, name: str, key: str, image: np.ndarray, info: dict) -> Path:
-        """Write an entry (image first, description last); returns the image file."""
         from ..images import write_image
         from ..atomic import write_text
 
@@ -204,8 +162,7 @@ class ReferenceCache:
 
 
 class Halves:
-    """A reference being put together: two independent halves, each the sum of its
-    chunks, averaged at the end (and differenced for its noise)."""
+    """A reference being put together: two independent halves, each the sum of its chunks."""
 
     def __init__(self, chunks: list[Chunk] = ()):
         self.sums: list[np.ndarray | None] = [None, None]
@@ -216,8 +173,7 @@ class Halves:
             self.add(chunk)
 
     def add(self, chunk: Chunk) -> None:
-        """Add a rendered chunk to its half (in float64: the same chunks in the same
-        order give the same bits)."""
+        """Add a chunk to its half in float64: the same chunks in the same order, the same bits."""
         image = chunk.image.astype(np.float64) * chunk.spp
         half = chunk.half
         self.sums[half] = image if self.sums[half] is None else self.sums[half] + image
@@ -230,12 +186,10 @@ class Halves:
         return sum(self.counts)
 
     def image(self) -> np.ndarray:
-        """The reference: every sample of both halves, averaged."""
         return (sum(s for s in self.sums if s is not None) / self.spp).astype(np.float32)
 
     def noise(self) -> float:
-        """The reference's relative MSE against the converged image, estimated from its
-        halves (:func:`~whitted.compare.curves.reference_noise`); NaN with one half."""
+        """Its relative MSE against the converged image, from its halves (NaN with one)."""
         if not all(self.counts):
             return math.nan
         return reference_noise(self.sums[0] / self.counts[0], self.sums[1] / self.counts[1],
@@ -244,12 +198,9 @@ class Halves:
 
 def probe(loaded, max_depth: int, most_spp: int, most_seconds: float,
           progress: bool = False) -> list[Chunk]:
-    """The first chunks of a reference's first half under ``--budget``: renders of 1, 2,
-    4, ... spp (``loaded``: the ``mi.Scene``) until a third one takes
-    :data:`COMPARE_PROBE_SECONDS` (several, to tell the cost of a render call from that
-    of a sample), the next would pass ``most_spp`` or the probe has taken
-    ``most_seconds``. Their (spp, seconds) feed
-    :func:`~whitted.compare.budget.fit_cost`; their images are kept in the reference."""
+    """Under ``--budget``, the first chunks of the first half: 1, 2, 4, ... spp until a third
+    takes :data:`COMPARE_PROBE_SECONDS`, the next would pass ``most_spp`` or ``most_seconds``
+    are spent; their times feed :func:`~whitted.compare.budget.fit_cost`."""
     start, chunks, spp = time.monotonic(), [], 1
     while True:
         chunks.append(render_chunk(loaded, spp, chunk_seed(0, len(chunks)), 0, max_depth, progress))
@@ -263,21 +214,8 @@ def probe(loaded, max_depth: int, most_spp: int, most_seconds: float,
 
 @dataclass
 class ReferencePlan:
-    """How a scene's reference is made, decided before the rest of it is rendered (plain
-    data: on a cluster, one worker probes and plans, and the chunks run on any).
-
-    ============= ====================================================================
-    ``planned``   the spp its chunks are planned from (``--reference-spp``, or what
-                  ``--budget`` affords; the probe's chunks may add to it)
-    ``spp``       the spp it will have (0: none, the scene is skipped; ``notes`` say why)
-    ``key``       its cache key
-    ``cached``    (image, description) read from the cache, or None: to be rendered
-    ``probes``    its chunks rendered already (under ``--budget``: the probe's)
-    ``notes``     what ``--budget`` did to it and why, one line each (for ``entry.notes``)
-    ``began``     when planning began (``time.time()``: a scene's share of the budget is
-                  counted from it, also on another machine)
-    ============= ====================================================================
-    """
+    """How a scene's reference is made, decided before the rest of the scene (plain data: on a
+    cluster, one worker plans, any renders the chunks); ``spp`` 0: none, ``notes`` say why."""
     planned: int
     spp: int
     key: str
@@ -287,7 +225,6 @@ class ReferencePlan:
     began: float = field(default_factory=time.time)
 
     def chunks(self, chunk_spp: int) -> list[tuple[int, int, int]]:
-        """What is left to render, as (spp, seed, half) (:func:`reference_chunks`)."""
         if not self.spp or self.cached is not None:
             return []
         return reference_chunks(self.planned, chunk_spp, [c.planned for c in self.probes])
@@ -295,16 +232,9 @@ class ReferencePlan:
 
 def plan_reference(scene: SceneFile, loaded, entry: SceneResult, cache: ReferenceCache,
                    options: Options, seconds: float = math.inf) -> ReferencePlan:
-    """The plan of the scene's reference within ``seconds`` (the scene's share of
-    ``--budget``; ``math.inf``: no budget, and then nothing is rendered and ``loaded``,
-    the scene's ``mi.Scene``, is not needed).
-
-    A reference in the cache is used as it is. Under a budget, one that is not is
-    first probed (:func:`probe`) and planned at the spp :meth:`Budget.reference_spp`
-    allows: fewer than asked (a reference of that spp is looked up in the cache
-    first; a note says so), or none, when not even the minimum fits (the note says
-    why). The budget's cost of a reference is that of the chunks its plan renders.
-    """
+    """The plan of the scene's reference within ``seconds``, its share of ``--budget``
+    (``math.inf``: nothing is rendered). A cached reference is used as it is; under a
+    budget, one that is not is probed and planned at the spp the budget affords, or none."""
     def lookup(spp: int) -> tuple[str, tuple[np.ndarray, dict] | None]:
         key = cache.key(scene, reference_settings(entry, spp))
         return key, cache.load(entry.name, key, (entry.height, entry.width))
@@ -356,13 +286,9 @@ def plan_reference(scene: SceneFile, loaded, entry: SceneResult, cache: Referenc
 def reference_image(scene: SceneFile, loaded, entry: SceneResult, cache: ReferenceCache,
                     options: Options, seconds: float = math.inf, plan: ReferencePlan | None = None,
                     chunks: list[Chunk] | None = None) -> np.ndarray | None:
-    """The scene's reference, from the cache or rendered from ``loaded`` (its ``mi.Scene``)
-    as :func:`plan_reference` plans it within ``seconds``; or as ``plan`` says, made
-    elsewhere, with ``chunks`` (the rest of it after the plan's probes) rendered
-    elsewhere too (a cluster's workers). None when the plan has no reference (its notes
-    say why). Records in ``entry`` the plan's notes, where the reference lies, its spp
-    and noise, whether it was cached and what it cost.
-    """
+    """The scene's reference, cached or rendered as ``plan`` (made here when None) says,
+    ``chunks`` rendered elsewhere if given; None when the plan has none. Records in
+    ``entry`` the notes, where it lies, its spp, noise and cost."""
     if plan is None:
         plan = plan_reference(scene, loaded, entry, cache, options, seconds)
     entry.notes.extend(plan.notes)

@@ -1,8 +1,4 @@
-"""Every output of ``whitted compare``, written in one go: ``results.csv``
-(:mod:`.csvfile`), the error-against-time plots (:mod:`.plot`), the contact sheet
-(:mod:`.sheet`), ``summary.txt`` and ``findings.json`` (:mod:`.summary`) and the HTML
-report that shows them all (:mod:`.page`). Every file is written atomically
-(whitted.atomic); an interrupted run's summary, findings and page say so first.
+"""Every output of ``whitted compare``, written in one go, each file atomically.
 """
 
 from __future__ import annotations
@@ -24,11 +20,8 @@ from .summary import FINDINGS_NAME, SUMMARY_NAME, findings, interruption_text, j
 
 def write_all(out: str | os.PathLike, entries: list[SceneResult], levels: tuple[float, ...] | None,
               interrupted: tuple[int, int] | None = None) -> list[Analysis]:
-    """Every output for ``entries``: the CSV, the plots, the contact sheet, ``summary.txt``,
-    ``findings.json`` and ``report.html``, of the scenes that got a reference (the page
-    also lists the others, with the reason); ``levels`` None: from each scene's data;
-    ``interrupted``: (renders done, renders planned) of a run that was stopped, said at
-    the top of the summary, the findings and the page. Returns the analyses."""
+    """Every output for ``entries``, of the scenes that got a reference (the page lists the
+    others, with why); ``interrupted``: (renders done, planned), said at the top."""
     out = Path(out)
     left_out = [e for e in entries if e.reference_thumbnail is None]
     entries = [e for e in entries if e.reference_thumbnail is not None]
@@ -56,7 +49,6 @@ def write_all(out: str | os.PathLike, entries: list[SceneResult], levels: tuple[
 
 
 def output_files(out: str | os.PathLike) -> str:
-    """The outputs' paths, for the line the CLI prints at the end."""
     out = Path(out)
     return ", ".join(str(out / name) for name in (PAGE_NAME, SUMMARY_NAME, FINDINGS_NAME, CSV_NAME,
                                                   PLOT_NAME, SHEET_NAME))

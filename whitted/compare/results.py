@@ -1,13 +1,6 @@
-"""What a comparison is asked to do and what it measured: plain data only.
-
-Every other part of ``whitted compare`` speaks in these types: the planner makes
-:class:`Setting` lists, the sweep fills :class:`SceneResult` with
-:class:`Measurement` s, and the reports (CSV, plot, contact sheet, table, and
-any later one) read them. They import nothing of the rest of the command, so a
-report never imports the sweep, and they hold no Mitsuba object, so they pickle:
-a worker process can receive the settings and :class:`Options` and send a
-:class:`SceneResult` back. The defaults of the command live here, once.
-"""
+"""What a comparison is asked to do and what it measured: plain data that every part of
+``whitted compare`` speaks in. It imports nothing else of the command and holds no Mitsuba
+object, so reports never import the sweep and a worker process can pickle it both ways."""
 
 from __future__ import annotations
 
@@ -16,24 +9,16 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from ..defaults import IN_PROCESS
-from ..defaults import (COMPARE_MAX_DEFAULT_DEPTH as MAX_DEFAULT_DEPTH,
-                        COMPARE_PATH_SPP as DEFAULT_PATH_SPP,
-                        COMPARE_REFERENCE_CHUNK_SPP as DEFAULT_REFERENCE_CHUNK_SPP,
-                        COMPARE_REFERENCE_SPP as DEFAULT_REFERENCE_SPP,
-                        COMPARE_ROUNDS as DEFAULT_ROUNDS, COMPARE_WHITTED_SPP as DEFAULT_WHITTED_SPP,
-                        LIGHTING_MODES, MAX_DEPTH, user_cache_folder)
+from ..defaults import (COMPARE_PATH_SPP, COMPARE_REFERENCE_CHUNK_SPP, COMPARE_REFERENCE_SPP,
+                        COMPARE_ROUNDS, COMPARE_WHITTED_SPP, IN_PROCESS, LIGHTING_MODES,
+                        user_cache_folder)
 
 if TYPE_CHECKING:
     import numpy as np
 
 
-
 def method_of(integrator: str, lighting: str) -> str:
-    """The name of the method that renders with ``integrator`` in ``lighting``:
-    ``whitted-article``, ``whitted-physical`` or ``path`` (the path tracer has one
-    lighting). Names are made here only; their parts are read from
-    :data:`WHITTED_LIGHTING`, never parsed back out of the name."""
+    """``whitted-article``, ``whitted-physical`` or ``path``: made here only, never parsed."""
     return "path" if integrator == "path" else f"whitted-{lighting}"
 
 
@@ -43,23 +28,10 @@ WHITTED_LIGHTING = {method_of("whitted", lighting): lighting for lighting in LIG
 WHITTED_METHODS = tuple(WHITTED_LIGHTING)
 METHODS = WHITTED_METHODS + ("path",)
 
-__all__ = ["DEFAULT_PATH_SPP", "DEFAULT_REFERENCE_CHUNK_SPP", "DEFAULT_REFERENCE_SPP",
-           "DEFAULT_ROUNDS", "DEFAULT_WHITTED_SPP", "IN_PROCESS", "MAX_DEFAULT_DEPTH", "MAX_DEPTH",
-           "METHODS", "WHITTED_LIGHTING", "WHITTED_METHODS", "Comparison", "Limit", "Measurement",
-           "Options", "SceneResult", "Setting", "method_of", "seconds_text"]
-
 
 @dataclass(frozen=True)
 class Setting:
-    """One point of the sweep: one render's parameters.
-
-    ============== ===================================================================
-    ``integrator`` ``"whitted"`` or ``"path"``
-    ``lighting``   ``"article"`` or ``"physical"`` (the path tracer is always physical)
-    ``spp``        samples per pixel
-    ``max_depth``  the ray tree's depth, primary rays have depth 1 (both integrators)
-    ============== ===================================================================
-    """
+    """One render's parameters (``max_depth``: primary rays have depth 1)."""
     integrator: str
     lighting: str
     spp: int
@@ -67,53 +39,25 @@ class Setting:
 
     @property
     def method(self) -> str:
-        """One of :data:`METHODS`."""
         return method_of(self.integrator, self.lighting)
 
     @property
     def label(self) -> str:
-        """A short caption: ``d3 · 4 spp``, or ``64 spp`` for the path tracer."""
         return f"{self.spp} spp" if self.integrator == "path" else f"d{self.max_depth} · {self.spp} spp"
 
     @property
     def short_label(self) -> str:
-        """The plot's label: ``d3·4`` (depth · spp) for Whitted, ``64`` (spp) for the path tracer."""
         return f"{self.spp}" if self.integrator == "path" else f"d{self.max_depth}·{self.spp}"
 
     @property
     def slug(self) -> str:
-        """A file name stem: ``whitted-article-d3-4spp``, ``path-64spp``."""
         return f"path-{self.spp}spp" if self.integrator == "path" else f"{self.method}-d{self.max_depth}-{self.spp}spp"
 
 
 @dataclass
 class Measurement:
-    """One setting, rendered and scored against the reference, then timed in rounds.
-
-    =================== ===============================================================
-    ``setting``         what was rendered
-    ``seconds``         its render time, compilation excluded: the median of its timed
-                        rounds on the timing clock (:mod:`~whitted.compare.timing`), or
-                        :attr:`render_seconds` where the scene got no round
-    ``compile_seconds`` kernel compilation (its scored render's: the first)
-    ``rel_mse``         relative MSE against the reference (:mod:`whitted.metrics`)
-    ``flip``            LDR-FLIP against the reference
-    ``work``            what the render does, independent of timing: the rays traced
-                        (Whitted: camera, shadow, reflected and refracted, merged rays
-                        once) or, for the path tracer, its camera samples
-    ``thumbnail``       a small sRGB uint8 copy of the image (for the contact sheet)
-    ``times``           its time in each timed round, in round order (the rounds of a
-                        scene are the same moments for all its settings)
-    ``image``           the render, linear EXR, relative to the output folder (None:
-                        not kept)
-    ``image_png``       the same as an sRGB PNG (for the report page)
-    ``error_map``       FLIP's per-pixel error against the reference, colored (PNG)
-    ``rel_mse_limit``   relative MSE against the method's limit (:class:`Limit`): what
-                        the render's depth and spp cost (NaN: no limit, or the path tracer)
-    ``render_seconds``  its scored render's wall time on all threads, compilation
-                        excluded: what the time of other renders is predicted from
-    =================== ===============================================================
-    """
+    """One setting, rendered, scored against the reference and timed in rounds (its fields:
+    docs/compare.md, "Outputs", results.csv)."""
     setting: Setting
     seconds: float
     compile_seconds: float
@@ -130,12 +74,10 @@ class Measurement:
 
     @property
     def rounds(self) -> int:
-        """How many timed rounds it has."""
         return len(self.times)
 
     def seconds_in(self, timed_round: int) -> float:
-        """Its time in round ``timed_round`` (its :attr:`seconds` when it has no rounds; NaN
-        when it missed that round)."""
+        """Its time in a round (NaN: it missed it; its :attr:`seconds` when it has none)."""
         if not self.times:
             return self.seconds
         return self.times[timed_round] if timed_round < len(self.times) else math.nan
@@ -151,30 +93,9 @@ class Measurement:
 
 @dataclass
 class Limit:
-    """A Whitted method's limit on one scene: what it converges to with every ray of its
-    tree (``min_weight`` 0) at the sweep's deepest depth and enough samples per pixel that
-    anti-aliasing has converged. Against it, a render's error is what its depth and spp
-    cost; its own error against the reference is the model's bias.
-
-    =========================== =====================================================
-    ``method``                  the Whitted method
-    ``max_depth``, ``spp``      how it was rendered (``spp``: both halves together)
-    ``noise``                   its own relative MSE against the converged limit,
-                                estimated from its two halves (as for the reference)
-    ``converged``               whether ``noise`` is below the share of the smallest
-                                difference it measured (``COMPARE_LIMIT_NOISE_SHARE``)
-    ``rel_mse``                 its relative MSE against the reference: the bias
-    ``seconds``                 the render time of all its renders
-    ``ambient``                 the scene's ambient A (article lighting; NaN otherwise)
-    ``best_ambient``            the A in [0, 1] whose limit is closest to the reference
-                                (article lighting; NaN otherwise)
-    ``rel_mse_at_best_ambient`` that limit's relative MSE against the reference
-    ``image``                   the limit, linear EXR, relative to the output folder
-    ``fitted``                  the article's model fitted to the reference (colors,
-                                ambient, light colors: :class:`.fitted.Fitted`; None:
-                                not fitted)
-    =========================== =====================================================
-    """
+    """A Whitted method's limit on one scene: its full ray tree (``min_weight`` 0) at the
+    sweep's deepest depth, anti-aliasing converged; its error against the reference is
+    the model's bias (docs/compare.md, "What the error is made of")."""
     method: str
     max_depth: int
     spp: int
@@ -191,38 +112,7 @@ class Limit:
 
 @dataclass
 class SceneResult:
-    """What the sweep measured on one scene, and what it was asked to sweep there.
-
-    ======================= ===========================================================
-    ``name``                the scene's short, distinct name (its file stem)
-    ``path``                the scene file
-    ``width``, ``height``   the image size
-    ``variant``             the Mitsuba variant of every render
-    ``reference_spp``       the reference's samples per pixel
-    ``path_depth``          the path tracer's (and the reference's) max depth
-    ``reference_file``      the cached reference image (None: no time was left for it)
-    ``reference_seconds``   its render time (NaN when unknown)
-    ``reference_cached``    whether it was read from the cache
-    ``reference_thumbnail`` a small sRGB copy (None: the scene got no reference)
-    ``measurements``        the renders that were done, in the order done
-    ``skipped``             the settings the budget left out
-    ``whitted_spp``, ``path_spp``, ``depths``: the ladders that were planned
-    ``reference_requested`` the reference spp asked for (``reference_spp`` is less when
-                            ``--budget`` scaled it down)
-    ``reference_noise``     the reference's own relative MSE against the converged
-                            image, estimated from its two independent halves (NaN:
-                            unknown); no render can score much below it
-    ``reference_png``       the reference as an sRGB PNG, relative to the output folder
-    ``notes``               one line each on what the budget did to this scene and why
-    ``worker``              who rendered the sweep: a Dask worker's address, or
-                            :data:`IN_PROCESS` (every setting of a scene is rendered
-                            by one worker, so its times compare)
-    ``limits``              Whitted method -> its :class:`Limit` (absent: not rendered)
-    ``view``, ``exposure``  how every image of the scene is displayed (PNGs, page,
-                            contact sheet) and what FLIP scores (:mod:`whitted.images`)
-    ``reference_clipped``   the share of the reference's pixels plain sRGB would clip
-    ======================= ===========================================================
-    """
+    """What the sweep measured on one scene, and what it was asked to sweep there."""
     name: str
     path: Path
     width: int
@@ -255,61 +145,25 @@ class SceneResult:
 
     @property
     def folder(self) -> str:
-        """Where this scene's renders lie, relative to the output folder."""
         return f"renders/{self.name.replace('/', '_')}"
 
 
 @dataclass
 class Options:
-    """The command's options (``whitted compare --help`` describes each).
-
-    ======================= ==========================================================
-    ``out``                 the output folder
-    ``reference_spp``       the reference's samples per pixel
-    ``depths``              Whitted max depths (None: 1…the scene's depth, at most
-                            :data:`MAX_DEFAULT_DEPTH`)
-    ``whitted_spp``         the Whitted integrator's spp ladder
-    ``path_spp``            the path tracer's spp ladder
-    ``path_depth``          the path tracer's and reference's max depth (None: the
-                            scene's)
-    ``rounds``              timed rounds over a scene's settings, at least
-                            (:mod:`~whitted.compare.timing`; more while a headline
-                            is unsettled)
-    ``budget``              seconds for the whole command (None: unbounded)
-    ``levels``              relative MSE levels of the equal-quality table (None: from
-                            the data, :func:`~whitted.compare.analysis.data_levels`)
-    ``cache``               the reference cache's folder (None: the user's cache,
-                            ``~/.cache/whitted/references``: shared by every run)
-    ``variant``             the Mitsuba variant (None: as for ``whitted render``)
-    ``quiet``               no progress bar or messages
-    ``reference_chunk_spp`` the reference is rendered in chunks of at most this many
-                            spp, each with its own seed, and averaged: the same chunks
-                            in this process and on a cluster
-    ``workers``             sweep on a local Dask cluster of this many worker
-                            processes (None: in this process)
-    ``scheduler``           sweep on the Dask cluster of this scheduler
-                            (``tcp://host:port``; None: in this process)
-    ``view``                how every image is displayed and FLIP scores it ("clip" or
-                            "aces"; None: per scene, :func:`whitted.images.fitting_view`
-                            of its reference)
-    ``exposure``            the displayed images' exposure, in stops
-    ``started``             when ``budget``'s clock started (``time.monotonic``; None:
-                            when :func:`~whitted.compare.compare` is called)
-    ======================= ==========================================================
-    """
+    """The command's options (``whitted compare --help`` describes each)."""
     out: Path
-    reference_spp: int = DEFAULT_REFERENCE_SPP
+    reference_spp: int = COMPARE_REFERENCE_SPP
     depths: tuple[int, ...] | None = None
-    whitted_spp: tuple[int, ...] = DEFAULT_WHITTED_SPP
-    path_spp: tuple[int, ...] = DEFAULT_PATH_SPP
+    whitted_spp: tuple[int, ...] = COMPARE_WHITTED_SPP
+    path_spp: tuple[int, ...] = COMPARE_PATH_SPP
     path_depth: int | None = None
-    rounds: int = DEFAULT_ROUNDS
+    rounds: int = COMPARE_ROUNDS
     budget: float | None = None
     levels: tuple[float, ...] | None = None
     cache: Path | None = None
     variant: str | None = None
     quiet: bool = False
-    reference_chunk_spp: int = DEFAULT_REFERENCE_CHUNK_SPP
+    reference_chunk_spp: int = COMPARE_REFERENCE_CHUNK_SPP
     workers: int | None = None
     scheduler: str | None = None
     view: str | None = None
@@ -318,17 +172,13 @@ class Options:
 
     @property
     def cache_folder(self) -> Path:
-        """Where references are cached: ``cache``, or the user's cache folder
-        (:func:`whitted.defaults.user_cache_folder`), so that a second run of the same scene
-        into another output folder renders no reference again."""
+        """``cache``, or the user's: shared by every run, whatever its output folder."""
         return Path(self.cache) if self.cache is not None else user_cache_folder() / "references"
 
 
 class Comparison(list):
-    """What :func:`whitted.compare.compare` returns: the scenes' results (a list of
-    :class:`SceneResult`, in the order given), with ``analyses`` (one
-    :class:`~whitted.compare.analysis.Analysis` per scene that got a reference) and
-    ``findings`` (the run's conclusions, the content of ``findings.json``)."""
+    """What :func:`whitted.compare.compare` returns: the scenes' results, with ``analyses`` and
+    ``findings`` (the content of ``findings.json``)."""
 
     def __init__(self, entries: list[SceneResult], analyses: list, findings: dict):
         super().__init__(entries)
@@ -337,8 +187,7 @@ class Comparison(list):
 
 
 def seconds_text(value: float) -> str:
-    """A duration for people, three significant digits: ``0.104 ms``, ``12.3 ms``,
-    ``1.25 s``, ``4 min 10 s``, ``3 h 21 min``."""
+    """A duration for people: ``12.3 ms``, ``1.25 s``, ``4 min 10 s``, ``3 h 21 min``."""
     if not math.isfinite(value):
         return "time unknown"
     if value < 1:

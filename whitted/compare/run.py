@@ -1,13 +1,7 @@
-"""The whole ``whitted compare`` run: check the options, read and plan every scene,
-sweep them one after the other within the budget, write the outputs.
-
-This is the one place that knows the order of the work and holds Mitsuba
-objects across it. Every scene is read and loaded before the first render, so a
-bad scene fails at once, not after minutes of rendering; each scene's
-``mi.Scene`` is then handed to its sweep and let go once that scene is done. A
-scene's sweep (:func:`whitted.compare.sweep.sweep_scene`) needs only plain data,
-so with ``--workers`` or ``--scheduler`` the scenes go to the workers of a Dask
-cluster instead of this loop (:mod:`whitted.compare.cluster`).
+"""The whole ``whitted compare`` run, the one place that knows the order of the work and
+holds Mitsuba objects across it: every scene is read and loaded before the first render,
+so a bad scene fails at once; then each is swept, here or on a Dask cluster, and the
+outputs written.
 """
 
 from __future__ import annotations
@@ -33,7 +27,6 @@ from .sweep import sweep_scene
 
 
 def check_options(options: Options) -> None:
-    """One clean error for options that cannot work, before anything is read or written."""
     out = Path(options.out)
     if out.exists() and not out.is_dir():
         raise WhittedError(f"{out}: exists and is not a folder")
@@ -61,8 +54,7 @@ def check_options(options: Options) -> None:
 
 def compare(scenes: list[str | os.PathLike], options: Options) -> Comparison:
     """Run the whole comparison and write its outputs under ``options.out``; returns the
-    scenes' results (a list of :class:`~whitted.compare.results.SceneResult`) with their
-    analyses and ``findings`` (the content of ``findings.json``)."""
+    scenes' results with their analyses and findings."""
     from ..variant import set_variant
 
     budget = Budget(options.budget, options.started)
@@ -73,7 +65,6 @@ def compare(scenes: list[str | os.PathLike], options: Options) -> Comparison:
 
     on_cluster = options.workers is not None or options.scheduler is not None
 
-    # Read, load and plan every scene first: a bad scene fails now, not after minutes of rendering.
     read, loaded, entries, plans = [], [], [], []
     for path, name in zip(files, scene_names(files)):
         scene = SceneFile.read(path, name)
@@ -110,7 +101,6 @@ def compare(scenes: list[str | os.PathLike], options: Options) -> Comparison:
 
 def _compare_on_cluster(scenes: list[SceneFile], entries: list[SceneResult], plans: list,
                         options: Options, budget: Budget) -> list[SceneResult]:
-    """The sweep on a Dask cluster: connected (or started) before anything is written."""
     from .cluster import sweep_on_cluster
 
     out = Path(options.out)
@@ -132,9 +122,8 @@ def _written(out: Path, entries: list[SceneResult], options: Options) -> Compari
 
 
 def _write_what_was_done(out: Path, entries: list[SceneResult], plans: list, options: Options) -> None:
-    """The outputs of an interrupted run, marked as such at the top: what was done, or
-    (interrupted before a render was done) a page that says nothing was measured. What
-    they hold goes into the CLI's one line (:func:`whitted.interrupt.tell`)."""
+    """The outputs of an interrupted run, marked so at the top: what was done, or a page
+    that says nothing was measured."""
     if not out.is_dir():
         return
     done, planned = sum(len(e.measurements) for e in entries), sum(map(len, plans))

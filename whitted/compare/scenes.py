@@ -1,12 +1,5 @@
-"""The scenes of a comparison: which files the command line names, and each one
-read once.
-
-Several stages need something of a scene file: the planner its depth, the
-reference cache its bytes, its converted XML and its textures, the sweep the
-loaded ``mi.Scene``. :class:`SceneFile` reads and parses the file once and
-carries all of it; the stages take it, not the path. It is plain data (bytes,
-paths and the converter's scene model: it pickles), so a worker process can
-receive it and load its own ``mi.Scene`` with :meth:`SceneFile.load`.
+"""The scenes of a comparison: which files the command line names, each read and parsed
+once into plain data that every stage takes (and a worker process can receive).
 """
 
 from __future__ import annotations
@@ -22,9 +15,8 @@ from ..errors import WhittedError
 
 
 def scene_files(arguments: list[str | os.PathLike]) -> list[Path]:
-    """The scene files named on the command line; a folder stands for its ``.scn`` files
-    (its ``.xml`` files when it has none, so converted copies beside the originals are not
-    counted twice)."""
+    """The scene files named on the command line; a folder stands for its ``.scn`` files, or
+    its ``.xml`` files when it has none (converted copies are not counted twice)."""
     files: list[Path] = []
     for argument in arguments:
         path = Path(argument)
@@ -51,20 +43,8 @@ def scene_names(files: list[Path]) -> list[str]:
 
 @dataclass(frozen=True)
 class SceneFile:
-    """One scene file, read and parsed once.
-
-    ============ =====================================================================
-    ``path``     the file (``.scn`` or ``.xml``)
-    ``name``     its short name in the outputs (:func:`scene_names`)
-    ``data``     the file's bytes
-    ``model``    the parsed scene (``whitted.converter.Scene``) of a ``.scn``; None
-                 for an ``.xml``, which Mitsuba reads itself (its relative paths are
-                 relative to the file)
-    ``textures`` the image files the scene reads (absolute paths, sorted)
-    ``depth``    the scene's max depth as the file states it; None when an ``.xml``
-                 does not say (the loaded scene's integrator then tells)
-    ============ =====================================================================
-    """
+    """One scene file, read and parsed once (``model``: a ``.scn``'s parsed scene, None for an
+    ``.xml``; ``depth``: None when an ``.xml`` does not state it)."""
     path: Path
     name: str
     data: bytes = field(repr=False)
@@ -85,15 +65,8 @@ class SceneFile:
         return cls(path, name, data, None, *_xml_textures_and_depth(path, data))
 
     def load(self, variant: str | None = None):
-        """The ``mi.Scene`` (``variant`` as for :func:`whitted.load_scene`).
-
-        Loaded as ``whitted render --integrator path`` loads it (the sealed spheres
-        of the commonest radius and of larger ones grouped in ``ellipsoids`` shapes,
-        where Mitsuba's own test finds every hit: :mod:`whitted.sealed`): the reference and the path renders are those of that
-        command, and a scene of a million spheres loads in seconds and a few hundred
-        MB instead of minutes and gigabytes. The Whitted renders see the same scene
-        (its layers trace every grouped radius exactly).
-        """
+        """The ``mi.Scene``, loaded as ``whitted render --integrator path`` loads it (sealed spheres
+    grouped, :mod:`whitted.sealed`), for the Whitted renders too."""
         from ..loading import load_scene
         from ..rendering import check_article_materials
         loaded = load_scene(self.path, variant, model=self.model, integrator="path")

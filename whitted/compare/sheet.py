@@ -1,6 +1,5 @@
-"""``contact_sheet.png``: a thumbnail of every render beside the reference, each with
-its error and time; and :func:`thumbnail`, the small copy of an image it is made of
-(kept with each measurement, so that the images themselves need not be).
+"""``contact_sheet.png``: a thumbnail of every render beside the reference, with its error
+and time; and :func:`thumbnail`, kept with each measurement instead of its image.
 """
 
 from __future__ import annotations
@@ -19,9 +18,8 @@ THUMBNAIL_WIDTH = 160
 
 def thumbnail(image: np.ndarray, width: int = THUMBNAIL_WIDTH, exposure: float = 0.0,
               view: str = "clip") -> np.ndarray:
-    """A small sRGB uint8 copy of a linear image: box-averaged by an integer factor so
-    that noise shows as it would at full size on average, then displayed with
-    ``exposure`` and ``view`` (:mod:`whitted.images`)."""
+    """A small sRGB uint8 copy of a linear image, box-averaged by an integer factor so that
+    noise shows as it would at full size."""
     from ..images import to_srgb
 
     image = np.nan_to_num(np.asarray(image, dtype=np.float32), nan=0.0, posinf=0.0, neginf=0.0)
@@ -34,9 +32,6 @@ def thumbnail(image: np.ndarray, width: int = THUMBNAIL_WIDTH, exposure: float =
 
 
 def _sheet_rows(entry: SceneResult) -> list[list[tuple[str, np.ndarray | None, str]]]:
-    """The cells (title, thumbnail or None, caption) of one scene's block, row by row:
-    the reference and the path tracer's ladder first, then one row per depth with the
-    Whitted integrator's spp ladder in article lighting, then in physical lighting."""
     done = {(m.setting.method, m.setting.max_depth, m.setting.spp): m for m in entry.measurements}
 
     def cell(title: str, m: Measurement | None) -> tuple[str, np.ndarray | None, str]:
@@ -56,12 +51,8 @@ def _sheet_rows(entry: SceneResult) -> list[list[tuple[str, np.ndarray | None, s
 
 
 def contact_sheet(path: str | os.PathLike, entries: list[SceneResult]) -> None:
-    """Thumbnails of every render beside the reference, each with its error and time.
-
-    One block per scene: the reference and the path tracer's spp ladder on top,
-    then a row per Whitted max depth: its spp ladder in article lighting, then in
-    physical lighting.
-    """
+    """One block per scene: the reference and the path tracer's ladder on top, then a row per
+    Whitted depth: its spp ladder in article, then in physical lighting."""
     from matplotlib.figure import Figure
 
     if not entries:

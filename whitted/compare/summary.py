@@ -1,9 +1,5 @@
-"""``summary.txt`` and ``findings.json``: the run's conclusions, in words and as JSON.
-
-Per scene: what the budget did, the floors and what the error is made of, the
-equal-quality table and the equal-time table, all read from the scene's
-:class:`~whitted.compare.analysis.Analysis` (the page shows the same). An
-interrupted run's summary and findings say so first (:func:`interruption_text`).
+"""``summary.txt`` and ``findings.json``: the run's conclusions in words and as JSON, read
+from each scene's :class:`~whitted.compare.analysis.Analysis` (as the page is).
 """
 
 from __future__ import annotations
@@ -24,9 +20,6 @@ def _table(rows: list[list[str]], indent: str = "  ") -> list[str]:
 
 
 def method_verdict(statement: FloorStatement) -> str:
-    """One Whitted method's verdict, e.g. "The article's model is as good as it gets at
-    d3 · 1 spp, 7.1 ms (error 0.104); from about 46 ms on, the path tracer is more
-    accurate." """
     name = METHOD_NAMES[statement.method]
     render, floor = statement.render, statement.floor
     where = f"{render.setting.label}, {seconds_text(render.seconds)} (error {floor.error:.3g})"
@@ -51,7 +44,6 @@ def method_verdict(statement: FloorStatement) -> str:
 
 
 def scale_text(reference_noise: float = math.nan) -> str:
-    """What the error numbers mean."""
     noise = (f"; this reference's own noise is about {reference_noise:.2g}, and no render can "
              f"measurably score below it" if math.isfinite(reference_noise) and reference_noise > 0 else "")
     return ("Errors are relative MSE against the converged path-traced reference: 0 is identical, "
@@ -59,7 +51,6 @@ def scale_text(reference_noise: float = math.nan) -> str:
 
 
 def verdict(analysis: Analysis) -> str:
-    """The scene's verdict: each Whitted method's sentence, then the error's scale."""
     sentences = [method_verdict(s) for s in analysis.floors]
     if not sentences:
         sentences = ["No Whitted render was done: there is no verdict to state."]
@@ -71,7 +62,7 @@ def number(value: float) -> str:
 
 
 def equal_quality_rows(analysis: Analysis) -> list[dict]:
-    """The equal-quality table's rows, as cells of text (summary.txt and the page)."""
+    """The equal-quality table's rows as cells of text, for summary.txt and the page."""
     methods = analysis.table_methods
     whitted = [m for m in WHITTED_METHODS if m in methods]
     return [{"level": f"{row.level:g}",
@@ -84,8 +75,8 @@ def equal_quality_rows(analysis: Analysis) -> list[dict]:
 
 
 def equal_time_rows(analysis: Analysis) -> list[dict]:
-    """The equal-time table's rows, as cells of text (summary.txt and the page); ``winner``:
-    the more accurate method, "" where the interval holds 1 or nothing was compared."""
+    """The equal-time table's rows as cells of text; ``winner``: the more accurate method (""
+    where the interval holds 1 or nothing was compared)."""
     rows = []
     for row in analysis.equal_time:
         m = row.whitted
@@ -120,15 +111,13 @@ def equal_time_lines(analysis: Analysis) -> list[str]:
 
 
 def interruption_text(done: int, planned: int) -> str:
-    """What an interrupted run's outputs say first."""
     if done == 0:
         return "Interrupted before any render was done: nothing was measured."
     return f"Interrupted after {done} of {planned} renders; the conclusions are drawn from those."
 
 
 def scene_words(analysis: Analysis) -> dict:
-    """What summary.txt and the page say of one scene: its verdict, notes, floors, what its
-    error is made of and its tables' rows (both templates read this)."""
+    """What summary.txt and the page say of one scene (both templates read this)."""
     entry = analysis.entry
     methods = analysis.table_methods
     noisy = math.isfinite(entry.reference_noise) and entry.reference_noise > 0
@@ -146,7 +135,6 @@ def scene_words(analysis: Analysis) -> dict:
 
 
 def environment():
-    """The Jinja2 templates of summary.txt and report.html (``templates/``)."""
     import jinja2
 
     return jinja2.Environment(loader=jinja2.PackageLoader("whitted.compare", "templates"),
@@ -157,10 +145,7 @@ def environment():
 
 def summary(analyses: list[Analysis], equal_time: bool = True,
             interrupted: tuple[int, int] | None = None) -> str:
-    """The summary in text (``templates/summary.txt.j2``): per scene, what the budget did,
-    the floors and what the error is made of in words, the equal-quality table and (with
-    ``equal_time``) the equal-time table; an interrupted run (``interrupted`` = (renders
-    done, planned)) says so first."""
+    """``summary.txt``; ``interrupted``: (renders done, planned) of a stopped run, said first."""
     scenes = [{**scene_words(a), "reference": {"spp": a.entry.reference_spp}} for a in analyses]
     return environment().get_template("summary.txt.j2").render(
         scenes=scenes, timing=TIMING, equal_time=equal_time,
@@ -168,7 +153,6 @@ def summary(analyses: list[Analysis], equal_time: bool = True,
 
 
 def findings(analyses: list[Analysis], interrupted: tuple[int, int] | None = None) -> dict:
-    """The run's conclusions as plain JSON data: ``findings.json`` (docs/compare.md)."""
     return {"interrupted": ({"renders_done": interrupted[0], "renders_planned": interrupted[1],
                              "text": interruption_text(*interrupted)} if interrupted else None),
             "timing": f"seconds are {TIMING}",
@@ -176,7 +160,7 @@ def findings(analyses: list[Analysis], interrupted: tuple[int, int] | None = Non
 
 
 def json_safe(value):
-    """``value`` with every non-finite number (NaN: not measured) as None: JSON has no NaN."""
+    """``value`` with NaN (not measured) as None: JSON has no NaN."""
     if isinstance(value, dict):
         return {k: json_safe(v) for k, v in value.items()}
     if isinstance(value, (list, tuple)):

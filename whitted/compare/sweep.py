@@ -1,17 +1,7 @@
-"""One scene's share of the comparison: its reference, then each setting rendered,
-timed and scored, then each Whitted method's limit (:mod:`.limits`).
-
-This is the unit of work that can move to another process: :func:`sweep_scene` takes
-plain data, loads its own ``mi.Scene`` when none is handed to it, and returns a
-:class:`~whitted.compare.results.SceneResult` (images reduced to thumbnails).
-
-Each setting is rendered once and scored (the same seed gives the same image whenever it
-is rendered); then the scene's settings are timed together in rounds, compilation
-excluded (:mod:`.timing`; docs/compare.md, "Timing"). Relative MSE is measured on the
-linear images, FLIP on the images as displayed, every image of a scene in one view
-(:func:`whitted.images.fitting_view` of its reference unless ``--view`` names one). Every
-render is kept under ``renders/SCENE/`` (:mod:`.errormaps`), written by whoever renders
-it: a worker must share the output folder's file system.
+"""One scene's share of the comparison: its reference, each setting rendered and scored once,
+timed together in rounds (docs/compare.md, "Timing"), then each Whitted method's limit.
+It takes and returns plain data, so it can run in another process, which must share the
+output folder's file system.
 """
 
 from __future__ import annotations
@@ -30,6 +20,7 @@ from ..defaults import (COMPARE_CLOCK, COMPARE_HEADLINE_ROUNDS, COMPARE_KEPT_MEM
                         COMPARE_ROUND_SECONDS, COMPARE_ROUNDS_SECONDS, COMPARE_ROUNDS_SHARE,
                         COMPARE_TIMING_THREADS)
 from ..images import clipped_fraction, fitting_view, read_image, to_srgb, write_image
+from ..progress import progress_bar
 from .analysis import analyse
 from .budget import Budget
 from .errormaps import write_render
@@ -46,8 +37,7 @@ SWEEP_SEED = 0
 
 
 def _render(loaded, setting: Setting, timed: bool = False):
-    """One render of ``setting``, with the sweep's seed; ``timed`` (a timed round's):
-    Dr.Jit's memory cache kept, as a program rendering again and again keeps it."""
+    """One render with the sweep's seed; a timed one keeps Dr.Jit's memory cache."""
     return rendering.render(loaded, integrator=setting.integrator, spp=setting.spp,
                             max_depth=setting.max_depth,
                             lighting=setting.lighting if setting.integrator == "whitted" else None,
@@ -60,17 +50,15 @@ def _on_gpu() -> bool:
 
 
 def _seconds(result) -> float:
-    """A timed round's render time on the :data:`~whitted.defaults.COMPARE_CLOCK` (the wall
-    clock on a GPU, where the CPU only waits)."""
+    """A timed render's time on the COMPARE_CLOCK (the wall clock on a GPU, where the CPU waits)."""
     cpu = COMPARE_CLOCK == "cpu" and not _on_gpu()
     return float(result.cpu_seconds if cpu else result.seconds)
 
 
 @contextlib.contextmanager
 def timing_threads():
-    """Dr.Jit's LLVM backend on :data:`~whitted.defaults.COMPARE_TIMING_THREADS` threads
-    while rounds are timed (docs/compare.md, "Timing"), the process's own count restored
-    after; yields how many times slower a parallel render may be on them."""
+    """Dr.Jit's LLVM backend on COMPARE_TIMING_THREADS threads while rounds are timed;
+    yields how many times slower a parallel render may be on them."""
     import drjit as dr
     slower = _slower()
     if slower == 0:
@@ -85,8 +73,7 @@ def timing_threads():
 
 
 def _slower() -> float:
-    """How many times slower a parallel render may be on the timing threads (0: they are not
-    set, on a GPU or without :data:`~whitted.defaults.COMPARE_TIMING_THREADS`)."""
+    """That factor (0: no timing threads are set, or not on the LLVM backend)."""
     import drjit as dr
     import mitsuba as mi
     if COMPARE_TIMING_THREADS is None or not mi.variant().startswith("llvm"):
@@ -94,9 +81,8 @@ def _slower() -> float:
     return max(1.0, dr.thread_count() / COMPARE_TIMING_THREADS)
 
 
-def _work(setting: Setting, result) -> int:
-    """What a render did, whatever the clock says: the rays it traced (Whitted), or its
-    camera samples (the path tracer, which counts nothing else)."""
+def _work(result) -> int:
+    """What a render did, whatever the clock says: the rays it traced."""
     rays = result.stats["rays"]
     return int(sum(rays.values()) - result.stats.get("merged_rays", 0))
 
@@ -104,45 +90,39 @@ def _work(setting: Setting, result) -> int:
 def measure(loaded, setting: Setting, reference: np.ndarray,
             out: Path | None = None, folder: str = "", exposure: float = 0.0,
             view: str = "clip") -> Measurement:
-    """Render ``setting`` of ``loaded`` (an ``mi.Scene``) once and score the image against
-    ``reference``; its time is that render's until :func:`time_rounds` times it. With
-    ``out``, the image and its error map are kept under ``out / folder``. FLIP, the PNG and
-    the thumbnail see the image as displayed with ``exposure`` and ``view``."""
+    """Render ``setting`` once and score it against ``reference`` (its time is that render's
+    until :func:`time_rounds` times it); with ``out``, keep the image and its error map."""
     result = _render(loaded, setting)
     image = np.asarray(result.image, dtype=np.float32)
     error_map, flip = metrics.flip_map(image, reference, exposure, view)
     files = (write_render(out, f"{folder}/{setting.slug}", image, error_map, exposure, view)
              if out is not None else {})
     return Measurement(setting, float(result.seconds), float(result.compile_seconds),
-                       metrics.relative_mse(image, reference), flip, _work(setting, result),
+                       metrics.relative_mse(image, reference), flip, _work(result),
                        thumbnail(image, exposure=exposure, view=view), **files,
                        render_seconds=float(result.seconds))
 
 
 def time_rounds(loaded, entry: SceneResult, rounds: int, deadline: float = math.inf,
                 progress=None) -> None:
-    """Time every render of ``entry`` once per round, ``rounds`` rounds, then extra rounds of
-    the headlines' renders alone while a headline ratio is unsettled (docs/compare.md,
-    "Timing"); never past ``deadline`` (a round predicted to overrun it is not started).
-    Each measurement's ``times`` and ``seconds`` (their median) are set in place."""
+    """Time every render of ``entry`` once per round, then the headlines' renders alone
+    while a headline is unsettled (docs/compare.md, "Timing"), never past ``deadline``."""
     measured = list(entry.measurements)
     if not measured:
         return
+    if progress is None:
+        progress = progress_bar(False, 0, "")   # silent
     with timing_threads() as slower:
         # the scored renders' times (all threads): a round on fewer threads takes longer
         _rounds(loaded, entry, measured, rounds, deadline, progress, _cost(measured, slower))
 
 
 def _cost(ms: list[Measurement], slower: float = 1.0) -> float:
-    """What a round of ``ms`` will take: each render's time (``slower`` times it), or the
-    time it is repeated for when it is faster (:func:`_time_in_a_round`)."""
     return sum(max(m.seconds * slower, COMPARE_ROUND_SECONDS) for m in ms)
 
 
 def _rounds(loaded, entry: SceneResult, measured: list[Measurement], rounds: int, deadline: float,
             progress, predicted: float) -> None:
-    """:func:`time_rounds`' loop (on the timing threads); ``predicted``: the first round's
-    time."""
     times = {id(m): [] for m in measured}
     extra_until = math.inf
     for k in range(COMPARE_MAX_ROUNDS):
@@ -150,10 +130,7 @@ def _rounds(loaded, entry: SceneResult, measured: list[Measurement], rounds: int
         if k >= rounds:
             if k == rounds:
                 extra_until = started + COMPARE_ROUNDS_SECONDS
-                # then the headlines' renders alone (each floor render and the path renders
-                # its ratio is read between: a few, quick), back to back, so that a ratio's
-                # renders are timed within a fraction of a second of each other; the same
-                # ones in every extra round, so that a round's index is one moment for all
+                # the headlines' renders alone, back to back, the same ones in every round
                 measured = _headline_renders(entry)
                 predicted = _cost(measured)
             wanted = (k < rounds + COMPARE_HEADLINE_ROUNDS
@@ -165,8 +142,7 @@ def _rounds(loaded, entry: SceneResult, measured: list[Measurement], rounds: int
                 entry.notes.append(f"timed in {k} rounds, not {rounds}: the next would have overrun "
                                    f"the scene's share of --budget")
             break
-        if progress is not None:
-            progress.set_postfix_str(f"{entry.name}: timing, round {k + 1}", refresh=True)
+        progress.set_postfix_str(f"{entry.name}: timing, round {k + 1}", refresh=True)
         for m in interleaved(measured, k):
             times[id(m)].append(_time_in_a_round(loaded, m.setting))
             _bound_memory()
@@ -177,21 +153,16 @@ def _rounds(loaded, entry: SceneResult, measured: list[Measurement], rounds: int
 
 
 def _bound_memory() -> None:
-    """Dr.Jit's memory cache handed back when the process holds more than
-    :data:`~whitted.defaults.COMPARE_KEPT_MEMORY` bytes."""
     if (rendering.resident_bytes() or 0) > COMPARE_KEPT_MEMORY:
         import drjit as dr
         dr.flush_malloc_cache()
 
 
 def _time_in_a_round(loaded, setting: Setting) -> float:
-    """A setting's time in one round: its render, repeated back to back while they add up to
-    less than :data:`~whitted.defaults.COMPARE_ROUND_SECONDS` (at most
-    :data:`~whitted.defaults.COMPARE_ROUND_REPEATS` renders), and the fastest kept. A render
-    of a few milliseconds is at the mercy of one scheduler tick; a few of them in one
-    moment are not all delayed (another program only ever adds time). A render whose clock
+    """A setting's time in one round: the fastest of renders repeated back to back for
+    COMPARE_ROUND_SECONDS, since another program only ever adds time. A render whose clock
     did not move (0 once its compilation is taken off: seen on Dask workers) measured
-    nothing and is rendered again; NaN if no render measured anything."""
+    nothing and is rendered again; NaN if none measured anything."""
     fastest, start = math.inf, time.monotonic()
     for _ in range(COMPARE_ROUND_REPEATS):
         seconds = _seconds(_render(loaded, setting, timed=True))
@@ -203,10 +174,8 @@ def _time_in_a_round(loaded, setting: Setting) -> float:
 
 
 def _headline_renders(entry: SceneResult, unsettled: bool = False) -> list[Measurement]:
-    """The renders of the scene's headlines (a Whitted method's floor against the path
-    tracer): each floor render and the path renders its ratio is read between; with
-    ``unsettled``, those of headlines whose interval is still too wide to quote only (none
-    when every headline is settled)."""
+    """Each floor render and the path renders its ratio is read between (``unsettled``:
+    only those of headlines still too wide to quote)."""
     renders = {}
     for floor in analyse(entry).floors:
         if floor.interval is not None and floor.path is not None and \
@@ -219,31 +188,12 @@ def _headline_renders(entry: SceneResult, unsettled: bool = False) -> list[Measu
 def sweep_scene(scene: SceneFile, entry: SceneResult, settings: list[Setting], options: Options,
                 seconds: float = math.inf, *, loaded=None, progress=None,
                 plan: ReferencePlan | None = None, chunks: list[Chunk] | None = None) -> SceneResult:
-    """Render and score one scene's ``settings`` (in order) within ``seconds``.
-
-    ============ ======================================================================
-    ``scene``    the scene, as read once
-    ``entry``    its result so far (from :func:`~whitted.compare.planning.plan_scene`);
-                 filled in place as renders finish, so an interruption keeps them,
-                 and returned
-    ``settings`` what to render, cheapest first
-    ``options``  the command's options (rounds, reference spp, cache folder, quiet)
-    ``seconds``  the time this scene may take (``math.inf``: no budget); a reference
-                 that is not cached is probed and scaled down to fit (or refused: the
-                 scene is skipped), a render predicted to overrun is skipped, and
-                 ``entry.notes`` says why
-    ``loaded``   the scene's ``mi.Scene`` when the caller has it (else loaded here,
-                 in ``entry.variant``)
-    ``progress`` a tqdm bar to advance by one per setting and per Whitted method's
-                 limit, or None
-    ``plan``     the reference's plan (:func:`~whitted.compare.reference.plan_reference`)
-                 when it was made elsewhere; None: made here
-    ``chunks``   the rest of the reference after the plan's probes
-                 (:class:`~whitted.compare.reference.Chunk`) when a cluster's workers
-                 rendered them; None: rendered here unless cached
-    ============ ======================================================================
-    """
+    """Render, score and time one scene's ``settings`` (cheapest first) within ``seconds``,
+    filling ``entry`` in place so that an interruption keeps what was done; ``plan`` and
+    ``chunks``: the reference's, when made elsewhere (a cluster)."""
     deadline = time.monotonic() + seconds
+    if progress is None:
+        progress = progress_bar(False, 0, "")   # silent
     if loaded is None:
         loaded = scene.load(entry.variant)
     out = Path(options.out)
@@ -252,12 +202,9 @@ def sweep_scene(scene: SceneFile, entry: SceneResult, settings: list[Setting], o
                                 seconds=deadline - time.monotonic(), plan=plan, chunks=chunks)
     if reference is None:
         entry.skipped.extend(settings)
-        if progress is not None:
-            progress.update(len(settings) + len(limit_methods(settings)))
+        progress.update(len(settings) + len(limit_methods(settings)))
         return entry
-    if progress is not None:  # the estimate of the time left: from the renders' own rate
-        progress.unpause()
-    # One view for every image of the scene, chosen from its reference (display.fitting_view)
+    progress.unpause()  # the estimate of the time left: from the renders' own rate
     entry.exposure = options.exposure
     entry.reference_clipped = clipped_fraction(to_srgb(reference, entry.exposure, "clip"))
     entry.view = options.view or fitting_view(reference, entry.exposure)
@@ -273,9 +220,7 @@ def sweep_scene(scene: SceneFile, entry: SceneResult, settings: list[Setting], o
     timed_until = deadline - COMPARE_LIMITS_SHARE * left
     renders_until = timed_until - COMPARE_ROUNDS_SHARE * left
     for setting in settings:
-        if progress is not None:
-            progress.set_postfix_str(f"{entry.name}: {setting.method} {setting.label}",
-                                     refresh=False)
+        progress.set_postfix_str(f"{entry.name}: {setting.method} {setting.label}", refresh=False)
         render, scoring = Budget.predict(setting, done)   # then its rounds, on the timing threads
         rounds = options.rounds * max(render * max(1.0, slower), COMPARE_ROUND_SECONDS)
         if time.monotonic() + render + scoring + rounds > renders_until:
@@ -287,8 +232,7 @@ def sweep_scene(scene: SceneFile, entry: SceneResult, settings: list[Setting], o
                                   entry.view)
             entry.measurements.append(measurement)
             done.append((setting, measurement.render_seconds, time.monotonic() - start))
-        if progress is not None:
-            progress.update(1)
+        progress.update(1)
     time_rounds(loaded, entry, options.rounds, timed_until, progress)
     _limits(loaded, entry, settings, reference, out, deadline, progress, scene.model)
     if settings and not entry.measurements:
@@ -303,9 +247,8 @@ def sweep_scene(scene: SceneFile, entry: SceneResult, settings: list[Setting], o
 
 
 def _below_the_reference(entry: SceneResult, settings: list[Setting], progress) -> list[Setting]:
-    """The settings worth rendering against a reference the budget scaled down: the path
-    tracer's renders of as many spp as the reference or more would only measure the
-    reference's noise, so they are skipped (and a note says so)."""
+    """Against a reference the budget scaled down, the path tracer's renders of as many spp
+    or more would measure only its noise: skipped, with a note."""
     if entry.reference_spp >= entry.reference_requested:
         return settings
     kept = [s for s in settings if s.integrator != "path" or s.spp < entry.reference_spp]
@@ -314,21 +257,18 @@ def _below_the_reference(entry: SceneResult, settings: list[Setting], progress) 
         entry.skipped.extend(dropped)
         entry.notes.append(f"the path tracer's renders of {min(s.spp for s in dropped)} spp and more "
                            f"skipped: not below the scaled-down reference's {entry.reference_spp} spp")
-        if progress is not None:
-            progress.update(len(dropped))
+        progress.update(len(dropped))
     return kept
 
 
 def _limits(loaded, entry: SceneResult, settings: list[Setting], reference: np.ndarray, out: Path,
             deadline: float, progress, model=None) -> None:
-    """Each Whitted method's limit (:func:`~whitted.compare.limits.render_limit`), its
-    renders read back from their kept EXRs and scored against it."""
+    """Each Whitted method's limit, its renders read back from their EXRs and scored against it."""
     methods = limit_methods(settings)
     weights = [2 if WHITTED_LIGHTING[m] == "article" else 1 for m in methods]  # its renders
     for k, method in enumerate(methods):   # each its share of the time left
         until = time.monotonic() + (deadline - time.monotonic()) * weights[k] / sum(weights[k:])
-        if progress is not None:
-            progress.set_postfix_str(f"{entry.name}: {method} limit", refresh=False)
+        progress.set_postfix_str(f"{entry.name}: {method} limit", refresh=False)
         measured = [(m, read_image(out / m.image)) for m in entry.measurements
                     if m.setting.method == method and m.image]
         limit = render_limit(loaded, entry, method, measured, reference, out, until, model)
@@ -337,5 +277,4 @@ def _limits(loaded, entry: SceneResult, settings: list[Setting], reference: np.n
         elif measured:
             entry.notes.append(f"{method}: its limit was not rendered: it would have overrun the "
                                f"scene's share of --budget")
-        if progress is not None:
-            progress.update(1)
+        progress.update(1)

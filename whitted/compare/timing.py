@@ -1,11 +1,6 @@
-"""Render times that compare on a busy machine: rounds, paired ratios, intervals.
-
-On a shared machine a render's time moves 2–3× between moments minutes apart, but only
-~1.2× within one moment; so what is compared is timed in the same moments, in rounds
-(every setting once per round, :func:`interleaved`), a render's time the median of its
-rounds, and a ratio of times the median of its per-round ratios with a distribution-free
-confidence interval (:class:`Interval`): docs/compare.md, "Timing". The benchmarks time
-their contenders so too (benchmarks/timing.py).
+"""Render times that compare on a busy machine: what is compared is timed in the same
+moments, in rounds, and a ratio of times is the median of its per-round ratios with a
+distribution-free confidence interval (docs/compare.md, "Timing").
 """
 
 from __future__ import annotations
@@ -19,9 +14,12 @@ from ..defaults import COMPARE_CONFIDENCE, COMPARE_SETTLED_WIDTH
 
 
 def interleaved(items: list, k: int):
-    """The order of round ``k``: forward, then backward, so that a drift within a round falls
-    on both ends alike."""
+    """Round ``k``'s order: forward, then backward, so a drift within a round falls on both ends."""
     return items if k % 2 == 0 else reversed(items)
+
+
+def finite_or_none(value: float) -> float | None:
+    return value if math.isfinite(value) else None
 
 
 def median(values) -> float:
@@ -31,10 +29,8 @@ def median(values) -> float:
 
 
 def _order_rank(n: int, confidence: float) -> int:
-    """The 1-based rank k of the order statistics that bound a two-sided ``confidence``
-    interval for the median of n values: [x(k), x(n+1-k)] holds the median with
-    probability 1 - 2·P(Binomial(n, ½) < k); the largest k whose tail is within
-    (1 - confidence) / 2, and 1 (the extremes) where n is too small for any."""
+    """The rank k whose order statistics [x(k), x(n+1-k)] hold the median of n values with
+    ``confidence``; 1 (the extremes) where n is too small for any."""
     tail = (1.0 - confidence) / 2.0
     k = 1
     while k + 1 <= (n + 1) // 2 and sum(math.comb(n, i) for i in range(k + 1)) / 2.0 ** n <= tail:
@@ -43,10 +39,7 @@ def _order_rank(n: int, confidence: float) -> int:
 
 
 def coverage(n: int) -> float:
-    """How surely the interval :meth:`Interval.of` gives for n values holds their median:
-    1 - 2·P(Binomial(n, ½) < k) for its rank k. :data:`COMPARE_CONFIDENCE` or more where n
-    allows it (n ≥ 5 for 90%); less over fewer rounds, whose interval is their extremes
-    (75% over 3 rounds, 50% over 2)."""
+    """How surely the interval :meth:`Interval.of` gives for n values holds their median."""
     if n < 2:
         return 0.0
     k = _order_rank(n, COMPARE_CONFIDENCE)
@@ -55,16 +48,8 @@ def coverage(n: int) -> float:
 
 @dataclass(frozen=True)
 class Interval:
-    """A ratio measured in paired rounds.
-
-    =========== =======================================================================
-    ``value``   the median of the per-round ratios
-    ``low``     the lower end of its confidence interval (:data:`COMPARE_CONFIDENCE`
-                where the rounds allow it: :func:`coverage`)
-    ``high``    the upper end
-    ``rounds``  how many rounds gave a ratio
-    =========== =======================================================================
-    """
+    """A ratio measured in paired rounds: the median of the per-round ratios, and its
+    interval (:data:`COMPARE_CONFIDENCE` where the rounds allow it)."""
     value: float
     low: float
     high: float
@@ -72,7 +57,6 @@ class Interval:
 
     @classmethod
     def of(cls, values) -> "Interval":
-        """The median of ``values`` (the finite ones) and its interval."""
         finite = sorted(v for v in values if math.isfinite(v))
         if not finite:
             return cls(math.nan, math.nan, math.nan, 0)
@@ -85,27 +69,23 @@ class Interval:
 
     @property
     def settled(self) -> bool:
-        """Whether the interval is narrow enough to be quoted: high / low at most
-        1 + :data:`COMPARE_SETTLED_WIDTH`, over at least two rounds."""
+        """Narrow enough to quote: high / low within 1 + COMPARE_SETTLED_WIDTH, over two rounds."""
         return (self.rounds >= 2 and self.low > 0
                 and self.high / self.low <= 1.0 + COMPARE_SETTLED_WIDTH)
 
     @property
     def straddles_one(self) -> bool:
-        """Whether the interval holds 1: no measurable difference."""
+        """No measurable difference."""
         return self.known and self.low <= 1.0 <= self.high
 
     def range_text(self) -> str:
-        """``1.9–2.4× over 9 rounds`` (``1 round``: no interval)."""
         if self.rounds < 2:
             return "1 round"
         return f"{self.low:.3g}–{self.high:.3g}× over {self.rounds} rounds"
 
     def as_dict(self) -> dict:
-        """For findings.json."""
-        def number(v):
-            return v if math.isfinite(v) else None
-        return {"value": number(self.value), "low": number(self.low), "high": number(self.high),
+        return {"value": finite_or_none(self.value), "low": finite_or_none(self.low),
+                "high": finite_or_none(self.high),
                 "rounds": self.rounds, "confidence": coverage(self.rounds), "settled": self.settled,
                 "no_measurable_difference": self.straddles_one}
 
