@@ -19,8 +19,8 @@ from pathlib import Path
 import numpy as np
 
 from .. import rendering  # rendering.render looked up at call time: tests count calls
-from ..cluster import IN_PROCESS
-from ..defaults import COMPARE_MIN_REFERENCE_SPP, COMPARE_PROBE_SECONDS, COMPARE_REFERENCE_SHARE
+from ..defaults import (COMPARE_MIN_REFERENCE_SPP, COMPARE_PROBE_SECONDS, COMPARE_REFERENCE_SHARE,
+                        IN_PROCESS)
 from ..progress import progress_bar
 from .budget import Budget, fit_cost, render_cost
 from .curves import reference_noise
