@@ -97,7 +97,7 @@ class WhittedIntegrator(mi.SamplingIntegrator):
          commas: ``shadows`` (no shadow test), ``reflection`` and ``refraction`` (no
          such rays: their share KR or KT is dropped, the diffuse share stays),
          ``textures`` (a textured sphere is white), ``diffuse`` (no light's term: B·A),
-         ``ambient`` (A = 0). :mod:`.scene_tables` says exactly what each means. (Default: none)
+         ``ambient`` (A = 0); docs/lessons.md says exactly what each means. (Default: none)
 
      * - wavefront_size
        - |int|
@@ -105,16 +105,11 @@ class WhittedIntegrator(mi.SamplingIntegrator):
          trace at once: it bounds memory. 0 lets the tracer choose (2^20, or
          2^21 when the tree has a single level). (Default: 0)
 
-    ``mi.traverse(integrator)`` exposes ``max_depth``, ``ambient``, ``min_weight`` and
-    ``light_reference``; ``params.update()`` checks an edit as a loaded property is checked
-    and refuses an invalid one whole. The strings (``lighting``, ``without``,
-    ``exact_spheres``) change only by loading the scene again.
-
-    The article's ray tracer (docs/scene-format.md, "Shading"; :meth:`.recursion.Recursion.step`)
-    for scenes of the :ref:`article <bsdf-article>` BSDF, point lights and an environment.
-    At one sample per pixel every ray passes through its pixel's center, so the seed, the
-    sampler and the lens change nothing (a warning says so). Gradients (JIT AD variants):
-    :meth:`render_forward` and :meth:`render_backward`, visibility held fixed (:mod:`.gradients`).
+    The article's ray tracer (docs/scene-format.md, "Shading") for scenes of the
+    :ref:`article <bsdf-article>` BSDF, point lights and an environment. ``mi.traverse``
+    exposes the numbers (edits checked as at load; the strings change only by loading
+    again); at 1 spp the seed, sampler and lens change nothing (a warning says so);
+    gradients (JIT AD variants) hold visibility fixed (:mod:`.gradients`).
 
     .. tabs::
 

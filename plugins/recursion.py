@@ -8,22 +8,10 @@ time, and :class:`Wavefronts` (JIT variants) level by level, a whole pass per wa
 Under total internal reflection both children are the same mirror ray: it is traced once,
 with weight ``w·(KR + KT)``, and counted as both kinds (``Child.merged``).
 
-Adaptive depth control (Hall and Greenberg 1983; POV-Ray's ``adc_bailout``): branches are
-left untraced as long as together they cannot change any pixel by more than ``min_weight``
-(0 traces the exact tree). Every ray carries an *allowance* ``a``: how much path weight may still be
-left untraced in its subtree. A camera ray starts with ``ε = min_weight / L``, ``L`` the
-brightest color any ray can bring back (:func:`brightest`). Where a ray spawns children of
-weights ``w1 <= w2`` (a missing child has weight 0), :func:`split` culls the lighter child
-if ``w1 <= a``, then the heavier one too if ``w2 <= a - w1``, and otherwise traces it with
-allowance ``a - w1``; if ``w1 > a`` it traces both, each with allowance ``a/2``. The weights
-culled at a ray plus its traced children's allowances add up to at most its own allowance,
-so the weights culled from one camera ray's tree add up to at most ``ε``. A culled ray of
-weight ``w`` would have added at most ``w·L`` to its sample (a ray's color mixes point
-colors and the background with weights adding up to at most 1), so culling darkens each
-pixel by at most ``ε·L = min_weight`` in every channel. The render reports the bound it
-reached, the largest weight culled from one sample times ``L`` (``error_bound`` in
-``whitted render --stats``). The rule looks at one ray and its children only, so the tree
-does not depend on the walk or on how wavefronts are split.
+Adaptive depth control (Hall and Greenberg 1983; POV-Ray's ``adc_bailout``): each ray
+carries an *allowance*, the path weight its subtree may leave untraced, shared out by
+:func:`split` so that culling changes no pixel by more than ``min_weight``
+(docs/statistics.md, "Adaptive depth"; 0 traces the exact tree).
 """
 
 from __future__ import annotations
@@ -452,7 +440,7 @@ class _Progress:
             self.progress(self.count - self.done)
 
 
-# -- adaptive depth control (the module docstring) ------------------------------------------------
+# -- adaptive depth control (docs/statistics.md) ---------------------------------------------------
 
 def allowance(min_weight: float, bright) -> float:
     """The camera rays' allowance ε for a ``min_weight`` and a brightest color ``bright``

@@ -18,18 +18,7 @@ Effect names (also reported by ``whitted render --stats``):
 Code for an effect the scene lacks is left out of the kernels; without reflection and
 refraction the tree has depth 1. What a render leaves out on request (``without``:
 :data:`whitted.defaults.SWITCHABLE_EFFECTS`) is the same image, bit for bit, as a scene
-edited so:
-
-``shadows``     no shadow test: every light is seen from every point facing it (no
-                shadow rays)
-``reflection``  no reflected rays: a mirror keeps its diffuse share ``(1 - KR - KT)·point``
-                and its share KR is dropped (black), as at the tree's last level
-``refraction``  no refracted rays, likewise for KT (without both: ``max_depth`` 1)
-``textures``    a textured sphere has the plain color the scene gives it: white, the
-                format's default (the converter keeps no color beside a texture)
-``diffuse``     no light's term: a point's color is ``B·A`` (article) or 0 (physical), as
-                in a scene without lights (so no shadow rays either)
-``ambient``     A = 0, as ``ambient 0`` in the file
+edited so (docs/lessons.md, "What --without means").
 """
 
 from __future__ import annotations
@@ -425,7 +414,7 @@ class SceneAnalysis:
     tables: SceneTables
     lights: list[PointLight]             # the lights simulated (none without ``diffuse``)
     max_depth: int                       # the depth asked for
-    without: frozenset = frozenset()     # what the render leaves out (the module docstring)
+    without: frozenset = frozenset()     # what the render leaves out (docs/lessons.md)
     effects: tuple[str, ...] = field(init=False)
     depth: int = field(init=False)       # the depth actually needed
     surfaces: Materials = field(init=False)   # the materials as simulated
