@@ -132,7 +132,8 @@ class HitFinder(Protocol):
         """Whether a surface crosses the segment ``ray`` (a shadow test) on the lanes ``active``."""
 
     def surface_at(self, point) -> tuple[float, tuple[float, float, float]]:
-        """``(error, normal)`` of the sphere a light at ``point`` sits on, else ``(0.0, (0, 0, 0))``."""
+        """``(error, normal)`` of the sphere a light at ``point`` sits on, else
+        ``(0.0, (0, 0, 0))``."""
 
 
 def no_hits():
@@ -458,7 +459,8 @@ class GiantHits:
                 if giant.frame is not None:
                     si.uv = dr.select(which == k, lat_long_uv(si.n, *giant.frame), si.uv)
         error = dr.select(giant_hit, point_error(si.p, size), error)
-        return hit | giant_hit, si, dr.select(giant_hit, bsdf_giant, bsdf) if self.jit else bsdf, error
+        bsdf = dr.select(giant_hit, bsdf_giant, bsdf) if self.jit else bsdf
+        return hit | giant_hit, si, bsdf, error
 
 
 def scene_hits(scene, tables, need_uv: bool, exact_spheres=()):

@@ -253,11 +253,11 @@ class Recursion:
         return [(first, min(per_pass, total - first)) for first in range(0, total, per_pass)]
 
     def samples(self, count: int):
-        """The sample indices 0 … count - 1 of a pass, as the walk takes them."""
-        return range(count)   # one camera sample at a time
+        """The sample indices of a pass, as the walk takes them (here one at a time)."""
+        return range(count)
 
     def finish_pass(self) -> None:
-        """Make a pass's work (its image block's accumulation) done before the next one."""
+        """Finish a pass's work (its image block's accumulation) before the next one."""
 
 
 def recursion(scene, analysis, integrator, attached=None) -> Recursion:
@@ -396,19 +396,14 @@ class Wavefronts(Recursion):
 
 def _plus_children(total, value, parent, second, tp, width: int):
     """``total`` plus ``value`` of the first children, then of the second, at their parents' lanes."""
-    return total + _to_parents(value, parent, second, False, tp, width) \
-        + _to_parents(value, parent, second, True, tp, width)
-
-
-def _to_parents(value, parent, second, which: bool, tp, width: int):
-    """``value`` of the first (``which`` False) or second children at their parents' lanes."""
-    out = dr.zeros(tp, width)
-    if second is None:
-        if not which:
+    for which in (False, True):
+        out = dr.zeros(tp, width)
+        if second is not None:
+            dr.scatter(out, value, parent, second if which else ~second)
+        elif not which:
             dr.scatter(out, value, parent)
-        return out
-    dr.scatter(out, value, parent, second if which else ~second)
-    return out
+        total = total + out
+    return total
 
 
 class _Progress:
@@ -515,7 +510,6 @@ class Tally:
         self._sums = {}
 
     def add(self, name: str, mask) -> None:
-        """Count the set lanes of ``mask``."""
         self._add(name, mi.UInt32, 1, mask)
 
     def add_total(self, name: str, value, mask) -> None:
