@@ -77,25 +77,7 @@ class ArticleBSDF(mi.BSDF):
     a uniform ``color.value``) meet one rule (:data:`whitted.defaults.PLUGIN_PARAMETERS`),
     and a refused edit is undone. A texture's texels are not checked.
 
-    .. tabs::
-
-        .. code-tab:: xml
-            :name: article-bsdf
-
-            <bsdf type="article">
-                <rgb name="color" value="1, 1, 1"/>
-                <float name="reflect" value="0.05"/>
-                <float name="refract" value="0.9"/>
-                <float name="ior" value="1.5"/>
-            </bsdf>
-
-        .. code-tab:: python
-
-            'type': 'article',
-            'color': {'type': 'rgb', 'value': [1, 1, 1]},
-            'reflect': 0.05,
-            'refract': 0.9,
-            'ior': 1.5
+    An example: the :ref:`whitted integrator <integrator-whitted>`'s scene.
     """
 
     #: what the Whitted integrator checks every shape's BSDF for

@@ -111,27 +111,39 @@ class WhittedIntegrator(mi.SamplingIntegrator):
     again); at 1 spp the seed, sampler and lens change nothing (a warning says so);
     gradients (JIT AD variants) hold visibility fixed (:mod:`.gradients`).
 
+    An example scene, with the :ref:`article <bsdf-article>` BSDF too:
+
     .. tabs::
 
         .. code-tab:: xml
             :name: whitted-integrator
 
-            <integrator type="whitted">
-                <integer name="max_depth" value="10"/>
-                <point name="light_reference" x="0" y="0.2" z="0"/>
-                <float name="ambient" value="0.3"/>
-                <string name="lighting" value="article"/>
-                <string name="without" value="shadows,reflection"/>
-            </integrator>
+            <scene version="3.0.0">
+                <integrator type="whitted">
+                    <integer name="max_depth" value="10"/>
+                    <point name="light_reference" x="0" y="0.2" z="0"/>
+                    <float name="ambient" value="0.3"/>
+                    <string name="lighting" value="article"/>
+                    <string name="without" value="shadows,reflection"/>
+                </integrator>
+                <shape type="sphere">
+                    <bsdf type="article">
+                        <rgb name="color" value="1, 1, 1"/>
+                        <float name="reflect" value="0.05"/>
+                        <float name="refract" value="0.9"/>
+                        <float name="ior" value="1.5"/>
+                    </bsdf>
+                </shape>
+            </scene>
 
         .. code-tab:: python
 
-            'type': 'whitted',
-            'max_depth': 10,
-            'light_reference': [0, 0.2, 0],
-            'ambient': 0.3,
-            'lighting': 'article',
-            'without': 'shadows,reflection'
+            'type': 'scene',
+            'integrator': {'type': 'whitted', 'max_depth': 10, 'light_reference': [0, 0.2, 0],
+                           'ambient': 0.3, 'lighting': 'article', 'without': 'shadows,reflection'},
+            'sphere': {'type': 'sphere',
+                       'bsdf': {'type': 'article', 'color': {'type': 'rgb', 'value': [1, 1, 1]},
+                                'reflect': 0.05, 'refract': 0.9, 'ior': 1.5}}
     """
 
     def __init__(self, props: mi.Properties):
@@ -144,7 +156,6 @@ class WhittedIntegrator(mi.SamplingIntegrator):
         self.exact_spheres = parse_exact_spheres(str(props.get("exact_spheres", "")))
 
     def _take(self, checked: dict) -> None:
-        """Take the properties ``checked`` by the plugins' one rule."""
         for name, value in checked.items():
             setattr(self, name, mi.ScalarPoint3f(*value) if name == "light_reference" else value)
 
@@ -187,7 +198,6 @@ class WhittedIntegrator(mi.SamplingIntegrator):
                 "exact_spheres")
 
     def settings(self) -> dict:
-        """The integrator's properties as Python values."""
         return {name: getattr(self, name) for name in self.SETTINGS}
 
     def with_settings(self, **changes):

@@ -298,7 +298,6 @@ class SceneTables:
                         for k in np.flatnonzero(textured & spheres).tolist()}
 
     def matches(self, scene) -> bool:
-        """Whether these tables are still those of ``scene``."""
         shapes = scene.shapes()
         return (_changes(self.materials.bsdfs) == self._changes and bounds(shapes) == self._boxes
                 and all(_same_data(_ellipsoid_data(shapes[k]), data)
@@ -320,8 +319,7 @@ class SceneTables:
                                       self._part(left_out))
         return self._rest_scenes[key]
 
-    def _part(self, left_out) -> "SceneTables":
-        """These tables, for the scene of :meth:`rest`."""
+    def _part(self, left_out) -> "SceneTables":   # these tables, for the scene of :meth:`rest`
         part = copy.copy(self)
         kept = np.ones(len(self._types), bool)
         kept[list(left_out)] = False
@@ -333,8 +331,7 @@ class SceneTables:
         return part
 
 
-def _witness(scene):
-    """Something that identifies ``scene`` while held, or None (nothing to keep)."""
+def _witness(scene):   # what identifies ``scene`` while held, or None (nothing to keep)
     if dr.is_jit_v(mi.Float):
         arrays = (scene.shapes_dr(), scene.emitters_dr(), scene.sensors_dr())
         return arrays if any(dr.width(a) for a in arrays) else None
