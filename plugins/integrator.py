@@ -251,8 +251,7 @@ class WhittedIntegrator(mi.SamplingIntegrator):
             dr.traverse(dr.ADMode.Backward)
 
     def _attached_image(self, what, scene, params, sensor, seed, spp):
-        """The image of a gradient render (:mod:`.gradients`), whose parameters are named once
-        when some with gradients are not differentiated."""
+        """The image of a gradient render, naming once the parameters it does not differentiate."""
         from . import gradients
         gradients.require_gradients(what)
         gradients.name_undifferentiated(scene, mi.traverse(scene) if params is None else params, self,
@@ -262,8 +261,8 @@ class WhittedIntegrator(mi.SamplingIntegrator):
     # -- Rendering ------------------------------------------------------------------------------
 
     def _recursion(self, scene, tables=None, attached=False):
-        """The recursion of a render of ``scene`` and the scene's analysis (``attached``:
-        shaded from the parameters' own Dr.Jit values, :mod:`.gradients`)."""
+        """The recursion of a render of ``scene`` and the scene's analysis (``attached``: for
+        gradients)."""
         analysis = analyse(tables or scene_tables(scene), self.max_depth, self.light_reference,
                            self.without)
         values = None

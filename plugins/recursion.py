@@ -248,8 +248,7 @@ class Recursion:
         return color, culled
 
     @staticmethod
-    def passes(total: int, per_pass: int):
-        """``(first, count)`` of each pass of ``per_pass`` samples over ``total`` camera samples."""
+    def passes(total: int, per_pass: int):   # (first, count) of each pass
         return [(first, min(per_pass, total - first)) for first in range(0, total, per_pass)]
 
     def samples(self, count: int):

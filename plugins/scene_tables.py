@@ -86,7 +86,7 @@ def point_lights(scene) -> tuple[tuple, ...]:
 
 
 def largest_emission(emitter) -> float | None:
-    """The largest channel of a constant environment's radiance (None for other emitters)."""
+    """The largest channel of a constant environment's radiance (None: another emitter)."""
     params = mi.traverse(emitter)
     if emitter.class_name() != "ConstantBackgroundEmitter" or "radiance.value" not in params:
         return None
@@ -208,13 +208,11 @@ def _largest_texel(texture):
 
 # -- the tables, kept by scene -------------------------------------------------------------------
 
-def _changes(bsdfs) -> tuple:
-    """How many times each ``article`` BSDF has been changed (``ArticleBSDF.changes``)."""
+def _changes(bsdfs) -> tuple:   # how many times each BSDF has been changed
     return tuple(bsdf.changes for bsdf in bsdfs)
 
 
-def _shape_types(scene, shapes) -> np.ndarray:
-    """Each shape's ``mi.ShapeType`` as an integer (one gather in the JIT variants)."""
+def _shape_types(scene, shapes) -> np.ndarray:   # each shape's mi.ShapeType, as an integer
     if dr.is_jit_v(mi.Float):
         return np.asarray(scene.shapes_dr().shape_type(), np.uint32).reshape(-1)
     return np.array([int(shape.shape_type()) for shape in shapes], np.uint32)
@@ -365,8 +363,7 @@ class KeptByScene:
         self._kept.move_to_end((scene.variant_name(), scene.ptr))
         return kept[1]
 
-    def put(self, scene, value) -> None:
-        """Keep ``value`` for ``scene`` (nothing, for a scene with nothing to witness it)."""
+    def put(self, scene, value) -> None:   # (nothing, for a scene with nothing to witness it)
         witness = _witness(scene)
         if witness is None:
             return
