@@ -19,14 +19,10 @@ from .scene_tables import uniform_color
 
 DIFFUSE, REFLECTION, TRANSMISSION = 0, 1, 2
 
-_BOTH_SIDES = mi.BSDFFlags.FrontSide | mi.BSDFFlags.BackSide
-COMPONENT_FLAGS = (
-    mi.BSDFFlags.DiffuseReflection | _BOTH_SIDES,
-    mi.BSDFFlags.DeltaReflection | _BOTH_SIDES,
-    mi.BSDFFlags.DeltaTransmission | _BOTH_SIDES,
-)
 _LOBE_TYPES = (mi.BSDFFlags.DiffuseReflection, mi.BSDFFlags.DeltaReflection,
                mi.BSDFFlags.DeltaTransmission)
+COMPONENT_FLAGS = tuple(lobe | mi.BSDFFlags.FrontSide | mi.BSDFFlags.BackSide
+                        for lobe in _LOBE_TYPES)
 
 
 def delta_directions(wi, ior):
@@ -74,36 +70,14 @@ class ArticleBSDF(mi.BSDF):
          the critical angle. (Default: 1)
        - |exposed|
 
-    ``mi.traverse`` exposes ``reflect``, ``refract`` and ``ior`` as one-value
-    float64 vectors (Dr.Jit ``Float64`` in the JIT variants, which the ``whitted``
-    integrator differentiates: KR and KT); ``params['…bsdf.reflect'] = 0.5``
-    writes one. Loaded properties and edits (``params.update()``, of these or of a uniform
-    ``color.value``) meet one rule (:data:`whitted.defaults.PLUGIN_PARAMETERS`), with the
-    same one-line error naming the parameter (``article BSDF: reflect must be in [0, 1],
-    got 1.5``); a refused edit is undone. A texture's texels are not checked.
+    A mixture of a Lambertian lobe (weight 1 − KR − KT, albedo B), a perfect mirror (KR)
+    and a perfect refraction (KT) (docs/radiometry.md, "Materials"). ``mi.traverse``
+    exposes ``reflect``, ``refract`` and ``ior`` as one-value float64 vectors (JIT: the
+    ``whitted`` integrator differentiates KR and KT); loaded values and edits (of these or
+    a uniform ``color.value``) meet one rule (:data:`whitted.defaults.PLUGIN_PARAMETERS`),
+    and a refused edit is undone. A texture's texels are not checked.
 
-    A mixture of a Lambertian lobe (weight 1 − KR − KT, albedo B), a perfect
-    mirror (KR) and a perfect refraction (KT) (docs/radiometry.md, "Materials").
-
-    .. tabs::
-
-        .. code-tab:: xml
-            :name: article-bsdf
-
-            <bsdf type="article">
-                <rgb name="color" value="1, 1, 1"/>
-                <float name="reflect" value="0.05"/>
-                <float name="refract" value="0.9"/>
-                <float name="ior" value="1.5"/>
-            </bsdf>
-
-        .. code-tab:: python
-
-            'type': 'article',
-            'color': {'type': 'rgb', 'value': [1, 1, 1]},
-            'reflect': 0.05,
-            'refract': 0.9,
-            'ior': 1.5
+    An example: the :ref:`whitted integrator <integrator-whitted>`'s scene.
     """
 
     #: what the Whitted integrator checks every shape's BSDF for
@@ -137,8 +111,7 @@ class ArticleBSDF(mi.BSDF):
     SCALARS = ("reflect", "refract", "ior")
 
     def _take(self, values: dict) -> None:
-        """Take KR, KT, the IOR and a uniform ``color`` if
-        :func:`whitted.defaults.check_plugin_parameters` accepts them (else its error)."""
+        """Take KR, KT, the IOR and a uniform ``color`` if they pass the plugins' one rule."""
         checked = D.check_plugin_parameters("article BSDF", values)
         self.reflect, self.refract, self.ior = (checked[name] for name in self.SCALARS)
         self._color = checked.get("color", self._color)

@@ -31,6 +31,14 @@ def strata(spp: int) -> tuple[int, int]:
     return spp // ny, ny
 
 
+def _hash(pixel, sample, seed_offset: int, rounds: int = 4):
+    """Two numbers in [0, 1) hashed from (pixel, sample, seed): TEA of ``rounds`` rounds.
+    The seed is opaque (no new kernels); the mask wraps where UInt32 is a Python int."""
+    salt = (mi.UInt32(sample) + dr.opaque(mi.UInt32, seed_offset & 0xFFFFFFFF)) & 0xFFFFFFFF
+    bits_x, bits_y = mi.sample_tea_32(mi.UInt32(pixel), salt, rounds)
+    return mi.Point2f(mi.Float(bits_x >> 8), mi.Float(bits_y >> 8)) * (1.0 / (1 << 24))
+
+
 def pixel_offset(pixel, sample, spp: int, seed: int):
     """Offset in [0, 1)^2 of sample number ``sample`` inside the pixel of linear index ``pixel``."""
     if spp == 1:
@@ -38,29 +46,19 @@ def pixel_offset(pixel, sample, spp: int, seed: int):
     nx, ny = strata(spp)
     column = sample % nx
     row = sample // nx
-    # The seed is opaque: a new seed must not compile new kernels.
-    seed_offset = (seed * SEED_STRIDE) & 0xFFFFFFFF
-    # (the mask wraps the sum to 32 bits where UInt32 is a Python int: scalar variants)
-    salt = (mi.UInt32(sample) + dr.opaque(mi.UInt32, seed_offset)) & 0xFFFFFFFF
-    bits_x, bits_y = mi.sample_tea_32(mi.UInt32(pixel), salt)
-    jitter = mi.Point2f(mi.Float(bits_x >> 8), mi.Float(bits_y >> 8)) * (1.0 / (1 << 24))
+    jitter = _hash(pixel, sample, seed * SEED_STRIDE)
     return mi.Point2f((mi.Float(column) + jitter.x) / nx, (mi.Float(row) + jitter.y) / ny)
 
 
 def lens_offset(pixel, sample, seed: int):
-    """Where a camera sample crosses a thin lens, in [0, 1)^2 (Point2f): a hash of (pixel,
-    sample, seed) as in :func:`pixel_offset`, from another stream (its own salt)."""
-    seed_offset = (seed * SEED_STRIDE + LENS_SALT) & 0xFFFFFFFF
-    salt = (mi.UInt32(sample) + dr.opaque(mi.UInt32, seed_offset)) & 0xFFFFFFFF
-    # 8 rounds of TEA: with the default 4, a pixel's lens samples (consecutive salts) are
-    # visibly correlated (measured: twice path's noise on a defocused image at 48 spp)
-    bits_x, bits_y = mi.sample_tea_32(mi.UInt32(pixel), salt, LENS_ROUNDS)
-    return mi.Point2f(mi.Float(bits_x >> 8), mi.Float(bits_y >> 8)) * (1.0 / (1 << 24))
+    """Where a camera sample crosses a thin lens, in [0, 1)^2: :func:`pixel_offset`'s hash
+    from another stream (``LENS_SALT``, any odd 32-bit constant), of 8 rounds: with 4, a
+    pixel's lens samples (consecutive salts) are visibly correlated (measured: twice path's
+    noise on a defocused image at 48 spp)."""
+    return _hash(pixel, sample, seed * SEED_STRIDE + LENS_SALT, 8)
 
 
-#: what sets the lens's stream of hashes apart from the pixel's (any odd 32-bit constant)
 LENS_SALT = 0x85EBCA6B
-LENS_ROUNDS = 8
 
 
 def sample_count(sensor, spp: int) -> int:

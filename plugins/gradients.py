@@ -34,10 +34,8 @@ TEXTURE_VALUES = ("value", "data")
 
 
 def differentiated(scene, integrator) -> list:
-    """The parameters' Dr.Jit values that a differentiable render of ``scene`` by the Whitted
-    ``integrator`` reads from the parameters themselves, so that their gradients are computed:
-    what :func:`attached` reads (the ambient, the point lights' positions and intensities, the
-    ``article`` BSDFs' KR, KT and colors) and the background's radiance."""
+    """The parameters' Dr.Jit values a differentiable render reads, so that their gradients
+    are computed: what :func:`attached` reads, and the background's radiance."""
     values = [value for name, value in getattr(integrator, "_values", {}).items()
               if name in integrator.DIFFERENTIABLE]
     bsdfs = _article_bsdfs(scene)
@@ -56,9 +54,8 @@ def _ad_indices(value) -> set:
 
 
 def name_undifferentiated(scene, params, integrator, seen: dict) -> None:
-    """Warn once per parameter (``seen``: key -> whether it is differentiated, kept between
-    calls) about each parameter of ``params`` with gradients enabled that a differentiable
-    render does not differentiate (:func:`differentiated`): its gradient is not computed."""
+    """Warn once per parameter (``seen``: key -> whether it is differentiated) about each
+    one with gradients enabled that a differentiable render does not differentiate."""
     enabled = [key for key in params.keys() if key not in seen and _ad_indices(params[key])]
     if not enabled:
         return
@@ -92,8 +89,8 @@ class Attached:
 
 
 def attached(scene, tables, integrator) -> Attached:
-    """:class:`Attached` for a render of ``scene`` by the Whitted ``integrator``; ``tables``:
-    the scene's analysis (:class:`.scene_tables.SceneAnalysis`: its ``material_table``)."""
+    """:class:`Attached` for a render of ``scene`` by ``integrator`` (``tables``: the scene's
+    :class:`.scene_tables.SceneAnalysis`)."""
     values = getattr(integrator, "_values", {})
     ambient = mi.Float(values["ambient"]) if "ambient" in values else mi.Float(integrator.ambient)
     physical = integrator.lighting == "physical"
@@ -121,8 +118,7 @@ def _lights(scene, physical: bool, reference) -> list:
 
 def _material_table(scene, tables):
     """The scene's material table with its color, KR and KT columns scattered from the BSDFs'
-    own values (a uniform color's texture evaluated once; textured materials keep 0 there and
-    evaluate their texture at the hit, as in a plain render)."""
+    own values (a textured material's color stays 0: its texture is read at the hit)."""
     row_of, columns = tables.material_table
     (color_tp, color), (f_tp, reflect), (_, refract), ior, slot = columns
     size = dr.width(reflect)

@@ -74,9 +74,8 @@ def unit(v):
 
 
 def lat_long_uv(n, x_axis, y_axis, z_axis):
-    """The article's lat/long UV of the unit normal ``n`` in a sphere's frame, as Mitsuba's:
-    ``u = atan2(y, x)/2π``, ``v = acos(z)/π``; u = 0 at a pole and 1 on the seam, as the
-    spec says (docs/CONTRACTS.md)."""
+    """The lat/long UV of the unit normal ``n`` in a sphere's frame, as Mitsuba's, with u = 0
+    at a pole and 1 on the seam (docs/CONTRACTS.md)."""
     x, y, z = dr.dot(n, x_axis), dr.dot(n, y_axis), dr.dot(n, z_axis)
     angle = dr.atan2(y, x)   # (-π, π]
     u = dr.select(angle > 0, angle, angle + dr.two_pi) * dr.inv_two_pi
@@ -93,7 +92,6 @@ def offset_origin(p, n, error, d):
 
 
 def spawn_ray(si, error, d):
-    """The ray leaving the hit ``si`` along ``d``."""
     return mi.Ray3f(offset_origin(si.p, si.n, error, d), d)
 
 
@@ -123,23 +121,19 @@ def blocked(scene, ray, active, spheres: bool = True):
 # -- finding hits ----------------------------------------------------------------------------------
 
 class HitFinder(Protocol):
-    """What the recursion (:meth:`.recursion.Recursion.step`) asks of a hit finder: a
-    wavefront and ``mi.Bool`` masks in the JIT variants, one ray and bools in the scalar ones."""
+    """What :meth:`.recursion.Recursion.step` asks of a hit finder (a wavefront, or one ray)."""
 
     def intersect(self, ray, coherent: bool):
-        """``(hit, si, bsdf, error)``: the nearest hit along ``ray`` (up to ``ray.maxt``):
-        ``si`` with ``t`` (inf on a miss), ``p``, unit ``n`` and ``uv`` if ``need_uv``;
-        ``bsdf`` an instance ID (JIT) or the BSDF; ``error`` the bound on ``si.p``'s error."""
-        ...
+        """``(hit, si, bsdf, error)`` of the nearest hit up to ``ray.maxt``: ``si.t`` (inf on a
+        miss), ``p``, unit ``n``, ``uv`` if ``need_uv``; ``bsdf`` an instance ID (JIT) or the
+        BSDF; ``error`` the bound on ``si.p``'s error."""
 
     def blocked(self, ray, active):
         """Whether a surface crosses the segment ``ray`` (a shadow test) on the lanes ``active``."""
-        ...
 
     def surface_at(self, point) -> tuple[float, tuple[float, float, float]]:
-        """``(error, normal)`` of the sphere a light at ``point`` sits on, ``(0.0, (0, 0, 0))``
-        if none (:func:`spawn_ray_to`)."""
-        ...
+        """``(error, normal)`` of the sphere a light at ``point`` sits on, else
+        ``(0.0, (0, 0, 0))``."""
 
 
 def no_hits():
@@ -164,8 +158,6 @@ def hit_finder(scene, tables, need_uv: bool, sphere_table: bool = True):
 
 
 class _SceneHits:
-    """What :class:`MitsubaHits` and :class:`SphereHits` share."""
-
     def __init__(self, scene, tables, need_uv: bool):
         self.scene = scene
         self.need_uv = need_uv
@@ -257,7 +249,6 @@ class LayeredHits:
                       for layer in self.layers]
 
     def _ray(self, k: int, ray, maxt):
-        """``ray`` in layer ``k``'s frame, up to ``maxt`` (in the scene's frame)."""
         scaled = mi.Ray3f(ray.o * self.scales[k], ray.d)
         scaled.maxt = maxt * self.scales[k]
         return scaled
@@ -363,8 +354,7 @@ def point_error(p, size):
 
 
 def _roots(o, d, center, radius):
-    """``(t, valid)``: the nearest root t > 0 of |o + t·d − C| = r, in float64 (``o``, ``d``,
-    ``center`` float64 vectors; ``d`` need not be unit)."""
+    """``(t, valid)``: the nearest root t > 0 of |o + t·d − C| = r, in float64 (any ``d``)."""
     f = o - center
     a = dr.squared_norm(d)
     b = dr.dot(f, d)
@@ -414,8 +404,7 @@ class GiantHits:
         self.others = primitives.without([k for k, _, _ in giants])
         self.need_uv = need_uv
 
-    def surface_at(self, point):
-        """As :meth:`HitFinder.surface_at`, a giant sphere's exact surface first."""
+    def surface_at(self, point):   # a giant sphere's exact surface first
         p = np.asarray(point, np.float64).reshape(-1)
         for giant in self.giants:
             offset = p - np.asarray(giant.center_tuple)
@@ -438,8 +427,6 @@ class GiantHits:
     def intersect(self, ray, coherent: bool):
         hit, si, bsdf, error = self.inner.intersect(ray, coherent) if self.inner is not None else no_hits()
         o, d = mi.Point3d(ray.o), mi.Vector3d(ray.d)
-        if not self.jit:
-            return self._scalar(ray, o, d, hit, si, bsdf, error)
         best = dr.select(hit, mi.Float64(si.t), dr.inf)
         which = mi.Int32(-1)
         for k, giant in enumerate(self.giants):
@@ -449,6 +436,11 @@ class GiantHits:
         giant_hit = which >= 0
         if off(giant_hit):
             return hit, si, bsdf, error
+        if not self.jit:   # one ray, which hit a giant: a BSDF object, and no miss's si to keep
+            bsdf = self.giants[which].bsdf
+            if not hit:
+                si = dr.zeros(mi.SurfaceInteraction3f)
+                si.time, si.wavelengths = ray.time, ray.wavelengths
         center, radius = mi.Point3d(0.0), mi.Float64(1.0)
         size, bsdf_giant = mi.Float(0.0), mi.UInt32(0)
         for k, giant in enumerate(self.giants):
@@ -456,8 +448,9 @@ class GiantHits:
             center = dr.select(this, giant.center, center)
             radius = dr.select(this, giant.radius64, radius)
             size = dr.select(this, giant.size, size)
-            bsdf_giant = dr.select(this, giant.bsdf, bsdf_giant)
-        p = dr.fma(d, best, o)
+            if self.jit:
+                bsdf_giant = dr.select(this, giant.bsdf, bsdf_giant)
+        p = dr.fma(d, best, o) if self.jit else o + d * best   # (each variant's own rounding)
         si.p = dr.select(giant_hit, mi.Point3f(p), si.p)
         si.n = dr.select(giant_hit, mi.Vector3f((p - center) / radius), si.n)
         si.t = dr.select(giant_hit, mi.Float(best), si.t)
@@ -466,24 +459,8 @@ class GiantHits:
                 if giant.frame is not None:
                     si.uv = dr.select(which == k, lat_long_uv(si.n, *giant.frame), si.uv)
         error = dr.select(giant_hit, point_error(si.p, size), error)
-        return hit | giant_hit, si, dr.select(giant_hit, bsdf_giant, bsdf), error
-
-    def _scalar(self, ray, o, d, hit, si, bsdf, error):
-        best, nearest = (float(si.t) if hit else float("inf")), None
-        for giant in self.giants:
-            t, valid = _roots(o, d, giant.center, giant.radius64)
-            if valid and t < best:
-                best, nearest = t, giant
-        if nearest is None:
-            return hit, si, bsdf, error
-        if not hit:
-            si = dr.zeros(mi.SurfaceInteraction3f)
-            si.time, si.wavelengths = ray.time, ray.wavelengths
-        p = o + d * best
-        si.p, si.n, si.t = mi.Point3f(p), mi.Vector3f((p - nearest.center) / nearest.radius), best
-        if self.need_uv and nearest.frame is not None:
-            si.uv = lat_long_uv(si.n, *nearest.frame)
-        return True, si, nearest.bsdf, point_error(si.p, nearest.size)
+        bsdf = dr.select(giant_hit, bsdf_giant, bsdf) if self.jit else bsdf
+        return hit | giant_hit, si, bsdf, error
 
 
 def scene_hits(scene, tables, need_uv: bool, exact_spheres=()):
@@ -511,7 +488,6 @@ def scene_hits(scene, tables, need_uv: bool, exact_spheres=()):
 
 @dataclass
 class SurfaceSample:
-    """The material at a hit point."""
     base: object      # mi.Color3f, B (texel or color)
     reflect: object   # mi.Float, KR
     refract: object   # mi.Float, KT

@@ -97,7 +97,7 @@ class WhittedIntegrator(mi.SamplingIntegrator):
          commas: ``shadows`` (no shadow test), ``reflection`` and ``refraction`` (no
          such rays: their share KR or KT is dropped, the diffuse share stays),
          ``textures`` (a textured sphere is white), ``diffuse`` (no light's term: B·A),
-         ``ambient`` (A = 0). :mod:`.scene_tables` says exactly what each means. (Default: none)
+         ``ambient`` (A = 0); docs/lessons.md says exactly what each means. (Default: none)
 
      * - wavefront_size
        - |int|
@@ -105,38 +105,45 @@ class WhittedIntegrator(mi.SamplingIntegrator):
          trace at once: it bounds memory. 0 lets the tracer choose (2^20, or
          2^21 when the tree has a single level). (Default: 0)
 
-    ``mi.traverse(integrator)`` exposes ``max_depth``, ``ambient``, ``min_weight`` and
-    ``light_reference``; ``params.update()`` checks an edit as a loaded property is checked
-    and refuses an invalid one whole. The strings (``lighting``, ``without``,
-    ``exact_spheres``) change only by loading the scene again.
+    The article's ray tracer (docs/scene-format.md, "Shading") for scenes of the
+    :ref:`article <bsdf-article>` BSDF, point lights and an environment. ``mi.traverse``
+    exposes the numbers (edits checked as at load; the strings change only by loading
+    again); at 1 spp the seed, sampler and lens change nothing (a warning says so);
+    gradients (JIT AD variants) hold visibility fixed (:mod:`.gradients`).
 
-    The article's ray tracer (docs/scene-format.md, "Shading"; :meth:`.recursion.Recursion.step`)
-    for scenes of the :ref:`article <bsdf-article>` BSDF, point lights and an environment.
-    At one sample per pixel every ray passes through its pixel's center, so the seed, the
-    sampler and the lens change nothing (a warning says so). Gradients (JIT AD variants):
-    :meth:`render_forward` and :meth:`render_backward`, visibility held fixed (:mod:`.gradients`).
+    An example scene, with the :ref:`article <bsdf-article>` BSDF too:
 
     .. tabs::
 
         .. code-tab:: xml
             :name: whitted-integrator
 
-            <integrator type="whitted">
-                <integer name="max_depth" value="10"/>
-                <point name="light_reference" x="0" y="0.2" z="0"/>
-                <float name="ambient" value="0.3"/>
-                <string name="lighting" value="article"/>
-                <string name="without" value="shadows,reflection"/>
-            </integrator>
+            <scene version="3.0.0">
+                <integrator type="whitted">
+                    <integer name="max_depth" value="10"/>
+                    <point name="light_reference" x="0" y="0.2" z="0"/>
+                    <float name="ambient" value="0.3"/>
+                    <string name="lighting" value="article"/>
+                    <string name="without" value="shadows,reflection"/>
+                </integrator>
+                <shape type="sphere">
+                    <bsdf type="article">
+                        <rgb name="color" value="1, 1, 1"/>
+                        <float name="reflect" value="0.05"/>
+                        <float name="refract" value="0.9"/>
+                        <float name="ior" value="1.5"/>
+                    </bsdf>
+                </shape>
+            </scene>
 
         .. code-tab:: python
 
-            'type': 'whitted',
-            'max_depth': 10,
-            'light_reference': [0, 0.2, 0],
-            'ambient': 0.3,
-            'lighting': 'article',
-            'without': 'shadows,reflection'
+            'type': 'scene',
+            'integrator': {'type': 'whitted', 'max_depth': 10, 'light_reference': [0, 0.2, 0],
+                           'ambient': 0.3, 'lighting': 'article', 'without': 'shadows,reflection'},
+            'sphere': {'type': 'sphere',
+                       'bsdf': {'type': 'article', 'color': {'type': 'rgb', 'value': [1, 1, 1]},
+                                'reflect': 0.05, 'refract': 0.9, 'ior': 1.5}}
     """
 
     def __init__(self, props: mi.Properties):
@@ -149,7 +156,6 @@ class WhittedIntegrator(mi.SamplingIntegrator):
         self.exact_spheres = parse_exact_spheres(str(props.get("exact_spheres", "")))
 
     def _take(self, checked: dict) -> None:
-        """Take the properties ``checked`` by the plugins' one rule."""
         for name, value in checked.items():
             setattr(self, name, mi.ScalarPoint3f(*value) if name == "light_reference" else value)
 
@@ -192,7 +198,6 @@ class WhittedIntegrator(mi.SamplingIntegrator):
                 "exact_spheres")
 
     def settings(self) -> dict:
-        """The integrator's properties as Python values."""
         return {name: getattr(self, name) for name in self.SETTINGS}
 
     def with_settings(self, **changes):
@@ -246,8 +251,7 @@ class WhittedIntegrator(mi.SamplingIntegrator):
             dr.traverse(dr.ADMode.Backward)
 
     def _attached_image(self, what, scene, params, sensor, seed, spp):
-        """The image of a gradient render (:mod:`.gradients`), whose parameters are named once
-        when some with gradients are not differentiated."""
+        """The image of a gradient render, naming once the parameters it does not differentiate."""
         from . import gradients
         gradients.require_gradients(what)
         gradients.name_undifferentiated(scene, mi.traverse(scene) if params is None else params, self,
@@ -257,8 +261,8 @@ class WhittedIntegrator(mi.SamplingIntegrator):
     # -- Rendering ------------------------------------------------------------------------------
 
     def _recursion(self, scene, tables=None, attached=False):
-        """The recursion of a render of ``scene`` and the scene's analysis (``attached``:
-        shaded from the parameters' own Dr.Jit values, :mod:`.gradients`)."""
+        """The recursion of a render of ``scene`` and the scene's analysis (``attached``: for
+        gradients)."""
         analysis = analyse(tables or scene_tables(scene), self.max_depth, self.light_reference,
                            self.without)
         values = None

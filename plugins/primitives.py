@@ -32,8 +32,8 @@ def bsdf_key(bsdf) -> int:
 
 
 def bounds(shapes) -> list:
-    """The shapes' bounding boxes (a call per shape; a vectorized call on the shapes would
-    trace each of them). Boxes compare exactly with ``==``."""
+    """The shapes' bounding boxes, which compare exactly with ``==`` (a call per shape: a
+    vectorized call would trace each of them)."""
     return [shape.bbox() for shape in shapes]
 
 
@@ -101,8 +101,7 @@ class Primitives:
         return cls(low, high, center, radius, error, sphere, frames, first, rows, bsdf_keys)
 
     @property
-    def counts(self) -> np.ndarray:
-        """Each shape's number of primitives (1 but for ellipsoids shapes)."""
+    def counts(self) -> np.ndarray:   # each shape's number of primitives
         return np.diff(np.append(self.first, len(self.radius)))
 
     def surface_at(self, point):
@@ -119,9 +118,8 @@ class Primitives:
         return float(error[k]), tuple(offset[:, k] / distance[k])
 
     def without(self, shapes) -> "Primitives":
-        """These primitives with those of the shapes indexed ``shapes`` no longer spheres:
-        :meth:`surface_at` passes them over (the giant spheres, whose float32 bounds are
-        ulps of their radius: :class:`.hits.GiantHits` tests them)."""
+        """These primitives, those of ``shapes`` (giant spheres, :class:`.hits.GiantHits`)
+        no longer spheres: :meth:`surface_at` passes them over."""
         sphere = self.sphere.copy()
         for k in shapes:
             sphere[self.first[k]:self.first[k] + self.counts[k]] = False

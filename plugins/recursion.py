@@ -8,22 +8,10 @@ time, and :class:`Wavefronts` (JIT variants) level by level, a whole pass per wa
 Under total internal reflection both children are the same mirror ray: it is traced once,
 with weight ``w·(KR + KT)``, and counted as both kinds (``Child.merged``).
 
-Adaptive depth control (Hall and Greenberg 1983; POV-Ray's ``adc_bailout``): branches are
-left untraced as long as together they cannot change any pixel by more than ``min_weight``
-(0 traces the exact tree). Every ray carries an *allowance* ``a``: how much path weight may still be
-left untraced in its subtree. A camera ray starts with ``ε = min_weight / L``, ``L`` the
-brightest color any ray can bring back (:func:`brightest`). Where a ray spawns children of
-weights ``w1 <= w2`` (a missing child has weight 0), :func:`split` culls the lighter child
-if ``w1 <= a``, then the heavier one too if ``w2 <= a - w1``, and otherwise traces it with
-allowance ``a - w1``; if ``w1 > a`` it traces both, each with allowance ``a/2``. The weights
-culled at a ray plus its traced children's allowances add up to at most its own allowance,
-so the weights culled from one camera ray's tree add up to at most ``ε``. A culled ray of
-weight ``w`` would have added at most ``w·L`` to its sample (a ray's color mixes point
-colors and the background with weights adding up to at most 1), so culling darkens each
-pixel by at most ``ε·L = min_weight`` in every channel. The render reports the bound it
-reached, the largest weight culled from one sample times ``L`` (``error_bound`` in
-``whitted render --stats``). The rule looks at one ray and its children only, so the tree
-does not depend on the walk or on how wavefronts are split.
+Adaptive depth control (Hall and Greenberg 1983; POV-Ray's ``adc_bailout``): each ray
+carries an *allowance*, the path weight its subtree may leave untraced, shared out by
+:func:`split` so that culling changes no pixel by more than ``min_weight``
+(docs/statistics.md, "Adaptive depth"; 0 traces the exact tree).
 """
 
 from __future__ import annotations
@@ -260,16 +248,15 @@ class Recursion:
         return color, culled
 
     @staticmethod
-    def passes(total: int, per_pass: int):
-        """``(first, count)`` of each pass of ``per_pass`` samples over ``total`` camera samples."""
+    def passes(total: int, per_pass: int):   # (first, count) of each pass
         return [(first, min(per_pass, total - first)) for first in range(0, total, per_pass)]
 
     def samples(self, count: int):
-        """The sample indices 0 … count - 1 of a pass, as the walk takes them."""
-        return range(count)   # one camera sample at a time
+        """The sample indices of a pass, as the walk takes them (here one at a time)."""
+        return range(count)
 
     def finish_pass(self) -> None:
-        """Make a pass's work (its image block's accumulation) done before the next one."""
+        """Finish a pass's work (its image block's accumulation) before the next one."""
 
 
 def recursion(scene, analysis, integrator, attached=None) -> Recursion:
@@ -408,19 +395,14 @@ class Wavefronts(Recursion):
 
 def _plus_children(total, value, parent, second, tp, width: int):
     """``total`` plus ``value`` of the first children, then of the second, at their parents' lanes."""
-    return total + _to_parents(value, parent, second, False, tp, width) \
-        + _to_parents(value, parent, second, True, tp, width)
-
-
-def _to_parents(value, parent, second, which: bool, tp, width: int):
-    """``value`` of the first (``which`` False) or second children at their parents' lanes."""
-    out = dr.zeros(tp, width)
-    if second is None:
-        if not which:
+    for which in (False, True):
+        out = dr.zeros(tp, width)
+        if second is not None:
+            dr.scatter(out, value, parent, second if which else ~second)
+        elif not which:
             dr.scatter(out, value, parent)
-        return out
-    dr.scatter(out, value, parent, second if which else ~second)
-    return out
+        total = total + out
+    return total
 
 
 class _Progress:
@@ -452,7 +434,7 @@ class _Progress:
             self.progress(self.count - self.done)
 
 
-# -- adaptive depth control (the module docstring) ------------------------------------------------
+# -- adaptive depth control (docs/statistics.md) ---------------------------------------------------
 
 def allowance(min_weight: float, bright) -> float:
     """The camera rays' allowance ε for a ``min_weight`` and a brightest color ``bright``
@@ -527,7 +509,6 @@ class Tally:
         self._sums = {}
 
     def add(self, name: str, mask) -> None:
-        """Count the set lanes of ``mask``."""
         self._add(name, mi.UInt32, 1, mask)
 
     def add_total(self, name: str, value, mask) -> None:

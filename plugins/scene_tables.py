@@ -18,18 +18,7 @@ Effect names (also reported by ``whitted render --stats``):
 Code for an effect the scene lacks is left out of the kernels; without reflection and
 refraction the tree has depth 1. What a render leaves out on request (``without``:
 :data:`whitted.defaults.SWITCHABLE_EFFECTS`) is the same image, bit for bit, as a scene
-edited so:
-
-``shadows``     no shadow test: every light is seen from every point facing it (no
-                shadow rays)
-``reflection``  no reflected rays: a mirror keeps its diffuse share ``(1 - KR - KT)·point``
-                and its share KR is dropped (black), as at the tree's last level
-``refraction``  no refracted rays, likewise for KT (without both: ``max_depth`` 1)
-``textures``    a textured sphere has the plain color the scene gives it: white, the
-                format's default (the converter keeps no color beside a texture)
-``diffuse``     no light's term: a point's color is ``B·A`` (article) or 0 (physical), as
-                in a scene without lights (so no shadow rays either)
-``ambient``     A = 0, as ``ambient 0`` in the file
+edited so (docs/lessons.md, "What --without means").
 """
 
 from __future__ import annotations
@@ -97,7 +86,7 @@ def point_lights(scene) -> tuple[tuple, ...]:
 
 
 def largest_emission(emitter) -> float | None:
-    """The largest channel of a constant environment's radiance (None for other emitters)."""
+    """The largest channel of a constant environment's radiance (None: another emitter)."""
     params = mi.traverse(emitter)
     if emitter.class_name() != "ConstantBackgroundEmitter" or "radiance.value" not in params:
         return None
@@ -219,13 +208,11 @@ def _largest_texel(texture):
 
 # -- the tables, kept by scene -------------------------------------------------------------------
 
-def _changes(bsdfs) -> tuple:
-    """How many times each ``article`` BSDF has been changed (``ArticleBSDF.changes``)."""
+def _changes(bsdfs) -> tuple:   # how many times each BSDF has been changed
     return tuple(bsdf.changes for bsdf in bsdfs)
 
 
-def _shape_types(scene, shapes) -> np.ndarray:
-    """Each shape's ``mi.ShapeType`` as an integer (one gather in the JIT variants)."""
+def _shape_types(scene, shapes) -> np.ndarray:   # each shape's mi.ShapeType, as an integer
     if dr.is_jit_v(mi.Float):
         return np.asarray(scene.shapes_dr().shape_type(), np.uint32).reshape(-1)
     return np.array([int(shape.shape_type()) for shape in shapes], np.uint32)
@@ -309,7 +296,6 @@ class SceneTables:
                         for k in np.flatnonzero(textured & spheres).tolist()}
 
     def matches(self, scene) -> bool:
-        """Whether these tables are still those of ``scene``."""
         shapes = scene.shapes()
         return (_changes(self.materials.bsdfs) == self._changes and bounds(shapes) == self._boxes
                 and all(_same_data(_ellipsoid_data(shapes[k]), data)
@@ -331,8 +317,7 @@ class SceneTables:
                                       self._part(left_out))
         return self._rest_scenes[key]
 
-    def _part(self, left_out) -> "SceneTables":
-        """These tables, for the scene of :meth:`rest`."""
+    def _part(self, left_out) -> "SceneTables":   # these tables, for the scene of :meth:`rest`
         part = copy.copy(self)
         kept = np.ones(len(self._types), bool)
         kept[list(left_out)] = False
@@ -344,8 +329,7 @@ class SceneTables:
         return part
 
 
-def _witness(scene):
-    """Something that identifies ``scene`` while held, or None (nothing to keep)."""
+def _witness(scene):   # what identifies ``scene`` while held, or None (nothing to keep)
     if dr.is_jit_v(mi.Float):
         arrays = (scene.shapes_dr(), scene.emitters_dr(), scene.sensors_dr())
         return arrays if any(dr.width(a) for a in arrays) else None
@@ -379,8 +363,7 @@ class KeptByScene:
         self._kept.move_to_end((scene.variant_name(), scene.ptr))
         return kept[1]
 
-    def put(self, scene, value) -> None:
-        """Keep ``value`` for ``scene`` (nothing, for a scene with nothing to witness it)."""
+    def put(self, scene, value) -> None:   # (nothing, for a scene with nothing to witness it)
         witness = _witness(scene)
         if witness is None:
             return
@@ -425,7 +408,7 @@ class SceneAnalysis:
     tables: SceneTables
     lights: list[PointLight]             # the lights simulated (none without ``diffuse``)
     max_depth: int                       # the depth asked for
-    without: frozenset = frozenset()     # what the render leaves out (the module docstring)
+    without: frozenset = frozenset()     # what the render leaves out (docs/lessons.md)
     effects: tuple[str, ...] = field(init=False)
     depth: int = field(init=False)       # the depth actually needed
     surfaces: Materials = field(init=False)   # the materials as simulated
