@@ -22,6 +22,7 @@ from .frame import farthest, scene_origin, to_frame
 from .giants import cached, coarse_spheres, exact_spheres, mesh_bytes
 from .scene import Material, Scene, Sphere, SphereArrays, Vec3
 from .scene import cross, dot, normalize, sub
+from .scn_writer import material_text, relative_path
 
 if TYPE_CHECKING:
     import numpy as np
@@ -204,9 +205,7 @@ def material_dict(material: Material, base_dir: Path | None) -> dict:
     if material.texture is None:
         color = _rgb(material.color)
     else:
-        # Real paths: the OS resolves '..' after following a symlinked output folder.
-        path = str(material.texture) if base_dir is None else \
-            Path(os.path.relpath(os.path.realpath(material.texture), os.path.realpath(base_dir))).as_posix()
+        path = str(material.texture) if base_dir is None else relative_path(material.texture, base_dir)
         color = {"type": "bitmap", "filename": path, "filter_type": "nearest", "wrap_mode": "clamp"}
     return {"type": "article", "color": color, "reflect": float(material.reflect),
             "refract": float(material.refract), "ior": float(material.ior)}
@@ -284,7 +283,6 @@ def describe(scene: Scene, base_dir: str | os.PathLike | None, smallest: float |
 
 def _note(scene: Scene, sphere: Sphere, base_dir: Path | None) -> str:
     """Where the material of ``sphere`` is first written: file, line, text and comment."""
-    from .scn_writer import material_text
     comment = scene.comments.get(sphere.line)
     return (f"{scene.source.name}:{sphere.line}: {material_text(sphere, base_dir or scene.source.parent)}"
             + (f"  # {comment}" if comment else ""))
@@ -319,7 +317,6 @@ def _describe_spheres(scene: Scene, spheres: SphereArrays, names: list[str], ids
 
 def file_stem(scene: Scene) -> str:
     """The scene file's name without its suffix, as a safe file name."""
-
     return re.sub(r"[^A-Za-z0-9._-]+", "_", Path(scene.source).stem).strip("_.") or "scene"
 
 

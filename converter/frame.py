@@ -135,11 +135,18 @@ def sight_warning(scene: Scene) -> str | None:
 
 
 def warn_scene(scene: Scene, stream=None, integrator: str = "whitted") -> None:
-    """Every warning about a parsed scene, one line each on ``stream`` (stderr); the
-    :func:`path_warning` only for ``integrator`` "path", when there is no other of float32."""
-    messages = [sight_warning(scene), precision_warning(scene)]
-    if integrator == "path" and not messages[1]:
-        messages[1] = path_warning(scene)
-    for message in filter(None, messages):
+    """Every warning about a parsed scene, one line each on ``stream`` (stderr)."""
+    message = sight_warning(scene)
+    if message:
         print(f"whitted: warning: {message}", file=stream or sys.stderr)
+    warn_precision(scene, stream, integrator)
 
+
+def warn_precision(scene: Scene, stream=None, integrator: str = "whitted") -> None:
+    """:func:`precision_warning` (for ``integrator`` "path", else :func:`path_warning`) on
+    ``stream`` (stderr), when there is one."""
+    message = precision_warning(scene)
+    if integrator == "path":
+        message = message or path_warning(scene)
+    if message:
+        print(f"whitted: warning: {message}", file=stream or sys.stderr)

@@ -253,7 +253,6 @@ def cached(data: bytes) -> Path:
 def prune(folder: Path, limit: int = MESH_CACHE_BYTES, stale: float = STALE_SECONDS) -> list[Path]:
     """Remove killed writers' leftovers, then the least recently used meshes down to ``limit``
     bytes (none used in the last ``stale`` seconds); return what was removed."""
-
     removed = remove_stale_leftovers(folder, stale)
     meshes = []
     for path in folder.glob("*.ply"):

@@ -379,7 +379,6 @@ class _Parser:
             self.in_range(value, token.text, f"size {n}", 1, MAX_SIZE)
         self.scene.width, self.scene.height = int(width), int(height)
 
-
     def _point(self, name, args) -> Vec3:
         self.count(name, args, "X Y Z", 3)
         return _floats(self.vector(args, name))
@@ -622,7 +621,6 @@ class _SphereList:
 
 def _by_first_use(index: np.ndarray, values: list) -> tuple[np.ndarray, tuple]:
     """``index`` renumbered so that its values come in order of first use, and those values."""
-
     import numpy as np
     order = first_use(index)
     if len(order) == len(values) and (order == np.arange(len(values))).all():

@@ -272,7 +272,6 @@ class PlainReader:
                     kt, ior = float(tokens[i + 1]), float(tokens[i + 2])
                     if not self.within(tokens[i + 1], kt):
                         return None
-
                     if not _MIN < ior < _MAX:
                         return None
                     i += 3

@@ -181,7 +181,6 @@ Scene.spheres = property(_get_spheres, _set_spheres,
 # The converter's vector arithmetic on 3-tuples of Python floats, written once.
 
 
-
 def sub(a: Vec3, b: Vec3) -> Vec3:
     return (a[0] - b[0], a[1] - b[1], a[2] - b[2])
 

@@ -303,4 +303,3 @@ def scene_to_xml(scene: Scene, base_dir: str | os.PathLike | None, portable: boo
 def xml_of(description: Description, portable: bool = False) -> str:
     """The XML of ``description``, in the default or the ``portable`` form."""
     return description_to_xml(*_with_notes(description, portable))
-
