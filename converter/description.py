@@ -28,8 +28,6 @@ if TYPE_CHECKING:
     import numpy as np
 
 
-# -- markers for what the dict form cannot hold without Mitsuba ----------------------------------
-
 @dataclass(frozen=True)
 class Param:
     """A scene parameter: ``$name`` in the XML, its default or override in the dict."""
@@ -74,19 +72,9 @@ class SphereBlock:
 
 @dataclass
 class Description:
-    """A Mitsuba scene as plain Python.
-
-    ============ ==============================================================
-    ``scene``    the scene in ``mi.load_dict`` form, with the markers above
-    ``defaults`` parameter name -> default value, in the order the XML lists
-                 them (the values :class:`Param` markers stand for)
-    ``origin``   the world coordinates of the frame's origin: world = frame + origin
-    ``source``   the name of the scene file it came from
-    ``spheres``  None, or the spheres ``scene`` leaves out (:class:`SphereBlock`)
-    ``notes``    material id -> where the scene file first writes it (a comment beside it
-                 in the XML)
-    ============ ==============================================================
-    """
+    """A Mitsuba scene as plain Python: ``scene`` in ``mi.load_dict`` form with the markers
+    above, the ``defaults`` of its parameters, the world point ``origin`` of its frame, the
+    spheres it leaves out, and ``notes``: material id -> where the file first writes it."""
     scene: dict
     defaults: dict = field(default_factory=dict)
     origin: Vec3 = (0.0, 0.0, 0.0)
@@ -94,8 +82,6 @@ class Description:
     spheres: SphereBlock | None = None
     notes: dict = field(default_factory=dict)
 
-
-# -- the formulas --------------------------------------------------------------------------------
 
 def texture_frame(north: Vec3, equator: Vec3) -> tuple[Vec3, Vec3, Vec3]:
     """The sphere's local axes (Ve, Vn x Ve, Vn): Mitsuba's sphere UV is then the article's
@@ -122,8 +108,6 @@ def clip_range(scene: Scene, spheres: SphereArrays | None = None) -> tuple[float
     # directions stay float32-exact (they degrade only below about 1e-16).
     return far * 1e-12, far
 
-
-# -- the description -----------------------------------------------------------------------------
 
 def _rgb(value: Vec3) -> dict:
     return {"type": "rgb", "value": tuple(float(c) for c in value)}

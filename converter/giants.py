@@ -104,8 +104,6 @@ def giant_spheres(scene: Scene, origin: Vec3, smallest: float | None = None,
     return coarse_spheres(scene, origin, smallest, spheres)[0]
 
 
-# -- a mesh of the sphere for Mitsuba's own integrators --------------------------------------------
-
 #: Mitsuba's own ray offset near a point p is ``(1 + max|p_i|)·RayEpsilon``, RayEpsilon = 1500 ε
 RAY_EPSILON = 1500 * UNIT_ROUNDOFF
 #: the mesh's deviation from its sphere relative to the eye's distance (below a pixel)

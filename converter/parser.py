@@ -51,9 +51,6 @@ _BLANKS = " \t\f\v"
 _DEFAULT_ORIENTATION = (NORTH, EQUATOR)
 
 
-# --------------------------------------------------------------------------- text
-
-
 def parse_file(path: str | os.PathLike) -> Scene:
     """Read and parse a ``.scn`` file; errors name ``path`` as given."""
     path = Path(path)
@@ -216,9 +213,6 @@ def parse_text(text: str, source: str | os.PathLike, *, careful: bool = False) -
     return parser.finish()
 
 
-# ---------------------------------------------------------------------- statements
-
-
 def suggest(word: str, known) -> str:
     """', did you mean 'x'?' for the nearest known name, or the list of known names."""
     word = word.lower()
@@ -261,8 +255,6 @@ class _Parser:
         """Fail the statement if a :meth:`part` of it failed."""
         if len(self.errors) > errors_before:
             raise _PartsFailed
-
-    # ---- values
 
     def number(self, token: Token, what: str, *, integer: bool = False) -> Decimal:
         """The exact value of a number token (constraints compare what was written)."""
@@ -321,8 +313,6 @@ class _Parser:
         self.in_range(value, token_text, what, 0, None, low_open=True)
         if value < MIN_POSITIVE:
             self.fail(f"{what} must be at least 1e-6 (32-bit floats), got {token_text}")
-
-    # ---- the file
 
     def finish(self) -> Scene:
         """The scene once every statement is read, or every problem, in file order, as one
@@ -550,8 +540,6 @@ class _Parser:
             self._images[path] = image_problem(path)
         return self._images[path]
 
-    # ---- checks across statements
-
     def check_camera(self) -> None:
         scene, seen = self.scene, self.seen
         view = tuple(b - a for a, b in zip(scene.eye, scene.lookat))
@@ -567,9 +555,6 @@ class _Parser:
             default = "" if "up" in seen else " (the default)"
             self.fail(f"up {_show_vec(scene.up)}{default} must not be parallel to the viewing "
                       f"direction (from eye {_show_vec(scene.eye)} to lookat {_show_vec(scene.lookat)})")
-
-
-# ------------------------------------------------------------------------- helpers
 
 
 class _SphereList:
