@@ -122,7 +122,7 @@ def sight_warning(scene: Scene) -> str | None:
             where = _where(scene, spheres.sphere(k))
             return (f"{where}: the eye is inside this opaque sphere, which holds no other sphere: the "
                     f"image shows only its inside; move `eye` out of it (or make it `refract`)")
-    t = math.atan(math.tan(math.radians(scene.fov) / 2) * math.hypot(1.0, scene.height / scene.width))
+    t = math.atan(math.tan(math.radians(scene.fov) / 2) * math.hypot(1, scene.height / scene.width))
     f, cos_t, sin_t = normalize(sub(scene.lookat, scene.eye)), math.cos(t), math.sin(t)
     seen = (d2 <= r * r) | (f[0] * x + f[1] * y + f[2] * z >= cos_t * np.sqrt(abs(d2 - r * r)) - sin_t * r)
     if not seen.any():

@@ -22,8 +22,7 @@ from .. import defaults
 from ..defaults import MAX_DEPTH, MAX_SAMPLES, MAX_SIZE, PARALLEL_SINE
 from ..errors import SceneError
 from .textures import image_problem
-from .plain import (EQUATOR, LINE_BREAK, NORTH, NOT_PLAIN_BYTES, NOT_PLAIN_CHARACTERS, PlainReader,
-                    comment_text)
+from .plain import LINE_BREAK, NOT_PLAIN_BYTES, NOT_PLAIN_CHARACTERS, PlainReader, comment_text
 from .scene import Distinct, Light, Material, Scene, Sphere, SphereArrays, Vec3, first_use
 from .scene import cross, length, normalize
 
@@ -48,7 +47,7 @@ _INTEGER = re.compile(r"[+-]?[0-9]+")
 _NON_FINITE = re.compile(r"[+-]?(?:nan|inf|infinity)", re.IGNORECASE)
 _BLANKS = " \t\f\v"
 #: a sphere's (north, equator) when its statement gives neither (the fast path's spheres')
-_DEFAULT_ORIENTATION = (NORTH, EQUATOR)
+_DEFAULT_ORIENTATION = (defaults.NORTH, defaults.EQUATOR)
 
 
 def parse_file(path: str | os.PathLike) -> Scene:
@@ -448,10 +447,9 @@ class _Parser:
             self.fail(f"sphere reflect + refract must be <= 1, got {kr} + {kt}")
         north = _floats(values.get("north", Sphere.north))
         equator = _floats(values.get("equator", Sphere.equator))
-        if _is_zero(north):
-            self.fail("sphere north must not be zero")
-        if _is_zero(equator):
-            self.fail("sphere equator must not be zero")
+        for name, direction in (("north", north), ("equator", equator)):
+            if _is_zero(direction):
+                self.fail(f"sphere {name} must not be zero")
         if _sine(north, equator) < PARALLEL_SINE:
             default = "" if "equator" in values else " (the default)"
             self.fail(f"sphere equator {_show_vec(equator)}{default} must not be parallel "
@@ -543,15 +541,14 @@ class _Parser:
     def check_camera(self) -> None:
         scene, seen = self.scene, self.seen
         view = tuple(b - a for a, b in zip(scene.eye, scene.lookat))
+        self.line = max(seen.get("eye", 0), seen.get("lookat", 0))
         if _is_zero(view):
-            self.line = max(seen.get("eye", 0), seen.get("lookat", 0))
             self.fail(f"eye and lookat must differ, both are {_show_vec(scene.eye)}")
         if sum(c * c for c in view) < 1e-300:  # Mitsuba's look_at would divide by zero
-            self.line = max(seen.get("eye", 0), seen.get("lookat", 0))
             self.fail(f"eye and lookat are too close together to give a direction "
                       f"({_show_vec(scene.eye)} and {_show_vec(scene.lookat)})")
         if _sine(view, scene.up) < PARALLEL_SINE:
-            self.line = seen.get("up") or max(seen.get("eye", 0), seen.get("lookat", 0))
+            self.line = seen.get("up") or self.line
             default = "" if "up" in seen else " (the default)"
             self.fail(f"up {_show_vec(scene.up)}{default} must not be parallel to the viewing "
                       f"direction (from eye {_show_vec(scene.eye)} to lookat {_show_vec(scene.lookat)})")

@@ -25,22 +25,18 @@ NOT_PLAIN_CHARACTERS = ('"', "\\", "\x00", "\x1c", "\x1d", "\x1e", "\x1f")
 NOT_PLAIN_BYTES = tuple(c.encode() for c in NOT_PLAIN_CHARACTERS)
 #: the bytes :meth:`PlainReader.read_bytes` reads at a time (a chunk ends at a line break)
 _CHUNK = 1 << 20
-_PLAIN_ATTRIBUTES = ("color", "reflect", "refract")
 _MAX = float(defaults.MAX_MAGNITUDE)        # |x| < this: inside the magnitude limit
 _MIN = float(defaults.MIN_POSITIVE)         # x > this: at least MIN_POSITIVE
 _BELOW_ONE = 1.0 - 1e-12                    # reflect + refract clearly <= 1
 _WHITE = (1.0, 1.0, 1.0)
 _PLAIN = Material(_WHITE, 0.0, 0.0, 1.0, None)   # a sphere without attributes
-NORTH = tuple(float(c) for c in defaults.NORTH)
-EQUATOR = tuple(float(c) for c in defaults.EQUATOR)
 
 #: the control characters that are blanks or line breaks (the format's and str.split's alike)
 _BLANK_CODES = (9, 10, 11, 12, 13)
 
 
 def comment_text(text: str) -> str | None:
-    """A statement's comment as the scene keeps it (``Scene.comments``): the text after its
-    ``#``, stripped; None when that is empty."""
+    """A statement's comment as the scene keeps it: the text after its ``#``, stripped, or None."""
     return text.strip() or None
 
 

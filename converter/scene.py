@@ -107,7 +107,7 @@ def first_use(index: np.ndarray) -> np.ndarray:
 
 
 class Distinct:
-    """Numbers values in order of first appearance; equal means of equal ``repr`` (-0.0 is not 0.0)."""
+    """Numbers values in order of first appearance; equal means of equal ``repr`` (not -0.0, 0.0)."""
 
     def __init__(self):
         self.values: list = []
