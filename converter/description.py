@@ -21,8 +21,7 @@ from .. import defaults as D
 from .frame import farthest, scene_origin, to_frame
 from .giants import cached, coarse_spheres, exact_spheres, mesh_bytes
 from .scene import Material, Scene, Sphere, SphereArrays, Vec3
-from .scene import cross, dot, normalize, sub
-from .scn_writer import material_text, relative_path
+from .scene import cross, dot, normalize, relative_path, sub
 
 if TYPE_CHECKING:
     import numpy as np
@@ -267,6 +266,7 @@ def describe(scene: Scene, base_dir: str | os.PathLike | None, smallest: float |
 
 def _note(scene: Scene, sphere: Sphere, base_dir: Path | None) -> str:
     """Where the material of ``sphere`` is first written: file, line, text and comment."""
+    from .scn_writer import material_text
     comment = scene.comments.get(sphere.line)
     return (f"{scene.source.name}:{sphere.line}: {material_text(sphere, base_dir or scene.source.parent)}"
             + (f"  # {comment}" if comment else ""))

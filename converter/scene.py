@@ -8,6 +8,7 @@ only when asked for (a million objects take seconds and hundreds of megabytes).
 from __future__ import annotations
 
 import math
+import os
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -203,3 +204,8 @@ def normalize(a: Vec3) -> Vec3:
     a = (a[0] / scale, a[1] / scale, a[2] / scale)
     n = length(a)
     return (a[0] / n, a[1] / n, a[2] / n)
+
+
+def relative_path(path: Path, folder: Path) -> str:
+    """``path`` relative to ``folder``, both real (the OS resolves '..' after a symlink)."""
+    return Path(os.path.relpath(os.path.realpath(path), os.path.realpath(folder))).as_posix()

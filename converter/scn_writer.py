@@ -12,7 +12,7 @@ import re
 from pathlib import Path
 
 from .. import defaults as D
-from .scene import Scene, Sphere
+from .scene import Scene, Sphere, relative_path
 
 
 def _num(x: float) -> str:
@@ -22,11 +22,6 @@ def _num(x: float) -> str:
 
 def _nums(values) -> str:
     return " ".join(_num(v) for v in values)
-
-
-def relative_path(path: Path, folder: Path) -> str:
-    """``path`` relative to ``folder``, both real (the OS resolves '..' after a symlink)."""
-    return Path(os.path.relpath(os.path.realpath(path), os.path.realpath(folder))).as_posix()
 
 
 def material_text(sphere: Sphere, folder: Path) -> str:
