@@ -131,8 +131,7 @@ def convert_file(source: Path, target: Path, portable: bool = False) -> None:
             tmp.write_bytes(mesh.data)
     if written:   # files the user did not ask for, some of them large: say what and why
         print(mesh_note(target, written), file=sys.stderr)
-    # atomic, written as it is made (a scene of a million spheres makes 150 MB of XML);
-    # an OS error comes back as a one-line WhittedError
+    # atomic, written as it is made; an OS error comes back as a one-line WhittedError
     with atomic_path(target) as tmp, open(tmp, "w", encoding="utf-8") as file:
         write_xml(description, file, portable)
 

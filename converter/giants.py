@@ -136,9 +136,8 @@ def sphere_mesh(center: Vec3, radius: float, eye: Vec3, view: float, tolerance: 
     thetas, counts = [0.0], [1]
     theta, count = 0.0, 8
     while True:
-        # at least half the eye's distance to the points of the next ring (s: their arc
-        # from the anchor; their chord to it is at least 2s/π): h + 2s/π from outside,
-        # h + s/π from inside (the distance is at least max(h, 2s/π - h) there)
+        # a lower bound of the eye's distance to the next ring (arc s): h + 2s/π from
+        # outside, h + s/π from inside
         arc = radius * theta
         near = height + (2 if length > radius else 1) * arc / np.pi
         step = np.sqrt(2 * tolerance * near / radius)

@@ -18,9 +18,8 @@ from .scene import Light, Material
 
 LINE_BREAK = re.compile(r"\r\n|\r|\n")
 
-# The fast path (PlainReader.read_bytes). A text holding none of these characters splits into
-# the careful tokenizer's tokens with str.split(): no quotes, no continuations, no NUL, and
-# none of the ASCII separators that str.split() takes for blanks but the format does not.
+# A text without these (quotes, continuations, NUL, separators the format does not know)
+# splits into the careful tokenizer's tokens with str.split().
 NOT_PLAIN_CHARACTERS = ('"', "\\", "\x00", "\x1c", "\x1d", "\x1e", "\x1f")
 NOT_PLAIN_BYTES = tuple(c.encode() for c in NOT_PLAIN_CHARACTERS)
 #: the bytes :meth:`PlainReader.read_bytes` reads at a time (a chunk ends at a line break)
@@ -204,8 +203,7 @@ class PlainReader:
             if not code.isascii():  # blanks the format does not know may be tokens
                 self.reader.careful_line(number, line)
             return
-        # Python's float() reads exactly the format's numbers in ASCII text without '_'
-        # (and nan/inf, which fail every range check).
+        # float() reads exactly the format's numbers in ASCII without '_' (nan/inf fail the ranges)
         if code.isascii() and "_" not in code and tokens[0].lower() == "light" and self.light(number, tokens):
             if comment_at >= 0:
                 self.comment(number, line[comment_at + 1:])
