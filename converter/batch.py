@@ -1,15 +1,9 @@
 """Converting many files: which ``.scn`` becomes which ``.xml``, and one file at a time.
 
-``whitted convert a.scn b.scn DIR/ [-o OUT]`` must go on past a bad file, say
-what failed, and leave nothing half-written. This module decides the pairs
-(source, target) up front, so that a clash (two inputs that would write the
-same XML, an output that would overwrite its input) is reported before any
-file is touched, and converts each pair atomically. It imports neither
-Mitsuba nor Dr.Jit: conversion is text in, text out.
-
-``whitted render SCENE|FOLDER ... -o OUT/`` names its images by the same rules
-(:func:`plan` with the image's suffix, :func:`prepare_folders`): what a user
-learnt of one command holds for the other.
+``whitted convert`` must go on past a bad file and leave nothing half-written: the pairs
+(source, target) are decided up front, so that a clash is reported before any file is
+touched, and each is converted atomically. ``whitted render`` names its images by the same
+rules, so what a user learnt of one command holds for the other.
 """
 
 from __future__ import annotations
@@ -33,10 +27,8 @@ XML_SUFFIX, PORTABLE_SUFFIX = ".xml", ".portable.xml"
 
 
 def folder_scenes(folder: Path, accepted: tuple[str, ...] = (SCENE_SUFFIX,)) -> list[Path]:
-    """The scene files a folder argument stands for: the files directly in ``folder``, sorted
-    by name, whose suffix (in any case) is the first of ``accepted`` that any of them has.
-    ``whitted convert`` takes ``.scn`` files; ``whitted compare`` takes ``.scn`` files, else
-    ``.xml`` ones, so that converted copies beside their originals do not count twice."""
+    """The files directly in ``folder``, sorted, whose suffix (in any case) is the first of
+    ``accepted`` that any has (converted copies beside their originals do not count twice)."""
     try:
         entries = [p for p in folder.iterdir() if p.suffix.lower() in accepted and p.is_file()]
     except OSError as error:
@@ -51,9 +43,7 @@ def folder_scenes(folder: Path, accepted: tuple[str, ...] = (SCENE_SUFFIX,)) -> 
 def expand_folders(inputs: list[str | os.PathLike], accepted: tuple[str, ...], what: str,
                    check_file=None) -> list[Path]:
     """The files that ``inputs`` name, in order: a folder stands for its files of the
-    ``accepted`` suffixes (:func:`folder_scenes`; none is an error that names ``what`` is
-    looked for), any other input is a file, handed to ``check_file`` (which raises for a bad
-    one) when given, else kept as it is."""
+    ``accepted`` suffixes (none: an error naming ``what``), a file is checked by ``check_file``."""
     files: list[Path] = []
     for item in map(Path, inputs):
         if item.is_dir():
@@ -68,19 +58,11 @@ def expand_folders(inputs: list[str | os.PathLike], accepted: tuple[str, ...], w
     return files
 
 
-
-
 def plan(inputs: list[str | os.PathLike], output: str | os.PathLike | None = None,
          suffix: str = XML_SUFFIX, accepted: tuple[str, ...] = (SCENE_SUFFIX,)) -> list[tuple[Path, Path]]:
-    """The (source, target) pairs of a conversion (or of a render: ``suffix`` ".png").
-
-    Each input is a ``.scn`` file or a folder (its ``.scn`` files; ``accepted``: the
-    suffixes a folder is searched for, see :func:`folder_scenes`). Without
-    ``output`` every ``X.scn`` becomes ``X.xml`` (``X`` + ``suffix``) beside it.
-    With one input file, ``output`` names the XML file, unless it is an existing
-    folder or ends with a path separator (:func:`whitted.atomic.names_folder`); otherwise it is the
-    folder that receives every ``X.xml``.
-    """
+    """The (source, target) pairs of a conversion (or of a render: ``suffix`` ".png"): ``X``
+    + ``suffix`` beside each input, or ``output`` the file (:func:`whitted.atomic.names_folder`)
+    or the folder that receives them."""
     if not inputs:
         raise WhittedError("no scene given: name scene files or folders")
     # a missing or unreadable file is reported when converted
@@ -117,10 +99,8 @@ def mesh_note(target: Path, written: list) -> str:
 
 
 def prepare_folders(targets: list[Path], output: str | os.PathLike | None) -> None:
-    """Check every folder the ``targets`` go to before the first is written, creating the
-    one ``output`` (``-o``) names. One rule: an -o that names a folder (several inputs, or
-    a trailing /) is created when missing; the folder of an -o that names a file must
-    exist. Errors name the user's paths."""
+    """Check every folder the ``targets`` go to before the first is written: the one
+    ``output`` names may be created, the folder of an output file must exist."""
     named_folder = Path(output) if output else None
     folders = sorted({target.parent for target in targets})
     for folder in folders:
@@ -135,11 +115,8 @@ def prepare_folders(targets: list[Path], output: str | os.PathLike | None) -> No
 
 
 def convert_file(source: Path, target: Path, portable: bool = False) -> None:
-    """Parse ``source`` and write its XML (``portable``: in stock plugins only, its sealed
-    spheres grouped in ``ellipsoids`` shapes as for the path tracer, :func:`_portable_description`)
-    to ``target`` atomically (nothing for an invalid scene), with the mesh files of its giant
-    spheres (:mod:`.giants`) and the PLY files of its groups beside it; warn on stderr when
-    float32 cannot hold the scene's detail (:mod:`.frame`) or it draws nothing useful (:func:`.frame.warn_scene`)."""
+    """Parse ``source`` and write its XML (``portable``: stock plugins only) to ``target``
+    atomically, with its mesh files beside it; warn on stderr (:func:`.frame.warn_scene`)."""
     from .xml_writer import write_xml
 
     scene = parse_file(source)
@@ -154,16 +131,14 @@ def convert_file(source: Path, target: Path, portable: bool = False) -> None:
             tmp.write_bytes(mesh.data)
     if written:   # files the user did not ask for, some of them large: say what and why
         print(mesh_note(target, written), file=sys.stderr)
-    # atomic, written as it is made (a scene of a million spheres makes 150 MB of XML);
-    # an OS error comes back as a one-line WhittedError
+    # atomic, written as it is made; an OS error comes back as a one-line WhittedError
     with atomic_path(target) as tmp, open(tmp, "w", encoding="utf-8") as file:
         write_xml(description, file, portable)
 
 
 def _portable_description(scene, folder: Path):
-    """The description the portable XML is written from: the sealed spheres grouped as the path
-    tracer's loader groups them (:func:`whitted.sealed.described`) when the scene has enough
-    spheres for a group."""
+    """The portable XML's description, the sealed spheres grouped as the path tracer's loader
+    groups them (:func:`whitted.sealed.described`)."""
     if len(scene.sphere_arrays()) < SEALED_MIN_GROUP:
         return describe(scene, base_dir=folder, block=True)
     from ..sealed import described

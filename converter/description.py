@@ -1,14 +1,9 @@
 """Scene model -> one plain-Python description of the Mitsuba scene, in ``mi.load_dict`` form.
 
-Why one description. A converted scene reaches Mitsuba as XML text (:mod:`.xml_writer`)
-and, for ``whitted render x.scn``, straight through ``mi.load_dict``
-(:mod:`whitted.loading`). Both are built from this description, so every formula (the
-frame, the light intensities, the texture frames, the clip range) is written once and the
-two paths give the same scene by construction (tests/test_scene_building.py checks it).
-It imports neither Mitsuba nor Dr.Jit: what the dict form can only hold as Mitsuba
-objects, and the XML's ``$name`` parameters, are marker classes (:class:`LookAt`,
-:class:`Matrix`, :class:`Param`). Light intensities follow docs/radiometry.md (``c·π·d²``,
-d the light's distance to ``lookat``); positions are in the scene's frame (:mod:`.frame`).
+The XML (:mod:`.xml_writer`) and ``mi.load_dict`` (:mod:`whitted.loading`) are both built
+from it, so every formula is written once. It imports neither Mitsuba nor Dr.Jit: Mitsuba
+objects and the XML's ``$name`` parameters are markers (:class:`LookAt`, :class:`Matrix`,
+:class:`Param`). Light intensities: docs/radiometry.md.
 """
 
 from __future__ import annotations
@@ -26,24 +21,21 @@ from .. import defaults as D
 from .frame import farthest, scene_origin, to_frame
 from .giants import cached, coarse_spheres, exact_spheres, mesh_bytes
 from .scene import Material, Scene, Sphere, SphereArrays, Vec3
-from .scene import cross, dot, normalize, sub
+from .scene import cross, dot, normalize, relative_path, sub
 
 if TYPE_CHECKING:
     import numpy as np
 
 
-# -- markers for what the dict form cannot hold without Mitsuba ----------------------------------
-
 @dataclass(frozen=True)
 class Param:
-    """A scene parameter: ``$name`` in the XML (with a ``<default>``), the default value or
-    the caller's override when loaded from the dict."""
+    """A scene parameter: ``$name`` in the XML, its default or override in the dict."""
     name: str
 
 
 @dataclass(frozen=True)
 class LookAt:
-    """A ``to_world`` transform given as Mitsuba's ``lookat`` (computed by Mitsuba, in float64)."""
+    """A ``to_world`` transform as Mitsuba's ``lookat`` (computed by Mitsuba, in float64)."""
     origin: Vec3
     target: Vec3
     up: Vec3
@@ -57,20 +49,15 @@ class Matrix:
 
 @dataclass(frozen=True)
 class Mesh:
-    """A mesh shape's ``filename``, with the file's bytes (a PLY: :mod:`.giants`). The XML
-    names the file; whoever writes the XML writes it beside (:func:`meshes`), and
-    ``mi.load_dict`` reads it from the mesh cache (:func:`.giants.cached`)."""
+    """A mesh shape's ``filename``, with the PLY file's bytes (:mod:`.giants`)."""
     filename: str
     data: bytes = field(repr=False)
 
 
 @dataclass(frozen=True, eq=False)
 class SphereBlock:
-    """Spheres a description holds as arrays rather than in its ``scene`` (``describe(...,
-    block=True)``): sphere ``k`` is the ``sphere`` shape ``sphere_{names[k]}`` of center
-    ``center[k]`` (in the frame), radius ``radius[k]`` and BSDF ``material_ids[material[k]]``,
-    unless ``k`` is in ``in_scene`` (textured or meshed: ``scene`` describes it). Those
-    objects come after every other one."""
+    """Spheres held as arrays rather than in ``scene``: sphere ``k`` is ``sphere_{names[k]}``,
+    unless ``k`` is in ``in_scene`` (textured or meshed). They come after every other object."""
     center: np.ndarray
     radius: np.ndarray
     material: np.ndarray
@@ -84,19 +71,9 @@ class SphereBlock:
 
 @dataclass
 class Description:
-    """A Mitsuba scene as plain Python.
-
-    ============ ==============================================================
-    ``scene``    the scene in ``mi.load_dict`` form, with the markers above
-    ``defaults`` parameter name -> default value, in the order the XML lists
-                 them (the values :class:`Param` markers stand for)
-    ``origin``   the world coordinates of the frame's origin: world = frame + origin
-    ``source``   the name of the scene file it came from
-    ``spheres``  None, or the spheres ``scene`` leaves out (:class:`SphereBlock`)
-    ``notes``    material id -> where the scene file first writes it (a comment beside it
-                 in the XML)
-    ============ ==============================================================
-    """
+    """A Mitsuba scene as plain Python: ``scene`` in ``mi.load_dict`` form with the markers
+    above, the ``defaults`` of its parameters, the world point ``origin`` of its frame, the
+    spheres it leaves out, and ``notes``: material id -> where the file first writes it."""
     scene: dict
     defaults: dict = field(default_factory=dict)
     origin: Vec3 = (0.0, 0.0, 0.0)
@@ -105,15 +82,9 @@ class Description:
     notes: dict = field(default_factory=dict)
 
 
-# -- the formulas --------------------------------------------------------------------------------
-
 def texture_frame(north: Vec3, equator: Vec3) -> tuple[Vec3, Vec3, Vec3]:
-    """The sphere's local axes (x, y, z) = (Ve, Vn x Ve, Vn).
-
-    With these, Mitsuba's sphere UV (u = atan2(y, x) / 2pi, v = acos(z) / pi)
-    equals the article's lat/long mapping with v flipped: Mitsuba's v = 0 is the
-    north pole and a bitmap's top row, as the article's row floor((1 - v) H).
-    """
+    """The sphere's local axes (Ve, Vn x Ve, Vn): Mitsuba's sphere UV is then the article's
+    lat/long mapping (v = 0 the north pole and a bitmap's top row)."""
     vn = normalize(north)
     d = dot(equator, vn)
     ve = normalize((equator[0] - d * vn[0], equator[1] - d * vn[1], equator[2] - d * vn[2]))
@@ -129,18 +100,13 @@ def light_intensity(scene: Scene, position: Vec3, color: Vec3) -> Vec3:
 
 
 def clip_range(scene: Scene, spheres: SphereArrays | None = None) -> tuple[float, float]:
-    """Near and far clip distances that contain every sphere seen from the eye (``spheres``:
-    the scene's arrays, when known)."""
+    """Near and far clip distances that contain every sphere seen from the eye."""
     spheres = scene.sphere_arrays() if spheres is None else spheres
     far = 4.0 * farthest(scene.eye, [scene.lookat], spheres)[0]
-    # Mitsuba starts primary rays on the near plane, not at the eye. A near/far
-    # ratio of 1e-12 keeps them at the eye for any fov and aspect ratio while the
-    # directions stay as float32-exact as with Mitsuba's defaults (measured: the
-    # directions degrade only below a ratio of about 1e-16).
+    # Mitsuba starts primary rays on the near plane: 1e-12 keeps them at the eye while the
+    # directions stay float32-exact (they degrade only below about 1e-16).
     return far * 1e-12, far
 
-
-# -- the description -----------------------------------------------------------------------------
 
 def _rgb(value: Vec3) -> dict:
     return {"type": "rgb", "value": tuple(float(c) for c in value)}
@@ -152,8 +118,7 @@ def _shared(material: Material) -> Material:
 
 
 def slug(text: str) -> str:
-    """``text`` as a part of an id: ASCII letters (lowercase) and digits, every run of other
-    characters one ``_``, cut after a word within 24 characters."""
+    """``text`` as part of an id: lowercase ASCII letters and digits joined by ``_``, at most 24."""
     text = unicodedata.normalize("NFKD", text).encode("ascii", "ignore").decode().lower()
     text = re.sub(r"[^a-z0-9]+", "_", text).strip("_")
     if len(text) > 24:
@@ -162,11 +127,10 @@ def slug(text: str) -> str:
     return text
 
 
-def sphere_names(scene: Scene, spheres: SphereArrays | None = None) -> list[str]:
-    """Per sphere of ``scene`` (``spheres``: its arrays), what its ids end in: ``l12_the_floor``
-    for the sphere on line 12 whose comment is "the floor" (:func:`slug`), ``l12`` without a
-    comment; its index for a sphere without a line of its own (0, or an earlier sphere's)."""
-    order = (scene.sphere_arrays() if spheres is None else spheres).line
+def sphere_names(scene: Scene, spheres: SphereArrays) -> list[str]:
+    """Per sphere, what its ids end in: ``l12_the_floor`` (line 12, comment "the floor"),
+    ``l12`` without a comment, its index without a line of its own."""
+    order = spheres.line
     comments = scene.comments
     if len(order) and order[0] > 0 and (order[1:] > order[:-1]).all():
         names = list(map("l%d".__mod__, order.tolist()))   # a file's lines, in order: fast
@@ -187,8 +151,7 @@ def sphere_names(scene: Scene, spheres: SphereArrays | None = None) -> list[str]
 
 
 def first_spheres(scene: Scene, spheres: SphereArrays | None = None) -> dict:
-    """Each distinct material of ``scene`` as written (:func:`_shared`) -> the index of its
-    first sphere, in order of first use (``spheres``: the scene's arrays, when known)."""
+    """Each distinct material as written (:func:`_shared`) -> the index of its first sphere."""
     import numpy as np
     spheres = scene.sphere_arrays() if spheres is None else spheres
     firsts: dict[Material, int] = {}
@@ -198,11 +161,9 @@ def first_spheres(scene: Scene, spheres: SphereArrays | None = None) -> dict:
 
 
 def material_ids(scene: Scene, names: list[str] | None = None, firsts: dict | None = None) -> dict:
-    """Each distinct material of ``scene`` as written (:func:`_shared`) -> its id, in order of
-    first use: ``material_`` and its first sphere's name (:func:`sphere_names`: its line and
-    comment), ``material_K`` (K its place in that order) when that sphere has no line.
-    ``names`` and ``firsts`` (:func:`first_spheres`): the scene's, when known."""
-    names = sphere_names(scene) if names is None else names
+    """Each distinct material as written -> its id: ``material_`` and its first sphere's name,
+    or ``material_K`` (K its place in order of first use) when that sphere has no line."""
+    names = sphere_names(scene, scene.sphere_arrays()) if names is None else names
     firsts = first_spheres(scene) if firsts is None else firsts
     return {material: f"material_{names[k]}" if names[k][0] == "l" else f"material_{i}"
             for i, (material, k) in enumerate(firsts.items())}
@@ -215,8 +176,7 @@ def line_label(scene: Scene, line: int) -> str:
 
 
 def material_labels(scene: Scene) -> dict:
-    """Each material id (:func:`material_ids`) -> its first sphere's :func:`line_label`, or
-    the id when that sphere has no line."""
+    """Each material id -> its first sphere's :func:`line_label`, or the id without a line."""
     spheres = scene.sphere_arrays()
     names, firsts = sphere_names(scene, spheres), first_spheres(scene, spheres)
     return {mid: line_label(scene, int(spheres.line[k])) if names[k][0] == "l" else mid
@@ -228,9 +188,7 @@ def material_dict(material: Material, base_dir: Path | None) -> dict:
     if material.texture is None:
         color = _rgb(material.color)
     else:
-        # Real paths: the OS resolves '..' after following a symlinked output folder.
-        path = str(material.texture) if base_dir is None else \
-            Path(os.path.relpath(os.path.realpath(material.texture), os.path.realpath(base_dir))).as_posix()
+        path = str(material.texture) if base_dir is None else relative_path(material.texture, base_dir)
         color = {"type": "bitmap", "filename": path, "filter_type": "nearest", "wrap_mode": "clamp"}
     return {"type": "article", "color": color, "reflect": float(material.reflect),
             "refract": float(material.refract), "ior": float(material.ior)}
@@ -256,12 +214,9 @@ def _sphere(sphere: Sphere, origin: Vec3, material_id: str, mesh: Mesh | None = 
 
 def describe(scene: Scene, base_dir: str | os.PathLike | None, smallest: float | None = None,
              block: bool = False, ids: dict | None = None) -> Description:
-    """The description of ``scene``, its texture paths relative to ``base_dir`` (the XML's
-    folder) or absolute when it is None. ``smallest``: the smallest radius of spheres the
-    scene holds elsewhere (:func:`.giants.coarse_spheres`). ``block``: for the XML writer, the
-    plain spheres (untextured, not meshed) of a scene that holds arrays (a parsed file) go
-    in :attr:`Description.spheres` rather than ``scene``. ``ids``: the material ids of a
-    scene ``scene`` is part of (the loader's rest of a grouped scene)."""
+    """The description of ``scene``, texture paths relative to ``base_dir`` (None: absolute).
+    ``smallest``: see :func:`.giants.coarse_spheres`. ``block``: a parsed file's plain spheres
+    go in :attr:`Description.spheres`. ``ids``: the material ids of a larger scene."""
     base_dir = None if base_dir is None else Path(os.path.abspath(base_dir))
     spheres = scene.sphere_arrays()
     sphere = spheres.sphere
@@ -274,13 +229,11 @@ def describe(scene: Scene, base_dir: str | os.PathLike | None, smallest: float |
                 "width": int(scene.width), "height": int(scene.height)}
     integrator = {"type": "whitted", "max_depth": Param("max_depth"), "ambient": Param("ambient"),
                   "lighting": Param("lighting")}
-    if scene.min_weight is not None:
-        # Only when the scene sets it: otherwise the integrator's own default applies.
+    if scene.min_weight is not None:   # else the integrator's own default
         defaults["min_weight"] = float(scene.min_weight)
         integrator["min_weight"] = Param("min_weight")
     integrator["light_reference"] = to_frame(scene.lookat, origin)
-    # Spheres float32 cannot place finely enough for the Whitted integrator, and those it
-    # cannot place finely enough for Mitsuba's own integrators, which get a mesh instead.
+    # Spheres too coarse in float32 for the whitted integrator, and for Mitsuba's (meshed).
     giants, misplaced = coarse_spheres(scene, origin, smallest, spheres)
     meshed = [k for k in misplaced if sphere(k).material.texture is None]
     giants = sorted(set(giants) | set(meshed))
@@ -302,8 +255,7 @@ def describe(scene: Scene, base_dir: str | os.PathLike | None, smallest: float |
     for i, light in enumerate(scene.lights):
         objects[f"light_{i}"] = {"type": "point", "position": to_frame(light.position, origin),
                                  "intensity": _rgb(light_intensity(scene, light.position, light.color))}
-    # Identical materials are described once and shared by reference, which keeps
-    # Mitsuba's per-material dispatch small for scenes of many spheres.
+    # Identical materials are described once and shared by reference (a small dispatch).
     description = Description(objects, defaults, origin, scene.source.name)
     for material, k in firsts.items():
         objects[ids[material]] = material_dict(material, base_dir)
@@ -313,8 +265,7 @@ def describe(scene: Scene, base_dir: str | os.PathLike | None, smallest: float |
 
 
 def _note(scene: Scene, sphere: Sphere, base_dir: Path | None) -> str:
-    """Where the material of ``sphere`` is first written: the file, the line, the material's
-    part of the statement and its comment."""
+    """Where the material of ``sphere`` is first written: file, line, text and comment."""
     from .scn_writer import material_text
     comment = scene.comments.get(sphere.line)
     return (f"{scene.source.name}:{sphere.line}: {material_text(sphere, base_dir or scene.source.parent)}"
@@ -323,7 +274,6 @@ def _note(scene: Scene, sphere: Sphere, base_dir: Path | None) -> str:
 
 def _describe_spheres(scene: Scene, spheres: SphereArrays, names: list[str], ids: dict, meshed: list[int],
                       base_dir: Path | None, block: bool, description: Description) -> Description:
-    """The rest of :func:`describe`: the spheres."""
     origin = description.origin
     by_index = [ids.get(_shared(material), "") for material in spheres.materials]
     import numpy as np
@@ -350,8 +300,7 @@ def _describe_spheres(scene: Scene, spheres: SphereArrays, names: list[str], ids
 
 
 def file_stem(scene: Scene) -> str:
-    """The scene file's name without its suffix, as a safe file name ("memory" for a model
-    that came from no file)."""
+    """The scene file's name without its suffix, as a safe file name."""
     return re.sub(r"[^A-Za-z0-9._-]+", "_", Path(scene.source).stem).strip("_.") or "scene"
 
 

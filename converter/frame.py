@@ -1,16 +1,9 @@
 """The frame the converted scene is written in: world coordinates minus the scene's ``lookat``.
 
-Why. Mitsuba stores every position in float32, whose spacing grows with the magnitude,
-while the article's model has no preferred origin: subtracting one point of the scene
-(in float64) keeps its detail however far from the origin the file puts it. ``lookat``
-is where the camera looks, so what fills the image gets float32's finest spacing, and it
-is where the article's light colors are measured already (docs/numerics.md, hazard 6,
-which has the measurements).
-
-What a frame cannot fix: giant spheres (handed to the integrator exactly, :mod:`.giants`)
-and an eye far from small spheres, which :func:`precision_warning` measures;
-:func:`path_warning` names the spheres Mitsuba's own integrators still misplace, and
-:func:`sight_warning` the scenes that draw nothing useful.
+Mitsuba stores positions in float32, whose spacing grows with the magnitude; subtracting
+``lookat`` (in float64) gives what fills the image float32's finest spacing however far from
+the origin the file puts it (docs/numerics.md, hazard 6). What a frame cannot fix is warned
+about here, as are scenes that draw nothing useful.
 """
 
 from __future__ import annotations
@@ -23,12 +16,7 @@ from .giants import coarse_spheres, giant_spheres
 from .scene import Scene, SphereArrays, Vec3, length, normalize, sub
 
 
-#: :func:`float32_spread` above which a conversion warns: rounding the scene's
-#: largest coordinate in the frame to float32 moves it by this fraction of the
-#: smallest sphere's radius. Giant spheres do not count (the Whitted integrator
-#: intersects them exactly: converter/giants.py), so only a far eye can reach it.
-#: Measured (docs/numerics.md, hazard 6): mirror-and-glass seen from 10^5 away (0.02)
-#: has 0.2 % of its pixels off by more than 0.02, from 10^6 (0.2) 2 %, from 10^7 19 %.
+#: :func:`float32_spread` above which a conversion warns (measured: docs/numerics.md, hazard 6)
 SPREAD_WARNING = 0.1
 
 
@@ -44,9 +32,7 @@ to_frame = sub
 def farthest(origin: Vec3, points=(), spheres: SphereArrays | None = None,
              mask: np.ndarray | None = None) -> tuple[float, int | None]:
     """The largest distance from ``origin`` of ``points`` and of the surfaces of ``spheres``
-    (those of ``mask``; a sphere's is its center's distance plus its radius), 0 without
-    any, and the index of the sphere that sets it (None: a point, or nothing): the one
-    computation of how far a scene reaches (its frame's extent, the clip range, the loader)."""
+    (those of ``mask``), and the index of the sphere that sets it (None: a point, or none)."""
     reach, which = 0.0, None
     for point in points:
         reach = max(reach, length(to_frame(point, origin)))
@@ -63,9 +49,7 @@ def farthest(origin: Vec3, points=(), spheres: SphereArrays | None = None,
 
 
 def extent(scene: Scene, origin: Vec3, spheres: SphereArrays) -> tuple[float, int | None]:
-    """The largest distance from ``origin`` that Mitsuba stores and the Whitted integrator
-    relies on (:func:`farthest` of the eye and the spheres, giant spheres but for:
-    :mod:`.giants`), and the sphere that sets it (None: the eye)."""
+    """:func:`farthest` of the eye and the spheres but the giant ones (:mod:`.giants`)."""
     import numpy as np
     mask = np.ones(len(spheres), bool)
     mask[giant_spheres(scene, origin, spheres=spheres)] = False
@@ -73,8 +57,7 @@ def extent(scene: Scene, origin: Vec3, spheres: SphereArrays) -> tuple[float, in
 
 
 def float32_spread(scene: Scene) -> float:
-    """How far float32 may move the scene's surfaces, as a fraction of its smallest sphere's
-    radius: ε·extent / r_min (0 for a scene without spheres)."""
+    """How far float32 may move the scene's surfaces, as a fraction of its least radius."""
     spheres = scene.sphere_arrays()
     if not len(spheres):
         return 0.0
@@ -103,9 +86,8 @@ def precision_warning(scene: Scene) -> str | None:
 
 
 def path_warning(scene: Scene) -> str | None:
-    """One line naming the first textured sphere that Mitsuba's own integrators place less
-    finely than their ray offset near it (acne: a mesh, which the others become, would not
-    carry its texture mapping; docs/numerics.md, hazard 14), else None."""
+    """One line naming the first textured sphere that Mitsuba's own integrators misplace (a
+    mesh would lose its texture mapping; docs/numerics.md, hazard 14), else None."""
     spheres = scene.sphere_arrays()
     flags = spheres.textured()
     misplaced = coarse_spheres(scene, scene_origin(scene), spheres=spheres)[1] if flags.any() else ()
@@ -120,35 +102,10 @@ def path_warning(scene: Scene) -> str | None:
     return None
 
 
-def warn_precision(scene: Scene, stream=None, integrator: str = "whitted") -> None:
-    """:func:`precision_warning` (or, for ``integrator`` "path", :func:`path_warning` too)
-    as one line on ``stream`` (stderr), when there is one."""
-    message = precision_warning(scene)
-    if integrator == "path":
-        message = message or path_warning(scene)
-    if message:
-        print(f"whitted: warning: {message}", file=stream or sys.stderr)
-
-
-# Valid scenes that draw nothing useful, each with one line that says what the user probably
-# meant: no sphere in the camera's view, the eye shut inside an opaque sphere, no light.
-# Deliberate scenes stay quiet: an eye inside a sphere is a dome or a room as long as another
-# sphere reaches inside it; a glass or textured sphere around the eye is seen through; a scene
-# without lights whose ``ambient`` is 1 is flat shading on purpose. The view test is a cone
-# through the image's corners, which holds the whole view.
-
-
-def _view_cone(scene: Scene):
-    """The axis of the cone through the image's corners, and the cosine and sine of its
-    half-angle."""
-    tan_x = math.tan(math.radians(scene.fov) / 2)
-    t = math.atan(tan_x * math.hypot(1.0, scene.height / scene.width))
-    return normalize(sub(scene.lookat, scene.eye)), math.cos(t), math.sin(t)
-
-
 def sight_warning(scene: Scene) -> str | None:
     """One line when ``scene`` draws nothing useful (the first of: no sphere, the eye shut in
-    a sphere, nothing in view, no light), else None."""
+    an opaque sphere no other reaches into, nothing in the cone through the image's corners,
+    no light and ``ambient`` below 1), else None."""
     import numpy as np
     spheres = scene.sphere_arrays()
     if not len(spheres):
@@ -165,7 +122,8 @@ def sight_warning(scene: Scene) -> str | None:
             where = _where(scene, spheres.sphere(k))
             return (f"{where}: the eye is inside this opaque sphere, which holds no other sphere: the "
                     f"image shows only its inside; move `eye` out of it (or make it `refract`)")
-    f, cos_t, sin_t = _view_cone(scene)
+    t = math.atan(math.tan(math.radians(scene.fov) / 2) * math.hypot(1, scene.height / scene.width))
+    f, cos_t, sin_t = normalize(sub(scene.lookat, scene.eye)), math.cos(t), math.sin(t)
     seen = (d2 <= r * r) | (f[0] * x + f[1] * y + f[2] * z >= cos_t * np.sqrt(abs(d2 - r * r)) - sin_t * r)
     if not seen.any():
         return (f"{scene.source}: no sphere is in the camera's view: the image is only the "
@@ -177,9 +135,18 @@ def sight_warning(scene: Scene) -> str | None:
 
 
 def warn_scene(scene: Scene, stream=None, integrator: str = "whitted") -> None:
-    """Every warning about a parsed scene, one line each on ``stream`` (stderr): its
-    :func:`sight_warning`, and :func:`.frame.warn_precision`'s."""
+    """Every warning about a parsed scene, one line each on ``stream`` (stderr)."""
     message = sight_warning(scene)
     if message:
         print(f"whitted: warning: {message}", file=stream or sys.stderr)
     warn_precision(scene, stream, integrator)
+
+
+def warn_precision(scene: Scene, stream=None, integrator: str = "whitted") -> None:
+    """:func:`precision_warning` (for ``integrator`` "path", else :func:`path_warning`) on
+    ``stream`` (stderr), when there is one."""
+    message = precision_warning(scene)
+    if integrator == "path":
+        message = message or path_warning(scene)
+    if message:
+        print(f"whitted: warning: {message}", file=stream or sys.stderr)

@@ -1,12 +1,9 @@
 """Giant spheres: the legacy floor, wall and sky, which float32 cannot place finely enough.
 
-Why. A format that knows only spheres makes its floors, walls and skies out of huge ones
-(smallpt's box is six spheres of radius 10^5); Mitsuba places a float32 sphere only to
-ulps of its radius, more than the gaps to the small spheres beside it
-(docs/numerics.md, hazard 14). The converter lists the *giant* spheres (:func:`coarse_spheres`)
-with their float64 centers and radii in the Whitted integrator's ``exact_spheres``, which
-intersects them in float64 (plugins/hits.py); they stay ``sphere`` shapes too. For
-Mitsuba's own integrators the spheres it misplaces become closed meshes (:func:`sphere_mesh`).
+A format of spheres only makes floors, walls and skies of huge ones; Mitsuba places a float32
+sphere only to ulps of its radius, more than the gaps beside it (docs/numerics.md, hazard 14).
+The *giant* spheres go to the whitted integrator's ``exact_spheres`` (intersected in float64,
+plugins/hits.py); for Mitsuba's own integrators the misplaced ones become meshes.
 """
 
 from __future__ import annotations
@@ -26,19 +23,14 @@ from ..float32 import UNIT_ROUNDOFF, hit_error
 from ..float32 import exact_spheres, parse_exact_spheres  # noqa: F401  (the format, re-exported)
 from .scene import Scene, Sphere, SphereArrays, Vec3
 
-#: a sphere is giant when that bound exceeds this fraction of the scene's smallest radius.
-#: Measured (docs/numerics.md, hazard 14) on floors under balls of radius 0.3: radius 10^3
-#: (bound 2.4e-3 of 0.3) renders from float32 as the float64 reference does; from 10^4
-#: (2.4e-2) on, pixels go wrong as the radius grows (0.65 %, 9 % at 10^5, 27 % at 10^6)
+#: a sphere is giant when its float32 error exceeds this fraction of the finest detail beside
+#: it (measured: docs/numerics.md, hazard 14)
 GIANT_FRACTION = 1e-2
 
 
 def _detail_near(spheres: SphereArrays, k: int) -> float:
     """The finest detail next to sphere ``k``'s surface: over the other spheres, the larger of
-    a sphere's radius and its gap to that surface (a ball resting on it: its radius; one far
-    from it: the gap, which no ray offset of the surface's size can cross). Computed with
-    numpy, then again in Python floats (:func:`_detail_of`) for the spheres within rounding of
-    the least, so that the result does not depend on numpy's rounding."""
+    radius and gap; the least ones again in Python floats, independent of numpy's rounding."""
     import numpy as np
     center, radius = spheres.center, spheres.radius
     (gx, gy, gz), gr = center[k].tolist(), float(radius[k])
@@ -62,15 +54,10 @@ def _detail_of(c: Vec3, r: float, g: Vec3, gr: float) -> float:
 
 def coarse_spheres(scene: Scene, origin: Vec3, smallest: float | None = None,
                    spheres: SphereArrays | None = None) -> tuple[list[int], list[int]]:
-    """``(giant, misplaced)``: the indices of the spheres of ``scene`` (written in the frame of
-    ``origin``) that are giant, and of those Mitsuba misplaces, in one pass.
-
-    Giant: the float32 error bound (``hit_error``) exceeds :data:`GIANT_FRACTION` of the
-    finest detail next to the sphere (:func:`_detail_near`); ``smallest``, the smallest
-    radius of spheres the scene holds elsewhere (the loader's ellipsoids), counts as resting
-    on every sphere. Misplaced: Mitsuba's float32 sphere test, off by about ε·(r + max|C_i|),
-    is coarser than :data:`MISPLACED_RATIO` times its ray offset ``(1 + d)·RayEpsilon`` there.
-    ``spheres``: the scene's arrays; the result is kept with them (a conversion asks thrice).
+    """``(giant, misplaced)``: the spheres (in the frame of ``origin``) whose float32 error
+    exceeds :data:`GIANT_FRACTION` of the detail beside them, and those whose float32 test is
+    coarser than :data:`MISPLACED_RATIO` times Mitsuba's ray offset. ``smallest``: the least
+    radius of spheres held elsewhere (the loader's ellipsoids). Cached with the arrays.
     """
     spheres = scene.sphere_arrays() if spheres is None else spheres
     key = ("coarse", tuple(origin), smallest)
@@ -83,9 +70,8 @@ def coarse_spheres(scene: Scene, origin: Vec3, smallest: float | None = None,
 
 
 def coarse_candidates(spheres: SphereArrays, origin: Vec3, smallest: float | None = None):
-    """``(error, candidate)`` per sphere (arrays, in the frame of ``origin``): the float32 error
-    bound, and whether it exceeds :data:`GIANT_FRACTION` of the finest detail the scene holds
-    (its smallest radius, or ``smallest`` if smaller): only these spheres can be giant."""
+    """``(error, candidate)`` per sphere: the float32 error bound, and whether it exceeds
+    :data:`GIANT_FRACTION` of the scene's smallest radius (only these can be giant)."""
     import numpy as np
     detail = float(spheres.radius.min())
     if smallest is not None:
@@ -118,37 +104,24 @@ def giant_spheres(scene: Scene, origin: Vec3, smallest: float | None = None,
     return coarse_spheres(scene, origin, smallest, spheres)[0]
 
 
-# -- a mesh of the sphere for Mitsuba's own integrators --------------------------------------------
-
 #: Mitsuba's own ray offset near a point p is ``(1 + max|p_i|)·RayEpsilon``, RayEpsilon = 1500 ε
 RAY_EPSILON = 1500 * UNIT_ROUNDOFF
-#: the mesh's deviation from its sphere, relative to the distance from the eye, at most: a
-#: pixel of a 2048-pixel-wide image at 45° spans 3.8e-4 (docs/numerics.md, hazard 14)
+#: the mesh's deviation from its sphere relative to the eye's distance (below a pixel)
 MESH_TOLERANCE = 2e-4
 #: the least height of the eye above a meshed sphere, in distances from the eye to the lookat
 MIN_HEIGHT = 1e-2
 
 
-#: how much coarser than Mitsuba's ray offset its float32 sphere may be before the sphere is
-#: meshed: the example scenes' floors of radius 10^3 (ratio 0.7 to 1.1) path-trace without
-#: acne (docs/numerics.md, hazard 14); smallpt's walls (1.5 to 3.2) and floors of radius
-#: 10^4 under the eye (8.9) do not
+#: how much coarser than Mitsuba's ray offset a float32 sphere may be before it is meshed
+#: (docs/numerics.md, hazard 14)
 MISPLACED_RATIO = 1.4
 
 
 def sphere_mesh(center: Vec3, radius: float, eye: Vec3, view: float, tolerance: float = MESH_TOLERANCE):
-    """A closed triangle mesh inscribed in the sphere (``center``, ``radius``; in the frame),
-    finest where the eye is nearest: ``(positions, normals, faces)`` as numpy arrays
-    (float64 N×3, float64 N×3, int64 M×3), faces counter-clockwise seen from outside.
-
-    Rings of latitude around the sphere's point nearest the eye (the *anchor*), each a
-    regular polygon whose vertex count doubles from one ring to the next where needed (no
-    T-joints: the mesh is watertight). The step from ring to ring, ``sqrt(2δ/r)`` with δ =
-    ``tolerance`` times twice a lower bound of the eye's distance, keeps each planar quad
-    within δ/2 of the sphere (:func:`deviation`; docs/numerics.md, hazard 14). ``view``: the
-    distance from the eye to the lookat; an eye closer to the surface than
-    :data:`MIN_HEIGHT` of it is taken to be that far (the mesh stays finite).
-    """
+    """A closed, watertight triangle mesh inscribed in the sphere, finest where the eye is
+    nearest: ``(positions, normals, faces)``, faces counter-clockwise from outside. Rings of
+    latitude around the point nearest the eye, spaced to stay within ``tolerance``
+    (docs/numerics.md, hazard 14). ``view``: the eye's distance to the lookat."""
     import numpy as np
     c = np.asarray(center, np.float64)
     offset = np.asarray(eye, np.float64) - c
@@ -163,9 +136,8 @@ def sphere_mesh(center: Vec3, radius: float, eye: Vec3, view: float, tolerance: 
     thetas, counts = [0.0], [1]
     theta, count = 0.0, 8
     while True:
-        # at least half the eye's distance to the points of the next ring (s: their arc
-        # from the anchor; their chord to it is at least 2s/π): h + 2s/π from outside,
-        # h + s/π from inside (the distance is at least max(h, 2s/π - h) there)
+        # a lower bound of the eye's distance to the next ring (arc s): h + 2s/π from
+        # outside, h + s/π from inside
         arc = radius * theta
         near = height + (2 if length > radius else 1) * arc / np.pi
         step = np.sqrt(2 * tolerance * near / radius)
@@ -215,9 +187,7 @@ def sphere_mesh(center: Vec3, radius: float, eye: Vec3, view: float, tolerance: 
 
 
 def deviation(positions, faces, center: Vec3, radius: float):
-    """Per triangle, the most its plane lies inside the sphere: r − (distance from the center
-    to the plane), which bounds how far any point of the triangle lies off the sphere when
-    its vertices lie on it."""
+    """Per triangle, how far its plane lies inside the sphere (bounds its distance off it)."""
     import numpy as np
     p0, p1, p2 = (np.asarray(positions, np.float64)[faces[:, k]] for k in range(3))
     normal = np.cross(p1 - p0, p2 - p0)
@@ -226,13 +196,8 @@ def deviation(positions, faces, center: Vec3, radius: float):
 
 
 def ply_bytes(positions, normals, faces) -> bytes:
-    """A binary little-endian PLY of the mesh, float32 positions and normals (what Mitsuba's
-    ``ply`` shape reads, and what ``mi.load_dict`` of the same file builds).
-
-    Each vertex also holds a field ``giant_0`` (0; Mitsuba's attribute ``vertex_giant``):
-    Mitsuba's loader merges the meshes that share a BSDF into one shape unless they carry
-    attributes, and the Whitted integrator finds each giant sphere's shape by its id
-    (smallpt's three grey walls would become one nameless mesh, traced in float32)."""
+    """A binary PLY of the mesh (float32). Each vertex holds ``giant_0``: Mitsuba merges meshes
+    that share a BSDF unless they carry attributes, and the integrator finds each by its id."""
     import numpy as np
     header = ("ply\nformat binary_little_endian 1.0\n"
               f"element vertex {len(positions)}\n"
@@ -245,8 +210,7 @@ def ply_bytes(positions, normals, faces) -> bytes:
     return header.encode("ascii") + vertices.tobytes() + face_records.tobytes()
 
 
-#: meshes kept in memory (each a few MB): the frames of an animation rendered in one process
-#: (``whitted render FRAMES/ -o OUT/``) mostly share their floor, eye and lookat
+#: meshes kept in memory (a few MB each): an animation's frames mostly share their floor
 MESH_MEMORY = 4
 
 
@@ -264,15 +228,12 @@ def _mesh_bytes(center: Vec3, radius: float, eye: Vec3, view: float) -> bytes:
 
 
 def cache_folder() -> Path:
-    """Where meshes of scenes loaded without an XML file live: ``whitted-meshes-UID`` in the
-    temporary folder, each file named by its content, so that every process finds the same
-    file and none is ever rewritten. :func:`prune` bounds it."""
+    """Where meshes of scenes loaded without an XML file live, each named by its content."""
     return Path(tempfile.gettempdir()) / f"whitted-meshes-{os.getuid() if hasattr(os, 'getuid') else 0}"
 
 
 def cached(data: bytes) -> Path:
-    """The cached file holding ``data``: written when missing (atomically, then the cache
-    pruned), its time of use renewed when present."""
+    """The cached file holding ``data``: written when missing, its time of use renewed."""
     folder = cache_folder()
     path = folder / f"{hashlib.sha256(data).hexdigest()[:32]}.ply"
     if path.is_file():
@@ -287,10 +248,8 @@ def cached(data: bytes) -> Path:
 
 
 def prune(folder: Path, limit: int = MESH_CACHE_BYTES, stale: float = STALE_SECONDS) -> list[Path]:
-    """Bound the mesh cache ``folder``: remove the temporary files of killed writers, then
-    the meshes used least recently until at most ``limit`` bytes are left; return what was
-    removed. A mesh used in the last ``stale`` seconds stays whatever the size (a process may
-    be about to load it): the bound holds once the meshes are no longer in use."""
+    """Remove killed writers' leftovers, then the least recently used meshes down to ``limit``
+    bytes (none used in the last ``stale`` seconds); return what was removed."""
     removed = remove_stale_leftovers(folder, stale)
     meshes = []
     for path in folder.glob("*.ply"):

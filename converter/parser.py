@@ -2,14 +2,9 @@
 (``docs/scene-format.md``, "Syntax" and "Errors").
 
 A file is accepted as a whole or rejected with one :class:`SceneError` that lists every
-problem in it, each with the file and the first line of its statement, so that nothing
-invalid ever reaches Mitsuba and a user fixes a file in one go. :func:`parse_file` turns
-bytes into text, :func:`_statements` text into statements, and :class:`_Parser` gives each
-statement its meaning. Large scenes are read on the fast path of :mod:`.plain`, which
-hands every other line, and every doubt, to the one statement reader here
-(:meth:`_Parser.careful_line`), so that both paths accept, reject and word their messages
-alike (tests/test_parser.py checks it). Numbers are kept where Mitsuba's 32-bit floats
-stay finite and meaningful (:data:`MAX_MAGNITUDE`, :data:`MIN_POSITIVE`).
+problem in it, so that nothing invalid reaches Mitsuba and a user fixes a file in one go.
+Large scenes are read on the fast path of :mod:`.plain`, which hands every other line, and
+every doubt, to the one statement reader here (:meth:`_Parser.careful_line`).
 """
 
 from __future__ import annotations
@@ -27,8 +22,7 @@ from .. import defaults
 from ..defaults import MAX_DEPTH, MAX_SAMPLES, MAX_SIZE, PARALLEL_SINE
 from ..errors import SceneError
 from .textures import image_problem
-from .plain import (EQUATOR, LINE_BREAK, NORTH, NOT_PLAIN_BYTES, NOT_PLAIN_CHARACTERS, PlainReader,
-                    comment_text)
+from .plain import LINE_BREAK, NOT_PLAIN_BYTES, NOT_PLAIN_CHARACTERS, PlainReader, comment_text
 from .scene import Distinct, Light, Material, Scene, Sphere, SphereArrays, Vec3, first_use
 from .scene import cross, length, normalize
 
@@ -53,10 +47,7 @@ _INTEGER = re.compile(r"[+-]?[0-9]+")
 _NON_FINITE = re.compile(r"[+-]?(?:nan|inf|infinity)", re.IGNORECASE)
 _BLANKS = " \t\f\v"
 #: a sphere's (north, equator) when its statement gives neither (the fast path's spheres')
-_DEFAULT_ORIENTATION = (NORTH, EQUATOR)
-
-
-# --------------------------------------------------------------------------- text
+_DEFAULT_ORIENTATION = (defaults.NORTH, defaults.EQUATOR)
 
 
 def parse_file(path: str | os.PathLike) -> Scene:
@@ -72,10 +63,8 @@ def parse_file(path: str | os.PathLike) -> Scene:
 
 
 def check_scene_file(path: str | os.PathLike) -> None:
-    """Nothing, or a :class:`SceneError` naming ``path`` when it is not an existing regular
-    file: the one check of a scene file, whoever reads it (the parser, the loader, and
-    ``compare``'s scenes, ``.scn`` or ``.xml``). A FIFO or a device is refused before
-    anything waits on reading it."""
+    """A :class:`SceneError` naming ``path`` unless it is an existing regular file (a FIFO
+    is refused before anything waits on it): the one check, whoever reads a scene file."""
     try:
         info = os.stat(path)
     except FileNotFoundError:
@@ -89,8 +78,7 @@ def check_scene_file(path: str | os.PathLike) -> None:
 
 
 def read_scene_file(path: str | os.PathLike) -> bytes:
-    """The bytes of the scene file ``path`` (:func:`check_scene_file`; an unreadable one is a
-    :class:`SceneError` too)."""
+    """The bytes of the scene file ``path``, or a :class:`SceneError`."""
     check_scene_file(path)
     try:
         return Path(path).read_bytes()
@@ -133,15 +121,8 @@ def _clip(text: str) -> str:
 
 def _statements(text: str, path, errors: list, comments: dict) -> list[tuple[int, list[Token]]]:
     """Split ``text`` into statements: (first line number, tokens); a statement's comment
-    (:func:`comment_text`, its first if it spans lines) goes into ``comments`` by that line.
-
-    ``#`` outside quotes starts a comment. A line whose text (without its
-    comment and trailing blanks) ends in ``\\`` continues on the next line; the
-    backslash separates tokens like a blank. A token that starts with ``"``
-    runs to the next ``"`` on the same line and may hold blanks and ``#``.
-    A statement that cannot be split is left out and its problem appended to
-    ``errors`` as (line, message); the statements after it are still read.
-    """
+    goes into ``comments`` by that line, the problem of one that cannot be split into
+    ``errors`` as (line, message). The syntax: docs/scene-format.md, "Syntax"."""
     statements = []
     tokens: list[Token] = []
     first = 0
@@ -178,8 +159,7 @@ def _statements(text: str, path, errors: list, comments: dict) -> list[tuple[int
 
 
 def _split_line(line: str, path, first: int) -> tuple[list[Token], bool, str | None]:
-    """Tokens of one physical line, whether it ends with a continuation ``\\``, and its
-    comment (:func:`comment_text`)."""
+    """Tokens of one physical line, whether it ends with a continuation ``\\``, its comment."""
     if "\0" in line:
         raise SceneError(path, first, "binary file (NUL character), not a text scene")
     tokens: list[Token] = []
@@ -219,10 +199,7 @@ def _split_line(line: str, path, first: int) -> tuple[list[Token], bool, str | N
 
 def parse_text(text: str, source: str | os.PathLike, *, careful: bool = False) -> Scene:
     """Parse scene text; ``source`` names the file in messages and anchors relative textures.
-
-    ``careful=True`` reads every statement on the careful path, the one the fast path must
-    agree with (the parser's benchmark times both).
-    """
+    ``careful=True``: every statement on the careful path (the parser's benchmark times both)."""
     source = Path(source)
     if text.startswith("\ufeff"):
         text = text[1:]
@@ -230,11 +207,9 @@ def parse_text(text: str, source: str | os.PathLike, *, careful: bool = False) -
     if not careful and not any(c in text for c in NOT_PLAIN_CHARACTERS):
         PlainReader(parser).read_bytes(text.encode("utf-8", "surrogatepass"))
     else:
-        parser.parse(_statements(text, source, parser.errors, parser.scene.comments))
+        for line, tokens in _statements(text, source, parser.errors, parser.scene.comments):
+            parser.statement(line, tokens)
     return parser.finish()
-
-
-# ---------------------------------------------------------------------- statements
 
 
 def suggest(word: str, known) -> str:
@@ -267,10 +242,8 @@ class _Parser:
         raise SceneError(self.source, self.line, message)
 
     def part(self, check, *args):
-        """``check(*args)``, one independent part of a statement (a sphere's center, its
-        radius, one attribute's values): its problem is noted and None returned, so that
-        the statement's other parts are still checked and one line reports every error
-        (:meth:`settle` then fails the statement)."""
+        """``check(*args)``, one independent part of a statement: its problem is noted and None
+        returned, so that the other parts are still checked (:meth:`settle` fails it)."""
         try:
             return check(*args)
         except SceneError as error:
@@ -278,11 +251,9 @@ class _Parser:
             return None
 
     def settle(self, errors_before: int) -> None:
-        """Fail the statement (its errors already noted) if a :meth:`part` of it failed."""
+        """Fail the statement if a :meth:`part` of it failed."""
         if len(self.errors) > errors_before:
             raise _PartsFailed
-
-    # ---- values
 
     def number(self, token: Token, what: str, *, integer: bool = False) -> Decimal:
         """The exact value of a number token (constraints compare what was written)."""
@@ -304,6 +275,17 @@ class _Parser:
 
     def vector(self, tokens: list[Token], what: str) -> tuple[Decimal, Decimal, Decimal]:
         return tuple(self.number(t, what) for t in tokens)
+
+    def color(self, args: list[Token], what: str, high=None):
+        color = self.vector(args, what)
+        for value, token in zip(color, args):
+            self.in_range(value, token.text, what, 0, high)
+        return color
+
+    def bounded(self, token: Token, what: str, low, high, integer: bool = False) -> Decimal:
+        value = self.number(token, what, integer=integer)
+        self.in_range(value, token.text, what, low, high)
+        return value
 
     def count(self, keyword: str, args: list[Token], names: str, *counts: int) -> None:
         if len(args) not in counts:
@@ -331,16 +313,9 @@ class _Parser:
         if value < MIN_POSITIVE:
             self.fail(f"{what} must be at least 1e-6 (32-bit floats), got {token_text}")
 
-    # ---- the file
-
-    def parse(self, statements) -> None:
-        """Give each statement, (first line, tokens), its meaning."""
-        for line, tokens in statements:
-            self.statement(line, tokens)
-
     def finish(self) -> Scene:
-        """The scene, once every statement is read: the checks across statements, then
-        every problem found, in file order, as one :class:`SceneError`."""
+        """The scene once every statement is read, or every problem, in file order, as one
+        :class:`SceneError`."""
         if not self.failed & {"eye", "lookat", "up"}:  # else the camera is not what the file says
             try:
                 self.check_camera()
@@ -379,7 +354,7 @@ class _Parser:
         getattr(self, f"statement_{name}")(args)
 
     def careful_line(self, number: int, line: str) -> None:
-        """Read one physical line (the fast path's every doubt) as the careful path would."""
+        """Read one physical line (the fast path's every doubt) the careful way."""
         tokens, _, remark = _split_line(line, self.source, number)
         if tokens:
             self.statement(number, tokens)
@@ -419,16 +394,11 @@ class _Parser:
 
     def statement_background(self, args):
         self.count("background", args, "R G B", 3)
-        color = self.vector(args, "background color")
-        for value, token in zip(color, args):
-            self.in_range(value, token.text, "background color", 0, None)
-        self.scene.background = _floats(color)
+        self.scene.background = _floats(self.color(args, "background color"))
 
     def _one_number(self, args, statement, placeholder, low, high, integer=False):
-        """The single number of a one-number statement, checked against [low, high]."""
         self.count(statement, args, placeholder, 1)
-        value = self.number(args[0], statement, integer=integer)
-        self.in_range(value, args[0].text, statement, low, high)
+        value = self.bounded(args[0], statement, low, high, integer)
         return int(value) if integer else float(value)
 
     def statement_ambient(self, args):
@@ -447,15 +417,9 @@ class _Parser:
         self.count("light", args, "X Y Z [R G B]", 3, 6)
         errors = len(self.errors)
         position = self.part(self.vector, args[:3], "light position")
-        color = self.part(self.light_color, args[3:]) if len(args) == 6 else (1, 1, 1)
+        color = self.part(self.color, args[3:], "light color") if len(args) == 6 else (1, 1, 1)
         self.settle(errors)
         self.scene.lights.append(Light(_floats(position), _floats(color), line=self.line))
-
-    def light_color(self, args):
-        color = self.vector(args, "light color")
-        for value, token in zip(color, args):
-            self.in_range(value, token.text, "light color", 0, None)
-        return color
 
     def sphere_radius(self, token):
         radius = self.number(token, "sphere radius")
@@ -483,10 +447,9 @@ class _Parser:
             self.fail(f"sphere reflect + refract must be <= 1, got {kr} + {kt}")
         north = _floats(values.get("north", Sphere.north))
         equator = _floats(values.get("equator", Sphere.equator))
-        if _is_zero(north):
-            self.fail("sphere north must not be zero")
-        if _is_zero(equator):
-            self.fail("sphere equator must not be zero")
+        for name, direction in (("north", north), ("equator", equator)):
+            if _is_zero(direction):
+                self.fail(f"sphere {name} must not be zero")
         if _sine(north, equator) < PARALLEL_SINE:
             default = "" if "equator" in values else " (the default)"
             self.fail(f"sphere equator {_show_vec(equator)}{default} must not be parallel "
@@ -536,19 +499,13 @@ class _Parser:
         return values
 
     def attribute_color(self, args):
-        color = self.vector(args, "sphere color")
-        for value, token in zip(color, args):
-            self.in_range(value, token.text, "sphere color", 0, 1)
-        return color
+        return self.color(args, "sphere color", 1)
 
     def attribute_reflect(self, args):
-        kr = self.number(args[0], "sphere reflect")
-        self.in_range(kr, args[0].text, "sphere reflect", 0, 1)
-        return (kr,)
+        return (self.bounded(args[0], "sphere reflect", 0, 1),)
 
     def attribute_refract(self, args):
-        kt = self.number(args[0], "sphere refract KT")
-        self.in_range(kt, args[0].text, "sphere refract KT", 0, 1)
+        kt = self.bounded(args[0], "sphere refract KT", 0, 1)
         ior = self.number(args[1], "sphere refract IOR")
         self.positive(ior, args[1].text, "sphere refract IOR")
         return kt, ior
@@ -576,36 +533,29 @@ class _Parser:
         return path
 
     def image_problem(self, path: Path) -> str | None:
-        """Why Mitsuba could not use ``path`` as a texture, or None (cached per parse)."""
+        """Why Mitsuba could not use ``path`` as a texture, or None (cached)."""
         if path not in self._images:
             self._images[path] = image_problem(path)
         return self._images[path]
 
-    # ---- checks across statements
-
     def check_camera(self) -> None:
         scene, seen = self.scene, self.seen
         view = tuple(b - a for a, b in zip(scene.eye, scene.lookat))
+        self.line = max(seen.get("eye", 0), seen.get("lookat", 0))
         if _is_zero(view):
-            self.line = max(seen.get("eye", 0), seen.get("lookat", 0))
             self.fail(f"eye and lookat must differ, both are {_show_vec(scene.eye)}")
         if sum(c * c for c in view) < 1e-300:  # Mitsuba's look_at would divide by zero
-            self.line = max(seen.get("eye", 0), seen.get("lookat", 0))
             self.fail(f"eye and lookat are too close together to give a direction "
                       f"({_show_vec(scene.eye)} and {_show_vec(scene.lookat)})")
         if _sine(view, scene.up) < PARALLEL_SINE:
-            self.line = seen.get("up") or max(seen.get("eye", 0), seen.get("lookat", 0))
+            self.line = seen.get("up") or self.line
             default = "" if "up" in seen else " (the default)"
             self.fail(f"up {_show_vec(scene.up)}{default} must not be parallel to the viewing "
                       f"direction (from eye {_show_vec(scene.eye)} to lookat {_show_vec(scene.lookat)})")
 
 
-# ------------------------------------------------------------------------- helpers
-
-
 class _SphereList:
-    """The spheres of a file as they are read: arrays of many (the fast path) and single
-    ones (the careful path), each with its line; :meth:`arrays` puts them in file order."""
+    """The spheres of a file as read: arrays (the fast path) and single ones, in file order."""
 
     def __init__(self):
         self.blocks: list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = []
@@ -613,7 +563,6 @@ class _SphereList:
         self.materials = Distinct()
 
     def material(self, material: Material) -> int:
-        """The index of ``material`` (by value)."""
         return self.materials.index(material)
 
     def add(self, line: int, center: Vec3, radius: float, material: Material, orientation) -> None:
@@ -621,8 +570,7 @@ class _SphereList:
         self.singles.append((line, center, radius, material, orientation))
 
     def add_arrays(self, lines, centers, radii, materials) -> None:
-        """Spheres of the default orientation: their lines, centers (N×3), radii and
-        material indices (:meth:`material`)."""
+        """Spheres of the default orientation, their material indices from :meth:`material`."""
         if len(lines):
             self.blocks.append((lines, centers, radii, materials))
 
@@ -654,8 +602,7 @@ class _SphereList:
 
 
 def _by_first_use(index: np.ndarray, values: list) -> tuple[np.ndarray, tuple]:
-    """``index`` renumbered so that the values it refers to come in order of first use,
-    and those values."""
+    """``index`` renumbered so that its values come in order of first use, and those values."""
     import numpy as np
     order = first_use(index)
     if len(order) == len(values) and (order == np.arange(len(values))).all():

@@ -1,21 +1,10 @@
 """The parser's fast path: plain ``light`` and ``sphere`` lines read with ``float`` and numpy.
 
-Why. Scenes of up to millions of spheres (the sphereflake of ``make bench``)
-must read fast, and only valid input needs to. A text without quotes,
-continuations or odd separators (:data:`NOT_PLAIN_CHARACTERS`) is read a
-megabyte at a time (:meth:`PlainReader.read_chunk`): the tokens of its plain
-sphere lines are found in the bytes with numpy, their four numbers converted in
-one pass and their attribute texts looked up once each, and the spheres go into
-arrays, one object per sphere never being made; a plain ``light`` line is
-converted with ``float``. A line is taken when every number lies clearly inside
-its range (a float compared strictly with a bound decides as the exact decimal
-would; at a bound the text itself is checked).
-
-Every other line, and every doubt, goes to the one statement reader
-(``_Parser.careful_line`` and ``_Parser.statement`` in converter/parser.py), so
-both paths accept, reject and word their messages alike (tests/test_parser.py
-checks it). This module knows nothing of the reader but those two methods, its
-``scene`` and its ``spheres``.
+Scenes of millions of spheres must read fast, and only valid input needs to: a text without
+quotes, continuations or odd separators is read a megabyte at a time, its plain sphere lines
+found and converted with numpy into arrays. A line is taken only when every number lies clearly
+inside its range; every other line, and every doubt, goes to the one statement reader
+(``_Parser.careful_line`` in converter/parser.py), which alone words the messages.
 """
 
 from __future__ import annotations
@@ -29,29 +18,24 @@ from .scene import Light, Material
 
 LINE_BREAK = re.compile(r"\r\n|\r|\n")
 
-# The fast path (PlainReader.read_bytes). A text holding none of these characters splits into
-# the careful tokenizer's tokens with str.split(): no quotes, no continuations, no NUL, and
-# none of the ASCII separators that str.split() takes for blanks but the format does not.
+# A text without these (quotes, continuations, NUL, separators the format does not know)
+# splits into the careful tokenizer's tokens with str.split().
 NOT_PLAIN_CHARACTERS = ('"', "\\", "\x00", "\x1c", "\x1d", "\x1e", "\x1f")
 NOT_PLAIN_BYTES = tuple(c.encode() for c in NOT_PLAIN_CHARACTERS)
 #: the bytes :meth:`PlainReader.read_bytes` reads at a time (a chunk ends at a line break)
 _CHUNK = 1 << 20
-_PLAIN_ATTRIBUTES = ("color", "reflect", "refract")
 _MAX = float(defaults.MAX_MAGNITUDE)        # |x| < this: inside the magnitude limit
 _MIN = float(defaults.MIN_POSITIVE)         # x > this: at least MIN_POSITIVE
 _BELOW_ONE = 1.0 - 1e-12                    # reflect + refract clearly <= 1
 _WHITE = (1.0, 1.0, 1.0)
 _PLAIN = Material(_WHITE, 0.0, 0.0, 1.0, None)   # a sphere without attributes
-NORTH = tuple(float(c) for c in defaults.NORTH)
-EQUATOR = tuple(float(c) for c in defaults.EQUATOR)
 
 #: the control characters that are blanks or line breaks (the format's and str.split's alike)
 _BLANK_CODES = (9, 10, 11, 12, 13)
 
 
 def comment_text(text: str) -> str | None:
-    """A statement's comment as the scene keeps it (``Scene.comments``): the text after its
-    ``#``, stripped; None when that is empty."""
+    """A statement's comment as the scene keeps it: the text after its ``#``, stripped, or None."""
     return text.strip() or None
 
 
@@ -63,14 +47,8 @@ def _float_or_nan(token: bytes) -> float:
 
 
 class PlainReader:
-    """Reads plain lines into the scene of a statement reader (``reader``: the parser's
-    ``_Parser``), handing it every line it does not take.
-
-    ========== ======================================================================
-    ``reader`` the statement reader: its ``scene`` and ``spheres`` receive what is read,
-               its ``careful_line(number, line)`` reads what is not plain
-    ========== ======================================================================
-    """
+    """Reads plain lines into the ``scene`` and ``spheres`` of ``reader`` (the parser's
+    ``_Parser``), handing every other line to its ``careful_line(number, line)``."""
 
     def __init__(self, reader):
         self.reader = reader
@@ -80,8 +58,7 @@ class PlainReader:
         self._tails: dict[bytes, int] = {}    # attribute bytes -> material index, or -1
 
     def read_bytes(self, data: bytes) -> None:
-        """Parse the UTF-8 bytes of a text free of quotes, continuations and odd separators,
-        a chunk at a time (:meth:`read_chunk`)."""
+        """Parse the UTF-8 bytes of a plain text, a chunk at a time (:meth:`read_chunk`)."""
         is_ascii = data.isascii()
         pos, line, n = 0, 1, len(data)
         while pos < n:
@@ -91,14 +68,9 @@ class PlainReader:
             pos = end
 
     def read_chunk(self, data: bytes, pos: int, end: int, first: int, is_ascii: bool) -> int:
-        """Parse the lines of ``data[pos:end]`` (whole lines; the first is line ``first``) and
-        return the number of the line after them.
-
-        A line whose code (the text before a ``#``) is ASCII without ``_`` or odd control
-        characters splits on blanks as ``str.split`` would; when it is ``sphere`` (any case)
-        and at least four more tokens, its numbers clearly in range and its attributes a
-        plain material (:meth:`material`), it is taken. The rest go to :meth:`read_line`.
-        """
+        """Parse the whole lines of ``data[pos:end]`` (the first is line ``first``); return the
+        number of the line after them. Plain sphere lines are taken, the rest go to
+        :meth:`read_line`."""
         import numpy as np
         b = np.frombuffer(data, np.uint8, end - pos, pos)
         m = len(b)
@@ -171,9 +143,8 @@ class PlainReader:
         return first + breaks
 
     def chunk_spheres(self, data, pos, b, lines, keyword, counts, token_start, token_end) -> np.ndarray:
-        """Add the spheres of the sphere lines ``lines`` (numbers) of the chunk ``b`` at ``pos``
-        of ``data`` whose first tokens are ``keyword`` (indices into ``token_start`` and
-        ``token_end``) and that have ``counts`` tokens; return which were taken."""
+        """Add the spheres of the sphere lines ``lines`` (their keywords' token indices
+        ``keyword``, their token ``counts``); return which were taken."""
         import numpy as np
         m = len(b)
         # the four numbers of every line as one text, each line's followed by a blank
@@ -216,8 +187,7 @@ class PlainReader:
         return ok
 
     def tail_material(self, text: bytes) -> int:
-        """The material index of a plain sphere's attributes ``text``, or -1 when they are
-        not plain (:meth:`material`)."""
+        """The material index of a sphere's attributes ``text``, or -1 when not plain."""
         index = self._tails.get(text)
         if index is None:
             found = self.material(text.decode("ascii").split())
@@ -233,8 +203,7 @@ class PlainReader:
             if not code.isascii():  # blanks the format does not know may be tokens
                 self.reader.careful_line(number, line)
             return
-        # Python's float() reads exactly the format's numbers in ASCII text without '_'
-        # (and nan/inf, which fail every range check).
+        # float() reads exactly the format's numbers in ASCII without '_' (nan/inf fail the ranges)
         if code.isascii() and "_" not in code and tokens[0].lower() == "light" and self.light(number, tokens):
             if comment_at >= 0:
                 self.comment(number, line[comment_at + 1:])
@@ -242,18 +211,16 @@ class PlainReader:
         self.reader.careful_line(number, line)
 
     def comment(self, number: int, text: str) -> None:
-        """Keep the comment ``text`` (after the ``#``) of the statement on line ``number``."""
         text = comment_text(text)
         if text:
             self.scene.comments[number] = text
 
-    def bound(self, token: str, value: float) -> bool:
-        """Whether ``token``, which reads as the float ``value``, is exactly ``value``.
-
-        For a float equal to a bound (0, 1): the text may lie a little beyond it
-        ("1.00000000000000001"). Exact tokens are remembered in :attr:`exact`.
-        """
-        if Decimal(token) == Decimal(value):
+    def within(self, token: str, value: float, high: float = 1.0) -> bool:
+        """Whether ``token`` (read as ``value``) lies clearly in [0, ``high``]: at a bound the
+        text may lie a little beyond it ("1.00000000000000001"); exact ones are remembered."""
+        if 0.0 < value < high or token in self.exact:
+            return True
+        if (value == 0.0 or value == high) and Decimal(token) == Decimal(value):
             self.exact.add(token)
             return True
         return False
@@ -271,16 +238,14 @@ class PlainReader:
         if not (-_MAX < x < _MAX and -_MAX < y < _MAX and -_MAX < z < _MAX):
             return False
         if not (0.0 < r < _MAX and 0.0 < g < _MAX and 0.0 < b < _MAX):
-            for c, token in zip(color, tokens[4:]):
-                if not (0.0 < c < _MAX or token in self.exact or c == 0.0 and self.bound(token, c)):
-                    return False
+            if not all(c < _MAX and self.within(t, c, _MAX) for c, t in zip(color, tokens[4:])):
+                return False
         self.scene.lights.append(Light(position, color, line=line))
         return True
 
     def material(self, tokens: list[str]) -> Material | None:
         """The material of the attributes ``[color R G B] [reflect KR] [refract KT IOR]``
         in any order, or None when they are anything else or not clearly valid."""
-        exact = self.exact
         color = kr = kt = None
         ior = 1.0
         i, n = 0, len(tokens)
@@ -288,23 +253,18 @@ class PlainReader:
             while i < n:
                 name = tokens[i].lower()
                 if name == "color" and color is None and i + 3 < n:
-                    r, g, b = color = tuple(map(float, tokens[i + 1:i + 4]))
-                    if not (0.0 < r < 1.0 and 0.0 < g < 1.0 and 0.0 < b < 1.0):
-                        for c, token in zip(color, tokens[i + 1:i + 4]):
-                            if not (0.0 < c < 1.0 or token in exact
-                                    or (c == 0.0 or c == 1.0) and self.bound(token, c)):
-                                return None
+                    color = tuple(map(float, tokens[i + 1:i + 4]))
+                    if not all(map(self.within, tokens[i + 1:i + 4], color)):
+                        return None
                     i += 4
                 elif name == "reflect" and kr is None and i + 1 < n:
                     kr = float(tokens[i + 1])
-                    if not (0.0 < kr < 1.0 or tokens[i + 1] in exact
-                            or (kr == 0.0 or kr == 1.0) and self.bound(tokens[i + 1], kr)):
+                    if not self.within(tokens[i + 1], kr):
                         return None
                     i += 2
                 elif name == "refract" and kt is None and i + 2 < n:
                     kt, ior = float(tokens[i + 1]), float(tokens[i + 2])
-                    if not (0.0 < kt < 1.0 or tokens[i + 1] in exact
-                            or (kt == 0.0 or kt == 1.0) and self.bound(tokens[i + 1], kt)):
+                    if not self.within(tokens[i + 1], kt):
                         return None
                     if not _MIN < ior < _MAX:
                         return None

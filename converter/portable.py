@@ -1,12 +1,8 @@
 """The converter's description -> one that names only Mitsuba's stock plugins (``whitted convert --portable``).
 
-Why a second form. The default XML's ``whitted`` integrator and ``article`` BSDF are
-Python plugins that exist only in a process that imports ``whitted``; the portable form
+The default XML's plugins exist only in a process that imports ``whitted``; the portable form
 is the same scene read physically, as ``whitted render --integrator path`` renders it, in
-plugins every Mitsuba 3 build has. Everything but the integrator (``path``, depth + 1)
-and the materials (:func:`stock_material`) is taken as :mod:`.description` wrote it, and
-notes say which materials are not exact. docs/portable.md has the mapping, what is not
-exact and why, and the measurements.
+plugins every Mitsuba 3 build has. docs/portable.md has the mapping and what is not exact.
 """
 
 from __future__ import annotations
@@ -45,14 +41,8 @@ def _mix(parts: list[tuple[float, dict]]) -> dict:
 
 
 def stock_material(article: dict) -> dict:
-    """The stock form of an ``article`` BSDF (description form).
-
-    ``(1 − KR − KT)·diffuse(B) + KR·mirror + KT·glass``, as nested ``blendbsdf``:
-    the diffuse and mirror lobes in a ``twosided`` (the article shades both sides
-    of a sphere alike), the glass as ``dielectric`` (two-sided by nature; outside
-    index 1, as the article's). ``conductor`` with ``material="none"`` is a
-    perfect mirror, reflecting everything at every angle.
-    """
+    """The stock form of an ``article`` BSDF: ``(1 − KR − KT)·diffuse(B) + KR·mirror +
+    KT·glass`` as nested ``blendbsdf``, diffuse and mirror ``twosided`` as the article's."""
     kr, kt = article["reflect"], article["refract"]
     diffuse = 1.0 - kr - kt
     surface = []
@@ -84,8 +74,7 @@ def inexact(article: dict) -> list[str]:
 
 
 def _white(color: dict) -> bool:
-    """B = 1: ``blendbsdf``'s weighting of a mirror reflection against the diffuse lobe,
-    (w + (1 − w)·B·p) / (w + (1 − w)·p), is then exactly 1 (docs/portable.md)."""
+    """B = 1: ``blendbsdf``'s weighting of a mirror against the diffuse lobe is then exact."""
     return color.get("type") == "rgb" and all(c == 1.0 for c in color["value"])
 
 

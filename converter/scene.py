@@ -1,19 +1,14 @@
 """The scene model: what a legacy ``.scn`` file says, validated, with defaults filled in.
 
-Data flows one way: text -> :class:`Scene` (parser) -> Mitsuba XML (xml_writer)
--> ``mi.Scene``. The defaults are the format's (``docs/scene-format.md``), taken from
-:mod:`whitted.defaults`, their one home.
-
-The converter computes with a scene's spheres as numpy arrays (:class:`SphereArrays`,
-:meth:`Scene.sphere_arrays`). The parser reads a large file into arrays, making no object per
-sphere; :attr:`Scene.spheres`, the list of :class:`Sphere` objects a program reads and
-changes, is made from them the first time someone asks for it (a million objects take
-seconds and hundreds of megabytes, the arrays a few tens of megabytes).
+The converter computes with the spheres as numpy arrays (:class:`SphereArrays`); the list of
+:class:`Sphere` objects a program reads and changes, :attr:`Scene.spheres`, is made from them
+only when asked for (a million objects take seconds and hundreds of megabytes).
 """
 
 from __future__ import annotations
 
 import math
+import os
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -36,11 +31,8 @@ class Light:
 
 @dataclass(frozen=True)
 class Material:
-    """A sphere's surface: the article's coefficients.
-
-    The diffuse weight is 1 - reflect - refract; ``texture`` (an absolute path)
-    replaces ``color`` as the base color when given.
-    """
+    """A sphere's surface: the article's coefficients (diffuse: 1 - reflect - refract); a
+    ``texture`` (an absolute path) replaces ``color``."""
     color: Vec3 = D.COLOR
     reflect: float = D.REFLECT
     refract: float = D.REFRACT
@@ -60,21 +52,8 @@ class Sphere:
 
 @dataclass(frozen=True, eq=False)
 class SphereArrays:
-    """Spheres as arrays, one row per sphere, in order.
-
-    ================ =======================================================================
-    ``center``       N×3 float64: the centers
-    ``radius``       N float64: the radii
-    ``material``     N int64: each sphere's index into ``materials``
-    ``materials``    the distinct materials (by repr: -0.0 apart from 0.0), in order of first use
-    ``line``         N int64: each sphere's line in its file (0: none)
-    ``orientation``  N int64: each sphere's index into ``orientations``
-    ``orientations`` the distinct ``(north, equator)`` pairs, in order of first use
-    ================ =======================================================================
-
-    :meth:`sphere` and :meth:`to_list` give back equal objects (numbers as Python floats
-    and ints). The arrays are not to be written to.
-    """
+    """Spheres as read-only arrays, one row per sphere: ``material`` and ``orientation`` index
+    the distinct ``materials`` and ``(north, equator)`` pairs (by first use); ``line``: 0 none."""
     center: np.ndarray
     radius: np.ndarray
     material: np.ndarray
@@ -87,13 +66,11 @@ class SphereArrays:
         return len(self.radius)
 
     def sphere(self, k: int) -> Sphere:
-        """The ``k``-th sphere as an object."""
         north, equator = self.orientations[int(self.orientation[k])]
         return Sphere(tuple(self.center[k].tolist()), float(self.radius[k]),
                       self.materials[int(self.material[k])], north, equator, int(self.line[k]))
 
     def to_list(self) -> list[Sphere]:
-        """Every sphere as an object, in order."""
         orientations = [self.orientations[k] for k in self.orientation.tolist()]
         return list(map(Sphere, map(tuple, self.center.tolist()), self.radius.tolist(),
                         map(self.materials.__getitem__, self.material.tolist()),
@@ -107,7 +84,6 @@ class SphereArrays:
 
     @staticmethod
     def of(spheres: list[Sphere]) -> "SphereArrays":
-        """The arrays of a list of spheres."""
         import numpy as np
         n = len(spheres)
         materials, orientations = Distinct(), Distinct()
@@ -121,8 +97,7 @@ class SphereArrays:
 
 
 def first_use(index: np.ndarray) -> np.ndarray:
-    """The distinct values of the integer array ``index`` (from 0 on), in order of first
-    appearance."""
+    """The distinct values of the integer array ``index``, in order of first appearance."""
     import numpy as np
     present = np.flatnonzero(np.bincount(index)) if len(index) else np.zeros(0, np.int64)
     if len(present) <= 16:    # few values, the usual case: no sort
@@ -133,8 +108,7 @@ def first_use(index: np.ndarray) -> np.ndarray:
 
 
 class Distinct:
-    """Numbers values in order of first appearance, equal ones alike. Equal means of equal
-    ``repr``, which tells -0.0 from 0.0 (``==`` does not)."""
+    """Numbers values in order of first appearance; equal means of equal ``repr`` (not -0.0, 0.0)."""
 
     def __init__(self):
         self.values: list = []
@@ -169,23 +143,18 @@ class Scene:
     #: the adaptive depth control's threshold (``minweight``); None: the integrator's default
     min_weight: float | None = None
     lights: list[Light] = field(default_factory=list)
-    #: the spheres as objects (made from :meth:`sphere_arrays` on first use); assigning a
-    #: :class:`SphereArrays` is allowed too
+    #: the spheres as objects (made from the arrays on first use), or assigned as arrays
     spheres: list[Sphere] = field(default_factory=list)
-    #: line -> the comment of the statement there (the text after ``#``, stripped): what
-    #: names its sphere and material (converter/description.py, ``sphere_names``)
+    #: line -> the comment of the statement there: it names its sphere and material
     comments: dict[int, str] = field(default_factory=dict)
 
     def sphere_arrays(self) -> SphereArrays:
-        """The spheres as arrays: those the scene holds (:meth:`held_sphere_arrays`), or else
-        made from the list :attr:`spheres` (then made anew on every call: the list may change)."""
+        """The spheres as arrays: those held, or made anew from the list :attr:`spheres`."""
         arrays = self.__dict__.get("_sphere_arrays")
         return SphereArrays.of(self.__dict__["_sphere_list"]) if arrays is None else arrays
 
     def held_sphere_arrays(self) -> SphereArrays | None:
-        """The spheres as arrays when the scene holds them so (a parsed file's, or a
-        :class:`SphereArrays` assigned to :attr:`spheres`) until :attr:`spheres` is first read;
-        else None."""
+        """The arrays the scene holds until :attr:`spheres` is first read, or None."""
         return self.__dict__.get("_sphere_arrays")
 
 
@@ -210,8 +179,7 @@ Scene.spheres = property(_get_spheres, _set_spheres,
                          doc="The spheres as objects, in order (made from the arrays on first use).")
 
 
-# The converter's vector arithmetic on 3-tuples of Python floats, written once: the parser's
-# checks, the description and the frame compute with the same formulas, bit for bit alike.
+# The converter's vector arithmetic on 3-tuples of Python floats, written once.
 
 
 def sub(a: Vec3, b: Vec3) -> Vec3:
@@ -236,3 +204,8 @@ def normalize(a: Vec3) -> Vec3:
     a = (a[0] / scale, a[1] / scale, a[2] / scale)
     n = length(a)
     return (a[0] / n, a[1] / n, a[2] / n)
+
+
+def relative_path(path: Path, folder: Path) -> str:
+    """``path`` relative to ``folder``, both real (the OS resolves '..' after a symlink)."""
+    return Path(os.path.relpath(os.path.realpath(path), os.path.realpath(folder))).as_posix()

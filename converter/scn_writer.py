@@ -1,12 +1,8 @@
 """A scene model written back as legacy ``.scn`` text (what ``whitted fit`` writes).
 
-Data still flows one way: a model (:class:`.scene.Scene`, parsed or changed by
-a program) becomes text that the parser reads back into an equal model. Numbers
-are written as Python's shortest round-tripping form (``repr``), so that a
-fitted value survives the round trip exactly; textures are written relative to
-the folder the file goes to (the format resolves them against it), quoted.
-:func:`edited_scn` writes a model into the text it was read from instead, changing
-only the numbers that differ: the file's comments and layout stay.
+The parser reads it back into an equal model: numbers are written in their shortest
+round-tripping form, so a fitted value survives exactly. :func:`edited_scn` writes a model
+into the text it was read from instead, keeping the file's comments and layout.
 """
 
 from __future__ import annotations
@@ -16,7 +12,7 @@ import re
 from pathlib import Path
 
 from .. import defaults as D
-from .scene import Scene, Sphere
+from .scene import Scene, Sphere, relative_path
 
 
 def _num(x: float) -> str:
@@ -33,8 +29,7 @@ def material_text(sphere: Sphere, folder: Path) -> str:
     m = sphere.material
     parts = []
     if m.texture is not None:
-        path = Path(os.path.relpath(os.path.realpath(m.texture), os.path.realpath(folder))).as_posix()
-        parts.append(f'texture "{path}"')
+        parts.append(f'texture "{relative_path(m.texture, folder)}"')
         if sphere.north != D.NORTH:
             parts.append(f"north {_nums(sphere.north)}")
         if sphere.equator != D.EQUATOR:
@@ -100,12 +95,9 @@ def _statement(lines: list[str], line: int) -> list[tuple[int, int, int]]:
 
 
 def edited_scn(text: str, scene: Scene, folder: str | os.PathLike, note: str = "") -> str | None:
-    """``text``, the ``.scn`` file ``scene`` was read from, with the numbers ``scene`` has
-    changed since put in place (its ambient, its lights' colors, its untextured spheres'
-    colors, each written where its statement has it or added to the statement) and texture
-    paths made relative to ``folder``; every other character as it was. ``note`` ends it as
-    comment lines (an ``ambient`` statement the file lacked goes before it). None when a
-    statement is not on the line ``scene`` gives it."""
+    """``text``, the ``.scn`` file ``scene`` was read from, with the ambient, light and sphere
+    colors ``scene`` has changed put in place, textures relative to ``folder``, and ``note``
+    as comment lines at the end; None when a statement is not on the line ``scene`` gives it."""
     from .parser import ATTRIBUTES
     folder = Path(folder)
     bom = "\ufeff" if text.startswith("\ufeff") else ""
@@ -116,9 +108,8 @@ def edited_scn(text: str, scene: Scene, folder: str | os.PathLike, note: str = "
         return lines[token[0]][token[1]:token[2]]
 
     def put(tokens, at: int, values, default, name: str = "") -> None:
-        """``values`` for the numbers from token ``at`` on where they read otherwise, or added
-        after the last token (with ``name``) when the statement has none and they are not the
-        ``default``."""
+        """``values`` for the numbers from token ``at`` on, or added (with ``name``) when the
+        statement has none and they are not the ``default``."""
         if len(tokens) > at:
             edits.extend((*t, _num(v)) for t, v in zip(tokens[at:], values) if float(word(t)) != v)
         elif tuple(values) != tuple(default):
@@ -153,8 +144,7 @@ def edited_scn(text: str, scene: Scene, folder: str | os.PathLike, note: str = "
         if texture is None:
             put(tokens, found.get("color", len(tokens)), sphere.material.color, D.COLOR, "color")
         elif Path(os.path.abspath(folder / word(tokens[found["texture"]]).strip('"'))) != texture:
-            path = Path(os.path.relpath(os.path.realpath(texture), os.path.realpath(folder))).as_posix()
-            edits.append((*tokens[found["texture"]], f'"{path}"'))
+            edits.append((*tokens[found["texture"]], f'"{relative_path(texture, folder)}"'))
     for k, start, end, new in sorted(edits, reverse=True):
         lines[k] = lines[k][:start] + new + lines[k][end:]
     parts[0::2] = lines

@@ -1,16 +1,6 @@
 """Whether a texture file is an image Mitsuba's ``bitmap`` texture can read, decided without
-Mitsuba: the converter runs without it (and without Dr.Jit), and a bad texture is reported
-with its scene file and line when the scene is parsed, not later when it is loaded.
-
-Mitsuba tells an image's format from its first bytes, not from its name
-(``Bitmap::detect_file_format``); :func:`image_format` does the same, and
-:func:`image_problem` then reads the file as that format: PNG, JPEG, BMP, binary
-PPM and TGA decoded by Pillow, OpenEXR by the OpenEXR bindings (after a check of
-its chunk table, since they only warn about a truncated file), PFM by its header
-and size, Radiance RGBE by its header and the runs of every scanline. A file that
-passes here and that Mitsuba still refuses (a variant of a format that it reads
-differently) is reported by the loader, naming the scene file
-(:func:`whitted.load_scene`).
+Mitsuba, so that a bad texture is reported with its scene file and line when the scene is
+parsed. The format is told from the first bytes, as Mitsuba does, then the file is read as it.
 """
 
 from __future__ import annotations
@@ -103,8 +93,7 @@ def _check_pfm(path: Path) -> None:
 
 
 def _check_rgbe(path: Path) -> None:
-    """The header and the scanlines (flat, or run-length encoded as Radiance writes them)
-    of an RGBE image: every run within its scanline and the file."""
+    """The header and the scanlines (flat, or run-length encoded) of an RGBE image."""
     data = path.read_bytes()
     end = data.find(b"\n\n")
     size = _RGBE_SIZE.match(data, end + 2) if end >= 0 else None
@@ -144,8 +133,8 @@ _EXR_ROWS = {0: 1, 1: 1, 2: 1, 3: 16, 4: 32, 5: 16, 6: 32, 7: 32, 8: 32, 9: 256}
 
 
 def _check_exr(path: Path) -> None:
-    """The header, the chunk table (every chunk inside the file: the OpenEXR bindings only
-    warn about a truncated file) and the pixels of an OpenEXR image."""
+    """The header, the chunk table (the bindings only warn about a truncated file) and the
+    pixels of an OpenEXR image."""
     data = path.read_bytes()
     version = int.from_bytes(data[4:8], "little")
     attributes, at = {}, 8

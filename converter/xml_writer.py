@@ -1,15 +1,9 @@
 """Scene description -> Mitsuba 3 XML (format version 3.0.0).
 
-What the scene holds, and every formula behind it, is decided once in :mod:`.description`;
-this module only writes that description as text (docs/conversion.md, "The XML"), so the
-XML and ``mi.load_dict`` of the same description are the same scene. The output is
-deterministic (the same scene, byte-identical XML); each :class:`~.description.Param`
-becomes ``$name`` with a ``<default>``. The frame's origin is written in a comment only:
-no property could use it, so it is no parameter, which overriding would silently ignore.
-
-A scene of a million spheres makes about 150 MB of XML: the spheres a description holds
-as arrays (:class:`~.description.SphereBlock`) are written a batch at a time, and
-:func:`write_xml` hands the text to a file piece by piece, never holding all of it.
+Every formula is decided once in :mod:`.description`; this module only writes it as text
+(docs/conversion.md, "The XML"), deterministically, each :class:`~.description.Param` as
+``$name`` with a ``<default>``. A million spheres make about 150 MB of XML, so the sphere
+arrays are written a batch at a time and never held whole.
 """
 
 from __future__ import annotations
@@ -65,8 +59,7 @@ def attr(text: str) -> str:
 
 
 def string_value(text: str) -> str:
-    """A literal string for a Mitsuba attribute: XML-escaped, and '$' escaped as '\\$'
-    so that Mitsuba's parameter substitution ($spp, ...) leaves it alone."""
+    """A literal string for a Mitsuba attribute: XML-escaped, '$' as '\\$' (no substitution)."""
     return attr(str(text).replace("$", "\\$"))
 
 
@@ -133,8 +126,7 @@ def _object(key: str, node: dict, defaults: dict, depth: int) -> list[str]:
 
 
 def usage_notes(description: Description) -> list[str]:
-    """The default XML's header comment: what renders it, and the form for the stock
-    ``mitsuba`` command, which does not know the whitted plugins."""
+    """The default XML's header comment: what renders it, and the form for stock ``mitsuba``."""
     stem = Path(description.source).stem if description.source.endswith(".scn") else "FILE"
     return ["It needs the whitted plugins (the `whitted` integrator, the `article` BSDF): render it with",
             f"`whitted render {stem}.xml -o {stem}.png`, or in Python `import whitted`, then mi.load_file.",
@@ -148,8 +140,17 @@ def description_to_xml(description: Description, notes: list[str] = ()) -> str:
     return "".join(_pieces(description, notes))
 
 
+def _with_notes(description: Description, portable: bool) -> tuple[Description, list[str]]:
+    return to_portable(description) if portable else (description, usage_notes(description))
+
+
+def _later(description: Description) -> set:
+    """The ids of the block's spheres the description's ``scene`` holds (written with the block)."""
+    block = description.spheres
+    return set() if block is None else {f"sphere_{block.names[k]}" for k in block.in_scene}
+
+
 def _pieces(description: Description, notes: list[str] = ()):
-    """The text of :func:`description_to_xml`, piece by piece."""
     o = description.origin
     out = [
         '<?xml version="1.0" encoding="utf-8"?>',
@@ -166,19 +167,17 @@ def _pieces(description: Description, notes: list[str] = ()):
     for name, value in description.defaults.items():
         out.append(f'{INDENT}<default name="{name}" value="{_value(value, {})[1]}"/>')
     # each object comes after a blank line
-    block = description.spheres
-    later = set() if block is None else {f"sphere_{block.names[k]}" for k in block.in_scene}
+    later = _later(description)
     for key, node in description.scene.items():
         if key != "type" and key not in later:
             out += [""] + _noted(key, description) + _object(key, node, description.defaults, 1)
     yield "\n".join(out) + "\n"
-    if block is not None:
+    if description.spheres is not None:
         yield from _Block(description).pieces()
     yield "</scene>\n"
 
 
 def _noted(key: str, description: Description) -> list[str]:
-    """The comment before the object ``key``: where the scene file writes it (its notes)."""
     note = description.notes.get(key)
     return [] if note is None else [f"{INDENT}<!-- {comment(note)} -->"]
 
@@ -196,9 +195,8 @@ PARALLEL_FROM = 100_000
 
 
 class _Block:
-    """The text of a :class:`~.description.SphereBlock`'s objects, in order, as :func:`_object`
-    writes them: a number's text is :func:`num`'s, ``repr(x + 0.0)`` (adding 0.0 turns -0.0
-    into 0.0), each radius's made once when a few radii serve many spheres."""
+    """The text of a :class:`~.description.SphereBlock`'s objects as :func:`_object` writes
+    them (``repr(x + 0.0)`` is :func:`num`'s text), each radius's made once when few."""
 
     def __init__(self, description: Description):
         import numpy as np
@@ -229,24 +227,18 @@ class _Block:
 
 def write_xml(description: Description, file, portable: bool = False) -> None:
     """Write the XML of ``description`` (:func:`xml_of`) to the text ``file``, piece by piece.
-
-    A block of :data:`PARALLEL_FROM` spheres or more, written to a real file on a machine
-    with two processors or more, is formatted by two processes: a child (``os.fork``)
-    formats its second half into a temporary file while this process formats the first
-    half, then appends the child's text. Anything amiss with the child (no fork, a
-    failure, a signal) and this process formats the second half itself: the bytes are
-    the same either way."""
-    if portable:
-        description, notes = to_portable(description)
-    else:
-        notes = usage_notes(description)
+    From :data:`PARALLEL_FROM` spheres on, a forked child formats the second half into a
+    temporary file; anything amiss with it and this process does (the same bytes)."""
+    description, notes = _with_notes(description, portable)
     block = description.spheres
     if block is None or len(block) < PARALLEL_FROM or not _can_fork(file):
         for piece in _pieces(description, notes):
             file.write(piece)
         return
     # _pieces without the block, which comes in two halves
-    pieces = list(_pieces(replace(description, spheres=None, scene=_without(description)), notes))
+    later = _later(description)
+    scene = {key: node for key, node in description.scene.items() if key not in later}
+    pieces = list(_pieces(replace(description, spheres=None, scene=scene), notes))
     file.write(pieces[0])
     text = _Block(description)
     half = len(block) // 2
@@ -272,15 +264,8 @@ def write_xml(description: Description, file, portable: bool = False) -> None:
     file.write(pieces[-1])
 
 
-def _without(description: Description) -> dict:
-    """The description's objects but the block's spheres it holds (written with the block)."""
-    later = {f"sphere_{description.spheres.names[k]}" for k in description.spheres.in_scene}
-    return {key: node for key, node in description.scene.items() if key not in later}
-
-
 def _can_fork(file) -> bool:
-    """Whether a child may format half the block: a real file, two processors, and no threads
-    to fork from (a process that runs Dr.Jit, where ``whitted convert`` never does)."""
+    """Whether a child may format half the block: a real file, two processors, no Dr.Jit."""
     if not hasattr(os, "fork") or not hasattr(file, "buffer") or "drjit" in sys.modules:
         return False
     try:
@@ -290,8 +275,7 @@ def _can_fork(file) -> bool:
 
 
 def _fork_writer(text: _Block, half: int, spill) -> int | None:
-    """A child process that writes the objects of spheres ``half`` on to ``spill`` and exits
-    (status 0 when it wrote them all); its id, or None when there is none."""
+    """The id of a child that writes spheres ``half`` on to ``spill`` (status 0: all), or None."""
     try:
         child = os.fork()
     except OSError:
@@ -311,14 +295,11 @@ def _fork_writer(text: _Block, half: int, spill) -> int | None:
 
 
 def scene_to_xml(scene: Scene, base_dir: str | os.PathLike | None, portable: bool = False) -> str:
-    """The Mitsuba XML of ``scene`` (``portable``: in stock plugins only, :mod:`.portable`),
-    its texture and mesh paths relative to ``base_dir`` (where the caller writes the meshes:
-    :func:`.description.meshes`), or absolute (the mesh cache) when it is None."""
+    """The Mitsuba XML of ``scene`` (``portable``: stock plugins only), its paths relative to
+    ``base_dir`` (where the caller writes the meshes), or absolute when it is None."""
     return xml_of(describe(scene, base_dir, block=True), portable)
 
 
 def xml_of(description: Description, portable: bool = False) -> str:
     """The XML of ``description``, in the default or the ``portable`` form."""
-    if not portable:
-        return description_to_xml(description, usage_notes(description))
-    return description_to_xml(*to_portable(description))
+    return description_to_xml(*_with_notes(description, portable))
