@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import contextlib
 import os
-import re
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -40,9 +39,9 @@ class Settings:
         from .rendering import check_settings
         check_settings(self.spp, self.max_depth, self.lighting, self.integrator, self.min_weight,
                        self.without)
-        check_exposure(self.exposure)
         if self.ambient is not None:
             D.check_ambient(self.ambient)
+        check_exposure(self.exposure)
 
 
 @dataclass
@@ -93,12 +92,9 @@ def scene_inputs(scene: Path, model=None) -> list[Path]:
     """The files a scene's image depends on: itself, its textures, an XML's meshes."""
     files = [scene]
     if scene.suffix.lower() == ".xml":
-        try:
-            text = scene.read_text(encoding="utf-8", errors="replace")
-        except OSError:
-            return files
-        for name in re.findall(r'name="filename"\s+value="([^"]*)"', text):
-            files.append(scene.parent / name)
+        from .loading import named_files
+        with contextlib.suppress(OSError):
+            files += [scene.parent / name for name in named_files(scene)]
     elif model is not None:
         arrays = model.held_sphere_arrays()
         materials = arrays.materials if arrays is not None else [s.material for s in model.spheres]

@@ -78,29 +78,25 @@ def _settings(args):
 def render_single(args) -> None:
     """``whitted render SCENE -o OUT``: everything is checked before anything is written."""
     from .atomic import check_writable, write_text
-    from .defaults import check_ambient
     from .interrupt import deferred
     with deferred():   # numpy's C extension is not cut mid-import by a Ctrl-C (see deferred)
         from .batch import render_file
-        from .images import check_exposure, image_format, write_image
-        from .rendering import check_settings, peak_resident_bytes
+        from .images import image_format, write_image
+        from .rendering import peak_resident_bytes
 
     output = Path(args.output)
-    # Before the scene is loaded (seconds for a large one); once: render_checked trusts them.
-    check_settings(args.spp, args.max_depth, args.lighting, args.integrator, args.min_weight,
-                   args.without)
-    if args.ambient is not None:
-        check_ambient(args.ambient)
+    settings = _settings(args)
+    settings.check()   # before the scene loads (seconds for a large one); render_checked trusts it
     if args.stats and Path(args.stats).resolve() == output.resolve():
         raise WhittedError(f"{args.stats}: the statistics would overwrite the image")
     check_writable(output, inputs=(args.scenes[0],))   # what is wrong with the path first
     image_format(output)
-    exposure = check_exposure(getattr(args, "exposure", 0.0))
     if args.stats:
         check_writable(args.stats, inputs=(args.scenes[0],))
 
-    result, view = render_file(args.scenes[0], _settings(args), not args.quiet)
-    write_image(output, result.image, progress=not args.quiet, exposure=exposure, view=view)
+    result, view = render_file(args.scenes[0], settings, not args.quiet)
+    write_image(output, result.image, progress=not args.quiet, exposure=settings.exposure,
+                view=view)
     result.stats["peak_resident_bytes"] = peak_resident_bytes()   # the writing included
     if args.stats:
         write_text(args.stats, json.dumps(result.stats, indent=2) + "\n")

@@ -127,14 +127,18 @@ def load_error(where, error: BaseException) -> WhittedError:
 _FILENAME = re.compile(rb'<string\s+name="filename"\s+value="([^"$]*)"')
 
 
-def check_referenced_files(path: Path) -> None:
-    """An error when a file the XML names is missing (Mitsuba would take one from the cwd)."""
+def named_files(path: Path) -> list[str]:
+    """The files an XML scene names, as it names them."""
     import html
 
     with open(path, "rb") as file:
-        data = file.read()
-    for match in dict.fromkeys(_FILENAME.findall(data)):
-        named = html.unescape(match.decode("utf-8", "replace"))
+        names = dict.fromkeys(_FILENAME.findall(file.read()))
+    return [html.unescape(name.decode("utf-8", "replace")) for name in names]
+
+
+def check_referenced_files(path: Path) -> None:
+    """An error when a file the XML names is missing (Mitsuba would take one from the cwd)."""
+    for named in named_files(path):
         where = path.parent / named
         if not where.is_file():
             raise WhittedError(f"{path}: the file it names, {named}, does not exist (looked for {where})")

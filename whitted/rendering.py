@@ -43,12 +43,19 @@ def whitted_settings(scene) -> dict:
     return {**D.WHITTED_DEFAULTS, "without": (), "exact_spheres": []}
 
 
+#: how :func:`whitted_integrator` takes each setting it may change
+_SETTING_TYPES = {"max_depth": int, "lighting": str, "min_weight": float,
+                  "ambient": lambda value: D.check_ambient(value, "ambient"),
+                  "without": lambda value: D.check_without(value, "without")}
+
+
 def whitted_integrator(scene, **changes):
     """The scene's ``whitted`` integrator (else a default one), ``changes`` not None applied."""
     import mitsuba as mi
 
     from .plugins import whitted_or_none
-    changes = {name: value for name, value in changes.items() if value is not None}
+    changes = {name: _SETTING_TYPES[name](value) for name, value in changes.items()
+               if value is not None}
     own = whitted_or_none(scene.integrator())
     with quiet_mitsuba():
         if own is not None:
@@ -176,11 +183,8 @@ def render_checked(scene, integrator: str = D.INTEGRATOR, spp: int | None = None
         from .plugins.film import sample_count
         spp = sample_count(sensor, spp)   # as the sampler rounds it (stratified: 8 are 9)
         tables = check_article_materials(scene)   # found once: the render takes them
-        whitted = whitted_integrator(
-            scene, max_depth=depth, lighting=lighting,
-            min_weight=None if min_weight is None else float(min_weight),
-            ambient=None if ambient is None else D.check_ambient(ambient, "ambient"),
-            without=None if without is None else D.check_without(without, "without"))
+        whitted = whitted_integrator(scene, max_depth=depth, lighting=lighting,
+                                     min_weight=min_weight, ambient=ambient, without=without)
         with progress_bar(progress, width * height * spp, "render") as bar, Clock(fresh_memory) as clock:
             rendering = whitted.render_detailed(scene, sensor, seed=seed, spp=spp, progress=bar.update,
                                                tables=tables)
@@ -268,14 +272,9 @@ def _effects_or_none(scene, depth: int) -> list:
 
 # The process's resident memory and its peak: Linux keeps the peak (``VmHWM``) and lets a
 # process reset it; elsewhere it is the whole life's (``getrusage``).
-
-_STATUS = Path("/proc/self/status")
-_CLEAR_REFS = Path("/proc/self/clear_refs")
-
-
 def _status(key: str) -> int | None:
     with contextlib.suppress(OSError):
-        for line in _STATUS.read_text().splitlines():
+        for line in Path("/proc/self/status").read_text().splitlines():
             if line.startswith(key + ":"):
                 return int(line.split()[1]) * 1024
     return None
@@ -287,7 +286,7 @@ def resident_bytes() -> int | None:
 
 def reset_peak() -> None:
     with contextlib.suppress(OSError):
-        _CLEAR_REFS.write_text("5")
+        Path("/proc/self/clear_refs").write_text("5")
 
 
 def peak_resident_bytes() -> int:

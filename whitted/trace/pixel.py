@@ -223,10 +223,8 @@ def trace_pixels(scene, pixels, *, variant: str | None = None, max_depth: int | 
             raise WhittedError(f"pixel ({x}, {y}) is outside the {width}x{height} image "
                                f"(x from 0 to {width - 1}, y from 0 to {height - 1})")
     check_article_materials(scene)
-    integrator = whitted_integrator(
-        scene, max_depth=None if max_depth is None else int(max_depth), lighting=lighting,
-        ambient=None if ambient is None else float(ambient),
-        min_weight=None if min_weight is None else float(min_weight))
+    integrator = whitted_integrator(scene, max_depth=max_depth, lighting=lighting, ambient=ambient,
+                                    min_weight=min_weight)
     from .record import Recorder
     recorder = Recorder()
     unique = list(dict.fromkeys(pixels))
