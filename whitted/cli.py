@@ -12,7 +12,7 @@ import time
 
 from .defaults import INTEGRATOR, INTEGRATORS, LIGHTING_MODES, PATH_MIN_SPP, VERSION, VIEWS
 from .defaults import DEFAULT_FPS, IMAGE_FORMATS
-from .defaults import VARIANTS as SUPPORTED_VARIANTS
+from .defaults import VARIANTS
 from . import interrupt
 from .errors import EXIT_USER_ERROR, WhittedError, report
 
@@ -109,7 +109,7 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
     where.add_argument("--scheduler", metavar="ADDRESS",
                        help="render the scenes on the Dask cluster of this scheduler, e.g. "
                             "tcp://host:8786 (a shared file system; see docs/cluster.md)")
-    render.add_argument("--variant", choices=SUPPORTED_VARIANTS,
+    render.add_argument("--variant", choices=VARIANTS,
                         help="Mitsuba variant (default: llvm_ad_rgb when a libLLVM >= 16 exists, "
                              "else scalar_rgb; or $WHITTED_VARIANT)")
     render.add_argument("--integrator", choices=INTEGRATORS, default=INTEGRATOR,

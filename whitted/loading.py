@@ -46,7 +46,8 @@ def mitsuba_dict(description, overrides: dict | None = None) -> dict:
     return convert(description.scene)
 
 
-def _checked(overrides: dict) -> dict:
+def checked_overrides(overrides: dict) -> dict:
+    """``overrides`` checked by :data:`OVERRIDES`, those not None."""
     unknown = sorted(set(overrides) - set(OVERRIDES))
     if unknown:
         raise WhittedError(f"unknown scene override(s) {', '.join(unknown)}; "
@@ -58,7 +59,7 @@ def prepared(variant: str | None, overrides: dict) -> tuple[dict, tuple | None]:
     """Set ``variant``; the checked ``overrides`` but ``without``, and ``without``."""
     from .variant import set_variant
     set_variant(variant)
-    params = _checked(overrides)
+    params = checked_overrides(overrides)
     return params, params.pop("without", None)
 
 

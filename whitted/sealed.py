@@ -81,7 +81,7 @@ def choose(scene: Scene, min_group: int = MIN_GROUP, classes: int = 0,
     if counts[best] < min_group:
         return None
     r = float(values[best])
-    if light_reach(scene) / r > MAX_REACH:
+    if farthest(scene.lookat, [light.position for light in scene.lights])[0] / r > MAX_REACH:
         return None
     radii = [r]
     if classes:   # other radii
@@ -95,10 +95,6 @@ def choose(scene: Scene, min_group: int = MIN_GROUP, classes: int = 0,
 def _coarse(scene: Scene, spheres: SphereArrays) -> np.ndarray:
     """Per sphere: whether it may be giant (the converter judges it: converter/giants.py)."""
     return coarse_candidates(spheres, tuple(scene.lookat))[1]
-
-
-def light_reach(scene: Scene) -> float:
-    return farthest(scene.lookat, [light.position for light in scene.lights])[0]
 
 
 def _about(point, origin, scale):

@@ -50,15 +50,10 @@ def _sphere_mesh(center, radius, toward, reach):
     directions = (np.cos(t)[..., None] * axis + np.sin(t)[..., None] *
                   (np.cos(p)[..., None] * u + np.sin(p)[..., None] * v))
     vertices = (center + radius * directions).reshape(-1, 3)
-    i, j, k = [], [], []
-    for r in range(rings):
-        for s in range(segments):
-            a, b = r * segments + s, r * segments + (s + 1) % segments
-            c, d = a + segments, b + segments
-            i += [a, b]
-            j += [c, c]
-            k += [b, d]
-    return vertices, (i, j, k)
+    r, s = np.divmod(np.arange(rings * segments), segments)
+    a, b = r * segments + s, r * segments + (s + 1) % segments
+    i, j, k = np.stack([a, b], 1), np.stack([a + segments] * 2, 1), np.stack([b, b + segments], 1)
+    return vertices, (i.ravel().tolist(), j.ravel().tolist(), k.ravel().tolist())
 
 
 def _sphere_color(view, k: int) -> str:

@@ -4,6 +4,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -98,10 +99,8 @@ def scene_view(scene) -> SceneView:
         arrays = model.sphere_arrays()
         text = source.text
         if text is None:
-            try:
+            with contextlib.suppress(OSError):
                 text = Path(model.source).read_text(encoding="utf-8", errors="replace")
-            except OSError:
-                text = None
         palette = np.array([(0.7, 0.7, 0.7) if m.texture is not None else m.color for m in arrays.materials]
                            or [(0.7, 0.7, 0.7)], np.float64)
         return SceneView(source=Path(str(model.source)).name, origin=np.asarray(model.lookat, np.float64),
@@ -122,10 +121,7 @@ def scene_view(scene) -> SceneView:
     counts = primitives.counts
     names = [shapes[s].id() + (f"[{p - primitives.first[s]}]" if counts[s] > 1 else "")
              for p, s in zip(spheres.tolist(), owner.tolist())]
-    import mitsuba as mi
-    to_world = sensor.world_transform()
-    eye = tuple(float(c) for c in to_world @ mi.ScalarPoint3f(0, 0, 0)) if not hasattr(to_world, "translation") \
-        else tuple(float(c) for c in np.asarray(to_world.translation()).reshape(-1))
+    eye = tuple(float(c) for c in np.asarray(sensor.world_transform().translation()).reshape(-1))
     return SceneView(source="the scene", origin=np.zeros(3), scale=1.0,
                      centers=primitives.center[:, spheres].T.copy(), radii=primitives.radius[spheres].copy(),
                      lines=None, names=names,
