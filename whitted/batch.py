@@ -38,9 +38,7 @@ class Settings:
         from .images import check_exposure
         from .rendering import check_settings
         check_settings(self.spp, self.max_depth, self.lighting, self.integrator, self.min_weight,
-                       self.without)
-        if self.ambient is not None:
-            D.check_ambient(self.ambient)
+                       self.without, self.ambient)
         check_exposure(self.exposure)
 
 

@@ -10,9 +10,8 @@ import os
 import sys
 import time
 
-from .defaults import INTEGRATOR, INTEGRATORS, LIGHTING_MODES, PATH_MIN_SPP, VERSION, VIEWS
-from .defaults import DEFAULT_FPS, IMAGE_FORMATS
-from .defaults import VARIANTS
+from .defaults import (DEFAULT_FPS, FIT_ITERATIONS, FIT_WIDTH, IMAGE_FORMATS, INTEGRATOR,
+                       INTEGRATORS, LIGHTING_MODES, PATH_MIN_SPP, VARIANTS, VERSION, VIEWS)
 from . import interrupt
 from .errors import EXIT_USER_ERROR, WhittedError, report
 
@@ -160,7 +159,6 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
                        help=f"frames per second (default {DEFAULT_FPS:g})")
     _talk(video, "say what was written")
 
-    from .defaults import FIT_ITERATIONS, FIT_WIDTH
     fit = _command(
         sub, "fit", _body(".fitting", "fit_command"),
         help="fit a scene's colors, ambient and light colors to an image",

@@ -78,7 +78,8 @@ def quiet_mitsuba():
         logger.set_log_level(level)
 
 
-def check_settings(spp, max_depth, lighting, integrator, min_weight=None, without=None) -> None:
+def check_settings(spp, max_depth, lighting, integrator, min_weight=None, without=None,
+                   ambient=None) -> None:
     """Every rendering option validated once (the API and the CLI call this)."""
     D.check_integrator(integrator)
     if D.check_without(without, "--without") and integrator != "whitted":
@@ -98,6 +99,8 @@ def check_settings(spp, max_depth, lighting, integrator, min_weight=None, withou
         if integrator != "whitted" and min_weight > 0:
             raise WhittedError("a min weight (adaptive depth control) applies to the whitted "
                                "integrator only; the path tracer ends paths by Russian roulette")
+    if ambient is not None:
+        D.check_ambient(ambient)
 
 
 class Clock:
@@ -156,7 +159,7 @@ def render(scene, integrator: str = D.INTEGRATOR, spp: int | None = None, max_de
            min_weight: float | None = None, ambient: float | None = None, *,
            without=None, fresh_memory: bool = True) -> RenderResult:
     """Render ``scene`` (a ``mi.Scene``), settings left None as the scene's."""
-    check_settings(spp, max_depth, lighting, integrator, min_weight, without)
+    check_settings(spp, max_depth, lighting, integrator, min_weight, without, ambient)
     return render_checked(scene, integrator, spp, max_depth, lighting, progress, seed, min_weight, ambient,
                           without=without, fresh_memory=fresh_memory)
 

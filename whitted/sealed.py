@@ -1,12 +1,7 @@
-"""Which spheres of a scene may be loaded as one Mitsuba ``ellipsoids`` shape, and in what frame.
-
-Mitsuba builds a plugin, an Embree geometry and a registry entry per ``sphere`` shape, so
-tens of thousands of spheres load slowly; one ``ellipsoids`` shape holds any number. An
-ellipsoid of equal scales is a sphere but for back-face culling (harmless for a *sealed*
-sphere: no ray starts inside) and an intersection exact only at radius 1 (so the scene is
-loaded scaled to make the commonest radius 1): docs/numerics.md, "Spheres as Mitsuba
-ellipsoids", has the proof, the other radii's layers and the measurements. Works on the
-scene model (numpy, no Mitsuba).
+"""Which spheres of a scene may be loaded as Mitsuba ``ellipsoids`` shapes (one holds any
+number; a ``sphere`` shape each loads slowly by the ten thousand), and the frame that makes
+them exact: docs/numerics.md, "Spheres as Mitsuba ellipsoids". Works on the scene model
+(numpy, no Mitsuba).
 """
 
 from __future__ import annotations

@@ -203,11 +203,8 @@ def trace_pixels(scene, pixels, *, variant: str | None = None, max_depth: int | 
                  min_weight: float | None = None) -> Traces:
     """The ray trees of ``pixels`` (``(x, y)`` from the top left, or percentages such as
     ``("50%", "45%")``) of ``scene`` (a ``mi.Scene`` or a path), as a 1 spp render traces them."""
-    from .. import defaults as D
     from ..rendering import check_article_materials, check_settings, whitted_integrator
-    check_settings(None, max_depth, lighting, "whitted", min_weight)
-    if ambient is not None:
-        D.check_ambient(ambient)
+    check_settings(None, max_depth, lighting, "whitted", min_weight, ambient=ambient)
     given = scene
     scene = _load(scene, variant, {"max_depth": max_depth, "ambient": ambient, "lighting": lighting})
     if not scene.sensors():
