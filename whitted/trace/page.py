@@ -224,15 +224,11 @@ def _pixels(trees) -> list[dict]:
 
 
 def _render(view, trees, div_id: str, **parts) -> str:
-    import jinja2
+    from ..templates import environment
 
-    environment = jinja2.Environment(loader=jinja2.PackageLoader("whitted.trace", "templates"),
-                                     autoescape=jinja2.select_autoescape(["html", "j2"]),
-                                     undefined=jinja2.StrictUndefined, trim_blocks=True,
-                                     lstrip_blocks=True)
     legend = [*((kind, kind) for kind in KINDS), ("shadow", "shadow ray, lit"),
               ("blocked", "shadow ray, blocked (dashed)"), ("background", "missed (dashed)")]
-    return environment.get_template(TEMPLATE).render(
+    return environment("whitted.trace").get_template(TEMPLATE).render(
         pixels=_pixels(trees), version=VERSION,
         figure=figure(view, trees).to_html(full_html=False, include_plotlyjs=True, div_id=div_id,
                                            config={"displaylogo": False, "responsive": True}),
