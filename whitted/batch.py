@@ -216,22 +216,13 @@ def render_planned(todo: list[tuple[Path, tuple[Path, ...]]], settings: Settings
             yield render_one(scene, outputs, settings, keep_images)
 
 
-def render_task(scene: str, outputs: tuple[str, ...], settings: Settings, keep_image: bool,
-                threads: dict[str, int]) -> SceneRender:
-    """One scene on a Dask worker (:func:`whitted.cluster.worker_task`)."""
-    from .cluster import worker_task
-    with worker_task(settings.variant, threads) as worker:
-        item = render_one(Path(scene), tuple(map(Path, outputs)), settings, keep_image)
-        item.worker = worker
-        return item
-
-
 def _on_cluster(todo, settings: Settings, keep: bool, workers: int | None,
                 scheduler: str | None) -> Iterator[SceneRender]:
     import uuid
     from dataclasses import replace
 
-    from .cluster import available_cores, cancel, check_where, connect, task_result, worker_threads
+    from .cluster import (available_cores, cancel, check_where, connect, on_worker, task_result,
+                          worker_threads)
     from .variant import default_variant
 
     check_where(workers, scheduler)
@@ -245,11 +236,11 @@ def _on_cluster(todo, settings: Settings, keep: bool, workers: int | None,
         run = uuid.uuid4().hex[:8]
         tasks = {}
         for k, (scene, outputs) in enumerate(todo):
-            future = client.submit(render_task, str(Path(scene).resolve()),
-                                   tuple(str(Path(p).resolve()) for p in outputs), settings, keep,
-                                   threads, key=f"whitted-render-{k}-{Path(scene).stem}-{run}", pure=False)
+            future = client.submit(on_worker, render_one, settings.variant, threads,
+                                   Path(scene).resolve(), tuple(Path(p).resolve() for p in outputs),
+                                   settings, keep, key=f"whitted-render-{k}-{Path(scene).stem}-{run}",
+                                   pure=False)
             tasks[future] = (scene, outputs)
-        finished = False
         try:
             for future in as_completed(list(tasks), loop=client.loop):
                 scene, outputs = tasks.pop(future)
@@ -260,23 +251,14 @@ def _on_cluster(todo, settings: Settings, keep: bool, workers: int | None,
                 else:
                     item.scene, item.outputs = scene, outputs   # the user's paths
                 yield item
-            finished = True
         except BaseException:
             cancel(client, tasks)
             raise
-        finally:
-            if finished:   # every task has ended: what a killed worker was writing is litter
-                _remove_leftovers(outputs for _, outputs in todo)
-
-
-def _remove_leftovers(outputs) -> None:
-    """Delete the temporary files of workers killed while writing ``outputs``."""
+    # every task has ended: what a killed worker was writing is litter
     from .atomic import leftovers
-    for images in outputs:
-        for image in images:
-            for litter in leftovers(image):
-                with contextlib.suppress(OSError):
-                    litter.unlink()
+    for litter in (path for _, outputs in todo for image in outputs for path in leftovers(image)):
+        with contextlib.suppress(OSError):
+            litter.unlink()
 
 
 @dataclass
