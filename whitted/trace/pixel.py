@@ -191,8 +191,7 @@ def _load(scene, variant, overrides: dict):
         from ..loading import load_scene
         from ..rendering import quiet_mitsuba
         with quiet_mitsuba():
-            return load_scene(scene, variant=variant, meshes=False,
-                              **{k: v for k, v in overrides.items() if k in ("max_depth", "ambient", "lighting")})
+            return load_scene(scene, variant=variant, meshes=False, **overrides)
     if variant is not None:
         raise WhittedError("variant applies to a scene given by its path; a loaded scene keeps its own")
     return scene
