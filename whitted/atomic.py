@@ -44,8 +44,8 @@ def leftovers(target: str | os.PathLike) -> list[Path]:
     target = Path(target)
     prefix, suffix = f".{target.name}.", target.suffix or ".tmp"
     try:
-        return [p for p in target.parent.iterdir() if p.name.startswith(prefix) and p.name.endswith(suffix)
-                and len(p.name) > len(prefix) + len(suffix)]
+        return [p for p in target.parent.iterdir() if p.name.startswith(prefix)
+                and p.name.endswith(suffix) and len(p.name) > len(prefix) + len(suffix)]
     except OSError:
         return []
 
