@@ -67,19 +67,14 @@ class SceneRender:
 def plan_outputs(inputs: list[str | os.PathLike], out: str | os.PathLike | None,
                  formats: Iterable[str] = ("png",)) -> list[tuple[Path, tuple[Path, ...]]]:
     """Each scene of ``inputs`` (files or folders) with its images in ``out``, one per format."""
-    from .converter.batch import folder_scenes, plan
+    from .converter.batch import expand_folders, plan
     formats = tuple(dict.fromkeys(formats))
     for name in formats:
         if name not in D.IMAGE_FORMATS:
             raise WhittedError(f"unknown image format '{name}'; "
                                f"choose from {', '.join(D.IMAGE_FORMATS)}")
     if out is None:
-        scenes: list[Path] = []
-        for item in map(Path, inputs):
-            found = folder_scenes(item, SCENE_SUFFIXES) if item.is_dir() else [item]
-            if not found:
-                raise WhittedError(f"{item}: no .scn or .xml files in this folder")
-            scenes.extend(found)
+        scenes = expand_folders(inputs, SCENE_SUFFIXES, ".scn or .xml files")
         return [(scene, ()) for scene in scenes]
     folder = str(out) if str(out).endswith(("/", os.sep)) else f"{out}{os.sep}"
     plans = [plan(list(inputs), folder, f".{name}", SCENE_SUFFIXES) for name in formats]
@@ -102,22 +97,14 @@ def scene_inputs(scene: Path, model=None) -> list[Path]:
 
 def up_to_date(scene: Path, outputs: tuple[Path, ...]) -> bool:
     """Whether every image of ``scene`` is newer than what it reads (a bad .scn: never)."""
+    from .converter import parse_file
     if not outputs:
         return False
     try:
         oldest = min(p.stat().st_mtime_ns for p in outputs)
-    except OSError:
-        return False
-    model = None
-    if scene.suffix.lower() != ".xml":
-        from .converter import parse_file
-        try:
-            model = parse_file(scene)
-        except WhittedError:
-            return False
-    try:
+        model = None if scene.suffix.lower() == ".xml" else parse_file(scene)
         return all(p.stat().st_mtime_ns < oldest for p in scene_inputs(scene, model))
-    except OSError:
+    except (OSError, WhittedError):
         return False
 
 

@@ -174,8 +174,7 @@ def render_checked(scene, integrator: str = D.INTEGRATOR, spp: int | None = None
     spp_asked = spp
     if not scene.sensors():
         raise WhittedError("the scene has no sensor (camera) to render from")
-    settings = whitted_settings(scene)
-    depth = int(max_depth) if max_depth is not None else settings["max_depth"]
+    depth = int(max_depth) if max_depth is not None else whitted_settings(scene)["max_depth"]
     sensor = scene.sensors()[0]
     spp = int(spp) if spp is not None else sensor.sampler().sample_count()
     if integrator == "path" and spp_asked is None:
@@ -194,11 +193,10 @@ def render_checked(scene, integrator: str = D.INTEGRATOR, spp: int | None = None
             # The developed image's own memory, not a copy (a 16384² image is 3 GiB).
             image = np.asarray(rendering.image, dtype=np.float32)
         rays = rendering.rays
-        stats_rays, effects, reached = rays.rays(), list(rendering.effects), rays.max_depth_reached
-        adaptive = {"max_depth_reached": reached, "merged_rays": rays.merged,
-                    "min_weight": whitted.min_weight,
-                    "culled_rays": rays.culled, "culled_weight": rays.culled_weight,
-                    "error_bound": rendering.error_bound}
+        stats_rays, effects = rays.rays(), list(rendering.effects)
+        adaptive = {"max_depth_reached": rays.max_depth_reached, "merged_rays": rays.merged,
+                    "min_weight": whitted.min_weight, "culled_rays": rays.culled,
+                    "culled_weight": rays.culled_weight, "error_bound": rendering.error_bound}
     else:
         path = _path_integrator(scene, max_depth, depth)
         with progress_bar(progress, width * height * spp, "path tracing") as bar, Clock(fresh_memory) as clock:
