@@ -159,8 +159,7 @@ def render_one(scene: Path, outputs: tuple[Path, ...], settings: Settings,
 def render_scenes(scenes: Iterable[str | os.PathLike], out: str | os.PathLike | None = None,
                   formats: Iterable[str] = ("png",), *, force: bool = False,
                   keep_images: bool | None = None, workers: int | None = None,
-                  scheduler: str | None = None, settings: Settings | None = None,
-                  **options) -> Iterator[SceneRender]:
+                  scheduler: str | None = None, **options) -> Iterator[SceneRender]:
     """Render scene files (a folder stands for its scenes), yielding a :class:`SceneRender`
     for each as it is done; a failed one does not stop the others.
 
@@ -169,7 +168,7 @@ def render_scenes(scenes: Iterable[str | os.PathLike], out: str | os.PathLike | 
     :class:`Settings`' fields. ``workers`` (a local Dask cluster) or ``scheduler`` (a running
     one's address): results come in the order they finish.
     """
-    settings = settings if settings is not None else Settings(**options)
+    settings = Settings(**options)
     settings.check()
     _, skipped, todo = plan_batch(scenes, out, formats, force)
     yield from skipped
