@@ -145,16 +145,13 @@ class PixelTree:
     def nodes(self) -> list[Node]:
         return list(self.root.walk())
 
-    def lines(self) -> list[str]:
-        total = self.total()
-        count = self.root.count()
+    def __str__(self) -> str:
+        total, count = self.total(), self.root.count()
         head = (f"pixel ({self.x}, {self.y}) of {self.view.source}: color ({self.color[0]:.6g} "
                 f"{self.color[1]:.6g} {self.color[2]:.6g}), the sum of the contributions of its {count} "
                 f"ray{'s' if count != 1 else ''} ({total[0]:.6g} {total[1]:.6g} {total[2]:.6g})")
-        return [head, *text_tree(self.root, physical=self.settings.get("lighting") == "physical")]
-
-    def __str__(self) -> str:
-        return "\n".join(self.lines())
+        physical = self.settings.get("lighting") == "physical"
+        return "\n".join([head, *text_tree(self.root, physical=physical)])
 
     def json(self) -> dict:
         return {"pixel": [self.x, self.y], "color": list(self.color), "sum": list(self.total()),
