@@ -14,13 +14,12 @@ def convert_command(args) -> int:
     """``whitted convert``: every file converted that can be; 2 if any failed."""
     from .converter.batch import PORTABLE_SUFFIX, XML_SUFFIX, convert_file, plan, prepare_folders
 
-    portable = getattr(args, "portable", False)
-    pairs = plan(args.scenes, args.output, PORTABLE_SUFFIX if portable else XML_SUFFIX)
+    pairs = plan(args.scenes, args.output, PORTABLE_SUFFIX if args.portable else XML_SUFFIX)
     prepare_folders([target for _, target in pairs], args.output)
     failed = 0
     for source, target in pairs:
         try:
-            convert_file(source, target, portable)
+            convert_file(source, target, args.portable)
         except WhittedError as error:
             report(error)
             failed += 1
@@ -71,8 +70,7 @@ def _settings(args):
     return Settings(integrator=args.integrator, spp=args.spp, max_depth=args.max_depth,
                     ambient=args.ambient, lighting=args.lighting, min_weight=args.min_weight,
                     without=check_without(args.without, "--without") if args.without else None,
-                    variant=args.variant, exposure=getattr(args, "exposure", 0.0),
-                    view=getattr(args, "view", None))
+                    variant=args.variant, exposure=args.exposure, view=args.view)
 
 
 def render_single(args) -> None:
