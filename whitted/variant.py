@@ -13,8 +13,7 @@ import os
 import re
 import sys
 
-from .defaults import DEFAULT_VARIANT, FALLBACK_VARIANT
-from .defaults import VARIANTS
+from .defaults import DEFAULT_VARIANT, FALLBACK_VARIANT, VARIANTS
 from .errors import WhittedError
 
 MIN_LLVM_VERSION = 16

@@ -83,11 +83,10 @@ def figure(view, trees):
     for k in shown:
         ref = view.sphere(k)
         vertices, (i, j, kk) = _sphere_mesh(ref.center, ref.radius, center, reach)
-        name = ref.short()
         fig.add_trace(go.Mesh3d(x=vertices[:, 0], y=vertices[:, 1], z=vertices[:, 2], i=i, j=j, k=kk,
                                 color=_sphere_color(view, k), opacity=0.3 if k in used else 0.15,
-                                name=name, hovertext=name,
-                                hoverinfo="text", showlegend=False, flatshading=True))
+                                name=ref.short(), hovertext=ref.short(), hoverinfo="text",
+                                showlegend=False, flatshading=True))
     if view.lights:
         spots = np.array([p for p, _, _ in view.lights])
         fig.add_trace(go.Scatter3d(x=spots[:, 0], y=spots[:, 1], z=spots[:, 2], mode="markers+text",
@@ -112,9 +111,7 @@ def figure(view, trees):
             label = f"pixel {number} ({tree.x}, {tree.y}): {node.kind}, level {node.level}, weight {node.weight:.3g}"
             if node.hit:
                 add(node.kind, node.origin, node.position, label + f", hits {node.sphere.short() if node.sphere else ''}")
-                for term in node.lights:
-                    if term.shadow is None:
-                        continue
+                for term in (term for term in node.lights if term.shadow is not None):
                     ray = term.shadow
                     end = np.asarray(ray["origin"]) + np.asarray(ray["direction"]) * ray["length"]
                     add("blocked" if term.blocked else "shadow", node.position, tuple(end),
