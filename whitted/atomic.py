@@ -14,15 +14,11 @@ from pathlib import Path
 from .errors import WhittedError
 
 
-def _folder(target: Path) -> Path:
-    return target.parent if str(target.parent) else Path(".")
-
-
 @contextlib.contextmanager
 def atomic_path(target: str | os.PathLike):
     """Yield a temporary path beside ``target``; on success it replaces ``target``."""
     target = Path(target)
-    folder = _folder(target)
+    folder = target.parent
     if not folder.is_dir():
         raise WhittedError(f"{target}: output folder {folder} does not exist")
     try:
@@ -46,11 +42,10 @@ def atomic_path(target: str | os.PathLike):
 def leftovers(target: str | os.PathLike) -> list[Path]:
     """The temporary files of :func:`atomic_path` that killed writers left beside ``target``."""
     target = Path(target)
-    folder = _folder(target)
     prefix, suffix = f".{target.name}.", target.suffix or ".tmp"
     try:
-        return [p for p in folder.iterdir() if p.name.startswith(prefix) and p.name.endswith(suffix)
-                and len(p.name) > len(prefix) + len(suffix)]
+        return [p for p in target.parent.iterdir() if p.name.startswith(prefix)
+                and p.name.endswith(suffix) and len(p.name) > len(prefix) + len(suffix)]
     except OSError:
         return []
 
@@ -83,7 +78,6 @@ def remove_stale_leftovers(folder: str | os.PathLike, older_than: float) -> list
 def check_writable(target: str | os.PathLike, inputs: tuple = ()) -> Path:
     """Fail now, naming ``target``, if it could not be written later (or is one of ``inputs``)."""
     target = Path(target)
-    folder = _folder(target)
     if target.is_dir():
         raise WhittedError(f"{target}: is a folder; give a file name")
     if target.exists() and not target.is_file():
@@ -91,7 +85,7 @@ def check_writable(target: str | os.PathLike, inputs: tuple = ()) -> Path:
     for source in inputs:
         if target.exists() and Path(source).exists() and target.resolve() == Path(source).resolve():
             raise WhittedError(f"{target}: output would overwrite the input {source}")
-    check_folder(folder, target)
+    check_folder(target.parent, target)
     return target
 
 

@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import contextlib
 import os
-import re
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -39,10 +38,8 @@ class Settings:
         from .images import check_exposure
         from .rendering import check_settings
         check_settings(self.spp, self.max_depth, self.lighting, self.integrator, self.min_weight,
-                       self.without)
+                       self.without, self.ambient)
         check_exposure(self.exposure)
-        if self.ambient is not None:
-            D.check_ambient(self.ambient)
 
 
 @dataclass
@@ -70,19 +67,14 @@ class SceneRender:
 def plan_outputs(inputs: list[str | os.PathLike], out: str | os.PathLike | None,
                  formats: Iterable[str] = ("png",)) -> list[tuple[Path, tuple[Path, ...]]]:
     """Each scene of ``inputs`` (files or folders) with its images in ``out``, one per format."""
-    from .converter.batch import folder_scenes, plan
+    from .converter.batch import expand_folders, plan
     formats = tuple(dict.fromkeys(formats))
     for name in formats:
         if name not in D.IMAGE_FORMATS:
             raise WhittedError(f"unknown image format '{name}'; "
                                f"choose from {', '.join(D.IMAGE_FORMATS)}")
     if out is None:
-        scenes: list[Path] = []
-        for item in map(Path, inputs):
-            found = folder_scenes(item, SCENE_SUFFIXES) if item.is_dir() else [item]
-            if not found:
-                raise WhittedError(f"{item}: no .scn or .xml files in this folder")
-            scenes.extend(found)
+        scenes = expand_folders(inputs, SCENE_SUFFIXES, ".scn or .xml files")
         return [(scene, ()) for scene in scenes]
     folder = str(out) if str(out).endswith(("/", os.sep)) else f"{out}{os.sep}"
     plans = [plan(list(inputs), folder, f".{name}", SCENE_SUFFIXES) for name in formats]
@@ -93,12 +85,9 @@ def scene_inputs(scene: Path, model=None) -> list[Path]:
     """The files a scene's image depends on: itself, its textures, an XML's meshes."""
     files = [scene]
     if scene.suffix.lower() == ".xml":
-        try:
-            text = scene.read_text(encoding="utf-8", errors="replace")
-        except OSError:
-            return files
-        for name in re.findall(r'name="filename"\s+value="([^"]*)"', text):
-            files.append(scene.parent / name)
+        from .loading import named_files
+        with contextlib.suppress(OSError):
+            files += [scene.parent / name for name in named_files(scene)]
     elif model is not None:
         arrays = model.held_sphere_arrays()
         materials = arrays.materials if arrays is not None else [s.material for s in model.spheres]
@@ -108,22 +97,14 @@ def scene_inputs(scene: Path, model=None) -> list[Path]:
 
 def up_to_date(scene: Path, outputs: tuple[Path, ...]) -> bool:
     """Whether every image of ``scene`` is newer than what it reads (a bad .scn: never)."""
+    from .converter import parse_file
     if not outputs:
         return False
     try:
         oldest = min(p.stat().st_mtime_ns for p in outputs)
-    except OSError:
-        return False
-    model = None
-    if scene.suffix.lower() != ".xml":
-        from .converter import parse_file
-        try:
-            model = parse_file(scene)
-        except WhittedError:
-            return False
-    try:
+        model = None if scene.suffix.lower() == ".xml" else parse_file(scene)
         return all(p.stat().st_mtime_ns < oldest for p in scene_inputs(scene, model))
-    except OSError:
+    except (OSError, WhittedError):
         return False
 
 
@@ -178,8 +159,7 @@ def render_one(scene: Path, outputs: tuple[Path, ...], settings: Settings,
 def render_scenes(scenes: Iterable[str | os.PathLike], out: str | os.PathLike | None = None,
                   formats: Iterable[str] = ("png",), *, force: bool = False,
                   keep_images: bool | None = None, workers: int | None = None,
-                  scheduler: str | None = None, settings: Settings | None = None,
-                  **options) -> Iterator[SceneRender]:
+                  scheduler: str | None = None, **options) -> Iterator[SceneRender]:
     """Render scene files (a folder stands for its scenes), yielding a :class:`SceneRender`
     for each as it is done; a failed one does not stop the others.
 
@@ -188,7 +168,7 @@ def render_scenes(scenes: Iterable[str | os.PathLike], out: str | os.PathLike | 
     :class:`Settings`' fields. ``workers`` (a local Dask cluster) or ``scheduler`` (a running
     one's address): results come in the order they finish.
     """
-    settings = settings if settings is not None else Settings(**options)
+    settings = Settings(**options)
     settings.check()
     _, skipped, todo = plan_batch(scenes, out, formats, force)
     yield from skipped
@@ -222,22 +202,13 @@ def render_planned(todo: list[tuple[Path, tuple[Path, ...]]], settings: Settings
             yield render_one(scene, outputs, settings, keep_images)
 
 
-def render_task(scene: str, outputs: tuple[str, ...], settings: Settings, keep_image: bool,
-                threads: dict[str, int]) -> SceneRender:
-    """One scene on a Dask worker (:func:`whitted.cluster.worker_task`)."""
-    from .cluster import worker_task
-    with worker_task(settings.variant, threads) as worker:
-        item = render_one(Path(scene), tuple(map(Path, outputs)), settings, keep_image)
-        item.worker = worker
-        return item
-
-
 def _on_cluster(todo, settings: Settings, keep: bool, workers: int | None,
                 scheduler: str | None) -> Iterator[SceneRender]:
     import uuid
     from dataclasses import replace
 
-    from .cluster import available_cores, cancel, check_where, connect, task_result, worker_threads
+    from .cluster import (available_cores, cancel, check_where, connect, on_worker, task_result,
+                          worker_threads)
     from .variant import default_variant
 
     check_where(workers, scheduler)
@@ -251,11 +222,11 @@ def _on_cluster(todo, settings: Settings, keep: bool, workers: int | None,
         run = uuid.uuid4().hex[:8]
         tasks = {}
         for k, (scene, outputs) in enumerate(todo):
-            future = client.submit(render_task, str(Path(scene).resolve()),
-                                   tuple(str(Path(p).resolve()) for p in outputs), settings, keep,
-                                   threads, key=f"whitted-render-{k}-{Path(scene).stem}-{run}", pure=False)
+            future = client.submit(on_worker, render_one, settings.variant, threads,
+                                   Path(scene).resolve(), tuple(Path(p).resolve() for p in outputs),
+                                   settings, keep, key=f"whitted-render-{k}-{Path(scene).stem}-{run}",
+                                   pure=False)
             tasks[future] = (scene, outputs)
-        finished = False
         try:
             for future in as_completed(list(tasks), loop=client.loop):
                 scene, outputs = tasks.pop(future)
@@ -266,23 +237,14 @@ def _on_cluster(todo, settings: Settings, keep: bool, workers: int | None,
                 else:
                     item.scene, item.outputs = scene, outputs   # the user's paths
                 yield item
-            finished = True
         except BaseException:
             cancel(client, tasks)
             raise
-        finally:
-            if finished:   # every task has ended: what a killed worker was writing is litter
-                _remove_leftovers(outputs for _, outputs in todo)
-
-
-def _remove_leftovers(outputs) -> None:
-    """Delete the temporary files of workers killed while writing ``outputs``."""
+    # every task has ended: what a killed worker was writing is litter
     from .atomic import leftovers
-    for images in outputs:
-        for image in images:
-            for litter in leftovers(image):
-                with contextlib.suppress(OSError):
-                    litter.unlink()
+    for litter in (path for _, outputs in todo for image in outputs for path in leftovers(image)):
+        with contextlib.suppress(OSError):
+            litter.unlink()
 
 
 @dataclass

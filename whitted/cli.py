@@ -10,9 +10,8 @@ import os
 import sys
 import time
 
-from .defaults import INTEGRATOR, INTEGRATORS, LIGHTING_MODES, PATH_MIN_SPP, VERSION, VIEWS
-from .defaults import DEFAULT_FPS, IMAGE_FORMATS
-from .defaults import VARIANTS as SUPPORTED_VARIANTS
+from .defaults import (DEFAULT_FPS, FIT_ITERATIONS, FIT_WIDTH, IMAGE_FORMATS, INTEGRATOR,
+                       INTEGRATORS, LIGHTING_MODES, PATH_MIN_SPP, VARIANTS, VERSION, VIEWS)
 from . import interrupt
 from .errors import EXIT_USER_ERROR, WhittedError, report
 
@@ -109,7 +108,7 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
     where.add_argument("--scheduler", metavar="ADDRESS",
                        help="render the scenes on the Dask cluster of this scheduler, e.g. "
                             "tcp://host:8786 (a shared file system; see docs/cluster.md)")
-    render.add_argument("--variant", choices=SUPPORTED_VARIANTS,
+    render.add_argument("--variant", choices=VARIANTS,
                         help="Mitsuba variant (default: llvm_ad_rgb when a libLLVM >= 16 exists, "
                              "else scalar_rgb; or $WHITTED_VARIANT)")
     render.add_argument("--integrator", choices=INTEGRATORS, default=INTEGRATOR,
@@ -160,7 +159,6 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
                        help=f"frames per second (default {DEFAULT_FPS:g})")
     _talk(video, "say what was written")
 
-    from .defaults import FIT_ITERATIONS, FIT_WIDTH
     fit = _command(
         sub, "fit", _body(".fitting", "fit_command"),
         help="fit a scene's colors, ambient and light colors to an image",

@@ -53,6 +53,15 @@ def worker_task(variant: str, threads: dict[str, int]):
                 _raise_in(threading.get_ident(), None)   # a stop that came too late is dropped
 
 
+def on_worker(function, variant: str, threads: dict[str, int], *args):
+    """``function(*args)`` as a task of a worker (:func:`worker_task`), its result's ``worker``
+    set to the worker's address."""
+    with worker_task(variant, threads) as worker:
+        result = function(*args)
+        result.worker = worker
+        return result
+
+
 def _ignore_stopped(unraisable) -> None:
     """A worker's ``sys.unraisablehook``: a :class:`Stopped` dropped in a callback is sent again."""
     if not isinstance(unraisable.exc_value, Stopped):

@@ -14,13 +14,12 @@ def convert_command(args) -> int:
     """``whitted convert``: every file converted that can be; 2 if any failed."""
     from .converter.batch import PORTABLE_SUFFIX, XML_SUFFIX, convert_file, plan, prepare_folders
 
-    portable = getattr(args, "portable", False)
-    pairs = plan(args.scenes, args.output, PORTABLE_SUFFIX if portable else XML_SUFFIX)
+    pairs = plan(args.scenes, args.output, PORTABLE_SUFFIX if args.portable else XML_SUFFIX)
     prepare_folders([target for _, target in pairs], args.output)
     failed = 0
     for source, target in pairs:
         try:
-            convert_file(source, target, portable)
+            convert_file(source, target, args.portable)
         except WhittedError as error:
             report(error)
             failed += 1
@@ -71,36 +70,31 @@ def _settings(args):
     return Settings(integrator=args.integrator, spp=args.spp, max_depth=args.max_depth,
                     ambient=args.ambient, lighting=args.lighting, min_weight=args.min_weight,
                     without=check_without(args.without, "--without") if args.without else None,
-                    variant=args.variant, exposure=getattr(args, "exposure", 0.0),
-                    view=getattr(args, "view", None))
+                    variant=args.variant, exposure=args.exposure, view=args.view)
 
 
 def render_single(args) -> None:
     """``whitted render SCENE -o OUT``: everything is checked before anything is written."""
     from .atomic import check_writable, write_text
-    from .defaults import check_ambient
     from .interrupt import deferred
     with deferred():   # numpy's C extension is not cut mid-import by a Ctrl-C (see deferred)
         from .batch import render_file
-        from .images import check_exposure, image_format, write_image
-        from .rendering import check_settings, peak_resident_bytes
+        from .images import image_format, write_image
+        from .rendering import peak_resident_bytes
 
     output = Path(args.output)
-    # Before the scene is loaded (seconds for a large one); once: render_checked trusts them.
-    check_settings(args.spp, args.max_depth, args.lighting, args.integrator, args.min_weight,
-                   args.without)
-    if args.ambient is not None:
-        check_ambient(args.ambient)
+    settings = _settings(args)
+    settings.check()   # before the scene loads (seconds for a large one); render_checked trusts it
     if args.stats and Path(args.stats).resolve() == output.resolve():
         raise WhittedError(f"{args.stats}: the statistics would overwrite the image")
     check_writable(output, inputs=(args.scenes[0],))   # what is wrong with the path first
     image_format(output)
-    exposure = check_exposure(getattr(args, "exposure", 0.0))
     if args.stats:
         check_writable(args.stats, inputs=(args.scenes[0],))
 
-    result, view = render_file(args.scenes[0], _settings(args), not args.quiet)
-    write_image(output, result.image, progress=not args.quiet, exposure=exposure, view=view)
+    result, view = render_file(args.scenes[0], settings, not args.quiet)
+    write_image(output, result.image, progress=not args.quiet, exposure=settings.exposure,
+                view=view)
     result.stats["peak_resident_bytes"] = peak_resident_bytes()   # the writing included
     if args.stats:
         write_text(args.stats, json.dumps(result.stats, indent=2) + "\n")

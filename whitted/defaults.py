@@ -94,22 +94,17 @@ WHITTED_DEFAULTS = {"max_depth": DEPTH, "ambient": AMBIENT, "lighting": LIGHTING
 COMPARE_REFERENCE_SPP = 4096              #: the path-traced reference's samples per pixel
 COMPARE_WHITTED_SPP = (1, 4, 16)          #: the Whitted sweep's spp ladder
 COMPARE_PATH_SPP = (1, 4, 16, 64, 256, 1024)   #: the path tracer's spp ladder
-#: Timing (whitted/compare/timing.py): each setting timed once per round, at least
-#: COMPARE_ROUNDS rounds; then COMPARE_HEADLINE_ROUNDS of the headlines' renders, more while
-#: a headline ratio's COMPARE_CONFIDENCE interval is wider than 1 + COMPARE_SETTLED_WIDTH, up to
-#: COMPARE_MAX_ROUNDS rounds and COMPARE_ROUNDS_SECONDS per scene.
+#: the timed rounds (whitted/compare/timing.py; docs/compare.md, "Timing"): how many, when a
+#: render is repeated, when a headline ratio has settled, on how many LLVM threads (None: all)
+#: and by which clock ("cpu" or "wall")
 COMPARE_ROUNDS = 3
 COMPARE_HEADLINE_ROUNDS = 8
 COMPARE_MAX_ROUNDS = 25
 COMPARE_ROUNDS_SECONDS = 20.0
 COMPARE_CONFIDENCE = 0.9
-#: a render faster than COMPARE_ROUND_SECONDS is repeated (at most COMPARE_ROUND_REPEATS
-#: times), the fastest kept
 COMPARE_ROUND_SECONDS = 0.05
 COMPARE_ROUND_REPEATS = 8
 COMPARE_SETTLED_WIDTH = 0.25
-#: the timed rounds' LLVM threads (None: all) and clock ("cpu" or "wall"; CUDA reads the
-#: wall clock): one thread's CPU time is what a busy machine hardly changes (docs/compare.md)
 COMPARE_TIMING_THREADS = 1
 COMPARE_CLOCK = "cpu"
 #: Dr.Jit's memory cache is handed back between settings once the process holds more than this
@@ -157,25 +152,23 @@ def _integer(value, what: str) -> int:
     return int(value)
 
 
+def _bounded(value, what: str, low, high, rule: str) -> int:
+    value = _integer(value, what)
+    if not low <= value <= high:
+        raise WhittedError(f"{what} must be {rule}, got {value}")
+    return value
+
+
 def check_depth(depth, what: str = "max depth") -> int:
-    depth = _integer(depth, what)
-    if not 1 <= depth <= MAX_DEPTH:
-        raise WhittedError(f"{what} must be in 1…{MAX_DEPTH} (primary rays have depth 1), got {depth}")
-    return depth
+    return _bounded(depth, what, 1, MAX_DEPTH, f"in 1…{MAX_DEPTH} (primary rays have depth 1)")
 
 
 def check_spp(spp, what: str = "spp") -> int:
-    spp = _integer(spp, what)
-    if not 1 <= spp <= MAX_SPP:
-        raise WhittedError(f"{what} must be a positive integer up to 2^31, got {spp}")
-    return spp
+    return _bounded(spp, what, 1, MAX_SPP, "a positive integer up to 2^31")
 
 
 def check_size(size, what: str = "width") -> int:
-    size = _integer(size, what)
-    if not 1 <= size <= MAX_SIZE:
-        raise WhittedError(f"{what} must be in 1…{MAX_SIZE} pixels, got {size}")
-    return size
+    return _bounded(size, what, 1, MAX_SIZE, f"in 1…{MAX_SIZE} pixels")
 
 
 def _number(value, what: str, kind: str) -> float:
@@ -234,10 +227,7 @@ def check_point(point, what: str = "point") -> Vec3:
 
 def check_wavefront_size(size, what: str = "wavefront_size") -> int:
     """Camera samples per pass: an integer >= 0 (0: as the tracer prefers)."""
-    size = _integer(size, what)
-    if size < 0:
-        raise WhittedError(f"{what} must be >= 0, got {size}")
-    return size
+    return _bounded(size, what, 0, math.inf, ">= 0")
 
 
 def check_lighting(lighting, what: str = "lighting") -> str:
@@ -299,9 +289,7 @@ def check_integrator(integrator) -> str:
 
 def check_seed(seed, what: str = "seed") -> int:
     """A render's seed (0 to 2^64 - 1) in Mitsuba's 32 bits, the upper half folded in."""
-    seed = _integer(seed, what)
-    if not 0 <= seed < 2 ** 64:
-        raise WhittedError(f"{what} must be an integer from 0 to 2^64 - 1, got {seed}")
+    seed = _bounded(seed, what, 0, 2 ** 64 - 1, "an integer from 0 to 2^64 - 1")
     return (seed ^ (seed >> 32) * SEED_STRIDE) & 0xFFFFFFFF
 
 

@@ -20,6 +20,7 @@ class SceneEditor:
 
     def __init__(self, source, variant: str | None = None, **overrides):
         from .converter import Scene, parse_file
+        from .converter.description import describe
         from .converter.frame import warn_scene
         from .loading import _leaving_out, prepared
         self._params, self._without = prepared(variant, overrides)
@@ -28,7 +29,7 @@ class SceneEditor:
         else:
             self.model = parse_file(Path(source))
             warn_scene(self.model)
-        self._description = self._describe(self.model)
+        self._description = describe(self.model, base_dir=None)
         from .loading import _loaded, mitsuba_dict
         loaded = _loaded(mitsuba_dict(self._description, self._params), meshes=True)
         self.scene = _leaving_out(loaded, self._without, self.model.source)
@@ -83,13 +84,11 @@ class SceneEditor:
             raise WhittedError(f"no {what} {k!r}: the scene has {len(items)} {what}s, numbered from 0")
         return items[k]
 
-    def _describe(self, model):
-        from .converter.description import describe
-        return describe(model, base_dir=None)
-
     def _apply(self, model) -> None:
         import mitsuba as mi
-        description = self._describe(model)
+
+        from .converter.description import describe
+        description = describe(model, base_dir=None)
         changes = _differences(self._description.scene, description.scene)
         writes = {}
         for path, value in changes:

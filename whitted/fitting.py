@@ -76,7 +76,7 @@ def fit(scene, target, *, free=FREE, iterations: int = D.FIT_ITERATIONS, width: 
 
     from .converter import parse_file
     from .images import read_image
-    from .loading import _checked, load_model_parts
+    from .loading import checked_overrides, load_model_parts
     from .metrics import EPSILON, relative_mse
     from .progress import progress_bar
     from .variant import set_variant
@@ -101,8 +101,8 @@ def fit(scene, target, *, free=FREE, iterations: int = D.FIT_ITERATIONS, width: 
     # The scene as the Whitted integrator loads it (grouped spheres in ellipsoids shapes:
     # a sphere shape costs ~18 KB, a million of them gigabytes), each fitted color written
     # into every BSDF of its material, each light's through the scene's own frame.
-    loaded, bsdfs, described = load_model_parts(
-        model, _checked({"width": size[0], "height": size[1], "spp": spp}), None, "whitted", False)
+    overrides = checked_overrides({"width": size[0], "height": size[1], "spp": spp})
+    loaded, bsdfs, described = load_model_parts(model, overrides, None, "whitted", False)
     params = mi.traverse(loaded)
     params["integrator.min_weight"] = 0.0   # the exact tree: the loss is smooth
     params.update()

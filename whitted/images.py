@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .defaults import VIEWS
+from .defaults import IMAGE_FORMATS, VIEWS
 from .errors import WhittedError, first_line
 
 #: OpenColorIO's built-in config, pinned so an image looks the same whatever OCIO is installed
@@ -109,16 +109,17 @@ def _srgb_encoded(band: np.ndarray, kind: str) -> np.ndarray:
                                      srgb_gamma=True))
 
 
-def _checked(image) -> np.ndarray:
+def _rgb_pixels(image, where: str = "") -> np.ndarray:
+    """``image`` as float32 (a float32 one not copied); an error unless it is (H, W, 3)."""
     pixels = np.asarray(image, dtype=np.float32)
     if pixels.ndim != 3 or pixels.shape[2] != 3:
-        raise WhittedError(f"expected an (H, W, 3) RGB image, got shape {pixels.shape}")
+        raise WhittedError(f"{where}expected an (H, W, 3) RGB image, got shape {pixels.shape}")
     return pixels
 
 
 def _banded(image, exposure, view, dtype, encode, rows_done=None) -> np.ndarray:
     """``encode(band, exposure, view)`` of each band of rows of a linear RGB image."""
-    pixels, exposure, view = _checked(image), check_exposure(exposure), check_view(view)
+    pixels, exposure, view = _rgb_pixels(image), check_exposure(exposure), check_view(view)
     out = np.empty(pixels.shape, dtype)
     for start in range(0, pixels.shape[0], BAND_ROWS):
         band = np.array(pixels[start:start + BAND_ROWS], dtype=np.float32)
@@ -151,13 +152,10 @@ def clipped_fraction(srgb8: np.ndarray) -> float:
     return float(np.mean(np.any(np.asarray(srgb8) >= 255, axis=-1)))
 
 
-FORMATS = (".exr", ".png")
-
-
 def image_format(path: str | os.PathLike) -> str:
     """The suffix of ``path`` (".exr" or ".png"), or a clear error."""
     suffix = Path(path).suffix.lower()
-    if suffix not in FORMATS:
+    if suffix[1:] not in IMAGE_FORMATS:
         raise WhittedError(f"{path}: unsupported image format '{suffix or '(none)'}'; "
                            "use .exr (linear) or .png (sRGB)")
     return suffix
@@ -173,9 +171,7 @@ def write_image(path: str | os.PathLike, image, progress: bool = False, exposure
     from .progress import elapsed, progress_bar
 
     suffix = image_format(path)
-    pixels = np.asarray(image, dtype=np.float32)   # no copy of a float32 image
-    if pixels.ndim != 3 or pixels.shape[2] != 3:
-        raise WhittedError(f"{path}: expected an (H, W, 3) RGB image, got shape {pixels.shape}")
+    pixels = _rgb_pixels(image, f"{path}: ")
     name = Path(path).name
     if suffix == ".png":
         with progress_bar(progress, pixels.shape[0], f"encoding {name}", unit="row", unit_scale=False) as bar:

@@ -46,7 +46,8 @@ def mitsuba_dict(description, overrides: dict | None = None) -> dict:
     return convert(description.scene)
 
 
-def _checked(overrides: dict) -> dict:
+def checked_overrides(overrides: dict) -> dict:
+    """``overrides`` checked by :data:`OVERRIDES`, those not None."""
     unknown = sorted(set(overrides) - set(OVERRIDES))
     if unknown:
         raise WhittedError(f"unknown scene override(s) {', '.join(unknown)}; "
@@ -58,7 +59,7 @@ def prepared(variant: str | None, overrides: dict) -> tuple[dict, tuple | None]:
     """Set ``variant``; the checked ``overrides`` but ``without``, and ``without``."""
     from .variant import set_variant
     set_variant(variant)
-    params = _checked(overrides)
+    params = checked_overrides(overrides)
     return params, params.pop("without", None)
 
 
@@ -127,14 +128,18 @@ def load_error(where, error: BaseException) -> WhittedError:
 _FILENAME = re.compile(rb'<string\s+name="filename"\s+value="([^"$]*)"')
 
 
-def check_referenced_files(path: Path) -> None:
-    """An error when a file the XML names is missing (Mitsuba would take one from the cwd)."""
+def named_files(path: Path) -> list[str]:
+    """The files an XML scene names, as it names them."""
     import html
 
     with open(path, "rb") as file:
-        data = file.read()
-    for match in dict.fromkeys(_FILENAME.findall(data)):
-        named = html.unescape(match.decode("utf-8", "replace"))
+        names = dict.fromkeys(_FILENAME.findall(file.read()))
+    return [html.unescape(name.decode("utf-8", "replace")) for name in names]
+
+
+def check_referenced_files(path: Path) -> None:
+    """An error when a file the XML names is missing (Mitsuba would take one from the cwd)."""
+    for named in named_files(path):
         where = path.parent / named
         if not where.is_file():
             raise WhittedError(f"{path}: the file it names, {named}, does not exist (looked for {where})")

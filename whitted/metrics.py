@@ -1,10 +1,6 @@
-"""How far an image is from a reference: relative MSE and FLIP, on linear RGB.
-
-Both take the test image first and the reference second (it sets the scale). The relative
-MSE weighs each squared difference by the reference's brightness (``EPSILON`` keeps black
-pixels finite), and falls as 1/spp for an unbiased renderer. FLIP (NVIDIA's ``flip-evaluator``)
-in its LDR mode scores the images as displayed (:func:`whitted.images.to_display`), as a
-viewer compares them; HDR-FLIP took twenty times as long on black backgrounds.
+"""How far an image is from a reference, both linear RGB, the reference second (it sets the
+scale): relative MSE, and LDR-FLIP of the images as displayed (docs/compare.md, "Error
+measures").
 """
 
 from __future__ import annotations

@@ -43,12 +43,19 @@ def whitted_settings(scene) -> dict:
     return {**D.WHITTED_DEFAULTS, "without": (), "exact_spheres": []}
 
 
+#: how :func:`whitted_integrator` takes each setting it may change
+_SETTING_TYPES = {"max_depth": int, "lighting": str, "min_weight": float,
+                  "ambient": lambda value: D.check_ambient(value, "ambient"),
+                  "without": lambda value: D.check_without(value, "without")}
+
+
 def whitted_integrator(scene, **changes):
     """The scene's ``whitted`` integrator (else a default one), ``changes`` not None applied."""
     import mitsuba as mi
 
     from .plugins import whitted_or_none
-    changes = {name: value for name, value in changes.items() if value is not None}
+    changes = {name: _SETTING_TYPES[name](value) for name, value in changes.items()
+               if value is not None}
     own = whitted_or_none(scene.integrator())
     with quiet_mitsuba():
         if own is not None:
@@ -71,7 +78,8 @@ def quiet_mitsuba():
         logger.set_log_level(level)
 
 
-def check_settings(spp, max_depth, lighting, integrator, min_weight=None, without=None) -> None:
+def check_settings(spp, max_depth, lighting, integrator, min_weight=None, without=None,
+                   ambient=None) -> None:
     """Every rendering option validated once (the API and the CLI call this)."""
     D.check_integrator(integrator)
     if D.check_without(without, "--without") and integrator != "whitted":
@@ -91,6 +99,8 @@ def check_settings(spp, max_depth, lighting, integrator, min_weight=None, withou
         if integrator != "whitted" and min_weight > 0:
             raise WhittedError("a min weight (adaptive depth control) applies to the whitted "
                                "integrator only; the path tracer ends paths by Russian roulette")
+    if ambient is not None:
+        D.check_ambient(ambient)
 
 
 class Clock:
@@ -149,7 +159,7 @@ def render(scene, integrator: str = D.INTEGRATOR, spp: int | None = None, max_de
            min_weight: float | None = None, ambient: float | None = None, *,
            without=None, fresh_memory: bool = True) -> RenderResult:
     """Render ``scene`` (a ``mi.Scene``), settings left None as the scene's."""
-    check_settings(spp, max_depth, lighting, integrator, min_weight, without)
+    check_settings(spp, max_depth, lighting, integrator, min_weight, without, ambient)
     return render_checked(scene, integrator, spp, max_depth, lighting, progress, seed, min_weight, ambient,
                           without=without, fresh_memory=fresh_memory)
 
@@ -164,8 +174,7 @@ def render_checked(scene, integrator: str = D.INTEGRATOR, spp: int | None = None
     spp_asked = spp
     if not scene.sensors():
         raise WhittedError("the scene has no sensor (camera) to render from")
-    settings = whitted_settings(scene)
-    depth = int(max_depth) if max_depth is not None else settings["max_depth"]
+    depth = int(max_depth) if max_depth is not None else whitted_settings(scene)["max_depth"]
     sensor = scene.sensors()[0]
     spp = int(spp) if spp is not None else sensor.sampler().sample_count()
     if integrator == "path" and spp_asked is None:
@@ -176,22 +185,18 @@ def render_checked(scene, integrator: str = D.INTEGRATOR, spp: int | None = None
         from .plugins.film import sample_count
         spp = sample_count(sensor, spp)   # as the sampler rounds it (stratified: 8 are 9)
         tables = check_article_materials(scene)   # found once: the render takes them
-        whitted = whitted_integrator(
-            scene, max_depth=depth, lighting=lighting,
-            min_weight=None if min_weight is None else float(min_weight),
-            ambient=None if ambient is None else D.check_ambient(ambient, "ambient"),
-            without=None if without is None else D.check_without(without, "without"))
+        whitted = whitted_integrator(scene, max_depth=depth, lighting=lighting,
+                                     min_weight=min_weight, ambient=ambient, without=without)
         with progress_bar(progress, width * height * spp, "render") as bar, Clock(fresh_memory) as clock:
             rendering = whitted.render_detailed(scene, sensor, seed=seed, spp=spp, progress=bar.update,
                                                tables=tables)
             # The developed image's own memory, not a copy (a 16384² image is 3 GiB).
             image = np.asarray(rendering.image, dtype=np.float32)
         rays = rendering.rays
-        stats_rays, effects, reached = rays.rays(), list(rendering.effects), rays.max_depth_reached
-        adaptive = {"max_depth_reached": reached, "merged_rays": rays.merged,
-                    "min_weight": whitted.min_weight,
-                    "culled_rays": rays.culled, "culled_weight": rays.culled_weight,
-                    "error_bound": rendering.error_bound}
+        stats_rays, effects = rays.rays(), list(rendering.effects)
+        adaptive = {"max_depth_reached": rays.max_depth_reached, "merged_rays": rays.merged,
+                    "min_weight": whitted.min_weight, "culled_rays": rays.culled,
+                    "culled_weight": rays.culled_weight, "error_bound": rendering.error_bound}
     else:
         path = _path_integrator(scene, max_depth, depth)
         with progress_bar(progress, width * height * spp, "path tracing") as bar, Clock(fresh_memory) as clock:
@@ -268,14 +273,9 @@ def _effects_or_none(scene, depth: int) -> list:
 
 # The process's resident memory and its peak: Linux keeps the peak (``VmHWM``) and lets a
 # process reset it; elsewhere it is the whole life's (``getrusage``).
-
-_STATUS = Path("/proc/self/status")
-_CLEAR_REFS = Path("/proc/self/clear_refs")
-
-
 def _status(key: str) -> int | None:
     with contextlib.suppress(OSError):
-        for line in _STATUS.read_text().splitlines():
+        for line in Path("/proc/self/status").read_text().splitlines():
             if line.startswith(key + ":"):
                 return int(line.split()[1]) * 1024
     return None
@@ -287,7 +287,7 @@ def resident_bytes() -> int | None:
 
 def reset_peak() -> None:
     with contextlib.suppress(OSError):
-        _CLEAR_REFS.write_text("5")
+        Path("/proc/self/clear_refs").write_text("5")
 
 
 def peak_resident_bytes() -> int:

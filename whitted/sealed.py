@@ -1,12 +1,7 @@
-"""Which spheres of a scene may be loaded as one Mitsuba ``ellipsoids`` shape, and in what frame.
-
-Mitsuba builds a plugin, an Embree geometry and a registry entry per ``sphere`` shape, so
-tens of thousands of spheres load slowly; one ``ellipsoids`` shape holds any number. An
-ellipsoid of equal scales is a sphere but for back-face culling (harmless for a *sealed*
-sphere: no ray starts inside) and an intersection exact only at radius 1 (so the scene is
-loaded scaled to make the commonest radius 1): docs/numerics.md, "Spheres as Mitsuba
-ellipsoids", has the proof, the other radii's layers and the measurements. Works on the
-scene model (numpy, no Mitsuba).
+"""Which spheres of a scene may be loaded as Mitsuba ``ellipsoids`` shapes (one holds any
+number; a ``sphere`` shape each loads slowly by the ten thousand), and the frame that makes
+them exact: docs/numerics.md, "Spheres as Mitsuba ellipsoids". Works on the scene model
+(numpy, no Mitsuba).
 """
 
 from __future__ import annotations
@@ -81,7 +76,7 @@ def choose(scene: Scene, min_group: int = MIN_GROUP, classes: int = 0,
     if counts[best] < min_group:
         return None
     r = float(values[best])
-    if light_reach(scene) / r > MAX_REACH:
+    if farthest(scene.lookat, [light.position for light in scene.lights])[0] / r > MAX_REACH:
         return None
     radii = [r]
     if classes:   # other radii
@@ -95,10 +90,6 @@ def choose(scene: Scene, min_group: int = MIN_GROUP, classes: int = 0,
 def _coarse(scene: Scene, spheres: SphereArrays) -> np.ndarray:
     """Per sphere: whether it may be giant (the converter judges it: converter/giants.py)."""
     return coarse_candidates(spheres, tuple(scene.lookat))[1]
-
-
-def light_reach(scene: Scene) -> float:
-    return farthest(scene.lookat, [light.position for light in scene.lights])[0]
 
 
 def _about(point, origin, scale):

@@ -13,28 +13,16 @@ import os
 import re
 import sys
 
-from .defaults import DEFAULT_VARIANT, FALLBACK_VARIANT
-from .defaults import VARIANTS as SUPPORTED_VARIANTS
+from .defaults import DEFAULT_VARIANT, FALLBACK_VARIANT, VARIANTS
 from .errors import WhittedError
 
 MIN_LLVM_VERSION = 16
 
-_LIB_DIRS = (
-    "/usr/lib/x86_64-linux-gnu",
-    "/usr/lib/aarch64-linux-gnu",
-    "/usr/lib64",
-    "/usr/lib",
-    "/usr/local/lib",
-    "/usr/lib/llvm-*/lib",
-    "/opt/homebrew/opt/llvm/lib",
-    "/usr/local/opt/llvm/lib",
-)
-# libLLVM-19.so, libLLVM-19.so.1, libLLVM.so.19.1, libLLVM.so.19, libLLVM-19.dylib
-_VERSION_PATTERNS = (
-    re.compile(r"^libLLVM-(\d+)(?:\.\d+)*\.(?:so|dylib)(?:\.\d+)*$"),
-    re.compile(r"^libLLVM\.so\.(\d+)(?:\.\d+)*$"),
-    re.compile(r"^libLLVM\.(\d+)(?:\.\d+)*\.dylib$"),
-)
+_LIB_DIRS = ("/usr/lib/x86_64-linux-gnu", "/usr/lib/aarch64-linux-gnu", "/usr/lib64", "/usr/lib",
+             "/usr/local/lib", "/usr/lib/llvm-*/lib", "/opt/homebrew/opt/llvm/lib",
+             "/usr/local/opt/llvm/lib")
+#: libLLVM.so.19(.1); libLLVM-19.so(.1), libLLVM-19.dylib, libLLVM.19.dylib
+_VERSIONED = re.compile(r"^libLLVM(?:\.so\.(\d+)|[-.](\d+)(?:\.\d+)*\.(?:so|dylib))(?:\.\d+)*$")
 _fallback_warned = False
 #: the variant asked for before Mitsuba's import, whose hook then sets it (set once)
 _requested: str | None = None
@@ -43,10 +31,9 @@ _requested: str | None = None
 def llvm_version_of(path: str) -> int | None:
     """The major version in a libLLVM file name, or None when the name has none."""
     name = os.path.basename(path)
-    for pattern in _VERSION_PATTERNS:
-        match = pattern.match(name)
-        if match:
-            return int(match.group(1))
+    match = _VERSIONED.match(name)
+    if match:
+        return int(match[1] or match[2])
     # /usr/lib/llvm-19/lib/libLLVM.so: the version is in the folder.
     match = re.search(r"llvm-(\d+)", path)
     if name.startswith("libLLVM") and match:
@@ -86,9 +73,9 @@ def prepare_llvm() -> str | None:
 def check_environment() -> None:
     """A clean error for a ``$WHITTED_VARIANT`` that names no supported variant."""
     requested = os.environ.get("WHITTED_VARIANT")
-    if requested and requested not in SUPPORTED_VARIANTS:
+    if requested and requested not in VARIANTS:
         raise WhittedError(f"WHITTED_VARIANT={requested}: not a variant whitted runs in; choose one of "
-                           + ", ".join(SUPPORTED_VARIANTS))
+                           + ", ".join(VARIANTS))
 
 
 def default_variant() -> str:
@@ -121,7 +108,7 @@ def set_variant(variant: str | None = None) -> str:
 def request(variant: str | None) -> None:
     """Ask for ``variant`` before Mitsuba is imported: its import hook then sets this one."""
     global _requested
-    if variant in SUPPORTED_VARIANTS and "mitsuba" not in sys.modules:
+    if variant in VARIANTS and "mitsuba" not in sys.modules:
         _requested = variant
 
 
@@ -130,9 +117,9 @@ def _set_variant(variant: str | None) -> str:
 
     if variant is None:
         variant = mi.variant() or default_variant()
-    if variant not in SUPPORTED_VARIANTS:
+    if variant not in VARIANTS:
         raise WhittedError(f"unsupported variant '{variant}'; choose one of "
-                           + ", ".join(SUPPORTED_VARIANTS))
+                           + ", ".join(VARIANTS))
     if variant.startswith("llvm") and prepare_llvm() is None:
         raise WhittedError(f"variant {variant} needs libLLVM >= {MIN_LLVM_VERSION}: install "
                            "Debian's libllvm19 or set DRJIT_LIBLLVM_PATH")
@@ -152,10 +139,10 @@ def _set_variant(variant: str | None) -> str:
 def on_variant_changed(old: str | None, new: str | None) -> None:
     """Mitsuba's variant callback: the plugins registered, or refusing where they do not run."""
     from whitted import plugins
-    if new in SUPPORTED_VARIANTS:
+    if new in VARIANTS:
         plugins.register()
     elif new:
-        plugins.refuse(SUPPORTED_VARIANTS)
+        plugins.refuse(VARIANTS)
 
 
 def ensure_llvm() -> str | None:

@@ -50,15 +50,10 @@ def _sphere_mesh(center, radius, toward, reach):
     directions = (np.cos(t)[..., None] * axis + np.sin(t)[..., None] *
                   (np.cos(p)[..., None] * u + np.sin(p)[..., None] * v))
     vertices = (center + radius * directions).reshape(-1, 3)
-    i, j, k = [], [], []
-    for r in range(rings):
-        for s in range(segments):
-            a, b = r * segments + s, r * segments + (s + 1) % segments
-            c, d = a + segments, b + segments
-            i += [a, b]
-            j += [c, c]
-            k += [b, d]
-    return vertices, (i, j, k)
+    r, s = np.divmod(np.arange(rings * segments), segments)
+    a, b = r * segments + s, r * segments + (s + 1) % segments
+    i, j, k = np.stack([a, b], 1), np.stack([a + segments] * 2, 1), np.stack([b, b + segments], 1)
+    return vertices, (i.ravel().tolist(), j.ravel().tolist(), k.ravel().tolist())
 
 
 def _sphere_color(view, k: int) -> str:
@@ -88,11 +83,10 @@ def figure(view, trees):
     for k in shown:
         ref = view.sphere(k)
         vertices, (i, j, kk) = _sphere_mesh(ref.center, ref.radius, center, reach)
-        name = ref.short()
         fig.add_trace(go.Mesh3d(x=vertices[:, 0], y=vertices[:, 1], z=vertices[:, 2], i=i, j=j, k=kk,
                                 color=_sphere_color(view, k), opacity=0.3 if k in used else 0.15,
-                                name=name, hovertext=name,
-                                hoverinfo="text", showlegend=False, flatshading=True))
+                                name=ref.short(), hovertext=ref.short(), hoverinfo="text",
+                                showlegend=False, flatshading=True))
     if view.lights:
         spots = np.array([p for p, _, _ in view.lights])
         fig.add_trace(go.Scatter3d(x=spots[:, 0], y=spots[:, 1], z=spots[:, 2], mode="markers+text",
@@ -117,9 +111,7 @@ def figure(view, trees):
             label = f"pixel {number} ({tree.x}, {tree.y}): {node.kind}, level {node.level}, weight {node.weight:.3g}"
             if node.hit:
                 add(node.kind, node.origin, node.position, label + f", hits {node.sphere.short() if node.sphere else ''}")
-                for term in node.lights:
-                    if term.shadow is None:
-                        continue
+                for term in (term for term in node.lights if term.shadow is not None):
                     ray = term.shadow
                     end = np.asarray(ray["origin"]) + np.asarray(ray["direction"]) * ray["length"]
                     add("blocked" if term.blocked else "shadow", node.position, tuple(end),
@@ -229,15 +221,11 @@ def _pixels(trees) -> list[dict]:
 
 
 def _render(view, trees, div_id: str, **parts) -> str:
-    import jinja2
+    from ..templates import environment
 
-    environment = jinja2.Environment(loader=jinja2.PackageLoader("whitted.trace", "templates"),
-                                     autoescape=jinja2.select_autoescape(["html", "j2"]),
-                                     undefined=jinja2.StrictUndefined, trim_blocks=True,
-                                     lstrip_blocks=True)
     legend = [*((kind, kind) for kind in KINDS), ("shadow", "shadow ray, lit"),
               ("blocked", "shadow ray, blocked (dashed)"), ("background", "missed (dashed)")]
-    return environment.get_template(TEMPLATE).render(
+    return environment("whitted.trace").get_template(TEMPLATE).render(
         pixels=_pixels(trees), version=VERSION,
         figure=figure(view, trees).to_html(full_html=False, include_plotlyjs=True, div_id=div_id,
                                            config={"displaylogo": False, "responsive": True}),

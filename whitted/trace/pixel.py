@@ -4,6 +4,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -98,10 +99,8 @@ def scene_view(scene) -> SceneView:
         arrays = model.sphere_arrays()
         text = source.text
         if text is None:
-            try:
+            with contextlib.suppress(OSError):
                 text = Path(model.source).read_text(encoding="utf-8", errors="replace")
-            except OSError:
-                text = None
         palette = np.array([(0.7, 0.7, 0.7) if m.texture is not None else m.color for m in arrays.materials]
                            or [(0.7, 0.7, 0.7)], np.float64)
         return SceneView(source=Path(str(model.source)).name, origin=np.asarray(model.lookat, np.float64),
@@ -122,10 +121,7 @@ def scene_view(scene) -> SceneView:
     counts = primitives.counts
     names = [shapes[s].id() + (f"[{p - primitives.first[s]}]" if counts[s] > 1 else "")
              for p, s in zip(spheres.tolist(), owner.tolist())]
-    import mitsuba as mi
-    to_world = sensor.world_transform()
-    eye = tuple(float(c) for c in to_world @ mi.ScalarPoint3f(0, 0, 0)) if not hasattr(to_world, "translation") \
-        else tuple(float(c) for c in np.asarray(to_world.translation()).reshape(-1))
+    eye = tuple(float(c) for c in np.asarray(sensor.world_transform().translation()).reshape(-1))
     return SceneView(source="the scene", origin=np.zeros(3), scale=1.0,
                      centers=primitives.center[:, spheres].T.copy(), radii=primitives.radius[spheres].copy(),
                      lines=None, names=names,
@@ -149,16 +145,13 @@ class PixelTree:
     def nodes(self) -> list[Node]:
         return list(self.root.walk())
 
-    def lines(self) -> list[str]:
-        total = self.total()
-        count = self.root.count()
+    def __str__(self) -> str:
+        total, count = self.total(), self.root.count()
         head = (f"pixel ({self.x}, {self.y}) of {self.view.source}: color ({self.color[0]:.6g} "
                 f"{self.color[1]:.6g} {self.color[2]:.6g}), the sum of the contributions of its {count} "
                 f"ray{'s' if count != 1 else ''} ({total[0]:.6g} {total[1]:.6g} {total[2]:.6g})")
-        return [head, *text_tree(self.root, physical=self.settings.get("lighting") == "physical")]
-
-    def __str__(self) -> str:
-        return "\n".join(self.lines())
+        physical = self.settings.get("lighting") == "physical"
+        return "\n".join([head, *text_tree(self.root, physical=physical)])
 
     def json(self) -> dict:
         return {"pixel": [self.x, self.y], "color": list(self.color), "sum": list(self.total()),
@@ -195,8 +188,7 @@ def _load(scene, variant, overrides: dict):
         from ..loading import load_scene
         from ..rendering import quiet_mitsuba
         with quiet_mitsuba():
-            return load_scene(scene, variant=variant, meshes=False,
-                              **{k: v for k, v in overrides.items() if k in ("max_depth", "ambient", "lighting")})
+            return load_scene(scene, variant=variant, meshes=False, **overrides)
     if variant is not None:
         raise WhittedError("variant applies to a scene given by its path; a loaded scene keeps its own")
     return scene
@@ -207,11 +199,8 @@ def trace_pixels(scene, pixels, *, variant: str | None = None, max_depth: int | 
                  min_weight: float | None = None) -> Traces:
     """The ray trees of ``pixels`` (``(x, y)`` from the top left, or percentages such as
     ``("50%", "45%")``) of ``scene`` (a ``mi.Scene`` or a path), as a 1 spp render traces them."""
-    from .. import defaults as D
     from ..rendering import check_article_materials, check_settings, whitted_integrator
-    check_settings(None, max_depth, lighting, "whitted", min_weight)
-    if ambient is not None:
-        D.check_ambient(ambient)
+    check_settings(None, max_depth, lighting, "whitted", min_weight, ambient=ambient)
     given = scene
     scene = _load(scene, variant, {"max_depth": max_depth, "ambient": ambient, "lighting": lighting})
     if not scene.sensors():
@@ -223,10 +212,8 @@ def trace_pixels(scene, pixels, *, variant: str | None = None, max_depth: int | 
             raise WhittedError(f"pixel ({x}, {y}) is outside the {width}x{height} image "
                                f"(x from 0 to {width - 1}, y from 0 to {height - 1})")
     check_article_materials(scene)
-    integrator = whitted_integrator(
-        scene, max_depth=None if max_depth is None else int(max_depth), lighting=lighting,
-        ambient=None if ambient is None else float(ambient),
-        min_weight=None if min_weight is None else float(min_weight))
+    integrator = whitted_integrator(scene, max_depth=max_depth, lighting=lighting, ambient=ambient,
+                                    min_weight=min_weight)
     from .record import Recorder
     recorder = Recorder()
     unique = list(dict.fromkeys(pixels))
