@@ -10,11 +10,14 @@ The exit status is 1 when an acceptance target (``TARGET_DEPTH``, ``TARGET_DIREC
 from __future__ import annotations
 
 import argparse
+import gc
 import json
+import math
+import statistics
 import sys
 import tempfile
 import time
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import drjit as dr
@@ -22,15 +25,20 @@ import mitsuba as mi
 import numpy as np
 
 import whitted  # (selects the variant, registers the plugins)
+from whitted.compare.timing import interleaved, median
+from whitted.rendering import Clock
 
 from . import floor, scenes, sections
 from .machine import machine
 from .tables import Table, mib, ms
-from .timing import NOISY, measure, peak_memory
 
 #: acceptance targets (ratios of median times)
 TARGET_DEPTH = 1.15
 TARGET_DIRECT = 1.25
+#: an interquartile range above this fraction of the median (and above the jitter of a
+#: millisecond render, ``JITTER`` seconds) means the machine was busy
+NOISY = 0.10
+JITTER = 0.5e-3
 
 FULL = {"rounds": 11, "counts": (10, 100, 1000, 10_000), "count_rounds": 5, "big_rounds": 3,
         "resolutions": ((256, 192), (512, 384), (1024, 768), (2048, 1536)), "spps": (1, 4, 16, 64)}
@@ -47,6 +55,67 @@ def renderer(scene, integrator, spp: int):
     return run
 
 
+def clocked(run, fresh_memory: bool = False) -> Clock:
+    """``run()`` to its end on the clock of ``whitted compare``'s renders: its seconds are
+    wall seconds without kernel compilation."""
+    with Clock(fresh_memory=fresh_memory) as clock:
+        run()
+        dr.sync_thread()
+    return clock
+
+
+@dataclass
+class Timing:
+    median: float            # seconds
+    q1: float
+    q3: float
+    compile_seconds: float   # compilation left in a run after warm-up (should be 0)
+    times: list              # seconds, one per round
+
+    @classmethod
+    def of(cls, clocks: list[Clock]) -> "Timing":
+        times = [c.seconds for c in clocks]
+        q = statistics.quantiles(times, n=4) if len(times) > 1 else times * 3
+        return cls(statistics.median(times), q[0], q[2], max(c.compile for c in clocks), times)
+
+    def spread(self) -> str:
+        """The interquartile range relative to the median, e.g. '±3%'."""
+        return f"±{50 * (self.q3 - self.q1) / self.median:.0f}%" if self.median else "-"
+
+    def noisy(self) -> bool:
+        return self.q3 - self.q1 > max(NOISY * self.median, JITTER)
+
+    def over(self, other: "Timing") -> float:
+        """This contender's time over ``other``'s: the median of their per-round ratios."""
+        return median(a / b for a, b in zip(self.times, other.times))
+
+
+def measure(contenders: dict, rounds: int, warmup: int = 2, min_seconds: float = 0.5,
+            max_rounds: int = 200) -> dict[str, Timing]:
+    """Each contender timed in at least ``rounds`` interleaved rounds after ``warmup`` runs,
+    in more (up to ``max_rounds``) until they take about ``min_seconds``: a millisecond
+    render timed five times says little on a shared machine."""
+    for _ in range(warmup):
+        one_round = sum(clocked(run).wall for run in contenders.values())
+    rounds = max(rounds, min(max_rounds, math.ceil(min_seconds / max(one_round, 1e-6))))
+    clocks = {name: [] for name in contenders}
+    gc.collect()
+    gc.disable()
+    try:
+        for r in range(rounds):
+            for name in interleaved(list(contenders), r):
+                clocks[name].append(clocked(contenders[name]))
+    finally:
+        gc.enable()
+    return {name: Timing.of(c) for name, c in clocks.items()}
+
+
+def peak_memory(run) -> int:
+    """Dr.Jit's high-water mark of allocated bytes during ``run()``: every array it holds, not
+    Embree's acceleration structure or Python's heap."""
+    return clocked(run, fresh_memory=True).peak_memory
+
+
 def _rays(r) -> str:
     return f"{r.camera}/{r.shadow}/{r.reflection}/{r.refraction}"
 
@@ -61,7 +130,7 @@ class Bench:
         self.noisy: list[str] = []   # contenders whose times spread widely
 
     def measure(self, contenders: dict, rounds: int, label: str = "") -> dict:
-        """:func:`timing.measure`, remembering which contenders ran on a busy machine."""
+        """:func:`measure`, remembering which contenders ran on a busy machine."""
         timing = measure(contenders, rounds)
         self.noisy += [f"{label}{name}" for name, t in timing.items() if t.noisy()]
         return timing
@@ -193,45 +262,32 @@ class Bench:
     # -- 4 and 5: effects and adaptive depth ----------------------------------------------------------
 
     def effects(self):
-        width, height, spp = 512, 384, 4
-        model = scenes.every_effect(scenes.write_texture(self.folder / "checker.png"), width, height, spp)
-        variants = {"every effect": model, **{f"without {e}": scenes.without(model, e) for e in scenes.EFFECTS}}
-        loaded = {name: (scenes.load(m), scenes.load_whitted(m)) for name, m in variants.items()}
-        timing = self.measure({name: renderer(s, i, spp) for name, (s, i) in loaded.items()}, self.s["rounds"])
-        full = timing["every effect"]
-        table = Table(f"With and without each effect ({width}×{height}, {spp} spp, max depth {model.depth})",
-                      ["scene", "median ms", "spread", "every effect / this", "effects",
-                       "rays (cam/shadow/refl/refr)"])
-        self.data["effects"] = {}
-        for name, (scene, integrator) in loaded.items():
-            rendering = integrator.render_detailed(scene, spp=spp)
-            r = rendering.rays
-            t = timing[name]
-            table.add(name, ms(t.median), t.spread(), full.over(t), " ".join(rendering.effects) or "none",
-                      _rays(r))
-            self.data["effects"][name] = {**vars(t), "rays": r.rays(), "effects": list(rendering.effects)}
-        self.show(table)
-
-    def left_out(self):
-        """The every-effect scene with each effect left out by ``whitted render --without``."""
+        """The every-effect scene without each effect: taken out of the scene, and left out by
+        ``whitted render --without``."""
         from whitted.defaults import SWITCHABLE_EFFECTS
         width, height, spp = 512, 384, 4
         model = scenes.every_effect(scenes.write_texture(self.folder / "checker.png"), width, height, spp)
         scene = scenes.load(model)
-        integrators = {"every effect": scenes.load_whitted(model),
-                       **{f"--without {e}": scenes.load_whitted(model, without=e) for e in SWITCHABLE_EFFECTS}}
-        timing = self.measure({name: renderer(scene, i, spp) for name, i in integrators.items()},
-                              self.s["rounds"])
+        loaded = {"every effect": (scene, scenes.load_whitted(model))}
+        for effect in scenes.EFFECTS:
+            changed = scenes.without(model, effect)
+            loaded[f"without {effect}"] = scenes.load(changed), scenes.load_whitted(changed)
+        for effect in SWITCHABLE_EFFECTS:
+            loaded[f"--without {effect}"] = scene, scenes.load_whitted(model, without=effect)
+        timing = self.measure({name: renderer(s, i, spp) for name, (s, i) in loaded.items()}, self.s["rounds"])
         full = timing["every effect"]
-        table = Table(f"Each effect left out by --without ({width}×{height}, {spp} spp, max depth "
-                      f"{model.depth})", ["render", "median ms", "spread", "this / every effect",
-                                          "rays (cam/shadow/refl/refr)"])
-        self.data["left_out"] = {}
-        for name, integrator in integrators.items():
-            r = integrator.render_detailed(scene, spp=spp).rays
+        table = Table(f"Each effect taken out of the scene, or left out by --without ({width}×{height}, "
+                      f"{spp} spp, max depth {model.depth})",
+                      ["render", "median ms", "spread", "this / every effect", "effects",
+                       "rays (cam/shadow/refl/refr)"])
+        self.data["effects"] = {}
+        for name, (scene, integrator) in loaded.items():
+            rendering = integrator.render_detailed(scene, spp=spp)
             t = timing[name]
-            table.add(name, ms(t.median), t.spread(), t.over(full), _rays(r))
-            self.data["left_out"][name] = {**vars(t), "rays": r.rays(), "over_full": t.over(full)}
+            table.add(name, ms(t.median), t.spread(), t.over(full), " ".join(rendering.effects) or "none",
+                      _rays(rendering.rays))
+            self.data["effects"][name] = {**vars(t), "rays": rendering.rays.rays(),
+                                          "effects": list(rendering.effects), "over_full": t.over(full)}
         self.show(table)
 
     def adaptive(self):
@@ -261,14 +317,28 @@ class Bench:
 
 
 #: the sections of a run, in order (``--only``)
-SECTIONS = ("against_direct_and_floor", "depth", "scaling", "effects", "left_out", "adaptive")
+SECTIONS = ("against_direct_and_floor", "depth", "scaling", "effects", "adaptive")
 
 #: the prose of RESULTS.md between the acceptance table and the results: how to reproduce, what
 #: is compared
 NOTES = Path(__file__).with_name("run_notes.md")
 
 
-def markdown(bench: Bench, info: dict, mode: str, seconds: float) -> str:
+def acceptance(summary: dict) -> tuple[Table, list[str]]:
+    """The acceptance table, and the ratios that missed their target."""
+    rows = [("depth 16 / depth 1", "(diffuse, 1024×768, 4 spp)", TARGET_DEPTH, ""),
+            ("whitted / direct", "(same rays)", TARGET_DIRECT, " (stretch: < 1)"),
+            ("whitted (article) / direct", "(article lighting)", None, ""),
+            ("whitted / floor", "(the ray-casting floor)", None, "(information)")]
+    table = Table("Acceptance (ratios of median times)", ["ratio", "measured", "target"])
+    missed = [name for name, _, target, _ in rows if target and summary[name] > target]
+    for name, what, target, note in rows:
+        verdict = f"≤ {target}: {'MISSED' if name in missed else 'met'}" if target else ""
+        table.add(f"{name} {what}", f"{summary[name]:.3f}", verdict + note)
+    return table, missed
+
+
+def markdown(bench: Bench, info: dict, mode: str, seconds: float, accepted: Table) -> str:
     lines = ["# Benchmark results", "",
              f"Measured on {info['date']}: {info['cpu']}, {info['cores']} cores "
              f"({info['drjit_threads']} Dr.Jit threads), variant {info['variant']}, Mitsuba {info['mitsuba']}, "
@@ -278,15 +348,7 @@ def markdown(bench: Bench, info: dict, mode: str, seconds: float) -> str:
              *([f"Another process loaded the machine during the run: the times of {len(bench.noisy)} "
                 f"contenders spread over ±{50 * NOISY:.0f}% (see the spread columns); the ratios, "
                 f"paired per round, are less affected.", ""] if bench.noisy else []),
-             "## Acceptance", "",
-             "| ratio | measured | target |", "|---|---|---|",
-             f"| depth 16 / depth 1 (diffuse, 1024×768, 4 spp) | {bench.summary['depth 16 / depth 1']:.3f} "
-             f"| ≤ {TARGET_DEPTH} |",
-             f"| Whitted / Mitsuba `direct` (same rays) | {bench.summary['whitted / direct']:.3f} "
-             f"| ≤ {TARGET_DIRECT} (stretch: < 1) |",
-             f"| Whitted (article lighting) / `direct` | {bench.summary['whitted (article) / direct']:.3f} | |",
-             f"| Whitted / ray-casting floor | {bench.summary['whitted / floor']:.3f} | (information) |",
-             "", NOTES.read_text(), "## Results", ""]
+             accepted.markdown(), "", NOTES.read_text(), "## Results", ""]
     for table in bench.tables:
         lines += [table.markdown(), ""]
     return "\n".join(lines)
@@ -315,13 +377,8 @@ def main(argv=None) -> int:
             return 0
     seconds = time.perf_counter() - start
 
-    print("\n== Acceptance (ratios of median times)")
-    checks = [("depth 16 / depth 1", TARGET_DEPTH), ("whitted / direct", TARGET_DIRECT)]
-    missed = [name for name, target in checks if bench.summary[name] > target]
-    for name, target in checks:
-        value = bench.summary[name]
-        print(f"{name:28s} {value:6.3f}   target <= {target}: {'MISSED' if name in missed else 'met'}")
-    print(f"{'whitted / floor':28s} {bench.summary['whitted / floor']:6.3f}   (information)")
+    accepted, missed = acceptance(bench.summary)
+    print(accepted.text())
     print(f"total {seconds:.0f} s")
     if bench.noisy:
         print(f"warning: the machine was busy (times spread over ±{50 * NOISY:.0f}% for "
@@ -332,7 +389,7 @@ def main(argv=None) -> int:
         # Keep the sections other benchmarks own in the same file (sections.py).
         path = Path(args.markdown)
         others = sections.marked(path.read_text()) if path.exists() else []
-        path.write_text("\n".join([markdown(bench, info, "quick" if args.quick else "full", seconds),
+        path.write_text("\n".join([markdown(bench, info, "quick" if args.quick else "full", seconds, accepted),
                                    *others]))
     if args.json:
         Path(args.json).write_text(json.dumps({"machine": info, "summary": bench.summary, **bench.data},

@@ -22,7 +22,7 @@ import numpy as np
 
 from whitted.converter.scene import Light, Material, Scene, Sphere, Vec3
 
-from .scenes import number, to_scn
+from .scenes import to_scn
 
 #: the levels written here (0 is a lone sphere; 6 holds 597 871 spheres)
 LEVELS = range(0, 7)
@@ -149,7 +149,7 @@ def scene(level: int, floor_radius: float = FLOOR_RADIUS) -> Scene:
 
 
 def title(level: int, floor_radius: float = FLOOR_RADIUS) -> str:
-    floor_text = "" if floor_radius == FLOOR_RADIUS else f" of radius {number(floor_radius)}"
+    floor_text = "" if floor_radius == FLOOR_RADIUS else f" of radius {floor_radius:g}"
     return (f"Eric Haines' sphereflake (SPD 'balls'), level {level}: {count(level)} spheres "
             f"and a floor sphere{floor_text}; benchmarks/sphereflake.py")
 
@@ -166,7 +166,7 @@ def main(argv=None) -> int:
                         help=f"recursion level ({LEVELS.start}…{LEVELS.stop - 1})")
     parser.add_argument("--floor-radius", type=float, default=FLOOR_RADIUS, metavar="R",
                         help=f"the floor sphere's radius, its top {FLOOR_HEIGHT} below the flake's center "
-                             f"(default {number(FLOOR_RADIUS)})")
+                             f"(default {FLOOR_RADIUS:g})")
     parser.add_argument("-o", "--output", required=True, metavar="FILE.scn", help="the scene file to write")
     args = parser.parse_args(argv)
     if not args.floor_radius > 0:

@@ -211,7 +211,7 @@ def bench_read(level: int, runs: int, rows: list[Row], folder: Path, timeout: fl
             row.convert.add(run.wall_seconds, None, run.peak_rss)
         else:
             row.convert.failure = run.failure() + (f": {run.stderr.strip()[-200:]}" if not run.timed_out else "")
-    row.parse_cpu = parse_speed.fast_seconds(text)
+    row.parse_cpu = parse_speed.cpu_seconds(text)
     del text
     pov = f", POV-Ray parse {_median(render.pov_parse):.2f} s" if render and render.pov_parse else ""
     convert = (f"whitted convert {_median(row.convert.wall):.2f} s ({_median(row.convert.rss) / MIB:.0f} MiB)"
