@@ -1,32 +1,38 @@
 """Numbers and tables as the benchmarks print and record them (text and Markdown).
 
-A missing number (a run that failed or was left out) is a dash in every format.
+A missing number (None or NaN: a run that failed or was left out) is a dash in every format.
 """
 
 from __future__ import annotations
+
+import math
 
 DASH = "—"
 MIB = 2 ** 20
 
 
+def _missing(*values) -> bool:
+    return any(x is None or math.isnan(x) for x in values)
+
+
 def ms(seconds: float | None) -> str:
     """Milliseconds, one decimal."""
-    return DASH if seconds is None else f"{1000 * seconds:.1f}"
+    return DASH if _missing(seconds) else f"{1000 * seconds:.1f}"
 
 
 def seconds(x: float | None) -> str:
     """Seconds: three decimals below 10 s, one above."""
-    return DASH if x is None else f"{x:.3f}" if x < 10 else f"{x:.1f}"
+    return DASH if _missing(x) else f"{x:.3f}" if x < 10 else f"{x:.1f}"
 
 
 def mib(n: float | None, decimals: int = 1) -> str:
     """Bytes in MiB."""
-    return DASH if n is None else f"{n / MIB:.{decimals}f}"
+    return DASH if _missing(n) else f"{n / MIB:.{decimals}f}"
 
 
 def ratio(a: float | None, b: float | None) -> str:
     """``a / b``, two decimals."""
-    return DASH if a is None or b is None or b == 0 else f"{a / b:.2f}"
+    return DASH if _missing(a, b) or b == 0 else f"{a / b:.2f}"
 
 
 def cell(value) -> str:
