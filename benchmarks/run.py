@@ -139,7 +139,7 @@ class Bench:
         self.tables.append(table)
         print(table.text(), flush=True)
 
-    # -- 1 and 2: the acceptance scene ---------------------------------------------------------------
+    # -- 1: the acceptance scene -------------------------------------------------------------------
 
     def against_direct_and_floor(self):
         width, height, spp = 1024, 768, 4
@@ -150,6 +150,8 @@ class Bench:
         contenders = {
             "whitted (physical lighting)": renderer(scene, physical, spp),
             "whitted (article lighting)": renderer(scene, scenes.load_whitted(model), spp),
+            "whitted (article lighting), max depth 16": renderer(scene, scenes.load_whitted(model, max_depth=16),
+                                                                 spp),
             "Mitsuba direct": renderer(scene_direct, scenes.direct_integrator(), spp),
             **{f"floor: {h} + ray_test": floor.RayCastingFloor(scene, light, spp, h)
                for h in floor.HIT_FINDERS},
@@ -182,27 +184,13 @@ class Bench:
         self.summary["whitted / direct"] = best_whitted.over(direct)
         self.summary["whitted (article) / direct"] = timing["whitted (article lighting)"].over(direct)
         self.summary["whitted / floor"] = best_whitted.over(floor_time)
+        self.summary["depth 16 / depth 1"] = timing["whitted (article lighting), max depth 16"].over(
+            timing["whitted (article lighting)"])
         self.data["direct"] = {n: vars(t) for n, t in timing.items()}
         self.data["direct"]["same_image_mean_ratio"] = float(ours / theirs)
         self.data["direct"]["shadow_rays"] = {"whitted": rays.shadow, "floor": floor_shadow, "direct": hits}
 
-    def depth(self):
-        width, height, spp = 1024, 768, 4
-        model = scenes.diffuse_spheres(10, width, height, spp)
-        scene = scenes.load(model)
-        contenders = {f"depth {d}": renderer(scene, scenes.load_whitted(model, max_depth=d), spp)
-                      for d in (1, 16)}
-        timing = self.measure(contenders, self.s["rounds"])
-        ratio = timing["depth 16"].over(timing["depth 1"])
-        table = Table(f"Depth 16 vs depth 1 on a diffuse scene ({width}×{height}, {spp} spp)",
-                      ["max depth", "median ms", "spread", "vs depth 1"])
-        for name, t in timing.items():
-            table.add(name, ms(t.median), t.spread(), t.over(timing["depth 1"]))
-        self.show(table)
-        self.summary["depth 16 / depth 1"] = ratio
-        self.data["depth"] = {n: vars(t) for n, t in timing.items()}
-
-    # -- 3: scaling ------------------------------------------------------------------------------
+    # -- 2: scaling ----------------------------------------------------------------------------------
 
     def _whitted_and_direct(self, model, rounds, memory=True):
         label = f"{len(model.spheres)} spheres {model.width}×{model.height} {model.samples} spp "
@@ -259,7 +247,7 @@ class Bench:
             self.data["spp"][spp] = row(table, spp, scenes.diffuse_spheres(10, 512, 384, spp), rounds)
         self.show(table)
 
-    # -- 4 and 5: effects and adaptive depth ----------------------------------------------------------
+    # -- 3 and 4: effects and adaptive depth ----------------------------------------------------------
 
     def effects(self):
         """The every-effect scene without each effect: taken out of the scene, and left out by
@@ -317,7 +305,7 @@ class Bench:
 
 
 #: the sections of a run, in order (``--only``)
-SECTIONS = ("against_direct_and_floor", "depth", "scaling", "effects", "adaptive")
+SECTIONS = ("against_direct_and_floor", "scaling", "effects", "adaptive")
 
 #: the prose of RESULTS.md between the acceptance table and the results: how to reproduce, what
 #: is compared

@@ -8,12 +8,14 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
-_SECTION = re.compile(r"<!-- begin ([\w-]+) -->\n.*?<!-- end \1 -->\n?", re.S)
+
+def _pattern(name: str = r"[\w-]+") -> re.Pattern:
+    return re.compile(rf"<!-- begin ({name}) -->\n.*?<!-- end \1 -->\n?", re.S)
 
 
 def marked(text: str) -> list[str]:
     """Every marked section of ``text``, markers included, in order."""
-    return [m.group(0).rstrip("\n") + "\n" for m in _SECTION.finditer(text)]
+    return [m.group(0).rstrip("\n") + "\n" for m in _pattern().finditer(text)]
 
 
 def replace(path: str | Path, name: str, body: str) -> None:
@@ -21,9 +23,7 @@ def replace(path: str | Path, name: str, body: str) -> None:
     path = Path(path)
     text = path.read_text() if path.exists() else ""
     section = f"<!-- begin {name} -->\n{body.rstrip()}\n<!-- end {name} -->\n"
-    pattern = re.compile(rf"<!-- begin {re.escape(name)} -->\n.*?<!-- end {re.escape(name)} -->\n?", re.S)
-    if pattern.search(text):
-        text = pattern.sub(lambda _: section, text, count=1)
-    else:
+    text, found = _pattern(re.escape(name)).subn(lambda _: section, text, count=1)
+    if not found:
         text = text.rstrip("\n") + "\n\n" + section if text else section
     path.write_text(text)

@@ -40,18 +40,6 @@ def cell(value) -> str:
     return value if isinstance(value, str) else f"{value:.3g}" if isinstance(value, float) else str(value)
 
 
-def text_table(columns: list[str], cells: list[list[str]]) -> str:
-    """Columns padded to their widest cell, two spaces apart."""
-    cells = [columns] + cells
-    widths = [max(len(c[i]) for c in cells) for i in range(len(columns))]
-    return "\n".join("  ".join(c.ljust(w) for c, w in zip(row, widths)).rstrip() for row in cells)
-
-
-def markdown_table(columns: list[str], cells: list[list[str]]) -> str:
-    lines = ["| " + " | ".join(columns) + " |", "|" + "---|" * len(columns)]
-    return "\n".join(lines + ["| " + " | ".join(r) + " |" for r in cells])
-
-
 class Table:
     """A titled table of results, with a note under it, printed as text and recorded as Markdown."""
 
@@ -62,9 +50,13 @@ class Table:
         self.rows.append([cell(c) for c in cells])
 
     def text(self) -> str:
-        return "\n".join([f"\n== {self.title}", text_table(self.columns, self.rows)]
-                         + ([self.note] if self.note else []))
+        """Columns padded to their widest cell, two spaces apart."""
+        rows = [self.columns] + self.rows
+        widths = [max(len(row[i]) for row in rows) for i in range(len(self.columns))]
+        lines = ["  ".join(c.ljust(w) for c, w in zip(row, widths)).rstrip() for row in rows]
+        return "\n".join([f"\n== {self.title}", *lines] + ([self.note] if self.note else []))
 
     def markdown(self) -> str:
-        return "\n".join([f"### {self.title}", "", markdown_table(self.columns, self.rows)]
-                         + (["", self.note] if self.note else []))
+        lines = ["| " + " | ".join(row) + " |" for row in [self.columns] + self.rows]
+        lines.insert(1, "|" + "---|" * len(self.columns))
+        return "\n".join([f"### {self.title}", "", *lines] + (["", self.note] if self.note else []))

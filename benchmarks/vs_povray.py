@@ -72,7 +72,6 @@ class Row:
     level: int
     floor: float
     spheres: int
-    runs: int = 0
     whitted: Runs = field(default_factory=Runs)
     pov: Runs = field(default_factory=Runs)
     path: Runs = field(default_factory=Runs)        # whitted render --integrator path --spp 1
@@ -95,7 +94,6 @@ class ReadRow:
     """Reading one level's scene: ``whitted convert`` against POV-Ray's Parse Time."""
     level: int
     spheres: int
-    lines: int
     megabytes: float
     convert: Runs = field(default_factory=Runs)
     parse_cpu: float | None = None      # whitted's parse_text alone, CPU s, in this process
@@ -151,7 +149,7 @@ def bench_level(level: int, floor: float, runs: int, folder: Path, pov_exe: str 
     pov = folder / f"{name}.pov"
     pov.write_text(povray.scene_to_pov(model))
     width, height = model.width, model.height
-    row = Row(level, floor, len(model.spheres), runs, scn=scn,
+    row = Row(level, floor, len(model.spheres), scn=scn,
               whitted=Runs(failure="" if "whitted" in programs else "not run"),
               path=Runs(failure="" if "path" in programs else "not run"),
               pov=Runs(failure=("" if "povray" in programs else "not run") if pov_exe else pov_missing))
@@ -197,7 +195,7 @@ def bench_read(level: int, runs: int, rows: list[Row], folder: Path, timeout: fl
     render = next((r for r in rows if r.level == level and r.floor == sphereflake.FLOOR_RADIUS), None)
     scn = render.scn if render else sphereflake.write(level, folder / f"flake{level}-read.scn")
     text = scn.read_text()
-    row = ReadRow(level, sphereflake.count(level) + 1, text.count("\n"), len(text.encode()) / 1e6, pov=render)
+    row = ReadRow(level, sphereflake.count(level) + 1, len(text.encode()) / 1e6, pov=render)
     for run in parse_speed.convert(scn, folder / f"flake{level}.xml", runs, timeout):
         if run.ok:
             row.convert.add(run.wall_seconds, math.nan, run.peak_rss)
