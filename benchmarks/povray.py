@@ -8,12 +8,8 @@ reflected color to the local one), ``transmit KT`` with ``interior { ior IOR }``
 ``max_trace_level`` the depth with ``adc_bailout 0`` (whitted's ``--min-weight 0``), one ray
 per pixel; ``right -x·W/H`` turns its left-handed frame into the scene format's. POV-Ray 3.7
 refuses every option without ``~/.povray/3.7/povray.conf``: :func:`run` gives it a private
-home with an empty one.
-
-Usage::
-
-    python -m benchmarks.povray --install          # install Debian's povray when root
-    python -m benchmarks.povray SCENE.scn -o SCENE.pov
+home with an empty one. ``python -m benchmarks.povray --install`` installs Debian's povray
+(``make povray``).
 """
 
 from __future__ import annotations
@@ -28,7 +24,6 @@ import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
-from whitted.converter import parse_file
 from whitted.converter.scene import Scene
 
 from . import process
@@ -174,18 +169,11 @@ def run(exe: str, pov: Path, image: Path, width: int, height: int, threads: int 
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description="Write a .scn scene for POV-Ray 3.7, or install POV-Ray.")
-    parser.add_argument("scene", nargs="?", help="the .scn scene")
-    parser.add_argument("-o", "--output", metavar="FILE.pov", help="the POV-Ray scene to write")
-    parser.add_argument("--install", action="store_true",
+    parser = argparse.ArgumentParser(description="Install POV-Ray 3.7 for the benchmarks.")
+    parser.add_argument("--install", action="store_true", required=True,
                         help="install Debian's povray when missing and allowed (make bench)")
-    args = parser.parse_args(argv)
-    if args.install:
-        ensure_povray()
-        return 0
-    if not (args.scene and args.output):
-        parser.error("give SCENE.scn -o FILE.pov, or --install")
-    Path(args.output).write_text(scene_to_pov(parse_file(args.scene)))
+    parser.parse_args(argv)
+    ensure_povray()
     return 0
 
 
