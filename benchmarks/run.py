@@ -204,48 +204,35 @@ class Bench:
 
     def scaling(self):
         columns = ["whitted ms", "ns/sample", "direct ms", "whitted / direct", "whitted MiB", "direct MiB"]
-
-        def row(table, label, model, rounds, *extra):
-            timing, memory, memory_direct = self._whitted_and_direct(model, rounds)
-            w, d = timing["whitted"], timing["direct"]
-            samples = model.width * model.height * model.samples
-            table.add(label, ms(w.median), f"{1e9 * w.median / samples:.1f}", ms(d.median), w.over(d),
-                      mib(memory), mib(memory_direct), *extra)
-            return {"whitted": vars(timing["whitted"]), "direct": vars(timing["direct"]),
-                    "whitted_peak_bytes": memory, "direct_peak_bytes": memory_direct}
-
-        table = Table("Cost against sphere count (512×384, 4 spp, 1 light)",
-                      ["spheres", *columns, "fixed ms: whitted / direct"],
-                      note="Peak memory: Dr.Jit's allocations during the render (scene arrays, "
-                           "wavefronts, image), not Embree's BVH. Fixed: the same scene rendered "
-                           "at 1×1 pixel and 1 spp, the cost of a render that does not grow with its "
-                           "samples (Whitted: reading the scene's materials and building its sphere "
-                           "table in Python; direct: tracing a call per shape instance).")
-        self.data["spheres"] = {}
-        for count in self.s["counts"]:
-            rounds = self.s["big_rounds"] if count >= 10_000 else self.s["count_rounds"]
-            model = scenes.diffuse_spheres(count, 512, 384, 4)
-            fixed, _, _ = self._whitted_and_direct(replace(model, width=1, height=1, samples=1), rounds,
-                                                   memory=False)
-            self.data["spheres"][count] = row(table, count, model, rounds,
-                                              f"{ms(fixed['whitted'].median)} / {ms(fixed['direct'].median)}")
-            self.data["spheres"][count]["fixed"] = {n: vars(t) for n, t in fixed.items()}
-        self.show(table)
-
-        table = Table("Cost against resolution (10 spheres, 4 spp)", ["resolution", *columns])
-        self.data["resolution"] = {}
-        for width, height in self.s["resolutions"]:
-            rounds = self.s["big_rounds"] if width * height > 10**6 else self.s["count_rounds"]
-            self.data["resolution"][f"{width}x{height}"] = row(
-                table, f"{width}×{height}", scenes.diffuse_spheres(10, width, height, 4), rounds)
-        self.show(table)
-
-        table = Table("Cost against samples per pixel (10 spheres, 512×384)", ["spp", *columns])
-        self.data["spp"] = {}
-        for spp in self.s["spps"]:
-            rounds = self.s["big_rounds"] if spp > 16 else self.s["count_rounds"]
-            self.data["spp"][spp] = row(table, spp, scenes.diffuse_spheres(10, 512, 384, spp), rounds)
-        self.show(table)
+        s = self.s
+        tables = [("spheres", "Cost against sphere count (512×384, 4 spp, 1 light)",
+                   [(n, scenes.diffuse_spheres(n, 512, 384, 4), n >= 10_000) for n in s["counts"]]),
+                  ("resolution", "Cost against resolution (10 spheres, 4 spp)",
+                   [(f"{w}×{h}", scenes.diffuse_spheres(10, w, h, 4), w * h > 10**6) for w, h in s["resolutions"]]),
+                  ("spp", "Cost against samples per pixel (10 spheres, 512×384)",
+                   [(n, scenes.diffuse_spheres(10, 512, 384, n), n > 16) for n in s["spps"]])]
+        for key, title, rows in tables:
+            fixed = key == "spheres"     # with the cost of a render that does not grow with its samples
+            table = Table(title, [key, *columns, *(["fixed ms: whitted / direct"] if fixed else [])],
+                          note=FIXED_NOTE if fixed else "")
+            self.data[key] = {}
+            for label, model, big in rows:
+                rounds = s["big_rounds"] if big else s["count_rounds"]
+                data = self.data[key][label] = {}
+                extra = []
+                if fixed:
+                    small = replace(model, width=1, height=1, samples=1)
+                    timing = self._whitted_and_direct(small, rounds, memory=False)[0]
+                    data["fixed"] = {n: vars(t) for n, t in timing.items()}
+                    extra.append(f"{ms(timing['whitted'].median)} / {ms(timing['direct'].median)}")
+                timing, memory, memory_direct = self._whitted_and_direct(model, rounds)
+                w, d = timing["whitted"], timing["direct"]
+                samples = model.width * model.height * model.samples
+                table.add(label, ms(w.median), f"{1e9 * w.median / samples:.1f}", ms(d.median), w.over(d),
+                          mib(memory), mib(memory_direct), *extra)
+                data.update({"whitted": vars(w), "direct": vars(d), "whitted_peak_bytes": memory,
+                             "direct_peak_bytes": memory_direct})
+            self.show(table)
 
     # -- 3 and 4: effects and adaptive depth ----------------------------------------------------------
 
@@ -303,6 +290,12 @@ class Bench:
                                         "depth": rays.max_depth_reached, "mean_abs_error": error}
         self.show(table)
 
+
+#: the note under the sphere-count table
+FIXED_NOTE = ("Peak memory: Dr.Jit's allocations during the render (scene arrays, wavefronts, image), not "
+              "Embree's BVH. Fixed: the same scene rendered at 1×1 pixel and 1 spp, the cost of a render "
+              "that does not grow with its samples (Whitted: reading the scene's materials and building "
+              "its sphere table in Python; direct: tracing a call per shape instance).")
 
 #: the sections of a run, in order (``--only``)
 SECTIONS = ("against_direct_and_floor", "scaling", "effects", "adaptive")

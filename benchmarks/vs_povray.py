@@ -310,15 +310,6 @@ def plot(rows: list[Row], path: Path, title: str) -> None:
     plt.close(fig)
 
 
-def _runs_note(runs: dict[int, int]) -> str:
-    """How many runs each level's medians are of, e.g. 'runs per floor: 5 at levels 1, 2; 1 at level 6'."""
-    by_count: dict[int, list[str]] = {}
-    for level, n in sorted(runs.items()):
-        by_count.setdefault(n, []).append(str(level))
-    return "runs per floor: " + "; ".join(f"{n} at level{'s' if len(levels) > 1 else ''} {', '.join(levels)}"
-                                          for n, levels in sorted(by_count.items(), reverse=True))
-
-
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--quick", action="store_true", help="levels 1-3 on both floors, one run each")
@@ -367,9 +358,8 @@ def main(argv=None) -> int:
     load = max(load, os.getloadavg()[0])
     failed = failures(rows, reads, pov_missing)
 
-    tables = [render_table(rows, f"whitted vs POV-Ray 3.7, sphereflake 512×512, depth 5, 1 ray per pixel, "
-                                 f"adaptive depth off; {_runs_note(runs)}; a run is killed after "
-                                 f"{timeout or math.inf:g} s"), path_table(rows), read_table(reads)]
+    tables = [render_table(rows, "whitted vs POV-Ray 3.7, sphereflake 512×512, depth 5, 1 ray per pixel, "
+                                 "adaptive depth off"), path_table(rows), read_table(reads)]
     tables = [table for table in tables if table.rows]
     for table in tables:
         print(table.text())
