@@ -8,18 +8,15 @@ reflected color to the local one), ``transmit KT`` with ``interior { ior IOR }``
 ``max_trace_level`` the depth with ``adc_bailout 0`` (whitted's ``--min-weight 0``), one ray
 per pixel; ``right -x·W/H`` turns its left-handed frame into the scene format's. POV-Ray 3.7
 refuses every option without ``~/.povray/3.7/povray.conf``: :func:`run` gives it a private
-home with an empty one. ``python -m benchmarks.povray --install`` installs Debian's povray
-(``make povray``).
+home with an empty one. ``make povray`` installs Debian's povray.
 """
 
 from __future__ import annotations
 
-import argparse
 import os
 import re
 import shutil
 import subprocess
-import sys
 import tempfile
 from dataclasses import dataclass
 from pathlib import Path
@@ -94,28 +91,6 @@ def find() -> tuple[str | None, str]:
     return exe, ""
 
 
-def ensure_povray() -> None:
-    """Install Debian's ``povray`` when it is missing and this user may (root, or sudo without
-    a password; not with ``$WHITTED_NO_APT``), like ``make llvm``; else say why not."""
-    if shutil.which("povray"):
-        return
-    apt = shutil.which("apt-get")
-    prefix: list[str] | None = []
-    if os.geteuid() != 0:
-        sudo = shutil.which("sudo")
-        ok = sudo and subprocess.run([sudo, "-n", "true"], capture_output=True).returncode == 0
-        prefix = [sudo, "-n"] if ok else None
-    if apt and prefix is not None and not os.environ.get("WHITTED_NO_APT"):
-        env = {**os.environ, "DEBIAN_FRONTEND": "noninteractive"}
-        print("make bench: installing POV-Ray (apt-get install povray)", file=sys.stderr)
-        subprocess.run(prefix + [apt, "-qq", "update"], env=env, check=False, capture_output=True)
-        subprocess.run(prefix + [apt, "-qq", "install", "-y", "povray"], env=env, check=False,
-                       capture_output=True)
-    if not shutil.which("povray"):
-        print("make bench: POV-Ray is not installed and cannot be installed here (needs apt-get "
-              "and root); the benchmark's POV-Ray rows will say so", file=sys.stderr)
-
-
 def _env(home: Path) -> dict:
     """A private home with the ``.povray/3.7/povray.conf`` POV-Ray 3.7 needs."""
     (home / ".povray" / "3.7").mkdir(parents=True, exist_ok=True)
@@ -166,16 +141,3 @@ def run(exe: str, pov: Path, image: Path, width: int, height: int, threads: int 
     return PovRun(result.wall_seconds, float(trace.group(1)), seconds("Parse Time"),
                   count("Shadow Ray Tests"), count("Reflected Rays"), result.peak_rss,
                   seconds("Bounding Time"))
-
-
-def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description="Install POV-Ray 3.7 for the benchmarks.")
-    parser.add_argument("--install", action="store_true", required=True,
-                        help="install Debian's povray when missing and allowed (make bench)")
-    parser.parse_args(argv)
-    ensure_povray()
-    return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())
