@@ -23,7 +23,7 @@ from pathlib import Path
 from whitted.compare.timing import median
 
 from . import povray, process
-from .tables import Table, ratio, seconds
+from .report import Table, ratio, seconds
 
 #: the targets: the folder run's time over POV-Ray's, and over the per-frame loop's
 TARGET_POVRAY, TARGET_LOOP = 0.5, 0.25

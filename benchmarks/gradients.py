@@ -19,7 +19,7 @@ import mitsuba as mi
 import whitted
 
 from .run import measure, peak_memory
-from .tables import Table, mib, ms
+from .report import Table, mib, ms
 
 REPO = Path(__file__).resolve().parent.parent
 

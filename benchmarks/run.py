@@ -28,9 +28,8 @@ import whitted  # (selects the variant, registers the plugins)
 from whitted.compare.timing import interleaved, median
 from whitted.rendering import Clock
 
-from . import floor, scenes, sections
-from .machine import machine
-from .tables import Table, mib, ms
+from . import floor, scenes
+from .report import Table, machine, marked_sections, mib, ms
 
 #: acceptance targets (ratios of median times)
 TARGET_DEPTH = 1.15
@@ -367,9 +366,9 @@ def main(argv=None) -> int:
               f"on a quiet machine")
 
     if args.markdown:
-        # Keep the sections other benchmarks own in the same file (sections.py).
+        # Keep the sections other benchmarks own in the same file.
         path = Path(args.markdown)
-        others = sections.marked(path.read_text()) if path.exists() else []
+        others = marked_sections(path.read_text()) if path.exists() else []
         path.write_text("\n".join([markdown(bench, info, "quick" if args.quick else "full", seconds, accepted),
                                    *others]))
     if args.json:

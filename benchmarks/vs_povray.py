@@ -22,9 +22,8 @@ from pathlib import Path
 
 from whitted.compare.timing import median
 
-from . import parse_speed, povray, process, sections, sphereflake
-from .machine import machine, summary
-from .tables import MIB, Table, mib, ratio, seconds
+from . import parse_speed, povray, process, sphereflake
+from .report import MIB, Table, machine, mib, ratio, replace_section, seconds, summary
 
 FLOORS = (1000.0, 10000.0)
 #: runs of each level and of reading it (``--quick``: levels 1-3, reading level 3, one run each)
@@ -196,11 +195,12 @@ def bench_read(level: int, runs: int, rows: list[Row], folder: Path, timeout: fl
     scn = render.scn if render else sphereflake.write(level, folder / f"flake{level}-read.scn")
     text = scn.read_text()
     row = ReadRow(level, sphereflake.count(level) + 1, len(text.encode()) / 1e6, pov=render)
-    for run in parse_speed.convert(scn, folder / f"flake{level}.xml", runs, timeout):
-        if run.ok:
-            row.convert.add(run.wall_seconds, math.nan, run.peak_rss)
-        else:
+    for _ in range(runs):
+        run = process.whitted("convert", scn, "-o", folder / f"flake{level}.xml", timeout=timeout)
+        if not run.ok:
             row.convert.failure = run.failure() + (f": {run.stderr.strip()[-200:]}" if not run.timed_out else "")
+            break
+        row.convert.add(run.wall_seconds, math.nan, run.peak_rss)
     row.parse_cpu = parse_speed.cpu_seconds(text)
     del text
     pov = f", POV-Ray parse {median(render.pov_parse):.2f} s" if render and render.pov_parse else ""
@@ -380,7 +380,7 @@ def main(argv=None) -> int:
             floors=" and ".join(_floor_name(f) for f in args.floors), timeout=f"{timeout or math.inf:g}",
             failed="".join(f"\n- {line}" for line in failed) or " none.",
             tables="\n\n".join(table.markdown() for table in tables))
-        sections.replace(args.markdown, "sphereflake", body)
+        replace_section(args.markdown, "sphereflake", body)
         print(f"recorded in {args.markdown}")
     return 0
 
