@@ -13,6 +13,7 @@ home with an empty one. ``make povray`` installs Debian's povray.
 
 from __future__ import annotations
 
+import math
 import os
 import re
 import shutil
@@ -101,15 +102,12 @@ def _env(home: Path) -> dict:
 @dataclass
 class PovRun:
     wall_seconds: float      # the whole process
+    peak_rss: int            # bytes: the process's peak resident memory (process.py)
     trace_seconds: float     # POV-Ray's own "Trace Time"
     parse_seconds: float     # POV-Ray's own "Parse Time" (reading the scene, before tracing)
+    bounding_seconds: float  # POV-Ray's own "Bounding Time" (its hierarchy's build)
     shadow_rays: int         # POV-Ray's "Shadow Ray Tests"
     reflected_rays: int      # POV-Ray's "Reflected Rays"
-    peak_rss: int = 0        # bytes: the process's peak resident memory (process.py)
-    bounding_seconds: float = float("nan")   # POV-Ray's "Bounding Time" (its hierarchy's build)
-
-
-_TIME = r"{}:\s+\d+ hours?\s+\d+ minutes?\s+\d+ seconds? \(([\d.]+) seconds?\)"
 
 
 def run(exe: str, pov: Path, image: Path, width: int, height: int, threads: int = 2,
@@ -122,22 +120,18 @@ def run(exe: str, pov: Path, image: Path, width: int, height: int, threads: int 
         # PNG, no display, no anti-aliasing, no progress; statistics on (they hold the times)
         command = [exe, f"+I{pov}", f"+O{image}", f"+W{width}", f"+H{height}", "+FN", "-D", "-A",
                    "-V", "+GS", f"+WT{threads}"]
-        result = process.run(command, timeout, cwd=image.parent, env=_env(Path(home)))
-    if result.timed_out:
-        raise process.DidNotFinish("POV-Ray", result)
+        result = process.succeeded(process.run(command, timeout, cwd=image.parent, env=_env(Path(home))),
+                                   "POV-Ray", pov.name)
     report = result.stdout + result.stderr
-    trace = re.search(_TIME.format("Trace Time"), report)
-    if result.returncode != 0 or trace is None or not image.exists():
-        tail = " ".join(report.strip().splitlines()[-3:])
-        raise RuntimeError(f"POV-Ray failed ({result.failure() or 'no Trace Time'}): {tail[:300]}")
 
     def seconds(name: str) -> float:
-        found = re.search(_TIME.format(name), report)
-        return float(found.group(1)) if found else float("nan")
+        found = re.search(rf"{name}:\s+\d+ hours?\s+\d+ minutes?\s+\d+ seconds? \(([\d.]+) seconds?\)", report)
+        return float(found.group(1)) if found else math.nan
 
     def count(name: str) -> int:
         found = re.search(rf"{name}:\s+(\d+)", report)
         return int(found.group(1)) if found else 0
-    return PovRun(result.wall_seconds, float(trace.group(1)), seconds("Parse Time"),
-                  count("Shadow Ray Tests"), count("Reflected Rays"), result.peak_rss,
-                  seconds("Bounding Time"))
+    if math.isnan(seconds("Trace Time")) or not image.exists():
+        raise RuntimeError(f"POV-Ray gave no image or no Trace Time on {pov.name}: {report.strip()[-300:]}")
+    return PovRun(result.wall_seconds, result.peak_rss, seconds("Trace Time"), seconds("Parse Time"),
+                  seconds("Bounding Time"), count("Shadow Ray Tests"), count("Reflected Rays"))

@@ -122,7 +122,7 @@ def _rays(r) -> str:
 class Bench:
     def __init__(self, settings: dict, folder: Path):
         self.s = settings
-        self.folder = folder    # for the texture
+        self.texture = scenes.write_texture(folder / "checker.png")
         self.tables: list[Table] = []
         self.summary: dict[str, float] = {}
         self.data: dict = {}
@@ -240,7 +240,7 @@ class Bench:
         ``whitted render --without``."""
         from whitted.defaults import SWITCHABLE_EFFECTS
         width, height, spp = 512, 384, 4
-        model = scenes.every_effect(scenes.write_texture(self.folder / "checker.png"), width, height, spp)
+        model = scenes.every_effect(self.texture, width, height, spp)
         scene = scenes.load(model)
         loaded = {"every effect": (scene, scenes.load_whitted(model))}
         for effect in scenes.EFFECTS:
@@ -266,7 +266,7 @@ class Bench:
 
     def adaptive(self):
         width, height, spp = 512, 384, 4
-        model = scenes.every_effect(self.folder / "checker.png", width, height, spp, depth=16)
+        model = scenes.every_effect(self.texture, width, height, spp, depth=16)
         scene = scenes.load(model)
         thresholds = (0.0, 0.001, 0.01, 0.05)
         integrators = {w: scenes.load_whitted(model, min_weight=w) for w in thresholds}
