@@ -33,16 +33,6 @@ SCALE = 1.0 / 3.0
 FLOOR_RADIUS = 1000.0
 FLOOR_HEIGHT = -0.5
 
-EYE: Vec3 = (2.1, 1.3, 1.7)
-LOOKAT: Vec3 = (0.0, 0.0, 0.0)
-UP: Vec3 = (0.0, 0.0, 1.0)
-FOV = 45.0
-SIZE = 512
-DEPTH = 5
-BACKGROUND: Vec3 = (0.078, 0.361, 0.753)
-AMBIENT = 0.2
-LIGHT_POSITIONS: tuple[Vec3, ...] = ((4.0, 3.0, 2.0), (1.0, -4.0, 4.0), (-3.0, 1.0, 5.0))
-LIGHT_INTENSITY = 1.0 / math.sqrt(3.0)
 FLAKE = Material(color=(1.0, 0.9, 0.7), reflect=0.5)
 FLOOR = Material(color=(1.0, 0.75, 0.33))
 
@@ -140,12 +130,12 @@ def floor(floor_radius: float = FLOOR_RADIUS) -> Sphere:
 def scene(level: int, floor_radius: float = FLOOR_RADIUS) -> Scene:
     """The SPD's sphereflake scene at ``level``: the flake's spheres, then the floor sphere."""
     f = flake_arrays(level)
-    color = (LIGHT_INTENSITY,) * 3
     spheres = [Sphere(tuple(center), radius, FLAKE) for center, radius in zip(f.centers.tolist(), f.radii.tolist())]
-    return Scene(source=Path(f"sphereflake{level}.scn"), width=SIZE, height=SIZE, eye=EYE, lookat=LOOKAT,
-                 up=UP, fov=FOV, background=BACKGROUND, ambient=AMBIENT, depth=DEPTH, samples=1,
-                 lights=[Light(p, color) for p in LIGHT_POSITIONS],
-                 spheres=spheres + [floor(floor_radius)])
+    light = (1.0 / math.sqrt(3.0),) * 3
+    return Scene(source=Path(f"sphereflake{level}.scn"), width=512, height=512, eye=(2.1, 1.3, 1.7),
+                 lookat=(0.0, 0.0, 0.0), up=(0.0, 0.0, 1.0), fov=45.0, background=(0.078, 0.361, 0.753),
+                 ambient=0.2, depth=5, samples=1, spheres=spheres + [floor(floor_radius)],
+                 lights=[Light(p, light) for p in ((4.0, 3.0, 2.0), (1.0, -4.0, 4.0), (-3.0, 1.0, 5.0))])
 
 
 def title(level: int, floor_radius: float = FLOOR_RADIUS) -> str:
