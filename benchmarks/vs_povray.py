@@ -50,12 +50,12 @@ class Runs:
         self.render.append(render)
         self.rss.append(rss)
 
-    def said(self, name: str, render: str) -> str:
-        """The runs in a few words for the progress line."""
-        if self.wall:
-            return (f"{name} {median(self.wall):.2f} s ({render} {median(self.render):.3f} s, "
-                    f"{median(self.rss) / MIB:.0f} MiB)")
-        return f"{name} not run" if self.failure == "not run" else f"{name}: —"
+    def said(self, name: str, render: str = "") -> str:
+        """The runs in a few words for the progress line (``render``: what their render time is)."""
+        if not self.wall:
+            return f"{name} not run" if self.failure == "not run" else f"{name}: —"
+        inside = f"{render} {median(self.render):.3f} s, " if render else ""
+        return f"{name} {median(self.wall):.2f} s ({inside}{median(self.rss) / MIB:.0f} MiB)"
 
     def cells(self) -> tuple[str, str]:
         """The process cell and the peak-memory cell of a table."""
@@ -81,11 +81,6 @@ class Row:
     pov_rays: tuple = (0, 0)
     image_difference: float | None = None   # mean |whitted - POV-Ray|, 8-bit levels
     scn: Path | None = None
-
-    def failures(self, but=("not run",)) -> list[tuple[str, str]]:
-        """(program, why) of each program that failed, but for the reasons ``but``."""
-        programs = (("whitted", self.whitted), ("POV-Ray", self.pov), ("path", self.path))
-        return [(who, runs.failure) for who, runs in programs if runs.failure not in ("", *but)]
 
 
 @dataclass
@@ -182,10 +177,9 @@ def bench_level(level: int, floor: float, runs: int, folder: Path, pov_exe: str 
     if row.whitted.wall and row.pov.wall and not (row.whitted.failure or row.pov.failure):
         row.image_difference = image_difference(w_image, p_image)
     path_text = f", {row.path.said('path', 'render')}" if row.path.wall else ""
-    failures = "".join(f"; {who}: {why}" for who, why in row.failures())
     print(f"level {level}, floor {_floor_name(floor)}: {row.spheres} spheres, "
-          f"{row.whitted.said('whitted', 'render')}, {row.pov.said('POV-Ray', 'trace')}{path_text}"
-          f"{failures}", flush=True)
+          f"{row.whitted.said('whitted', 'render')}, {row.pov.said('POV-Ray', 'trace')}{path_text}",
+          *failures([row], [], pov_missing), sep="; ", flush=True)
     return row
 
 
@@ -204,9 +198,8 @@ def bench_read(level: int, runs: int, rows: list[Row], folder: Path, timeout: fl
     row.parse_cpu = parse_speed.cpu_seconds(text)
     del text
     pov = f", POV-Ray parse {median(render.pov_parse):.2f} s" if render and render.pov_parse else ""
-    convert = (f"whitted convert {median(row.convert.wall):.2f} s ({median(row.convert.rss) / MIB:.0f} MiB)"
-               if row.convert.wall else f"whitted convert: {row.convert.failure}")
-    print(f"reading level {level}: {convert}, parse_text {row.parse_cpu:.2f} s CPU{pov}", flush=True)
+    print(f"reading level {level}: {row.convert.said('whitted convert')}, parse_text {row.parse_cpu:.2f} s CPU"
+          f"{pov}", flush=True)
     return row
 
 
@@ -265,14 +258,10 @@ def read_table(rows: list[ReadRow]) -> Table:
 
 def failures(rows: list[Row], reads: list[ReadRow], pov_missing: str = "") -> list[str]:
     """One line per program that failed or did not finish, with why (POV-Ray's absence is said apart)."""
-    lines = []
-    for r in rows:
-        lines += [f"level {r.level}, floor {_floor_name(r.floor)}: {who}: {why}"
-                  for who, why in r.failures(but=("not run", pov_missing))]
-    for r in reads:
-        if r.convert.failure:
-            lines.append(f"level {r.level}: whitted convert: {r.convert.failure}")
-    return lines
+    lines = [f"level {r.level}, floor {_floor_name(r.floor)}: {who}: {runs.failure}"
+             for r in rows for who, runs in (("whitted", r.whitted), ("POV-Ray", r.pov), ("path", r.path))
+             if runs.failure not in ("", "not run", pov_missing)]
+    return lines + [f"level {r.level}: whitted convert: {r.convert.failure}" for r in reads if r.convert.failure]
 
 
 def plot(rows: list[Row], path: Path, title: str) -> None:
@@ -298,7 +287,9 @@ def plot(rows: list[Row], path: Path, title: str) -> None:
         ax.set_xscale("log")
         ax.set_yscale("log")
         ax.set_xlabel(f"spheres (levels {levels[0]}…{levels[-1]} and the floor)")
-        ax.set_title(f"floor sphere of radius {_floor_name(floor)}", fontsize=9)
+        name = _floor_name(floor)
+        ax.set_title(f"floor sphere of radius {'$' + name.replace('^', '^{') + '}$' if '^' in name else name}",
+                     fontsize=9)
         ax.grid(True, which="both", alpha=0.3)
         if ax.lines:
             ax.legend(fontsize=8)
