@@ -117,8 +117,10 @@ def machine() -> dict:
 
 
 def summary(info: dict) -> str:
-    """The machine in one line: processor, cores, Python, OS."""
-    return f"{info['cpu']}, {info['cores']} cores, Python {info['python']}, {info['os']}"
+    """The machine in one line: processor, cores, Python, OS, and Mitsuba's set-up where imported."""
+    mitsuba = (f" ({info['drjit_threads']} Dr.Jit threads), variant {info['variant']}, Mitsuba {info['mitsuba']}, "
+               f"Dr.Jit {info['drjit']}, LLVM {info['llvm']}" if "variant" in info else "")
+    return f"{info['cpu']}, {info['cores']} cores{mitsuba}, Python {info['python']}, {info['os']}"
 
 
 def _pattern(name: str = r"[\w-]+") -> re.Pattern:

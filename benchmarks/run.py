@@ -29,7 +29,7 @@ from whitted.compare.timing import interleaved, median
 from whitted.rendering import Clock
 
 from . import floor, scenes
-from .report import Table, machine, marked_sections, mib, ms
+from .report import Table, machine, marked_sections, mib, ms, summary
 
 #: acceptance targets (ratios of median times)
 TARGET_DEPTH = 1.15
@@ -320,10 +320,7 @@ def acceptance(summary: dict) -> tuple[Table, list[str]]:
 
 def markdown(bench: Bench, info: dict, mode: str, seconds: float, accepted: Table) -> str:
     lines = ["# Benchmark results", "",
-             f"Measured on {info['date']}: {info['cpu']}, {info['cores']} cores "
-             f"({info['drjit_threads']} Dr.Jit threads), variant {info['variant']}, Mitsuba {info['mitsuba']}, "
-             f"Dr.Jit {info['drjit']}, LLVM {info['llvm']}, Python {info['python']}, {info['os']}. "
-             f"Source: {info['source']}. "
+             f"Measured on {info['date']}: {summary(info)}. Source: {info['source']}. "
              f"Mode: {mode}; the whole run took {seconds:.0f} s.", "",
              *([f"Another process loaded the machine during the run: the times of {len(bench.noisy)} "
                 f"contenders spread over ±{50 * NOISY:.0f}% (see the spread columns); the ratios, "
@@ -346,8 +343,7 @@ def main(argv=None) -> int:
 
     whitted.set_variant(args.variant)
     info = machine()
-    print(f"whitted benchmarks ({'quick' if args.quick else 'full'}): {info['cpu']}, {info['cores']} cores, "
-          f"{info['variant']}, Mitsuba {info['mitsuba']}, Dr.Jit {info['drjit']}", flush=True)
+    print(f"whitted benchmarks ({'quick' if args.quick else 'full'}): {summary(info)}", flush=True)
     start = time.perf_counter()
     with tempfile.TemporaryDirectory() as folder:
         bench = Bench(QUICK if args.quick else FULL, Path(folder))

@@ -336,7 +336,8 @@ def main(argv=None) -> int:
     load = os.getloadavg()[0]
     started = datetime.datetime.now(datetime.timezone.utc)
     mode = "quick" if args.quick else "full"
-    print(f"whitted vs POV-Ray 3.7 on the sphereflake ({mode}): {summary(machine())}; "
+    measured_on = summary(machine())
+    print(f"whitted vs POV-Ray 3.7 on the sphereflake ({mode}): {measured_on}; "
           f"POV-Ray: {pov_exe or pov_missing}", flush=True)
     start = time.perf_counter()
     with tempfile.TemporaryDirectory() as tmp:
@@ -366,7 +367,7 @@ def main(argv=None) -> int:
 
     if args.markdown:
         body = NOTES.read_text().format(
-            started=f"{started:%Y-%m-%d %H:%M UTC}", machine=summary(machine()), mode=mode, total=total,
+            started=f"{started:%Y-%m-%d %H:%M UTC}", machine=measured_on, mode=mode, total=total,
             load=load, threads=threads, first=levels[0], last=levels[-1],
             floors=" and ".join(_floor_name(f) for f in args.floors), timeout=f"{timeout or math.inf:g}",
             failed="".join(f"\n- {line}" for line in failed) or " none.",
