@@ -89,12 +89,11 @@ class Timing:
         return median(a / b for a, b in zip(self.times, other.times))
 
 
-def measure(contenders: dict, rounds: int, warmup: int = 2, min_seconds: float = 0.5,
-            max_rounds: int = 200) -> dict[str, Timing]:
-    """Each contender timed in at least ``rounds`` interleaved rounds after ``warmup`` runs,
-    in more (up to ``max_rounds``) until they take about ``min_seconds``: a millisecond
-    render timed five times says little on a shared machine."""
-    for _ in range(warmup):
+def measure(contenders: dict, rounds: int, min_seconds: float = 0.5, max_rounds: int = 200) -> dict[str, Timing]:
+    """Each contender timed in at least ``rounds`` interleaved rounds after two runs each (kernels
+    compiled and cached), in more (up to ``max_rounds``) until they take about ``min_seconds``:
+    a millisecond render timed five times says little on a shared machine."""
+    for _ in range(2):
         one_round = sum(clocked(run).wall for run in contenders.values())
     rounds = max(rounds, min(max_rounds, math.ceil(min_seconds / max(one_round, 1e-6))))
     clocks = {name: [] for name in contenders}
