@@ -203,12 +203,12 @@ def bench_read(level: int, runs: int, rows: list[Row], folder: Path, timeout: fl
     return row
 
 
-def render_table(rows: list[Row], title: str) -> Table:
-    table = Table(title, ["level", "floor radius", "spheres", "runs", "whitted process s", "POV-Ray process s",
-                          "process whitted / POV", "whitted render s", "POV-Ray trace s", "render whitted / POV",
-                          "whitted peak RSS MiB", "POV-Ray peak RSS MiB", "RSS whitted / POV",
-                          "whitted compile s", "shadow rays whitted / POV", "reflected rays whitted / POV",
-                          "image Δ (8-bit levels)"])
+def render_table(rows: list[Row]) -> Table:
+    table = Table("whitted vs POV-Ray 3.7, sphereflake 512×512, depth 5, 1 ray per pixel, adaptive depth off",
+                  ["level", "floor radius", "spheres", "runs", "whitted process s", "POV-Ray process s",
+                   "process whitted / POV", "whitted render s", "POV-Ray trace s", "render whitted / POV",
+                   "whitted peak RSS MiB", "POV-Ray peak RSS MiB", "RSS whitted / POV", "whitted compile s",
+                   "shadow rays whitted / POV", "reflected rays whitted / POV", "image Δ (8-bit levels)"])
     for r in rows:
         ww, pw, wr, pt, wm, pm = (median(v) for v in (r.whitted.wall, r.pov.wall, r.whitted.render,
                                                        r.pov.render, r.whitted.rss, r.pov.rss))
@@ -350,9 +350,7 @@ def main(argv=None) -> int:
     load = max(load, os.getloadavg()[0])
     failed = failures(rows, reads, pov_missing)
 
-    tables = [render_table(rows, "whitted vs POV-Ray 3.7, sphereflake 512×512, depth 5, 1 ray per pixel, "
-                                 "adaptive depth off"), path_table(rows), read_table(reads)]
-    tables = [table for table in tables if table.rows]
+    tables = [table for table in (render_table(rows), path_table(rows), read_table(reads)) if table.rows]
     for table in tables:
         print(table.text())
     failed += [] if pov_exe else [f"POV-Ray rows missing: {pov_missing}"]

@@ -104,7 +104,7 @@ def test_benchmark_table_has_both_floors_memory_and_says_what_did_not_finish():
                          pov_parse=[2.5], pov_bounding=[2.5], pov_rays=(10, 5), image_difference=0.3)
     late = vs_povray.Row(6, 1e4, 597872, pov=pov,
                          whitted=Runs(failure="did not finish in 600 s", failed_rss=9 * 2 ** 30))
-    table = vs_povray.render_table([done, late], "")
+    table = vs_povray.render_table([done, late])
     cells = [dict(zip(table.columns, row)) for row in table.rows]
     assert [c["floor radius"] for c in cells] == ["10^3", "10^4"]
     assert cells[0]["whitted peak RSS MiB"] == "11264" and cells[0]["POV-Ray peak RSS MiB"] == "610"
