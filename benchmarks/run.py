@@ -235,26 +235,20 @@ class Bench:
     # -- 3 and 4: effects and adaptive depth ----------------------------------------------------------
 
     def effects(self):
-        """The every-effect scene without each effect: taken out of the scene, and left out by
-        ``whitted render --without``."""
+        """The every-effect scene with each effect left out by ``whitted render --without``."""
         from whitted.defaults import SWITCHABLE_EFFECTS
         width, height, spp = 512, 384, 4
         model = scenes.every_effect(self.texture, width, height, spp)
         scene = scenes.load(model)
-        loaded = {"every effect": (scene, scenes.load_whitted(model))}
-        for effect in scenes.EFFECTS:
-            changed = scenes.without(model, effect)
-            loaded[f"without {effect}"] = scenes.load(changed), scenes.load_whitted(changed)
-        for effect in SWITCHABLE_EFFECTS:
-            loaded[f"--without {effect}"] = scene, scenes.load_whitted(model, without=effect)
-        timing = self.measure({name: renderer(s, i, spp) for name, (s, i) in loaded.items()}, self.s["rounds"])
+        integrators = {"every effect": scenes.load_whitted(model),
+                       **{f"--without {e}": scenes.load_whitted(model, without=e) for e in SWITCHABLE_EFFECTS}}
+        timing = self.measure({name: renderer(scene, i, spp) for name, i in integrators.items()}, self.s["rounds"])
         full = timing["every effect"]
-        table = Table(f"Each effect taken out of the scene, or left out by --without ({width}×{height}, "
-                      f"{spp} spp, max depth {model.depth})",
+        table = Table(f"Each effect left out by --without ({width}×{height}, {spp} spp, max depth {model.depth})",
                       ["render", "median ms", "spread", "this / every effect", "effects",
                        "rays (cam/shadow/refl/refr)"])
         self.data["effects"] = {}
-        for name, (scene, integrator) in loaded.items():
+        for name, integrator in integrators.items():
             rendering = integrator.render_detailed(scene, spp=spp)
             t = timing[name]
             table.add(name, ms(t.median), t.spread(), t.over(full), " ".join(rendering.effects) or "none",

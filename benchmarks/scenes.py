@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import math
 import re
-from dataclasses import replace
 from pathlib import Path
 
 import mitsuba as mi
@@ -16,9 +15,6 @@ import numpy as np
 
 from whitted.converter import Light, Material, Scene, Sphere, scene_to_xml
 from whitted.converter.scn_writer import scene_to_scn
-
-EFFECTS = ("lights", "reflection", "refraction", "textures", "background")
-
 
 def random_spheres(count: int, seed: int = 1, *, reflect: float = 0.0,
                    low=(-5.0, -5.0, -5.0), high=(5.0, 5.0, 5.0)) -> list[Sphere]:
@@ -58,17 +54,6 @@ def every_effect(texture: Path, width: int, height: int, spp: int, depth: int = 
                                                                  refract=0.85, ior=1.5)),
                           Sphere((2.2, 1.0, 0.0), 1.0, Material(texture=texture)),
                           Sphere((0.8, 0.4, 2.6), 0.4, Material(color=(0.2, 0.5, 0.9)))])
-
-
-def without(model: Scene, effect: str) -> Scene:
-    """``model`` with one effect taken out and everything else kept."""
-    if effect == "lights":
-        return replace(model, lights=[])
-    if effect == "background":
-        return replace(model, background=(0.0, 0.0, 0.0))
-    fields = {"reflection": {"reflect": 0.0}, "refraction": {"refract": 0.0, "ior": 1.0},
-              "textures": {"texture": None}}[effect]
-    return replace(model, spheres=[replace(s, material=replace(s.material, **fields)) for s in model.spheres])
 
 
 def write_texture(path: Path) -> Path:
