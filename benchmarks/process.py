@@ -109,10 +109,8 @@ def run(command: list, timeout: float | None = None, cwd=None, env=None) -> Proc
         if report.exists():
             status, peak_kib, wall = report.read_text().split()
             returncode, peak_kib, wall = int(status), int(peak_kib), float(wall)
-        out.seek(0)
-        err.seek(0)
         return ProcessRun(returncode, wall, peak_kib * 1024, timed_out, timeout,
-                          out.read().decode(errors="replace"), err.read().decode(errors="replace"))
+                          *((Path(folder) / name).read_text(errors="replace") for name in ("out", "err")))
 
 
 def whitted(*args, timeout: float | None = None) -> ProcessRun:

@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import argparse
 import gc
-import json
 import math
 import statistics
 import sys
@@ -114,17 +113,12 @@ def peak_memory(run) -> int:
     return clocked(run, fresh_memory=True).peak_memory
 
 
-def _rays(r) -> str:
-    return f"{r.camera}/{r.shadow}/{r.reflection}/{r.refraction}"
-
-
 class Bench:
     def __init__(self, settings: dict, folder: Path):
         self.s = settings
         self.texture = scenes.write_texture(folder / "checker.png")
         self.tables: list[Table] = []
         self.summary: dict[str, float] = {}
-        self.data: dict = {}
         self.noisy: list[str] = []   # contenders whose times spread widely
 
     def measure(self, contenders: dict, rounds: int, label: str = "") -> dict:
@@ -184,9 +178,6 @@ class Bench:
         self.summary["whitted / floor"] = best_whitted.over(floor_time)
         self.summary["depth 16 / depth 1"] = timing["whitted (article lighting), max depth 16"].over(
             timing["whitted (article lighting)"])
-        self.data["direct"] = {n: vars(t) for n, t in timing.items()}
-        self.data["direct"]["same_image_mean_ratio"] = float(ours / theirs)
-        self.data["direct"]["shadow_rays"] = {"whitted": rays.shadow, "floor": floor_shadow, "direct": hits}
 
     # -- 2: scaling ----------------------------------------------------------------------------------
 
@@ -213,23 +204,18 @@ class Bench:
             fixed = key == "spheres"     # with the cost of a render that does not grow with its samples
             table = Table(title, [key, *columns, *(["fixed ms: whitted / direct"] if fixed else [])],
                           note=FIXED_NOTE if fixed else "")
-            self.data[key] = {}
             for label, model, big in rows:
                 rounds = s["big_rounds"] if big else s["count_rounds"]
-                data = self.data[key][label] = {}
                 extra = []
                 if fixed:
                     small = replace(model, width=1, height=1, samples=1)
                     timing = self._whitted_and_direct(small, rounds, memory=False)[0]
-                    data["fixed"] = {n: vars(t) for n, t in timing.items()}
                     extra.append(f"{ms(timing['whitted'].median)} / {ms(timing['direct'].median)}")
                 timing, memory, memory_direct = self._whitted_and_direct(model, rounds)
                 w, d = timing["whitted"], timing["direct"]
                 samples = model.width * model.height * model.samples
                 table.add(label, ms(w.median), f"{1e9 * w.median / samples:.1f}", ms(d.median), w.over(d),
                           mib(memory), mib(memory_direct), *extra)
-                data.update({"whitted": vars(w), "direct": vars(d), "whitted_peak_bytes": memory,
-                             "direct_peak_bytes": memory_direct})
             self.show(table)
 
     # -- 3 and 4: effects and adaptive depth ----------------------------------------------------------
@@ -247,14 +233,11 @@ class Bench:
         table = Table(f"Each effect left out by --without ({width}×{height}, {spp} spp, max depth {model.depth})",
                       ["render", "median ms", "spread", "this / every effect", "effects",
                        "rays (cam/shadow/refl/refr)"])
-        self.data["effects"] = {}
         for name, integrator in integrators.items():
             rendering = integrator.render_detailed(scene, spp=spp)
-            t = timing[name]
+            r, t = rendering.rays, timing[name]
             table.add(name, ms(t.median), t.spread(), t.over(full), " ".join(rendering.effects) or "none",
-                      _rays(rendering.rays))
-            self.data["effects"][name] = {**vars(t), "rays": rendering.rays.rays(),
-                                          "effects": list(rendering.effects), "over_full": t.over(full)}
+                      f"{r.camera}/{r.shadow}/{r.reflection}/{r.refraction}")
         self.show(table)
 
     def adaptive(self):
@@ -271,15 +254,12 @@ class Bench:
                       f"{width}×{height}, {spp} spp)",
                       ["min weight", "median ms", "vs off", "secondary rays", "culled", "depth reached",
                        "mean abs error"])
-        self.data["adaptive"] = {}
         for w, integrator in integrators.items():
             rays = integrator.render_detailed(scene, spp=spp).rays
             t = timing[f"min_weight {w:g}"]
             error = np.abs(np.array(renderer(scene, integrator, spp)(), np.float64)[..., :3] - reference).mean()
             table.add(f"{w:g}", ms(t.median), t.over(base), rays.reflection + rays.refraction, rays.culled,
                       rays.max_depth_reached, f"{error:.2e}")
-            self.data["adaptive"][w] = {**vars(t), "rays": rays.rays(), "culled": rays.culled,
-                                        "depth": rays.max_depth_reached, "mean_abs_error": error}
         self.show(table)
 
 
@@ -330,7 +310,6 @@ def main(argv=None) -> int:
     parser.add_argument("--variant", default="llvm_ad_rgb", choices=("llvm_ad_rgb", "cuda_ad_rgb"))
     parser.add_argument("--markdown", metavar="FILE",
                         help="write the results as Markdown (benchmarks/RESULTS.md)")
-    parser.add_argument("--json", metavar="FILE", help="write every number as JSON")
     parser.add_argument("--only", choices=SECTIONS, help="run one section only (no acceptance check)")
     args = parser.parse_args(argv)
 
@@ -360,9 +339,6 @@ def main(argv=None) -> int:
         others = marked_sections(path.read_text()) if path.exists() else []
         path.write_text("\n".join([markdown(bench, info, "quick" if args.quick else "full", seconds, accepted),
                                    *others]))
-    if args.json:
-        Path(args.json).write_text(json.dumps({"machine": info, "summary": bench.summary, **bench.data},
-                                              indent=2, default=float))
     return 1 if missed else 0
 
 
