@@ -21,12 +21,10 @@ import whitted
 from .run import measure, peak_memory
 from .report import Table, mib, ms
 
-REPO = Path(__file__).resolve().parent.parent
-
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--scene", default=str(REPO / "scenes" / "tir.scn"))
+    parser.add_argument("--scene", default="scenes/tir.scn", help="(from the repository root)")
     parser.add_argument("--size", type=int, nargs=2, default=(640, 400), metavar=("W", "H"))
     parser.add_argument("--spp", type=int, default=4)
     parser.add_argument("--rounds", type=int, default=3)

@@ -109,8 +109,8 @@ def run(command: list, timeout: float | None = None, cwd=None, env=None) -> Proc
         if report.exists():
             status, peak_kib, wall = report.read_text().split()
             returncode, peak_kib, wall = int(status), int(peak_kib), float(wall)
-        return ProcessRun(returncode, wall, peak_kib * 1024, timed_out, timeout,
-                          *((Path(folder) / name).read_text(errors="replace") for name in ("out", "err")))
+        output = [(Path(folder) / name).read_text(errors="replace") for name in ("out", "err")]
+        return ProcessRun(returncode, wall, peak_kib * 1024, timed_out, timeout, *output)
 
 
 def whitted(*args, timeout: float | None = None) -> ProcessRun:

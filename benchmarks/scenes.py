@@ -16,6 +16,7 @@ import numpy as np
 from whitted.converter import Light, Material, Scene, Sphere, scene_to_xml
 from whitted.converter.scn_writer import scene_to_scn
 
+
 def random_spheres(count: int, seed: int = 1, *, reflect: float = 0.0,
                    low=(-5.0, -5.0, -5.0), high=(5.0, 5.0, 5.0)) -> list[Sphere]:
     """``count`` non-overlapping spheres in the box from ``low`` to ``high``, each jittered in a
