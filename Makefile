@@ -80,8 +80,16 @@ test: setup chromium
 
 # POV-Ray 3.7 for the side-by-side benchmark: Debian's povray, installed when missing and
 # allowed (root, or sudo without a password), like the llvm step; otherwise its rows say why.
-povray: $(STAMP)
-	@$(PY) -m benchmarks.povray --install
+povray:
+	@if command -v povray >/dev/null; then :; \
+	elif [ -z "$$WHITTED_NO_APT" ] && command -v apt-get >/dev/null \
+			&& { [ "$$(id -u)" = 0 ] && sudo= || { sudo -n true 2>/dev/null && sudo="sudo -n"; }; }; then \
+		echo "make bench: installing POV-Ray (apt-get install povray)" >&2; \
+		export DEBIAN_FRONTEND=noninteractive; $$sudo apt-get -qq update >/dev/null; \
+		$$sudo apt-get -qq install -y povray >/dev/null; \
+	fi
+	@command -v povray >/dev/null || echo "make bench: POV-Ray is not installed and cannot be installed \
+	here (needs apt-get and root); the benchmark's POV-Ray rows will say so" >&2
 
 # Speed against Mitsuba's own integrators and the ray-casting floor, then against POV-Ray 3.7
 # on the sphereflake, levels 1-6 on floors of radius 10^3 and 10^4, with Mitsuba's path tracer

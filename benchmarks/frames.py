@@ -15,13 +15,15 @@ import argparse
 import json
 import math
 import os
-import statistics
 import sys
 import tempfile
 import time
 from pathlib import Path
 
+from whitted.compare.timing import median
+
 from . import povray, process
+from .report import Table, ratio, seconds
 
 #: the targets: the folder run's time over POV-Ray's, and over the per-frame loop's
 TARGET_POVRAY, TARGET_LOOP = 0.5, 0.25
@@ -125,24 +127,19 @@ def main(argv=None) -> int:
                   flush=True)
         wrong = differing(root, scenes)
         totals = json.loads((root / "folder-stats.json").read_text())["totals"]
-    best = {name: statistics.median(t) for name, t in times.items() if t}
-    rows = [("POV-Ray 3.7, a process per frame", best.get("povray")),
-            ("whitted render, a process per frame", best["loop"]),
-            ("whitted render FRAMES/ -o OUT/, one process", best["folder"])]
-    print(f"\n| how | {frames} frames | per frame |\n|---|---|---|")
-    for name, seconds in rows:
-        print(f"| {name} | " + ("not run |  |" if seconds is None else
-                                f"{seconds:.1f} s | {seconds / frames:.3f} s |"))
+    folder_time = median(times["folder"])
+    table = Table(f"{frames} frames of {width}x{height}", ["how", "s", "s per frame", "folder run / this", "target"])
+    for name, key, target in [("POV-Ray 3.7, a process per frame", "povray", TARGET_POVRAY),
+                              ("whitted render, a process per frame", "loop", TARGET_LOOP),
+                              ("whitted render FRAMES/ -o OUT/, one process", "folder", None)]:
+        t = median(times[key])
+        met = "" if target is None or math.isnan(t) else "met" if folder_time / t <= target else "MISSED"
+        table.add(name, seconds(t), seconds(t / frames), ratio(folder_time, t), f"≤ {target}: {met}" if met else "")
+    print(table.text())
     print(f"folder run, last round: {totals['wall_seconds']:.1f} s in its loop over the scenes, of "
           f"which {totals['render_seconds']:.1f} s rendering and {totals['compile_seconds']:.1f} s "
           f"compiling kernels; the rest loading scenes and writing images; start-up "
           f"{times['folder'][-1] - totals['wall_seconds']:.1f} s")
-    checks = [("the per-frame loop", best["loop"], TARGET_LOOP)]
-    if "povray" in best:
-        checks.insert(0, ("POV-Ray", best["povray"], TARGET_POVRAY))
-    for name, seconds, target in checks:
-        ratio = best["folder"] / seconds
-        print(f"folder run / {name}: {ratio:.2f} (target <= {target}): {'met' if ratio <= target else 'MISSED'}")
     if wrong:
         print(f"FRAMES DIFFER between the folder run and the single renders: {', '.join(wrong)}")
         return 1

@@ -8,27 +8,20 @@ reflected color to the local one), ``transmit KT`` with ``interior { ior IOR }``
 ``max_trace_level`` the depth with ``adc_bailout 0`` (whitted's ``--min-weight 0``), one ray
 per pixel; ``right -x·W/H`` turns its left-handed frame into the scene format's. POV-Ray 3.7
 refuses every option without ``~/.povray/3.7/povray.conf``: :func:`run` gives it a private
-home with an empty one.
-
-Usage::
-
-    python -m benchmarks.povray --install          # install Debian's povray when root
-    python -m benchmarks.povray SCENE.scn -o SCENE.pov
+home with an empty one. ``make povray`` installs Debian's povray.
 """
 
 from __future__ import annotations
 
-import argparse
+import math
 import os
 import re
 import shutil
 import subprocess
-import sys
 import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
-from whitted.converter import parse_file
 from whitted.converter.scene import Scene
 
 from . import process
@@ -99,28 +92,6 @@ def find() -> tuple[str | None, str]:
     return exe, ""
 
 
-def ensure_povray() -> None:
-    """Install Debian's ``povray`` when it is missing and this user may (root, or sudo without
-    a password; not with ``$WHITTED_NO_APT``), like ``make llvm``; else say why not."""
-    if shutil.which("povray"):
-        return
-    apt = shutil.which("apt-get")
-    prefix: list[str] | None = []
-    if os.geteuid() != 0:
-        sudo = shutil.which("sudo")
-        ok = sudo and subprocess.run([sudo, "-n", "true"], capture_output=True).returncode == 0
-        prefix = [sudo, "-n"] if ok else None
-    if apt and prefix is not None and not os.environ.get("WHITTED_NO_APT"):
-        env = {**os.environ, "DEBIAN_FRONTEND": "noninteractive"}
-        print("make bench: installing POV-Ray (apt-get install povray)", file=sys.stderr)
-        subprocess.run(prefix + [apt, "-qq", "update"], env=env, check=False, capture_output=True)
-        subprocess.run(prefix + [apt, "-qq", "install", "-y", "povray"], env=env, check=False,
-                       capture_output=True)
-    if not shutil.which("povray"):
-        print("make bench: POV-Ray is not installed and cannot be installed here (needs apt-get "
-              "and root); the benchmark's POV-Ray rows will say so", file=sys.stderr)
-
-
 def _env(home: Path) -> dict:
     """A private home with the ``.povray/3.7/povray.conf`` POV-Ray 3.7 needs."""
     (home / ".povray" / "3.7").mkdir(parents=True, exist_ok=True)
@@ -131,15 +102,12 @@ def _env(home: Path) -> dict:
 @dataclass
 class PovRun:
     wall_seconds: float      # the whole process
+    peak_rss: int            # bytes: the process's peak resident memory (process.py)
     trace_seconds: float     # POV-Ray's own "Trace Time"
     parse_seconds: float     # POV-Ray's own "Parse Time" (reading the scene, before tracing)
+    bounding_seconds: float  # POV-Ray's own "Bounding Time" (its hierarchy's build)
     shadow_rays: int         # POV-Ray's "Shadow Ray Tests"
     reflected_rays: int      # POV-Ray's "Reflected Rays"
-    peak_rss: int = 0        # bytes: the process's peak resident memory (process.py)
-    bounding_seconds: float = float("nan")   # POV-Ray's "Bounding Time" (its hierarchy's build)
-
-
-_TIME = r"{}:\s+\d+ hours?\s+\d+ minutes?\s+\d+ seconds? \(([\d.]+) seconds?\)"
 
 
 def run(exe: str, pov: Path, image: Path, width: int, height: int, threads: int = 2,
@@ -152,42 +120,18 @@ def run(exe: str, pov: Path, image: Path, width: int, height: int, threads: int 
         # PNG, no display, no anti-aliasing, no progress; statistics on (they hold the times)
         command = [exe, f"+I{pov}", f"+O{image}", f"+W{width}", f"+H{height}", "+FN", "-D", "-A",
                    "-V", "+GS", f"+WT{threads}"]
-        result = process.run(command, timeout, cwd=image.parent, env=_env(Path(home)))
-    if result.timed_out:
-        raise process.DidNotFinish("POV-Ray", result)
+        result = process.succeeded(process.run(command, timeout, cwd=image.parent, env=_env(Path(home))),
+                                   "POV-Ray", pov.name)
     report = result.stdout + result.stderr
-    trace = re.search(_TIME.format("Trace Time"), report)
-    if result.returncode != 0 or trace is None or not image.exists():
-        tail = " ".join(report.strip().splitlines()[-3:])
-        raise RuntimeError(f"POV-Ray failed ({result.failure() or 'no Trace Time'}): {tail[:300]}")
 
     def seconds(name: str) -> float:
-        found = re.search(_TIME.format(name), report)
-        return float(found.group(1)) if found else float("nan")
+        found = re.search(rf"{name}:\s+\d+ hours?\s+\d+ minutes?\s+\d+ seconds? \(([\d.]+) seconds?\)", report)
+        return float(found.group(1)) if found else math.nan
 
     def count(name: str) -> int:
         found = re.search(rf"{name}:\s+(\d+)", report)
         return int(found.group(1)) if found else 0
-    return PovRun(result.wall_seconds, float(trace.group(1)), seconds("Parse Time"),
-                  count("Shadow Ray Tests"), count("Reflected Rays"), result.peak_rss,
-                  seconds("Bounding Time"))
-
-
-def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description="Write a .scn scene for POV-Ray 3.7, or install POV-Ray.")
-    parser.add_argument("scene", nargs="?", help="the .scn scene")
-    parser.add_argument("-o", "--output", metavar="FILE.pov", help="the POV-Ray scene to write")
-    parser.add_argument("--install", action="store_true",
-                        help="install Debian's povray when missing and allowed (make bench)")
-    args = parser.parse_args(argv)
-    if args.install:
-        ensure_povray()
-        return 0
-    if not (args.scene and args.output):
-        parser.error("give SCENE.scn -o FILE.pov, or --install")
-    Path(args.output).write_text(scene_to_pov(parse_file(args.scene)))
-    return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())
+    if math.isnan(seconds("Trace Time")) or not image.exists():
+        raise RuntimeError(f"POV-Ray gave no image or no Trace Time on {pov.name}: {report.strip()[-300:]}")
+    return PovRun(result.wall_seconds, result.peak_rss, seconds("Trace Time"), seconds("Parse Time"),
+                  seconds("Bounding Time"), count("Shadow Ray Tests"), count("Reflected Rays"))

@@ -13,7 +13,6 @@ import signal
 import subprocess
 import sys
 import tempfile
-import threading
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -88,43 +87,30 @@ def run(command: list, timeout: float | None = None, cwd=None, env=None) -> Proc
     with tempfile.TemporaryDirectory() as folder, \
             open(Path(folder) / "out", "w+b") as out, open(Path(folder) / "err", "w+b") as err:
         report = Path(folder) / "report"
-        killed = threading.Event()
         start = time.perf_counter()
         wrapper = subprocess.Popen([sys.executable, "-I", "-S", "-c", _WRAPPER, str(report)] + command,
                                    stdin=subprocess.DEVNULL, stdout=out, stderr=err, cwd=cwd, env=env,
                                    start_new_session=True)
-
-        def stop() -> None:
-            killed.set()
-            if wrapper.poll() is None:
-                wrapper.send_signal(signal.SIGTERM)     # the wrapper kills the program, reports
-
-        def kill_all() -> None:
-            if wrapper.poll() is None:
-                os.killpg(wrapper.pid, signal.SIGKILL)
-
-        timers = [threading.Timer(timeout, stop), threading.Timer(timeout + _GRACE, kill_all)] if timeout else []
-        for timer in timers:
-            timer.daemon = True
-            timer.start()
+        timed_out = False
         try:
+            try:
+                wrapper.wait(timeout)
+            except subprocess.TimeoutExpired:
+                timed_out = True
+                wrapper.terminate()     # the wrapper kills the program and reports
+                wrapper.wait(_GRACE)
+        except BaseException as error:  # no report in time, or Ctrl-C: leave nothing running
+            os.killpg(wrapper.pid, signal.SIGKILL)
             wrapper.wait()
-        except BaseException:       # Ctrl-C: do not leave the program running
-            kill_all()
-            wrapper.wait()
-            raise
-        finally:
-            for timer in timers:
-                timer.cancel()
+            if not isinstance(error, subprocess.TimeoutExpired):
+                raise
         wall = time.perf_counter() - start
         returncode, peak_kib = wrapper.returncode, 0
         if report.exists():
             status, peak_kib, wall = report.read_text().split()
             returncode, peak_kib, wall = int(status), int(peak_kib), float(wall)
-        out.seek(0)
-        err.seek(0)
-        return ProcessRun(returncode, wall, peak_kib * 1024, killed.is_set(), timeout,
-                          out.read().decode(errors="replace"), err.read().decode(errors="replace"))
+        output = [(Path(folder) / name).read_text(errors="replace") for name in ("out", "err")]
+        return ProcessRun(returncode, wall, peak_kib * 1024, timed_out, timeout, *output)
 
 
 def whitted(*args, timeout: float | None = None) -> ProcessRun:

@@ -10,11 +10,13 @@ The exit status is 1 when an acceptance target (``TARGET_DEPTH``, ``TARGET_DIREC
 from __future__ import annotations
 
 import argparse
-import json
+import gc
+import math
+import statistics
 import sys
 import tempfile
 import time
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import drjit as dr
@@ -22,15 +24,19 @@ import mitsuba as mi
 import numpy as np
 
 import whitted  # (selects the variant, registers the plugins)
+from whitted.compare.timing import interleaved, median
+from whitted.rendering import Clock
 
-from . import floor, scenes, sections
-from .machine import machine
-from .tables import Table, mib, ms
-from .timing import NOISY, measure, peak_memory
+from . import floor, scenes
+from .report import Table, machine, marked_sections, mib, ms, summary
 
 #: acceptance targets (ratios of median times)
 TARGET_DEPTH = 1.15
 TARGET_DIRECT = 1.25
+#: an interquartile range above this fraction of the median (and above the jitter of a
+#: millisecond render, ``JITTER`` seconds) means the machine was busy
+NOISY = 0.10
+JITTER = 0.5e-3
 
 FULL = {"rounds": 11, "counts": (10, 100, 1000, 10_000), "count_rounds": 5, "big_rounds": 3,
         "resolutions": ((256, 192), (512, 384), (1024, 768), (2048, 1536)), "spps": (1, 4, 16, 64)}
@@ -47,21 +53,76 @@ def renderer(scene, integrator, spp: int):
     return run
 
 
-def _rays(r) -> str:
-    return f"{r.camera}/{r.shadow}/{r.reflection}/{r.refraction}"
+def clocked(run, fresh_memory: bool = False) -> Clock:
+    """``run()`` to its end on the clock of ``whitted compare``'s renders: its seconds are
+    wall seconds without kernel compilation."""
+    with Clock(fresh_memory=fresh_memory) as clock:
+        run()
+        dr.sync_thread()
+    return clock
+
+
+@dataclass
+class Timing:
+    median: float            # seconds
+    q1: float
+    q3: float
+    compile_seconds: float   # compilation left in a run after warm-up (should be 0)
+    times: list              # seconds, one per round
+
+    @classmethod
+    def of(cls, clocks: list[Clock]) -> "Timing":
+        times = [c.seconds for c in clocks]
+        q = statistics.quantiles(times, n=4) if len(times) > 1 else times * 3
+        return cls(statistics.median(times), q[0], q[2], max(c.compile for c in clocks), times)
+
+    def spread(self) -> str:
+        """The interquartile range relative to the median, e.g. '±3%'."""
+        return f"±{50 * (self.q3 - self.q1) / self.median:.0f}%" if self.median else "-"
+
+    def noisy(self) -> bool:
+        return self.q3 - self.q1 > max(NOISY * self.median, JITTER)
+
+    def over(self, other: "Timing") -> float:
+        """This contender's time over ``other``'s: the median of their per-round ratios."""
+        return median(a / b for a, b in zip(self.times, other.times))
+
+
+def measure(contenders: dict, rounds: int, min_seconds: float = 0.5, max_rounds: int = 200) -> dict[str, Timing]:
+    """Each contender timed in at least ``rounds`` interleaved rounds after two runs each (kernels
+    compiled and cached), in more (up to ``max_rounds``) until they take about ``min_seconds``:
+    a millisecond render timed five times says little on a shared machine."""
+    for _ in range(2):
+        one_round = sum(clocked(run).wall for run in contenders.values())
+    rounds = max(rounds, min(max_rounds, math.ceil(min_seconds / max(one_round, 1e-6))))
+    clocks = {name: [] for name in contenders}
+    gc.collect()
+    gc.disable()
+    try:
+        for r in range(rounds):
+            for name in interleaved(list(contenders), r):
+                clocks[name].append(clocked(contenders[name]))
+    finally:
+        gc.enable()
+    return {name: Timing.of(c) for name, c in clocks.items()}
+
+
+def peak_memory(run) -> int:
+    """Dr.Jit's high-water mark of allocated bytes during ``run()``: every array it holds, not
+    Embree's acceleration structure or Python's heap."""
+    return clocked(run, fresh_memory=True).peak_memory
 
 
 class Bench:
     def __init__(self, settings: dict, folder: Path):
         self.s = settings
-        self.folder = folder    # for the texture
+        self.texture = scenes.write_texture(folder / "checker.png")
         self.tables: list[Table] = []
         self.summary: dict[str, float] = {}
-        self.data: dict = {}
         self.noisy: list[str] = []   # contenders whose times spread widely
 
     def measure(self, contenders: dict, rounds: int, label: str = "") -> dict:
-        """:func:`timing.measure`, remembering which contenders ran on a busy machine."""
+        """:func:`measure`, remembering which contenders ran on a busy machine."""
         timing = measure(contenders, rounds)
         self.noisy += [f"{label}{name}" for name, t in timing.items() if t.noisy()]
         return timing
@@ -70,7 +131,7 @@ class Bench:
         self.tables.append(table)
         print(table.text(), flush=True)
 
-    # -- 1 and 2: the acceptance scene ---------------------------------------------------------------
+    # -- 1: the acceptance scene -------------------------------------------------------------------
 
     def against_direct_and_floor(self):
         width, height, spp = 1024, 768, 4
@@ -81,6 +142,8 @@ class Bench:
         contenders = {
             "whitted (physical lighting)": renderer(scene, physical, spp),
             "whitted (article lighting)": renderer(scene, scenes.load_whitted(model), spp),
+            "whitted (article lighting), max depth 16": renderer(scene, scenes.load_whitted(model, max_depth=16),
+                                                                 spp),
             "Mitsuba direct": renderer(scene_direct, scenes.direct_integrator(), spp),
             **{f"floor: {h} + ray_test": floor.RayCastingFloor(scene, light, spp, h)
                for h in floor.HIT_FINDERS},
@@ -113,27 +176,10 @@ class Bench:
         self.summary["whitted / direct"] = best_whitted.over(direct)
         self.summary["whitted (article) / direct"] = timing["whitted (article lighting)"].over(direct)
         self.summary["whitted / floor"] = best_whitted.over(floor_time)
-        self.data["direct"] = {n: vars(t) for n, t in timing.items()}
-        self.data["direct"]["same_image_mean_ratio"] = float(ours / theirs)
-        self.data["direct"]["shadow_rays"] = {"whitted": rays.shadow, "floor": floor_shadow, "direct": hits}
+        self.summary["depth 16 / depth 1"] = timing["whitted (article lighting), max depth 16"].over(
+            timing["whitted (article lighting)"])
 
-    def depth(self):
-        width, height, spp = 1024, 768, 4
-        model = scenes.diffuse_spheres(10, width, height, spp)
-        scene = scenes.load(model)
-        contenders = {f"depth {d}": renderer(scene, scenes.load_whitted(model, max_depth=d), spp)
-                      for d in (1, 16)}
-        timing = self.measure(contenders, self.s["rounds"])
-        ratio = timing["depth 16"].over(timing["depth 1"])
-        table = Table(f"Depth 16 vs depth 1 on a diffuse scene ({width}×{height}, {spp} spp)",
-                      ["max depth", "median ms", "spread", "vs depth 1"])
-        for name, t in timing.items():
-            table.add(name, ms(t.median), t.spread(), t.over(timing["depth 1"]))
-        self.show(table)
-        self.summary["depth 16 / depth 1"] = ratio
-        self.data["depth"] = {n: vars(t) for n, t in timing.items()}
-
-    # -- 3: scaling ------------------------------------------------------------------------------
+    # -- 2: scaling ----------------------------------------------------------------------------------
 
     def _whitted_and_direct(self, model, rounds, memory=True):
         label = f"{len(model.spheres)} spheres {model.width}×{model.height} {model.samples} spp "
@@ -147,96 +193,56 @@ class Bench:
 
     def scaling(self):
         columns = ["whitted ms", "ns/sample", "direct ms", "whitted / direct", "whitted MiB", "direct MiB"]
+        s = self.s
+        tables = [("spheres", "Cost against sphere count (512×384, 4 spp, 1 light)",
+                   [(n, scenes.diffuse_spheres(n, 512, 384, 4), n >= 10_000) for n in s["counts"]]),
+                  ("resolution", "Cost against resolution (10 spheres, 4 spp)",
+                   [(f"{w}×{h}", scenes.diffuse_spheres(10, w, h, 4), w * h > 10**6) for w, h in s["resolutions"]]),
+                  ("spp", "Cost against samples per pixel (10 spheres, 512×384)",
+                   [(n, scenes.diffuse_spheres(10, 512, 384, n), n > 16) for n in s["spps"]])]
+        for key, title, rows in tables:
+            fixed = key == "spheres"     # with the cost of a render that does not grow with its samples
+            table = Table(title, [key, *columns, *(["fixed ms: whitted / direct"] if fixed else [])],
+                          note=FIXED_NOTE if fixed else "")
+            for label, model, big in rows:
+                rounds = s["big_rounds"] if big else s["count_rounds"]
+                extra = []
+                if fixed:
+                    small = replace(model, width=1, height=1, samples=1)
+                    timing = self._whitted_and_direct(small, rounds, memory=False)[0]
+                    extra.append(f"{ms(timing['whitted'].median)} / {ms(timing['direct'].median)}")
+                timing, memory, memory_direct = self._whitted_and_direct(model, rounds)
+                w, d = timing["whitted"], timing["direct"]
+                samples = model.width * model.height * model.samples
+                table.add(label, ms(w.median), f"{1e9 * w.median / samples:.1f}", ms(d.median), w.over(d),
+                          mib(memory), mib(memory_direct), *extra)
+            self.show(table)
 
-        def row(table, label, model, rounds, *extra):
-            timing, memory, memory_direct = self._whitted_and_direct(model, rounds)
-            w, d = timing["whitted"], timing["direct"]
-            samples = model.width * model.height * model.samples
-            table.add(label, ms(w.median), f"{1e9 * w.median / samples:.1f}", ms(d.median), w.over(d),
-                      mib(memory), mib(memory_direct), *extra)
-            return {"whitted": vars(timing["whitted"]), "direct": vars(timing["direct"]),
-                    "whitted_peak_bytes": memory, "direct_peak_bytes": memory_direct}
-
-        table = Table("Cost against sphere count (512×384, 4 spp, 1 light)",
-                      ["spheres", *columns, "fixed ms: whitted / direct"],
-                      note="Peak memory: Dr.Jit's allocations during the render (scene arrays, "
-                           "wavefronts, image), not Embree's BVH. Fixed: the same scene rendered "
-                           "at 1×1 pixel and 1 spp, the cost of a render that does not grow with its "
-                           "samples (Whitted: reading the scene's materials and building its sphere "
-                           "table in Python; direct: tracing a call per shape instance).")
-        self.data["spheres"] = {}
-        for count in self.s["counts"]:
-            rounds = self.s["big_rounds"] if count >= 10_000 else self.s["count_rounds"]
-            model = scenes.diffuse_spheres(count, 512, 384, 4)
-            fixed, _, _ = self._whitted_and_direct(replace(model, width=1, height=1, samples=1), rounds,
-                                                   memory=False)
-            self.data["spheres"][count] = row(table, count, model, rounds,
-                                              f"{ms(fixed['whitted'].median)} / {ms(fixed['direct'].median)}")
-            self.data["spheres"][count]["fixed"] = {n: vars(t) for n, t in fixed.items()}
-        self.show(table)
-
-        table = Table("Cost against resolution (10 spheres, 4 spp)", ["resolution", *columns])
-        self.data["resolution"] = {}
-        for width, height in self.s["resolutions"]:
-            rounds = self.s["big_rounds"] if width * height > 10**6 else self.s["count_rounds"]
-            self.data["resolution"][f"{width}x{height}"] = row(
-                table, f"{width}×{height}", scenes.diffuse_spheres(10, width, height, 4), rounds)
-        self.show(table)
-
-        table = Table("Cost against samples per pixel (10 spheres, 512×384)", ["spp", *columns])
-        self.data["spp"] = {}
-        for spp in self.s["spps"]:
-            rounds = self.s["big_rounds"] if spp > 16 else self.s["count_rounds"]
-            self.data["spp"][spp] = row(table, spp, scenes.diffuse_spheres(10, 512, 384, spp), rounds)
-        self.show(table)
-
-    # -- 4 and 5: effects and adaptive depth ----------------------------------------------------------
+    # -- 3 and 4: effects and adaptive depth ----------------------------------------------------------
 
     def effects(self):
-        width, height, spp = 512, 384, 4
-        model = scenes.every_effect(scenes.write_texture(self.folder / "checker.png"), width, height, spp)
-        variants = {"every effect": model, **{f"without {e}": scenes.without(model, e) for e in scenes.EFFECTS}}
-        loaded = {name: (scenes.load(m), scenes.load_whitted(m)) for name, m in variants.items()}
-        timing = self.measure({name: renderer(s, i, spp) for name, (s, i) in loaded.items()}, self.s["rounds"])
-        full = timing["every effect"]
-        table = Table(f"With and without each effect ({width}×{height}, {spp} spp, max depth {model.depth})",
-                      ["scene", "median ms", "spread", "every effect / this", "effects",
-                       "rays (cam/shadow/refl/refr)"])
-        self.data["effects"] = {}
-        for name, (scene, integrator) in loaded.items():
-            rendering = integrator.render_detailed(scene, spp=spp)
-            r = rendering.rays
-            t = timing[name]
-            table.add(name, ms(t.median), t.spread(), full.over(t), " ".join(rendering.effects) or "none",
-                      _rays(r))
-            self.data["effects"][name] = {**vars(t), "rays": r.rays(), "effects": list(rendering.effects)}
-        self.show(table)
-
-    def left_out(self):
         """The every-effect scene with each effect left out by ``whitted render --without``."""
         from whitted.defaults import SWITCHABLE_EFFECTS
         width, height, spp = 512, 384, 4
-        model = scenes.every_effect(scenes.write_texture(self.folder / "checker.png"), width, height, spp)
+        model = scenes.every_effect(self.texture, width, height, spp)
         scene = scenes.load(model)
         integrators = {"every effect": scenes.load_whitted(model),
                        **{f"--without {e}": scenes.load_whitted(model, without=e) for e in SWITCHABLE_EFFECTS}}
-        timing = self.measure({name: renderer(scene, i, spp) for name, i in integrators.items()},
-                              self.s["rounds"])
+        timing = self.measure({name: renderer(scene, i, spp) for name, i in integrators.items()}, self.s["rounds"])
         full = timing["every effect"]
-        table = Table(f"Each effect left out by --without ({width}×{height}, {spp} spp, max depth "
-                      f"{model.depth})", ["render", "median ms", "spread", "this / every effect",
-                                          "rays (cam/shadow/refl/refr)"])
-        self.data["left_out"] = {}
+        table = Table(f"Each effect left out by --without ({width}×{height}, {spp} spp, max depth {model.depth})",
+                      ["render", "median ms", "spread", "this / every effect", "effects",
+                       "rays (cam/shadow/refl/refr)"])
         for name, integrator in integrators.items():
-            r = integrator.render_detailed(scene, spp=spp).rays
-            t = timing[name]
-            table.add(name, ms(t.median), t.spread(), t.over(full), _rays(r))
-            self.data["left_out"][name] = {**vars(t), "rays": r.rays(), "over_full": t.over(full)}
+            rendering = integrator.render_detailed(scene, spp=spp)
+            r, t = rendering.rays, timing[name]
+            table.add(name, ms(t.median), t.spread(), t.over(full), " ".join(rendering.effects) or "none",
+                      f"{r.camera}/{r.shadow}/{r.reflection}/{r.refraction}")
         self.show(table)
 
     def adaptive(self):
         width, height, spp = 512, 384, 4
-        model = scenes.every_effect(self.folder / "checker.png", width, height, spp, depth=16)
+        model = scenes.every_effect(self.texture, width, height, spp, depth=16)
         scene = scenes.load(model)
         thresholds = (0.0, 0.001, 0.01, 0.05)
         integrators = {w: scenes.load_whitted(model, min_weight=w) for w in thresholds}
@@ -248,45 +254,51 @@ class Bench:
                       f"{width}×{height}, {spp} spp)",
                       ["min weight", "median ms", "vs off", "secondary rays", "culled", "depth reached",
                        "mean abs error"])
-        self.data["adaptive"] = {}
         for w, integrator in integrators.items():
             rays = integrator.render_detailed(scene, spp=spp).rays
             t = timing[f"min_weight {w:g}"]
             error = np.abs(np.array(renderer(scene, integrator, spp)(), np.float64)[..., :3] - reference).mean()
             table.add(f"{w:g}", ms(t.median), t.over(base), rays.reflection + rays.refraction, rays.culled,
                       rays.max_depth_reached, f"{error:.2e}")
-            self.data["adaptive"][w] = {**vars(t), "rays": rays.rays(), "culled": rays.culled,
-                                        "depth": rays.max_depth_reached, "mean_abs_error": error}
         self.show(table)
 
 
+#: the note under the sphere-count table
+FIXED_NOTE = ("Peak memory: Dr.Jit's allocations during the render (scene arrays, wavefronts, image), not "
+              "Embree's BVH. Fixed: the same scene rendered at 1×1 pixel and 1 spp, the cost of a render "
+              "that does not grow with its samples (Whitted: reading the scene's materials and building "
+              "its sphere table in Python; direct: tracing a call per shape instance).")
+
 #: the sections of a run, in order (``--only``)
-SECTIONS = ("against_direct_and_floor", "depth", "scaling", "effects", "left_out", "adaptive")
+SECTIONS = ("against_direct_and_floor", "scaling", "effects", "adaptive")
 
 #: the prose of RESULTS.md between the acceptance table and the results: how to reproduce, what
 #: is compared
 NOTES = Path(__file__).with_name("run_notes.md")
 
 
-def markdown(bench: Bench, info: dict, mode: str, seconds: float) -> str:
+def acceptance(summary: dict) -> tuple[Table, list[str]]:
+    """The acceptance table, and the ratios that missed their target."""
+    rows = [("depth 16 / depth 1", "(diffuse, 1024×768, 4 spp)", TARGET_DEPTH, ""),
+            ("whitted / direct", "(same rays)", TARGET_DIRECT, " (stretch: < 1)"),
+            ("whitted (article) / direct", "(article lighting)", None, ""),
+            ("whitted / floor", "(the ray-casting floor)", None, "(information)")]
+    table = Table("Acceptance (ratios of median times)", ["ratio", "measured", "target"])
+    missed = [name for name, _, target, _ in rows if target and summary[name] > target]
+    for name, what, target, note in rows:
+        verdict = f"≤ {target}: {'MISSED' if name in missed else 'met'}" if target else ""
+        table.add(f"{name} {what}", f"{summary[name]:.3f}", verdict + note)
+    return table, missed
+
+
+def markdown(bench: Bench, info: dict, mode: str, seconds: float, accepted: Table) -> str:
     lines = ["# Benchmark results", "",
-             f"Measured on {info['date']}: {info['cpu']}, {info['cores']} cores "
-             f"({info['drjit_threads']} Dr.Jit threads), variant {info['variant']}, Mitsuba {info['mitsuba']}, "
-             f"Dr.Jit {info['drjit']}, LLVM {info['llvm']}, Python {info['python']}, {info['os']}. "
-             f"Source: {info['source']}. "
+             f"Measured on {info['date']}: {summary(info)}. Source: {info['source']}. "
              f"Mode: {mode}; the whole run took {seconds:.0f} s.", "",
              *([f"Another process loaded the machine during the run: the times of {len(bench.noisy)} "
                 f"contenders spread over ±{50 * NOISY:.0f}% (see the spread columns); the ratios, "
                 f"paired per round, are less affected.", ""] if bench.noisy else []),
-             "## Acceptance", "",
-             "| ratio | measured | target |", "|---|---|---|",
-             f"| depth 16 / depth 1 (diffuse, 1024×768, 4 spp) | {bench.summary['depth 16 / depth 1']:.3f} "
-             f"| ≤ {TARGET_DEPTH} |",
-             f"| Whitted / Mitsuba `direct` (same rays) | {bench.summary['whitted / direct']:.3f} "
-             f"| ≤ {TARGET_DIRECT} (stretch: < 1) |",
-             f"| Whitted (article lighting) / `direct` | {bench.summary['whitted (article) / direct']:.3f} | |",
-             f"| Whitted / ray-casting floor | {bench.summary['whitted / floor']:.3f} | (information) |",
-             "", NOTES.read_text(), "## Results", ""]
+             accepted.markdown(), "", NOTES.read_text(), "## Results", ""]
     for table in bench.tables:
         lines += [table.markdown(), ""]
     return "\n".join(lines)
@@ -298,14 +310,12 @@ def main(argv=None) -> int:
     parser.add_argument("--variant", default="llvm_ad_rgb", choices=("llvm_ad_rgb", "cuda_ad_rgb"))
     parser.add_argument("--markdown", metavar="FILE",
                         help="write the results as Markdown (benchmarks/RESULTS.md)")
-    parser.add_argument("--json", metavar="FILE", help="write every number as JSON")
     parser.add_argument("--only", choices=SECTIONS, help="run one section only (no acceptance check)")
     args = parser.parse_args(argv)
 
     whitted.set_variant(args.variant)
     info = machine()
-    print(f"whitted benchmarks ({'quick' if args.quick else 'full'}): {info['cpu']}, {info['cores']} cores, "
-          f"{info['variant']}, Mitsuba {info['mitsuba']}, Dr.Jit {info['drjit']}", flush=True)
+    print(f"whitted benchmarks ({'quick' if args.quick else 'full'}): {summary(info)}", flush=True)
     start = time.perf_counter()
     with tempfile.TemporaryDirectory() as folder:
         bench = Bench(QUICK if args.quick else FULL, Path(folder))
@@ -315,13 +325,8 @@ def main(argv=None) -> int:
             return 0
     seconds = time.perf_counter() - start
 
-    print("\n== Acceptance (ratios of median times)")
-    checks = [("depth 16 / depth 1", TARGET_DEPTH), ("whitted / direct", TARGET_DIRECT)]
-    missed = [name for name, target in checks if bench.summary[name] > target]
-    for name, target in checks:
-        value = bench.summary[name]
-        print(f"{name:28s} {value:6.3f}   target <= {target}: {'MISSED' if name in missed else 'met'}")
-    print(f"{'whitted / floor':28s} {bench.summary['whitted / floor']:6.3f}   (information)")
+    accepted, missed = acceptance(bench.summary)
+    print(accepted.text())
     print(f"total {seconds:.0f} s")
     if bench.noisy:
         print(f"warning: the machine was busy (times spread over ±{50 * NOISY:.0f}% for "
@@ -329,14 +334,11 @@ def main(argv=None) -> int:
               f"on a quiet machine")
 
     if args.markdown:
-        # Keep the sections other benchmarks own in the same file (sections.py).
+        # Keep the sections other benchmarks own in the same file.
         path = Path(args.markdown)
-        others = sections.marked(path.read_text()) if path.exists() else []
-        path.write_text("\n".join([markdown(bench, info, "quick" if args.quick else "full", seconds),
+        others = marked_sections(path.read_text()) if path.exists() else []
+        path.write_text("\n".join([markdown(bench, info, "quick" if args.quick else "full", seconds, accepted),
                                    *others]))
-    if args.json:
-        Path(args.json).write_text(json.dumps({"machine": info, "summary": bench.summary, **bench.data},
-                                              indent=2, default=float))
     return 1 if missed else 0
 
 

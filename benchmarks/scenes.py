@@ -8,23 +8,20 @@ from __future__ import annotations
 
 import math
 import re
-from dataclasses import replace
 from pathlib import Path
 
 import mitsuba as mi
 import numpy as np
 
 from whitted.converter import Light, Material, Scene, Sphere, scene_to_xml
+from whitted.converter.scn_writer import scene_to_scn
 
-EFFECTS = ("lights", "reflection", "refraction", "textures", "background")
 
-
-def random_spheres(count: int, seed: int = 1, *, materials: int | None = None, reflect: float = 0.0,
+def random_spheres(count: int, seed: int = 1, *, reflect: float = 0.0,
                    low=(-5.0, -5.0, -5.0), high=(5.0, 5.0, 5.0)) -> list[Sphere]:
     """``count`` non-overlapping spheres in the box from ``low`` to ``high``, each jittered in a
-    grid cell of its own, so that they cover about as much of a view whatever their number.
-    They share ``materials`` materials (every other one reflecting ``reflect``), or each has
-    its own color and a reflection up to ``reflect``."""
+    grid cell of its own, so that they cover about as much of a view whatever their number;
+    each has its own color and a reflection up to ``reflect``."""
     rng = np.random.default_rng(seed)
     side = max(1, math.ceil(round(count ** (1 / 3), 9)))
     low, high = np.asarray(low, float), np.asarray(high, float)
@@ -33,14 +30,9 @@ def random_spheres(count: int, seed: int = 1, *, materials: int | None = None, r
     cell = np.stack([k % side, k // side % side, k // side ** 2], axis=1)
     radius = rng.uniform(0.2, 0.45, count) * size.min()
     center = low + (cell + 0.5) * size + rng.uniform(-1, 1, (count, 3)) * (size / 2 - radius[:, None])
-    if materials:
-        palette = [Material(color=tuple(rng.uniform(0.2, 0.9, 3).tolist()), reflect=reflect * (m % 2))
-                   for m in range(materials)]
-        chosen = [palette[m] for m in rng.integers(0, materials, count)]
-    else:
-        colors, reflects = rng.uniform(0.2, 0.9, (count, 3)).tolist(), (rng.random(count) * reflect).tolist()
-        chosen = [Material(color=tuple(c), reflect=r) for c, r in zip(colors, reflects)]
-    return [Sphere(tuple(c), r, m) for c, r, m in zip(center.tolist(), radius.tolist(), chosen)]
+    colors, reflects = rng.uniform(0.2, 0.9, (count, 3)).tolist(), (rng.random(count) * reflect).tolist()
+    materials = [Material(color=tuple(c), reflect=r) for c, r in zip(colors, reflects)]
+    return [Sphere(tuple(c), r, m) for c, r, m in zip(center.tolist(), radius.tolist(), materials)]
 
 
 def diffuse_spheres(count: int, width: int, height: int, spp: int, depth: int = 1, seed: int = 1) -> Scene:
@@ -63,17 +55,6 @@ def every_effect(texture: Path, width: int, height: int, spp: int, depth: int = 
                                                                  refract=0.85, ior=1.5)),
                           Sphere((2.2, 1.0, 0.0), 1.0, Material(texture=texture)),
                           Sphere((0.8, 0.4, 2.6), 0.4, Material(color=(0.2, 0.5, 0.9)))])
-
-
-def without(model: Scene, effect: str) -> Scene:
-    """``model`` with one effect taken out and everything else kept."""
-    if effect == "lights":
-        return replace(model, lights=[])
-    if effect == "background":
-        return replace(model, background=(0.0, 0.0, 0.0))
-    fields = {"reflection": {"reflect": 0.0}, "refraction": {"refract": 0.0, "ior": 1.0},
-              "textures": {"texture": None}}[effect]
-    return replace(model, spheres=[replace(s, material=replace(s.material, **fields)) for s in model.spheres])
 
 
 def write_texture(path: Path) -> Path:
@@ -116,41 +97,6 @@ def direct_integrator():
     return mi.load_dict({"type": "direct", "emitter_samples": 1, "bsdf_samples": 0})
 
 
-# -- as .scn text -------------------------------------------------------------------------------
-
-def number(x: float) -> str:
-    """The shortest text that reads back as ``x`` ('-0.0' written as '0')."""
-    return "0" if x == 0 else repr(float(x)) if x != int(x) or abs(x) >= 1e15 else str(int(x))
-
-
-def numbers(values) -> str:
-    return " ".join(number(v) for v in values)
-
-
-def _material_text(m: Material) -> str:
-    """A sphere line's material part: ``color ...`` and its reflection and refraction."""
-    if m.texture is not None:
-        raise ValueError("to_scn writes untextured spheres only")
-    text = f"color {numbers(m.color)}"
-    if m.reflect:
-        text += f" reflect {number(m.reflect)}"
-    if m.refract:
-        text += f" refract {number(m.refract)} {number(m.ior)}"
-    return text
-
-
 def to_scn(model: Scene, title: str = "") -> str:
-    """``model`` as ``.scn`` text (colors, reflection and refraction; no textures)."""
-    lines = [f"# {title}" if title else "# written by benchmarks/scenes.py",
-             f"size {model.width} {model.height}", f"eye {numbers(model.eye)}",
-             f"lookat {numbers(model.lookat)}", f"up {numbers(model.up)}", f"fov {number(model.fov)}",
-             f"background {numbers(model.background)}", f"ambient {number(model.ambient)}",
-             f"depth {model.depth}", f"samples {model.samples}"]
-    lines += [f"light {numbers(light.position)} {numbers(light.color)}" for light in model.lights]
-    materials: dict[Material, str] = {}    # each material's text, written once
-    for s in model.spheres:
-        m = materials.get(s.material)
-        if m is None:
-            m = materials[s.material] = _material_text(s.material)
-        lines.append(f"sphere {numbers(s.center)} {number(s.radius)} {m}")
-    return "\n".join(lines) + "\n"
+    """``model`` as ``.scn`` text, texture paths relative to the working folder."""
+    return scene_to_scn(model, ".", title)

@@ -22,7 +22,7 @@ import numpy as np
 
 from whitted.converter.scene import Light, Material, Scene, Sphere, Vec3
 
-from .scenes import number, to_scn
+from .scenes import to_scn
 
 #: the levels written here (0 is a lone sphere; 6 holds 597 871 spheres)
 LEVELS = range(0, 7)
@@ -33,16 +33,6 @@ SCALE = 1.0 / 3.0
 FLOOR_RADIUS = 1000.0
 FLOOR_HEIGHT = -0.5
 
-EYE: Vec3 = (2.1, 1.3, 1.7)
-LOOKAT: Vec3 = (0.0, 0.0, 0.0)
-UP: Vec3 = (0.0, 0.0, 1.0)
-FOV = 45.0
-SIZE = 512
-DEPTH = 5
-BACKGROUND: Vec3 = (0.078, 0.361, 0.753)
-AMBIENT = 0.2
-LIGHT_POSITIONS: tuple[Vec3, ...] = ((4.0, 3.0, 2.0), (1.0, -4.0, 4.0), (-3.0, 1.0, 5.0))
-LIGHT_INTENSITY = 1.0 / math.sqrt(3.0)
 FLAKE = Material(color=(1.0, 0.9, 0.7), reflect=0.5)
 FLOOR = Material(color=(1.0, 0.75, 0.33))
 
@@ -140,16 +130,16 @@ def floor(floor_radius: float = FLOOR_RADIUS) -> Sphere:
 def scene(level: int, floor_radius: float = FLOOR_RADIUS) -> Scene:
     """The SPD's sphereflake scene at ``level``: the flake's spheres, then the floor sphere."""
     f = flake_arrays(level)
-    color = (LIGHT_INTENSITY,) * 3
     spheres = [Sphere(tuple(center), radius, FLAKE) for center, radius in zip(f.centers.tolist(), f.radii.tolist())]
-    return Scene(source=Path(f"sphereflake{level}.scn"), width=SIZE, height=SIZE, eye=EYE, lookat=LOOKAT,
-                 up=UP, fov=FOV, background=BACKGROUND, ambient=AMBIENT, depth=DEPTH, samples=1,
-                 lights=[Light(p, color) for p in LIGHT_POSITIONS],
-                 spheres=spheres + [floor(floor_radius)])
+    light = (1.0 / math.sqrt(3.0),) * 3
+    return Scene(source=Path(f"sphereflake{level}.scn"), width=512, height=512, eye=(2.1, 1.3, 1.7),
+                 lookat=(0.0, 0.0, 0.0), up=(0.0, 0.0, 1.0), fov=45.0, background=(0.078, 0.361, 0.753),
+                 ambient=0.2, depth=5, samples=1, spheres=spheres + [floor(floor_radius)],
+                 lights=[Light(p, light) for p in ((4.0, 3.0, 2.0), (1.0, -4.0, 4.0), (-3.0, 1.0, 5.0))])
 
 
 def title(level: int, floor_radius: float = FLOOR_RADIUS) -> str:
-    floor_text = "" if floor_radius == FLOOR_RADIUS else f" of radius {number(floor_radius)}"
+    floor_text = "" if floor_radius == FLOOR_RADIUS else f" of radius {floor_radius:g}"
     return (f"Eric Haines' sphereflake (SPD 'balls'), level {level}: {count(level)} spheres "
             f"and a floor sphere{floor_text}; benchmarks/sphereflake.py")
 
@@ -166,7 +156,7 @@ def main(argv=None) -> int:
                         help=f"recursion level ({LEVELS.start}…{LEVELS.stop - 1})")
     parser.add_argument("--floor-radius", type=float, default=FLOOR_RADIUS, metavar="R",
                         help=f"the floor sphere's radius, its top {FLOOR_HEIGHT} below the flake's center "
-                             f"(default {number(FLOOR_RADIUS)})")
+                             f"(default {FLOOR_RADIUS:g})")
     parser.add_argument("-o", "--output", required=True, metavar="FILE.scn", help="the scene file to write")
     args = parser.parse_args(argv)
     if not args.floor_radius > 0:

@@ -3,8 +3,8 @@
 Both whole programs render the same scene (sphereflake.py; povray.py writes POV-Ray's), each
 started as a user starts it, with no adaptive depth control, on floor spheres of radius 10³
 and 10⁴; Mitsuba's path tracer, and ``whitted convert`` against POV-Ray's Parse Time, run
-beside them. The section written in benchmarks/RESULTS.md says what each column measures.
-Options of run.py that ``make bench BENCHFLAGS=...`` passes along are ignored.
+beside them. vs_povray.md, the section written in benchmarks/RESULTS.md, says what each
+column measures. Options of run.py that ``make bench BENCHFLAGS=...`` passes along are ignored.
 """
 
 from __future__ import annotations
@@ -14,30 +14,26 @@ import datetime
 import json
 import math
 import os
-import statistics
 import sys
 import tempfile
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from . import parse_speed, povray, process, sections, sphereflake
-from .machine import machine, summary
-from .tables import MIB, markdown_table, mib, ratio, seconds, text_table
+from whitted.compare.timing import median
 
-
-def _mib(x: float | None) -> str:
-    return mib(x, decimals=0)
-
+from . import parse_speed, povray, process, sphereflake
+from .report import MIB, Table, machine, mib, ratio, replace_section, seconds, summary
 
 FLOORS = (1000.0, 10000.0)
-FULL = {"levels": (1, 2, 3, 4, 5, 6), "floors": FLOORS, "runs": {1: 5, 2: 5, 3: 5, 4: 3, 5: 2, 6: 1},
-        "read_levels": (5, 6), "read_runs": {5: 3, 6: 2}}
-QUICK = {"levels": (1, 2, 3), "floors": FLOORS, "runs": {1: 1, 2: 1, 3: 1},
-         "read_levels": (3,), "read_runs": {3: 1}}
+#: runs of each level and of reading it (``--quick``: levels 1-3, reading level 3, one run each)
+RUNS = {1: 5, 2: 5, 3: 5, 4: 3, 5: 2, 6: 1}
+READ_RUNS = {5: 3, 6: 2}
 #: seconds after which a run is killed and reported as not finished
 TIMEOUT = 600.0
 PROGRAMS = ("whitted", "povray", "path", "convert")
+#: the prose of the section written in RESULTS.md, around the tables
+NOTES = Path(__file__).with_name("vs_povray.md")
 
 
 @dataclass
@@ -54,17 +50,17 @@ class Runs:
         self.render.append(render)
         self.rss.append(rss)
 
-    def said(self, name: str, render: str) -> str:
-        """The runs in a few words for the progress line."""
-        if self.wall:
-            return (f"{name} {_median(self.wall):.2f} s ({render} {_median(self.render):.3f} s, "
-                    f"{_median(self.rss) / MIB:.0f} MiB)")
-        return f"{name} not run" if self.failure == "not run" else f"{name}: —"
+    def said(self, name: str, render: str = "") -> str:
+        """The runs in a few words for the progress line (``render``: what their render time is)."""
+        if not self.wall:
+            return f"{name} not run" if self.failure == "not run" else f"{name}: —"
+        inside = f"{render} {median(self.render):.3f} s, " if render else ""
+        return f"{name} {median(self.wall):.2f} s ({inside}{median(self.rss) / MIB:.0f} MiB)"
 
     def cells(self) -> tuple[str, str]:
         """The process cell and the peak-memory cell of a table."""
         if self.wall:
-            return seconds(_median(self.wall)), _mib(_median(self.rss))
+            return seconds(median(self.wall)), mib(median(self.rss), 0)
         short = "not run" if self.failure == "not run" else \
             self.failure if self.failure.startswith("did not finish") else "failed (see below)"
         return short, (f"≥ {self.failed_rss / MIB:.0f}" if self.failed_rss else "—")
@@ -75,7 +71,6 @@ class Row:
     level: int
     floor: float
     spheres: int
-    runs: int = 0
     whitted: Runs = field(default_factory=Runs)
     pov: Runs = field(default_factory=Runs)
     path: Runs = field(default_factory=Runs)        # whitted render --integrator path --spp 1
@@ -87,27 +82,16 @@ class Row:
     image_difference: float | None = None   # mean |whitted - POV-Ray|, 8-bit levels
     scn: Path | None = None
 
-    def failures(self, but=("not run",)) -> list[tuple[str, str]]:
-        """(program, why) of each program that failed, but for the reasons ``but``."""
-        programs = (("whitted", self.whitted), ("POV-Ray", self.pov), ("path", self.path))
-        return [(who, runs.failure) for who, runs in programs if runs.failure not in ("", *but)]
-
 
 @dataclass
 class ReadRow:
     """Reading one level's scene: ``whitted convert`` against POV-Ray's Parse Time."""
     level: int
     spheres: int
-    lines: int
     megabytes: float
     convert: Runs = field(default_factory=Runs)
     parse_cpu: float | None = None      # whitted's parse_text alone, CPU s, in this process
     pov: Row | None = None              # the render row whose POV-Ray runs give Parse Time
-
-
-def _median(values) -> float | None:
-    values = [v for v in values if not (isinstance(v, float) and math.isnan(v))]
-    return statistics.median(values) if values else None
 
 
 def _floor_name(radius: float) -> str:
@@ -159,7 +143,7 @@ def bench_level(level: int, floor: float, runs: int, folder: Path, pov_exe: str 
     pov = folder / f"{name}.pov"
     pov.write_text(povray.scene_to_pov(model))
     width, height = model.width, model.height
-    row = Row(level, floor, len(model.spheres), runs, scn=scn,
+    row = Row(level, floor, len(model.spheres), scn=scn,
               whitted=Runs(failure="" if "whitted" in programs else "not run"),
               path=Runs(failure="" if "path" in programs else "not run"),
               pov=Runs(failure=("" if "povray" in programs else "not run") if pov_exe else pov_missing))
@@ -193,10 +177,9 @@ def bench_level(level: int, floor: float, runs: int, folder: Path, pov_exe: str 
     if row.whitted.wall and row.pov.wall and not (row.whitted.failure or row.pov.failure):
         row.image_difference = image_difference(w_image, p_image)
     path_text = f", {row.path.said('path', 'render')}" if row.path.wall else ""
-    failures = "".join(f"; {who}: {why}" for who, why in row.failures())
     print(f"level {level}, floor {_floor_name(floor)}: {row.spheres} spheres, "
-          f"{row.whitted.said('whitted', 'render')}, {row.pov.said('POV-Ray', 'trace')}{path_text}"
-          f"{failures}", flush=True)
+          f"{row.whitted.said('whitted', 'render')}, {row.pov.said('POV-Ray', 'trace')}{path_text}",
+          *failures([row], [], pov_missing), sep="; ", flush=True)
     return row
 
 
@@ -205,90 +188,80 @@ def bench_read(level: int, runs: int, rows: list[Row], folder: Path, timeout: fl
     render = next((r for r in rows if r.level == level and r.floor == sphereflake.FLOOR_RADIUS), None)
     scn = render.scn if render else sphereflake.write(level, folder / f"flake{level}-read.scn")
     text = scn.read_text()
-    row = ReadRow(level, sphereflake.count(level) + 1, text.count("\n"), len(text.encode()) / 1e6, pov=render)
-    for run in parse_speed.convert(scn, folder / f"flake{level}.xml", runs, timeout):
-        if run.ok:
-            row.convert.add(run.wall_seconds, None, run.peak_rss)
-        else:
+    row = ReadRow(level, sphereflake.count(level) + 1, len(text.encode()) / 1e6, pov=render)
+    for _ in range(runs):
+        run = process.whitted("convert", scn, "-o", folder / f"flake{level}.xml", timeout=timeout)
+        if not run.ok:
             row.convert.failure = run.failure() + (f": {run.stderr.strip()[-200:]}" if not run.timed_out else "")
-    row.parse_cpu = parse_speed.fast_seconds(text)
+            break
+        row.convert.add(run.wall_seconds, math.nan, run.peak_rss)
+    row.parse_cpu = parse_speed.cpu_seconds(text)
     del text
-    pov = f", POV-Ray parse {_median(render.pov_parse):.2f} s" if render and render.pov_parse else ""
-    convert = (f"whitted convert {_median(row.convert.wall):.2f} s ({_median(row.convert.rss) / MIB:.0f} MiB)"
-               if row.convert.wall else f"whitted convert: {row.convert.failure}")
-    print(f"reading level {level}: {convert}, parse_text {row.parse_cpu:.2f} s CPU{pov}", flush=True)
+    pov = f", POV-Ray parse {median(render.pov_parse):.2f} s" if render and render.pov_parse else ""
+    print(f"reading level {level}: {row.convert.said('whitted convert')}, parse_text {row.parse_cpu:.2f} s CPU"
+          f"{pov}", flush=True)
     return row
 
 
-COLUMNS = ["level", "floor radius", "spheres", "runs", "whitted process s", "POV-Ray process s",
-           "process whitted / POV", "whitted render s", "POV-Ray trace s", "render whitted / POV",
-           "whitted peak RSS MiB", "POV-Ray peak RSS MiB", "RSS whitted / POV", "whitted compile s",
-           "shadow rays whitted / POV", "reflected rays whitted / POV", "image Δ (8-bit levels)"]
-
-
-def table_rows(rows: list[Row]) -> list[list[str]]:
-    out = []
+def render_table(rows: list[Row]) -> Table:
+    table = Table("whitted vs POV-Ray 3.7, sphereflake 512×512, depth 5, 1 ray per pixel, adaptive depth off",
+                  ["level", "floor radius", "spheres", "runs", "whitted process s", "POV-Ray process s",
+                   "process whitted / POV", "whitted render s", "POV-Ray trace s", "render whitted / POV",
+                   "whitted peak RSS MiB", "POV-Ray peak RSS MiB", "RSS whitted / POV", "whitted compile s",
+                   "shadow rays whitted / POV", "reflected rays whitted / POV", "image Δ (8-bit levels)"])
     for r in rows:
-        ww, pw, wr, pt, wm, pm = (_median(v) for v in (r.whitted.wall, r.pov.wall, r.whitted.render,
-                                                        r.pov.render, r.whitted.rss, r.pov.rss))
+        ww, pw, wr, pt, wm, pm = (median(v) for v in (r.whitted.wall, r.pov.wall, r.whitted.render,
+                                                       r.pov.render, r.whitted.rss, r.pov.rss))
         both = r.whitted.wall and r.pov.wall
         shadow = f"{r.whitted_rays.get('shadow', 0)} / {r.pov_rays[0]}" if both else "—"
         reflected = f"{r.whitted_rays.get('reflection', 0)} / {r.pov_rays[1]}" if both else "—"
         (w_process, w_rss), (p_process, p_rss) = r.whitted.cells(), r.pov.cells()
         runs = {len(r.whitted.wall), len(r.pov.wall)} - {0}
-        out.append([str(r.level), _floor_name(r.floor), str(r.spheres),
-                    "/".join(str(n) for n in sorted(runs)) or "0", w_process, p_process, ratio(ww, pw),
-                    seconds(wr), seconds(pt), ratio(wr, pt), w_rss, p_rss, ratio(wm, pm),
-                    seconds(_median(r.whitted_compile)), shadow, reflected,
-                    "—" if r.image_difference is None else f"{r.image_difference:.2f}"])
-    return out
+        table.add(str(r.level), _floor_name(r.floor), str(r.spheres), "/".join(map(str, sorted(runs))) or "0",
+                  w_process, p_process, ratio(ww, pw), seconds(wr), seconds(pt), ratio(wr, pt), w_rss, p_rss,
+                  ratio(wm, pm), seconds(median(r.whitted_compile)), shadow, reflected,
+                  "—" if r.image_difference is None else f"{r.image_difference:.2f}")
+    return table
 
 
-PATH_COLUMNS = ["level", "floor radius", "spheres", "runs", "whitted process s", "path process s",
-                "process path / whitted", "path render s", "whitted peak RSS MiB", "path peak RSS MiB",
-                "RSS path / whitted"]
-
-
-def path_rows(rows: list[Row]) -> list[list[str]]:
+def path_table(rows: list[Row]) -> Table:
     """The path tracer's runs (``--integrator path --spp 1``) beside the Whitted render's."""
-    out = []
+    table = Table("Mitsuba's path tracer on the same scene: `whitted render --integrator path --spp 1` "
+                  "beside the Whitted render (whole process, peak RSS)",
+                  ["level", "floor radius", "spheres", "runs", "whitted process s", "path process s",
+                   "process path / whitted", "path render s", "whitted peak RSS MiB", "path peak RSS MiB",
+                   "RSS path / whitted"])
     for r in rows:
         if r.path.failure == "not run":
             continue
-        ww, pw, wm, pm = (_median(v) for v in (r.whitted.wall, r.path.wall, r.whitted.rss, r.path.rss))
+        ww, pw, wm, pm = (median(v) for v in (r.whitted.wall, r.path.wall, r.whitted.rss, r.path.rss))
         (w_process, w_rss), (p_process, p_rss) = r.whitted.cells(), r.path.cells()
-        out.append([str(r.level), _floor_name(r.floor), str(r.spheres), str(len(r.path.wall)), w_process,
-                    p_process, ratio(pw, ww), seconds(_median(r.path.render)), w_rss, p_rss, ratio(pm, wm)])
-    return out
+        table.add(str(r.level), _floor_name(r.floor), str(r.spheres), str(len(r.path.wall)), w_process,
+                  p_process, ratio(pw, ww), seconds(median(r.path.render)), w_rss, p_rss, ratio(pm, wm))
+    return table
 
 
-READ_COLUMNS = ["level", "spheres", ".scn MB", "runs", "whitted convert process s", "convert peak RSS MiB",
-                "POV-Ray Parse Time s", "convert / POV-Ray parse", "POV-Ray Bounding Time s",
-                "POV-Ray process s", "whitted parse_text alone CPU s"]
-
-
-def read_rows(rows: list[ReadRow]) -> list[list[str]]:
-    out = []
+def read_table(rows: list[ReadRow]) -> Table:
+    table = Table("Reading the scene: the whole `whitted convert` process vs POV-Ray's Parse Time "
+                  "(floor 10^3)",
+                  ["level", "spheres", ".scn MB", "runs", "whitted convert process s", "convert peak RSS MiB",
+                   "POV-Ray Parse Time s", "convert / POV-Ray parse", "POV-Ray Bounding Time s",
+                   "POV-Ray process s", "whitted parse_text alone CPU s"])
     for r in rows:
-        cw = _median(r.convert.wall)
-        parse = _median(r.pov.pov_parse) if r.pov else None
-        out.append([str(r.level), str(r.spheres), f"{r.megabytes:.1f}", str(len(r.convert.wall)),
-                    *r.convert.cells(), seconds(parse), ratio(cw, parse),
-                    seconds(_median(r.pov.pov_bounding)) if r.pov else "—",
-                    seconds(_median(r.pov.pov.wall)) if r.pov else "—", seconds(r.parse_cpu)])
-    return out
+        parse = median(r.pov.pov_parse) if r.pov else math.nan
+        table.add(str(r.level), str(r.spheres), f"{r.megabytes:.1f}", str(len(r.convert.wall)),
+                  *r.convert.cells(), seconds(parse), ratio(median(r.convert.wall), parse),
+                  seconds(median(r.pov.pov_bounding) if r.pov else math.nan),
+                  seconds(median(r.pov.pov.wall) if r.pov else math.nan), seconds(r.parse_cpu))
+    return table
 
 
 def failures(rows: list[Row], reads: list[ReadRow], pov_missing: str = "") -> list[str]:
     """One line per program that failed or did not finish, with why (POV-Ray's absence is said apart)."""
-    lines = []
-    for r in rows:
-        lines += [f"level {r.level}, floor {_floor_name(r.floor)}: {who}: {why}"
-                  for who, why in r.failures(but=("not run", pov_missing))]
-    for r in reads:
-        if r.convert.failure:
-            lines.append(f"level {r.level}: whitted convert: {r.convert.failure}")
-    return lines
+    lines = [f"level {r.level}, floor {_floor_name(r.floor)}: {who}: {runs.failure}"
+             for r in rows for who, runs in (("whitted", r.whitted), ("POV-Ray", r.pov), ("path", r.path))
+             if runs.failure not in ("", "not run", pov_missing)]
+    return lines + [f"level {r.level}: whitted convert: {r.convert.failure}" for r in reads if r.convert.failure]
 
 
 def plot(rows: list[Row], path: Path, title: str) -> None:
@@ -301,21 +274,22 @@ def plot(rows: list[Row], path: Path, title: str) -> None:
                              squeeze=False)
     for ax, floor in zip(axes[0], floors):
         these = [r for r in rows if r.floor == floor]
-        counts = [r.spheres for r in these]
-        series = [("whitted, whole process", [_median(r.whitted.wall) for r in these], "C0", "-"),
-                  ("whitted, render", [_median(r.whitted.render) for r in these], "C0", "--"),
-                  ("POV-Ray 3.7, whole process", [_median(r.pov.wall) for r in these], "C1", "-"),
-                  ("POV-Ray 3.7, trace", [_median(r.pov.render) for r in these], "C1", "--")]
-        for label, values, color, style in series:
-            points = [(c, v) for c, v in zip(counts, values) if v is not None]
+        for label, runs, color, style in [("whitted, whole process", "whitted.wall", "C0", "-"),
+                                          ("whitted, render", "whitted.render", "C0", "--"),
+                                          ("POV-Ray 3.7, whole process", "pov.wall", "C1", "-"),
+                                          ("POV-Ray 3.7, trace", "pov.render", "C1", "--")]:
+            program, kind = runs.split(".")
+            points = [(r.spheres, median(getattr(getattr(r, program), kind))) for r in these]
+            points = [(c, v) for c, v in points if math.isfinite(v)]
             if points:
                 ax.plot(*zip(*points), style, marker="o", color=color, label=label)
         levels = sorted({r.level for r in these})
         ax.set_xscale("log")
         ax.set_yscale("log")
         ax.set_xlabel(f"spheres (levels {levels[0]}…{levels[-1]} and the floor)")
-        ax.set_title(f"floor sphere of radius ${_floor_name(floor).replace('^', '^{')}}}$"
-                     if "^" in _floor_name(floor) else f"floor sphere of radius {floor:g}", fontsize=9)
+        name = _floor_name(floor)
+        ax.set_title(f"floor sphere of radius {'$' + name.replace('^', '^{') + '}$' if '^' in name else name}",
+                     fontsize=9)
         ax.grid(True, which="both", alpha=0.3)
         if ax.lines:
             ax.legend(fontsize=8)
@@ -325,22 +299,6 @@ def plot(rows: list[Row], path: Path, title: str) -> None:
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path)
     plt.close(fig)
-
-
-def _runs_note(runs: dict[int, int], why: str = "") -> str:
-    """How many runs each level's medians are of, e.g. 'medians of 5 runs (levels 1-3), 2 (level 5), ...'."""
-    by_count: dict[int, list[int]] = {}
-    for level, n in sorted(runs.items()):
-        by_count.setdefault(n, []).append(level)
-    if len(by_count) == 1:
-        (n, _), = by_count.items()
-        return f"{'one run' if n == 1 else f'medians of {n} runs'} per level and floor" + (f" ({why})" if why else "")
-    parts = []
-    for n, levels in sorted(by_count.items(), reverse=True):
-        named = f"level{'s' if len(levels) > 1 else ''} {', '.join(map(str, levels))}"
-        parts.append(f"{'one run only' if n == 1 else f'{n} runs'} at {named}"
-                     + (" (for its size: each run takes minutes)" if n == 1 and 6 in levels else ""))
-    return "medians of " + "; ".join(parts) + " per floor"
 
 
 def main(argv=None) -> int:
@@ -353,7 +311,7 @@ def main(argv=None) -> int:
                         "(default: cost_curve.png beside --markdown, else out/bench/cost_curve.png)")
     parser.add_argument("--levels", type=int, nargs="+", choices=list(sphereflake.LEVELS), metavar="L",
                         help="the levels to render (default: 1-6, --quick 1-3)")
-    parser.add_argument("--floors", type=float, nargs="+", metavar="R",
+    parser.add_argument("--floors", type=float, nargs="+", default=FLOORS, metavar="R",
                         help="the floor sphere's radii (default: 1000 10000)")
     parser.add_argument("--runs", type=int, metavar="N", help="runs of each level (default: 5 for small "
                         "levels down to 1 for level 6)")
@@ -364,54 +322,38 @@ def main(argv=None) -> int:
     parser.add_argument("--programs", nargs="+", choices=PROGRAMS, default=list(PROGRAMS),
                         help="what to run: whitted render, POV-Ray, whitted convert (default: all)")
     args, _ = parser.parse_known_args(argv)
-    settings = dict(QUICK if args.quick else FULL)
-    if args.levels:
-        settings["levels"] = tuple(sorted(set(args.levels)))
-        # by default, reading is timed where POV-Ray's runs give its Parse Time beside it
-        settings["read_levels"] = tuple(level for level in settings["read_levels"] if level in settings["levels"])
-    if args.floors:
-        settings["floors"] = tuple(args.floors)
-    if args.read_levels is not None:
-        settings["read_levels"] = tuple(sorted(set(args.read_levels)))
-    runs = {level: args.runs or settings["runs"].get(level, FULL["runs"][level]) for level in settings["levels"]}
-    read_runs = {level: args.runs or settings["read_runs"].get(level, FULL["read_runs"].get(level, 3))
-                 for level in settings["read_levels"]}
+    levels = sorted(set(args.levels or ((1, 2, 3) if args.quick else RUNS)))
+    # by default, reading is timed where POV-Ray's runs give its Parse Time beside it
+    read_levels = sorted(set(args.read_levels if args.read_levels is not None else
+                             [level for level in ((3,) if args.quick else READ_RUNS) if level in levels]))
     if "convert" not in args.programs:
-        settings["read_levels"] = ()
+        read_levels = []
+    runs = {level: args.runs or (1 if args.quick else RUNS[level]) for level in levels}
+    read_runs = {level: args.runs or (1 if args.quick else READ_RUNS.get(level, 3)) for level in read_levels}
     timeout = args.timeout if args.timeout > 0 else None
     threads = len(os.sched_getaffinity(0))
     pov_exe, pov_missing = povray.find()
     load = os.getloadavg()[0]
     started = datetime.datetime.now(datetime.timezone.utc)
     mode = "quick" if args.quick else "full"
-    print(f"whitted vs POV-Ray 3.7 on the sphereflake ({mode}): {summary(machine())}; "
+    measured_on = summary(machine())
+    print(f"whitted vs POV-Ray 3.7 on the sphereflake ({mode}): {measured_on}; "
           f"POV-Ray: {pov_exe or pov_missing}", flush=True)
     start = time.perf_counter()
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
         rows = [bench_level(level, floor, runs[level], folder, pov_exe, pov_missing, threads, timeout,
                             args.programs)
-                for level in settings["levels"] for floor in settings["floors"]]
-        reads = [bench_read(level, read_runs[level], rows, folder, timeout)
-                 for level in settings["read_levels"]]
+                for level in levels for floor in args.floors]
+        reads = [bench_read(level, read_runs[level], rows, folder, timeout) for level in read_levels]
     total = time.perf_counter() - start
     load = max(load, os.getloadavg()[0])
-    runs_note = _runs_note(runs, "--quick" if args.quick else "")
     failed = failures(rows, reads, pov_missing)
 
-    print(f"\n== whitted vs POV-Ray 3.7, sphereflake 512×512, depth 5, 1 ray per pixel, adaptive depth off; "
-          f"{runs_note}; a run is killed after {timeout or math.inf:g} s")
-    print(text_table(COLUMNS, table_rows(rows)))
-    paths = path_rows(rows)
-    if paths:
-        print("\n== Mitsuba's path tracer on the same scene: `whitted render --integrator path --spp 1` beside "
-              "the Whitted render (whole process, peak RSS)")
-        print(text_table(PATH_COLUMNS, paths))
-    if reads:
-        print("\n== reading the scene: the whole `whitted convert` process vs POV-Ray's Parse Time (floor 10^3)")
-        print(text_table(READ_COLUMNS, read_rows(reads)))
-    if not pov_exe:
-        print(f"POV-Ray rows missing: {pov_missing}")
+    tables = [table for table in (render_table(rows), path_table(rows), read_table(reads)) if table.rows]
+    for table in tables:
+        print(table.text())
+    failed += [] if pov_exe else [f"POV-Ray rows missing: {pov_missing}"]
     for line in failed:
         print(line)
     print(f"total {total:.0f} s; load average up to {load:.1f} on {threads} cores")
@@ -422,57 +364,13 @@ def main(argv=None) -> int:
     print(f"cost curve: {plot_path}")
 
     if args.markdown:
-        note = ("" if pov_exe else f"\n\nPOV-Ray rows missing: {pov_missing}.")
-        if failed:
-            note += "\n\nRuns that failed or did not finish:\n\n" + "\n".join(f"- {line}" for line in failed)
-        levels = settings["levels"]
-        path_section = "" if not paths else f"""
-Mitsuba's path tracer on the same scenes: the whole `whitted render flakeL.scn -o X.png --integrator path
---spp 1` process beside the Whitted render's above (same runs, alternating), and its peak resident memory.
-Its rays cost more (one sample of a path of up to 6 segments with a light sample at each, against the
-Whitted tree's); the scene it loads is as compact as the Whitted integrator's (whitted/sealed.py: the sealed
-spheres of the commonest radius and of the larger radii in one `ellipsoids` shape per radius and material).
-
-{markdown_table(PATH_COLUMNS, paths)}
-"""
-        reading = "" if not reads else f"""
-Reading the scene, side by side: the whole `whitted convert flakeL.scn -o flakeL.xml` process (Python's
-start-up, parsing, writing the XML; wall time and peak resident memory, medians of the runs shown) against
-POV-Ray's own Parse Time of the same scene (floor 10³) in its render runs above, with its Bounding Time
-(building its hierarchy) and its whole render process beside it. The last column is whitted's parser alone
-(`parse_text`, CPU seconds in the benchmark's own process): how much of the process is parsing.
-
-{markdown_table(READ_COLUMNS, read_rows(reads))}
-"""
-        body = f"""## whitted vs POV-Ray 3.7 on the sphereflake (benchmarks/vs_povray.py)
-
-Measured {started:%Y-%m-%d %H:%M UTC} on {summary(machine())}, {mode} mode, \
-{total:.0f} s in all; the one-minute load average reached {load:.1f} on {threads} cores.
-Both programs render Eric Haines' sphereflake (benchmarks/sphereflake.py: the SPD's view, three lights,
-mirror spheres with reflection 0.5), levels {levels[0]} to {levels[-1]}, each on a floor sphere of radius
-{" and ".join(_floor_name(f) for f in settings["floors"])} (its top at the same height), at 512×512, depth 5,
-one ray per pixel, with no adaptive depth control (whitted `--min-weight 0`; POV-Ray `max_trace_level 5`,
-`adc_bailout 0`), each with {threads} threads (Dr.Jit's pool; POV-Ray `+WT{threads}`). "Process" is the
-wall time of the whole command (`whitted render flakeL.scn -o X.png --min-weight 0`, `povray +IflakeL.pov
-...`) and "peak RSS" its own peak resident memory (benchmarks/process.py); "render" is whitted's `--stats`
-seconds (kernel compilation excluded, shown beside it) and POV-Ray's own Trace Time. {runs_note[0].upper()}\
-{runs_note[1:]}, the two programs alternating, after one untimed run of each; a run is killed after \
-{timeout or math.inf:g} s and its cell says so. Ratios are whitted / POV-Ray (below 1: whitted is faster or smaller).
-The ray counts and the mean difference of the two 8-bit images (in levels of 255) show that both trace the
-same tree.{note}
-
-POV-Ray counts as "reflected" also the rays its last level spawns and then leaves
-untraced (whitted at `--max-depth 6` counts 115 779 reflected rays on level 2, POV-Ray at
-`max_trace_level 5` 115 780): its counts are whitted's one level deeper.
-
-{markdown_table(COLUMNS, table_rows(rows))}
-
-![time against sphere count, log-log, one panel per floor](cost_curve.png)
-{path_section}{reading}
-Reproduce: `make bench` (prints these tables; `BENCHFLAGS=--quick` for levels 1-3), or
-`.venv/bin/python -m benchmarks.vs_povray --markdown benchmarks/RESULTS.md` to rewrite this section.
-"""
-        sections.replace(args.markdown, "sphereflake", body)
+        body = NOTES.read_text().format(
+            started=f"{started:%Y-%m-%d %H:%M UTC}", machine=measured_on, mode=mode, total=total,
+            load=load, threads=threads, first=levels[0], last=levels[-1],
+            floors=" and ".join(_floor_name(f) for f in args.floors), timeout=f"{timeout or math.inf:g}",
+            failed="".join(f"\n- {line}" for line in failed) or " none.",
+            tables="\n\n".join(table.markdown() for table in tables))
+        replace_section(args.markdown, "sphereflake", body)
         print(f"recorded in {args.markdown}")
     return 0
 

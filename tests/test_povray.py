@@ -99,12 +99,13 @@ def test_povray_reports_parse_time_and_memory_and_keeps_to_its_limit(tmp_path):
 
 def test_benchmark_table_has_both_floors_memory_and_says_what_did_not_finish():
     pov = Runs([8.0], [1.8], [610 * 2 ** 20])
-    done = vs_povray.Row(6, 1e3, 597872, 1, whitted=Runs([90.0], [2.0], [11 * 2 ** 30]),
+    done = vs_povray.Row(6, 1e3, 597872, whitted=Runs([90.0], [2.0], [11 * 2 ** 30]),
                          whitted_compile=[0.0], whitted_rays={"shadow": 10, "reflection": 4}, pov=pov,
                          pov_parse=[2.5], pov_bounding=[2.5], pov_rays=(10, 5), image_difference=0.3)
-    late = vs_povray.Row(6, 1e4, 597872, 1, pov=pov,
+    late = vs_povray.Row(6, 1e4, 597872, pov=pov,
                          whitted=Runs(failure="did not finish in 600 s", failed_rss=9 * 2 ** 30))
-    cells = [dict(zip(vs_povray.COLUMNS, row)) for row in vs_povray.table_rows([done, late])]
+    table = vs_povray.render_table([done, late])
+    cells = [dict(zip(table.columns, row)) for row in table.rows]
     assert [c["floor radius"] for c in cells] == ["10^3", "10^4"]
     assert cells[0]["whitted peak RSS MiB"] == "11264" and cells[0]["POV-Ray peak RSS MiB"] == "610"
     assert cells[0]["process whitted / POV"] == "11.25" and cells[0]["image Δ (8-bit levels)"] == "0.30"
@@ -112,20 +113,22 @@ def test_benchmark_table_has_both_floors_memory_and_says_what_did_not_finish():
     assert cells[1]["whitted peak RSS MiB"] == "≥ 9216" and cells[1]["process whitted / POV"] == "—"
     assert vs_povray.failures([done, late], []) == ["level 6, floor 10^4: whitted: did not finish in 600 s"]
 
-    read = vs_povray.ReadRow(6, 597872, 597885, 69.7, convert=Runs([2.0], rss=[400 * 2 ** 20]),
+    read = vs_povray.ReadRow(6, 597872, 69.7, convert=Runs([2.0], rss=[400 * 2 ** 20]),
                              parse_cpu=1.5, pov=done)
-    cell = dict(zip(vs_povray.READ_COLUMNS, vs_povray.read_rows([read])[0]))
+    table = vs_povray.read_table([read])
+    cell = dict(zip(table.columns, table.rows[0]))
     assert cell["whitted convert process s"] == "2.000" and cell["POV-Ray Parse Time s"] == "2.500"
     assert cell["convert / POV-Ray parse"] == "0.80" and cell["convert peak RSS MiB"] == "400"
 
 
 def test_path_tracer_rows_stand_beside_the_whitted_render():
     whitted = Runs([5.0], rss=[500 * 2 ** 20])
-    done = vs_povray.Row(6, 1e3, 597872, 1, whitted=whitted, path=Runs([12.5], [6.0], [600 * 2 ** 20]))
-    late = vs_povray.Row(6, 1e4, 597872, 1, whitted=whitted,
+    done = vs_povray.Row(6, 1e3, 597872, whitted=whitted, path=Runs([12.5], [6.0], [600 * 2 ** 20]))
+    late = vs_povray.Row(6, 1e4, 597872, whitted=whitted,
                          path=Runs(failure="did not finish in 600 s", failed_rss=3 * 2 ** 30))
-    left_out = vs_povray.Row(5, 1e3, 66431, 1, whitted=Runs([3.0]), path=Runs(failure="not run"))
-    cells = [dict(zip(vs_povray.PATH_COLUMNS, row)) for row in vs_povray.path_rows([done, late, left_out])]
+    left_out = vs_povray.Row(5, 1e3, 66431, whitted=Runs([3.0]), path=Runs(failure="not run"))
+    table = vs_povray.path_table([done, late, left_out])
+    cells = [dict(zip(table.columns, row)) for row in table.rows]
     assert len(cells) == 2
     assert cells[0]["process path / whitted"] == "2.50" and cells[0]["RSS path / whitted"] == "1.20"
     assert cells[0]["path render s"] == "6.000" and cells[0]["path peak RSS MiB"] == "600"
