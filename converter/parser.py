@@ -10,7 +10,9 @@ a sphere in doubt is read again on its own by the statement reader, which alone 
 
 from __future__ import annotations
 
+import contextlib
 import difflib
+import gc
 import math
 import os
 import re
@@ -227,6 +229,25 @@ def parse_text(text: str, source: str | os.PathLike, *, careful: bool = False) -
     if text.startswith("\ufeff"):
         text = text[1:]
     parser = _Parser(source)
+    with _no_gc():   # a large scene makes millions of short-lived lists, none in a cycle
+        _read(parser, text, careful)
+    return parser.finish()
+
+
+@contextlib.contextmanager
+def _no_gc():
+    enabled = gc.isenabled()
+    gc.disable()
+    try:
+        yield
+    finally:
+        if enabled:
+            gc.enable()
+
+
+def _read(parser: _Parser, text: str, careful: bool) -> None:
+    """Give every statement of ``text`` to ``parser``: the lines of a plain text a batch at a
+    time, every other text's statement by statement (:func:`_statements`)."""
     lines = LINE_BREAK.split(text) if "\r" in text else text.split("\n")
     if len(lines) > 1 and lines[-1] == "":
         lines.pop()  # the final line break ends the last line; no empty line follows it
@@ -235,12 +256,11 @@ def parse_text(text: str, source: str | os.PathLike, *, careful: bool = False) -
             chunk = lines[start:start + _BATCH]
             parser.plain(start + 1, _plain_words(chunk, start + 1, parser.scene.comments), careful)
     else:
-        for line, tokens, plain in _statements(lines, source, parser.errors, parser.scene.comments):
+        for line, tokens, plain in _statements(lines, parser.source, parser.errors, parser.scene.comments):
             if plain:
                 parser.plain(line, [tokens], careful)
             else:
                 parser.statement(line, tokens)
-    return parser.finish()
 
 
 def suggest(word: str, known) -> str:
@@ -517,15 +537,14 @@ class _Parser:
     def plain(self, first: int, words: list[list[str]], careful: bool) -> None:
         """The statements of plain lines, the first numbered ``first``, their words from
         :func:`_plain_words`: the spheres go to a batch (:meth:`read_spheres`) unless ``careful``."""
-        spheres = [] if careful else [k for k, w in enumerate(words) if len(w) >= 5 and
-                                      (w[0] == "sphere" or w[0].lower() == "sphere")]
-        if len(spheres) < len(words):
-            taken = set(spheres)
+        spheres = [not careful and len(w) >= 5 and (w[0] == "sphere" or w[0].lower() == "sphere")
+                   for w in words]
+        if words.count([]) + sum(spheres) < len(words):
             for k in compress(range(len(words)), words):
-                if k not in taken:
+                if not spheres[k]:
                     self.statement(first + k, _tokens(words[k]))
-        self.pending_lines += [first + k for k in spheres]
-        self.pending += [words[k] for k in spheres]
+        self.pending_lines += compress(range(first, first + len(words)), spheres)
+        self.pending += compress(words, spheres)
         if len(self.pending) >= _BATCH:
             self.read_spheres()
 
@@ -545,10 +564,9 @@ class _Parser:
         radius = numbers[:, 3]
         ok = (np.abs(numbers[:, :3]) < _MAX).all(axis=1) & (radius > _MIN) & (radius < _MAX)
         tails = [words[5] if len(words) == 6 else "" for words in statements]
-        looks = list(map(self._tails.get, tails))
-        if None in looks:
-            looks = [self.tail_look(tail) if look is None else look for tail, look in zip(tails, looks)]
-        look = np.array(looks, np.int64)
+        look = np.fromiter(map(self._tails.get, tails, repeat(-2)), np.int64, n)   # -2: not yet read
+        for k in np.flatnonzero(look == -2).tolist():
+            look[k] = self.tail_look(tails[k])
         ok &= look >= 0
         for k in np.flatnonzero(~ok).tolist():
             self.statement(lines[k], _tokens(statements[k]))
