@@ -1,8 +1,9 @@
 """How fast the converter reads a big scene: the level-5 sphereflake (66 431 spheres).
 
-The parser reads plain light and sphere lines on a fast path and everything else
-statement by statement, the careful path (converter/parser.py); this times both on the
-same text, interleaved, in CPU seconds (RESULTS.md, "Parsing a big scene"). ``--convert``
+The parser reads the spheres of plain lines a batch at a time and every other statement
+on its own; ``careful=True`` reads every statement on its own, as the parser did before
+batches (converter/parser.py). This times both on the same text, interleaved, in CPU
+seconds (RESULTS.md, "Parsing a big scene"). ``--convert``
 also times the whole ``whitted convert`` process, wall time and peak memory, as
 vs_povray.py does beside POV-Ray's Parse Time.
 """
@@ -22,7 +23,7 @@ from .timing import cpu_seconds
 
 
 def measure(text: str, rounds: int) -> dict:
-    """Median CPU seconds of the careful and the fast path on ``text``, and their ratio."""
+    """Median CPU seconds of ``parse_text`` with and without ``careful``, and their ratio."""
     fast, careful = [], []
     for _ in range(rounds):
         fast.append(fast_seconds(text))
@@ -34,7 +35,7 @@ def measure(text: str, rounds: int) -> dict:
 
 
 def fast_seconds(text: str) -> float:
-    """CPU seconds of :func:`whitted.converter.parse_text`'s own path (the fast one) on ``text``."""
+    """CPU seconds of :func:`whitted.converter.parse_text` on ``text`` (spheres in batches)."""
     return cpu_seconds(lambda: parse_text(text, "bench.scn"))
 
 
