@@ -182,43 +182,48 @@ def _tokens(words: list[str]) -> list[str]:
     return words[:5] + words[5].split() if len(words) == 6 else words
 
 
+#: a token of a line (a quoted one with its quotes, perhaps unclosed), or the ``#`` of its comment
+_TOKEN = re.compile(r'"[^"]*"?|#|[^ \t\f\v#"]+')
+
+
+def token_spans(line: str) -> tuple[list[list[int]], bool, int]:
+    """The spans ``[start, end]`` of the tokens of a line (a quoted one with its quotes),
+    whether it continues on the next (a trailing ``\\``, left out of the spans), and where
+    the ``#`` of its comment is (-1: nowhere)."""
+    spans, comment = [], -1
+    for match in _TOKEN.finditer(line):
+        if match.group() == "#":
+            comment = match.start()
+            break
+        spans.append([match.start(), match.end()])
+    continued = bool(spans) and line[spans[-1][0]] != '"' and line[spans[-1][1] - 1] == "\\"
+    if continued:
+        spans[-1][1] -= 1
+        if spans[-1][0] == spans[-1][1]:
+            spans.pop()
+    return spans, continued, comment
+
+
 def _split_line(line: str, path, first: int) -> tuple[list[str], bool, str | None]:
     """Tokens of one physical line, whether it ends with a continuation ``\\``, its comment."""
     if "\0" in line:
         raise SceneError(path, first, "binary file (NUL character), not a text scene")
+    spans, continued, comment = token_spans(line)
     tokens: list[str] = []
-    remark = None
-    i, n = 0, len(line)
-    while i < n:
-        c = line[i]
-        if c in _BLANKS:
-            i += 1
-        elif c == "#":
-            remark = line[i + 1:].strip() or None
-            break
-        elif c == '"':
-            end = line.find('"', i + 1)
-            if end < 0:
-                raise SceneError(path, first, f"unterminated quote: {line[i:][:40]!r}")
-            if end + 1 < n and line[end + 1] not in _BLANKS + "#":
+    for a, z in spans:
+        if line[a] == '"':
+            if z - a < 2 or line[z - 1] != '"':
+                raise SceneError(path, first, f"unterminated quote: {line[a:][:40]!r}")
+            if z < len(line) and line[z] not in _BLANKS + "#":
                 raise SceneError(path, first, f"a closing quote must be followed by a blank, "
-                                              f"got {line[i:end + 2][:40]!r}")
-            tokens.append(Quoted(line[i + 1:end]))
-            i = end + 1
+                                              f"got {line[a:z + 1][:40]!r}")
+            tokens.append(Quoted(line[a + 1:z - 1]))
+        elif z < len(line) and line[z] == '"':
+            raise SceneError(path, first, f"a quote may only start a value, got {line[a:z + 1][:40]!r}")
         else:
-            j = i
-            while j < n and line[j] not in _BLANKS and line[j] not in '#"':
-                j += 1
-            if j < n and line[j] == '"':
-                raise SceneError(path, first, f"a quote may only start a value, "
-                                              f"got {line[i:j + 1][:40]!r}")
-            tokens.append(line[i:j])
-            i = j
-    continued = bool(tokens) and not isinstance(tokens[-1], Quoted) and tokens[-1].endswith("\\")
-    if continued:
-        rest = tokens[-1][:-1]
-        tokens[-1:] = [rest] if rest else []
-    return tokens, continued, remark
+            tokens.append(line[a:z])
+    remark = line[comment + 1:].strip() if comment >= 0 else ""
+    return tokens, continued, remark or None
 
 
 def parse_text(text: str, source: str | os.PathLike, *, careful: bool = False) -> Scene:
