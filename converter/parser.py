@@ -318,19 +318,18 @@ class _Parser:
 
     def number(self, token: str, what: str, *, integer: bool = False) -> Decimal:
         """The exact value of a number token (constraints compare what was written)."""
-        text = _clip(token)
         if isinstance(token, Quoted):
             self.fail(f"{what} must be a number, got the quoted text {_show(token)} "
                       f"(only texture paths are quoted)")
         if (_INTEGER if integer else _NUMBER).fullmatch(token):
             value = Decimal(token)
             if not integer and abs(value) > MAX_MAGNITUDE:  # integers have their own ranges
-                self.fail(f"{what} must lie within -1e12 and 1e12, got {text}")
+                self.fail(f"{what} must lie within -1e12 and 1e12, got {_clip(token)}")
             return value
         if _NON_FINITE.fullmatch(token):
-            self.fail(f"{what} must be a finite number, got {text}")
+            self.fail(f"{what} must be a finite number, got {_clip(token)}")
         if integer and _NUMBER.fullmatch(token):
-            self.fail(f"{what} must be an integer, got {text}")
+            self.fail(f"{what} must be an integer, got {_clip(token)}")
         kind = "an integer" if integer else "a number"
         self.fail(f"{what} must be {kind}, got {_show(token)}")
 
@@ -357,11 +356,11 @@ class _Parser:
     def in_range(self, value: Decimal, token_text: str, what: str, low, high,
                  *, low_open: bool = False, high_open: bool = False) -> None:
         """``low <= value <= high`` (or strict where open); None means unbounded."""
-        token_text = _clip(token_text)
         bad_low = low is not None and (value <= low if low_open else value < low)
         bad_high = high is not None and (value >= high if high_open else value > high)
         if not (bad_low or bad_high):
             return
+        token_text = _clip(token_text)
         if low is not None and high is not None:
             left, right = (">" if low_open else ">="), ("<" if high_open else "<=")
             self.fail(f"{what} must be {left} {low} and {right} {high}, got {token_text}")
