@@ -574,24 +574,15 @@ class _Parser:
         ok &= look >= 0
         for k in np.flatnonzero(~ok).tolist():
             self.statement(lines[k], _tokens(statements[k]))
-        line = np.array(lines, np.int64)
+        self.blocks.append((np.array(lines, np.int64)[ok], numbers[ok], look[ok]))
         if self.rows:
             rows = np.array(self.rows, np.float64).reshape(-1, 6)
             self.rows = []
-            line = np.concatenate((line[ok], rows[:, 0].astype(np.int64)))
-            numbers = np.concatenate((numbers[ok], rows[:, 1:5]))
-            look = np.concatenate((look[ok], rows[:, 5].astype(np.int64)))
-        elif not ok.all():
-            line, numbers, look = line[ok], numbers[ok], look[ok]
-        if len(line):
-            self.blocks.append((line, numbers, look))
+            self.blocks.append((rows[:, 0].astype(np.int64), rows[:, 1:5], rows[:, 5].astype(np.int64)))
 
     def sphere_arrays(self) -> SphereArrays:
         """The spheres read, in file order, their materials and orientations by first use."""
         import numpy as np
-        if not self.blocks:
-            return SphereArrays(np.zeros((0, 3)), np.zeros(0), np.zeros(0, np.int64), (),
-                                np.zeros(0, np.int64), np.zeros(0, np.int64), ())
         line, numbers, look = (np.concatenate(parts) for parts in zip(*self.blocks))
         if len(line) > 1 and (np.diff(line) < 0).any():
             order = np.argsort(line, kind="stable")
