@@ -655,6 +655,29 @@ def test_fast_path_reads_plain_spheres_itself(monkeypatch):
     assert scene.spheres[2].center == (1e-3, -250.0, 3.0) and scene.spheres[2].radius == 2e-6
 
 
+def test_a_text_with_quotes_reads_its_plain_lines_as_a_plain_text_does(texture_png, monkeypatch):
+    """Plain lines among quoted, continued and non-ASCII ones still go to the batch; the
+    scene, and the errors, are those of every statement read on its own."""
+    source = texture_png("tex.png").parent / "mixed.scn"
+    monkeypatch.setattr(parser_module, "_BATCH", 2)
+    lines = ["sphere 0 0 0 1 color 1 0.9 0.7  # café", 'sphere 1 0 0 1 texture "tex.png"',
+             "sphere 2 0 0 1 \\", "  reflect 0.5", "sphere 3 0 0 1e-6",
+             "sphere 4 0 0 1 color 1 1 1", "sphere 5 0 0 1 reflect 1.0", "sphere 6 0 0 0.5 texture tex.png"]
+    text = "\n".join(lines) + "\n"
+    scene = parse_text(text, source)
+    assert [s.line for s in scene.spheres] == [1, 2, 3, 5, 6, 7, 8]
+    assert repr(scene) == repr(parse_text(text, source, careful=True))
+    text += 'sphere 7 0 0 1e13\nsphere 8 0 0 1 texture "none.png"\nsphere 9 0 0 1 reflect 2\n'
+    errors = []
+    for careful in (False, True):
+        with pytest.raises(SceneError) as error:
+            parse_text(text, source, careful=careful)
+        errors.append(str(error.value))
+    assert errors[0] == errors[1]
+    assert [line.split(": ")[0].rsplit(":", 1)[1] for line in errors[0].splitlines()
+            if "mixed.scn:" in line] == ["9", "10", "11"]
+
+
 def test_spheres_that_share_attributes_share_nothing_else():
     scene = parse("sphere 0 0 0 1 color 1 0.9 0.7 reflect 0.5\nsphere 1 0 0 2 color 1 0.9 0.7 reflect 0.5\n")
     a, b = scene.spheres
