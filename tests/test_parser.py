@@ -661,8 +661,8 @@ def test_a_text_with_quotes_reads_its_plain_lines_as_a_plain_text_does(texture_p
     source = texture_png("tex.png").parent / "mixed.scn"
     monkeypatch.setattr(parser_module, "_BATCH", 2)
     lines = ["sphere 0 0 0 1 color 1 0.9 0.7  # café", 'sphere 1 0 0 1 texture "tex.png"',
-             "sphere 2 0 0 1 \\", "  reflect 0.5", "sphere 3 0 0 1e-6",
-             "sphere 4 0 0 1 color 1 1 1", "sphere 5 0 0 1 reflect 1.0", "sphere 6 0 0 0.5 texture tex.png"]
+             "sphere 2 0 0 1 \\", " reflect 0.5", "sphere 3 0 0 1e-6", "sphere 4 0 0 1 color 1 1 1",
+             "sphere 5 0 0 1 reflect 1.0", "sphere 6 0 0 0.5 texture tex.png"]
     text = "\n".join(lines) + "\n"
     scene = parse_text(text, source)
     assert [s.line for s in scene.spheres] == [1, 2, 3, 5, 6, 7, 8]
