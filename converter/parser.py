@@ -18,9 +18,9 @@ import os
 import re
 import stat
 import struct
+from decimal import Decimal
 from itertools import chain, compress, repeat
 from operator import contains, itemgetter
-from decimal import Decimal
 from pathlib import Path
 
 from .. import defaults
@@ -236,7 +236,7 @@ def parse_text(text: str, source: str | os.PathLike, *, careful: bool = False) -
     parser = _Parser(source)
     with _no_gc():   # a large scene makes millions of short-lived lists, none in a cycle
         _read(parser, text, careful)
-    return parser.finish()
+        return parser.finish()
 
 
 @contextlib.contextmanager
@@ -261,7 +261,8 @@ def _read(parser: _Parser, text: str, careful: bool) -> None:
             chunk = lines[start:start + _BATCH]
             parser.plain(start + 1, _plain_words(chunk, start + 1, parser.scene.comments), careful)
     else:
-        for line, tokens, plain in _statements(lines, parser.source, parser.errors, parser.scene.comments):
+        statements = _statements(lines, parser.source, parser.errors, parser.scene.comments)
+        for line, tokens, plain in statements:
             if plain:
                 parser.plain(line, [tokens], careful)
             else:
