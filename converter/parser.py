@@ -3,26 +3,30 @@
 
 A file is accepted as a whole or rejected with one :class:`SceneError` that lists every
 problem in it, so that nothing invalid reaches Mitsuba and a user fixes a file in one go.
-Large scenes are read on the fast path of :mod:`.plain`, which hands every other line, and
-every doubt, to the one statement reader here (:meth:`_Parser.careful_line`).
+Scenes of millions of spheres must read fast: sphere statements of plain lines are read a
+batch at a time, their numbers with ``float`` and numpy and each distinct attribute list once;
+a sphere in doubt is read again on its own by the statement reader, which alone words messages.
 """
 
 from __future__ import annotations
 
+import contextlib
 import difflib
+import gc
+import math
 import os
 import re
 import stat
 import struct
-from dataclasses import dataclass
 from decimal import Decimal
+from itertools import chain, compress, repeat
+from operator import contains, itemgetter
 from pathlib import Path
 
 from .. import defaults
 from ..defaults import MAX_DEPTH, MAX_SAMPLES, MAX_SIZE, PARALLEL_SINE
 from ..errors import SceneError
 from .textures import image_problem
-from .plain import LINE_BREAK, NOT_PLAIN_BYTES, NOT_PLAIN_CHARACTERS, PlainReader, comment_text
 from .scene import Distinct, Light, Material, Scene, Sphere, SphereArrays, Vec3, first_use
 from .scene import cross, length, normalize
 
@@ -46,20 +50,23 @@ _NUMBER = re.compile(r"[+-]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][+-]?[0-9]+)?
 _INTEGER = re.compile(r"[+-]?[0-9]+")
 _NON_FINITE = re.compile(r"[+-]?(?:nan|inf|infinity)", re.IGNORECASE)
 _BLANKS = " \t\f\v"
-#: a sphere's (north, equator) when its statement gives neither (the fast path's spheres')
-_DEFAULT_ORIENTATION = (defaults.NORTH, defaults.EQUATOR)
+LINE_BREAK = re.compile(r"\r\n|\r|\n")
+#: what makes a line not plain: a plain line splits into the tokenizer's tokens with
+#: str.split(), and float() reads its numbers as the format does (no quote, continuation, NUL,
+#: '_', non-ASCII character or separator the format does not know)
+_ODD = '"\\\x00\x1c\x1d\x1e\x1f_'
+_NOT_PLAIN = re.compile(f"[{re.escape(_ODD)}]|[^\\x00-\\x7f]")
+#: the sphere statements read at a time (:meth:`_Parser.read_spheres`)
+_BATCH = 1 << 16
+_MAX = float(defaults.MAX_MAGNITUDE)        # |x| < this: inside the magnitude limit
+_MIN = float(defaults.MIN_POSITIVE)         # x > this: at least MIN_POSITIVE
+#: a sphere's (north, equator) when its statement gives neither
+_DEFAULT_ORIENTATION = (tuple(map(float, defaults.NORTH)), tuple(map(float, defaults.EQUATOR)))
 
 
 def parse_file(path: str | os.PathLike) -> Scene:
     """Read and parse a ``.scn`` file; errors name ``path`` as given."""
-    path = Path(path)
-    data = read_scene_file(path)
-    if data.isascii() and not any(c in data for c in NOT_PLAIN_BYTES):
-        # the fast path straight from the bytes: ASCII is UTF-8 without a BOM
-        parser = _Parser(path)
-        PlainReader(parser).read_bytes(data)
-        return parser.finish()
-    return parse_text(decode(data, path), path)
+    return parse_text(decode(read_scene_file(path), path), path)
 
 
 def check_scene_file(path: str | os.PathLike) -> None:
@@ -105,35 +112,36 @@ def _line_of(data: bytes, offset: int) -> int:
     return len(LINE_BREAK.findall(head)) + 1
 
 
-@dataclass(frozen=True)
-class Token:
-    text: str
-    quoted: bool = False
+class Quoted(str):
+    """A token written in quotes (only texture paths are)."""
 
-    def show(self) -> str:
-        """The token as written, quoted and safe for a one-line message."""
-        return repr(_clip(self.text))
+
+def _show(token: str) -> str:
+    """The token as written, quoted and safe for a one-line message."""
+    return repr(_clip(token))
 
 
 def _clip(text: str) -> str:
     return text if len(text) <= 40 else text[:37] + "..."
 
 
-def _statements(text: str, path, errors: list, comments: dict) -> list[tuple[int, list[Token]]]:
-    """Split ``text`` into statements: (first line number, tokens); a statement's comment
+def _statements(lines: list[str], path, errors: list, comments: dict):
+    """The statements of ``lines``: (first line number, tokens, plain); a statement's comment
     goes into ``comments`` by that line, the problem of one that cannot be split into
-    ``errors`` as (line, message). The syntax: docs/scene-format.md, "Syntax"."""
-    statements = []
-    tokens: list[Token] = []
+    ``errors`` as (line, message). The syntax: docs/scene-format.md, "Syntax". A plain
+    statement is one plain line, its tokens from :func:`_plain_words`."""
+    tokens: list[str] = []
     first = 0
     remark = None   # the statement's comment
     skipping = False  # the continuation lines of a statement that could not be split
-    lines = LINE_BREAK.split(text)
-    if len(lines) > 1 and lines[-1] == "":
-        lines.pop()  # the final line break ends the last line; no empty line follows it
     for number, line in enumerate(lines, start=1):
         if skipping:
             skipping = line.rstrip(_BLANKS).endswith("\\")
+            continue
+        if not tokens and not _NOT_PLAIN.search(line):
+            words = _plain_words([line], number, comments)[0]
+            if words:
+                yield number, words, True
             continue
         if not tokens:
             first, remark = number, None
@@ -151,65 +159,114 @@ def _statements(text: str, path, errors: list, comments: dict) -> list[tuple[int
                 errors.append((first, "the last line ends with '\\' but no line follows"))
             continue
         if tokens:
-            statements.append((first, tokens))
             if remark:
                 comments[first] = remark
+            yield first, tokens, False
         tokens = []
-    return statements
 
 
-def _split_line(line: str, path, first: int) -> tuple[list[Token], bool, str | None]:
+def _plain_words(lines: list[str], first: int, comments: dict) -> list[list[str]]:
+    """The words of plain lines, the first numbered ``first``: a line's first five tokens and
+    the text of the rest (:func:`_tokens`); their comments go into ``comments`` by line."""
+    words = [line.split(None, 5) for line in lines]
+    for k in compress(range(len(lines)), map(contains, lines, repeat("#"))):
+        code, _, remark = lines[k].partition("#")
+        words[k] = code.split(None, 5)
+        if words[k] and remark.strip():
+            comments[first + k] = remark.strip()
+    return words
+
+
+def _tokens(words: list[str]) -> list[str]:
+    """The tokens of a plain statement, from its first five and the text of the rest."""
+    return words[:5] + words[5].split() if len(words) == 6 else words
+
+
+#: a token of a line (a quoted one with its quotes, perhaps unclosed), or the ``#`` of its comment
+_TOKEN = re.compile(r'"[^"]*"?|#|[^ \t\f\v#"]+')
+
+
+def token_spans(line: str) -> tuple[list[list[int]], bool, int]:
+    """The spans ``[start, end]`` of the tokens of a line (a quoted one with its quotes),
+    whether it continues on the next (a trailing ``\\``, left out of the spans), and where
+    the ``#`` of its comment is (-1: nowhere)."""
+    spans, comment = [], -1
+    for match in _TOKEN.finditer(line):
+        if match.group() == "#":
+            comment = match.start()
+            break
+        spans.append([match.start(), match.end()])
+    continued = bool(spans) and line[spans[-1][0]] != '"' and line[spans[-1][1] - 1] == "\\"
+    if continued:
+        spans[-1][1] -= 1
+        if spans[-1][0] == spans[-1][1]:
+            spans.pop()
+    return spans, continued, comment
+
+
+def _split_line(line: str, path, first: int) -> tuple[list[str], bool, str | None]:
     """Tokens of one physical line, whether it ends with a continuation ``\\``, its comment."""
     if "\0" in line:
         raise SceneError(path, first, "binary file (NUL character), not a text scene")
-    tokens: list[Token] = []
-    remark = None
-    i, n = 0, len(line)
-    while i < n:
-        c = line[i]
-        if c in _BLANKS:
-            i += 1
-        elif c == "#":
-            remark = comment_text(line[i + 1:])
-            break
-        elif c == '"':
-            end = line.find('"', i + 1)
-            if end < 0:
-                raise SceneError(path, first, f"unterminated quote: {line[i:][:40]!r}")
-            if end + 1 < n and line[end + 1] not in _BLANKS + "#":
+    spans, continued, comment = token_spans(line)
+    tokens: list[str] = []
+    for a, z in spans:
+        if line[a] == '"':
+            if z - a < 2 or line[z - 1] != '"':
+                raise SceneError(path, first, f"unterminated quote: {line[a:][:40]!r}")
+            if z < len(line) and line[z] not in _BLANKS + "#":
                 raise SceneError(path, first, f"a closing quote must be followed by a blank, "
-                                              f"got {line[i:end + 2][:40]!r}")
-            tokens.append(Token(line[i + 1:end], quoted=True))
-            i = end + 1
+                                              f"got {line[a:z + 1][:40]!r}")
+            tokens.append(Quoted(line[a + 1:z - 1]))
+        elif z < len(line) and line[z] == '"':
+            raise SceneError(path, first, f"a quote may only start a value, got {line[a:z + 1][:40]!r}")
         else:
-            j = i
-            while j < n and line[j] not in _BLANKS and line[j] not in '#"':
-                j += 1
-            if j < n and line[j] == '"':
-                raise SceneError(path, first, f"a quote may only start a value, "
-                                              f"got {line[i:j + 1][:40]!r}")
-            tokens.append(Token(line[i:j]))
-            i = j
-    continued = bool(tokens) and not tokens[-1].quoted and tokens[-1].text.endswith("\\")
-    if continued:
-        rest = tokens[-1].text[:-1]
-        tokens[-1:] = [Token(rest)] if rest else []
-    return tokens, continued, remark
+            tokens.append(line[a:z])
+    remark = line[comment + 1:].strip() if comment >= 0 else ""
+    return tokens, continued, remark or None
 
 
 def parse_text(text: str, source: str | os.PathLike, *, careful: bool = False) -> Scene:
     """Parse scene text; ``source`` names the file in messages and anchors relative textures.
-    ``careful=True``: every statement on the careful path (the parser's benchmark times both)."""
+    ``careful=True``: every statement read on its own, none in a batch (the parser's tests and
+    benchmark compare both)."""
     source = Path(source)
     if text.startswith("\ufeff"):
         text = text[1:]
     parser = _Parser(source)
-    if not careful and not any(c in text for c in NOT_PLAIN_CHARACTERS):
-        PlainReader(parser).read_bytes(text.encode("utf-8", "surrogatepass"))
+    with _no_gc():   # a large scene makes millions of short-lived lists, none in a cycle
+        _read(parser, text, careful)
+        return parser.finish()
+
+
+@contextlib.contextmanager
+def _no_gc():
+    enabled = gc.isenabled()
+    gc.disable()
+    try:
+        yield
+    finally:
+        if enabled:
+            gc.enable()
+
+
+def _read(parser: _Parser, text: str, careful: bool) -> None:
+    """Give every statement of ``text`` to ``parser``: the lines of a plain text a batch at a
+    time, every other text's statement by statement (:func:`_statements`)."""
+    lines = LINE_BREAK.split(text) if "\r" in text else text.split("\n")
+    if len(lines) > 1 and lines[-1] == "":
+        lines.pop()  # the final line break ends the last line; no empty line follows it
+    if text.isascii() and not any(c in text for c in _ODD):    # every line plain
+        for start in range(0, len(lines), _BATCH):
+            chunk = lines[start:start + _BATCH]
+            parser.plain(start + 1, _plain_words(chunk, start + 1, parser.scene.comments), careful)
     else:
-        for line, tokens in _statements(text, source, parser.errors, parser.scene.comments):
-            parser.statement(line, tokens)
-    return parser.finish()
+        statements = _statements(lines, parser.source, parser.errors, parser.scene.comments)
+        for line, tokens, plain in statements:
+            if plain:
+                parser.plain(line, [tokens], careful)
+            else:
+                parser.statement(line, tokens)
 
 
 def suggest(word: str, known) -> str:
@@ -235,8 +292,13 @@ class _Parser:
         self.failed: set[str] = set()         # the statements (names) that had a problem
         self.line = 0
         self._images: dict[Path, str | None] = {}
-        self.spheres = _SphereList()          # the spheres read so far
-        self._alike: dict[tuple, tuple] = {}  # attribute texts -> (material, (north, equator))
+        self.pending_lines: list[int] = []    # plain sphere statements to read in a batch:
+        self.pending: list[list[str]] = []    # their lines and words
+        self.blocks: list[tuple] = []         # the spheres read: arrays of line, numbers, look
+        self.rows: list[tuple] = []           # spheres read one at a time, for the next block
+        self.materials, self.orientations = Distinct(), Distinct()   # (north, equator) pairs
+        self.looks: dict[tuple[int, int], int] = {}   # (material, orientation) -> look
+        self._tails: dict[str, int] = {}      # plain attributes' text -> look, or -1
 
     def fail(self, message: str):
         raise SceneError(self.source, self.line, message)
@@ -255,39 +317,38 @@ class _Parser:
         if len(self.errors) > errors_before:
             raise _PartsFailed
 
-    def number(self, token: Token, what: str, *, integer: bool = False) -> Decimal:
+    def number(self, token: str, what: str, *, integer: bool = False) -> Decimal:
         """The exact value of a number token (constraints compare what was written)."""
-        text = _clip(token.text)
-        if token.quoted:
-            self.fail(f"{what} must be a number, got the quoted text {token.show()} "
+        if isinstance(token, Quoted):
+            self.fail(f"{what} must be a number, got the quoted text {_show(token)} "
                       f"(only texture paths are quoted)")
-        if (_INTEGER if integer else _NUMBER).fullmatch(token.text):
-            value = Decimal(token.text)
+        if (_INTEGER if integer else _NUMBER).fullmatch(token):
+            value = Decimal(token)
             if not integer and abs(value) > MAX_MAGNITUDE:  # integers have their own ranges
-                self.fail(f"{what} must lie within -1e12 and 1e12, got {text}")
+                self.fail(f"{what} must lie within -1e12 and 1e12, got {_clip(token)}")
             return value
-        if _NON_FINITE.fullmatch(token.text):
-            self.fail(f"{what} must be a finite number, got {text}")
-        if integer and _NUMBER.fullmatch(token.text):
-            self.fail(f"{what} must be an integer, got {text}")
+        if _NON_FINITE.fullmatch(token):
+            self.fail(f"{what} must be a finite number, got {_clip(token)}")
+        if integer and _NUMBER.fullmatch(token):
+            self.fail(f"{what} must be an integer, got {_clip(token)}")
         kind = "an integer" if integer else "a number"
-        self.fail(f"{what} must be {kind}, got {token.show()}")
+        self.fail(f"{what} must be {kind}, got {_show(token)}")
 
-    def vector(self, tokens: list[Token], what: str) -> tuple[Decimal, Decimal, Decimal]:
+    def vector(self, tokens: list[str], what: str) -> tuple[Decimal, Decimal, Decimal]:
         return tuple(self.number(t, what) for t in tokens)
 
-    def color(self, args: list[Token], what: str, high=None):
+    def color(self, args: list[str], what: str, high=None):
         color = self.vector(args, what)
         for value, token in zip(color, args):
-            self.in_range(value, token.text, what, 0, high)
+            self.in_range(value, token, what, 0, high)
         return color
 
-    def bounded(self, token: Token, what: str, low, high, integer: bool = False) -> Decimal:
+    def bounded(self, token: str, what: str, low, high, integer: bool = False) -> Decimal:
         value = self.number(token, what, integer=integer)
-        self.in_range(value, token.text, what, low, high)
+        self.in_range(value, token, what, low, high)
         return value
 
-    def count(self, keyword: str, args: list[Token], names: str, *counts: int) -> None:
+    def count(self, keyword: str, args: list[str], names: str, *counts: int) -> None:
         if len(args) not in counts:
             wanted = " or ".join(str(c) for c in counts)
             noun = "value" if counts == (1,) else "values"
@@ -296,11 +357,11 @@ class _Parser:
     def in_range(self, value: Decimal, token_text: str, what: str, low, high,
                  *, low_open: bool = False, high_open: bool = False) -> None:
         """``low <= value <= high`` (or strict where open); None means unbounded."""
-        token_text = _clip(token_text)
         bad_low = low is not None and (value <= low if low_open else value < low)
         bad_high = high is not None and (value >= high if high_open else value > high)
         if not (bad_low or bad_high):
             return
+        token_text = _clip(token_text)
         if low is not None and high is not None:
             left, right = (">" if low_open else ">="), ("<" if high_open else "<=")
             self.fail(f"{what} must be {left} {low} and {right} {high}, got {token_text}")
@@ -321,51 +382,44 @@ class _Parser:
                 self.check_camera()
             except SceneError as error:
                 self.errors.append((error.line, error.message))
+        self.read_spheres()
         if self.errors:
             self.errors.sort(key=lambda error: error[0] or 0)
             raise SceneError.collected([(self.source, line, message) for line, message in self.errors],
                                       defaults.MAX_REPORTED_ERRORS)
-        self.scene.spheres = self.spheres.arrays()
+        self.scene.spheres = self.sphere_arrays()
         self.scene.comments = dict(sorted(self.scene.comments.items()))   # by line, on every path
         return self.scene
 
-    def statement(self, line: int, tokens: list[Token]) -> None:
+    def statement(self, line: int, tokens: list[str]) -> None:
         """Give one statement its meaning, or note its problem and go on."""
         try:
             self._statement(line, tokens)
         except SceneError as error:
             self.errors.append((error.line, error.message))
-            self.failed.add(tokens[0].text.lower())
+            self.failed.add(tokens[0].lower())
         except _PartsFailed:   # its errors are noted already
-            self.failed.add(tokens[0].text.lower())
+            self.failed.add(tokens[0].lower())
 
-    def _statement(self, line: int, tokens: list[Token]) -> None:
+    def _statement(self, line: int, tokens: list[str]) -> None:
         self.line = line
         keyword, args = tokens[0], tokens[1:]
-        name = keyword.text.lower()
-        if keyword.quoted:
-            self.fail(f"expected a statement name, got the quoted text {keyword.show()}")
+        name = keyword.lower()
+        if isinstance(keyword, Quoted):
+            self.fail(f"expected a statement name, got the quoted text {_show(keyword)}")
         if name not in STATEMENTS:
-            self.fail(f"unknown statement {keyword.show()}{suggest(keyword.text, STATEMENTS)}")
+            self.fail(f"unknown statement {_show(keyword)}{suggest(keyword, STATEMENTS)}")
         if name in GLOBALS:
             if name in self.seen:
                 self.fail(f"{name} given twice (first on line {self.seen[name]})")
             self.seen[name] = line
         getattr(self, f"statement_{name}")(args)
 
-    def careful_line(self, number: int, line: str) -> None:
-        """Read one physical line (the fast path's every doubt) the careful way."""
-        tokens, _, remark = _split_line(line, self.source, number)
-        if tokens:
-            self.statement(number, tokens)
-            if remark:
-                self.scene.comments[number] = remark
-
     def statement_size(self, args):
         self.count("size", args, "W H", 2)
         width, height = (self.number(t, f"size {n}", integer=True) for t, n in zip(args, ("width", "height")))
         for value, token, n in ((width, args[0], "width"), (height, args[1], "height")):
-            self.in_range(value, token.text, f"size {n}", 1, MAX_SIZE)
+            self.in_range(value, token, f"size {n}", 1, MAX_SIZE)
         self.scene.width, self.scene.height = int(width), int(height)
 
     def _point(self, name, args) -> Vec3:
@@ -386,10 +440,10 @@ class _Parser:
     def statement_fov(self, args):
         self.count("fov", args, "DEG", 1)
         fov = self.number(args[0], "fov")
-        self.in_range(fov, args[0].text, "fov", 0, 180, low_open=True, high_open=True)
-        self.positive(fov, args[0].text, "fov")
+        self.in_range(fov, args[0], "fov", 0, 180, low_open=True, high_open=True)
+        self.positive(fov, args[0], "fov")
         if _float32(float(fov)) >= 180.0:
-            self.fail(f"fov must be < 180 (it rounds to 180 in 32-bit floats), got {args[0].text}")
+            self.fail(f"fov must be < 180 (it rounds to 180 in 32-bit floats), got {args[0]}")
         self.scene.fov = float(fov)
 
     def statement_background(self, args):
@@ -423,12 +477,12 @@ class _Parser:
 
     def sphere_radius(self, token):
         radius = self.number(token, "sphere radius")
-        self.positive(radius, token.text, "sphere radius")
+        self.positive(radius, token, "sphere radius")
         return radius
 
     def statement_sphere(self, args):
         numbers = 0
-        while numbers < len(args) and not args[numbers].quoted and _NUMBER.fullmatch(args[numbers].text):
+        while numbers < len(args) and not isinstance(args[numbers], Quoted) and _NUMBER.fullmatch(args[numbers]):
             numbers += 1
         if numbers < 4:
             if numbers < len(args) and not _looks_like_name(args[numbers]):
@@ -439,21 +493,28 @@ class _Parser:
         errors = len(self.errors)
         center = self.part(self.vector, args[:3], "sphere center")
         radius = self.part(self.sphere_radius, args[3])
-        values = self.attributes(args[4:])
-        self.settle(errors)
+        look = self.look(args[4:], errors)
+        self.rows.append((self.line, *_floats(center), float(radius), look))
 
+    def look(self, args: list[str], errors: int) -> int:
+        """The number of the material and orientation (:attr:`looks`) the sphere attributes
+        ``args`` give; ``errors``: the count before the statement (any more: it fails)."""
+        values = self.attributes(args)
+        self.settle(errors)
         kr, kt = values.get("reflect", (0,))[0], values.get("refract", (0, 1))[0]
         if kr + kt > 1:
             self.fail(f"sphere reflect + refract must be <= 1, got {kr} + {kt}")
-        north = _floats(values.get("north", Sphere.north))
-        equator = _floats(values.get("equator", Sphere.equator))
-        for name, direction in (("north", north), ("equator", equator)):
-            if _is_zero(direction):
-                self.fail(f"sphere {name} must not be zero")
-        if _sine(north, equator) < PARALLEL_SINE:
-            default = "" if "equator" in values else " (the default)"
-            self.fail(f"sphere equator {_show_vec(equator)}{default} must not be parallel "
-                      f"to north {_show_vec(north)}")
+        orientation = _DEFAULT_ORIENTATION
+        if "north" in values or "equator" in values:
+            orientation = north, equator = (_floats(values.get("north", Sphere.north)),
+                                            _floats(values.get("equator", Sphere.equator)))
+            for name, direction in (("north", north), ("equator", equator)):
+                if _is_zero(direction):
+                    self.fail(f"sphere {name} must not be zero")
+            if _sine(north, equator) < PARALLEL_SINE:
+                default = "" if "equator" in values else " (the default)"
+                self.fail(f"sphere equator {_show_vec(equator)}{default} must not be parallel "
+                          f"to north {_show_vec(north)}")
         material = Material(
             color=_floats(values.get("color", Material.color)),
             reflect=float(kr),
@@ -461,33 +522,100 @@ class _Parser:
             ior=float(values.get("refract", (0, 1))[1]),
             texture=values.get("texture"),
         )
-        # spheres written alike share these objects, which _SphereList numbers by identity
-        given = "north" in values or "equator" in values
-        material, orientation = self._alike.setdefault(
-            tuple(t.text for t in args[4:]), (material, (north, equator) if given else _DEFAULT_ORIENTATION))
-        self.spheres.add(self.line, _floats(center), float(radius), material, orientation)
+        key = self.materials.index(material), self.orientations.index(orientation)
+        return self.looks.setdefault(key, len(self.looks))
 
-    def attributes(self, args: list[Token]) -> dict:
+    def tail_look(self, tail: str) -> int:
+        """:meth:`look` of a plain sphere statement's attributes, the text ``tail``, read once
+        per distinct text, or -1 when they have a problem (:meth:`statement` then words it)."""
+        found = self._tails.get(tail)
+        if found is None:
+            errors = len(self.errors)
+            try:
+                found = self.look(tail.split(), errors)
+            except (SceneError, _PartsFailed):
+                found = -1
+            del self.errors[errors:]
+            self._tails[tail] = found
+        return found
+
+    def plain(self, first: int, words: list[list[str]], careful: bool) -> None:
+        """The statements of plain lines, the first numbered ``first``, their words from
+        :func:`_plain_words`: the spheres go to a batch (:meth:`read_spheres`) unless ``careful``."""
+        spheres = [not careful and len(w) >= 5 and (w[0] == "sphere" or w[0].lower() == "sphere")
+                   for w in words]
+        if words.count([]) + sum(spheres) < len(words):
+            for k in compress(range(len(words)), words):
+                if not spheres[k]:
+                    self.statement(first + k, _tokens(words[k]))
+        self.pending_lines += compress(range(first, first + len(words)), spheres)
+        self.pending += compress(words, spheres)
+        if len(self.pending) >= _BATCH:
+            self.read_spheres()
+
+    def read_spheres(self) -> None:
+        """Read the pending sphere statements: at once those whose numbers lie clearly inside
+        their ranges and whose attributes are valid, every other one by :meth:`statement`."""
+        import numpy as np
+        statements, lines = self.pending, self.pending_lines
+        self.pending, self.pending_lines = [], []
+        n = len(statements)
+        texts = chain.from_iterable(map(itemgetter(slice(1, 5)), statements))
+        try:
+            numbers = np.fromiter(map(float, texts), np.float64, 4 * n).reshape(n, 4)
+        except ValueError:   # nan fails every range below
+            texts = chain.from_iterable(map(itemgetter(slice(1, 5)), statements))
+            numbers = np.fromiter(map(_float_or_nan, texts), np.float64, 4 * n).reshape(n, 4)
+        radius = numbers[:, 3]
+        ok = (np.abs(numbers[:, :3]) < _MAX).all(axis=1) & (radius > _MIN) & (radius < _MAX)
+        tails = [words[5] if len(words) == 6 else "" for words in statements]
+        look = np.fromiter(map(self._tails.get, tails, repeat(-2)), np.int64, n)   # -2: not yet read
+        for k in np.flatnonzero(look == -2).tolist():
+            look[k] = self.tail_look(tails[k])
+        ok &= look >= 0
+        for k in np.flatnonzero(~ok).tolist():
+            self.statement(lines[k], _tokens(statements[k]))
+        self.blocks.append((np.array(lines, np.int64)[ok], numbers[ok], look[ok]))
+        if self.rows:
+            rows = np.array(self.rows, np.float64).reshape(-1, 6)
+            self.rows = []
+            self.blocks.append((rows[:, 0].astype(np.int64), rows[:, 1:5], rows[:, 5].astype(np.int64)))
+
+    def sphere_arrays(self) -> SphereArrays:
+        """The spheres read, in file order, their materials and orientations by first use."""
+        import numpy as np
+        line, numbers, look = (np.concatenate(parts) for parts in zip(*self.blocks))
+        if len(line) > 1 and (np.diff(line) < 0).any():
+            order = np.argsort(line, kind="stable")
+            line, numbers, look = line[order], numbers[order], look[order]
+        pairs = np.array(list(self.looks), np.int64).reshape(-1, 2)
+        material, orientation = pairs[look, 0], pairs[look, 1]
+        material, materials = _by_first_use(material, self.materials.values)
+        orientation, orientations = _by_first_use(orientation, self.orientations.values)
+        return SphereArrays(numbers[:, :3].copy(), numbers[:, 3].copy(), material, materials, line,
+                            orientation, orientations)
+
+    def attributes(self, args: list[str]) -> dict:
         """The sphere attributes after the radius, checked and converted."""
         values: dict = {}
         i = 0
         while i < len(args):
             token = args[i]
-            name = token.text.lower()
-            if token.quoted:
-                self.fail(f"expected a sphere attribute name, got the quoted text {token.show()}")
+            name = token.lower()
+            if isinstance(token, Quoted):
+                self.fail(f"expected a sphere attribute name, got the quoted text {_show(token)}")
             if name not in ATTRIBUTES:
-                if _NUMBER.fullmatch(token.text):
-                    self.fail(f"expected a sphere attribute name, got the number {token.text}; "
+                if _NUMBER.fullmatch(token):
+                    self.fail(f"expected a sphere attribute name, got the number {token}; "
                               f"attributes are {', '.join(ATTRIBUTES)}")
-                self.fail(f"unknown sphere attribute {token.show()}{suggest(token.text, ATTRIBUTES)}")
+                self.fail(f"unknown sphere attribute {_show(token)}{suggest(token, ATTRIBUTES)}")
             if name in values:
                 self.fail(f"sphere attribute {name} given twice")
             names = ATTRIBUTES[name]
             given = args[i + 1:i + 1 + len(names)]
             # Stop at the next attribute name so the message counts what was given.
             for k, value in enumerate(given):
-                if not value.quoted and value.text.lower() in ATTRIBUTES and name != "texture":
+                if not isinstance(value, Quoted) and value.lower() in ATTRIBUTES and name != "texture":
                     given = given[:k]
                     break
             if len(given) < len(names):
@@ -507,7 +635,7 @@ class _Parser:
     def attribute_refract(self, args):
         kt = self.bounded(args[0], "sphere refract KT", 0, 1)
         ior = self.number(args[1], "sphere refract IOR")
-        self.positive(ior, args[1].text, "sphere refract IOR")
+        self.positive(ior, args[1], "sphere refract IOR")
         return kt, ior
 
     def attribute_north(self, args):
@@ -518,18 +646,18 @@ class _Parser:
 
     def attribute_texture(self, args) -> Path:
         token = args[0]
-        if not token.text:
+        if not token:
             self.fail("sphere texture path is empty")
-        if any(ord(c) < 32 or ord(c) == 127 for c in token.text):
-            self.fail(f"sphere texture path {token.show()} holds a control character")
-        path = Path(os.path.abspath(self.source.parent / token.text))
+        if any(ord(c) < 32 or ord(c) == 127 for c in token):
+            self.fail(f"sphere texture path {_show(token)} holds a control character")
+        path = Path(os.path.abspath(self.source.parent / token))
         try:
             str(path).encode("utf-8")
         except UnicodeEncodeError:
             self.fail(f"sphere texture path {path} is not valid UTF-8")
         problem = self.image_problem(path)
         if problem:
-            self.fail(f"sphere texture {token.show()}: {problem}")
+            self.fail(f"sphere texture {_show(token)}: {problem}")
         return path
 
     def image_problem(self, path: Path) -> str | None:
@@ -554,51 +682,11 @@ class _Parser:
                       f"direction (from eye {_show_vec(scene.eye)} to lookat {_show_vec(scene.lookat)})")
 
 
-class _SphereList:
-    """The spheres of a file as read: arrays (the fast path) and single ones, in file order."""
-
-    def __init__(self):
-        self.blocks: list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = []
-        self.singles: list[tuple] = []   # (line, center, radius, material, (north, equator))
-        self.materials = Distinct()
-
-    def material(self, material: Material) -> int:
-        return self.materials.index(material)
-
-    def add(self, line: int, center: Vec3, radius: float, material: Material, orientation) -> None:
-        """One sphere; ``orientation``: its ``(north, equator)``."""
-        self.singles.append((line, center, radius, material, orientation))
-
-    def add_arrays(self, lines, centers, radii, materials) -> None:
-        """Spheres of the default orientation, their material indices from :meth:`material`."""
-        if len(lines):
-            self.blocks.append((lines, centers, radii, materials))
-
-    def arrays(self) -> SphereArrays:
-        import numpy as np
-        blocks = list(self.blocks)
-        orientations = Distinct()
-        orientations.index(_DEFAULT_ORIENTATION)
-        if self.singles:
-            n = len(self.singles)
-            lines, centers, radii, materials, pairs = zip(*self.singles)
-            blocks.append((np.array(lines, np.int64), np.array(centers, np.float64).reshape(n, 3),
-                           np.array(radii, np.float64), np.fromiter(map(self.material, materials), np.int64, n)))
-            single_orientation = np.fromiter(map(orientations.index, pairs), np.int64, n)
-        if not blocks:
-            return SphereArrays(np.zeros((0, 3)), np.zeros(0), np.zeros(0, np.int64), (),
-                                np.zeros(0, np.int64), np.zeros(0, np.int64), ())
-        line, center, radius, material = (np.concatenate(parts) for parts in zip(*blocks))
-        orientation = np.zeros(len(line), np.int64)
-        if self.singles:
-            orientation[len(line) - len(self.singles):] = single_orientation
-        if len(line) > 1 and (np.diff(line) < 0).any():
-            order = np.argsort(line, kind="stable")
-            line, center, radius, material, orientation = (
-                a[order] for a in (line, center, radius, material, orientation))
-        material, materials = _by_first_use(material, self.materials.values)
-        orientation, orientations = _by_first_use(orientation, orientations.values)
-        return SphereArrays(center, radius, material, materials, line, orientation, orientations)
+def _float_or_nan(token: str) -> float:
+    try:
+        return float(token)
+    except ValueError:
+        return math.nan
 
 
 def _by_first_use(index: np.ndarray, values: list) -> tuple[np.ndarray, tuple]:
@@ -612,8 +700,8 @@ def _by_first_use(index: np.ndarray, values: list) -> tuple[np.ndarray, tuple]:
     return remap[index], tuple(values[k] for k in order.tolist())
 
 
-def _looks_like_name(token: Token) -> bool:
-    return not token.quoted and token.text.lower() in ATTRIBUTES
+def _looks_like_name(token: str) -> bool:
+    return not isinstance(token, Quoted) and token.lower() in ATTRIBUTES
 
 
 def _floats(values) -> Vec3:

@@ -12,6 +12,7 @@ import re
 from pathlib import Path
 
 from .. import defaults as D
+from .parser import ATTRIBUTES, token_spans
 from .scene import Scene, Sphere, relative_path
 
 
@@ -59,35 +60,15 @@ def scene_to_scn(scene: Scene, folder: str | os.PathLike, comment: str = "") -> 
     return "\n".join(lines) + "\n"
 
 
-#: a token of a line (a quoted one with its quotes), or the ``#`` that starts its comment
-_TOKEN = re.compile(r'"[^"]*"|#|[^ \t\f\v#"]+')
-
-
-def _tokens(line: str) -> tuple[list[list[int]], bool]:
-    """The spans ``[start, end]`` of the tokens of a line, and whether it continues on the
-    next (a trailing ``\\``, left out of the spans)."""
-    spans = []
-    for match in _TOKEN.finditer(line):
-        if match.group() == "#":
-            break
-        spans.append([match.start(), match.end()])
-    continued = bool(spans) and line[spans[-1][0]] != '"' and line[spans[-1][1] - 1] == "\\"
-    if continued:
-        spans[-1][1] -= 1
-        if spans[-1][0] == spans[-1][1]:
-            spans.pop()
-    return spans, continued
-
-
 def _statement(lines: list[str], line: int) -> list[tuple[int, int, int]]:
     """The tokens ``(line index, start, end)`` of the statement that starts on ``line``
     (1-based); empty when none starts there."""
     k = line - 1
-    if not 0 <= k < len(lines) or k and _tokens(lines[k - 1])[1]:
+    if not 0 <= k < len(lines) or k and token_spans(lines[k - 1])[1]:
         return []
     found = []
     for k in range(k, len(lines)):
-        spans, continued = _tokens(lines[k])
+        spans, continued, _ = token_spans(lines[k])
         found += [(k, a, z) for a, z in spans]
         if not continued:
             break
@@ -98,7 +79,6 @@ def edited_scn(text: str, scene: Scene, folder: str | os.PathLike, note: str = "
     """``text``, the ``.scn`` file ``scene`` was read from, with the ambient, light and sphere
     colors ``scene`` has changed put in place, textures relative to ``folder``, and ``note``
     as comment lines at the end; None when a statement is not on the line ``scene`` gives it."""
-    from .parser import ATTRIBUTES
     folder = Path(folder)
     bom = "\ufeff" if text.startswith("\ufeff") else ""
     parts = re.split(r"(\r\n|\r|\n)", text[len(bom):])

@@ -530,15 +530,14 @@ def test_parse_text_names_the_source_given():
 
 # ------------------------------------------------- the fast path = the careful path
 #
-# parse_text reads plain lights and spheres on a fast path (converter/plain.py,
-# PlainReader) and leaves every other statement, and every doubt, to the
-# careful path. Both must give the same scene, or the same errors, for any text.
+# parse_text reads the spheres of plain lines a batch at a time and leaves every doubt to
+# the statement reader; careful=True reads every statement on its own. Both must give the
+# same scene, or the same errors, for any text.
 
 from hypothesis import HealthCheck, given, settings  # noqa: E402
 from hypothesis import strategies as st  # noqa: E402
 
 from whitted.converter import parser as parser_module  # noqa: E402
-from whitted.converter import plain  # noqa: E402
 
 #: numbers at and around every bound the format checks, and numbers it rejects
 BOUNDARY_NUMBERS = [
@@ -614,10 +613,10 @@ def test_fast_path_and_careful_path_agree(lines, ending, final_break):
     assert _outcome(text, fast=True) == _outcome(text, fast=False)
 
 
-def test_fast_path_with_numpy_across_chunks(monkeypatch):
-    """Lines are read a chunk at a time; spheres from both paths come back in file order."""
-    monkeypatch.setattr(plain, "_CHUNK", 40)
-    lines = ["# chunks", "size 8 8"]
+def test_spheres_read_in_batches_come_back_in_file_order(monkeypatch):
+    """Spheres are read a batch at a time; spheres from both paths come back in file order."""
+    monkeypatch.setattr(parser_module, "_BATCH", 4)
+    lines = ["# batches", "size 8 8"]
     for i in range(60):
         lines.append([f"sphere {i} 0 0 0.5 color 1 0.9 0.7 reflect 0.5", f"Sphere {i} 1 0 1  # c",
                       f"sphere {i} 2 0 1 north 0 0 1 equator 1 0 0", f"light {i} 9 9",
@@ -644,17 +643,39 @@ def test_fast_path_at_every_bound(template):
 
 
 def test_fast_path_reads_plain_spheres_itself(monkeypatch):
-    """A plain file never reaches the careful sphere and light statements."""
+    """A plain file's valid spheres never reach the sphere statement reader."""
     def careful(*args):
         raise AssertionError("the careful path was taken")
     monkeypatch.setattr(parser_module._Parser, "statement_sphere", careful)
-    monkeypatch.setattr(parser_module._Parser, "statement_light", careful)
     scene = parse("size 8 8\nlight 1 2 3\nlight 0 0 1 0.5 0 1\n"
                   "sphere 0 0 0 1 color 1 0.9 0.7 reflect 0.5\nSPHERE 1 1 1 0.5 REFRACT 0.9 1.5 Color 0 0 0\n"
                   "sphere 1e-3 -2.5e2 3 2e-6\nsphere 2 2 2 1 # a comment\n")
     assert [s.line for s in scene.spheres] == [4, 5, 6, 7] and len(scene.lights) == 2
     assert scene.spheres[1].material == Material((0, 0, 0), 0.0, 0.9, 1.5)
     assert scene.spheres[2].center == (1e-3, -250.0, 3.0) and scene.spheres[2].radius == 2e-6
+
+
+def test_a_text_with_quotes_reads_its_plain_lines_as_a_plain_text_does(texture_png, monkeypatch):
+    """Plain lines among quoted, continued and non-ASCII ones still go to the batch; the
+    scene, and the errors, are those of every statement read on its own."""
+    source = texture_png("tex.png").parent / "mixed.scn"
+    monkeypatch.setattr(parser_module, "_BATCH", 2)
+    lines = ["sphere 0 0 0 1 color 1 0.9 0.7  # café", 'sphere 1 0 0 1 texture "tex.png"',
+             "sphere 2 0 0 1 \\", " reflect 0.5", "sphere 3 0 0 1e-6", "sphere 4 0 0 1 color 1 1 1",
+             "sphere 5 0 0 1 reflect 1.0", "sphere 6 0 0 0.5 texture tex.png"]
+    text = "\n".join(lines) + "\n"
+    scene = parse_text(text, source)
+    assert [s.line for s in scene.spheres] == [1, 2, 3, 5, 6, 7, 8]
+    assert repr(scene) == repr(parse_text(text, source, careful=True))
+    text += 'sphere 7 0 0 1e13\nsphere 8 0 0 1 texture "none.png"\nsphere 9 0 0 1 reflect 2\n'
+    errors = []
+    for careful in (False, True):
+        with pytest.raises(SceneError) as error:
+            parse_text(text, source, careful=careful)
+        errors.append(str(error.value))
+    assert errors[0] == errors[1]
+    assert [line.split(": ")[0].rsplit(":", 1)[1] for line in errors[0].splitlines()
+            if "mixed.scn:" in line] == ["9", "10", "11"]
 
 
 def test_spheres_that_share_attributes_share_nothing_else():
