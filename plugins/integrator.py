@@ -1,11 +1,8 @@
 """``whitted``: the article's recursive ray tracer as a Mitsuba integrator.
 
-The article's model is no light transport algorithm Mitsuba has (``B·(A + (1 - A)·Σ
-s·light)``, a ray tree of fixed depth, no sampling); written with Dr.Jit it runs as compiled
-kernels in the JIT variants. A render prepares (the scene's tables, :mod:`.scene_tables`,
-and the recursion, :mod:`.recursion`), samples (camera rays from the sensor, placed by
-:class:`.film.CameraSamples`, in passes of at most ``wavefront_size``) and develops into the
-sensor's film (:mod:`.film`).
+A render prepares (the scene's tables, :mod:`.scene_tables`, and the recursion,
+:mod:`.recursion`), traces camera rays (:class:`.film.CameraSamples`) in passes of at most
+``wavefront_size`` and develops the sensor's film (:mod:`.film`).
 """
 
 from __future__ import annotations
@@ -218,14 +215,11 @@ class WhittedIntegrator(mi.SamplingIntegrator):
     def render(self, scene, sensor=0, seed=0, spp=0, develop=True, evaluate=True):
         if not develop:
             raise ValueError("the whitted integrator only renders developed images (develop=True)")
-        if self._nested_in_aov(scene):   # the color of the very rays of the AOVs
+        outer = scene.integrator()
+        if outer is not None and outer is not self and outer.class_name() == "AOVIntegrator":
+            # nested in an ``aov`` integrator: the color of the very rays of the AOVs
             return super().render(scene, sensor, seed, spp, develop, evaluate)
         return self.render_detailed(scene, sensor, seed, spp).image
-
-    def _nested_in_aov(self, scene) -> bool:
-        """Whether the scene's integrator is an ``aov`` integrator, which nests this one."""
-        outer = scene.integrator()
-        return outer is not None and outer is not self and outer.class_name() == "AOVIntegrator"
 
     def sample(self, scene, sampler, ray, medium=None, active=True):
         """The color of ``ray``'s whole tree, and whether it hit a surface or sees the background."""

@@ -35,7 +35,7 @@ import numpy as np
 from whitted.defaults import SWITCHABLE_EFFECTS
 from whitted.errors import WhittedError
 
-from .primitives import Primitives, bounds, bsdf_key, corners, layers
+from .primitives import Primitives, bounds, bsdf_key, corners, layers, shape_rows
 
 #: how many scenes' tables are kept (the least recently used go first)
 SCENES = 8
@@ -272,18 +272,13 @@ class SceneTables:
         textured = np.isin(keys, list(self.materials.textures))
         types = _shape_types(scene, shapes)
         boxes = bounds(shapes)
-        jit = dr.is_jit_v(mi.Float)
-        rows = np.asarray(dr.reinterpret_array(mi.UInt32, scene.shapes_dr()), np.int64).reshape(-1) \
-            if jit and shapes else None
-        self.primitives = Primitives.read(shapes, corners(boxes), types, textured, rows,
-                                          keys if jit else None)
+        self.primitives = Primitives.read(shapes, corners(boxes), types, textured, shape_rows(scene),
+                                          keys)
         self._types = types
         self.spheres_only = bool(len(shapes)) and bool(self.primitives.sphere.all())
         self.sphere_shapes = bool((types == int(mi.ShapeType.Sphere)).any())
-        if jit:   # with every primitive's sphere (a mesh's is its bounding sphere): see :meth:`_part`
-            self.hit_tables = self.primitives.tables(spheres=True)
-        else:
-            self.hit_tables = self.primitives.scalar_tables(shapes)
+        # with every primitive's sphere (a mesh's is its bounding sphere): see :meth:`_part`
+        self.hit_tables = self.primitives.tables(shapes, spheres=True)
         self.layers, self.layered = layers(shapes, types, self.primitives)
         self._rest_scenes = {}
         # what the tables were built from (:meth:`matches`)
