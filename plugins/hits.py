@@ -348,8 +348,8 @@ class GiantHits:
 
     def __init__(self, scene, inner, need_uv: bool, giants, primitives):
         self.jit = dr.is_jit_v(mi.Float)
-        shapes = scene.shapes()
-        self.giants = [_Giant(shapes[k], center, radius, primitives.frames.get(int(primitives.first[k])))
+        shapes, frames = scene.shapes(), primitives.frames   # (a textured sphere's UV frame)
+        self.giants = [_Giant(shapes[k], center, radius, frames.get(int(primitives.first[k])))
                        for k, center, radius in giants]
         self.inner = inner
         # the other shapes' surfaces: a giant's float32 bound (ulps of its radius) would put
@@ -371,7 +371,7 @@ class GiantHits:
         shadowed = self.inner.blocked(ray, active) if self.inner is not None else mi.Bool(False)
         if not self.jit and (shadowed or not active):
             return shadowed
-        o, d, maxt = mi.Point3d(ray.o), mi.Vector3d(ray.d), mi.Float64(ray.maxt) if self.jit else float(ray.maxt)
+        o, d, maxt = mi.Point3d(ray.o), mi.Vector3d(ray.d), mi.Float64(ray.maxt)
         for giant in self.giants:
             t, valid = _roots(o, d, giant.center, giant.radius64)
             shadowed = shadowed | (valid & (t < maxt))

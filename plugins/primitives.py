@@ -1,10 +1,10 @@
 """A scene's primitives as numbers, and the spheres traced in frames of their own (layers).
 
-Each primitive's bounding sphere, error bound and texture frame, and the Dr.Jit tables the
-hit finders (:mod:`.hits`) read them from: a ``sphere`` shape is one primitive, an
+Each primitive's bounding sphere, error bound and texture frame, and the tables the hit
+finders (:mod:`.hits`) read them from (:func:`read`): a ``sphere`` shape is one primitive, an
 ``ellipsoids`` shape one per ellipsoid, any other shape one known by its bounding box. A
-hit's slot in the tables is its shape's instance ID, plus ``prim_index`` past a per-shape
-``base`` for ellipsoids (:func:`slot_of`).
+hit's slot in the tables is its shape's row (instance ID; scalar: index), plus
+``prim_index`` past a per-shape ``base`` for ellipsoids (:func:`slot_of`).
 
 Mitsuba's ``ellipsoids`` test is exact only at radius 1 (docs/numerics.md, "Spheres as
 Mitsuba ellipsoids"): spheres of another radius are traced in a *layer*, a scene of their
@@ -136,41 +136,28 @@ class Primitives:
         to_box = np.linalg.norm(np.maximum(0.0, np.maximum(self.low - point, point - self.high)), axis=0)
         return float(np.maximum(np.where(self.sphere, to_sphere, to_box), 0.0).min())
 
-    # -- the JIT tables -------------------------------------------------------------------------
-
-    def slots(self):
-        """``(slot, base, size)``: each primitive's slot, the ``base`` of the module docstring
-        (with whether each instance ID's primitives are listed one by one; None when no shape
-        has several) and the tables' size."""
-        rows = self.rows
+    def tables(self, shapes) -> "PrimitiveTables":
+        """The primitives' :class:`PrimitiveTables` by slot (JIT: opaque Dr.Jit arrays; scalar:
+        numpy, with ``row_of``: ``id(shape)`` -> row)."""
+        rows, counts = self.rows, self.counts
         size = int(rows.max(initial=0)) + 1
-        counts = self.counts
-        many = np.flatnonzero(counts != 1)
-        if not len(many):
-            return rows, None, size
-        base = np.arange(size, dtype=np.int64)
-        base[rows[many]] = size + np.concatenate([[0], np.cumsum(counts[many])[:-1]])
-        slot = np.repeat(base[rows], counts) + (np.arange(len(self.radius)) - np.repeat(self.first, counts))
-        expanded = np.zeros(size, bool)
-        expanded[rows[many]] = True
-        return slot, (base, expanded), size + int(counts[many].sum())
-
-    def tables(self, shapes, spheres: bool) -> "PrimitiveTables":
-        """The primitives' tables by slot (JIT: opaque Dr.Jit arrays; scalar: numpy, with
-        ``row_of``, ``id(shape)`` -> row); ``spheres`` adds each one's center, radius and BSDF key
-        (for a scene of spheres only)."""
-        slots, base, size = self.slots()
+        many = np.flatnonzero(counts != 1)   # shapes whose primitives are listed one by one
+        slots, base = rows, None
+        if len(many):
+            start = np.arange(size, dtype=np.int64)
+            start[rows[many]] = size + np.concatenate([[0], np.cumsum(counts[many])[:-1]])
+            slots = np.repeat(start[rows], counts) + (np.arange(len(self.radius)) - np.repeat(self.first, counts))
+            base = (start, np.isin(np.arange(size), rows[many]))
+            size += int(counts[many].sum())
         error = np.zeros(size)
         error[slots] = self.error
         mapped, frame = np.zeros(size, bool), np.zeros((3, 3, size))
         frame[0, 0] = frame[1, 1] = frame[2, 2] = 1.0
         for k, prim_frame in self.frames.items():
             mapped[slots[k]], frame[:, :, slots[k]] = True, prim_frame
-        tables = PrimitiveTables(error, mapped, list(frame), base)
-        if spheres:
-            center, radius, bsdf = np.zeros((3, size)), np.ones(size), np.zeros(size, np.int64)
-            center[:, slots], radius[slots], bsdf[slots] = self.center, self.radius, np.repeat(self.bsdf, self.counts)
-            tables.center, tables.radius, tables.bsdf = center, radius, bsdf
+        center, radius, bsdf = np.zeros((3, size)), np.ones(size), np.zeros(size, np.int64)
+        center[:, slots], radius[slots], bsdf[slots] = self.center, self.radius, np.repeat(self.bsdf, counts)
+        tables = PrimitiveTables(error, mapped, list(frame), base, center, radius, bsdf)
         if not dr.is_jit_v(mi.Float):
             tables.row_of = {id(shape): k for k, shape in enumerate(shapes)}
             return tables
@@ -178,26 +165,26 @@ class Primitives:
         tables.frame = [mi.Vector3f(axis) for axis in frame]
         if base is not None:
             tables.base = (mi.UInt32(base[0].astype(np.uint32)), mi.Bool(base[1]))
-        dr.make_opaque(tables.error, tables.mapped, *tables.frame, *(tables.base or ()))
-        if spheres:
-            tables.center, tables.radius = mi.Point3f(center), mi.Float(radius)
-            tables.bsdf = mi.UInt32(bsdf.astype(np.uint32))
-            dr.make_opaque(tables.center, tables.radius, tables.bsdf)
+        tables.center, tables.radius = mi.Point3f(center), mi.Float(radius)
+        tables.bsdf = mi.UInt32(bsdf.astype(np.uint32))
+        dr.make_opaque(tables.error, tables.mapped, *tables.frame, *(tables.base or ()),
+                       tables.center, tables.radius, tables.bsdf)
         return tables
 
 
 @dataclass
 class PrimitiveTables:
-    """Per-slot tables: error bound, whether a texture frame applies and the frame's axes;
-    where ellipsoids shapes' primitives start; for a scene of spheres, each one's center,
-    radius and BSDF key."""
+    """Per-slot tables: error bound, whether a texture frame applies and the frame's axes,
+    where ellipsoids shapes' primitives start (``base``: start and whether a row's primitives
+    are listed one by one; None when no shape has several), each primitive's (bounding)
+    sphere and BSDF key."""
     error: object
     mapped: object
     frame: list
-    base: tuple | None = None
-    center: object = None
-    radius: object = None
-    bsdf: object = None
+    base: tuple | None
+    center: object
+    radius: object
+    bsdf: object
     row_of: dict | None = None   # scalar variants: ``id(shape)`` -> its row
 
 
@@ -278,4 +265,4 @@ def _layer(radius: float, parts) -> Layer:
     primitives = Primitives.read(own, corners(bounds(own)), np.full(len(own), int(mi.ShapeType.Ellipsoids)),
                                  np.zeros(len(own), bool), shape_rows(scene), keys)
     primitives.center, primitives.radius, primitives.error = center, np.full(center.shape[1], radius), error
-    return Layer(scale, radius, scene, primitives.tables(own, spheres=True))
+    return Layer(scale, radius, scene, primitives.tables(own))

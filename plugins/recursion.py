@@ -63,9 +63,11 @@ class Recursion:
         self.physical = integrator.lighting == "physical"
         self.hide_background = integrator.hide_emitters
         ambient = analysis.ambient(integrator.ambient)
+        # each camera ray's allowance ε: 0 (the exact tree) unless a bound L is known
         self.bright = brightest(analysis, integrator.lighting, ambient) \
             if integrator.min_weight > 0 else None
-        self.epsilon = allowance(integrator.min_weight, self.bright)
+        self.epsilon = 0.0 if self.bright is None \
+            else integrator.min_weight / max(self.bright, 1e-30) * (1 - ROUND_OFF_MARGIN)
         # Per-render constants are opaque: kernels are reused across scenes.
         self.ambient = dr.opaque(mi.Float, ambient) \
             if attached is None or not analysis.has("ambient") else attached.ambient
@@ -241,10 +243,6 @@ class Recursion:
                     culled = culled + child_culled
         return color, culled
 
-    @staticmethod
-    def passes(total: int, per_pass: int):   # (first, count) of each pass
-        return [(first, min(per_pass, total - first)) for first in range(0, total, per_pass)]
-
     def samples(self, count: int):
         """The sample indices of a pass, as the walk takes them (here one at a time)."""
         return range(count)
@@ -413,14 +411,6 @@ class _Progress:
 
 
 # -- adaptive depth control (docs/statistics.md) ---------------------------------------------------
-
-def allowance(min_weight: float, bright) -> float:
-    """The camera rays' allowance ε for a ``min_weight`` and a brightest color ``bright``
-    (:func:`brightest`): 0 (the exact tree) when either is 0 or no bound is known."""
-    if min_weight <= 0 or bright is None:
-        return 0.0
-    return min_weight / max(bright, 1e-30) * (1 - ROUND_OFF_MARGIN)
-
 
 def split(w1, w2, a):
     """The rule for children of weights ``w1`` and ``w2`` under allowance ``a``: ``(traced1,
