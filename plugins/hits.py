@@ -232,6 +232,19 @@ class LayeredHits:
                        for layer in self.layers]
         self.radii = [dr.opaque(mi.Float, layer.radius) if self.jit else layer.radius
                       for layer in self.layers]
+        # OptiX traces one scene per kernel: a kernel that reaches a second scene's shader
+        # binding table has its ray tracing switched off (with a warning only), so on CUDA
+        # each layer's rays are traced in a kernel of their own
+        self.own_kernels = mi.variant().startswith("cuda")
+
+    def _traced(self, trace, *inputs):
+        """``trace()``, one layer's query of its scene, in a kernel of its own on CUDA."""
+        if not self.own_kernels:
+            return trace()
+        dr.eval(*inputs)
+        result = trace()
+        dr.eval(result)
+        return result
 
     def _ray(self, k: int, ray, maxt):
         scaled = mi.Ray3f(ray.o * self.scales[k], ray.d)
@@ -241,8 +254,9 @@ class LayeredHits:
     surface_at = _SceneHits.surface_at
 
     def blocked(self, ray, active):
-        tests = [lambda mask, k=k, layer=layer: blocked(layer.scene, self._ray(k, ray, ray.maxt), mask,
-                                                        spheres=False)
+        tests = [lambda mask, k=k, layer=layer: self._traced(
+                     lambda: blocked(layer.scene, self._ray(k, ray, ray.maxt), mask, spheres=False),
+                     ray, mask)
                  for k, layer in enumerate(self.layers)]
         if self.inner is not None:
             tests.append(lambda mask: self.inner.blocked(ray, mask))
@@ -259,7 +273,8 @@ class LayeredHits:
     def intersect(self, ray, coherent: bool):
         best, which, slot = mi.Float(ray.maxt), mi.Int32(-1), mi.UInt32(0)
         for k, layer in enumerate(self.layers):
-            pi = layer.scene.ray_intersect_preliminary(self._ray(k, ray, best), coherent=coherent)
+            pi = self._traced(lambda: layer.scene.ray_intersect_preliminary(
+                self._ray(k, ray, best), coherent=coherent), ray, best)
             t = pi.t / self.scales[k]
             nearer = pi.is_valid() & (t < best)
             if off(nearer):
