@@ -196,12 +196,6 @@ def _changes(bsdfs) -> tuple:   # how many times each BSDF has been changed
     return tuple(bsdf.changes for bsdf in bsdfs)
 
 
-def _shape_types(scene, shapes) -> np.ndarray:   # each shape's mi.ShapeType, as an integer
-    if dr.is_jit_v(mi.Float):
-        return np.asarray(scene.shapes_dr().shape_type(), np.uint32).reshape(-1)
-    return np.array([int(shape.shape_type()) for shape in shapes], np.uint32)
-
-
 def _ellipsoid_data(shape):
     """An ``ellipsoids`` shape's data array (JIT: the array itself; scalar: a copy) and extent."""
     params = mi.traverse(shape)
@@ -254,7 +248,10 @@ class SceneTables:
         self.materials, keys = Materials.of(bsdfs)
         self.material_table = self.materials.table()
         textured = np.isin(keys, list(self.materials.textures))
-        types = _shape_types(scene, shapes)
+        if dr.is_jit_v(mi.Float):   # each shape's mi.ShapeType, as an integer
+            types = np.asarray(scene.shapes_dr().shape_type(), np.uint32).reshape(-1)
+        else:
+            types = np.array([int(shape.shape_type()) for shape in shapes], np.uint32)
         boxes = bounds(shapes)
         self.primitives = Primitives.read(shapes, corners(boxes), types, textured,
                                           shape_rows(scene), keys)
