@@ -1,14 +1,11 @@
 """Camera samples on the film: where each one starts in its pixel, and where its color goes.
 
 One sample per pixel passes through the pixel's center (the scene format's rule); N samples
-are jittered in an ``nx × ny = N`` grid of cells by a hash of (pixel, sample, seed), so an
-image does not depend on how the render is split into passes (:class:`CameraSamples`).
-
-A sample's color goes through Mitsuba's film (:class:`FilmSplats`: any film and filter,
-three images and 44 bytes a pixel), or, for a box-filtered RGB ``hdrfilm`` in the JIT
-variants, straight into the developed image as ``color / spp`` (:class:`PixelMeans`: 12
-bytes a pixel, the film's image up to the order of the additions). Either way the film
-holds the render afterwards (``film.bitmap()``, ``film.write()``).
+are jittered in an ``nx × ny = N`` grid by a hash of (pixel, sample, seed): an image does not
+depend on how the render is split into passes (:class:`CameraSamples`). A sample's color goes
+through Mitsuba's film (:class:`FilmSplats`, 44 bytes a pixel) or, for a box-filtered RGB
+``hdrfilm`` in the JIT variants, straight into the developed image (:class:`PixelMeans`, 12
+bytes a pixel); either way the film holds the render afterwards.
 """
 
 from __future__ import annotations

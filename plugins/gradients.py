@@ -2,11 +2,9 @@
 reads.
 
 A plain render bakes the scene's numbers into opaque tables (:mod:`.scene_tables`); a
-gradient needs every number a parameter feeds computed from the parameter's own Dr.Jit
-value. So ``render_forward`` and ``render_backward`` swap in, for those columns, values
-*attached* to the parameters (:class:`Attached`); the ray tree, the hits and the shadow
-tests stay the plain render's. What is differentiated, and what not (visibility):
-docs/gradients.md.
+gradient needs them computed from the parameters' own Dr.Jit values, which
+``render_forward`` and ``render_backward`` swap in (:class:`Attached`); the ray tree, the
+hits and the shadow tests stay the plain render's (docs/gradients.md).
 """
 
 from __future__ import annotations

@@ -358,8 +358,7 @@ class WhittedIntegrator(mi.SamplingIntegrator):
             batches = [(x, y, k) for (x, y), k in zip(grid, index)]
         colors = []
         for x, y, pixel in batches:
-            first = 0 if isinstance(pixel, int) else mi.UInt32(0)
-            ray, ray_weight, _ = camera.ray(x, y, pixel, first)
+            ray, ray_weight, _ = camera.ray(x, y, pixel, mi.UInt32(0))
             recorder.camera(ray_weight)
             colors.append(tracer.trace(ray) * ray_weight)
         return colors

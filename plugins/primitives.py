@@ -3,12 +3,10 @@
 Each primitive's bounding sphere, error bound and texture frame, and the tables the hit
 finders (:mod:`.hits`) read them from (:func:`read`): a ``sphere`` shape is one primitive, an
 ``ellipsoids`` shape one per ellipsoid, any other shape one known by its bounding box. A
-hit's slot in the tables is its shape's row (instance ID; scalar: index), plus
-``prim_index`` past a per-shape ``base`` for ellipsoids (:func:`slot_of`).
-
-Mitsuba's ``ellipsoids`` test is exact only at radius 1 (docs/numerics.md, "Spheres as
-Mitsuba ellipsoids"): spheres of another radius are traced in a *layer*, a scene of their
-own scaled by 1/r, whose tables hold them in the scene's frame (:class:`.hits.LayeredHits`).
+hit's slot is its shape's row (instance ID; scalar: index), plus ``prim_index`` past a
+per-shape ``base`` for ellipsoids (:func:`slot_of`). Mitsuba's ``ellipsoids`` test is exact
+only at radius 1 (docs/numerics.md): spheres of another radius are traced in a *layer*, a
+scene of their own scaled by 1/r (:class:`.hits.LayeredHits`).
 """
 
 from __future__ import annotations
