@@ -161,14 +161,6 @@ class ArticleBSDF(mi.BSDF):
         w_t = w_t if enabled[TRANSMISSION] else mi.Float(0.0)
         return w_d, w_r, w_t
 
-    def _diffuse_pdf(self, ctx, si, wo):
-        """(probability of choosing the diffuse lobe, w_d, whether ``wo`` is on ``wi``'s side)."""
-        w_d, w_r, w_t = self._lobe_weights(ctx, si.wi)
-        total = w_d + w_r + w_t
-        p_d = dr.select(total > 0, w_d / dr.select(total > 0, total, 1.0), 0.0)
-        same_side = mi.Frame3f.cos_theta(si.wi) * mi.Frame3f.cos_theta(wo) > 0
-        return p_d, w_d, same_side
-
     # -- Mitsuba's BSDF interface -------------------------------------------
 
     def sample(self, ctx, si, sample1, sample2, active=True):
@@ -214,12 +206,14 @@ class ArticleBSDF(mi.BSDF):
         return value
 
     def pdf(self, ctx, si, wo, active=True):
-        p_d, _, same_side = self._diffuse_pdf(ctx, si, wo)
-        pdf = p_d * dr.abs(mi.Frame3f.cos_theta(wo)) * dr.inv_pi
-        return dr.select(active & same_side, pdf, 0.0)
+        _, pdf = self.eval_pdf(ctx, si, wo, active)
+        return pdf
 
     def eval_pdf(self, ctx, si, wo, active=True):
-        p_d, w_d, same_side = self._diffuse_pdf(ctx, si, wo)
+        w_d, w_r, w_t = self._lobe_weights(ctx, si.wi)
+        total = w_d + w_r + w_t
+        p_d = dr.select(total > 0, w_d / dr.select(total > 0, total, 1.0), 0.0)
+        same_side = mi.Frame3f.cos_theta(si.wi) * mi.Frame3f.cos_theta(wo) > 0
         cos_o = dr.abs(mi.Frame3f.cos_theta(wo))
         active = active & same_side
         value = self.color.eval(si, active) * (w_d * dr.inv_pi * cos_o)

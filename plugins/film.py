@@ -1,14 +1,11 @@
 """Camera samples on the film: where each one starts in its pixel, and where its color goes.
 
 One sample per pixel passes through the pixel's center (the scene format's rule); N samples
-are jittered in an ``nx × ny = N`` grid of cells by a hash of (pixel, sample, seed), so an
-image does not depend on how the render is split into passes (:class:`CameraSamples`).
-
-A sample's color goes through Mitsuba's film (:class:`FilmSplats`: any film and filter,
-three images and 44 bytes a pixel), or, for a box-filtered RGB ``hdrfilm`` in the JIT
-variants, straight into the developed image as ``color / spp`` (:class:`PixelMeans`: 12
-bytes a pixel, the film's image up to the order of the additions). Either way the film
-holds the render afterwards (``film.bitmap()``, ``film.write()``).
+are jittered in an ``nx × ny = N`` grid by a hash of (pixel, sample, seed): an image does not
+depend on how the render is split into passes (:class:`CameraSamples`). A sample's color goes
+through Mitsuba's film (:class:`FilmSplats`, 44 bytes a pixel) or, for a box-filtered RGB
+``hdrfilm`` in the JIT variants, straight into the developed image (:class:`PixelMeans`, 12
+bytes a pixel); either way the film holds the render afterwards.
 """
 
 from __future__ import annotations
@@ -206,20 +203,14 @@ class PixelMeans:
         self.width, self.height = (int(c) for c in film.crop_size())
         self.spp = spp
         self.scale = dr.opaque(mi.Float, 1.0 / spp)
-        self.image = self._cleared(3 * self.width * self.height, spp)
-
-    @staticmethod
-    def _cleared(size: int, spp: int):
-        """The image's values, zeroed where samples are added up (``spp`` > 1) a band at a
-        time, so that Ctrl-C acts between kernels."""
-        image = dr.empty(mi.Float, size)
-        if spp > 1:
+        size = 3 * self.width * self.height
+        self.image = dr.empty(mi.Float, size)
+        if spp > 1:   # samples are added up: zeroed a band at a time (Ctrl-C acts between kernels)
             zero = dr.opaque(mi.Float, 0.0)
             for first in range(0, size, CLEAR_BAND):
                 index = dr.arange(mi.UInt32, min(CLEAR_BAND, size - first)) + dr.opaque(mi.UInt32, first)
-                dr.scatter(image, zero, index)
-                dr.eval(image)
-        return image
+                dr.scatter(self.image, zero, index)
+                dr.eval(self.image)
 
     def put(self, pixel, position, color, alpha=None) -> None:
         """Add ``color / spp`` to ``pixel`` (its linear index in the crop; ``position`` and
@@ -246,16 +237,13 @@ class PixelMeans:
         dr.scatter(self.image, total / dr.opaque(mi.Float, self.spp), pixel)   # as the film divides
 
     def develop(self):
-        """The image as an ``mi.TensorXf`` (H, W, 3), no copy; the film gets it lazily too."""
-        self.film.put_block(mi.ImageBlock(self._film_storage(), self.film.crop_offset(),
-                                          self.film.rfilter()))
-        return mi.TensorXf(self.image, (self.height, self.width, 3))
-
-    def _film_storage(self):
-        """The image as the film stores it, (H, W, 4) with weight 1: a lazy expression."""
+        """The image as an ``mi.TensorXf`` (H, W, 3), no copy; the film gets it lazily too, as
+        it stores it: (H, W, 4) with weight 1."""
         index = dr.arange(mi.UInt32, 4 * self.width * self.height)
         channel = index & 3
         rgb = channel < 3
         value = dr.select(rgb,
                           dr.gather(mi.Float, self.image, (index >> 2) * 3 + channel, rgb), 1.0)
-        return mi.TensorXf(value, (self.height, self.width, 4))
+        self.film.put_block(mi.ImageBlock(mi.TensorXf(value, (self.height, self.width, 4)),
+                                          self.film.crop_offset(), self.film.rfilter()))
+        return mi.TensorXf(self.image, (self.height, self.width, 3))

@@ -2,11 +2,9 @@
 reads.
 
 A plain render bakes the scene's numbers into opaque tables (:mod:`.scene_tables`); a
-gradient needs every number a parameter feeds computed from the parameter's own Dr.Jit
-value. So ``render_forward`` and ``render_backward`` swap in, for those columns, values
-*attached* to the parameters (:class:`Attached`); the ray tree, the hits and the shadow
-tests stay the plain render's. What is differentiated, and what not (visibility):
-docs/gradients.md.
+gradient needs them computed from the parameters' own Dr.Jit values, which
+``render_forward`` and ``render_backward`` swap in (:class:`Attached`); the ray tree, the
+hits and the shadow tests stay the plain render's (docs/gradients.md).
 """
 
 from __future__ import annotations
@@ -19,6 +17,7 @@ import mitsuba as mi
 from whitted.errors import WhittedError
 
 from .primitives import bsdf_key
+from .scene_tables import scene_tables
 
 
 def require_gradients(what: str) -> None:
@@ -38,7 +37,7 @@ def differentiated(scene, integrator) -> list:
     are computed: what :func:`attached` reads, and the background's radiance."""
     values = [value for name, value in getattr(integrator, "_values", {}).items()
               if name in integrator.DIFFERENTIABLE]
-    bsdfs = _article_bsdfs(scene)
+    bsdfs = scene_tables(scene).materials.bsdfs
     for node in [*scene.emitters(), *(bsdf.color for bsdf in bsdfs)]:
         params = mi.traverse(node)
         values += [params[key] for key in params.keys()
@@ -71,14 +70,6 @@ def name_undifferentiated(scene, params, integrator, seen: dict) -> None:
                    "prb_projective integrator (docs/gradients.md)")
 
 
-def _article_bsdfs(scene) -> list:
-    """The scene's BSDFs (``article`` ones: the Whitted integrator renders no other), each once."""
-    bsdfs = {}
-    for shape in scene.shapes():
-        bsdfs.setdefault(id(shape.bsdf()), shape.bsdf())
-    return list(bsdfs.values())
-
-
 @dataclass
 class Attached:
     """The values a differentiable render reads from the parameters' Dr.Jit arrays: the
@@ -88,14 +79,14 @@ class Attached:
     material_table: tuple
 
 
-def attached(scene, tables, integrator) -> Attached:
-    """:class:`Attached` for a render of ``scene`` by ``integrator`` (``tables``: the scene's
-    :class:`.scene_tables.SceneAnalysis`)."""
+def attached(scene, analysis, integrator) -> Attached:
+    """:class:`Attached` for a render of ``scene`` by ``integrator`` (``analysis``: the
+    render's :class:`.scene_tables.SceneAnalysis`)."""
     values = getattr(integrator, "_values", {})
     ambient = mi.Float(values["ambient"]) if "ambient" in values else mi.Float(integrator.ambient)
     physical = integrator.lighting == "physical"
     reference = mi.Point3f(*(float(c) for c in integrator.light_reference))
-    return Attached(ambient, _lights(scene, physical, reference), _material_table(scene, tables))
+    return Attached(ambient, _lights(scene, physical, reference), _material_table(analysis))
 
 
 def _lights(scene, physical: bool, reference) -> list:
@@ -116,14 +107,14 @@ def _lights(scene, physical: bool, reference) -> list:
     return lights
 
 
-def _material_table(scene, tables):
+def _material_table(analysis):
     """The scene's material table with its color, KR and KT columns scattered from the BSDFs'
     own values (a textured material's color stays 0: its texture is read at the hit)."""
-    row_of, columns = tables.material_table
+    row_of, columns = analysis.material_table
     (color_tp, color), (f_tp, reflect), (_, refract), ior, slot = columns
     size = dr.width(reflect)
     color, reflect, refract = dr.zeros(mi.Color3f, size), dr.zeros(mi.Float, size), dr.zeros(mi.Float, size)
-    for bsdf in _article_bsdfs(scene):
+    for bsdf in analysis.tables.materials.bsdfs:
         row = mi.UInt32(row_of[bsdf_key(bsdf)])
         if not bsdf.color.is_spatially_varying():
             value = bsdf.color.eval(dr.zeros(mi.SurfaceInteraction3f))

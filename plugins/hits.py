@@ -1,16 +1,13 @@
 """Where a ray hits, how rays leave a hit, and what is there: the Whitted recursion's helpers.
 
-A hit finder (:class:`HitFinder`) answers a ray with its nearest hit and that hit's error
-bound, by which :func:`offset_origin` moves new rays off the surface (docs/numerics.md).
-:func:`scene_hits` assembles the finders a scene needs: :class:`MitsubaHits` (any shape),
-:class:`SphereHits` (spheres only, JIT: no per-shape call), :class:`LayeredHits` (spheres
-traced in frames of their own) and :class:`GiantHits` (giant spheres in float64).
-:func:`facing_normal`, :func:`reflect` and :func:`refract` are the article's optics
-(docs/scene-format.md, "Shading").
+A hit finder (:class:`HitFinder`; :func:`scene_hits` assembles those a scene needs) answers a
+ray with its nearest hit and that hit's error bound, by which :func:`offset_origin` moves new
+rays off the surface (docs/numerics.md). :func:`facing_normal`, :func:`reflect` and
+:func:`refract` are the article's optics (docs/scene-format.md, "Shading").
 
-One code serves one ray (scalar variants, Python ``bool`` masks) and a wavefront (JIT):
-a single ray must not start work its mask switches off (:func:`off`), and since
-``~True`` is -2 the code selects rather than negates a mask.
+One code serves one ray (scalar variants, Python ``bool`` masks) and a wavefront (JIT): a
+single ray must not start work its mask switches off (:func:`off`), and since ``~True`` is
+-2 the code selects rather than negates a mask.
 """
 
 from __future__ import annotations
@@ -25,7 +22,7 @@ import numpy as np
 from whitted.errors import WhittedError
 from whitted.float32 import UNIT_ROUNDOFF
 
-from .primitives import bsdf_key, slot_of
+from .primitives import bsdf_key, read, slot_of
 
 #: a floor for squared distances: keeps 1/r and 1/r^2 finite when a light sits on the surface
 TINY = 1e-30
@@ -125,8 +122,8 @@ class HitFinder(Protocol):
 
     def intersect(self, ray, coherent: bool):
         """``(hit, si, bsdf, error)`` of the nearest hit up to ``ray.maxt``: ``si.t`` (inf on a
-        miss), ``p``, unit ``n``, ``uv`` if ``need_uv``; ``bsdf`` an instance ID (JIT) or the
-        BSDF; ``error`` the bound on ``si.p``'s error."""
+        miss), ``p``, unit ``n``, ``uv`` if ``need_uv``; ``bsdf`` its key
+        (:func:`.primitives.bsdf_key`); ``error`` the bound on ``si.p``'s error."""
 
     def blocked(self, ray, active):
         """Whether a surface crosses the segment ``ray`` (a shadow test) on the lanes ``active``."""
@@ -138,15 +135,9 @@ class HitFinder(Protocol):
 
 def no_hits():
     """``(hit, si, bsdf, error)`` of rays that hit nothing (where a finder has no shapes)."""
-    jit = dr.is_jit_v(mi.Float)
     si = dr.zeros(mi.SurfaceInteraction3f)
     si.t = dr.inf
-    return (mi.Bool(False) if jit else False), si, (mi.UInt32(0) if jit else None), 0.0
-
-
-def no_blocker():
-    """What :func:`blocked` says where a finder has no shapes."""
-    return mi.Bool(False) if dr.is_jit_v(mi.Float) else False
+    return mi.Bool(False), si, mi.UInt32(0), 0.0
 
 
 def hit_finder(scene, tables, need_uv: bool, sphere_table: bool = True):
@@ -179,26 +170,20 @@ class MitsubaHits(_SceneHits):
     def __init__(self, scene, tables, need_uv: bool):
         super().__init__(scene, tables, need_uv)
         self.flags = mi.RayFlags.Minimal | (mi.RayFlags.UV if need_uv else mi.RayFlags.Empty)
-        self.vectorized = dr.is_jit_v(mi.Float)
-        self._errors = None if self.vectorized else tables.primitives.error.tolist()
 
     def intersect(self, ray, coherent: bool):
         si = self.scene.ray_intersect(ray, ray_flags=self.flags, coherent=coherent)
         hit = si.is_valid()
-        if not self.vectorized:
-            if not hit:
-                return hit, si, None, 0.0
-            first, many, frame = self.tables[id(si.shape)]
-            if frame is not None:
-                si.uv = lat_long_uv(si.n, *frame)
-            return hit, si, si.bsdf(), self._errors[first + int(si.prim_index) if many else first]
+        if off(hit):
+            return no_hits()
         tables = self.tables
-        slot = slot_of(tables.base, dr.reinterpret_array(mi.UInt32, si.shape), si.prim_index, hit)
+        slot = slot_of(tables, si.shape, si.prim_index, hit)
         if self.need_uv:
-            mapped = dr.gather(mi.Bool, tables.mapped, slot, hit)
-            frame = [dr.gather(mi.Vector3f, axis, slot, mapped) for axis in tables.frame]
+            mapped = read(mi.Bool, tables.mapped, slot, hit)
+            frame = [read(mi.Vector3f, axis, slot, mapped) for axis in tables.frame]
             si.uv = dr.select(mapped, lat_long_uv(si.n, *frame), si.uv)
-        return hit, si, dr.reinterpret_array(mi.UInt32, si.bsdf()), dr.gather(mi.Float, tables.error, slot, hit)
+        bsdf = dr.reinterpret_array(mi.UInt32, si.bsdf()) if dr.is_jit_v(mi.Float) else id(si.bsdf())
+        return hit, si, bsdf, read(mi.Float, tables.error, slot, hit)
 
 
 class SphereHits(_SceneHits):
@@ -209,7 +194,7 @@ class SphereHits(_SceneHits):
         tables = self.tables
         pi = self.scene.ray_intersect_preliminary(ray, coherent=coherent)
         hit = pi.is_valid()
-        slot = slot_of(tables.base, dr.reinterpret_array(mi.UInt32, pi.shape), pi.prim_index, hit)
+        slot = slot_of(tables, pi.shape, pi.prim_index, hit)
         center = dr.gather(mi.Point3f, tables.center, slot, hit)
         radius = dr.gather(mi.Float, tables.radius, slot, hit)
         si = dr.zeros(mi.SurfaceInteraction3f)
@@ -275,7 +260,7 @@ class LayeredHits:
                  for k, layer in enumerate(self.layers)]
         if self.inner is not None:
             tests.append(lambda mask: self.inner.blocked(ray, mask))
-        shadowed = no_blocker()
+        shadowed = mi.Bool(False)
         for test in tests:
             if self.jit:   # lanes already blocked are not traced again
                 shadowed = shadowed | test(active & ~shadowed)
@@ -286,16 +271,15 @@ class LayeredHits:
         return shadowed & active
 
     def intersect(self, ray, coherent: bool):
-        if not self.jit:
-            return self._scalar(ray, coherent)
         best, which, slot = mi.Float(ray.maxt), mi.Int32(-1), mi.UInt32(0)
         for k, layer in enumerate(self.layers):
             pi = self._traced(lambda: layer.scene.ray_intersect_preliminary(
                 self._ray(k, ray, best), coherent=coherent), ray, best)
             t = pi.t / self.scales[k]
             nearer = pi.is_valid() & (t < best)
-            layer_slot = slot_of(layer.tables.base, dr.reinterpret_array(mi.UInt32, pi.shape),
-                                 pi.prim_index, nearer)
+            if off(nearer):
+                continue
+            layer_slot = slot_of(layer.tables, pi.shape, pi.prim_index, nearer)
             best, which, slot = dr.select(nearer, t, best), dr.select(nearer, k, which), dr.select(nearer, layer_slot, slot)
         if self.inner is not None:   # the other shapes, before the nearest layer hit
             bounded = mi.Ray3f(ray)
@@ -305,15 +289,15 @@ class LayeredHits:
         else:
             hit, si, bsdf, error = no_hits()
         layered = which >= 0
+        if off(layered):
+            return hit, si, bsdf, error
         center, radius, layer_bsdf, layer_error = mi.Point3f(0.0), mi.Float(1.0), mi.UInt32(0), mi.Float(0.0)
         for k, layer in enumerate(self.layers):
             this = which == k
-            center = dr.select(this, dr.gather(mi.Point3f, layer.tables.center, slot, this), center)
+            center = dr.select(this, read(mi.Point3f, layer.tables.center, slot, this), center)
             radius = dr.select(this, self.radii[k], radius)
-            layer_bsdf = dr.select(this,
-                                   dr.gather(mi.UInt32, layer.tables.bsdf, slot, this), layer_bsdf)
-            layer_error = dr.select(this, dr.gather(mi.Float, layer.tables.error, slot, this),
-                                    layer_error)
+            layer_bsdf = dr.select(this, read(mi.UInt32, layer.tables.bsdf, slot, this), layer_bsdf)
+            layer_error = dr.select(this, read(mi.Float, layer.tables.error, slot, this), layer_error)
         n = dr.normalize(ray(best) - center)
         si.t = dr.select(layered, best, si.t)
         si.n = dr.select(layered, n, si.n)
@@ -323,32 +307,6 @@ class LayeredHits:
         if self.need_uv:
             si.uv = dr.select(layered, lat_long_uv(n, *(mi.Vector3f(a) for a in _AXES)), si.uv)
         return hit | layered, si, dr.select(layered, layer_bsdf, bsdf), dr.select(layered, layer_error, error)
-
-    def _scalar(self, ray, coherent):
-        best, nearest = float(ray.maxt), None
-        for k, layer in enumerate(self.layers):
-            pi = layer.scene.ray_intersect_preliminary(self._ray(k, ray, best), coherent=coherent)
-            if pi.is_valid() and pi.t / layer.scale < best:
-                best, nearest = pi.t / layer.scale, (layer, pi.shape, int(pi.prim_index))
-        if self.inner is not None:
-            bounded = mi.Ray3f(ray)
-            bounded.maxt = best
-            hit, si, bsdf, error = self.inner.intersect(bounded, coherent)
-        else:
-            hit, si, bsdf, error = no_hits()
-        if hit or nearest is None:
-            return hit, si, bsdf, error
-        layer, shape, prim = nearest
-        first, layer_bsdf = layer.tables[id(shape)]
-        if not hit:
-            si = dr.zeros(mi.SurfaceInteraction3f)
-            si.time, si.wavelengths = ray.time, ray.wavelengths
-        center = layer.center[first + prim]
-        si.n = dr.normalize(ray(best) - center)
-        si.p, si.t = dr.fma(si.n, layer.radius, center), best
-        if self.need_uv:
-            si.uv = lat_long_uv(si.n, *(mi.Vector3f(a) for a in _AXES))
-        return True, si, layer_bsdf, layer.error[first + prim]
 
 
 # -- giant spheres, in float64 ---------------------------------------------------------------------
@@ -385,22 +343,16 @@ def _roots(o, d, center, radius):
 
 
 class _Giant:
-    """One giant sphere: its exact center and radius, its shape's BSDF and texture frame."""
+    """One giant sphere: its exact center and radius, its shape's BSDF key and texture frame."""
 
-    def __init__(self, shape, center, radius, jit: bool):
+    def __init__(self, shape, center, radius, frame):
         self.center_tuple, self.radius = center, radius
         self.size = radius + max(abs(c) for c in center)
-        if jit:
-            self.center = dr.opaque(mi.Point3d, center)
-            self.radius64 = dr.opaque(mi.Float64, radius)
-            self.bsdf = dr.opaque(mi.UInt32, bsdf_key(shape.bsdf()))
-        else:
-            self.center, self.radius64, self.bsdf = mi.Point3d(center), radius, shape.bsdf()
-        self.frame = None
-        if shape.bsdf().color.is_spatially_varying():   # a textured sphere: Mitsuba's UV frame
-            matrix = np.array(mi.traverse(shape)["to_world"].matrix, np.float64).reshape(4, 4)
-            axes = (matrix[:3, :3] / np.linalg.norm(matrix[:3, 0])).T
-            self.frame = [mi.Vector3f(axis) for axis in axes]
+        opaque = dr.opaque if dr.is_jit_v(mi.Float) else lambda tp, value: tp(value)
+        self.center = opaque(mi.Point3d, center)
+        self.radius64 = opaque(mi.Float64, radius)
+        self.bsdf = opaque(mi.UInt32, bsdf_key(shape.bsdf()))
+        self.frame = None if frame is None else [mi.Vector3f(axis) for axis in frame]
 
 
 class GiantHits:
@@ -411,8 +363,9 @@ class GiantHits:
 
     def __init__(self, scene, inner, need_uv: bool, giants, primitives):
         self.jit = dr.is_jit_v(mi.Float)
-        shapes = scene.shapes()
-        self.giants = [_Giant(shapes[k], center, radius, self.jit) for k, center, radius in giants]
+        shapes, frames = scene.shapes(), primitives.frames   # (a textured sphere's UV frame)
+        self.giants = [_Giant(shapes[k], center, radius, frames.get(int(primitives.first[k])))
+                       for k, center, radius in giants]
         self.inner = inner
         # the other shapes' surfaces: a giant's float32 bound (ulps of its radius) would put
         # lights metres above a floor of radius 10^7 on it
@@ -424,16 +377,16 @@ class GiantHits:
         for giant in self.giants:
             offset = p - np.asarray(giant.center_tuple)
             distance = float(np.linalg.norm(offset))
-            error = POINT_ULPS * UNIT_ROUNDOFF * float(np.abs(p).max()) + FLOAT64_ERROR * giant.size
+            error = point_error(mi.ScalarPoint3d(*p), giant.size)
             if abs(distance - giant.radius) <= 2 * error:
                 return error, tuple(offset / distance)
         return self.others.surface_at(point)
 
     def blocked(self, ray, active):
-        shadowed = self.inner.blocked(ray, active) if self.inner is not None else no_blocker()
+        shadowed = self.inner.blocked(ray, active) if self.inner is not None else mi.Bool(False)
         if not self.jit and (shadowed or not active):
             return shadowed
-        o, d, maxt = mi.Point3d(ray.o), mi.Vector3d(ray.d), mi.Float64(ray.maxt) if self.jit else float(ray.maxt)
+        o, d, maxt = mi.Point3d(ray.o), mi.Vector3d(ray.d), mi.Float64(ray.maxt)
         for giant in self.giants:
             t, valid = _roots(o, d, giant.center, giant.radius64)
             shadowed = shadowed | (valid & (t < maxt))
@@ -451,11 +404,6 @@ class GiantHits:
         giant_hit = which >= 0
         if off(giant_hit):
             return hit, si, bsdf, error
-        if not self.jit:   # one ray, which hit a giant: a BSDF object, and no miss's si to keep
-            bsdf = self.giants[which].bsdf
-            if not hit:
-                si = dr.zeros(mi.SurfaceInteraction3f)
-                si.time, si.wavelengths = ray.time, ray.wavelengths
         center, radius = mi.Point3d(0.0), mi.Float64(1.0)
         size, bsdf_giant = mi.Float(0.0), mi.UInt32(0)
         for k, giant in enumerate(self.giants):
@@ -463,8 +411,7 @@ class GiantHits:
             center = dr.select(this, giant.center, center)
             radius = dr.select(this, giant.radius64, radius)
             size = dr.select(this, giant.size, size)
-            if self.jit:
-                bsdf_giant = dr.select(this, giant.bsdf, bsdf_giant)
+            bsdf_giant = dr.select(this, giant.bsdf, bsdf_giant)
         p = dr.fma(d, best, o) if self.jit else o + d * best   # (each variant's own rounding)
         si.p = dr.select(giant_hit, mi.Point3f(p), si.p)
         si.n = dr.select(giant_hit, mi.Vector3f((p - center) / radius), si.n)
@@ -474,8 +421,7 @@ class GiantHits:
                 if giant.frame is not None:
                     si.uv = dr.select(which == k, lat_long_uv(si.n, *giant.frame), si.uv)
         error = dr.select(giant_hit, point_error(si.p, size), error)
-        bsdf = dr.select(giant_hit, bsdf_giant, bsdf) if self.jit else bsdf
-        return hit | giant_hit, si, bsdf, error
+        return hit | giant_hit, si, dr.select(giant_hit, bsdf_giant, bsdf), error
 
 
 def scene_hits(scene, tables, need_uv: bool, exact_spheres=()):
@@ -519,25 +465,21 @@ class SurfaceLookup:
         self.reflective, self.refractive = materials.reflective, materials.refractive
         self.textured = list(materials.textures.values())   # slot k is textured[k - 1]
         row_of, columns = table
-        if dr.is_jit_v(mi.Float):
-            self._row = lambda bsdf: bsdf
-            self._read = lambda tp, values, row, active: dr.gather(tp, values, row, active)
-        else:
-            self._row = lambda bsdf: row_of[id(bsdf)]
-            self._read = lambda tp, values, row, active: tp(values[..., row].tolist())
+        self._row_of = None if dr.is_jit_v(mi.Float) else row_of   # (JIT: the key is the row)
         self._color, self._reflect, self._refract, self._ior, self._slot = columns
 
     def lookup(self, si, bsdf, active) -> SurfaceSample:
-        """The material at ``si`` (``bsdf``: an instance ID, or the BSDF) on the lanes ``active``."""
-        row = self._row(bsdf)
-        base = self._read(*self._color, row, active)
+        """The material at ``si`` (``bsdf``: its key, :func:`.primitives.bsdf_key`) on the lanes
+        ``active``."""
+        row = bsdf if self._row_of is None else self._row_of[bsdf]
+        base = read(*self._color, row, active)
         if self.textured:
-            slot = self._read(*self._slot, row, active)
+            slot = read(*self._slot, row, active)
             for k, texture in enumerate(self.textured, start=1):
                 on_texture = active & (slot == k)
                 if not off(on_texture):
                     base = dr.select(on_texture, mi.Color3f(texture.eval(si, on_texture)), base)
-        ior = self._read(*self._ior, row, active) if self.need_ior else mi.Float(1)
-        reflect = self._read(*self._reflect, row, active) if self.reflective else mi.Float(0)
-        refract = self._read(*self._refract, row, active) if self.refractive else mi.Float(0)
+        ior = read(*self._ior, row, active) if self.need_ior else mi.Float(1)
+        reflect = read(*self._reflect, row, active) if self.reflective else mi.Float(0)
+        refract = read(*self._refract, row, active) if self.refractive else mi.Float(0)
         return SurfaceSample(base, reflect, refract, ior)

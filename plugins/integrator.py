@@ -1,11 +1,8 @@
 """``whitted``: the article's recursive ray tracer as a Mitsuba integrator.
 
-The article's model is no light transport algorithm Mitsuba has (``B·(A + (1 - A)·Σ
-s·light)``, a ray tree of fixed depth, no sampling); written with Dr.Jit it runs as compiled
-kernels in the JIT variants. A render prepares (the scene's tables, :mod:`.scene_tables`,
-and the recursion, :mod:`.recursion`), samples (camera rays from the sensor, placed by
-:class:`.film.CameraSamples`, in passes of at most ``wavefront_size``) and develops into the
-sensor's film (:mod:`.film`).
+A render prepares (the scene's tables, :mod:`.scene_tables`, and the recursion,
+:mod:`.recursion`), traces camera rays (:class:`.film.CameraSamples`) in passes of at most
+``wavefront_size`` and develops the sensor's film (:mod:`.film`).
 """
 
 from __future__ import annotations
@@ -64,32 +61,27 @@ class WhittedIntegrator(mi.SamplingIntegrator):
 
      * - light_reference
        - |point|
-       - Where an article light's color was measured: the scene's ``lookat``.
-         The converter writes a light of color c at distance d from it as a
-         point emitter of intensity ``c·π·d²``, and article lighting reads the
-         color back from the intensity. (Default: 0, 0, 0)
+       - Where an article light's color was measured (the scene's ``lookat``):
+         a light of color c at distance d from it is a point emitter of
+         intensity ``c·π·d²``. (Default: 0, 0, 0)
 
      * - min_weight
        - |float|
-       - The adaptive depth control (Hall and Greenberg's; POV-Ray's
-         ``adc_bailout``), in [0, 1]: reflected and refracted rays are left
-         untraced as long as together they cannot change any pixel by more than
-         this (:mod:`.recursion`). 0 traces the exact tree. (Default: 1/255)
+       - Adaptive depth control (POV-Ray's ``adc_bailout``), in [0, 1]: reflected
+         and refracted rays are left untraced while together they cannot change
+         a pixel by more than this; 0 traces the exact tree. (Default: 1/255)
 
      * - exact_spheres
        - |string|
-       - Giant spheres (a floor, wall or sky of radius up to 10^7 next to small
-         spheres) that the integrator intersects itself in float64:
-         ``id: x y z r`` per shape, separated by ``;``, the shape's exact center
-         and radius. The converter writes it where float32 cannot place a
-         sphere finely enough (docs/numerics.md, hazard 14). (Default: none)
+       - Giant spheres (radius up to 10^7 next to small ones) the integrator
+         intersects in float64: ``id: x y z r`` per shape, the exact center and
+         radius, separated by ``;`` (docs/numerics.md, hazard 14). (Default: none)
 
      * - hide_emitters
        - |bool|
-       - Hide directly visible emitters: camera rays that escape see black, not
-         the background, and have alpha 0 on a film with an alpha channel, as
-         in Mitsuba's own integrators (reflections and refractions still show
-         the background). (Default: false)
+       - Camera rays that escape see black, not the background, and have alpha
+         0, as in Mitsuba's own integrators (reflections and refractions still
+         show the background). (Default: false)
 
      * - without
        - |string|
@@ -218,14 +210,11 @@ class WhittedIntegrator(mi.SamplingIntegrator):
     def render(self, scene, sensor=0, seed=0, spp=0, develop=True, evaluate=True):
         if not develop:
             raise ValueError("the whitted integrator only renders developed images (develop=True)")
-        if self._nested_in_aov(scene):   # the color of the very rays of the AOVs
+        outer = scene.integrator()
+        if outer is not None and outer is not self and outer.class_name() == "AOVIntegrator":
+            # nested in an ``aov`` integrator: the color of the very rays of the AOVs
             return super().render(scene, sensor, seed, spp, develop, evaluate)
         return self.render_detailed(scene, sensor, seed, spp).image
-
-    def _nested_in_aov(self, scene) -> bool:
-        """Whether the scene's integrator is an ``aov`` integrator, which nests this one."""
-        outer = scene.integrator()
-        return outer is not None and outer is not self and outer.class_name() == "AOVIntegrator"
 
     def sample(self, scene, sampler, ray, medium=None, active=True):
         """The color of ``ray``'s whole tree, and whether it hit a surface or sees the background."""
@@ -280,7 +269,6 @@ class WhittedIntegrator(mi.SamplingIntegrator):
             sensor = scene.sensors()[sensor]
         # mi.render may pass a UInt32; any integer up to 2^64 - 1 is folded to 32 bits
         seed = D.check_seed(int(seed[0]) if dr.is_array_v(seed) else seed, "whitted: seed")
-        film = sensor.film()
         camera = CameraSamples(sensor, int(spp), seed)
         spp = camera.spp   # (as the sampler rounds it)
         # (not for a gradient: mi.render derives the seed of render_forward/backward itself)
@@ -289,10 +277,9 @@ class WhittedIntegrator(mi.SamplingIntegrator):
             mi.Log(mi.LogLevel.Warn, f"whitted: at 1 sample per pixel every camera ray passes through "
                    f"its pixel's center and the lens's (the scene format's rule): the "
                    f"{' and the '.join(camera.unused)} change nothing; render spp > 1 for them")
-        width, height = camera.width, camera.height
 
         tracer, analysis = self._recursion(scene, tables, attached)
-        image = image_for(film, spp)
+        image = image_for(sensor.film(), spp)
         tracer.keep_camera_hit = image.alpha
         background_seen = analysis.environment is not None and not self.hide_emitters
         # A single-level tree stores nothing between levels: then, where the image takes
@@ -302,7 +289,8 @@ class WhittedIntegrator(mi.SamplingIntegrator):
         whole_pixels = by_pixel or camera.sampler is not None
         per_pass = self.wavefront_size or tracer.samples_per_pass
         per_pass = max(spp, per_pass // spp * spp) if whole_pixels else per_pass
-        passes = tracer.passes(width * height * spp, per_pass)
+        total = camera.width * camera.height * spp
+        passes = [(first, min(per_pass, total - first)) for first in range(0, total, per_pass)]
         for index, (first, count) in enumerate(passes):
             if by_pixel:
                 self._render_pixels(tracer, camera, image, first // spp, count // spp)
@@ -311,7 +299,7 @@ class WhittedIntegrator(mi.SamplingIntegrator):
             else:
                 camera.start_pass(index, count)
                 self._render_pass(tracer, camera, image, first, count, progress, background_seen)
-        rays = tracer.tally.read(camera=width * height * spp, max_depth_reached=tracer.deepest)
+        rays = tracer.tally.read(camera=total, max_depth_reached=tracer.deepest)
         error_bound = rays.sample_culled_weight * tracer.bright if rays.culled else 0.0
         return DetailedRender(image.develop(), rays, analysis.effects, analysis.depth, len(passes),
                               error_bound)
@@ -370,8 +358,7 @@ class WhittedIntegrator(mi.SamplingIntegrator):
             batches = [(x, y, k) for (x, y), k in zip(grid, index)]
         colors = []
         for x, y, pixel in batches:
-            first = 0 if isinstance(pixel, int) else mi.UInt32(0)
-            ray, ray_weight, _ = camera.ray(x, y, pixel, first)
+            ray, ray_weight, _ = camera.ray(x, y, pixel, mi.UInt32(0))
             recorder.camera(ray_weight)
             colors.append(tracer.trace(ray) * ray_weight)
         return colors

@@ -1,14 +1,12 @@
 """A scene's primitives as numbers, and the spheres traced in frames of their own (layers).
 
-Each primitive's bounding sphere, error bound and texture frame, and the Dr.Jit tables the
-hit finders (:mod:`.hits`) read them from: a ``sphere`` shape is one primitive, an
+Each primitive's bounding sphere, error bound and texture frame, and the tables the hit
+finders (:mod:`.hits`) read them from (:func:`read`): a ``sphere`` shape is one primitive, an
 ``ellipsoids`` shape one per ellipsoid, any other shape one known by its bounding box. A
-hit's slot in the tables is its shape's instance ID, plus ``prim_index`` past a per-shape
-``base`` for ellipsoids (:func:`slot_of`).
-
-Mitsuba's ``ellipsoids`` test is exact only at radius 1 (docs/numerics.md, "Spheres as
-Mitsuba ellipsoids"): spheres of another radius are traced in a *layer*, a scene of their
-own scaled by 1/r, whose tables hold them in the scene's frame (:class:`.hits.LayeredHits`).
+hit's slot is its shape's row (instance ID; scalar: index), plus ``prim_index`` past a
+per-shape ``base`` for ellipsoids (:func:`slot_of`). Mitsuba's ``ellipsoids`` test is exact
+only at radius 1 (docs/numerics.md): spheres of another radius are traced in a *layer*, a
+scene of their own scaled by 1/r (:class:`.hits.LayeredHits`).
 """
 
 from __future__ import annotations
@@ -67,14 +65,14 @@ class Primitives:
     sphere: np.ndarray       # P, whether the primitive is a sphere
     frames: dict             # {primitive index: 3×3 frame} of textured spheres
     first: np.ndarray        # N, each shape's first primitive
-    rows: np.ndarray | None  # N, each shape's instance ID (JIT variants)
-    bsdf: np.ndarray | None  # N, the instance ID of each shape's BSDF (JIT variants)
+    rows: np.ndarray         # N, each shape's row in the tables (:func:`shape_rows`)
+    bsdf: np.ndarray         # N, the key of each shape's BSDF (:func:`bsdf_key`)
 
     @classmethod
-    def read(cls, shapes, corners, types, textured, rows=None, bsdf_keys=None) -> "Primitives":
+    def read(cls, shapes, corners, types, textured, rows, bsdf_keys) -> "Primitives":
         """The primitives of ``shapes`` (``scene.shapes()``), from their bounding boxes
         ``corners`` (N×2×3), their ``mi.ShapeType``s, whether each one's color is a texture,
-        and in the JIT variants their instance IDs and their BSDFs' keys."""
+        their rows and their BSDFs' keys."""
         low, high = corners[:, 0].T, corners[:, 1].T
         center, radius = (low + high) / 2, (high - low).max(axis=0, initial=0.0) / 2
         sphere = types == int(mi.ShapeType.Sphere)
@@ -136,78 +134,81 @@ class Primitives:
         to_box = np.linalg.norm(np.maximum(0.0, np.maximum(self.low - point, point - self.high)), axis=0)
         return float(np.maximum(np.where(self.sphere, to_sphere, to_box), 0.0).min())
 
-    # -- the JIT tables -------------------------------------------------------------------------
-
-    def slots(self):
-        """``(slot, base, size)``: each primitive's slot, the ``base`` of the module docstring
-        (with whether each instance ID's primitives are listed one by one; None when no shape
-        has several) and the tables' size."""
-        rows = self.rows if self.rows is not None else np.zeros(0, np.int64)
+    def tables(self, shapes) -> "PrimitiveTables":
+        """The primitives' :class:`PrimitiveTables` by slot (JIT: opaque Dr.Jit arrays; scalar:
+        numpy, with ``row_of``: ``id(shape)`` -> row)."""
+        rows, counts = self.rows, self.counts
         size = int(rows.max(initial=0)) + 1
-        counts = self.counts
-        many = np.flatnonzero(counts != 1)
-        if not len(many):
-            return rows, None, size
-        base = np.arange(size, dtype=np.int64)
-        base[rows[many]] = size + np.concatenate([[0], np.cumsum(counts[many])[:-1]])
-        slot = np.repeat(base[rows], counts) + (np.arange(len(self.radius)) - np.repeat(self.first, counts))
-        expanded = np.zeros(size, bool)
-        expanded[rows[many]] = True
-        return slot, (base, expanded), size + int(counts[many].sum())
-
-    def tables(self, spheres: bool) -> "PrimitiveTables":
-        """The opaque Dr.Jit tables of the primitives, by slot; ``spheres`` adds each one's
-        center, radius and BSDF (for a scene of spheres only)."""
-        slots, base, size = self.slots()
+        many = np.flatnonzero(counts != 1)   # shapes whose primitives are listed one by one
+        slots, base = rows, None
+        if len(many):
+            start = np.arange(size, dtype=np.int64)
+            start[rows[many]] = size + np.concatenate([[0], np.cumsum(counts[many])[:-1]])
+            slots = np.repeat(start[rows], counts) + (np.arange(len(self.radius)) - np.repeat(self.first, counts))
+            base = (start, np.isin(np.arange(size), rows[many]))
+            size += int(counts[many].sum())
         error = np.zeros(size)
         error[slots] = self.error
         mapped, frame = np.zeros(size, bool), np.zeros((3, 3, size))
         frame[0, 0] = frame[1, 1] = frame[2, 2] = 1.0
         for k, prim_frame in self.frames.items():
             mapped[slots[k]], frame[:, :, slots[k]] = True, prim_frame
-        tables = PrimitiveTables(mi.Float(error), mi.Bool(mapped),
-                                 [mi.Vector3f(frame[axis]) for axis in range(3)])
+        center, radius, bsdf = np.zeros((3, size)), np.ones(size), np.zeros(size, np.int64)
+        center[:, slots], radius[slots], bsdf[slots] = self.center, self.radius, np.repeat(self.bsdf, counts)
+        tables = PrimitiveTables(error, mapped, list(frame), base, center, radius, bsdf)
+        if not dr.is_jit_v(mi.Float):
+            tables.row_of = {id(shape): k for k, shape in enumerate(shapes)}
+            return tables
+        tables.error, tables.mapped = mi.Float(error), mi.Bool(mapped)
+        tables.frame = [mi.Vector3f(axis) for axis in frame]
         if base is not None:
             tables.base = (mi.UInt32(base[0].astype(np.uint32)), mi.Bool(base[1]))
-        if spheres:
-            center, radius, bsdf = np.zeros((3, size)), np.ones(size), np.zeros(size, np.uint32)
-            center[:, slots], radius[slots], bsdf[slots] = self.center, self.radius, np.repeat(self.bsdf, self.counts)
-            tables.center, tables.radius, tables.bsdf = mi.Point3f(center), mi.Float(radius), mi.UInt32(bsdf)
-        dr.make_opaque(tables.error, tables.mapped, *tables.frame, *(tables.base or ()))
-        if spheres:
-            dr.make_opaque(tables.center, tables.radius, tables.bsdf)
+        tables.center, tables.radius = mi.Point3f(center), mi.Float(radius)
+        tables.bsdf = mi.UInt32(bsdf.astype(np.uint32))
+        dr.make_opaque(tables.error, tables.mapped, *tables.frame, *(tables.base or ()),
+                       tables.center, tables.radius, tables.bsdf)
         return tables
-
-    def scalar_tables(self, shapes) -> dict:
-        """The scalar variant's table: ``id(shape) -> (first primitive, whether the shape has
-        several, its texture frame or None)`` (it hands out the same shape objects each time)."""
-        first, many = self.first.tolist(), (self.counts != 1).tolist()
-        return {id(shape): (first[k], many[k], [mi.Vector3f(axis) for axis in self.frames[first[k]]]
-                            if first[k] in self.frames else None)
-                for k, shape in enumerate(shapes)}
 
 
 @dataclass
 class PrimitiveTables:
-    """Opaque per-slot tables (JIT variants): error bound, whether a texture frame applies and
-    the frame's axes; where ellipsoids shapes' primitives start; for a scene of spheres, each
-    one's center, radius and BSDF instance ID."""
+    """Per-slot tables: error bound, whether a texture frame applies and the frame's axes,
+    where ellipsoids shapes' primitives start (``base``: start and whether a row's primitives
+    are listed one by one; None when no shape has several), each primitive's (bounding)
+    sphere and BSDF key."""
     error: object
     mapped: object
     frame: list
-    base: tuple | None = None
-    center: object = None
-    radius: object = None
-    bsdf: object = None
+    base: tuple | None
+    center: object
+    radius: object
+    bsdf: object
+    row_of: dict | None = None   # scalar variants: ``id(shape)`` -> its row
 
 
-def slot_of(base, row, prim_index, active):
-    """A hit's slot in the primitive tables from its shape's instance ID ``row`` and ``prim_index``."""
-    if base is None:
+def shape_rows(scene) -> np.ndarray:
+    """Each shape's row in the primitive tables: its instance ID (JIT), its index (scalar)."""
+    if dr.is_jit_v(mi.Float) and scene.shapes():
+        return np.asarray(dr.reinterpret_array(mi.UInt32, scene.shapes_dr()), np.int64).reshape(-1)
+    return np.arange(len(scene.shapes()))
+
+
+def read(tp, table, index, active=True):
+    """``table[index]`` as ``tp``: a gather (JIT) or, where ``active``, a numpy item (scalar)."""
+    if dr.is_jit_v(mi.Float):
+        return dr.gather(tp, table, index, active)
+    return tp(table[..., index]) if active else dr.zeros(tp)
+
+
+def slot_of(tables, shape, prim_index, active):
+    """A hit's slot in ``tables`` from its shape (``si.shape``, ``pi.shape``) and ``prim_index``."""
+    row = tables.row_of[id(shape)] if tables.row_of is not None \
+        else dr.reinterpret_array(mi.UInt32, shape)
+    if tables.base is None:
         return row
-    start, expanded = base
-    return dr.gather(mi.UInt32, start, row, active) + \
-        dr.select(dr.gather(mi.Bool, expanded, row, active), prim_index, 0)
+    start, expanded = tables.base
+    return read(mi.UInt32, start, row, active) + \
+        dr.select(read(mi.Bool, expanded, row, active), prim_index, 0)
 
 
 # -- layers ----------------------------------------------------------------------------------------
@@ -216,14 +217,11 @@ def slot_of(base, row, prim_index, active):
 @dataclass
 class Layer:
     """Spheres of one radius, traced in the scene's frame scaled by ``scale`` (= 1/radius);
-    ``tables``: JIT, :class:`~.primitives.PrimitiveTables` in the scene's frame; scalar,
-    ``id(shape) -> (first primitive, BSDF)`` beside the lists ``center`` and ``error``."""
+    ``tables``: their :class:`PrimitiveTables`, in the scene's frame."""
     scale: float
     radius: float
     scene: object
-    tables: object
-    center: list | None = None
-    error: list | None = None
+    tables: PrimitiveTables
 
 
 def layers(shapes, types, primitives: Primitives) -> tuple[list[Layer], list[int]]:
@@ -261,15 +259,8 @@ def _layer(radius: float, parts) -> Layer:
     center = np.concatenate([centers for _, centers in parts], axis=1)
     error = hit_error(radius, np.abs(center).max(axis=0, initial=0.0))
     own = scene.shapes()
-    if not dr.is_jit_v(mi.Float):
-        first = np.cumsum([0] + [c.shape[1] for _, c in parts])[:-1].tolist()
-        tables = {id(shape): (start, parts[i][0].bsdf())
-                  for i, (shape, start) in enumerate(zip(own, first))}
-        return Layer(scale, radius, scene, tables, [mi.Point3f(c) for c in center.T.tolist()],
-                     error.tolist())
-    rows = np.asarray(dr.reinterpret_array(mi.UInt32, scene.shapes_dr()), np.int64).reshape(-1)
     keys = np.array([bsdf_key(shape.bsdf()) for shape, _ in parts], np.int64)
     primitives = Primitives.read(own, corners(bounds(own)), np.full(len(own), int(mi.ShapeType.Ellipsoids)),
-                                 np.zeros(len(own), bool), rows, keys)
+                                 np.zeros(len(own), bool), shape_rows(scene), keys)
     primitives.center, primitives.radius, primitives.error = center, np.full(center.shape[1], radius), error
-    return Layer(scale, radius, scene, primitives.tables(spheres=True))
+    return Layer(scale, radius, scene, primitives.tables(own))

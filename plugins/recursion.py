@@ -1,17 +1,12 @@
 """The article's Whitted recursion: one step (:meth:`Recursion.step`) and the walks that repeat it.
 
-The color is linear in the children's, ``(1 - KR - KT)·point + KR·reflected + KT·refracted``,
-so a camera ray's color is a sum over its tree of ``w·contribution``, ``w`` the product of
-the KR and KT factors on the way down. :meth:`Recursion.step` is that sum's term for one
-level of rays; :class:`Recursion` (scalar variants) walks the tree depth first, one ray at a
-time, and :class:`Wavefronts` (JIT variants) level by level, a whole pass per wavefront.
-Under total internal reflection both children are the same mirror ray: it is traced once,
-with weight ``w·(KR + KT)``, and counted as both kinds (``Child.merged``).
-
-Adaptive depth control (Hall and Greenberg 1983; POV-Ray's ``adc_bailout``): each ray
-carries an *allowance*, the path weight its subtree may leave untraced, shared out by
-:func:`split` so that culling changes no pixel by more than ``min_weight``
-(docs/statistics.md, "Adaptive depth"; 0 traces the exact tree).
+A color is linear in its children's, ``(1 - KR - KT)·point + KR·reflected + KT·refracted``, so
+a camera ray's color is the sum over its tree of ``w·point``, ``w`` the product of the KR and
+KT factors on the way down: :meth:`Recursion.step` adds one level of rays, which
+:class:`Recursion` (scalar) walks depth first and :class:`Wavefronts` (JIT) level by level.
+Adaptive depth control (Hall and Greenberg 1983; POV-Ray's ``adc_bailout``) shares out each
+ray's *allowance*, the weight its subtree may leave untraced (:func:`split`;
+docs/statistics.md, "Adaptive depth").
 """
 
 from __future__ import annotations
@@ -25,23 +20,21 @@ import mitsuba as mi
 from .hits import (TINY, SurfaceLookup, cos_incidence, facing_normal, off, reflect, refract,
                    relative_ior, scene_hits, spawn_ray, spawn_ray_to, unit)
 
-#: default camera samples per pass (and widest wavefront): a level holds about 100 bytes per
-#: lane, so a pass stays around 100 MiB
+#: default camera samples per pass and widest wavefront (about 100 bytes a lane: 100 MiB)
 SAMPLES_PER_PASS = 1 << 20
-#: the same when the tree has a single level: then one kernel traces, shades and splats each
-#: sample, storing nothing per lane; but it is one kernel, which Ctrl-C cannot stop, and 2^21
-#: samples keep it short (well under a second on 2 cores: benchmarks/RESULTS.md)
+#: the same for a single-level tree: one kernel, which Ctrl-C cannot stop, kept well under a
+#: second (benchmarks/RESULTS.md)
 SAMPLES_PER_FLAT_PASS = 1 << 21
-#: ε is taken this much smaller than ``min_weight / L``: float32 round-off in the allowances
-#: of up to 64 levels (a few ulps each) cannot then push the bound past ``min_weight``
+#: ε is this much smaller than ``min_weight / L``, so that the allowances' float32 round-off
+#: over 64 levels cannot push the bound past ``min_weight``
 ROUND_OFF_MARGIN = 1e-5
 
 
 @dataclass
 class Branch:
-    """Rays of one level of the tree with their path weights: a wavefront (JIT variants) or
-    a single ray (scalar). ``allowance``: the path weight that may still be left untraced
-    below each ray (None: the exact tree); ``total``: the sum of the weights, for progress."""
+    """Rays of one level with their path weights (a wavefront, or one ray in scalar variants),
+    the weight each may still leave untraced below it (None: the exact tree) and, for
+    progress, the sum of the weights."""
     ray: object      # mi.Ray3f
     weight: object   # mi.Float
     level: int       # primary rays have level 1
@@ -51,8 +44,8 @@ class Branch:
 
 @dataclass
 class Child:
-    """A branch one level down, on which lanes it is traced, and (a reflection) the lanes
-    where the ray also carries the refracted share (total internal reflection)."""
+    """A branch one level down, where it is traced and, for a reflection, where it carries
+    the refracted share too (total internal reflection: one ray, counted as both kinds)."""
     kind: str        # "reflection" or "refraction"
     branch: Branch
     traced: object   # mi.Bool
@@ -60,24 +53,28 @@ class Child:
 
 
 class Recursion:
-    """The article's model for one scene and render, walked depth first (scalar variants);
-    ``epsilon``: each camera ray's allowance (0: the exact tree); ``attached``: the
-    parameters' own Dr.Jit values (:class:`.gradients.Attached`)."""
+    """The article's model for one render of a scene by ``integrator``, walked depth first
+    (scalar variants); ``attached``: the parameters' own Dr.Jit values (:mod:`.gradients`)."""
 
     #: camera samples per pass when the integrator's ``wavefront_size`` is 0 (automatic)
     samples_per_pass = 1 << 10
 
-    def __init__(self, scene, analysis, ambient: float, lighting: str, exact_spheres=(),
-                 epsilon: float = 0.0, hide_background: bool = False, attached=None):
-        self.physical = lighting == "physical"
-        self.hide_background = hide_background   # Mitsuba's ``hide_emitters``
+    def __init__(self, scene, analysis, integrator, attached=None):
+        self.physical = integrator.lighting == "physical"
+        self.hide_background = integrator.hide_emitters
+        ambient = analysis.ambient(integrator.ambient)
+        # each camera ray's allowance ε: 0 (the exact tree) unless a bound L is known
+        self.bright = brightest(analysis, integrator.lighting, ambient) \
+            if integrator.min_weight > 0 else None
+        self.epsilon = 0.0 if self.bright is None \
+            else integrator.min_weight / max(self.bright, 1e-30) * (1 - ROUND_OFF_MARGIN)
         # Per-render constants are opaque: kernels are reused across scenes.
-        self.ambient = dr.opaque(mi.Float, analysis.ambient(ambient)) \
+        self.ambient = dr.opaque(mi.Float, ambient) \
             if attached is None or not analysis.has("ambient") else attached.ambient
-        need_uv = analysis.has("textures")
-        self.hits = scene_hits(scene, analysis.tables, need_uv, exact_spheres)
-        # (position, strength, (error bound, normal) of a sphere the light sits on); article
-        # lighting uses the light's color, physical lighting its intensity (divided by r^2)
+        self.hits = scene_hits(scene, analysis.tables, analysis.has("textures"),
+                               integrator.exact_spheres)
+        # (position, strength, (error bound, normal) of a sphere the light sits on): the
+        # article's color, or the intensity in physical lighting
         self.lights = []
         for k, light in enumerate(analysis.lights):
             error, normal = self.hits.surface_at(light.position)
@@ -94,12 +91,11 @@ class Recursion:
         self.surfaces = SurfaceLookup(analysis.surfaces, analysis.material_table if attached is None
                                       else attached.material_table, need_ior=self.refraction)
         self.depth = analysis.depth
-        self.epsilon = epsilon
         self.tally = Tally()
         self.deepest = 0   # the deepest level that traced a ray
         self.keep_camera_hit = False   # whether camera_hit is wanted (an alpha channel)
         self.camera_hit = None   # mi.Bool: which camera rays of the last :meth:`trace` hit
-        # a pixel's ray tree (whitted/trace/record.py): the terms of each level, shown to recorder
+        # a pixel's ray tree (whitted/trace/record.py): each level's terms, shown to recorder
         self.record = None
         self.recorder = None
 
@@ -247,10 +243,6 @@ class Recursion:
                     culled = culled + child_culled
         return color, culled
 
-    @staticmethod
-    def passes(total: int, per_pass: int):   # (first, count) of each pass
-        return [(first, min(per_pass, total - first)) for first in range(0, total, per_pass)]
-
     def samples(self, count: int):
         """The sample indices of a pass, as the walk takes them (here one at a time)."""
         return range(count)
@@ -261,14 +253,8 @@ class Recursion:
 
 def recursion(scene, analysis, integrator, attached=None) -> Recursion:
     """The recursion of a render of ``scene`` by ``integrator``: wavefronts in JIT variants."""
-    bright = brightest(analysis, integrator.lighting, analysis.ambient(integrator.ambient)) \
-        if integrator.min_weight > 0 else None
-    args = (scene, analysis, integrator.ambient, integrator.lighting, integrator.exact_spheres,
-            allowance(integrator.min_weight, bright), integrator.hide_emitters, attached)
-    walk = Wavefronts(*args, lanes=integrator.wavefront_size or SAMPLES_PER_PASS) \
-        if dr.is_jit_v(mi.Float) else Recursion(*args)
-    walk.bright = bright
-    return walk
+    walk = Wavefronts if dr.is_jit_v(mi.Float) else Recursion
+    return walk(scene, analysis, integrator, attached)
 
 
 # -- the wavefront walk (JIT variants) ------------------------------------------------------------
@@ -276,11 +262,12 @@ def recursion(scene, analysis, integrator, attached=None) -> Recursion:
 class Wavefronts(Recursion):
     """The tree walked level by level: a level's traced children are packed into one wavefront
     (``dr.compress``), and their colors added back to their parents in a fixed order (the same
-    bits at any thread count). Wavefronts wider than ``lanes`` are split (bounded memory)."""
+    bits at any thread count); wavefronts wider than the integrator's ``wavefront_size`` are
+    split (bounded memory)."""
 
-    def __init__(self, *args, lanes: int):
-        super().__init__(*args)
-        self.lanes = lanes
+    def __init__(self, scene, analysis, integrator, attached=None):
+        super().__init__(scene, analysis, integrator, attached)
+        self.lanes = integrator.wavefront_size or SAMPLES_PER_PASS
         self.samples_per_pass = SAMPLES_PER_PASS if self.depth > 1 else SAMPLES_PER_FLAT_PASS
 
     def samples(self, count: int):
@@ -311,25 +298,36 @@ class Wavefronts(Recursion):
         color, culled, children = self.step(front)
         below = self._next_level(front, children, (color, culled), walk.reports) \
             if children else None
-        walk.shaded(front, below)
-        if below is not None:
-            child, parent, second = below
-            child_color, child_culled = self._subtree(child, walk)
-            width = dr.width(front.ray)   # (a camera wavefront's weight is one literal 1)
-            color = _plus_children(color, child_color, parent, second, mi.Color3f, width)
-            if child_culled is not None:
-                culled = _plus_children(culled, child_culled, parent, second, mi.Float, width)
-            dr.eval(color, culled)   # (a single-level tree is left lazy: it may run in a loop)
+        if below is None:   # (a single-level tree is left lazy: it may run in a loop)
+            walk.shaded(front, [])
+            return color, culled
+        child, parent, second = below
+        walk.shaded(front, [child])
+        child_color, child_culled = self._subtree(child, walk)
+        width = dr.width(front.ray)   # (a camera wavefront's weight is one literal 1)
+        color = _plus_children(color, child_color, parent, second, mi.Color3f, width)
+        if child_culled is not None:
+            culled = _plus_children(culled, child_culled, parent, second, mi.Float, width)
+        dr.eval(color, culled)
         return color, culled
 
     def _pieces(self, front, walk):
         """:meth:`_subtree` of a wavefront too wide for one, a piece of ``lanes`` at a time."""
-        pieces = self._split(front, walk.reports)
-        walk.replaced(front, pieces)
-        n = dr.width(front.ray)
+        dr.eval(front.ray, front.weight, front.allowance)
+        n = dr.width(front.weight)
+        pieces = []
+        for start in range(0, n, self.lanes):
+            lane = dr.arange(mi.UInt32, min(self.lanes, n - start)) + dr.opaque(mi.UInt32, start)
+            weight = dr.gather(mi.Float, front.weight, lane)
+            pieces.append((lane, Branch(
+                mi.Ray3f(dr.gather(mi.Point3f, front.ray.o, lane),
+                         dr.gather(mi.Vector3f, front.ray.d, lane)),
+                weight, front.level,
+                None if front.allowance is None else dr.gather(mi.Float, front.allowance, lane),
+                float(dr.sum(weight)[0]) if walk.reports else 0.0)))
+        walk.shaded(front, [piece for _, piece in pieces])
         color, culled = dr.zeros(mi.Color3f, n), None
-        for start, piece in pieces:
-            lane = dr.arange(mi.UInt32, dr.width(piece.weight)) + dr.opaque(mi.UInt32, start)
+        for lane, piece in pieces:
             piece_color, piece_culled = self._subtree(piece, walk)
             dr.scatter(color, piece_color, lane)
             if piece_culled is not None:
@@ -376,22 +374,6 @@ class Wavefronts(Recursion):
                        float(dr.sum(weight)[0]) if with_total else 0.0)
         return child, parent, second
 
-    def _split(self, front, with_total: bool):
-        """``front`` cut into wavefronts of at most ``lanes`` lanes, each with its first lane."""
-        dr.eval(front.ray, front.weight, front.allowance)
-        n = dr.width(front.weight)
-        pieces = []
-        for start in range(0, n, self.lanes):
-            lane = dr.arange(mi.UInt32, min(self.lanes, n - start)) + dr.opaque(mi.UInt32, start)
-            weight = dr.gather(mi.Float, front.weight, lane)
-            pieces.append((start, Branch(
-                mi.Ray3f(dr.gather(mi.Point3f, front.ray.o, lane),
-                         dr.gather(mi.Vector3f, front.ray.d, lane)),
-                weight, front.level,
-                None if front.allowance is None else dr.gather(mi.Float, front.allowance, lane),
-                float(dr.sum(weight)[0]) if with_total else 0.0)))
-        return pieces
-
 
 def _plus_children(total, value, parent, second, tp, width: int):
     """``total`` plus ``value`` of the first children, then of the second, at their parents' lanes."""
@@ -413,17 +395,11 @@ class _Progress:
         self.reports = progress is not None
         self.pending, self.done = float(count), 0.0
 
-    def shaded(self, front, below) -> None:
-        if self.reports:
-            self.pending -= front.total - (below[0].total if below is not None else 0.0)
-            self._report()
-
-    def replaced(self, front, pieces) -> None:
-        if self.reports:
-            self.pending -= front.total - sum(piece.total for _, piece in pieces)
-            self._report()
-
-    def _report(self) -> None:
+    def shaded(self, front, handed_down) -> None:
+        """``front`` is shaded, its weight handed down to the branches ``handed_down``."""
+        if not self.reports:
+            return
+        self.pending -= front.total - sum(branch.total for branch in handed_down)
         finished = self.count - self.pending
         if finished > self.done:
             self.progress(finished - self.done)
@@ -435,14 +411,6 @@ class _Progress:
 
 
 # -- adaptive depth control (docs/statistics.md) ---------------------------------------------------
-
-def allowance(min_weight: float, bright) -> float:
-    """The camera rays' allowance ε for a ``min_weight`` and a brightest color ``bright``
-    (:func:`brightest`): 0 (the exact tree) when either is 0 or no bound is known."""
-    if min_weight <= 0 or bright is None:
-        return 0.0
-    return min_weight / max(bright, 1e-30) * (1 - ROUND_OFF_MARGIN)
-
 
 def split(w1, w2, a):
     """The rule for children of weights ``w1`` and ``w2`` under allowance ``a``: ``(traced1,

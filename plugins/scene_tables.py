@@ -1,13 +1,10 @@
 """What the Whitted integrator reads from a scene, and what a render of it calls for.
 
-:class:`SceneTables` holds the scene's lights, background, primitives and materials, the
-materials as one table indexed by the BSDF's instance ID (a lookup is a few gathers, however
-many materials: no per-BSDF call in the kernels). The tables are kept between renders and
-checked at each against what they were built from (docs/CONTRACTS.md); a scene is
-recognised by a witness held with them (:class:`KeptByScene`). :func:`analyse` says which
-effects a render calls for (:class:`SceneAnalysis`).
-
-Effect names (also reported by ``whitted render --stats``):
+:class:`SceneTables` holds the scene's lights, background, primitives and materials (one
+table indexed by the BSDF's key: a lookup is a few gathers, no per-BSDF call in the kernels),
+kept between renders and checked at each against what they were built from
+(docs/CONTRACTS.md). :func:`analyse` says which effects a render calls for; their names
+(also reported by ``whitted render --stats``):
 
 ``lights``      point lights: the direct term and its shadow rays
 ``reflection``  a surface with KR > 0, and a max depth above 1
@@ -15,10 +12,8 @@ Effect names (also reported by ``whitted render --stats``):
 ``textures``    a surface whose base color varies over it (a bitmap)
 ``background``  an environment emitter (the scene's non-black background)
 
-Code for an effect the scene lacks is left out of the kernels; without reflection and
-refraction the tree has depth 1. What a render leaves out on request (``without``:
-:data:`whitted.defaults.SWITCHABLE_EFFECTS`) is the same image, bit for bit, as a scene
-edited so (docs/lessons.md, "What --without means").
+Code for an effect the scene lacks is left out of the kernels. What a render leaves out on
+request (``without``) is the same image, bit for bit, as a scene edited so (docs/lessons.md).
 """
 
 from __future__ import annotations
@@ -35,7 +30,7 @@ import numpy as np
 from whitted.defaults import SWITCHABLE_EFFECTS
 from whitted.errors import WhittedError
 
-from .primitives import Primitives, bounds, bsdf_key, corners, layers
+from .primitives import Primitives, bounds, bsdf_key, corners, layers, shape_rows
 
 #: how many scenes' tables are kept (the least recently used go first)
 SCENES = 8
@@ -57,19 +52,6 @@ def article_color(intensity, position, reference) -> tuple[float, float, float]:
     return tuple(i / (math.pi * d2) for i in intensity)
 
 
-def _point_light(emitter) -> tuple:
-    """``(position, intensity)`` of a point emitter."""
-    params = mi.traverse(emitter)
-    if "position" not in params or "intensity.value" not in params:
-        raise WhittedError(f"the whitted integrator cannot read the point light {emitter.id()!r}: "
-                           "give it a 'position' and an RGB 'intensity'")
-    position = floats(params["position"])
-    intensity = floats(params["intensity.value"])
-    if len(intensity) == 1:
-        intensity = intensity * 3
-    return position, intensity
-
-
 def point_lights(scene) -> tuple[tuple, ...]:
     """``(position, intensity)`` of every point light of ``scene``; an error for an emitter
     that is neither a point light nor the environment."""
@@ -81,7 +63,13 @@ def point_lights(scene) -> tuple[tuple, ...]:
             raise WhittedError(f"the whitted integrator cannot render the emitter {emitter.id()!r} "
                                f"(a {emitter.class_name()}): it renders point lights and a "
                                "background only")
-        lights.append(_point_light(emitter))
+        params = mi.traverse(emitter)
+        if "position" not in params or "intensity.value" not in params:
+            raise WhittedError(f"the whitted integrator cannot read the point light "
+                               f"{emitter.id()!r}: give it a 'position' and an RGB 'intensity'")
+        intensity = floats(params["intensity.value"])
+        lights.append((floats(params["position"]), intensity * 3 if len(intensity) == 1
+                       else intensity))
     return tuple(lights)
 
 
@@ -161,10 +149,6 @@ class Materials:
     def refractive(self) -> bool:
         return bool((self.rows[:, REFRACT] > 0).any())
 
-    @property
-    def textured(self) -> bool:
-        return bool(self.textures)
-
     def largest_base(self) -> float | None:
         """The largest channel B can take, textures included (None when a texture's is not known)."""
         if self.largest_texel is None:
@@ -212,12 +196,6 @@ def _changes(bsdfs) -> tuple:   # how many times each BSDF has been changed
     return tuple(bsdf.changes for bsdf in bsdfs)
 
 
-def _shape_types(scene, shapes) -> np.ndarray:   # each shape's mi.ShapeType, as an integer
-    if dr.is_jit_v(mi.Float):
-        return np.asarray(scene.shapes_dr().shape_type(), np.uint32).reshape(-1)
-    return np.array([int(shape.shape_type()) for shape in shapes], np.uint32)
-
-
 def _ellipsoid_data(shape):
     """An ``ellipsoids`` shape's data array (JIT: the array itself; scalar: a copy) and extent."""
     params = mi.traverse(shape)
@@ -247,7 +225,7 @@ class SceneTables:
     primitives     each primitive's bounding sphere and error bound (:class:`.primitives.Primitives`)
     spheres_only   whether every primitive is a sphere (the JIT variants' sphere table applies)
     sphere_shapes  whether a shape is a ``sphere`` shape (shadow rays must avoid its ray_test)
-    hit_tables     the primitives' Dr.Jit tables (JIT variants) or ``id(shape)`` table (scalar)
+    hit_tables     the primitives' tables (:meth:`.primitives.Primitives.tables`)
     layers         spheres traced in frames of their own (:func:`.primitives.layers`)
     layered        the indices of the shapes the layers hold
     ============== =======================================================================
@@ -270,20 +248,17 @@ class SceneTables:
         self.materials, keys = Materials.of(bsdfs)
         self.material_table = self.materials.table()
         textured = np.isin(keys, list(self.materials.textures))
-        types = _shape_types(scene, shapes)
+        if dr.is_jit_v(mi.Float):   # each shape's mi.ShapeType, as an integer
+            types = np.asarray(scene.shapes_dr().shape_type(), np.uint32).reshape(-1)
+        else:
+            types = np.array([int(shape.shape_type()) for shape in shapes], np.uint32)
         boxes = bounds(shapes)
-        jit = dr.is_jit_v(mi.Float)
-        rows = np.asarray(dr.reinterpret_array(mi.UInt32, scene.shapes_dr()), np.int64).reshape(-1) \
-            if jit and shapes else None
-        self.primitives = Primitives.read(shapes, corners(boxes), types, textured, rows,
-                                          keys if jit else None)
+        self.primitives = Primitives.read(shapes, corners(boxes), types, textured,
+                                          shape_rows(scene), keys)
         self._types = types
         self.spheres_only = bool(len(shapes)) and bool(self.primitives.sphere.all())
         self.sphere_shapes = bool((types == int(mi.ShapeType.Sphere)).any())
-        if jit:   # with every primitive's sphere (a mesh's is its bounding sphere): see :meth:`_part`
-            self.hit_tables = self.primitives.tables(spheres=True)
-        else:
-            self.hit_tables = self.primitives.scalar_tables(shapes)
+        self.hit_tables = self.primitives.tables(shapes)
         self.layers, self.layered = layers(shapes, types, self.primitives)
         self._rest_scenes = {}
         # what the tables were built from (:meth:`matches`)
@@ -313,20 +288,17 @@ class SceneTables:
             # keyed by the shapes' own ids: mi.load_dict names each shape by its key
             rest = {shape.id() or f"shape_{k}": shape for k, shape in enumerate(scene.shapes())
                     if k not in left_out}
+            part = copy.copy(self)   # these tables, for the scene without those shapes
+            kept = np.ones(len(self._types), bool)
+            kept[list(left_out)] = False
+            shape_sphere = np.add.reduceat(~self.primitives.sphere, self.primitives.first) == 0 \
+                if len(self._types) else np.zeros(0, bool)
+            part.spheres_only = bool(kept.any()) and bool(shape_sphere[kept].all())
+            part.sphere_shapes = bool((self._types[kept] == int(mi.ShapeType.Sphere)).any())
+            part.layers, part.layered, part._rest_scenes = [], [], {}
             self._rest_scenes[key] = (mi.load_dict({"type": "scene", **rest}) if rest else None,
-                                      self._part(left_out))
+                                      part)
         return self._rest_scenes[key]
-
-    def _part(self, left_out) -> "SceneTables":   # these tables, for the scene of :meth:`rest`
-        part = copy.copy(self)
-        kept = np.ones(len(self._types), bool)
-        kept[list(left_out)] = False
-        shape_sphere = np.add.reduceat(~self.primitives.sphere, self.primitives.first) == 0 \
-            if len(self._types) else np.zeros(0, bool)
-        part.spheres_only = bool(kept.any()) and bool(shape_sphere[kept].all())
-        part.sphere_shapes = bool((self._types[kept] == int(mi.ShapeType.Sphere)).any())
-        part.layers, part.layered, part._rest_scenes = [], [], {}
-        return part
 
 
 def _witness(scene):   # what identifies ``scene`` while held, or None (nothing to keep)
@@ -337,12 +309,6 @@ def _witness(scene):   # what identifies ``scene`` while held, or None (nothing 
         if objects:
             return objects[0]
     return None
-
-
-def _same(witness, current) -> bool:
-    if isinstance(witness, tuple):
-        return all(a.index == b.index for a, b in zip(witness, current))
-    return witness is current
 
 
 class KeptByScene:
@@ -358,7 +324,10 @@ class KeptByScene:
         """The value kept for ``scene``, or None."""
         kept = self._kept.get((scene.variant_name(), scene.ptr))
         witness = _witness(scene)
-        if kept is None or witness is None or not _same(kept[0], witness):
+        if kept is None or witness is None:
+            return None
+        if not (all(a.index == b.index for a, b in zip(kept[0], witness))
+                if isinstance(witness, tuple) else kept[0] is witness):
             return None
         self._kept.move_to_end((scene.variant_name(), scene.ptr))
         return kept[1]
@@ -423,7 +392,7 @@ class SceneAnalysis:
             "lights": bool(self.lights),
             "reflection": deep and self.surfaces.reflective and "reflection" not in self.without,
             "refraction": deep and self.surfaces.refractive and "refraction" not in self.without,
-            "textures": self.surfaces.textured,
+            "textures": bool(self.surfaces.textures),
             "background": self.environment is not None,
         }
         self.effects = tuple(name for name in EFFECTS if present[name])
