@@ -17,7 +17,7 @@ import mitsuba as mi
 from whitted.errors import WhittedError
 
 from .primitives import bsdf_key
-from .scene_tables import scene_tables
+from .scene_tables import COLOR, scene_tables
 
 
 def require_gradients(what: str) -> None:
@@ -109,16 +109,20 @@ def _lights(scene, physical: bool, reference) -> list:
 
 def _material_table(analysis):
     """The scene's material table with its color, KR and KT columns scattered from the BSDFs'
-    own values (a textured material's color stays 0: its texture is read at the hit)."""
+    own values (a textured material's color stays 0: its texture is read at the hit, unless the
+    render leaves textures out)."""
     row_of, columns = analysis.material_table
     (color_tp, color), (f_tp, reflect), (_, refract), ior, slot = columns
     size = dr.width(reflect)
     color, reflect, refract = dr.zeros(mi.Color3f, size), dr.zeros(mi.Float, size), dr.zeros(mi.Float, size)
-    for bsdf in analysis.tables.materials.bsdfs:
+    surfaces = analysis.surfaces   # (rows in the same order as the BSDFs)
+    for k, bsdf in enumerate(analysis.tables.materials.bsdfs):
         row = mi.UInt32(row_of[bsdf_key(bsdf)])
         if not bsdf.color.is_spatially_varying():
             value = bsdf.color.eval(dr.zeros(mi.SurfaceInteraction3f))
             dr.scatter(color, mi.Color3f(value), row)
+        elif bsdf_key(bsdf) not in surfaces.textures:   # left out: drawn as the plain render does
+            dr.scatter(color, mi.Color3f(*surfaces.rows[k, COLOR].tolist()), row)
         dr.scatter(reflect, mi.Float(bsdf._values["reflect"]), row)
         dr.scatter(refract, mi.Float(bsdf._values["refract"]), row)
     return row_of, ((color_tp, color), (f_tp, reflect), (f_tp, refract), ior, slot)

@@ -43,11 +43,14 @@ KINDS = [
 ]
 
 
-def load(**overrides):
+def load(without: str = "", **overrides):
     whitted.set_variant("llvm_ad_rgb")
     # Mitsuba keeps an 8-bit image's texels as 8-bit integers (format "auto"), which carry
     # no gradient: a texture to differentiate is stored as floats (format "variant").
     xml = scene_to_xml(parse_text(SCENE, REPO / "scenes" / "test.scn"), base_dir=None)
+    if without:
+        xml = xml.replace('<integrator type="whitted">',
+                          f'<integrator type="whitted">\n<string name="without" value="{without}"/>')
     xml = xml.replace('<string name="filename" value="', '<string name="format" value="variant"/>\n'
                       '<string name="filename" value="')
     scene = mi.load_string(xml, **overrides)
@@ -191,6 +194,14 @@ def test_physical_lighting_gradients_equal_finite_differences(physical_scene, ke
     gradient, expected = backward_and_finite_difference(physical_scene, key, step)
     assert abs(expected) > 1e-4, key
     assert gradient == pytest.approx(expected, rel=0.02), key
+
+
+def test_gradients_of_a_render_without_textures_equal_finite_differences():
+    """A textured sphere drawn white (``without=textures``) is white in the gradient render
+    too: the ambient's derivative counts its pixels."""
+    gradient, expected = backward_and_finite_difference(load(without="textures"),
+                                                        "integrator.ambient", 1e-2)
+    assert gradient == pytest.approx(expected, rel=0.02)
 
 
 def named(capfd, key) -> list[str]:
