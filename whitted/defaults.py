@@ -94,6 +94,11 @@ WHITTED_DEFAULTS = {"max_depth": DEPTH, "ambient": AMBIENT, "lighting": LIGHTING
 COMPARE_REFERENCE_SPP = 4096              #: the path-traced reference's samples per pixel
 COMPARE_WHITTED_SPP = (1, 4, 16)          #: the Whitted sweep's spp ladder
 COMPARE_PATH_SPP = (1, 4, 16, 64, 256, 1024)   #: the path tracer's spp ladder
+#: the path tracer's error err = c + v/n is fitted to its first COMPARE_PATH_FIT_COUNTS renders
+#: and each next render checks it; once one is within COMPARE_PATH_CHECK (a fraction) of what
+#: the fit predicted, the ladder's higher counts are read from the fit, not rendered
+COMPARE_PATH_FIT_COUNTS = 3
+COMPARE_PATH_CHECK = 0.1
 #: Timing (whitted/compare/timing.py): each setting timed once per round, at least
 #: COMPARE_ROUNDS rounds; then COMPARE_HEADLINE_ROUNDS of the headlines' renders, more while
 #: a headline ratio's COMPARE_CONFIDENCE interval is wider than 1 + COMPARE_SETTLED_WIDTH, up to

@@ -154,3 +154,46 @@ def reference_noise(half_a: np.ndarray, half_b: np.ndarray, count_a: int, count_
     combined = (count_a * a + count_b * b) / total
     # relative_mse(R + (A − B), R) = mean((A − B)² / (R² + ε))
     return metrics.relative_mse(combined + (a - b), combined) * count_a * count_b / total ** 2
+
+
+@dataclass(frozen=True)
+class PathModel:
+    """The path tracer's error as a function of spp, err(n) = c + v/n (v: the variance of
+    one sample; c: the reference's noise and any bias), fitted to its renders of ``fitted``
+    spp and checked by its render of ``checked`` spp, whose error it predicted within
+    ``deviation`` (a fraction)."""
+    c: float
+    v: float
+    fitted: tuple[int, ...]
+    checked: int
+    deviation: float
+
+    def error(self, spp: float) -> float:
+        return self.c + self.v / spp
+
+    def spp_to_reach(self, error: float) -> float:
+        """The spp at which the error falls to ``error`` (inf: never, at or below c)."""
+        return self.v / (error - self.c) if error > self.c else math.inf
+
+
+def fit_inverse(spp: list[float], errors: list[float]) -> tuple[float, float]:
+    """(c, v) of err = c + v/n by least squares on relative residuals, c >= 0."""
+    x, e = np.asarray([1.0 / n for n in spp]), np.asarray(errors, dtype=np.float64)
+    w = 1.0 / e   # each residual relative to its error: the small ones count alike
+    matrix = np.stack([w, w * x], axis=1)
+    (c, v), *_ = np.linalg.lstsq(matrix, w * e, rcond=None)
+    if c < 0:
+        c, v = 0.0, float(np.sum(w * w * x * e) / np.sum(w * w * x * x))
+    return float(c), float(v)
+
+
+def fit_line(spp: list[float], seconds: list[float]) -> tuple[float, float]:
+    """(a, b) of time = a + b·n by least squares, a >= 0 (a render's cost before its first
+    sample, which no noise makes negative)."""
+    n, t = np.asarray(spp, dtype=np.float64), np.asarray(seconds, dtype=np.float64)
+    if len(n) < 2:
+        return 0.0, float(t[0] / n[0])
+    b, a = np.polyfit(n, t, 1)
+    if a < 0:
+        a, b = 0.0, float(np.sum(n * t) / np.sum(n * n))
+    return float(a), float(b)

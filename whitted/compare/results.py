@@ -71,6 +71,7 @@ class Measurement:
     error_map: str | None = None
     rel_mse_limit: float = math.nan
     render_seconds: float = math.nan
+    modelled: bool = False   # not rendered: read from the path tracer's fitted curve
 
     @property
     def rounds(self) -> int:
@@ -138,6 +139,7 @@ class SceneResult:
     view: str = "clip"
     exposure: float = 0.0
     reference_clipped: float = math.nan
+    path_model: object = None   # the path tracer's fitted curve (curves.PathModel), once checked
 
     def __post_init__(self):
         if not self.reference_requested:
