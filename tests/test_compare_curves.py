@@ -270,6 +270,8 @@ def test_inverse_fit_keeps_c_non_negative():
     # through both points c would be −1/30; with c = 0, weights w = 1/e (2 and 10) and x = 1/n:
     # v = Σ w²·x·e / Σ w²·x² = (4·0.5 + 100·0.25·0.1) / (4·1 + 100·0.0625) = 4.5 / 10.25
     assert fit_inverse([1, 4], [0.5, 0.1]) == pytest.approx((0.0, 4.5 / 10.25))
+    # c given (the reference's noise): v alone, Σ w²·x·(e − c) / Σ w²·x² = (4·0.4 + 100·0.25·0) / 10.25
+    assert fit_inverse([1, 4], [0.5, 0.1], 0.1) == pytest.approx((0.1, 1.6 / 10.25))
 
 
 def test_line_fit_of_time_against_spp():
@@ -292,6 +294,9 @@ def test_path_model_is_checked_by_the_next_render():
     assert checked_path_model(path) is None   # fitted, not yet checked
     model = checked_path_model(path + [_measurement("path", 3, 64, 0.64, 0.02)])
     assert (model.fitted, model.checked) == ((1, 4, 16, 64), 64)
+    # c given as the reference's noise: the same curve, v alone fitted
+    assert checked_path_model(path + [_measurement("path", 3, 64, 0.64, 0.02)], 0.01).v == \
+        pytest.approx(0.64)
     assert (model.c, model.v, model.deviation) == pytest.approx((0.01, 0.64, 0.0), abs=1e-9)
     # a render 20% off the prediction at 64 spp (0.02): not checked, the ladder goes on
     assert checked_path_model(path + [_measurement("path", 3, 64, 0.64, 0.025)]) is None

@@ -106,7 +106,11 @@ COMPARE_PATH_CHECK = 0.1
 COMPARE_ROUNDS = 3
 COMPARE_HEADLINE_ROUNDS = 8
 COMPARE_MAX_ROUNDS = 25
-COMPARE_ROUNDS_SECONDS = 20.0
+COMPARE_ROUNDS_SECONDS = 8.0
+#: a render whose one-thread time is over COMPARE_LONG_SECONDS is timed in its first
+#: COMPARE_LONG_ROUNDS rounds only: its time is known to a few percent by then
+COMPARE_LONG_SECONDS = 1.0
+COMPARE_LONG_ROUNDS = 2
 COMPARE_CONFIDENCE = 0.9
 #: a render faster than COMPARE_ROUND_SECONDS is repeated (at most COMPARE_ROUND_REPEATS
 #: times), the fastest kept
@@ -133,9 +137,14 @@ COMPARE_FLOOR_TOLERANCE = 0.05
 #: the model's limit is rendered in two halves of at least COMPARE_LIMIT_SPP_FACTOR times the
 #: sweep's densest spp, doubled (up to COMPARE_LIMIT_MAX_SPP) until its noise is below
 #: COMPARE_LIMIT_NOISE_SHARE of the smallest difference it measures
-COMPARE_LIMIT_SPP_FACTOR = 16
+COMPARE_LIMIT_SPP_FACTOR = 4
 COMPARE_LIMIT_MAX_SPP = 4096
 COMPARE_LIMIT_NOISE_SHARE = 0.1
+#: without --budget, the reference's first COMPARE_REFERENCE_START_SPP samples (two halves)
+#: estimate its noise; it is rendered at the power of two whose noise is below
+#: COMPARE_REFERENCE_NOISE_SHARE of the smallest Whitted error it scores, at most --reference-spp
+COMPARE_REFERENCE_START_SPP = 32
+COMPARE_REFERENCE_NOISE_SHARE = 0.01
 #: under --budget: the reference's largest share of a scene's time, its fewest spp (else the
 #: scene is refused), the probe's render time, and the seconds kept back for the outputs
 COMPARE_REFERENCE_SHARE = 0.5

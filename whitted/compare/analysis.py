@@ -257,7 +257,8 @@ def _curve(measurements: list[Measurement], metric: str,
 
 
 def rounds_of(entry: SceneResult) -> int:
-    return max([m.rounds for m in entry.measurements] + [1])
+    """The timed rounds of a scene (not every render need have been timed in each)."""
+    return max([len(m.times) for m in entry.measurements] + [1])
 
 
 def _work(m: Measurement) -> float:
@@ -488,7 +489,7 @@ def decomposition_text(method: str, floor: Floor[Measurement], limit: Limit,
 
 def spread_text(m: Measurement) -> str:
     """A render's median time and its rounds' range: ``11.9 ms (11.2–13.0 ms)``."""
-    if len(m.times) < 2:
+    if m.rounds < 2:
         return seconds_text(m.seconds)
     low, high = m.seconds_min, m.seconds_max
     scale, unit = (1000.0, "ms") if m.seconds < 1 else (1.0, "s")

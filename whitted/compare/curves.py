@@ -176,14 +176,17 @@ class PathModel:
         return self.v / (error - self.c) if error > self.c else math.inf
 
 
-def fit_inverse(spp: list[float], errors: list[float]) -> tuple[float, float]:
-    """(c, v) of err = c + v/n by least squares on relative residuals, c >= 0."""
+def fit_inverse(spp: list[float], errors: list[float], c: float = math.nan) -> tuple[float, float]:
+    """(c, v) of err = c + v/n by least squares on relative residuals, c >= 0; ``c`` given
+    (the reference's noise, for the path tracer, whose own bias is none): v alone."""
     x, e = np.asarray([1.0 / n for n in spp]), np.asarray(errors, dtype=np.float64)
     w = 1.0 / e   # each residual relative to its error: the small ones count alike
-    matrix = np.stack([w, w * x], axis=1)
-    (c, v), *_ = np.linalg.lstsq(matrix, w * e, rcond=None)
-    if c < 0:
-        c, v = 0.0, float(np.sum(w * w * x * e) / np.sum(w * w * x * x))
+    if math.isnan(c):
+        (c, v), *_ = np.linalg.lstsq(np.stack([w, w * x], axis=1), w * e, rcond=None)
+        if c >= 0:
+            return float(c), float(v)
+    c = max(0.0, c)
+    v = np.sum(w * w * x * (e - c)) / np.sum(w * w * x * x)
     return float(c), float(v)
 
 

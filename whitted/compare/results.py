@@ -75,7 +75,8 @@ class Measurement:
 
     @property
     def rounds(self) -> int:
-        return len(self.times)
+        """The rounds it was timed in (a long render sits out the later ones, NaN there)."""
+        return sum(1 for t in self.times if math.isfinite(t))
 
     def seconds_in(self, timed_round: int) -> float:
         """Its time in a round (NaN: it missed it; its :attr:`seconds` when it has none)."""
@@ -85,11 +86,11 @@ class Measurement:
 
     @property
     def seconds_min(self) -> float:
-        return min(self.times, default=self.seconds)
+        return min((t for t in self.times if math.isfinite(t)), default=self.seconds)
 
     @property
     def seconds_max(self) -> float:
-        return max(self.times, default=self.seconds)
+        return max((t for t in self.times if math.isfinite(t)), default=self.seconds)
 
 
 @dataclass
@@ -132,6 +133,7 @@ class SceneResult:
     depths: tuple[int, ...] = ()
     reference_requested: int = 0
     reference_noise: float = math.nan
+    reference_enough: bool = False   # rendered at the spp its noise needs, below the requested
     reference_png: str | None = None
     notes: list[str] = field(default_factory=list)
     worker: str = IN_PROCESS

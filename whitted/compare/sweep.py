@@ -16,7 +16,8 @@ import numpy as np
 from .. import metrics
 from .. import rendering  # rendering.render looked up at call time: tests count calls
 from ..defaults import (COMPARE_CLOCK, COMPARE_HEADLINE_ROUNDS, COMPARE_KEPT_MEMORY,
-                        COMPARE_LIMITS_SHARE, COMPARE_MAX_ROUNDS, COMPARE_PATH_CHECK,
+                        COMPARE_LIMITS_SHARE, COMPARE_LONG_ROUNDS, COMPARE_LONG_SECONDS,
+                        COMPARE_MAX_ROUNDS, COMPARE_PATH_CHECK,
                         COMPARE_PATH_FIT_COUNTS, COMPARE_ROUND_REPEATS,
                         COMPARE_ROUND_SECONDS, COMPARE_ROUNDS_SECONDS, COMPARE_ROUNDS_SHARE,
                         COMPARE_TIMING_THREADS)
@@ -146,7 +147,9 @@ def _rounds(loaded, entry: SceneResult, measured: list[Measurement], rounds: int
             break
         progress.set_postfix_str(f"{entry.name}: timing, round {k + 1}", refresh=True)
         for m in interleaved(measured, k):
-            times[id(m)].append(_time_in_a_round(loaded, m.setting))
+            # a long render is known to a few percent from its first rounds
+            long = COMPARE_LONG_ROUNDS <= k < rounds and m.seconds > COMPARE_LONG_SECONDS
+            times[id(m)].append(math.nan if long else _time_in_a_round(loaded, m.setting))
             _bound_memory()
         for m in measured:
             m.times = tuple(times[id(m)])
@@ -214,7 +217,8 @@ def sweep_scene(scene: SceneFile, entry: SceneResult, settings: list[Setting], o
     entry.reference_png = f"{entry.folder}/reference.png"  # its EXR is the cache's
     (out / entry.folder).mkdir(parents=True, exist_ok=True)
     write_image(out / entry.reference_png, reference, exposure=entry.exposure, view=entry.view)
-    settings = _below_the_reference(entry, settings, progress)
+    if options.budget is not None:
+        settings = _below_the_reference(entry, settings, progress)
     done: list[tuple[Setting, float, float]] = []
     overran = 0
     # what is left, shared: the renders, then their timing rounds, then the limits and fit
@@ -238,7 +242,7 @@ def sweep_scene(scene: SceneFile, entry: SceneResult, settings: list[Setting], o
             entry.measurements.append(measurement)
             done.append((setting, measurement.render_seconds, time.monotonic() - start))
             if setting.integrator == "path":
-                entry.path_model = checked_path_model(entry.measurements)
+                entry.path_model = checked_path_model(entry.measurements, entry.reference_noise)
         progress.update(1)
     time_rounds(loaded, entry, options.rounds, timed_until, progress)
     _limits(loaded, entry, settings, reference, out, deadline, progress, scene.model)
@@ -253,19 +257,19 @@ def sweep_scene(scene: SceneFile, entry: SceneResult, settings: list[Setting], o
     return entry
 
 
-def checked_path_model(measurements: list[Measurement]) -> PathModel | None:
-    """The path tracer's err = c + v/n, fitted to its renders but the last and checked by
-    the last: None until COMPARE_PATH_FIT_COUNTS renders predict the next within
-    COMPARE_PATH_CHECK; then refitted to all of them."""
+def checked_path_model(measurements: list[Measurement], noise: float = math.nan) -> PathModel | None:
+    """The path tracer's err = c + v/n (c: the reference's ``noise`` where known), fitted to
+    its renders but the last and checked by the last: None until COMPARE_PATH_FIT_COUNTS
+    renders predict the next within COMPARE_PATH_CHECK; then refitted to all of them."""
     path = [m for m in measurements if m.setting.integrator == "path"]
     if len(path) <= COMPARE_PATH_FIT_COUNTS or not all(m.rel_mse > 0 for m in path):
         return None
     *fitted, last = path
-    c, v = fit_inverse([m.setting.spp for m in fitted], [m.rel_mse for m in fitted])
+    c, v = fit_inverse([m.setting.spp for m in fitted], [m.rel_mse for m in fitted], noise)
     deviation = abs((c + v / last.setting.spp) / last.rel_mse - 1.0)
     if deviation > COMPARE_PATH_CHECK:
         return None
-    c, v = fit_inverse([m.setting.spp for m in path], [m.rel_mse for m in path])
+    c, v = fit_inverse([m.setting.spp for m in path], [m.rel_mse for m in path], noise)
     return PathModel(c, v, tuple(m.setting.spp for m in path), last.setting.spp, deviation)
 
 
