@@ -217,6 +217,31 @@ def test_second_run_reuses_the_cached_reference(sweep, mirror_scene, tmp_path, m
         ("physical", None), ("physical", None)]
 
 
+def test_the_reference_stops_once_its_noise_is_small_beside_the_whitted_errors(mirror_scene, tmp_path):
+    """Without --budget the reference is rendered at the power of two whose noise is
+    COMPARE_REFERENCE_NOISE_SHARE of the smallest Whitted error it scores (its 1-spp render at
+    the deepest depth, less that noise), at most --reference-spp: half as many would not do."""
+    import whitted.rendering as rendering
+    from whitted.compare.planning import plan_scene
+    from whitted.compare.reference import ReferenceCache, reference_image
+    from whitted.defaults import COMPARE_REFERENCE_NOISE_SHARE, COMPARE_REFERENCE_START_SPP
+    from whitted.metrics import relative_mse
+
+    scene = cmp.SceneFile.read(mirror_scene)
+    loaded = scene.load()
+    options = cmp.Options(out=tmp_path, reference_spp=1 << 16, depths=DEPTHS, quiet=True)
+    entry, _ = plan_scene(scene, loaded, options, "llvm_ad_rgb")
+    image = reference_image(scene, loaded, entry, ReferenceCache(tmp_path / "cache"), options)
+    spp, noise = entry.reference_spp, entry.reference_noise
+    assert entry.reference_enough and COMPARE_REFERENCE_START_SPP < spp < 1 << 16
+    whitted = min(relative_mse(np.asarray(rendering.render(
+        loaded, integrator="whitted", spp=1, max_depth=max(DEPTHS), lighting=lighting).image), image)
+        for lighting in ("article", "physical"))
+    wanted = COMPARE_REFERENCE_NOISE_SHARE * (whitted - noise)
+    # the rule's noise came from its first samples: within a factor 2 of the final one's
+    assert noise < 2 * wanted and 2 * noise > wanted / 2
+
+
 def test_cache_key_follows_scene_content_and_settings(mirror_scene, tmp_path):
     settings = {"spp": 64, "width": 32, "height": 24}
     copy = tmp_path / "copy.scn"
