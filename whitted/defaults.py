@@ -137,7 +137,7 @@ COMPARE_FLOOR_TOLERANCE = 0.05
 #: the model's limit is rendered in two halves of at least COMPARE_LIMIT_SPP_FACTOR times the
 #: sweep's densest spp, doubled (up to COMPARE_LIMIT_MAX_SPP) until its noise is below
 #: COMPARE_LIMIT_NOISE_SHARE of the smallest difference it measures
-COMPARE_LIMIT_SPP_FACTOR = 4
+COMPARE_LIMIT_SPP_FACTOR = 8
 COMPARE_LIMIT_MAX_SPP = 4096
 COMPARE_LIMIT_NOISE_SHARE = 0.1
 #: without --budget, the reference's first COMPARE_REFERENCE_START_SPP samples (two halves)
@@ -156,8 +156,7 @@ COMPARE_REPORT_SECONDS = 3.0
 COMPARE_ROUNDS_SHARE = 0.2
 COMPARE_LIMITS_SHARE = 0.25
 #: --quick: a settled verdict on an example scene in under 30 s on a 2-core laptop
-COMPARE_QUICK = {"reference_spp": 256, "depths": (1, 2, 4, 8), "spp": (1, 4),
-                 "path_spp": (1, 4, 16, 64), "rounds": 2, "budget": 25.0}
+COMPARE_QUICK = {"reference_spp": 256, "path_spp": (1, 4, 16, 64), "rounds": 2, "budget": 25.0}
 
 
 # --- Validation, written once ----------------------------------------------------------------------
