@@ -220,7 +220,7 @@ def test_second_run_reuses_the_cached_reference(sweep, mirror_scene, tmp_path, m
 def test_the_reference_stops_once_its_noise_is_small_beside_the_whitted_errors(mirror_scene, tmp_path):
     """Without --budget the reference is rendered at the power of two whose noise is
     COMPARE_REFERENCE_NOISE_SHARE of the smallest Whitted error it scores (its 1-spp render at
-    the deepest depth, less that noise), at most --reference-spp: half as many would not do."""
+    the scene's depth, less that noise), at most --reference-spp."""
     import whitted.rendering as rendering
     from whitted.compare.planning import plan_scene
     from whitted.compare.reference import ReferenceCache, reference_image
@@ -235,7 +235,7 @@ def test_the_reference_stops_once_its_noise_is_small_beside_the_whitted_errors(m
     spp, noise = entry.reference_spp, entry.reference_noise
     assert entry.reference_enough and COMPARE_REFERENCE_START_SPP < spp < 1 << 16
     whitted = min(relative_mse(np.asarray(rendering.render(
-        loaded, integrator="whitted", spp=1, max_depth=max(DEPTHS), lighting=lighting).image), image)
+        loaded, integrator="whitted", spp=1, max_depth=entry.path_depth, lighting=lighting).image), image)
         for lighting in ("article", "physical"))
     wanted = COMPARE_REFERENCE_NOISE_SHARE * (whitted - noise)
     # the rule's noise came from its first samples: within a factor 2 of the final one's

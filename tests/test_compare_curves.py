@@ -325,3 +325,15 @@ def test_floor_below_the_rendered_path_is_read_from_the_fitted_curve(scene_resul
     from whitted.compare.analysis import reach_text
     assert reach_text(row.reach["path"]) == "2.56 s (256 spp, fitted)"
     assert analysis.findings()["path_model"]["read_spp"] == [256]
+
+
+def test_equal_time_past_the_rendered_path_says_it_is_read_from_the_fitted_curve(scene_result):
+    # a Whitted render of 1.28 s, slower than the path tracer's 64 spp (0.64 s): read on the
+    # log–log line to its fitted 256 spp (2.56 s, 0.0025): 0.01 · (1.28 / 0.64)^−1 = 0.005
+    scene_result.measurements.append(_measurement("whitted-article", 4, 16, 1.28, 0.2))
+    scene_result.path_spp = (1, 4, 16, 64, 256)
+    scene_result.path_model = PathModel(0.0, 0.64, (1, 4, 16, 64), 64, 0.02)
+    row = next(r for r in analyse(scene_result, (0.2,)).equal_time if r.whitted.seconds == 1.28)
+    assert row.outside is None and row.rel_mse.how == "fitted"
+    assert row.rel_mse.value == pytest.approx(0.005)
+    assert equal_time_how(row) == "on the fitted curve 64–256 spp"

@@ -84,8 +84,7 @@ def reference_settings(entry: SceneResult, spp: int, enough: bool = False) -> di
                 "seed": REFERENCE_SEED, "width": entry.width, "height": entry.height,
                 "variant": entry.variant}
     if enough:
-        settings.update(noise_share=COMPARE_REFERENCE_NOISE_SHARE, start_spp=COMPARE_REFERENCE_START_SPP,
-                        depth=max(entry.depths, default=0))
+        settings.update(noise_share=COMPARE_REFERENCE_NOISE_SHARE, start_spp=COMPARE_REFERENCE_START_SPP)
     return settings
 
 
@@ -299,8 +298,8 @@ def enough_spp(loaded, entry: SceneResult, most: int) -> tuple[int, list[Chunk]]
     """The reference's spp when its noise need only be below COMPARE_REFERENCE_NOISE_SHARE of
     the smallest Whitted error it scores: its first COMPARE_REFERENCE_START_SPP samples, in two
     halves (kept: its first chunks), give its noise per sample; each Whitted method's 1-spp
-    render at the sweep's deepest depth, scored against them less that noise, the error. The
-    power of two that gets there, at most ``most``; with the chunks rendered."""
+    render at the scene's depth (the reference's), scored against them less that noise, the
+    error. The power of two that gets there, at most ``most``; with the chunks rendered."""
     from .. import metrics
 
     start = COMPARE_REFERENCE_START_SPP
@@ -308,9 +307,8 @@ def enough_spp(loaded, entry: SceneResult, most: int) -> tuple[int, list[Chunk]]
               for half in (0, 1)]
     halves = Halves(probes)
     noise, image = halves.noise(), halves.image()
-    depth = max(entry.depths, default=entry.path_depth)
     errors = [metrics.relative_mse(np.asarray(rendering.render(
-        loaded, integrator="whitted", spp=1, max_depth=depth, lighting=lighting, seed=0,
+        loaded, integrator="whitted", spp=1, max_depth=entry.path_depth, lighting=lighting, seed=0,
         progress=False).image, dtype=np.float32), image) for lighting in LIGHTING_MODES]
     wanted = COMPARE_REFERENCE_NOISE_SHARE * (min(errors) - noise)
     spp = start
