@@ -12,8 +12,8 @@ import pytest
 from whitted.compare.analysis import analyse, equal_time_how
 from whitted.compare.budget import Budget, fit_cost, render_cost
 from whitted.compare.curves import (PathModel, best_ambient, error_at_time, error_floor,
-                                    error_levels, fit_inverse, fit_line, loglog_between,
-                                    pareto_front, reference_noise, time_to_reach)
+                                    error_levels, fit_inverse, loglog_between, pareto_front,
+                                    reference_noise, time_to_reach)
 from whitted.compare.results import Measurement, SceneResult, Setting
 from whitted.defaults import (COMPARE_MIN_REFERENCE_SPP, COMPARE_REFERENCE_SHARE,
                               COMPARE_REPORT_SECONDS)
@@ -259,25 +259,12 @@ def test_levels_come_from_the_data_by_default(scene_result):
         assert any(row.reach[method].fastest is not None for row in analysis.equal_quality)
 
 
-def test_inverse_fit_through_exact_points():
-    # 0.5 = c + v and 0.2 = c + v/4: v·3/4 = 0.3, so v = 0.4 and c = 0.1
-    assert fit_inverse([1, 4], [0.5, 0.2]) == pytest.approx((0.1, 0.4))
+def test_inverse_fit_of_the_variance_given_c():
     # three points on 0.01 + 0.64/n
-    assert fit_inverse([1, 4, 16], [0.65, 0.17, 0.05]) == pytest.approx((0.01, 0.64))
-
-
-def test_inverse_fit_keeps_c_non_negative():
-    # through both points c would be −1/30; with c = 0, weights w = 1/e (2 and 10) and x = 1/n:
-    # v = Σ w²·x·e / Σ w²·x² = (4·0.5 + 100·0.25·0.1) / (4·1 + 100·0.0625) = 4.5 / 10.25
-    assert fit_inverse([1, 4], [0.5, 0.1]) == pytest.approx((0.0, 4.5 / 10.25))
-    # c given (the reference's noise): v alone, Σ w²·x·(e − c) / Σ w²·x² = (4·0.4 + 100·0.25·0) / 10.25
-    assert fit_inverse([1, 4], [0.5, 0.1], 0.1) == pytest.approx((0.1, 1.6 / 10.25))
-
-
-def test_line_fit_of_time_against_spp():
-    assert fit_line([1, 4], [0.03, 0.06]) == pytest.approx((0.02, 0.01))
-    # a would be −0.01: through the origin instead, b = Σ n·t / Σ n² = (0.01 + 0.06) / 5
-    assert fit_line([1, 2], [0.01, 0.03]) == pytest.approx((0.0, 0.014))
+    assert fit_inverse([1, 4, 16], [0.65, 0.17, 0.05], 0.01) == pytest.approx(0.64)
+    # off the curve: with w = 1/e (2 and 10), x = 1/n and c = 0.1,
+    # v = Σ w²·x·(e − c) / Σ w²·x² = (4·1·0.4 + 100·0.25·0) / (4·1 + 100·0.0625) = 1.6 / 10.25
+    assert fit_inverse([1, 4], [0.5, 0.1], 0.1) == pytest.approx(1.6 / 10.25)
 
 
 def test_path_model_error_and_spp_to_reach():
@@ -291,15 +278,12 @@ def test_path_model_is_checked_by_the_next_render():
     from whitted.compare.sweep import checked_path_model
 
     path = [_measurement("path", 3, n, 0.01 * n, 0.01 + 0.64 / n) for n in (1, 4, 16)]
-    assert checked_path_model(path) is None   # fitted, not yet checked
-    model = checked_path_model(path + [_measurement("path", 3, 64, 0.64, 0.02)])
+    assert checked_path_model(path, 0.01) is None   # fitted, not yet checked
+    model = checked_path_model(path + [_measurement("path", 3, 64, 0.64, 0.02)], 0.01)
     assert (model.fitted, model.checked) == ((1, 4, 16, 64), 64)
-    # c given as the reference's noise: the same curve, v alone fitted
-    assert checked_path_model(path + [_measurement("path", 3, 64, 0.64, 0.02)], 0.01).v == \
-        pytest.approx(0.64)
     assert (model.c, model.v, model.deviation) == pytest.approx((0.01, 0.64, 0.0), abs=1e-9)
     # a render 20% off the prediction at 64 spp (0.02): not checked, the ladder goes on
-    assert checked_path_model(path + [_measurement("path", 3, 64, 0.64, 0.025)]) is None
+    assert checked_path_model(path + [_measurement("path", 3, 64, 0.64, 0.025)], 0.01) is None
 
 
 def test_floor_below_the_rendered_path_is_read_from_the_fitted_curve(scene_result):

@@ -12,7 +12,7 @@ from dataclasses import dataclass, field, replace
 from ..defaults import (COMPARE_CLOCK, COMPARE_CONFIDENCE, COMPARE_DATA_LEVELS, COMPARE_FLOOR_TOLERANCE,
                         COMPARE_ROUNDS, COMPARE_TIMING_THREADS)
 from .fitted import fitted_text
-from .curves import (Floor, PathModel, Reading, error_at_time, error_floor, error_levels, fit_line,
+from .curves import (Floor, PathModel, Reading, error_at_time, error_floor, error_levels,
                      time_to_reach)
 from .results import METHODS, WHITTED_METHODS, Limit, Measurement, SceneResult, Setting, seconds_text
 from .timing import Interval, coverage, finite_or_none, paired
@@ -217,8 +217,8 @@ def path_seconds(pair: tuple[Measurement, ...], spp: float, timed_round: int | N
     times = [m.seconds if timed_round is None else m.seconds_in(timed_round) for m in pair]
     if len(pair) < 2 or not all(math.isfinite(t) and t > 0 for t in times):
         return math.nan
-    a, b = fit_line([m.setting.spp for m in pair], times)
-    return a + b * spp
+    (n0, t0), (n1, t1) = zip([m.setting.spp for m in pair], times)
+    return t0 + (t1 - t0) * (spp - n0) / (n1 - n0)
 
 
 def modelled_path(entry: SceneResult) -> list[Measurement]:

@@ -176,27 +176,9 @@ class PathModel:
         return self.v / (error - self.c) if error > self.c else math.inf
 
 
-def fit_inverse(spp: list[float], errors: list[float], c: float = math.nan) -> tuple[float, float]:
-    """(c, v) of err = c + v/n by least squares on relative residuals, c >= 0; ``c`` given
-    (the reference's noise, for the path tracer, whose own bias is none): v alone."""
-    x, e = np.asarray([1.0 / n for n in spp]), np.asarray(errors, dtype=np.float64)
-    w = 1.0 / e   # each residual relative to its error: the small ones count alike
-    if math.isnan(c):
-        (c, v), *_ = np.linalg.lstsq(np.stack([w, w * x], axis=1), w * e, rcond=None)
-        if c >= 0:
-            return float(c), float(v)
-    c = max(0.0, c)
-    v = np.sum(w * w * x * (e - c)) / np.sum(w * w * x * x)
-    return float(c), float(v)
-
-
-def fit_line(spp: list[float], seconds: list[float]) -> tuple[float, float]:
-    """(a, b) of time = a + b·n by least squares, a >= 0 (a render's cost before its first
-    sample, which no noise makes negative)."""
-    n, t = np.asarray(spp, dtype=np.float64), np.asarray(seconds, dtype=np.float64)
-    if len(n) < 2:
-        return 0.0, float(t[0] / n[0])
-    b, a = np.polyfit(n, t, 1)
-    if a < 0:
-        a, b = 0.0, float(np.sum(n * t) / np.sum(n * n))
-    return float(a), float(b)
+def fit_inverse(spp: list[float], errors: list[float], c: float) -> float:
+    """v of err = c + v/n, c given (the reference's noise: the path tracer has no bias of its
+    own), by least squares on residuals relative to each error, so that the small ones count."""
+    x, e = 1.0 / np.asarray(spp, dtype=np.float64), np.asarray(errors, dtype=np.float64)
+    w = 1.0 / e
+    return float(np.sum(w * w * x * (e - c)) / np.sum(w * w * x * x))

@@ -257,19 +257,20 @@ def sweep_scene(scene: SceneFile, entry: SceneResult, settings: list[Setting], o
     return entry
 
 
-def checked_path_model(measurements: list[Measurement], noise: float = math.nan) -> PathModel | None:
-    """The path tracer's err = c + v/n (c: the reference's ``noise`` where known), fitted to
+def checked_path_model(measurements: list[Measurement], noise: float) -> PathModel | None:
+    """The path tracer's err = c + v/n (c: the reference's ``noise``, 0 if unknown), fitted to
     its renders but the last and checked by the last: None until COMPARE_PATH_FIT_COUNTS
     renders predict the next within COMPARE_PATH_CHECK; then refitted to all of them."""
     path = [m for m in measurements if m.setting.integrator == "path"]
     if len(path) <= COMPARE_PATH_FIT_COUNTS or not all(m.rel_mse > 0 for m in path):
         return None
     *fitted, last = path
-    c, v = fit_inverse([m.setting.spp for m in fitted], [m.rel_mse for m in fitted], noise)
+    c = noise if math.isfinite(noise) else 0.0
+    v = fit_inverse([m.setting.spp for m in fitted], [m.rel_mse for m in fitted], c)
     deviation = abs((c + v / last.setting.spp) / last.rel_mse - 1.0)
     if deviation > COMPARE_PATH_CHECK:
         return None
-    c, v = fit_inverse([m.setting.spp for m in path], [m.rel_mse for m in path], noise)
+    v = fit_inverse([m.setting.spp for m in path], [m.rel_mse for m in path], c)
     return PathModel(c, v, tuple(m.setting.spp for m in path), last.setting.spp, deviation)
 
 
