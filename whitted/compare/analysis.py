@@ -301,7 +301,9 @@ def analyse(entry: SceneResult, levels: tuple[float, ...] | None = None,
     equal_time = []
     for method in WHITTED_METHODS:
         for m in sorted(by_method[method], key=lambda m: (m.setting.max_depth, m.setting.spp)):
-            reading = _said_fitted(error_at_time(path_mse, m.seconds))
+            reading = error_at_time(path_mse, m.seconds)
+            if reading is not None and any(p.modelled for p in reading.between):
+                reading = replace(reading, how="fitted")   # it says so
             outside = None
             if reading is not None and reading.how == "nearest":
                 outside = "faster" if m.seconds < reading.between[0].seconds else "slower"
@@ -362,13 +364,6 @@ def analyse(entry: SceneResult, levels: tuple[float, ...] | None = None,
                                                 decomposition_text(method, floor, limit, gone,
                                                                    entry.reference_noise, tolerance)))
     return Analysis(entry, tuple(levels), equal_time, equal_quality, floors, decompositions)
-
-
-def _said_fitted(reading: Reading | None) -> Reading | None:
-    """A reading of the path tracer that used its fitted curve says so."""
-    if reading is not None and any(m.modelled for m in reading.between):
-        return replace(reading, how="fitted")
-    return reading
 
 
 def _over(a: float, b: float) -> float:
