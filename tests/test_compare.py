@@ -687,7 +687,8 @@ def test_quick_sets_what_the_docs_say_and_options_beside_it_win(mirror_scene, tm
         raise WhittedError("enough")
     monkeypatch.setattr("whitted.compare.run.compare", fake_compare)
     assert main(["compare", str(mirror_scene), "--out", str(tmp_path), "--quick", *given]) == 2
-    expected = {"reference_spp": 256, "depths": (1, 2, 4, 8), "whitted_spp": (1, 4),
+    # the default's depths (None: the scene's) and Whitted ladder, so that its floors are the default's
+    expected = {"reference_spp": 256, "depths": None, "whitted_spp": (1, 4, 16),
                 "path_spp": (1, 4, 16, 64), "rounds": 2, "budget": 25.0, **wins}
     assert {name: getattr(seen[0], name) for name in expected} == expected
     docs = " ".join((Path(__file__).parents[1] / "docs" / "compare.md").read_text().split())
