@@ -217,10 +217,12 @@ def test_second_run_reuses_the_cached_reference(sweep, mirror_scene, tmp_path, m
     # A = 1 in the article's lighting
     passes = Counter((c["lighting"], c["ambient"]) for c in limit_calls)
     assert set(passes) == {("article", 0.0), ("article", 1.0), ("physical", None)}
-    assert passes[("article", 0.0)] == passes[("article", 1.0)] and all(n % 2 == 0 for n in passes.values())
+    assert passes[("article", 0.0)] == passes[("article", 1.0)]
+    assert all(n % 2 == 0 for n in passes.values())
 
 
-def test_the_reference_stops_once_its_noise_is_small_beside_the_whitted_errors(mirror_scene, tmp_path):
+def test_the_reference_stops_once_its_noise_is_small_beside_the_whitted_errors(mirror_scene,
+                                                                               tmp_path):
     """Without --budget the reference is rendered at the power of two whose noise is
     COMPARE_REFERENCE_NOISE_SHARE of the smallest Whitted error it scores (its 1-spp render at
     the scene's depth, less that noise), at most --reference-spp."""
@@ -238,8 +240,8 @@ def test_the_reference_stops_once_its_noise_is_small_beside_the_whitted_errors(m
     spp, noise = entry.reference_spp, entry.reference_noise
     assert entry.reference_enough and COMPARE_REFERENCE_START_SPP < spp < 1 << 16
     whitted = min(relative_mse(np.asarray(rendering.render(
-        loaded, integrator="whitted", spp=1, max_depth=entry.path_depth, lighting=lighting).image), image)
-        for lighting in ("article", "physical"))
+        loaded, integrator="whitted", spp=1, max_depth=entry.path_depth, lighting=lighting).image),
+        image) for lighting in ("article", "physical"))
     wanted = COMPARE_REFERENCE_NOISE_SHARE * (whitted - noise)
     # the rule's noise came from its first samples: within a factor 2 of the final one's
     assert noise < 2 * wanted and 2 * noise > wanted / 2
@@ -687,7 +689,7 @@ def test_quick_sets_what_the_docs_say_and_options_beside_it_win(mirror_scene, tm
         raise WhittedError("enough")
     monkeypatch.setattr("whitted.compare.run.compare", fake_compare)
     assert main(["compare", str(mirror_scene), "--out", str(tmp_path), "--quick", *given]) == 2
-    # the default's depths (None: the scene's) and Whitted ladder, so that its floors are the default's
+    # the default's depths (None: the scene's) and Whitted ladder: its floors are the default's
     expected = {"reference_spp": 256, "depths": None, "whitted_spp": (1, 4, 16),
                 "path_spp": (1, 4, 16, 64), "rounds": 2, "budget": 25.0, **wins}
     assert {name: getattr(seen[0], name) for name in expected} == expected

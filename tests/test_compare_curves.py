@@ -263,7 +263,8 @@ def test_inverse_fit_of_the_variance_given_c():
     # three points on 0.01 + 0.64/n
     assert fit_inverse([1, 4, 16], [0.65, 0.17, 0.05], 0.01) == pytest.approx(0.64)
     # off the curve: with w = 1/e (2 and 10), x = 1/n and c = 0.1,
-    # v = Σ w²·x·(e − c) / Σ w²·x² = (4·1·0.4 + 100·0.25·0) / (4·1 + 100·0.0625) = 1.6 / 10.25
+    # v = Σ w²·x·(e − c) / Σ w²·x² = (4·1·0.4 + 100·0.25·0) / (4·1 + 100·0.0625)
+    #   = 1.6 / 10.25
     assert fit_inverse([1, 4], [0.5, 0.1], 0.1) == pytest.approx(1.6 / 10.25)
 
 

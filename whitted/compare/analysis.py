@@ -14,7 +14,8 @@ from ..defaults import (COMPARE_CLOCK, COMPARE_CONFIDENCE, COMPARE_DATA_LEVELS, 
 from .fitted import fitted_text
 from .curves import (Floor, PathModel, Reading, error_at_time, error_floor, error_levels,
                      time_to_reach)
-from .results import METHODS, WHITTED_METHODS, Limit, Measurement, SceneResult, Setting, seconds_text
+from .results import (METHODS, WHITTED_METHODS, Limit, Measurement, SceneResult, Setting,
+                      seconds_text)
 from .timing import Interval, coverage, finite_or_none, paired
 
 #: How the prose names each method.
@@ -199,7 +200,8 @@ def _model_findings(entry: SceneResult) -> dict | None:
     model = entry.path_model
     if model is None:
         return None
-    return {"c": model.c, "v": model.v, "fitted_spp": list(model.fitted), "checked_spp": model.checked,
+    return {"c": model.c, "v": model.v, "fitted_spp": list(model.fitted),
+            "checked_spp": model.checked,
             "deviation": model.deviation, "read_spp": [m.setting.spp for m in modelled_path(entry)],
             "text": model_text(entry)}
 
@@ -211,7 +213,8 @@ def _costliest_two(entry: SceneResult) -> tuple[Measurement, ...]:
     return tuple(path[-2:])
 
 
-def path_seconds(pair: tuple[Measurement, ...], spp: float, timed_round: int | None = None) -> float:
+def path_seconds(pair: tuple[Measurement, ...], spp: float,
+                 timed_round: int | None = None) -> float:
     """The path tracer's time at ``spp`` on the line time = a + b·n through ``pair`` (their
     median times, or those of one timed round; NaN where one is missing)."""
     times = [m.seconds if timed_round is None else m.seconds_in(timed_round) for m in pair]
@@ -229,8 +232,8 @@ def modelled_path(entry: SceneResult) -> list[Measurement]:
         return []
     rounds = rounds_of(entry) if any(m.times for m in pair) else 0
     per_spp = pair[-1].work / pair[-1].setting.spp
-    return [Measurement(Setting("path", "physical", n, entry.path_depth), path_seconds(pair, n), 0.0,
-                        model.error(n), math.nan, round(per_spp * n),
+    return [Measurement(Setting("path", "physical", n, entry.path_depth), path_seconds(pair, n),
+                        0.0, model.error(n), math.nan, round(per_spp * n),
                         times=tuple(path_seconds(pair, n, r) for r in range(rounds)), modelled=True)
             for n in entry.path_spp if n > model.checked]
 
@@ -344,7 +347,8 @@ def analyse(entry: SceneResult, levels: tuple[float, ...] | None = None,
         if reading is None and entry.path_model is not None:
             spp = entry.path_model.spp_to_reach(floor.error)
             pair = _costliest_two(entry)
-            reading = Reading(path_seconds(pair, spp), "fitted", pair) if math.isfinite(spp) else None
+            reading = (Reading(path_seconds(pair, spp), "fitted", pair) if math.isfinite(spp)
+                       else None)
         interval = None
         if reading is not None and reading.how == "fitted":
             interval = paired(rounds, lambda r: _over(path_seconds(reading.between, spp, r),
@@ -421,10 +425,10 @@ def floor_text(method: str, floor: Floor[Measurement], path: Reading | None,
 
 def fitted_how(model: PathModel, spp: float, pair: tuple[Measurement, ...]) -> str:
     """How a reading from the path tracer's fitted curve was made, in words."""
-    return (f"read from its fitted curve at {spp:.3g} spp: error = {model.c:.3g} + {model.v:.3g}/n, "
-            f"fitted to {model.fitted[0]}–{model.fitted[-1]} spp and checked at {model.checked} spp "
-            f"within {model.deviation:.0%}; time = a + b·n through its {pair[0].setting.label} and "
-            f"{pair[1].setting.label} renders")
+    return (f"read from its fitted curve at {spp:.3g} spp: error = {model.c:.3g} + "
+            f"{model.v:.3g}/n, fitted to {model.fitted[0]}–{model.fitted[-1]} spp and checked "
+            f"at {model.checked} spp within {model.deviation:.0%}; time = a + b·n through its "
+            f"{pair[0].setting.label} and {pair[1].setting.label} renders")
 
 
 def _noise_caution(floor: Floor, reference_noise: float) -> str:

@@ -84,7 +84,8 @@ def reference_settings(entry: SceneResult, spp: int, enough: bool = False) -> di
                 "seed": REFERENCE_SEED, "width": entry.width, "height": entry.height,
                 "variant": entry.variant}
     if enough:
-        settings.update(noise_share=COMPARE_REFERENCE_NOISE_SHARE, start_spp=COMPARE_REFERENCE_START_SPP)
+        settings.update(noise_share=COMPARE_REFERENCE_NOISE_SHARE,
+                        start_spp=COMPARE_REFERENCE_START_SPP)
     return settings
 
 
@@ -357,7 +358,8 @@ def reference_image(scene: SceneFile, loaded, entry: SceneResult, cache: Referen
         entry.reference_noise = halves.noise()
         entry.reference_enough = plan.enough
         cache.store(entry.name, plan.key, image, {
-            "scene": str(entry.path), "settings": reference_settings(entry, halves.spp, plan.enough),
+            "scene": str(entry.path),
+            "settings": reference_settings(entry, halves.spp, plan.enough),
             "seconds": halves.seconds, "compile_seconds": halves.compile_seconds,
             "noise_rel_mse": entry.reference_noise, "spp_per_half": halves.counts,
             "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"),

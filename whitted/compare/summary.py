@@ -124,7 +124,8 @@ def scene_words(analysis: Analysis) -> dict:
     return {
         "name": entry.name, "width": entry.width, "height": entry.height, "verdict": verdict(analysis),
         "notes": list(entry.notes),
-        "floors": [f.text for f in analysis.floors] + ([model_text(entry)] if entry.path_model else []),
+        "floors": ([f.text for f in analysis.floors]
+                   + ([model_text(entry)] if entry.path_model else [])),
         "decompositions": [d.text for d in analysis.decompositions],
         "noise_note": f", its noise ≈ {entry.reference_noise:.3g}" if noisy else "",
         "methods": methods, "whitted": [WHITTED_LIGHTING[m] for m in WHITTED_METHODS
