@@ -10,6 +10,7 @@ ray tree adds light the reference also has, and the formula of relative MSE.
 from __future__ import annotations
 
 import csv
+from collections import Counter
 import math
 import time
 from pathlib import Path
@@ -206,15 +207,44 @@ def test_second_run_reuses_the_cached_reference(sweep, mirror_scene, tmp_path, m
     settings = {tuple(sorted((k, v) for k, v in c.items() if k != "fresh_memory")) for c in sweep_calls}
     assert len(settings) == 3 and len(sweep_calls) >= 3 * 2
     # the article's model fitted to the reference (issue 33), scored as the limit is: one render
-    # of both halves' samples
-    half = min(c["spp"] for c in limit_calls)
-    fitted = [c for c in limit_calls if c["lighting"] == "article" and c["spp"] == 2 * half]
-    assert len(fitted) == 1
+    # of the last halves' samples (twice a half's: more than any other article render)
+    most = max(c["spp"] for c in limit_calls if c["lighting"] == "article")
+    fitted = [c for c in limit_calls if c["lighting"] == "article" and c["spp"] == most]
     limit_calls = [c for c in limit_calls if c not in fitted]
-    # each Whitted method's limit: two halves, at A = 0 and A = 1 in the article's lighting
-    assert sorted((c["lighting"], c["ambient"]) for c in limit_calls) == [
-        ("article", 0.0), ("article", 0.0), ("article", 1.0), ("article", 1.0),
-        ("physical", None), ("physical", None)]
+    half = max(c["spp"] for c in limit_calls if c["lighting"] == "article")
+    assert len(fitted) == 1 and most == 2 * half
+    # each Whitted method's limit: two halves a pass (doubled until converged), at A = 0 and
+    # A = 1 in the article's lighting
+    passes = Counter((c["lighting"], c["ambient"]) for c in limit_calls)
+    assert set(passes) == {("article", 0.0), ("article", 1.0), ("physical", None)}
+    assert passes[("article", 0.0)] == passes[("article", 1.0)]
+    assert all(n % 2 == 0 for n in passes.values())
+
+
+def test_the_reference_stops_once_its_noise_is_small_beside_the_whitted_errors(mirror_scene,
+                                                                               tmp_path):
+    """Without --budget the reference is rendered at the power of two whose noise is
+    COMPARE_REFERENCE_NOISE_SHARE of the smallest Whitted error it scores (its 1-spp render at
+    the scene's depth, less that noise), at most --reference-spp."""
+    import whitted.rendering as rendering
+    from whitted.compare.planning import plan_scene
+    from whitted.compare.reference import ReferenceCache, reference_image
+    from whitted.defaults import COMPARE_REFERENCE_NOISE_SHARE, COMPARE_REFERENCE_START_SPP
+    from whitted.metrics import relative_mse
+
+    scene = cmp.SceneFile.read(mirror_scene)
+    loaded = scene.load()
+    options = cmp.Options(out=tmp_path, reference_spp=1 << 16, depths=DEPTHS, quiet=True)
+    entry, _ = plan_scene(scene, loaded, options, "llvm_ad_rgb")
+    image = reference_image(scene, loaded, entry, ReferenceCache(tmp_path / "cache"), options)
+    spp, noise = entry.reference_spp, entry.reference_noise
+    assert entry.reference_enough and COMPARE_REFERENCE_START_SPP < spp < 1 << 16
+    whitted = min(relative_mse(np.asarray(rendering.render(
+        loaded, integrator="whitted", spp=1, max_depth=entry.path_depth, lighting=lighting).image),
+        image) for lighting in ("article", "physical"))
+    wanted = COMPARE_REFERENCE_NOISE_SHARE * (whitted - noise)
+    # the rule's noise came from its first samples: within a factor 2 of the final one's
+    assert noise < 2 * wanted and 2 * noise > wanted / 2
 
 
 def test_cache_key_follows_scene_content_and_settings(mirror_scene, tmp_path):
@@ -659,7 +689,8 @@ def test_quick_sets_what_the_docs_say_and_options_beside_it_win(mirror_scene, tm
         raise WhittedError("enough")
     monkeypatch.setattr("whitted.compare.run.compare", fake_compare)
     assert main(["compare", str(mirror_scene), "--out", str(tmp_path), "--quick", *given]) == 2
-    expected = {"reference_spp": 256, "depths": (1, 2, 4, 8), "whitted_spp": (1, 4),
+    # the default's depths (None: the scene's) and Whitted ladder: its floors are the default's
+    expected = {"reference_spp": 256, "depths": None, "whitted_spp": (1, 4, 16),
                 "path_spp": (1, 4, 16, 64), "rounds": 2, "budget": 25.0, **wins}
     assert {name: getattr(seen[0], name) for name in expected} == expected
     docs = " ".join((Path(__file__).parents[1] / "docs" / "compare.md").read_text().split())

@@ -11,8 +11,9 @@ import pytest
 
 from whitted.compare.analysis import analyse, equal_time_how
 from whitted.compare.budget import Budget, fit_cost, render_cost
-from whitted.compare.curves import (best_ambient, error_at_time, error_floor, error_levels,
-                                    loglog_between, pareto_front, reference_noise, time_to_reach)
+from whitted.compare.curves import (PathModel, best_ambient, error_at_time, error_floor,
+                                    error_levels, fit_inverse, loglog_between, pareto_front,
+                                    reference_noise, time_to_reach)
 from whitted.compare.results import Measurement, SceneResult, Setting
 from whitted.defaults import (COMPARE_MIN_REFERENCE_SPP, COMPARE_REFERENCE_SHARE,
                               COMPARE_REPORT_SECONDS)
@@ -256,3 +257,68 @@ def test_levels_come_from_the_data_by_default(scene_result):
     assert analysis.levels == (0.16, 0.11, 0.04, 0.011)
     for method in ("whitted-article", "path"):
         assert any(row.reach[method].fastest is not None for row in analysis.equal_quality)
+
+
+def test_inverse_fit_of_the_variance_given_c():
+    # three points on 0.01 + 0.64/n
+    assert fit_inverse([1, 4, 16], [0.65, 0.17, 0.05], 0.01) == pytest.approx(0.64)
+    # off the curve: with w = 1/e (2 and 10), x = 1/n and c = 0.1,
+    # v = Σ w²·x·(e − c) / Σ w²·x² = (4·1·0.4 + 100·0.25·0) / (4·1 + 100·0.0625)
+    #   = 1.6 / 10.25
+    assert fit_inverse([1, 4], [0.5, 0.1], 0.1) == pytest.approx(1.6 / 10.25)
+
+
+def test_path_model_error_and_spp_to_reach():
+    model = PathModel(0.01, 0.64, (1, 4, 16), 16, 0.0)
+    assert model.error(64) == pytest.approx(0.02)
+    assert model.spp_to_reach(0.02) == pytest.approx(64)   # 0.64 / (0.02 − 0.01)
+    assert model.spp_to_reach(0.01) == math.inf            # never below c
+
+
+def test_path_model_is_checked_by_the_next_render():
+    from whitted.compare.sweep import checked_path_model
+
+    path = [_measurement("path", 3, n, 0.01 * n, 0.01 + 0.64 / n) for n in (1, 4, 16)]
+    assert checked_path_model(path, 0.01) is None   # fitted, not yet checked
+    model = checked_path_model(path + [_measurement("path", 3, 64, 0.64, 0.02)], 0.01)
+    assert (model.fitted, model.checked) == ((1, 4, 16, 64), 64)
+    assert (model.c, model.v, model.deviation) == pytest.approx((0.01, 0.64, 0.0), abs=1e-9)
+    # a render 20% off the prediction at 64 spp (0.02): not checked, the ladder goes on
+    assert checked_path_model(path + [_measurement("path", 3, 64, 0.64, 0.025)], 0.01) is None
+
+
+def test_floor_below_the_rendered_path_is_read_from_the_fitted_curve(scene_result):
+    # the article's model at 0.005, below the path tracer's best render (64 spp: 0.01)
+    scene_result.measurements.append(_measurement("whitted-article", 4, 4, 0.032, 0.005))
+    scene_result.path_spp = (1, 4, 16, 64, 256)
+    scene_result.path_model = PathModel(0.0, 0.64, (1, 4, 16, 64), 64, 0.02)
+    analysis = analyse(scene_result, (0.003,))
+    (floor,) = analysis.floors
+    # 0.64 / 0.005 = 128 spp; on the line through 16 and 64 spp (0.01 s per spp): 1.28 s
+    assert floor.path.how == "fitted" and floor.path.value == pytest.approx(1.28)
+    # every round's times are the medians' times the same factor: the ratio is constant
+    assert floor.interval.value == pytest.approx(1.28 / 0.032) and floor.interval.rounds == 3
+    assert ("read from its fitted curve at 128 spp: error = 0 + 0.64/n, fitted to 1–64 spp and "
+            "checked at 64 spp within 2%; time = a + b·n through its 16 spp and 64 spp renders"
+            in floor.text)
+    assert analysis.findings()["methods"]["whitted-article"]["path_seconds_how"] == "fitted"
+    # 256 spp is not rendered: 0.0025 in 2.56 s, read from the fitted curve
+    (row,) = analysis.equal_quality
+    fastest = row.reach["path"].fastest
+    assert fastest.modelled and fastest.rel_mse == pytest.approx(0.0025)
+    assert fastest.seconds == pytest.approx(2.56)
+    from whitted.compare.analysis import reach_text
+    assert reach_text(row.reach["path"]) == "2.56 s (256 spp, fitted)"
+    assert analysis.findings()["path_model"]["read_spp"] == [256]
+
+
+def test_equal_time_past_the_rendered_path_says_it_is_read_from_the_fitted_curve(scene_result):
+    # a Whitted render of 1.28 s, slower than the path tracer's 64 spp (0.64 s): read on the
+    # log–log line to its fitted 256 spp (2.56 s, 0.0025): 0.01 · (1.28 / 0.64)^−1 = 0.005
+    scene_result.measurements.append(_measurement("whitted-article", 4, 16, 1.28, 0.2))
+    scene_result.path_spp = (1, 4, 16, 64, 256)
+    scene_result.path_model = PathModel(0.0, 0.64, (1, 4, 16, 64), 64, 0.02)
+    row = next(r for r in analyse(scene_result, (0.2,)).equal_time if r.whitted.seconds == 1.28)
+    assert row.outside is None and row.rel_mse.how == "fitted"
+    assert row.rel_mse.value == pytest.approx(0.005)
+    assert equal_time_how(row) == "on the fitted curve 64–256 spp"

@@ -20,7 +20,7 @@ from whitted.compare.results import Measurement, SceneResult, Setting
 from whitted.compare.summary import findings, summary
 from whitted.compare.analysis import faster_text, ratio_text
 from whitted.compare.timing import Interval, _order_rank
-from whitted.defaults import COMPARE_MAX_ROUNDS, COMPARE_SETTLED_WIDTH
+from whitted.defaults import COMPARE_LONG_ROUNDS, COMPARE_MAX_ROUNDS, COMPARE_SETTLED_WIDTH
 
 
 # --------------------------------------------------------------------------- the interval
@@ -334,6 +334,8 @@ def test_more_rounds_while_the_headline_is_unsettled_up_to_the_cap(monkeypatch):
     swing = random.Random(3)
     _FakeRenders(lambda setting, call: 0.002 if setting[0] == "whitted"
                  else 0.01 * setting[2] * 16 ** swing.random(), monkeypatch)
+    import whitted.compare.sweep as sweep_module
+    monkeypatch.setattr(sweep_module, "COMPARE_ROUNDS_SECONDS", math.inf)   # the rounds' cap alone
     entry = _sweep_entry()
     time_rounds(None, entry, 3)
     rounds = {m.setting.label: m.rounds for m in entry.measurements}
@@ -353,7 +355,8 @@ def test_rounds_stop_before_the_budget_runs_out(monkeypatch):
 
 
 def test_extra_rounds_time_the_unsettled_headline_s_renders_only(monkeypatch):
-    """A 3 s path render is timed in the rounds asked for only: the headline is read between
+    """A 3 s path render is timed in its first COMPARE_LONG_ROUNDS rounds only (a long render's
+    time is known by then): the headline is read between
     the path tracer's 1 and 4 spp renders, which the extra rounds time with the floor render;
     the ratio pairs the rounds that timed all three."""
     from whitted.compare.sweep import time_rounds
@@ -364,7 +367,7 @@ def test_extra_rounds_time_the_unsettled_headline_s_renders_only(monkeypatch):
     entry.measurements.append(_measurement("path", 6, 64, (), 0.02, 64))
     time_rounds(None, entry, 3)
     rounds = {m.setting.label: m.rounds for m in entry.measurements}
-    assert rounds["64 spp"] == rounds["d1 · 1 spp"] == 3
+    assert rounds["d1 · 1 spp"] == 3 and rounds["64 spp"] == COMPARE_LONG_ROUNDS
     assert rounds["d2 · 1 spp"] == rounds["1 spp"] == rounds["4 spp"] > 3
     assert 3 < analyse(entry).floors[0].interval.rounds <= rounds["1 spp"]
 

@@ -7,13 +7,15 @@ report to read.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 from ..defaults import (COMPARE_CLOCK, COMPARE_CONFIDENCE, COMPARE_DATA_LEVELS, COMPARE_FLOOR_TOLERANCE,
                         COMPARE_ROUNDS, COMPARE_TIMING_THREADS)
 from .fitted import fitted_text
-from .curves import Floor, Reading, error_at_time, error_floor, error_levels, time_to_reach
-from .results import METHODS, WHITTED_METHODS, Limit, Measurement, SceneResult, seconds_text
+from .curves import (Floor, PathModel, Reading, error_at_time, error_floor, error_levels,
+                     time_to_reach)
+from .results import (METHODS, WHITTED_METHODS, Limit, Measurement, SceneResult, Setting,
+                      seconds_text)
 from .timing import Interval, coverage, finite_or_none, paired
 
 #: How the prose names each method.
@@ -188,9 +190,65 @@ class Analysis:
                 "reference_noise": finite_or_none(entry.reference_noise),
                 "renders": len(entry.measurements), "skipped": len(entry.skipped),
                 "timed_rounds": rounds_of(entry), "methods": methods, "notes": list(entry.notes),
+                "path_model": _model_findings(entry),
                 "equal_quality": [{"rel_mse": row.level,
                                    "path_time_over": {m: i.as_dict() for m, i in row.speedups.items()}}
                                   for row in self.equal_quality]}
+
+
+def _model_findings(entry: SceneResult) -> dict | None:
+    model = entry.path_model
+    if model is None:
+        return None
+    return {"c": model.c, "v": model.v, "fitted_spp": list(model.fitted),
+            "checked_spp": model.checked,
+            "deviation": model.deviation, "read_spp": [m.setting.spp for m in modelled_path(entry)],
+            "text": model_text(entry)}
+
+
+def _costliest_two(entry: SceneResult) -> tuple[Measurement, ...]:
+    """The path tracer's two costliest renders: its time line goes through them."""
+    path = sorted((m for m in entry.measurements if m.setting.integrator == "path"),
+                  key=lambda m: m.setting.spp)
+    return tuple(path[-2:])
+
+
+def path_seconds(pair: tuple[Measurement, ...], spp: float,
+                 timed_round: int | None = None) -> float:
+    """The path tracer's time at ``spp`` on the line time = a + b·n through ``pair`` (their
+    median times, or those of one timed round; NaN where one is missing)."""
+    times = [m.seconds if timed_round is None else m.seconds_in(timed_round) for m in pair]
+    if len(pair) < 2 or not all(math.isfinite(t) and t > 0 for t in times):
+        return math.nan
+    (n0, t0), (n1, t1) = zip([m.setting.spp for m in pair], times)
+    return t0 + (t1 - t0) * (spp - n0) / (n1 - n0)
+
+
+def modelled_path(entry: SceneResult) -> list[Measurement]:
+    """The path tracer's ladder counts above its checked render, read from its fitted curve
+    (:attr:`Measurement.modelled`): the error c + v/n, the time in each round on its line."""
+    model, pair = entry.path_model, _costliest_two(entry)
+    if model is None or len(pair) < 2:
+        return []
+    rounds = rounds_of(entry) if any(m.times for m in pair) else 0
+    per_spp = pair[-1].work / pair[-1].setting.spp
+    return [Measurement(Setting("path", "physical", n, entry.path_depth), path_seconds(pair, n),
+                        0.0, model.error(n), math.nan, round(per_spp * n),
+                        times=tuple(path_seconds(pair, n, r) for r in range(rounds)), modelled=True)
+            for n in entry.path_spp if n > model.checked]
+
+
+def model_text(entry: SceneResult) -> str:
+    """What was rendered of the path tracer, and what read from its fitted curve."""
+    model, pair = entry.path_model, _costliest_two(entry)
+    read = [m.setting.spp for m in modelled_path(entry)]
+    fitted = f"{model.fitted[0]}–{model.fitted[-1]} spp"
+    spp = ", ".join(str(n) for n in read)
+    return (f"The path tracer was rendered at {', '.join(str(n) for n in model.fitted)} spp"
+            + (f"; its {spp} spp are read from its fitted curve" if read else "")
+            + f": error = {model.c:.3g} + {model.v:.3g}/n, fitted to {fitted} and checked at "
+              f"{model.checked} spp within {model.deviation:.0%}; time = a + b·n through its "
+              f"{pair[0].setting.spp} and {pair[1].setting.spp} spp renders, in each timed round.")
 
 
 def _curve(measurements: list[Measurement], metric: str,
@@ -202,7 +260,8 @@ def _curve(measurements: list[Measurement], metric: str,
 
 
 def rounds_of(entry: SceneResult) -> int:
-    return max([m.rounds for m in entry.measurements] + [1])
+    """The timed rounds of a scene (not every render need have been timed in each)."""
+    return max([len(m.times) for m in entry.measurements] + [1])
 
 
 def _work(m: Measurement) -> float:
@@ -217,12 +276,13 @@ def _cheapest(ms: list[Measurement]) -> Measurement:
 def data_levels(entry: SceneResult, tolerance: float = COMPARE_FLOOR_TOLERANCE) -> tuple[float, ...]:
     """The equal-quality levels the data suggest: each method's floor, and levels between
     the best and worst errors measured, so that every method reaches at least one."""
-    errors = [m.rel_mse for m in entry.measurements if math.isfinite(m.rel_mse) and m.rel_mse > 0]
+    measured = entry.measurements + modelled_path(entry)
+    errors = [m.rel_mse for m in measured if math.isfinite(m.rel_mse) and m.rel_mse > 0]
     if not errors:
         return ()
     floors = []
     for method in METHODS:
-        floor = error_floor(_curve([m for m in entry.measurements if m.setting.method == method],
+        floor = error_floor(_curve([m for m in measured if m.setting.method == method],
                                    "rel_mse"), tolerance, _work)
         if floor is not None:
             floors.append(floor.error)
@@ -236,7 +296,8 @@ def analyse(entry: SceneResult, levels: tuple[float, ...] | None = None,
         levels = data_levels(entry, tolerance)
     by_method = {method: [m for m in entry.measurements if m.setting.method == method]
                  for method in METHODS}
-    path = by_method["path"]
+    rendered = by_method["path"]
+    path = by_method["path"] = rendered + modelled_path(entry)
     path_mse, path_flip = _curve(path, "rel_mse"), _curve(path, "flip")
 
     rounds = rounds_of(entry)
@@ -244,6 +305,8 @@ def analyse(entry: SceneResult, levels: tuple[float, ...] | None = None,
     for method in WHITTED_METHODS:
         for m in sorted(by_method[method], key=lambda m: (m.setting.max_depth, m.setting.spp)):
             reading = error_at_time(path_mse, m.seconds)
+            if reading is not None and any(p.modelled for p in reading.between):
+                reading = replace(reading, how="fitted")   # it says so
             outside = None
             if reading is not None and reading.how == "nearest":
                 outside = "faster" if m.seconds < reading.between[0].seconds else "slower"
@@ -273,21 +336,30 @@ def analyse(entry: SceneResult, levels: tuple[float, ...] | None = None,
         equal_quality.append(EqualQuality(level, reach, speedups))
 
     floors, decompositions = [], []
-    path_best = min(path, key=lambda m: m.rel_mse) if path else None
+    path_best = min(rendered, key=lambda m: m.rel_mse) if rendered else None
     for method in WHITTED_METHODS:
         ms = by_method[method]
         floor = error_floor(_curve(ms, "rel_mse"), tolerance, _work)
         if floor is None:
             continue
-        reading = time_to_reach(path_mse, floor.error) if path else None
+        reading = time_to_reach(_curve(rendered, "rel_mse"), floor.error) if rendered else None
+        own, spp = floor.render, math.nan
+        if reading is None and entry.path_model is not None:
+            spp = entry.path_model.spp_to_reach(floor.error)
+            pair = _costliest_two(entry)
+            reading = (Reading(path_seconds(pair, spp), "fitted", pair) if math.isfinite(spp)
+                       else None)
         interval = None
-        if reading is not None and reading.how != "nearest":
-            own = floor.render
+        if reading is not None and reading.how == "fitted":
+            interval = paired(rounds, lambda r: _over(path_seconds(reading.between, spp, r),
+                                                      own.seconds_in(r)))
+        elif reading is not None and reading.how != "nearest":
             interval = paired(rounds, lambda r: _over(
-                _path_in_round(path, r, own.seconds_in(r), floor.error), own.seconds_in(r)))
+                _path_in_round(rendered, r, own.seconds_in(r), floor.error), own.seconds_in(r)))
         floors.append(FloorStatement(method, floor, reading, path_best,
                                      floor_text(method, floor, reading, path_best,
-                                                entry.reference_noise, tolerance, interval), interval))
+                                                entry.reference_noise, tolerance, interval,
+                                                entry.path_model, spp), interval))
         limit = entry.limits.get(method)
         if limit is not None:
             gone = [m for m in ms if m.rel_mse_limit <= tolerance * limit.rel_mse]
@@ -315,7 +387,8 @@ def _path_in_round(path: list[Measurement], timed_round: int, own: float,
 
 def floor_text(method: str, floor: Floor[Measurement], path: Reading | None,
                path_best: Measurement | None, reference_noise: float, tolerance: float,
-               interval: Interval | None = None) -> str:
+               interval: Interval | None = None, model: PathModel | None = None,
+               spp: float = math.nan) -> str:
     """The floor in words; its cheapest render is the one of least work (rays traced), so
     that timing noise does not choose it."""
     name = METHOD_NAMES[method]
@@ -338,6 +411,7 @@ def floor_text(method: str, floor: Floor[Measurement], path: Reading | None,
                  f"{seconds_text(first.seconds)}) does better, at {first.rel_mse:.3g}.")
     else:
         how = (f"its {path.between[0].setting.label} render" if path.how == "rendered" else
+               fitted_how(model, spp, path.between) if path.how == "fitted" else
                f"interpolated between its {path.between[0].setting.label} and "
                f"{path.between[1].setting.label} renders")
         if interval is None or not interval.known:
@@ -347,6 +421,14 @@ def floor_text(method: str, floor: Floor[Measurement], path: Reading | None,
         text += (f". The path tracer reaches that error in {seconds_text(path.value)} ({how}): "
                  f"{faster}.")
     return text + _noise_caution(floor, reference_noise)
+
+
+def fitted_how(model: PathModel, spp: float, pair: tuple[Measurement, ...]) -> str:
+    """How a reading from the path tracer's fitted curve was made, in words."""
+    return (f"read from its fitted curve at {spp:.3g} spp: error = {model.c:.3g} + "
+            f"{model.v:.3g}/n, fitted to {model.fitted[0]}–{model.fitted[-1]} spp and checked "
+            f"at {model.checked} spp within {model.deviation:.0%}; time = a + b·n through its "
+            f"{pair[0].setting.label} and {pair[1].setting.label} renders")
 
 
 def _noise_caution(floor: Floor, reference_noise: float) -> str:
@@ -406,7 +488,7 @@ def decomposition_text(method: str, floor: Floor[Measurement], limit: Limit,
 
 def spread_text(m: Measurement) -> str:
     """A render's median time and its rounds' range: ``11.9 ms (11.2–13.0 ms)``."""
-    if len(m.times) < 2:
+    if m.rounds < 2:
         return seconds_text(m.seconds)
     low, high = m.seconds_min, m.seconds_max
     scale, unit = (1000.0, "ms") if m.seconds < 1 else (1.0, "s")
@@ -418,8 +500,10 @@ def reach_text(reach: Reach | None) -> str:
     if reach is None:
         return "not rendered"
     if reach.fastest is not None:
-        return f"{seconds_text(reach.fastest.seconds)} ({reach.fastest.setting.label})"
-    return f"best {reach.best.rel_mse:.3g} ({reach.best.setting.label})"
+        fitted = ", fitted" if reach.fastest.modelled else ""
+        return f"{seconds_text(reach.fastest.seconds)} ({reach.fastest.setting.label}{fitted})"
+    fitted = ", fitted" if reach.best.modelled else ""
+    return f"best {reach.best.rel_mse:.3g} ({reach.best.setting.label}{fitted})"
 
 
 def speedup_text(row: EqualQuality, method: str) -> str:
@@ -439,7 +523,8 @@ def equal_time_how(row: EqualTime) -> str:
                 f"{seconds_text(first.seconds)})")
     if row.rel_mse is None:
         return "no path render"
-    if row.rel_mse.how == "interpolated":
+    if row.rel_mse.how in ("interpolated", "fitted"):
         a, b = row.rel_mse.between
-        return f"interpolated {a.setting.spp}–{b.setting.spp} spp"
+        how = "interpolated" if row.rel_mse.how == "interpolated" else "on the fitted curve"
+        return f"{how} {a.setting.spp}–{b.setting.spp} spp"
     return f"{row.rel_mse.how}: {row.rel_mse.between[0].setting.spp} spp"

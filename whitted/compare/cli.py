@@ -48,6 +48,10 @@ def float_list(text: str) -> tuple[float, ...]:
     return tuple(sorted(values, reverse=True))
 
 
+#: The options --quick may set (its own are COMPARE_QUICK's), each one given beside it wins.
+LADDERS = ("reference_spp", "depths", "spp", "path_spp", "rounds", "budget")
+
+
 def quick_text() -> str:
     def value(v):
         return ",".join(map(str, v)) if isinstance(v, tuple) else f"{v:g}"
@@ -59,7 +63,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="scenes (.scn or .xml), or folders of them")
     parser.add_argument("-o", "--out", required=True, metavar="DIR", help="output folder")
     parser.add_argument("--reference-spp", type=int, metavar="N",
-                        help=f"the reference's samples per pixel (default {COMPARE_REFERENCE_SPP})")
+                        help=f"the reference's samples per pixel, at most: fewer where its noise "
+                             f"needs fewer (default {COMPARE_REFERENCE_SPP})")
     parser.add_argument("--depths", type=int_list, metavar="LIST",
                         help="Whitted max depths, e.g. 1-5 or 1,2,4 (default: 1 to the scene's depth, "
                              f"at most {COMPARE_MAX_DEFAULT_DEPTH})")
@@ -116,7 +121,7 @@ def compare_command(args: argparse.Namespace) -> None:
     from .summary import summary
 
     chosen = dict(COMPARE_QUICK if args.quick else {})   # then what the command line gives
-    chosen.update({name: getattr(args, name) for name in COMPARE_QUICK
+    chosen.update({name: getattr(args, name) for name in LADDERS
                    if getattr(args, name) is not None})
     if "spp" in chosen:
         chosen["whitted_spp"] = chosen.pop("spp")

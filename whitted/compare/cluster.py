@@ -76,7 +76,6 @@ def sweep_on_cluster(client, scenes: list[SceneFile], entries: list[SceneResult]
     # The workers may start elsewhere: paths absolute; their messages stay in their logs.
     sent = replace(options, out=Path(options.out).resolve(), cache=options.cache_folder.resolve(),
                    quiet=True)
-    cache = ReferenceCache(sent.cache_folder)
     run = uuid.uuid4().hex[:8]
     tasks = {}   # future -> (scene index, "probe", "chunk" or "sweep")
     chunks_of = {}
@@ -95,11 +94,9 @@ def sweep_on_cluster(client, scenes: list[SceneFile], entries: list[SceneResult]
         return chunks + [sweep]
 
     for index, (scene, entry) in enumerate(zip(scenes, entries)):
-        if budget.seconds is None:  # planned here: nothing to render for it, only the cache to read
-            submit_sweep(index, plan_reference(scene, None, entry, cache, sent))
-        else:  # planned by a worker: the probe renders, then what fits
-            tasks[client.submit(probe_task, scene, entry, sent, share, end, threads,
-                                key=f"whitted-probe-{entry.name}-{run}")] = (index, "probe")
+        # planned by a worker: the probe renders, then what fits or is enough
+        tasks[client.submit(probe_task, scene, entry, sent, share, end, threads,
+                            key=f"whitted-probe-{entry.name}-{run}")] = (index, "probe")
 
     out = Path(options.out)
     finished = [False] * len(entries)

@@ -154,3 +154,31 @@ def reference_noise(half_a: np.ndarray, half_b: np.ndarray, count_a: int, count_
     combined = (count_a * a + count_b * b) / total
     # relative_mse(R + (A − B), R) = mean((A − B)² / (R² + ε))
     return metrics.relative_mse(combined + (a - b), combined) * count_a * count_b / total ** 2
+
+
+@dataclass(frozen=True)
+class PathModel:
+    """The path tracer's error as a function of spp, err(n) = c + v/n (v: the variance of
+    one sample; c: the reference's noise and any bias), fitted to its renders of ``fitted``
+    spp and checked by its render of ``checked`` spp, whose error it predicted within
+    ``deviation`` (a fraction)."""
+    c: float
+    v: float
+    fitted: tuple[int, ...]
+    checked: int
+    deviation: float
+
+    def error(self, spp: float) -> float:
+        return self.c + self.v / spp
+
+    def spp_to_reach(self, error: float) -> float:
+        """The spp at which the error falls to ``error`` (inf: never, at or below c)."""
+        return self.v / (error - self.c) if error > self.c else math.inf
+
+
+def fit_inverse(spp: list[float], errors: list[float], c: float) -> float:
+    """v of err = c + v/n, c given (the reference's noise: the path tracer has no bias of its
+    own), by least squares on residuals relative to each error, so that the small ones count."""
+    x, e = 1.0 / np.asarray(spp, dtype=np.float64), np.asarray(errors, dtype=np.float64)
+    w = 1.0 / e
+    return float(np.sum(w * w * x * (e - c)) / np.sum(w * w * x * x))

@@ -86,6 +86,7 @@ def scene_context(analysis: Analysis, plot: str, out: Path) -> dict:
         "variant": entry.variant, "path_depth": entry.path_depth,
         "reference": {"png": entry.reference_png, "exr": reference_exr, "spp": entry.reference_spp,
                       "requested": entry.reference_requested,
+                      "why": "were enough" if entry.reference_enough else "were affordable",
                       "noise": number(entry.reference_noise),
                       "how": ("read from the cache" if entry.reference_cached
                               else f"rendered in {seconds_text(entry.reference_seconds)}")},

@@ -19,8 +19,9 @@ from pathlib import Path
 import numpy as np
 
 from .. import rendering  # rendering.render looked up at call time: tests count calls
-from ..defaults import (COMPARE_MIN_REFERENCE_SPP, COMPARE_PROBE_SECONDS, COMPARE_REFERENCE_SHARE,
-                        IN_PROCESS)
+from ..defaults import (COMPARE_MIN_REFERENCE_SPP, COMPARE_PROBE_SECONDS,
+                        COMPARE_REFERENCE_NOISE_SHARE, COMPARE_REFERENCE_SHARE,
+                        COMPARE_REFERENCE_START_SPP, IN_PROCESS, LIGHTING_MODES)
 from ..progress import progress_bar
 from .budget import Budget, fit_cost, render_cost
 from .curves import reference_noise
@@ -76,11 +77,16 @@ def render_chunk(loaded, spp: int, seed: int, half: int, max_depth: int,
                  float(result.seconds), float(result.compile_seconds))
 
 
-def reference_settings(entry: SceneResult, spp: int) -> dict:
-    """What the cache key of an ``spp``-sample reference of ``entry``'s scene covers."""
-    return {"integrator": "path", "spp": spp, "max_depth": entry.path_depth,
-            "seed": REFERENCE_SEED, "width": entry.width, "height": entry.height,
-            "variant": entry.variant}
+def reference_settings(entry: SceneResult, spp: int, enough: bool = False) -> dict:
+    """What the cache key of an ``spp``-sample reference of ``entry``'s scene covers
+    (``enough``: at most ``spp``, as many as :func:`enough_spp` finds)."""
+    settings = {"integrator": "path", "spp": spp, "max_depth": entry.path_depth,
+                "seed": REFERENCE_SEED, "width": entry.width, "height": entry.height,
+                "variant": entry.variant}
+    if enough:
+        settings.update(noise_share=COMPARE_REFERENCE_NOISE_SHARE,
+                        start_spp=COMPARE_REFERENCE_START_SPP)
+    return settings
 
 
 class ReferenceCache:
@@ -223,6 +229,7 @@ class ReferencePlan:
     probes: list[Chunk] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
     began: float = field(default_factory=time.time)
+    enough: bool = False   # its spp: as many as its noise needs (enough_spp), not more
 
     def chunks(self, chunk_spp: int) -> list[tuple[int, int, int]]:
         if not self.spp or self.cached is not None:
@@ -235,15 +242,20 @@ def plan_reference(scene: SceneFile, loaded, entry: SceneResult, cache: Referenc
     """The plan of the scene's reference within ``seconds``, its share of ``--budget``
     (``math.inf``: nothing is rendered). A cached reference is used as it is; under a
     budget, one that is not is probed and planned at the spp the budget affords, or none."""
-    def lookup(spp: int) -> tuple[str, tuple[np.ndarray, dict] | None]:
-        key = cache.key(scene, reference_settings(entry, spp))
+    def lookup(spp: int, enough: bool = False) -> tuple[str, tuple[np.ndarray, dict] | None]:
+        key = cache.key(scene, reference_settings(entry, spp, enough))
         return key, cache.load(entry.name, key, (entry.height, entry.width))
 
     start, began = time.monotonic(), time.time()
     requested, chunk_spp = options.reference_spp, options.reference_chunk_spp
-    key, cached = lookup(requested)
-    if cached is not None or not math.isfinite(seconds):
-        return ReferencePlan(requested, requested, key, cached, began=began)
+    enough = (not math.isfinite(seconds) and loaded is not None
+              and requested > COMPARE_REFERENCE_START_SPP)
+    key, cached = lookup(requested, enough)
+    if cached is not None or not math.isfinite(seconds) and not enough:
+        return ReferencePlan(requested, requested, key, cached, began=began, enough=enough)
+    if enough:
+        spp, probes = enough_spp(loaded, entry, requested)
+        return ReferencePlan(spp, spp, key, None, probes, began=began, enough=True)
     if seconds <= 0:
         return ReferencePlan(requested, 0, key, began=began, notes=[
             "skipped whole: no time was left to render its reference"])
@@ -283,6 +295,29 @@ def plan_reference(scene: SceneFile, loaded, entry: SceneResult, cache: Referenc
     return ReferencePlan(fitted, spp, key, cached, [] if cached else probes, notes, began)
 
 
+def enough_spp(loaded, entry: SceneResult, most: int) -> tuple[int, list[Chunk]]:
+    """The reference's spp when its noise need only be below COMPARE_REFERENCE_NOISE_SHARE of
+    the smallest Whitted error it scores: its first COMPARE_REFERENCE_START_SPP samples, in two
+    halves (kept: its first chunks), give its noise per sample; each Whitted method's 1-spp
+    render at the scene's depth (the reference's), scored against them less that noise, the
+    error. The power of two that gets there, at most ``most``; with the chunks rendered."""
+    from .. import metrics
+
+    start = COMPARE_REFERENCE_START_SPP
+    probes = [render_chunk(loaded, start // 2, chunk_seed(half, 0), half, entry.path_depth)
+              for half in (0, 1)]
+    halves = Halves(probes)
+    noise, image = halves.noise(), halves.image()
+    errors = [metrics.relative_mse(np.asarray(rendering.render(
+        loaded, integrator="whitted", spp=1, max_depth=entry.path_depth, lighting=lighting, seed=0,
+        progress=False).image, dtype=np.float32), image) for lighting in LIGHTING_MODES]
+    wanted = COMPARE_REFERENCE_NOISE_SHARE * (min(errors) - noise)
+    spp = start
+    while spp < most and not (wanted > 0 and noise * start / spp <= wanted):
+        spp *= 2
+    return min(spp, most), probes
+
+
 def reference_image(scene: SceneFile, loaded, entry: SceneResult, cache: ReferenceCache,
                     options: Options, seconds: float = math.inf, plan: ReferencePlan | None = None,
                     chunks: list[Chunk] | None = None) -> np.ndarray | None:
@@ -300,6 +335,7 @@ def reference_image(scene: SceneFile, loaded, entry: SceneResult, cache: Referen
         entry.reference_seconds = float(info.get("seconds", math.nan))
         entry.reference_noise = float(info.get("noise_rel_mse", math.nan))
         entry.reference_spp = int(info.get("settings", {}).get("spp", plan.spp))
+        entry.reference_enough = plan.enough
     else:
         planned = plan.chunks(options.reference_chunk_spp)
         if not options.quiet:
@@ -320,8 +356,10 @@ def reference_image(scene: SceneFile, loaded, entry: SceneResult, cache: Referen
         entry.reference_spp = halves.spp
         entry.reference_seconds = halves.seconds
         entry.reference_noise = halves.noise()
+        entry.reference_enough = plan.enough
         cache.store(entry.name, plan.key, image, {
-            "scene": str(entry.path), "settings": reference_settings(entry, halves.spp),
+            "scene": str(entry.path),
+            "settings": reference_settings(entry, halves.spp, plan.enough),
             "seconds": halves.seconds, "compile_seconds": halves.compile_seconds,
             "noise_rel_mse": entry.reference_noise, "spp_per_half": halves.counts,
             "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"),

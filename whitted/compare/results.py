@@ -71,10 +71,12 @@ class Measurement:
     error_map: str | None = None
     rel_mse_limit: float = math.nan
     render_seconds: float = math.nan
+    modelled: bool = False   # not rendered: read from the path tracer's fitted curve
 
     @property
     def rounds(self) -> int:
-        return len(self.times)
+        """The rounds it was timed in (a long render sits out the later ones, NaN there)."""
+        return sum(1 for t in self.times if math.isfinite(t))
 
     def seconds_in(self, timed_round: int) -> float:
         """Its time in a round (NaN: it missed it; its :attr:`seconds` when it has none)."""
@@ -84,11 +86,11 @@ class Measurement:
 
     @property
     def seconds_min(self) -> float:
-        return min(self.times, default=self.seconds)
+        return min((t for t in self.times if math.isfinite(t)), default=self.seconds)
 
     @property
     def seconds_max(self) -> float:
-        return max(self.times, default=self.seconds)
+        return max((t for t in self.times if math.isfinite(t)), default=self.seconds)
 
 
 @dataclass
@@ -131,6 +133,7 @@ class SceneResult:
     depths: tuple[int, ...] = ()
     reference_requested: int = 0
     reference_noise: float = math.nan
+    reference_enough: bool = False   # rendered at the spp its noise needs, below the requested
     reference_png: str | None = None
     notes: list[str] = field(default_factory=list)
     worker: str = IN_PROCESS
@@ -138,6 +141,7 @@ class SceneResult:
     view: str = "clip"
     exposure: float = 0.0
     reference_clipped: float = math.nan
+    path_model: object = None   # the path tracer's fitted curve (curves.PathModel), once checked
 
     def __post_init__(self):
         if not self.reference_requested:

@@ -7,7 +7,7 @@ from __future__ import annotations
 import math
 
 from .analysis import (METHOD_NAMES, TIMING, Analysis, FloorStatement, capital, equal_time_how,
-                       ratio_text, reach_text, speedup_text, spread_text)
+                       model_text, ratio_text, reach_text, speedup_text, spread_text)
 from .results import WHITTED_LIGHTING, WHITTED_METHODS, seconds_text
 
 SUMMARY_NAME = "summary.txt"
@@ -123,7 +123,9 @@ def scene_words(analysis: Analysis) -> dict:
     noisy = math.isfinite(entry.reference_noise) and entry.reference_noise > 0
     return {
         "name": entry.name, "width": entry.width, "height": entry.height, "verdict": verdict(analysis),
-        "notes": list(entry.notes), "floors": [f.text for f in analysis.floors],
+        "notes": list(entry.notes),
+        "floors": ([f.text for f in analysis.floors]
+                   + ([model_text(entry)] if entry.path_model else [])),
         "decompositions": [d.text for d in analysis.decompositions],
         "noise_note": f", its noise ≈ {entry.reference_noise:.3g}" if noisy else "",
         "methods": methods, "whitted": [WHITTED_LIGHTING[m] for m in WHITTED_METHODS

@@ -16,13 +16,16 @@ import numpy as np
 from .. import metrics
 from .. import rendering  # rendering.render looked up at call time: tests count calls
 from ..defaults import (COMPARE_CLOCK, COMPARE_HEADLINE_ROUNDS, COMPARE_KEPT_MEMORY,
-                        COMPARE_LIMITS_SHARE, COMPARE_MAX_ROUNDS, COMPARE_ROUND_REPEATS,
+                        COMPARE_LIMITS_SHARE, COMPARE_LONG_ROUNDS, COMPARE_LONG_SECONDS,
+                        COMPARE_MAX_ROUNDS, COMPARE_PATH_CHECK,
+                        COMPARE_PATH_FIT_COUNTS, COMPARE_ROUND_REPEATS,
                         COMPARE_ROUND_SECONDS, COMPARE_ROUNDS_SECONDS, COMPARE_ROUNDS_SHARE,
                         COMPARE_TIMING_THREADS)
 from ..images import clipped_fraction, fitting_view, read_image, to_srgb, write_image
 from ..progress import progress_bar
 from .analysis import analyse
 from .budget import Budget
+from .curves import PathModel, fit_inverse
 from .errormaps import write_render
 from .limits import render_limit
 from .planning import limit_methods
@@ -144,7 +147,9 @@ def _rounds(loaded, entry: SceneResult, measured: list[Measurement], rounds: int
             break
         progress.set_postfix_str(f"{entry.name}: timing, round {k + 1}", refresh=True)
         for m in interleaved(measured, k):
-            times[id(m)].append(_time_in_a_round(loaded, m.setting))
+            # a long render is known to a few percent from its first rounds
+            long = COMPARE_LONG_ROUNDS <= k < rounds and m.seconds > COMPARE_LONG_SECONDS
+            times[id(m)].append(math.nan if long else _time_in_a_round(loaded, m.setting))
             _bound_memory()
         for m in measured:
             m.times = tuple(times[id(m)])
@@ -212,7 +217,8 @@ def sweep_scene(scene: SceneFile, entry: SceneResult, settings: list[Setting], o
     entry.reference_png = f"{entry.folder}/reference.png"  # its EXR is the cache's
     (out / entry.folder).mkdir(parents=True, exist_ok=True)
     write_image(out / entry.reference_png, reference, exposure=entry.exposure, view=entry.view)
-    settings = _below_the_reference(entry, settings, progress)
+    if options.budget is not None:
+        settings = _below_the_reference(entry, settings, progress)
     done: list[tuple[Setting, float, float]] = []
     overran = 0
     # what is left, shared: the renders, then their timing rounds, then the limits and fit
@@ -221,6 +227,9 @@ def sweep_scene(scene: SceneFile, entry: SceneResult, settings: list[Setting], o
     renders_until = timed_until - COMPARE_ROUNDS_SHARE * left
     for setting in settings:
         progress.set_postfix_str(f"{entry.name}: {setting.method} {setting.label}", refresh=False)
+        if setting.integrator == "path" and entry.path_model is not None:
+            progress.update(1)   # read from the fitted curve, which its last render checked
+            continue
         render, scoring = Budget.predict(setting, done)   # then its rounds, on the timing threads
         rounds = options.rounds * max(render * max(1.0, slower), COMPARE_ROUND_SECONDS)
         if time.monotonic() + render + scoring + rounds > renders_until:
@@ -232,6 +241,8 @@ def sweep_scene(scene: SceneFile, entry: SceneResult, settings: list[Setting], o
                                   entry.view)
             entry.measurements.append(measurement)
             done.append((setting, measurement.render_seconds, time.monotonic() - start))
+            if setting.integrator == "path":
+                entry.path_model = checked_path_model(entry.measurements, entry.reference_noise)
         progress.update(1)
     time_rounds(loaded, entry, options.rounds, timed_until, progress)
     _limits(loaded, entry, settings, reference, out, deadline, progress, scene.model)
@@ -244,6 +255,23 @@ def sweep_scene(scene: SceneFile, entry: SceneResult, settings: list[Setting], o
         entry.notes.append(f"{overran} of {len(settings)} renders skipped: each would have overrun "
                            f"the scene's {seconds:.1f} s share of --budget")
     return entry
+
+
+def checked_path_model(measurements: list[Measurement], noise: float) -> PathModel | None:
+    """The path tracer's err = c + v/n (c: the reference's ``noise``, 0 if unknown), fitted to
+    its renders but the last and checked by the last: None until COMPARE_PATH_FIT_COUNTS
+    renders predict the next within COMPARE_PATH_CHECK; then refitted to all of them."""
+    path = [m for m in measurements if m.setting.integrator == "path"]
+    if len(path) <= COMPARE_PATH_FIT_COUNTS or not all(m.rel_mse > 0 for m in path):
+        return None
+    *fitted, last = path
+    c = noise if math.isfinite(noise) else 0.0
+    v = fit_inverse([m.setting.spp for m in fitted], [m.rel_mse for m in fitted], c)
+    deviation = abs((c + v / last.setting.spp) / last.rel_mse - 1.0)
+    if deviation > COMPARE_PATH_CHECK:
+        return None
+    v = fit_inverse([m.setting.spp for m in path], [m.rel_mse for m in path], c)
+    return PathModel(c, v, tuple(m.setting.spp for m in path), last.setting.spp, deviation)
 
 
 def _below_the_reference(entry: SceneResult, settings: list[Setting], progress) -> list[Setting]:
