@@ -30,6 +30,35 @@ sphere -1.9 1.3 0 1.3     color 0.9 0.9 0.95  reflect 0.6
 sphere 1.9 1.3 0 1.3      color 0.9 0.5 0.3  refract 0.7 1.5  reflect 0.1
 """
 
+#: ``make test``'s order (pytest-xdist's ``--dist loadgroup --no-loadscope-reorder``): the test
+#: files that take longest, slowest first, so that no worker is left with a long one at the end
+#: while the other idles; the other files follow in collection order
+SLOW_FIRST = ()
+#: file -> the parameter whose values split its tests between the workers: a group per value
+#: (each computes only its own share of the module's renders); the others' tests are a group
+#: per file, in order, on one worker, sharing their module fixtures
+SPLIT_BY = {}
+
+
+def _group(item) -> str:
+    """The xdist group of a test: its file, or its file and its value of the file's
+    :data:`SPLIT_BY` parameter."""
+    name = item.path.name
+    params = getattr(getattr(item, "callspec", None), "params", {})
+    if name in SPLIT_BY and SPLIT_BY[name] in params:
+        return f"{name}-{params[SPLIT_BY[name]]}"
+    return name
+
+
+@pytest.hookimpl(tryfirst=True)
+def pytest_collection_modifyitems(config, items):
+    """Every test in its :func:`_group`, the groups of :data:`SLOW_FIRST` first (a stable
+    sort: within a file, tests keep their order)."""
+    for item in items:
+        item.add_marker(pytest.mark.xdist_group(_group(item)))
+    rank = {name: k for k, name in enumerate(SLOW_FIRST)}
+    items.sort(key=lambda item: rank.get(item.path.name, len(rank)))
+
 
 def _fresh_user_cache(tmp_path_factory):
     """$XDG_CACHE_HOME (where ``whitted compare`` keeps its references by default) set to a
