@@ -30,14 +30,19 @@ sphere -1.9 1.3 0 1.3     color 0.9 0.9 0.95  reflect 0.6
 sphere 1.9 1.3 0 1.3      color 0.9 0.5 0.3  refract 0.7 1.5  reflect 0.1
 """
 
-#: ``make test``'s order (pytest-xdist's ``--dist loadgroup --no-loadscope-reorder``): the test
-#: files that take longest, slowest first, so that no worker is left with a long one at the end
-#: while the other idles; the other files follow in collection order
-SLOW_FIRST = ()
-#: file -> the parameter whose values split its tests between the workers: a group per value
-#: (each computes only its own share of the module's renders); the others' tests are a group
-#: per file, in order, on one worker, sharing their module fixtures
-SPLIT_BY = {}
+#: ``make test``'s order (pytest-xdist's ``--dist loadgroup --no-loadscope-reorder``): the groups
+#: (:func:`_group`) that take longest, slowest first, so that no worker is left with a long one at
+#: the end while the other idles; then the other files in collection order, then the small groups
+#: of the split files (:data:`SPLIT_BY`), which fill the workers' last gaps
+SLOW_FIRST = ("test_cluster.py", "test_readme.py", "test_compare.py", "test_interrupt.py",
+              "test_compare_display.py", "test_path_grouped.py", "test_compare_findings.py",
+              "test_fit.py", "test_trace.py")
+#: file -> the parameter that splits its tests between the workers: a group per value, each
+#: computing only its own share of the module's renders (its tests without that parameter are
+#: one more group); the other files' tests are a group per file, in order, on one worker,
+#: sharing their module fixtures
+SPLIT_BY = {"test_giants.py": "name", "test_invariance.py": "name", "test_determinism.py": "name",
+            "test_layers.py": "case"}
 
 
 def _group(item) -> str:
@@ -45,19 +50,25 @@ def _group(item) -> str:
     :data:`SPLIT_BY` parameter."""
     name = item.path.name
     params = getattr(getattr(item, "callspec", None), "params", {})
-    if name in SPLIT_BY and SPLIT_BY[name] in params:
+    if SPLIT_BY.get(name) in params:
         return f"{name}-{params[SPLIT_BY[name]]}"
     return name
 
 
 @pytest.hookimpl(tryfirst=True)
 def pytest_collection_modifyitems(config, items):
-    """Every test in its :func:`_group`, the groups of :data:`SLOW_FIRST` first (a stable
-    sort: within a file, tests keep their order)."""
+    """Every test in its :func:`_group`, in the order of :data:`SLOW_FIRST` (a stable sort:
+    within a group, tests keep their order)."""
+    rank = {name: k for k, name in enumerate(SLOW_FIRST)}
+
+    def order(item) -> int:
+        group = _group(item)
+        if group in rank:
+            return rank[group]
+        return len(rank) + (item.path.name in SPLIT_BY)
     for item in items:
         item.add_marker(pytest.mark.xdist_group(_group(item)))
-    rank = {name: k for k, name in enumerate(SLOW_FIRST)}
-    items.sort(key=lambda item: rank.get(item.path.name, len(rank)))
+    items.sort(key=order)
 
 
 def _fresh_user_cache(tmp_path_factory):
