@@ -86,7 +86,8 @@ def workdir(tmp_path_factory):
         scene.write_text(text)
     (root / "scenes_xml").mkdir()
     for portable in ([], ["--portable"]):
-        assert main(["convert", str(root / "scenes"), "-o", str(root / "scenes_xml"), *portable]) == 0
+        assert main(["convert", str(root / "scenes"), "-o", str(root / "scenes_xml"),
+                     *portable]) == 0
     # No out/: the README's blocks must run from a fresh clone, before `make demo` makes it.
     # A checkout of its own, ignoring what the repository ignores: the README's commands
     # must leave `git status` clean (their outputs under out/ or ignored).
@@ -200,7 +201,8 @@ def test_documented_stats_have_the_real_keys(workdir, monkeypatch, capsys):
     documented = next(block for block in map(json.loads, blocks("json")) if "rays" in block)
     out = workdir / "out" / "readme-stats.json"
     out.parent.mkdir(exist_ok=True)
-    arguments = ["render", "scenes/tir.scn", "-o", "out/readme-stats.png", "--stats", str(out), "-q"]
+    arguments = ["render", "scenes/tir.scn", "-o", "out/readme-stats.png", "--stats", str(out),
+                 "-q"]
     assert run_in_process(arguments, workdir, monkeypatch, capsys)[0] == 0
     real = json.loads(out.read_text())
     assert sorted(documented) == sorted(real)
