@@ -74,9 +74,10 @@ chromium:
 	fi
 
 # in parallel, one worker per core; a test file's tests share a worker (and the renders its
-# fixtures make once)
+# fixtures make once), but for a few long files split by a parameter, and the slowest files
+# start first (tests/conftest.py: SLOW_FIRST, SPLIT_BY)
 test: setup chromium
-	$(PY) -m pytest -q -n auto --dist loadfile
+	$(PY) -m pytest -q -n auto --dist loadgroup --no-loadscope-reorder
 
 # POV-Ray 3.7 for the side-by-side benchmark: Debian's povray, installed when missing and
 # allowed (root, or sudo without a password), like the llvm step; otherwise its rows say why.

@@ -30,6 +30,54 @@ sphere -1.9 1.3 0 1.3     color 0.9 0.9 0.95  reflect 0.6
 sphere 1.9 1.3 0 1.3      color 0.9 0.5 0.3  refract 0.7 1.5  reflect 0.1
 """
 
+#: ``make test``'s order (``--dist loadgroup --no-loadscope-reorder``, which :func:`group` serves):
+#: the groups that take longest, slowest first, so that no worker is left with a long one at the
+#: end while the other idles; then the other files in collection order, then the small groups of
+#: the :data:`SPLIT` files, which fill the workers' last gaps
+SLOW_FIRST = ("test_cluster.py", "test_readme.py", "test_compare.py", "test_interrupt.py",
+              "test_compare_display.py", "test_path_grouped.py", "test_compare_findings.py",
+              "test_fit.py", "test_trace.py")
+#: files whose tests are split between the workers by the first part of their parameters' id
+#: (the scene's name), each group computing only its own share of the module's renders; every
+#: other file's tests are one group, run in order on one worker, sharing their module fixtures
+SPLIT = ("test_giants.py", "test_invariance.py", "test_determinism.py", "test_layers.py")
+
+
+def group(nodeid: str) -> str:
+    """The group of the test ``nodeid``: its file's name, or for a :data:`SPLIT` file, its file's
+    name and the first part of its parameters' id."""
+    path, _, test = nodeid.partition("::")
+    name = path.rsplit("/", 1)[-1]
+    if name in SPLIT and test.endswith("]"):
+        return f"{name}[{test[test.index('[') + 1:-1].split('-')[0]}]"
+    return name
+
+
+@pytest.hookimpl(tryfirst=True)
+def pytest_collection_modifyitems(config, items):
+    """The tests in the order of :data:`SLOW_FIRST` (a stable sort: within a group, tests keep
+    their order)."""
+    rank = {name: k for k, name in enumerate(SLOW_FIRST)}
+
+    def order(item) -> int:
+        name = group(item.nodeid)
+        return rank.get(name, len(rank) + (item.path.name in SPLIT))
+    items.sort(key=order)
+
+
+def pytest_xdist_make_scheduler(config, log):
+    """Under ``--dist loadgroup``, xdist's scheduling by scope with :func:`group` as the scope:
+    the test files' own groups, without ``xdist_group`` marks (which pytest 9.2's node ids
+    drop, so that xdist handed out the tests one by one)."""
+    if config.getvalue("dist") != "loadgroup":
+        return None
+    from xdist.scheduler import LoadScopeScheduling
+
+    class Groups(LoadScopeScheduling):
+        def _split_scope(self, nodeid: str) -> str:
+            return group(nodeid)
+    return Groups(config, log)
+
 
 def _fresh_user_cache(tmp_path_factory):
     """$XDG_CACHE_HOME (where ``whitted compare`` keeps its references by default) set to a

@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import re
 import subprocess
-import sys
 from dataclasses import replace
 
 import mitsuba as mi
@@ -14,6 +13,7 @@ import pytest
 
 import whitted
 from conftest import MIRROR_AND_GLASS
+from whitted.cli import main
 from whitted.compare.curves import best_ambient
 from whitted.converter import parse_file, parse_text
 from whitted.fitting import fit, fitted_model, material_ids, write_fitted
@@ -81,11 +81,16 @@ def test_the_fit_with_only_the_ambient_free_lands_on_the_best_ambient(truth):
     assert len(early.losses) < 150 and early.error < 1.05 * error
 
 
-def whitted_cli(*args):
-    return subprocess.run([sys.executable, "-m", "whitted", *map(str, args)], capture_output=True, text=True)
+def whitted_cli(capsys, *args) -> subprocess.CompletedProcess:
+    """``whitted ARGS`` run by :func:`whitted.cli.main` in this process: its exit status and
+    what it printed, as a finished process reports them."""
+    arguments = [str(arg) for arg in args]
+    status = main(arguments)
+    out, err = capsys.readouterr()
+    return subprocess.CompletedProcess(arguments, status, out, err)
 
 
-def test_fit_command_writes_a_fitted_scene(truth, tmp_path):
+def test_fit_command_writes_a_fitted_scene(truth, tmp_path, capsys):
     """The fitted file is the scene's own text, its comments where they were, and the summary
     names each material by its line and comment."""
     scene = tmp_path / "scene.scn"
@@ -93,7 +98,7 @@ def test_fit_command_writes_a_fitted_scene(truth, tmp_path):
     target = tmp_path / "target.exr"
     write_image(target, render(truth).astype(np.float32))
     out = tmp_path / "fitted.scn"
-    run = whitted_cli("fit", scene, "--to", target, "-o", out, "--iterations", "40")
+    run = whitted_cli(capsys, "fit", scene, "--to", target, "-o", out, "--iterations", "40")
     assert run.returncode == 0, run.stderr
     assert "step 40: relative MSE" in run.stderr and "wrote" in run.stderr
     fitted = parse_file(out)
@@ -107,14 +112,14 @@ def test_fit_command_writes_a_fitted_scene(truth, tmp_path):
 
 
 @pytest.mark.parametrize("problem", ["size", "unwritable"])
-def test_fit_command_errors_are_one_line(truth, tmp_path, problem):
+def test_fit_command_errors_are_one_line(truth, tmp_path, problem, capsys):
     scene = tmp_path / "scene.scn"
     scene.write_text(SCENE)
     target = tmp_path / "target.exr"
     image = render(truth).astype(np.float32)
     write_image(target, image[:, :20] if problem == "size" else image)
     out = tmp_path / ("missing/fitted.scn" if problem == "unwritable" else "fitted.scn")
-    run = whitted_cli("fit", scene, "--to", target, "-o", out)
+    run = whitted_cli(capsys, "fit", scene, "--to", target, "-o", out)
     assert run.returncode == 2
     assert len(run.stderr.strip().splitlines()) == 1 and "Traceback" not in run.stderr, run.stderr
     assert (str(target) if problem == "size" else "fitted.scn") in run.stderr

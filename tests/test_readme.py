@@ -26,6 +26,7 @@ from __future__ import annotations
 import json
 import os
 import re
+import shlex
 import shutil
 import subprocess
 import sys
@@ -33,6 +34,7 @@ from pathlib import Path
 
 import pytest
 
+from whitted.cli import main
 from whitted.converter import parse_text
 
 REPO = Path(__file__).resolve().parent.parent
@@ -83,10 +85,9 @@ def workdir(tmp_path_factory):
             text = SMALL + "\n" + text
         scene.write_text(text)
     (root / "scenes_xml").mkdir()
-    env = environment()
     for portable in ([], ["--portable"]):
-        subprocess.run([sys.executable, "-m", "whitted", "convert", "scenes", "-o", "scenes_xml", *portable],
-                       cwd=root, env=env, check=True)
+        assert main(["convert", str(root / "scenes"), "-o", str(root / "scenes_xml"),
+                     *portable]) == 0
     # No out/: the README's blocks must run from a fresh clone, before `make demo` makes it.
     # A checkout of its own, ignoring what the repository ignores: the README's commands
     # must leave `git status` clean (their outputs under out/ or ignored).
@@ -138,12 +139,41 @@ def test_make_targets_exist(command):
     assert run.returncode == 0, run.stderr
 
 
+def in_process(command: str) -> list[str] | None:
+    """The arguments of a plain ``whitted`` line (no shell syntax beyond words), which runs
+    through :func:`whitted.cli.main` in the suite's own process, as the ``whitted`` script
+    would run it; None for any other line, which bash runs (the lines that start the script
+    itself, ``.venv/bin/whitted`` and ``source .venv/bin/activate``, among them)."""
+    words = shlex.split(command)
+    if words[0] != "whitted" or set(command) & set("<>|;&$`*?~\\'\""):
+        return None
+    return words[1:]
+
+
+def run_in_process(arguments: list[str], workdir: Path, monkeypatch, capsys) -> tuple[int, str]:
+    """(exit status, stderr) of ``whitted ARGUMENTS`` run by :func:`whitted.cli.main` in
+    ``workdir``."""
+    from whitted.cli import main
+    monkeypatch.chdir(workdir)
+    monkeypatch.setenv("PATH", environment()["PATH"])
+    try:
+        status = main(arguments)
+    except SystemExit as exit:
+        status = exit.code
+    return status, capsys.readouterr().err
+
+
 @pytest.mark.parametrize("command", [c for c in shell_lines() if not c.startswith("make ")])
-def test_shell_command_runs_as_written(command, workdir):
-    run = subprocess.run(command, shell=True, executable=shutil.which("bash"), cwd=workdir,
-                         env=environment(), capture_output=True, text=True, timeout=600)
-    assert run.returncode == 0, f"{command}\n{run.stderr}"
-    assert "Traceback" not in run.stderr
+def test_shell_command_runs_as_written(command, workdir, monkeypatch, capsys):
+    arguments = in_process(command)
+    if arguments is None:
+        run = subprocess.run(command, shell=True, executable=shutil.which("bash"), cwd=workdir,
+                             env=environment(), capture_output=True, text=True, timeout=600)
+        status, stderr = run.returncode, run.stderr
+    else:
+        status, stderr = run_in_process(arguments, workdir, monkeypatch, capsys)
+    assert status == 0, f"{command}\n{stderr}"
+    assert "Traceback" not in stderr
     assert untracked(workdir) == "", command
 
 
@@ -167,13 +197,13 @@ def test_python_block_runs_as_written(index, fresh_clone):
     assert untracked(fresh_clone) == "", code
 
 
-def test_documented_stats_have_the_real_keys(workdir):
+def test_documented_stats_have_the_real_keys(workdir, monkeypatch, capsys):
     documented = next(block for block in map(json.loads, blocks("json")) if "rays" in block)
     out = workdir / "out" / "readme-stats.json"
     out.parent.mkdir(exist_ok=True)
-    subprocess.run([sys.executable, "-m", "whitted", "render", "scenes/tir.scn", "-o",
-                    str(workdir / "out" / "readme-stats.png"), "--stats", str(out), "-q"],
-                   cwd=workdir, env=environment(), check=True)
+    arguments = ["render", "scenes/tir.scn", "-o", "out/readme-stats.png", "--stats", str(out),
+                 "-q"]
+    assert run_in_process(arguments, workdir, monkeypatch, capsys)[0] == 0
     real = json.loads(out.read_text())
     assert sorted(documented) == sorted(real)
     assert sorted(documented["rays"]) == sorted(real["rays"])
