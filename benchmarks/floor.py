@@ -35,9 +35,7 @@ class RayCastingFloor:
         else:
             pixel = index // dr.opaque(mi.UInt32, self.spp)
             sample = index - pixel * dr.opaque(mi.UInt32, self.spp)
-        y = pixel // dr.opaque(mi.UInt32, width)
-        x = pixel - y * dr.opaque(mi.UInt32, width)
-        ray, _, self.position = self.camera.ray(x, y, pixel, sample)
+        ray, _, self.position = self.camera.ray(pixel, sample)
         if self.table is not None:
             hit, si = self.table.intersect(ray, coherent=True)[:2]
         else:

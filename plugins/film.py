@@ -113,9 +113,12 @@ class CameraSamples:
         if self.jit:
             self.sampler.seed(self.pass_seed, count)
 
-    def ray(self, x, y, pixel, sample):
-        """The camera ray of a sample (in pixel ``(x, y)`` of the sample grid, linear index
-        ``pixel``), its weight, and where it lands on the film."""
+    def ray(self, pixel, sample):
+        """The camera ray of a sample (in the pixel of linear index ``pixel`` in the sample
+        grid), its weight, and where it lands on the film."""
+        width = dr.opaque(mi.UInt32, self.width)
+        y = pixel // width
+        x = pixel - y * width
         if self.sampler is None:
             offset = pixel_offset(pixel, sample, self.spp, self.seed)
             aperture = lens_offset(pixel, sample, self.seed) if self.lens else mi.Point2f(0.5)

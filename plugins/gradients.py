@@ -1,10 +1,9 @@
-"""Gradients of the article's model: what a differentiable render of the Whitted integrator
-reads.
+"""What a differentiable render of the Whitted integrator reads (docs/gradients.md).
 
 A plain render bakes the scene's numbers into opaque tables (:mod:`.scene_tables`); a
 gradient needs them computed from the parameters' own Dr.Jit values, which
 ``render_forward`` and ``render_backward`` swap in (:class:`Attached`); the ray tree, the
-hits and the shadow tests stay the plain render's (docs/gradients.md).
+hits and the shadow tests stay the plain render's.
 """
 
 from __future__ import annotations
@@ -27,11 +26,6 @@ def require_gradients(what: str) -> None:
                            "cannot compute: use llvm_ad_rgb (or cuda_ad_rgb)")
 
 
-#: what a differentiable render reads of a texture (an ``article`` color, a light's intensity,
-#: the background's radiance): its values or texels, not the UV transform
-TEXTURE_VALUES = ("value", "data")
-
-
 def differentiated(scene, integrator) -> list:
     """The parameters' Dr.Jit values a differentiable render reads, so that their gradients
     are computed: what :func:`attached` reads, and the background's radiance."""
@@ -39,9 +33,9 @@ def differentiated(scene, integrator) -> list:
               if name in integrator.DIFFERENTIABLE]
     bsdfs = scene_tables(scene).materials.bsdfs
     for node in [*scene.emitters(), *(bsdf.color for bsdf in bsdfs)]:
-        params = mi.traverse(node)
+        params = mi.traverse(node)   # a texture's values or texels, not its UV transform
         values += [params[key] for key in params.keys()
-                   if key == "position" or key.rsplit(".", 1)[-1] in TEXTURE_VALUES]
+                   if key == "position" or key.rsplit(".", 1)[-1] in ("value", "data")]
     for bsdf in bsdfs:
         values += [bsdf._values[name] for name in bsdf.DIFFERENTIABLE]
     return values
@@ -84,12 +78,7 @@ def attached(scene, analysis, integrator) -> Attached:
     render's :class:`.scene_tables.SceneAnalysis`)."""
     values = getattr(integrator, "_values", {})
     ambient = mi.Float(values["ambient"]) if "ambient" in values else mi.Float(integrator.ambient)
-    physical = integrator.lighting == "physical"
     reference = mi.Point3f(*(float(c) for c in integrator.light_reference))
-    return Attached(ambient, _lights(scene, physical, reference), _material_table(analysis))
-
-
-def _lights(scene, physical: bool, reference) -> list:
     lights = []
     for emitter in scene.emitters():
         if emitter.is_environment():
@@ -97,20 +86,17 @@ def _lights(scene, physical: bool, reference) -> list:
         params = mi.traverse(emitter)
         position = mi.Point3f(params["position"])
         intensity = mi.Color3f(params["intensity.value"])   # (a one-value intensity is gray)
-        if physical:
+        if integrator.lighting == "physical":
             lights.append((position, intensity))
             continue
         # the article's color I / (π d²) (see .scene_tables.article_color)
         d2 = dr.squared_norm(position - reference)
         d2 = dr.select(d2 == 0, 1.0, d2)
         lights.append((position, intensity / (dr.pi * d2)))
-    return lights
 
-
-def _material_table(analysis):
-    """The scene's material table with its color, KR and KT columns scattered from the BSDFs'
-    own values (a textured material's color stays 0: its texture is read at the hit, unless the
-    render leaves textures out)."""
+    # The material table with its color, KR and KT columns scattered from the BSDFs' own
+    # values (a textured material's color stays 0: its texture is read at the hit, unless the
+    # render leaves textures out).
     row_of, columns = analysis.material_table
     (color_tp, color), (f_tp, reflect), (_, refract), ior, slot = columns
     size = dr.width(reflect)
@@ -125,4 +111,5 @@ def _material_table(analysis):
             dr.scatter(color, mi.Color3f(*surfaces.rows[k, COLOR].tolist()), row)
         dr.scatter(reflect, mi.Float(bsdf._values["reflect"]), row)
         dr.scatter(refract, mi.Float(bsdf._values["refract"]), row)
-    return row_of, ((color_tp, color), (f_tp, reflect), (f_tp, refract), ior, slot)
+    table = row_of, ((color_tp, color), (f_tp, reflect), (f_tp, refract), ior, slot)
+    return Attached(ambient, lights, table)

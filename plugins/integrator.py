@@ -306,12 +306,12 @@ class WhittedIntegrator(mi.SamplingIntegrator):
 
     def _render_pass(self, tracer, camera, image, first, count, progress, background_seen=False):
         """Samples first … first + count - 1 (pixel after pixel), as ``tracer`` takes them."""
-        spp, width = camera.spp, camera.width
+        spp = camera.spp
         # Counted from the pass's first pixel, so that 32-bit indices never overflow.
         first_pixel, first_sample = divmod(first, spp)
         opaque_spp = dr.opaque(mi.UInt32, spp)
         opaque_first_sample = dr.opaque(mi.UInt32, first_sample)
-        opaque_first_pixel, opaque_width = dr.opaque(mi.UInt32, first_pixel), dr.opaque(mi.UInt32, width)
+        opaque_first_pixel = dr.opaque(mi.UInt32, first_pixel)
         for index in tracer.samples(count):
             if spp == 1:
                 pixel, sample = index, mi.UInt32(0)
@@ -320,9 +320,7 @@ class WhittedIntegrator(mi.SamplingIntegrator):
                 pixel = index // opaque_spp
                 sample = index - pixel * opaque_spp
             pixel = pixel + opaque_first_pixel
-            y = pixel // opaque_width
-            x = pixel - y * opaque_width
-            ray, ray_weight, position = camera.ray(x, y, pixel, sample)
+            ray, ray_weight, position = camera.ray(pixel, sample)
             color = tracer.trace(ray, progress) * ray_weight
             image.put(pixel, position, color,
                       tracer.camera_hit | background_seen if image.alpha else None)
@@ -331,12 +329,9 @@ class WhittedIntegrator(mi.SamplingIntegrator):
     def _render_pixels(self, tracer, camera, image, first_pixel, pixels):
         """Pixels first_pixel … first_pixel + pixels - 1, one lane each (single-level trees)."""
         pixel = dr.arange(mi.UInt32, pixels) + dr.opaque(mi.UInt32, first_pixel)
-        opaque_width = dr.opaque(mi.UInt32, camera.width)
-        y = pixel // opaque_width
-        x = pixel - y * opaque_width
 
         def color(sample):
-            ray, ray_weight, _ = camera.ray(x, y, pixel, sample)
+            ray, ray_weight, _ = camera.ray(pixel, sample)
             return tracer.trace(ray) * ray_weight
         image.put_pixels(pixel, color)
         tracer.finish_pass()
@@ -350,15 +345,10 @@ class WhittedIntegrator(mi.SamplingIntegrator):
         camera = CameraSamples(sensor, 1, 0)
         tracer, _ = self._recursion(scene)
         recorder.attach(tracer)
-        grid = [(x + camera.border, y + camera.border) for x, y in pixels]
-        index = [y * camera.width + x for x, y in grid]
-        if dr.is_jit_v(mi.Float):
-            batches = [(mi.UInt32([x for x, _ in grid]), mi.UInt32([y for _, y in grid]), mi.UInt32(index))]
-        else:
-            batches = [(x, y, k) for (x, y), k in zip(grid, index)]
+        index = [(y + camera.border) * camera.width + x + camera.border for x, y in pixels]
         colors = []
-        for x, y, pixel in batches:
-            ray, ray_weight, _ = camera.ray(x, y, pixel, mi.UInt32(0))
+        for pixel in [mi.UInt32(index)] if dr.is_jit_v(mi.Float) else index:
+            ray, ray_weight, _ = camera.ray(pixel, mi.UInt32(0))
             recorder.camera(ray_weight)
             colors.append(tracer.trace(ray) * ray_weight)
         return colors

@@ -237,7 +237,21 @@ def layers(shapes, types, primitives: Primitives) -> tuple[list[Layer], list[int
         held.append(k)
         for value in np.unique(radius).tolist():
             members.setdefault(value, []).append((shapes[k], center[:, radius == value]))
-    return [_layer(radius, parts) for radius, parts in sorted(members.items())], held
+    built = []
+    for radius, parts in sorted(members.items()):   # each a scene scaled by 1/radius
+        scale = 1.0 / radius
+        scene = mi.load_dict({"type": "scene", **{
+            f"part_{i}": ellipsoids_shape(centers.T * scale, shape.bsdf())
+            for i, (shape, centers) in enumerate(parts)}})
+        center = np.concatenate([centers for _, centers in parts], axis=1)
+        own = scene.shapes()
+        keys = np.array([bsdf_key(shape.bsdf()) for shape, _ in parts], np.int64)
+        spheres = Primitives.read(own, corners(bounds(own)), np.full(len(own), int(mi.ShapeType.Ellipsoids)),
+                                  np.zeros(len(own), bool), shape_rows(scene), keys)
+        spheres.center, spheres.radius = center, np.full(center.shape[1], radius)
+        spheres.error = hit_error(radius, np.abs(center).max(axis=0, initial=0.0))
+        built.append(Layer(scale, radius, scene, spheres.tables(own)))
+    return built, held
 
 
 def ellipsoids_shape(centers: np.ndarray, bsdf, radius: float = 1.0) -> dict:
@@ -250,17 +264,3 @@ def ellipsoids_shape(centers: np.ndarray, bsdf, radius: float = 1.0) -> dict:
             "quaternions": mi.TensorXf(np.tile(np.array([0.0, 0.0, 0.0, 1.0], np.float32), (count, 1))),
             "bsdf": bsdf}
 
-
-def _layer(radius: float, parts) -> Layer:
-    """The layer of the spheres of ``radius`` in ``parts``: (shape, 3×M scene-frame centers)."""
-    scale = 1.0 / radius
-    scene = mi.load_dict({"type": "scene", **{f"part_{i}": ellipsoids_shape(centers.T * scale, shape.bsdf())
-                                               for i, (shape, centers) in enumerate(parts)}})
-    center = np.concatenate([centers for _, centers in parts], axis=1)
-    error = hit_error(radius, np.abs(center).max(axis=0, initial=0.0))
-    own = scene.shapes()
-    keys = np.array([bsdf_key(shape.bsdf()) for shape, _ in parts], np.int64)
-    primitives = Primitives.read(own, corners(bounds(own)), np.full(len(own), int(mi.ShapeType.Ellipsoids)),
-                                 np.zeros(len(own), bool), shape_rows(scene), keys)
-    primitives.center, primitives.radius, primitives.error = center, np.full(center.shape[1], radius), error
-    return Layer(scale, radius, scene, primitives.tables(own))

@@ -62,7 +62,7 @@ class Recursion:
     def __init__(self, scene, analysis, integrator, attached=None):
         self.physical = integrator.lighting == "physical"
         self.hide_background = integrator.hide_emitters
-        ambient = analysis.ambient(integrator.ambient)
+        ambient = integrator.ambient if analysis.has("ambient") else 0.0
         # each camera ray's allowance ε: 0 (the exact tree) unless a bound L is known
         self.bright = brightest(analysis, integrator.lighting, ambient) \
             if integrator.min_weight > 0 else None

@@ -89,8 +89,7 @@ KEY, TEXTURED, COLOR, REFLECT, REFRACT, IOR = 0, 1, slice(2, 5), 5, 6, 7
 
 def uniform_color(texture) -> tuple[float, float, float]:
     """The color of a texture that does not vary over the surface, as three floats."""
-    value = texture.eval(dr.zeros(mi.SurfaceInteraction3f))
-    color = tuple(float(c[0]) if dr.is_jit_v(c) else float(c) for c in value)
+    color = floats(texture.eval(dr.zeros(mi.SurfaceInteraction3f)))
     return color * 3 if len(color) == 1 else color
 
 
@@ -419,10 +418,6 @@ class SceneAnalysis:
         if effect == "ambient":
             return "ambient" not in self.without
         return effect in self.effects
-
-    def ambient(self, ambient: float) -> float:
-        """The ambient coefficient the render takes, for the integrator's ``ambient``."""
-        return ambient if self.has("ambient") else 0.0
 
 
 def analyse(tables: SceneTables, max_depth: int, light_reference, without=()) -> SceneAnalysis:
