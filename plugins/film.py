@@ -174,8 +174,7 @@ class FilmSplats:
         crop); ``alpha`` (Bool: whether the sample is opaque) for films with an alpha channel."""
         values = [color.x, color.y, color.z]
         if self.alpha:
-            values.append(mi.Float(1) if alpha is None
-                          else dr.select(alpha, mi.Float(1), mi.Float(0)))
+            values.append(dr.select(alpha, mi.Float(1), mi.Float(0)))
         values.append(mi.Float(1))   # the sample's weight: the film develops the mean
         self.block.put(position, values)
 

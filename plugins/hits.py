@@ -228,10 +228,8 @@ class LayeredHits:
         self.need_uv = need_uv
         self.primitives = tables.primitives
         # per-render constants are opaque: one kernel serves every scale
-        self.scales = [dr.opaque(mi.Float, layer.scale) if self.jit else layer.scale
-                       for layer in self.layers]
-        self.radii = [dr.opaque(mi.Float, layer.radius) if self.jit else layer.radius
-                      for layer in self.layers]
+        self.scales = [dr.opaque(mi.Float, layer.scale) for layer in self.layers]
+        self.radii = [dr.opaque(mi.Float, layer.radius) for layer in self.layers]
         # OptiX traces one scene per kernel: a kernel that reaches a second scene's shader
         # binding table has its ray tracing switched off (with a warning only), so on CUDA
         # each layer's rays are traced in a kernel of their own
@@ -348,10 +346,9 @@ class _Giant:
     def __init__(self, shape, center, radius, frame):
         self.center_tuple, self.radius = center, radius
         self.size = radius + max(abs(c) for c in center)
-        opaque = dr.opaque if dr.is_jit_v(mi.Float) else lambda tp, value: tp(value)
-        self.center = opaque(mi.Point3d, center)
-        self.radius64 = opaque(mi.Float64, radius)
-        self.bsdf = opaque(mi.UInt32, bsdf_key(shape.bsdf()))
+        self.center = dr.opaque(mi.Point3d, center)
+        self.radius64 = dr.opaque(mi.Float64, radius)
+        self.bsdf = dr.opaque(mi.UInt32, bsdf_key(shape.bsdf()))
         self.frame = None if frame is None else [mi.Vector3f(axis) for axis in frame]
 
 

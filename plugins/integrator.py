@@ -27,7 +27,6 @@ class DetailedRender:
     image: object          # mi.TensorXf (H, W, channels), developed by the film
     rays: RayCounts
     effects: tuple         # see plugins/scene_tables.py
-    depth: int             # the tree depth the scene needed (<= max_depth)
     passes: int
     error_bound: float     # the most the adaptive depth control can have changed a pixel
 
@@ -301,8 +300,7 @@ class WhittedIntegrator(mi.SamplingIntegrator):
                 self._render_pass(tracer, camera, image, first, count, progress, background_seen)
         rays = tracer.tally.read(camera=total, max_depth_reached=tracer.deepest)
         error_bound = rays.sample_culled_weight * tracer.bright if rays.culled else 0.0
-        return DetailedRender(image.develop(), rays, analysis.effects, analysis.depth, len(passes),
-                              error_bound)
+        return DetailedRender(image.develop(), rays, analysis.effects, len(passes), error_bound)
 
     def _render_pass(self, tracer, camera, image, first, count, progress, background_seen=False):
         """Samples first … first + count - 1 (pixel after pixel), as ``tracer`` takes them."""

@@ -155,18 +155,13 @@ class Primitives:
             mapped[slots[k]], frame[:, :, slots[k]] = True, prim_frame
         center, radius, bsdf = np.zeros((3, size)), np.ones(size), np.zeros(size, np.int64)
         center[:, slots], radius[slots], bsdf[slots] = self.center, self.radius, np.repeat(self.bsdf, counts)
-        tables = PrimitiveTables(error, mapped, list(frame), base, center, radius, bsdf)
+        tables = PrimitiveTables(
+            as_table(mi.Float, error), as_table(mi.Bool, mapped),
+            [as_table(mi.Vector3f, axis) for axis in frame],
+            None if base is None else (as_table(mi.UInt32, base[0]), as_table(mi.Bool, base[1])),
+            as_table(mi.Point3f, center), as_table(mi.Float, radius), as_table(mi.UInt32, bsdf))
         if not dr.is_jit_v(mi.Float):
             tables.row_of = {id(shape): k for k, shape in enumerate(shapes)}
-            return tables
-        tables.error, tables.mapped = mi.Float(error), mi.Bool(mapped)
-        tables.frame = [mi.Vector3f(axis) for axis in frame]
-        if base is not None:
-            tables.base = (mi.UInt32(base[0].astype(np.uint32)), mi.Bool(base[1]))
-        tables.center, tables.radius = mi.Point3f(center), mi.Float(radius)
-        tables.bsdf = mi.UInt32(bsdf.astype(np.uint32))
-        dr.make_opaque(tables.error, tables.mapped, *tables.frame, *(tables.base or ()),
-                       tables.center, tables.radius, tables.bsdf)
         return tables
 
 
@@ -191,6 +186,16 @@ def shape_rows(scene) -> np.ndarray:
     if dr.is_jit_v(mi.Float) and scene.shapes():
         return np.asarray(dr.reinterpret_array(mi.UInt32, scene.shapes_dr()), np.int64).reshape(-1)
     return np.arange(len(scene.shapes()))
+
+
+def as_table(tp, values):
+    """``values`` (numpy, by slot along the last axis) as :func:`read` reads them: an opaque
+    Dr.Jit array of type ``tp`` (JIT), the numpy array itself (scalar)."""
+    if not dr.is_jit_v(mi.Float):
+        return values
+    table = tp(values.astype(np.uint32) if tp is mi.UInt32 else values)
+    dr.make_opaque(table)
+    return table
 
 
 def read(tp, table, index, active=True):

@@ -217,27 +217,27 @@ class Recursion:
                 self.tally.add_total("culled_weight", child.branch.weight, lost)
         return color, culled, children
 
-    # -- the depth-first walk (scalar variants) ---------------------------------------------------
-
-    def camera_branch(self, ray) -> Branch:
-        return Branch(ray, mi.Float(1), 1, dr.opaque(mi.Float, self.epsilon) if self.epsilon > 0
-                      else None)
-
     def trace(self, ray, progress=None):
         """The color of the camera rays ``ray``; ``progress(n)`` is told of finished samples."""
-        color, culled = self._trace(self.camera_branch(ray))
+        # A wavefront's width is its ray's widest field: the rays of a sensor may share their
+        # origin (a pinhole) or their direction (orthographic, distant), held as one value.
+        count = dr.width(ray)
+        allowance = dr.opaque(mi.Float, self.epsilon) if self.epsilon > 0 else None
+        walk = _Progress(count, progress)
+        color, culled = self._subtree(Branch(ray, mi.Float(1), 1, allowance, float(count)), walk)
+        walk.finish()
         if culled is not None:
             self.tally.note_max("sample_culled_weight", culled)
-        if progress is not None:
-            progress(1)
         return color
 
-    def _trace(self, branch):
+    # -- the depth-first walk (scalar variants) ---------------------------------------------------
+
+    def _subtree(self, branch, walk):
         """The color of ``branch``'s tree and the weight culled from it (None: traced exactly)."""
         color, culled, children = self.step(branch)
         for child in children:
             if child.traced:
-                child_color, child_culled = self._trace(child.branch)
+                child_color, child_culled = self._subtree(child.branch, walk)
                 color = color + child_color
                 if child_culled is not None:   # (None below a leaf, or everywhere when exact)
                     culled = culled + child_culled
@@ -276,19 +276,6 @@ class Wavefronts(Recursion):
     def finish_pass(self) -> None:
         dr.eval()          # the pass's kernels and side effects (the block's accumulation)
         dr.sync_thread()   # so that progress reports finished work
-
-    def trace(self, ray, progress=None):
-        # A wavefront's width is its ray's widest field: the rays of a sensor may share their
-        # origin (a pinhole) or their direction (orthographic, distant), held as one value.
-        count = dr.width(ray)
-        camera = self.camera_branch(ray)
-        camera.total = float(count)
-        walk = _Progress(count, progress)
-        color, culled = self._subtree(camera, walk)
-        walk.finish()
-        if culled is not None:
-            self.tally.note_max("sample_culled_weight", culled)
-        return color
 
     def _subtree(self, front, walk):
         """The color of each lane's tree from ``front`` down and the weight culled from it
@@ -393,7 +380,7 @@ class _Progress:
     def __init__(self, count: int, progress):
         self.count, self.progress = count, progress
         self.reports = progress is not None
-        self.pending, self.done = float(count), 0.0
+        self.pending, self.done = float(count), 0
 
     def shaded(self, front, handed_down) -> None:
         """``front`` is shaded, its weight handed down to the branches ``handed_down``."""

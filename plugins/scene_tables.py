@@ -30,7 +30,7 @@ import numpy as np
 from whitted.defaults import SWITCHABLE_EFFECTS
 from whitted.errors import WhittedError
 
-from .primitives import Primitives, bounds, bsdf_key, corners, layers, shape_rows
+from .primitives import Primitives, as_table, bounds, bsdf_key, corners, layers, shape_rows
 
 #: how many scenes' tables are kept (the least recently used go first)
 SCENES = 8
@@ -163,8 +163,7 @@ class Materials:
         """``(row_of, columns)``: each material's row by key, and ``(type, table)`` columns of
         color, KR, KT, IOR and texture slot (k > 0: the k-th texture). The rows are instance
         IDs (JIT: opaque arrays) or 1, 2, ... (scalar: numpy); row 0 is a miss."""
-        jit = dr.is_jit_v(mi.Float)
-        rows = self.key if jit else np.arange(1, len(self.key) + 1)
+        rows = self.key if dr.is_jit_v(mi.Float) else np.arange(1, len(self.key) + 1)
         size = int(rows.max()) + 1 if len(rows) else 1
         numbers = np.zeros((size, 8))
         numbers[:, IOR] = 1.0
@@ -173,10 +172,8 @@ class Materials:
         slot[rows[np.isin(self.key, list(self.textures))]] = np.arange(1, len(self.textures) + 1)
         columns = ((mi.Color3f, numbers[:, COLOR].T), (mi.Float, numbers[:, REFLECT]),
                    (mi.Float, numbers[:, REFRACT]), (mi.Float, numbers[:, IOR]), (mi.UInt32, slot))
-        if jit:
-            columns = tuple((tp, tp(values)) for tp, values in columns)
-            dr.make_opaque(*(table for _, table in columns))
-        return (dict(zip(self.key.tolist(), rows.tolist())), columns)
+        return (dict(zip(self.key.tolist(), rows.tolist())),
+                tuple((tp, as_table(tp, values)) for tp, values in columns))
 
 
 def _largest_texel(texture):
