@@ -98,8 +98,7 @@ def available_cores() -> int:
 
 
 def prepare(variant: str, threads: dict[str, int]) -> str:
-    """This worker ready for ``variant`` with its share of the cores (``threads`` by host);
-    returns its address."""
+    """This worker's address, ready for ``variant`` with its share (``threads`` by host)."""
     global _prepared
     import drjit as dr
     from distributed import get_worker
@@ -131,8 +130,7 @@ def check_where(workers: int | None, scheduler: str | None) -> None:
 
 @contextlib.contextmanager
 def connect(workers: int | None, scheduler: str | None):
-    """A Dask client of a local cluster of ``workers`` processes (stopped on leaving), or of
-    the scheduler at ``scheduler``."""
+    """A Dask client of a local cluster of ``workers`` processes, or of ``scheduler``'s."""
     import logging
 
     from distributed import Client, LocalCluster
@@ -173,8 +171,7 @@ def _check_start_method() -> None:
 
 @contextlib.contextmanager
 def _workers_ignore_ctrl_c():
-    """Start processes that ignore SIGINT (a child keeps it ignored): the terminal's Ctrl-C is
-    this process's to handle, not each worker's traceback."""
+    """Start processes that ignore SIGINT: the terminal's Ctrl-C is this process's to handle."""
     if threading.current_thread() is not threading.main_thread():
         yield
         return
@@ -190,7 +187,6 @@ def _connect_scheduler(address: str):
     import logging
 
     from distributed import Client
-
     from distributed.comm import parse_address, parse_host_port
     from distributed.comm.registry import get_backend
 

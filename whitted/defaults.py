@@ -90,29 +90,21 @@ WHITTED_DEFAULTS = {"max_depth": DEPTH, "ambient": AMBIENT, "lighting": LIGHTING
                     "wavefront_size": WAVEFRONT_SIZE, "without": ""}
 
 
-# --- whitted compare (docs/compare.md) ---------------------------------------------------------
+# --- whitted compare: docs/compare.md says what each does, by name ----------------------------
 COMPARE_REFERENCE_SPP = 4096              #: the path-traced reference's samples per pixel
 COMPARE_WHITTED_SPP = (1, 4, 16)          #: the Whitted sweep's spp ladder
 COMPARE_PATH_SPP = (1, 4, 16, 64, 256, 1024)   #: the path tracer's spp ladder
-#: the path tracer's error err = c + v/n is fitted to its first COMPARE_PATH_FIT_COUNTS renders
-#: and each next render checks it; once one is within COMPARE_PATH_CHECK (a fraction) of what
-#: the fit predicted, the ladder's higher counts are read from the fit, not rendered
 COMPARE_PATH_FIT_COUNTS = 3
 COMPARE_PATH_CHECK = 0.1
-#: the timed rounds (whitted/compare/timing.py; docs/compare.md, "Timing"): how many, when a
-#: render is repeated, when a headline ratio has settled, on how many LLVM threads (None: all)
-#: and by which clock ("cpu" or "wall")
 COMPARE_ROUNDS = 3
 COMPARE_HEADLINE_ROUNDS = 8
 COMPARE_MAX_ROUNDS = 25
 COMPARE_ROUNDS_SECONDS = 8.0
-#: a render whose one-thread time is over COMPARE_LONG_SECONDS is timed in its first
-#: COMPARE_LONG_ROUNDS rounds only: its time is known to a few percent by then
 COMPARE_LONG_SECONDS = 1.0
 COMPARE_LONG_ROUNDS = 2
-COMPARE_CONFIDENCE = 0.9
-COMPARE_ROUND_SECONDS = 0.05
-COMPARE_ROUND_REPEATS = 8
+COMPARE_CONFIDENCE = 0.9   #: how surely a headline's interval holds the median ratio
+COMPARE_ROUND_SECONDS = 0.05   #: a round repeats a render back to back this long (the fastest counts),
+COMPARE_ROUND_REPEATS = 8      #: at most this many times
 COMPARE_SETTLED_WIDTH = 0.25
 COMPARE_TIMING_THREADS = 1
 COMPARE_CLOCK = "cpu"
@@ -125,32 +117,19 @@ COMPARE_MAX_DEFAULT_DEPTH = 8
 #: the reference is rendered in chunks of at most this many spp, each with its own seed
 #: (the same reference on a cluster or in one process)
 COMPARE_REFERENCE_CHUNK_SPP = 1024
-#: seconds to wait for a Dask scheduler (and its first worker)
-COMPARE_CONNECT_TIMEOUT = 5.0
-#: a Whitted method's floor: its cheapest render within this fraction of its best error
+COMPARE_CONNECT_TIMEOUT = 5.0   #: seconds to wait for a Dask scheduler (and its first worker)
 COMPARE_FLOOR_TOLERANCE = 0.05
-#: the model's limit is rendered in two halves of at least COMPARE_LIMIT_SPP_FACTOR times the
-#: sweep's densest spp, doubled (up to COMPARE_LIMIT_MAX_SPP) until its noise is below
-#: COMPARE_LIMIT_NOISE_SHARE of the smallest difference it measures
 COMPARE_LIMIT_SPP_FACTOR = 8
 COMPARE_LIMIT_MAX_SPP = 4096
 COMPARE_LIMIT_NOISE_SHARE = 0.1
-#: without --budget, the reference's first COMPARE_REFERENCE_START_SPP samples (two halves)
-#: estimate its noise; it is rendered at the power of two whose noise is below
-#: COMPARE_REFERENCE_NOISE_SHARE of the smallest Whitted error it scores, at most --reference-spp
 COMPARE_REFERENCE_START_SPP = 32
 COMPARE_REFERENCE_NOISE_SHARE = 0.01
-#: under --budget: the reference's largest share of a scene's time, its fewest spp (else the
-#: scene is refused), the probe's render time, and the seconds kept back for the outputs
 COMPARE_REFERENCE_SHARE = 0.5
 COMPARE_MIN_REFERENCE_SPP = 8
-COMPARE_PROBE_SECONDS = 0.1
+COMPARE_PROBE_SECONDS = 0.1   #: under --budget, the render time of the reference's probe
 COMPARE_REPORT_SECONDS = 3.0
-#: under --budget, the shares of a scene's time after its reference kept for the timing rounds
-#: (beyond what the renders predict for theirs) and for the limits and fit
 COMPARE_ROUNDS_SHARE = 0.2
 COMPARE_LIMITS_SHARE = 0.25
-#: --quick: a settled verdict on an example scene in under 30 s on a 2-core laptop
 COMPARE_QUICK = {"reference_spp": 256, "path_spp": (1, 4, 16, 64), "rounds": 2, "budget": 25.0}
 
 

@@ -22,7 +22,7 @@ class SceneEditor:
         from .converter import Scene, parse_file
         from .converter.description import describe
         from .converter.frame import warn_scene
-        from .loading import _leaving_out, prepared
+        from .loading import _leaving_out, _loaded, mitsuba_dict, prepared
         self._params, self._without = prepared(variant, overrides)
         if isinstance(source, Scene):
             self.model = source
@@ -30,7 +30,6 @@ class SceneEditor:
             self.model = parse_file(Path(source))
             warn_scene(self.model)
         self._description = describe(self.model, base_dir=None)
-        from .loading import _loaded, mitsuba_dict
         loaded = _loaded(mitsuba_dict(self._description, self._params), meshes=True)
         self.scene = _leaving_out(loaded, self._without, self.model.source)
 

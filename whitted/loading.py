@@ -4,6 +4,7 @@ description, the one the XML writer writes out, goes to ``mi.load_dict`` without
 
 from __future__ import annotations
 
+import functools
 import os
 import re
 from dataclasses import dataclass
@@ -261,15 +262,10 @@ class Source:
     text: str | None = None
 
 
-_kept = None
-
-
+@functools.cache
 def _store():
-    global _kept
-    if _kept is None:
-        from .plugins.scene_tables import KeptByScene
-        _kept = KeptByScene(REMEMBERED)
-    return _kept
+    from .plugins.scene_tables import KeptByScene
+    return KeptByScene(REMEMBERED)
 
 
 def recall(scene) -> Source | None:

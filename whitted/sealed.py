@@ -68,7 +68,7 @@ def choose(scene: Scene, min_group: int = MIN_GROUP, classes: int = 0,
         return None
     if any(tuple(light.position) == tuple(scene.lookat) for light in scene.lights):
         return None
-    mask = sealed(scene, spheres) & ~_coarse(scene, spheres)
+    mask = sealed(scene, spheres) & ~coarse_candidates(spheres, tuple(scene.lookat))[1]
     if mask.sum() < min_group:
         return None
     values, counts = np.unique(spheres.radius[mask], return_counts=True)
@@ -85,11 +85,6 @@ def choose(scene: Scene, min_group: int = MIN_GROUP, classes: int = 0,
         order = np.lexsort((-values, -counts))[:classes]
         radii += [float(values[k]) for k in order]
     return Grouping(1.0 / r, r, mask & np.isin(spheres.radius, radii), spheres, tuple(radii))
-
-
-def _coarse(scene: Scene, spheres: SphereArrays) -> np.ndarray:
-    """Per sphere: whether it may be giant (the converter judges it: converter/giants.py)."""
-    return coarse_candidates(spheres, tuple(scene.lookat))[1]
 
 
 def _about(point, origin, scale):

@@ -102,7 +102,27 @@ def set_variant(variant: str | None = None) -> str:
     from .interrupt import deferred
     request(variant)
     with deferred():
-        return _set_variant(variant)
+        import mitsuba as mi
+
+        if variant is None:
+            variant = mi.variant() or default_variant()
+        if variant not in VARIANTS:
+            raise WhittedError(f"unsupported variant '{variant}'; choose one of "
+                               + ", ".join(VARIANTS))
+        if variant.startswith("llvm") and prepare_llvm() is None:
+            raise WhittedError(f"variant {variant} needs libLLVM >= {MIN_LLVM_VERSION}: install "
+                               "Debian's libllvm19 or set DRJIT_LIBLLVM_PATH")
+        if variant.startswith("cuda"):
+            import drjit as dr
+            if not dr.has_backend(dr.JitBackend.CUDA):
+                raise WhittedError(f"variant {variant} needs an NVIDIA GPU with a CUDA driver")
+        if variant not in mi.variants():
+            raise WhittedError(f"this Mitsuba build has no variant {variant}")
+        if mi.variant() != variant:
+            mi.set_variant(variant)
+        from whitted import plugins
+        plugins.register()
+        return variant
 
 
 def request(variant: str | None) -> None:
@@ -110,30 +130,6 @@ def request(variant: str | None) -> None:
     global _requested
     if variant in VARIANTS and "mitsuba" not in sys.modules:
         _requested = variant
-
-
-def _set_variant(variant: str | None) -> str:
-    import mitsuba as mi
-
-    if variant is None:
-        variant = mi.variant() or default_variant()
-    if variant not in VARIANTS:
-        raise WhittedError(f"unsupported variant '{variant}'; choose one of "
-                           + ", ".join(VARIANTS))
-    if variant.startswith("llvm") and prepare_llvm() is None:
-        raise WhittedError(f"variant {variant} needs libLLVM >= {MIN_LLVM_VERSION}: install "
-                           "Debian's libllvm19 or set DRJIT_LIBLLVM_PATH")
-    if variant.startswith("cuda"):
-        import drjit as dr
-        if not dr.has_backend(dr.JitBackend.CUDA):
-            raise WhittedError(f"variant {variant} needs an NVIDIA GPU with a CUDA driver")
-    if variant not in mi.variants():
-        raise WhittedError(f"this Mitsuba build has no variant {variant}")
-    if mi.variant() != variant:
-        mi.set_variant(variant)
-    from whitted import plugins
-    plugins.register()
-    return variant
 
 
 def on_variant_changed(old: str | None, new: str | None) -> None:
