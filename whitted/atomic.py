@@ -139,8 +139,7 @@ def write_text(target: str | os.PathLike, text: str) -> None:
 
 
 def names_folder(inputs: list[str | os.PathLike], output: str | os.PathLike | None) -> bool:
-    """Whether ``-o`` names a folder of outputs: several inputs, a folder among them, an
-    existing folder, or a trailing separator."""
+    """Whether ``-o`` names a folder of outputs rather than one file."""
     if output is None:
         return False
     return (len(inputs) != 1 or Path(inputs[0]).is_dir() or Path(output).is_dir()

@@ -54,8 +54,7 @@ def worker_task(variant: str, threads: dict[str, int]):
 
 
 def on_worker(function, variant: str, threads: dict[str, int], *args):
-    """``function(*args)`` as a task of a worker (:func:`worker_task`), its result's ``worker``
-    set to the worker's address."""
+    """``function(*args)`` in a :func:`worker_task`, its result's ``worker`` set."""
     with worker_task(variant, threads) as worker:
         result = function(*args)
         result.worker = worker
@@ -138,7 +137,14 @@ def connect(workers: int | None, scheduler: str | None):
     cluster = client = None
     try:
         if workers is not None:
-            _check_start_method()
+            import dask
+            import mitsuba as mi
+
+            method = dask.config.get("distributed.worker.multiprocessing-method")
+            if mi.variant().startswith("cuda") and method != "spawn":   # CUDA cannot run forked
+                raise WhittedError(f"--workers with {mi.variant()} needs Dask's worker processes "
+                                   f"spawned, not '{method}': unset "
+                                   "distributed.worker.multiprocessing-method")
             # Everything on 127.0.0.1, on free ports: without a dashboard the scheduler still
             # serves health and metrics over HTTP, by default on port 8787.
             with _workers_ignore_ctrl_c():
@@ -156,17 +162,6 @@ def connect(workers: int | None, scheduler: str | None):
             client.close()
         if cluster is not None:
             cluster.close()
-
-
-def _check_start_method() -> None:
-    """CUDA cannot run in a forked process: a CUDA variant's workers must be spawned."""
-    import dask
-    import mitsuba as mi
-
-    method = dask.config.get("distributed.worker.multiprocessing-method")
-    if mi.variant().startswith("cuda") and method != "spawn":
-        raise WhittedError(f"--workers with {mi.variant()} needs Dask's worker processes spawned, "
-                           f"not '{method}': unset distributed.worker.multiprocessing-method")
 
 
 @contextlib.contextmanager

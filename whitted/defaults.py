@@ -135,17 +135,13 @@ COMPARE_QUICK = {"reference_spp": 256, "path_spp": (1, 4, 16, 64), "rounds": 2, 
 
 # --- Validation, written once ----------------------------------------------------------------------
 
-def _integer(value, what: str) -> int:
+def _bounded(value, what: str, low, high, rule: str) -> int:
     if isinstance(value, bool) or (not isinstance(value, (int, float))
                                    and not hasattr(value, "__index__")):
         raise WhittedError(f"{what} must be an integer, got {value!r}")
     if isinstance(value, float) and not value.is_integer():
         raise WhittedError(f"{what} must be an integer, got {value}")
-    return int(value)
-
-
-def _bounded(value, what: str, low, high, rule: str) -> int:
-    value = _integer(value, what)
+    value = int(value)
     if not low <= value <= high:
         raise WhittedError(f"{what} must be {rule}, got {value}")
     return value

@@ -207,7 +207,7 @@ def _scene_dict(model, params: dict, ellipsoids: bool | None, integrator: str) -
     grouping = None
     if ellipsoids or (ellipsoids is None and count >= D.SEALED_MIN_GROUP):
         from . import sealed
-        grouping = sealed.choose(model, min_group=1 if ellipsoids else sealed.MIN_GROUP,
+        grouping = sealed.choose(model, min_group=1 if ellipsoids else D.SEALED_MIN_GROUP,
                                  classes=sealed.MAX_LAYERS, smaller=integrator == "whitted")
     if grouping is None:
         return mitsuba_dict(describe(model, base_dir=None), params), model, [], 1.0
@@ -217,20 +217,16 @@ def _scene_dict(model, params: dict, ellipsoids: bool | None, integrator: str) -
 
 
 def _loaded(scene: dict, meshes: bool):
+    """``mi.load_dict(scene)``; ``meshes=False``: giant spheres' meshes made spheres again."""
     import mitsuba as mi
-    return mi.load_dict(scene if meshes else _giants_as_spheres(scene), parallel=PARALLEL)
 
-
-def _giants_as_spheres(scene: dict) -> dict:
     from .converter.giants import parse_exact_spheres
-    listed = scene.get("integrator", {}).get("exact_spheres")
-    if not listed:
-        return scene
-    for key, center, radius in parse_exact_spheres(listed):
+    listed = "" if meshes else scene.get("integrator", {}).get("exact_spheres")
+    for key, center, radius in parse_exact_spheres(listed or ""):
         shape = scene.get(key)
         if isinstance(shape, dict) and shape.get("type") == "ply":
             scene[key] = {"type": "sphere", "center": center, "radius": radius, "bsdf": shape["bsdf"]}
-    return scene
+    return mi.load_dict(scene, parallel=PARALLEL)
 
 
 def _sealed_dict(remaining, model, grouping, params: dict) -> tuple[dict, list]:
