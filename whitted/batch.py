@@ -81,7 +81,7 @@ def up_to_date(scene: Path, outputs: tuple[Path, ...]) -> bool:
         else:
             model = parse_file(scene)
             arrays = model.held_sphere_arrays()
-            materials = arrays.materials if arrays is not None else [s.material for s in model.spheres]
+            materials = [s.material for s in model.spheres] if arrays is None else arrays.materials
             files.extend(sorted({Path(m.texture) for m in materials if m.texture is not None}))
         return all(p.stat().st_mtime_ns < oldest for p in files)
     except (OSError, WhittedError):
@@ -141,7 +141,7 @@ def render_scenes(scenes: Iterable[str | os.PathLike], out: str | os.PathLike | 
                   keep_images: bool | None = None, workers: int | None = None,
                   scheduler: str | None = None, **options) -> Iterator[SceneRender]:
     """Render scene files (a folder stands for its scenes), yielding a :class:`SceneRender` for
-    each as it is done; a failed one does not stop the others (docs/CONTRACTS.md, "Rendering API")."""
+    each as it is done; a failed one does not stop the others (docs/CONTRACTS.md)."""
     settings = Settings(**options)
     settings.check()
     _, skipped, todo = plan_batch(scenes, out, formats, force)
@@ -163,7 +163,8 @@ def plan_batch(scenes: Iterable[str | os.PathLike], out: str | os.PathLike | Non
             raise WhittedError(f"unknown image format '{name}'; "
                                f"choose from {', '.join(D.IMAGE_FORMATS)}")
     if out is None:
-        plan = [(scene, ()) for scene in expand_folders(inputs, SCENE_SUFFIXES, ".scn or .xml files")]
+        scenes = expand_folders(inputs, SCENE_SUFFIXES, ".scn or .xml files")
+        plan = [(scene, ()) for scene in scenes]
     else:
         folder = str(out) if str(out).endswith(("/", os.sep)) else f"{out}{os.sep}"
         plans = [plan_files(list(inputs), folder, f".{name}", SCENE_SUFFIXES) for name in formats]

@@ -103,11 +103,13 @@ COMPARE_ROUNDS_SECONDS = 8.0
 COMPARE_LONG_SECONDS = 1.0
 COMPARE_LONG_ROUNDS = 2
 COMPARE_CONFIDENCE = 0.9   #: how surely a headline's interval holds the median ratio
-COMPARE_ROUND_SECONDS = 0.05   #: a round repeats a render back to back this long (the fastest counts),
-COMPARE_ROUND_REPEATS = 8      #: at most this many times
+#: a round repeats a render back to back for COMPARE_ROUND_SECONDS (its fastest time counts), at
+#: most COMPARE_ROUND_REPEATS times
+COMPARE_ROUND_SECONDS = 0.05
+COMPARE_ROUND_REPEATS = 8
 COMPARE_SETTLED_WIDTH = 0.25
-COMPARE_TIMING_THREADS = 1
-COMPARE_CLOCK = "cpu"
+COMPARE_TIMING_THREADS = 1   #: LLVM threads of a timed render (None: all)
+COMPARE_CLOCK = "cpu"   #: the timing rounds' clock, "cpu" or "wall"
 #: Dr.Jit's memory cache is handed back between settings once the process holds more than this
 COMPARE_KEPT_MEMORY = 1 << 30
 #: the equal-quality table's levels between the best and worst errors measured (--levels)
