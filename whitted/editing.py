@@ -23,15 +23,15 @@ class SceneEditor:
         from .converter.description import describe
         from .converter.frame import warn_scene
         from .loading import _leaving_out, _loaded, mitsuba_dict, prepared
-        self._params, self._without = prepared(variant, overrides)
+        params, without = prepared(variant, overrides)
         if isinstance(source, Scene):
             self.model = source
         else:
             self.model = parse_file(Path(source))
             warn_scene(self.model)
         self._description = describe(self.model, base_dir=None)
-        loaded = _loaded(mitsuba_dict(self._description, self._params), meshes=True)
-        self.scene = _leaving_out(loaded, self._without, self.model.source)
+        loaded = _loaded(mitsuba_dict(self._description, params), meshes=True)
+        self.scene = _leaving_out(loaded, without, self.model.source)
 
     @classmethod
     def loads(cls, text: str, variant: str | None = None, *, base_dir: str | os.PathLike = ".",

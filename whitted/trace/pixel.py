@@ -77,7 +77,8 @@ class SceneView:
         """The statement on ``line`` of the file, and its comment (a ``#`` outside quotes)."""
         if not line or not self.text or not 0 < line <= len(self.text):
             return None, None
-        text, quoted = self.text[line - 1], False
+        text = self.text[line - 1]
+        quoted = False
         for i, c in enumerate(text):
             if c == '"':
                 quoted = not quoted
