@@ -32,18 +32,13 @@ IOR = 1.0
 NORTH: Vec3 = (0.0, 1.0, 0.0)
 EQUATOR: Vec3 = (0.0, 0.0, -1.0)
 
-# --- The scene format's limits -----------------------------------------------------------------
+# --- The scene format's limits (docs/scene-format.md, "Decided here": why) ---------------------
 MAX_SIZE = 16384                #: image width and height, pixels
 MAX_DEPTH = 64                  #: the deepest ray tree anything accepts (format, CLI, plugins)
 MAX_SAMPLES = 65536             #: samples per pixel in a scene file
-#: Every number's magnitude is at most this: light intensities (color * pi * d^2)
-#: and squared distances then stay far inside 32-bit float range.
-MAX_MAGNITUDE = "1e12"
-#: Radius, index of refraction and field of view are at least this, so that
-#: their squares and reciprocals stay normal 32-bit floats.
-MIN_POSITIVE = "1e-6"
-#: Two directions count as parallel when the sine of their angle is below this.
-PARALLEL_SINE = 1e-9
+MAX_MAGNITUDE = "1e12"          #: every number's largest magnitude
+MIN_POSITIVE = "1e-6"           #: the smallest radius, index of refraction and field of view
+PARALLEL_SINE = 1e-9            #: two directions are parallel below this sine of their angle
 #: A scene file's errors are all found; the message lists this many, then counts the rest.
 MAX_REPORTED_ERRORS = 20
 

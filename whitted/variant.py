@@ -70,12 +70,13 @@ def prepare_llvm() -> str | None:
     return path
 
 
-def check_environment() -> None:
-    """A clean error for a ``$WHITTED_VARIANT`` that names no supported variant."""
+def check_environment() -> str | None:
+    """``$WHITTED_VARIANT`` (None: unset), or a clean error if it names no supported variant."""
     requested = os.environ.get("WHITTED_VARIANT")
     if requested and requested not in VARIANTS:
         raise WhittedError(f"WHITTED_VARIANT={requested}: not a variant whitted runs in; choose one of "
                            + ", ".join(VARIANTS))
+    return requested or None
 
 
 def default_variant() -> str:
@@ -83,8 +84,7 @@ def default_variant() -> str:
     global _fallback_warned
     if _requested is not None:
         return _requested
-    check_environment()
-    requested = os.environ.get("WHITTED_VARIANT")
+    requested = check_environment()
     if requested:
         return requested
     if prepare_llvm() is not None:
