@@ -1,9 +1,7 @@
-"""Choosing Mitsuba's variant, and a libLLVM that Dr.Jit can use.
-
-Dr.Jit's llvm backend *aborts the process* on a libLLVM older than 16, so before Dr.Jit
-starts the newest libLLVM >= 16 is found and ``DRJIT_LIBLLVM_PATH`` points at it; without
-one the default variant is ``scalar_rgb``, with a warning. The only place that decides the
-variant.
+"""Choosing Mitsuba's variant (only here), and a libLLVM that Dr.Jit can use: its llvm
+backend *aborts the process* on a libLLVM older than 16, so before Dr.Jit starts the newest
+libLLVM >= 16 is found and ``DRJIT_LIBLLVM_PATH`` points at it; without one the default
+variant is ``scalar_rgb``, with a warning.
 """
 
 from __future__ import annotations
