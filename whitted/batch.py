@@ -163,8 +163,8 @@ def plan_batch(scenes: Iterable[str | os.PathLike], out: str | os.PathLike | Non
             raise WhittedError(f"unknown image format '{name}'; "
                                f"choose from {', '.join(D.IMAGE_FORMATS)}")
     if out is None:
-        scenes = expand_folders(inputs, SCENE_SUFFIXES, ".scn or .xml files")
-        plan = [(scene, ()) for scene in scenes]
+        found = expand_folders(inputs, SCENE_SUFFIXES, ".scn or .xml files")
+        plan = [(scene, ()) for scene in found]
     else:
         folder = str(out) if str(out).endswith(("/", os.sep)) else f"{out}{os.sep}"
         plans = [plan_files(list(inputs), folder, f".{name}", SCENE_SUFFIXES) for name in formats]
