@@ -16,6 +16,7 @@ from conftest import MIRROR_AND_GLASS
 from whitted.cli import main
 from whitted.compare.curves import best_ambient
 from whitted.converter import parse_file, parse_text
+from whitted.defaults import SEALED_MIN_GROUP
 from whitted.fitting import fit, fitted_model, material_ids, write_fitted
 from whitted.images import write_image
 from whitted.loading import _load_model, load_model_parts
@@ -143,7 +144,7 @@ def test_a_fit_of_a_scene_with_grouped_spheres_writes_every_bsdf_of_a_material(l
     colors through the scaled frame's distances; the target is rendered from sphere shapes."""
     from whitted import sealed
     truth = parse_text(_crowd(), "crowd.scn")
-    assert sealed.choose(truth, sealed.MIN_GROUP, sealed.MAX_LAYERS, smaller=True) is not None
+    assert sealed.choose(truth, SEALED_MIN_GROUP, sealed.MAX_LAYERS, smaller=True) is not None
     _, bsdfs, _ = load_model_parts(truth, {}, None, "whitted", False)
     assert sorted(map(len, bsdfs.values())) == [1, 1, 1, 2]   # the floor's and a group's color
     target = render(truth)

@@ -19,6 +19,7 @@ from test_layers import GLASS, many_radii
 from whitted import sealed
 from whitted.plugins.primitives import ellipsoids_shape
 from whitted.converter import Light, Material, Scene, Sphere
+from whitted.defaults import SEALED_MIN_GROUP
 from whitted.loading import _sealed_dict
 from whitted.metrics import relative_mse
 
@@ -124,7 +125,7 @@ def test_mitsubas_ellipsoid_test_loses_no_hit_at_radius_one_and_above(llvm, radi
 
 
 
-def crowd(count: int = sealed.MIN_GROUP) -> Scene:
+def crowd(count: int = SEALED_MIN_GROUP) -> Scene:
     """``count`` small balls (radius 0.04) and 40 larger ones (0.12) of two materials on a
     giant floor sphere, with a glass ball: a scene the loader groups by default."""
     rng = np.random.default_rng(11)

@@ -1,7 +1,5 @@
-"""whitted: the classic sphere ray tracer of "Ray Tracing: Graphics for the Masses",
-inside Mitsuba 3.
-
-Importing this package loads neither Mitsuba nor Dr.Jit (the converter runs without them);
+"""whitted: the classic sphere ray tracer of "Ray Tracing: Graphics for the Masses", inside
+Mitsuba 3. Importing it loads neither Mitsuba nor Dr.Jit (the converter runs without them);
 the API is loaded on first use. Once ``mitsuba`` is imported, before or after, a variant is
 chosen if none is set and the plugins are registered for every variant (:mod:`whitted.variant`).
 """

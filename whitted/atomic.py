@@ -39,35 +39,32 @@ def atomic_path(target: str | os.PathLike):
         raise
 
 
+#: :func:`atomic_path`'s temporary file: ``.TARGET.XXXXXXXX`` + the suffix (or ``.tmp``)
+_TEMPORARY = re.compile(r"\.(?P<target>.+)\.[a-z0-9_]{8}(?P<suffix>\.[^.]+)")
+
+
+def _temporaries(folder: str | os.PathLike) -> list[tuple[Path, str]]:
+    """The temporary files of :func:`atomic_path` in ``folder``, each with its target's name."""
+    try:
+        names = os.listdir(folder)
+    except OSError:
+        return []
+    matches = ((name, _TEMPORARY.fullmatch(name)) for name in names)
+    return [(Path(folder) / name, m["target"]) for name, m in matches
+            if m and (m["target"].endswith(m["suffix"]) or m["suffix"] == ".tmp")]
+
+
 def leftovers(target: str | os.PathLike) -> list[Path]:
     """The temporary files of :func:`atomic_path` that killed writers left beside ``target``."""
     target = Path(target)
-    prefix, suffix = f".{target.name}.", target.suffix or ".tmp"
-    try:
-        return [p for p in target.parent.iterdir() if p.name.startswith(prefix)
-                and p.name.endswith(suffix) and len(p.name) > len(prefix) + len(suffix)]
-    except OSError:
-        return []
-
-
-#: :func:`atomic_path`'s temporary file: ``.TARGET.XXXXXXXX`` + the suffix (or ``.tmp``)
-_TEMPORARY = re.compile(r"\.(?P<target>.+)\.[a-z0-9_]{8}(?P<suffix>\.[^.]+)")
+    return [path for path, name in _temporaries(target.parent) if name == target.name]
 
 
 def remove_stale_leftovers(folder: str | os.PathLike, older_than: float) -> list[Path]:
     """Remove (and return) the temporary files in ``folder`` untouched for ``older_than`` s."""
     removed = []
     now = time.time()
-    try:
-        names = os.listdir(folder)
-    except OSError:
-        return removed
-    for name in names:
-        match = _TEMPORARY.fullmatch(name)
-        if not match or not (match["target"].endswith(match["suffix"])
-                             or match["suffix"] == ".tmp"):
-            continue
-        path = Path(folder) / name
+    for path, _ in _temporaries(folder):
         with contextlib.suppress(OSError):
             if now - path.stat().st_mtime > older_than:
                 path.unlink()
@@ -111,16 +108,15 @@ def _probe(folder: Path, named: Path) -> None:
     os.unlink(probe)
 
 
-def check_folder_creatable(folder: str | os.PathLike, named: str | os.PathLike | None = None) -> Path:
+def check_folder_creatable(folder: str | os.PathLike) -> Path:
     """Check, creating nothing, that ``folder`` accepts files or can be made."""
     folder = Path(folder)
-    named = folder if named is None else Path(named)
     existing = folder
     while not existing.exists() and existing != existing.parent:
         existing = existing.parent
     if not existing.is_dir():
-        raise WhittedError(f"{named}: cannot create a folder under the file {existing}")
-    _probe(existing, named)
+        raise WhittedError(f"{folder}: cannot create a folder under the file {existing}")
+    _probe(existing, folder)
     return folder
 
 
@@ -143,8 +139,7 @@ def write_text(target: str | os.PathLike, text: str) -> None:
 
 
 def names_folder(inputs: list[str | os.PathLike], output: str | os.PathLike | None) -> bool:
-    """Whether ``-o`` names a folder of outputs: several inputs, a folder among them, an
-    existing folder, or a trailing separator."""
+    """Whether ``-o`` names a folder of outputs rather than one file."""
     if output is None:
         return False
     return (len(inputs) != 1 or Path(inputs[0]).is_dir() or Path(output).is_dir()

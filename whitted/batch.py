@@ -9,6 +9,7 @@ from __future__ import annotations
 import contextlib
 import os
 import time
+from collections import Counter
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Iterable, Iterator
@@ -64,46 +65,25 @@ class SceneRender:
         return entry
 
 
-def plan_outputs(inputs: list[str | os.PathLike], out: str | os.PathLike | None,
-                 formats: Iterable[str] = ("png",)) -> list[tuple[Path, tuple[Path, ...]]]:
-    """Each scene of ``inputs`` (files or folders) with its images in ``out``, one per format."""
-    from .converter.batch import expand_folders, plan
-    formats = tuple(dict.fromkeys(formats))
-    for name in formats:
-        if name not in D.IMAGE_FORMATS:
-            raise WhittedError(f"unknown image format '{name}'; "
-                               f"choose from {', '.join(D.IMAGE_FORMATS)}")
-    if out is None:
-        scenes = expand_folders(inputs, SCENE_SUFFIXES, ".scn or .xml files")
-        return [(scene, ()) for scene in scenes]
-    folder = str(out) if str(out).endswith(("/", os.sep)) else f"{out}{os.sep}"
-    plans = [plan(list(inputs), folder, f".{name}", SCENE_SUFFIXES) for name in formats]
-    return [(pairs[0][0], tuple(target for _, target in pairs)) for pairs in zip(*plans)]
-
-
-def scene_inputs(scene: Path, model=None) -> list[Path]:
-    """The files a scene's image depends on: itself, its textures, an XML's meshes."""
-    files = [scene]
-    if scene.suffix.lower() == ".xml":
-        from .loading import named_files
-        with contextlib.suppress(OSError):
-            files += [scene.parent / name for name in named_files(scene)]
-    elif model is not None:
-        arrays = model.held_sphere_arrays()
-        materials = arrays.materials if arrays is not None else [s.material for s in model.spheres]
-        files.extend(sorted({Path(m.texture) for m in materials if m.texture is not None}))
-    return files
-
-
 def up_to_date(scene: Path, outputs: tuple[Path, ...]) -> bool:
-    """Whether every image of ``scene`` is newer than what it reads (a bad .scn: never)."""
+    """Whether every image of ``scene`` is newer than what it reads: itself, its textures, an
+    XML's meshes (a bad .scn: never)."""
     from .converter import parse_file
+    from .loading import named_files
     if not outputs:
         return False
     try:
         oldest = min(p.stat().st_mtime_ns for p in outputs)
-        model = None if scene.suffix.lower() == ".xml" else parse_file(scene)
-        return all(p.stat().st_mtime_ns < oldest for p in scene_inputs(scene, model))
+        files = [scene]
+        if scene.suffix.lower() == ".xml":
+            with contextlib.suppress(OSError):
+                files += [scene.parent / name for name in named_files(scene)]
+        else:
+            model = parse_file(scene)
+            arrays = model.held_sphere_arrays()
+            materials = [s.material for s in model.spheres] if arrays is None else arrays.materials
+            files.extend(sorted({Path(m.texture) for m in materials if m.texture is not None}))
+        return all(p.stat().st_mtime_ns < oldest for p in files)
     except (OSError, WhittedError):
         return False
 
@@ -160,14 +140,8 @@ def render_scenes(scenes: Iterable[str | os.PathLike], out: str | os.PathLike | 
                   formats: Iterable[str] = ("png",), *, force: bool = False,
                   keep_images: bool | None = None, workers: int | None = None,
                   scheduler: str | None = None, **options) -> Iterator[SceneRender]:
-    """Render scene files (a folder stands for its scenes), yielding a :class:`SceneRender`
-    for each as it is done; a failed one does not stop the others.
-
-    ``out``: the folder of ``NAME.png``/``NAME.exr`` (``formats``); up-to-date scenes are
-    skipped unless ``force``. Without ``out`` each result keeps its image. ``options``:
-    :class:`Settings`' fields. ``workers`` (a local Dask cluster) or ``scheduler`` (a running
-    one's address): results come in the order they finish.
-    """
+    """Render scene files (a folder stands for its scenes), yielding a :class:`SceneRender` for
+    each as it is done; a failed one does not stop the others (docs/CONTRACTS.md)."""
     settings = Settings(**options)
     settings.check()
     _, skipped, todo = plan_batch(scenes, out, formats, force)
@@ -178,11 +152,23 @@ def render_scenes(scenes: Iterable[str | os.PathLike], out: str | os.PathLike | 
 
 def plan_batch(scenes: Iterable[str | os.PathLike], out: str | os.PathLike | None,
                formats: Iterable[str] = ("png",), force: bool = False):
-    """``(plan, skipped, todo)``: every (scene, outputs) pair in input order, the up-to-date
-    scenes, and the pairs to render; the output folders are checked and made first."""
-    plan = plan_outputs([os.fspath(s) for s in scenes], out, formats)
-    if out is not None:
-        from .converter.batch import prepare_folders
+    """``(plan, skipped, todo)``: every scene (files, or folders' scenes) with its images in
+    ``out``, one per format, in input order; the up-to-date scenes; and the pairs to render.
+    The output folders are checked and made first."""
+    from .converter.batch import expand_folders, plan as plan_files, prepare_folders
+    inputs = [os.fspath(s) for s in scenes]
+    formats = tuple(dict.fromkeys(formats))
+    for name in formats:
+        if name not in D.IMAGE_FORMATS:
+            raise WhittedError(f"unknown image format '{name}'; "
+                               f"choose from {', '.join(D.IMAGE_FORMATS)}")
+    if out is None:
+        found = expand_folders(inputs, SCENE_SUFFIXES, ".scn or .xml files")
+        plan = [(scene, ()) for scene in found]
+    else:
+        folder = str(out) if str(out).endswith(("/", os.sep)) else f"{out}{os.sep}"
+        plans = [plan_files(list(inputs), folder, f".{name}", SCENE_SUFFIXES) for name in formats]
+        plan = [(pairs[0][0], tuple(target for _, target in pairs)) for pairs in zip(*plans)]
         prepare_folders([target for _, targets in plan for target in targets], out)
     skipped, todo = [], []
     for scene, outputs in plan:
@@ -271,10 +257,9 @@ class Totals:
 
     def json(self, interrupted: bool = False) -> dict:
         rendered = [item for item in self.items if item.stats is not None]
-        rays: dict[str, int] = {}
+        rays = Counter()
         for item in rendered:
-            for kind, count in item.stats.get("rays", {}).items():
-                rays[kind] = rays.get(kind, 0) + count
+            rays.update(item.stats.get("rays", {}))
         totals = {"scenes": self.planned, "rendered": self.count("rendered"),
                   "skipped": self.count("skipped"), "failed": self.count("failed"),
                   "not_done": self.planned - len(self.items), "interrupted": interrupted,
@@ -282,5 +267,5 @@ class Totals:
                   "render_seconds": sum(item.stats["seconds"] for item in rendered),
                   "compile_seconds": sum(item.stats["compile_seconds"] for item in rendered),
                   "scene_seconds": sum(item.seconds for item in self.items),
-                  "rays": rays}
+                  "rays": dict(rays)}
         return {"scenes": [item.summary() for item in self.items], "totals": totals}

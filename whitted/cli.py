@@ -20,15 +20,13 @@ SCENE_KEYWORD_OPTIONS = {"--samples": "--spp", "--depth": "--max-depth",
                          "--minweight": "--min-weight"}
 
 
-def _body(module: str, function: str):
+def _command(sub, name: str, module: str, function: str, help: str,
+             description: str) -> argparse.ArgumentParser:
+    """The subcommand ``name``'s parser (kept in the arguments: errors speak its terms), run by
+    ``module.function(args)``, imported when it runs."""
     def run(args: argparse.Namespace):
         import importlib
         return getattr(importlib.import_module(module, __package__), function)(args)
-    return run
-
-
-def _command(sub, name: str, run, help: str, description: str) -> argparse.ArgumentParser:
-    """The subcommand ``name``'s parser (kept in the arguments: errors speak its terms)."""
     command = sub.add_parser(name, help=help, description=description)
     command.set_defaults(run=run, parser=command)
     return command
@@ -55,7 +53,7 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
     convert = _command(
-        sub, "convert", _body(".commands", "convert_command"),
+        sub, "convert", ".commands", "convert_command",
         help="convert legacy .scn scenes to Mitsuba 3 XML",
         description="""\
         Convert legacy .scn scenes to Mitsuba 3 XML (format 3.0.0): each X.scn becomes X.xml beside
@@ -76,7 +74,7 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
     _talk(convert, "say what was written", None)
 
     render = _command(
-        sub, "render", _body(".commands", "render_command"),
+        sub, "render", ".commands", "render_command",
         help="render .scn or .xml scenes to EXR or PNG (one, or folders of them)",
         description="""\
         Render a scene with the article's Whitted model (default) or Mitsuba's path tracer. EXR
@@ -145,7 +143,7 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
     _talk(render, "print a one-line summary")
 
     video = _command(
-        sub, "video", _body(".video", "video_command"),
+        sub, "video", ".video", "video_command",
         help="encode PNG or EXR frames as an H.264 video",
         description="""\
         Encode frames (image files, or folders of them: their PNG files sorted by name, else their
@@ -160,7 +158,7 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
     _talk(video, "say what was written")
 
     fit = _command(
-        sub, "fit", _body(".fitting", "fit_command"),
+        sub, "fit", ".fitting", "fit_command",
         help="fit a scene's colors, ambient and light colors to an image",
         description="""\
         Fit the article's model of a legacy scene to a target image (a path-traced reference, a
@@ -179,7 +177,7 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
     _talk(fit, None, "no progress bar, no losses")
 
     trace = _command(
-        sub, "trace", _body(".trace.cli", "trace_command"),
+        sub, "trace", ".trace.cli", "trace_command",
         help="the ray tree of a pixel, as the renderer computed it",
         description="""\
         Trace pixels' center rays as a render at one sample per pixel traces them (the whitted
@@ -195,7 +193,7 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
         add_arguments(trace)
 
     compare = _command(
-        sub, "compare", _body(".compare.cli", "compare_command"),
+        sub, "compare", ".compare.cli", "compare_command",
         help="what accuracy costs in time: sweep the methods against a path-traced reference",
         description="""\
         Render a converged path-traced reference (cached), then sweep the Whitted integrator (max

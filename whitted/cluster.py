@@ -54,8 +54,7 @@ def worker_task(variant: str, threads: dict[str, int]):
 
 
 def on_worker(function, variant: str, threads: dict[str, int], *args):
-    """``function(*args)`` as a task of a worker (:func:`worker_task`), its result's ``worker``
-    set to the worker's address."""
+    """``function(*args)`` in a :func:`worker_task`, its result's ``worker`` set."""
     with worker_task(variant, threads) as worker:
         result = function(*args)
         result.worker = worker
@@ -98,8 +97,7 @@ def available_cores() -> int:
 
 
 def prepare(variant: str, threads: dict[str, int]) -> str:
-    """This worker ready for ``variant`` with its share of the cores (``threads`` by host);
-    returns its address."""
+    """This worker's address, ready for ``variant`` with its share (``threads`` by host)."""
     global _prepared
     import drjit as dr
     from distributed import get_worker
@@ -131,8 +129,7 @@ def check_where(workers: int | None, scheduler: str | None) -> None:
 
 @contextlib.contextmanager
 def connect(workers: int | None, scheduler: str | None):
-    """A Dask client of a local cluster of ``workers`` processes (stopped on leaving), or of
-    the scheduler at ``scheduler``."""
+    """A Dask client of a local cluster of ``workers`` processes, or of ``scheduler``'s."""
     import logging
 
     from distributed import Client, LocalCluster
@@ -140,7 +137,14 @@ def connect(workers: int | None, scheduler: str | None):
     cluster = client = None
     try:
         if workers is not None:
-            _check_start_method()
+            import dask
+            import mitsuba as mi
+
+            method = dask.config.get("distributed.worker.multiprocessing-method")
+            if mi.variant().startswith("cuda") and method != "spawn":   # CUDA cannot run forked
+                raise WhittedError(f"--workers with {mi.variant()} needs Dask's worker processes "
+                                   f"spawned, not '{method}': unset "
+                                   "distributed.worker.multiprocessing-method")
             # Everything on 127.0.0.1, on free ports: without a dashboard the scheduler still
             # serves health and metrics over HTTP, by default on port 8787.
             with _workers_ignore_ctrl_c():
@@ -160,21 +164,9 @@ def connect(workers: int | None, scheduler: str | None):
             cluster.close()
 
 
-def _check_start_method() -> None:
-    """CUDA cannot run in a forked process: a CUDA variant's workers must be spawned."""
-    import dask
-    import mitsuba as mi
-
-    method = dask.config.get("distributed.worker.multiprocessing-method")
-    if mi.variant().startswith("cuda") and method != "spawn":
-        raise WhittedError(f"--workers with {mi.variant()} needs Dask's worker processes spawned, "
-                           f"not '{method}': unset distributed.worker.multiprocessing-method")
-
-
 @contextlib.contextmanager
 def _workers_ignore_ctrl_c():
-    """Start processes that ignore SIGINT (a child keeps it ignored): the terminal's Ctrl-C is
-    this process's to handle, not each worker's traceback."""
+    """Start processes that ignore SIGINT: the terminal's Ctrl-C is this process's to handle."""
     if threading.current_thread() is not threading.main_thread():
         yield
         return
@@ -190,7 +182,6 @@ def _connect_scheduler(address: str):
     import logging
 
     from distributed import Client
-
     from distributed.comm import parse_address, parse_host_port
     from distributed.comm.registry import get_backend
 

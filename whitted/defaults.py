@@ -32,18 +32,13 @@ IOR = 1.0
 NORTH: Vec3 = (0.0, 1.0, 0.0)
 EQUATOR: Vec3 = (0.0, 0.0, -1.0)
 
-# --- The scene format's limits -----------------------------------------------------------------
+# --- The scene format's limits (docs/scene-format.md, "Decided here": why) ---------------------
 MAX_SIZE = 16384                #: image width and height, pixels
 MAX_DEPTH = 64                  #: the deepest ray tree anything accepts (format, CLI, plugins)
 MAX_SAMPLES = 65536             #: samples per pixel in a scene file
-#: Every number's magnitude is at most this: light intensities (color * pi * d^2)
-#: and squared distances then stay far inside 32-bit float range.
-MAX_MAGNITUDE = "1e12"
-#: Radius, index of refraction and field of view are at least this, so that
-#: their squares and reciprocals stay normal 32-bit floats.
-MIN_POSITIVE = "1e-6"
-#: Two directions count as parallel when the sine of their angle is below this.
-PARALLEL_SINE = 1e-9
+MAX_MAGNITUDE = "1e12"          #: every number's largest magnitude
+MIN_POSITIVE = "1e-6"           #: the smallest radius, index of refraction and field of view
+PARALLEL_SINE = 1e-9            #: two directions are parallel below this sine of their angle
 #: A scene file's errors are all found; the message lists this many, then counts the rest.
 MAX_REPORTED_ERRORS = 20
 
@@ -90,32 +85,26 @@ WHITTED_DEFAULTS = {"max_depth": DEPTH, "ambient": AMBIENT, "lighting": LIGHTING
                     "wavefront_size": WAVEFRONT_SIZE, "without": ""}
 
 
-# --- whitted compare (docs/compare.md) ---------------------------------------------------------
+# --- whitted compare: docs/compare.md says what each does, by name ----------------------------
 COMPARE_REFERENCE_SPP = 4096              #: the path-traced reference's samples per pixel
 COMPARE_WHITTED_SPP = (1, 4, 16)          #: the Whitted sweep's spp ladder
 COMPARE_PATH_SPP = (1, 4, 16, 64, 256, 1024)   #: the path tracer's spp ladder
-#: the path tracer's error err = c + v/n is fitted to its first COMPARE_PATH_FIT_COUNTS renders
-#: and each next render checks it; once one is within COMPARE_PATH_CHECK (a fraction) of what
-#: the fit predicted, the ladder's higher counts are read from the fit, not rendered
 COMPARE_PATH_FIT_COUNTS = 3
 COMPARE_PATH_CHECK = 0.1
-#: the timed rounds (whitted/compare/timing.py; docs/compare.md, "Timing"): how many, when a
-#: render is repeated, when a headline ratio has settled, on how many LLVM threads (None: all)
-#: and by which clock ("cpu" or "wall")
 COMPARE_ROUNDS = 3
 COMPARE_HEADLINE_ROUNDS = 8
 COMPARE_MAX_ROUNDS = 25
 COMPARE_ROUNDS_SECONDS = 8.0
-#: a render whose one-thread time is over COMPARE_LONG_SECONDS is timed in its first
-#: COMPARE_LONG_ROUNDS rounds only: its time is known to a few percent by then
 COMPARE_LONG_SECONDS = 1.0
 COMPARE_LONG_ROUNDS = 2
-COMPARE_CONFIDENCE = 0.9
+COMPARE_CONFIDENCE = 0.9   #: how surely a headline's interval holds the median ratio
+#: a round repeats a render back to back for COMPARE_ROUND_SECONDS (its fastest time counts), at
+#: most COMPARE_ROUND_REPEATS times
 COMPARE_ROUND_SECONDS = 0.05
 COMPARE_ROUND_REPEATS = 8
 COMPARE_SETTLED_WIDTH = 0.25
-COMPARE_TIMING_THREADS = 1
-COMPARE_CLOCK = "cpu"
+COMPARE_TIMING_THREADS = 1   #: LLVM threads of a timed render (None: all)
+COMPARE_CLOCK = "cpu"   #: the timing rounds' clock, "cpu" or "wall"
 #: Dr.Jit's memory cache is handed back between settings once the process holds more than this
 COMPARE_KEPT_MEMORY = 1 << 30
 #: the equal-quality table's levels between the best and worst errors measured (--levels)
@@ -125,48 +114,31 @@ COMPARE_MAX_DEFAULT_DEPTH = 8
 #: the reference is rendered in chunks of at most this many spp, each with its own seed
 #: (the same reference on a cluster or in one process)
 COMPARE_REFERENCE_CHUNK_SPP = 1024
-#: seconds to wait for a Dask scheduler (and its first worker)
-COMPARE_CONNECT_TIMEOUT = 5.0
-#: a Whitted method's floor: its cheapest render within this fraction of its best error
+COMPARE_CONNECT_TIMEOUT = 5.0   #: seconds to wait for a Dask scheduler (and its first worker)
 COMPARE_FLOOR_TOLERANCE = 0.05
-#: the model's limit is rendered in two halves of at least COMPARE_LIMIT_SPP_FACTOR times the
-#: sweep's densest spp, doubled (up to COMPARE_LIMIT_MAX_SPP) until its noise is below
-#: COMPARE_LIMIT_NOISE_SHARE of the smallest difference it measures
 COMPARE_LIMIT_SPP_FACTOR = 8
 COMPARE_LIMIT_MAX_SPP = 4096
 COMPARE_LIMIT_NOISE_SHARE = 0.1
-#: without --budget, the reference's first COMPARE_REFERENCE_START_SPP samples (two halves)
-#: estimate its noise; it is rendered at the power of two whose noise is below
-#: COMPARE_REFERENCE_NOISE_SHARE of the smallest Whitted error it scores, at most --reference-spp
 COMPARE_REFERENCE_START_SPP = 32
 COMPARE_REFERENCE_NOISE_SHARE = 0.01
-#: under --budget: the reference's largest share of a scene's time, its fewest spp (else the
-#: scene is refused), the probe's render time, and the seconds kept back for the outputs
 COMPARE_REFERENCE_SHARE = 0.5
 COMPARE_MIN_REFERENCE_SPP = 8
-COMPARE_PROBE_SECONDS = 0.1
+COMPARE_PROBE_SECONDS = 0.1   #: under --budget, the render time of the reference's probe
 COMPARE_REPORT_SECONDS = 3.0
-#: under --budget, the shares of a scene's time after its reference kept for the timing rounds
-#: (beyond what the renders predict for theirs) and for the limits and fit
 COMPARE_ROUNDS_SHARE = 0.2
 COMPARE_LIMITS_SHARE = 0.25
-#: --quick: a settled verdict on an example scene in under 30 s on a 2-core laptop
 COMPARE_QUICK = {"reference_spp": 256, "path_spp": (1, 4, 16, 64), "rounds": 2, "budget": 25.0}
 
 
 # --- Validation, written once ----------------------------------------------------------------------
 
-def _integer(value, what: str) -> int:
+def _bounded(value, what: str, low, high, rule: str) -> int:
     if isinstance(value, bool) or (not isinstance(value, (int, float))
                                    and not hasattr(value, "__index__")):
         raise WhittedError(f"{what} must be an integer, got {value!r}")
     if isinstance(value, float) and not value.is_integer():
         raise WhittedError(f"{what} must be an integer, got {value}")
-    return int(value)
-
-
-def _bounded(value, what: str, low, high, rule: str) -> int:
-    value = _integer(value, what)
+    value = int(value)
     if not low <= value <= high:
         raise WhittedError(f"{what} must be {rule}, got {value}")
     return value

@@ -22,17 +22,16 @@ class SceneEditor:
         from .converter import Scene, parse_file
         from .converter.description import describe
         from .converter.frame import warn_scene
-        from .loading import _leaving_out, prepared
-        self._params, self._without = prepared(variant, overrides)
+        from .loading import _leaving_out, _loaded, mitsuba_dict, prepared
+        params, without = prepared(variant, overrides)
         if isinstance(source, Scene):
             self.model = source
         else:
             self.model = parse_file(Path(source))
             warn_scene(self.model)
         self._description = describe(self.model, base_dir=None)
-        from .loading import _loaded, mitsuba_dict
-        loaded = _loaded(mitsuba_dict(self._description, self._params), meshes=True)
-        self.scene = _leaving_out(loaded, self._without, self.model.source)
+        loaded = _loaded(mitsuba_dict(self._description, params), meshes=True)
+        self.scene = _leaving_out(loaded, without, self.model.source)
 
     @classmethod
     def loads(cls, text: str, variant: str | None = None, *, base_dir: str | os.PathLike = ".",
@@ -119,7 +118,11 @@ def _differences(old, new, path=()) -> list:
 
 
 def _parameter(path: tuple, value, scene: dict):
-    """``(key, value)`` of the Mitsuba parameter that makes a change, or None (a new scene)."""
+    """``(key, value)`` of the Mitsuba parameter that makes a change, or None (a new scene); a
+    sphere's transform made as its plugin makes it."""
+    import mitsuba as mi
+    import numpy as np
+
     from .converter.description import Matrix
     obj = scene.get(path[0]) if path else None
     kind = obj.get("type") if isinstance(obj, dict) else None
@@ -128,26 +131,21 @@ def _parameter(path: tuple, value, scene: dict):
             or path in (("sensor", "near_clip"), ("sensor", "far_clip"))):
         return ".".join(path), value
     if kind == "sphere" and path[1:] in (("center",), ("radius",)):
-        return f"{path[0]}.to_world", ("sphere", obj["center"], obj["radius"])
+        return f"{path[0]}.to_world", mi.ScalarAffineTransform4f().translate(
+            mi.ScalarPoint3f(obj["center"])).scale(mi.ScalarVector3f(obj["radius"]))
     if kind == "sphere" and path[1:] == ("to_world",) and isinstance(value, Matrix):
-        return f"{path[0]}.to_world", ("matrix", value.rows)
+        exact = mi.ScalarAffineTransform4d(mi.ScalarMatrix4d(np.array(value.rows, np.float64)))
+        return f"{path[0]}.to_world", mi.ScalarAffineTransform4f(
+            mi.ScalarMatrix4f(np.array(exact.matrix, np.float32)),
+            mi.ScalarMatrix4f(np.array(exact.inverse_transpose, np.float32)))
     return None
 
 
 def _as(current, value):
-    """``value`` as the type of ``current``, a sphere's transform made as its plugin makes it."""
+    """``value`` as the type of ``current``."""
     import mitsuba as mi
-    import numpy as np
-    if isinstance(value, tuple) and value and value[0] == "sphere":
-        _, center, radius = value
-        transform = mi.ScalarAffineTransform4f().translate(mi.ScalarPoint3f(center)).scale(
-            mi.ScalarVector3f(radius))
-        return type(current)(transform)
-    if isinstance(value, tuple) and value and value[0] == "matrix":
-        exact = mi.ScalarAffineTransform4d(mi.ScalarMatrix4d(np.array(value[1], np.float64)))
-        transform = mi.ScalarAffineTransform4f(mi.ScalarMatrix4f(np.array(exact.matrix, np.float32)),
-                                               mi.ScalarMatrix4f(np.array(exact.inverse_transpose, np.float32)))
-        return type(current)(transform)
+    if isinstance(value, mi.ScalarAffineTransform4f):
+        return type(current)(value)
     if isinstance(current, float):
         return float(value)
     return type(current)(*value)

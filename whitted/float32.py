@@ -5,6 +5,8 @@ offsets), docs/numerics.md, "The error bound behind the ray offsets".
 
 from __future__ import annotations
 
+from .defaults import Vec3
+
 #: float32's unit round-off, 2^-24
 UNIT_ROUNDOFF = 2.0 ** -24
 #: the error bound of a hit point, in round-offs of its shape's radius and of its center's
@@ -19,14 +21,9 @@ def hit_error(radius, center):
     return (RADIUS_ULPS * UNIT_ROUNDOFF) * radius + (CENTER_ULPS * UNIT_ROUNDOFF) * center
 
 
-# The ``exact_spheres`` property: ``id: x y z r`` per sphere too coarse for float32, joined
-# by ``"; "``, each number as ``repr`` writes a float64.
-
-Vec3 = tuple[float, float, float]
-
-
 def exact_spheres(entries) -> str:
-    """The ``exact_spheres`` property of ``(id, center, radius)`` entries."""
+    """The ``exact_spheres`` property of ``(id, center, radius)`` entries: ``id: x y z r`` per
+    sphere too coarse for float32, joined by ``"; "``, each number as ``repr`` writes a float64."""
     return "; ".join(f"{key}: {' '.join(repr(float(v)) for v in (*center, radius))}"
                      for key, center, radius in entries)
 

@@ -39,8 +39,7 @@ def default_view(integrator: str = "whitted", lighting: str | None = None) -> st
 
 
 def fitting_view(reference, exposure: float = 0.0) -> str:
-    """The view of a comparison against ``reference``: ``clip`` while it clips less than
-    :data:`MOST_CLIPPED` of the reference's pixels, else ``aces``."""
+    """``clip`` while it clips under :data:`MOST_CLIPPED` of ``reference``, else ``aces``."""
     return "clip" if clipped_fraction(to_srgb(reference, exposure, "clip")) < MOST_CLIPPED else "aces"
 
 
@@ -130,8 +129,7 @@ def _banded(image, exposure, view, dtype, encode, rows_done=None) -> np.ndarray:
 
 
 def to_display(image, exposure: float = 0.0, view: str = "clip") -> np.ndarray:
-    """A linear RGB image (H, W, 3) as float32 display values in [0, 1], sRGB-encoded:
-    what FLIP scores and what :func:`to_srgb` rounds to 8 bits."""
+    """A linear RGB image as sRGB-encoded float32 in [0, 1]: what FLIP scores, to_srgb rounds."""
     return _banded(image, exposure, view, np.float32, _display_band)
 
 
@@ -142,8 +140,7 @@ def _srgb8_band(band: np.ndarray, exposure: float, view: str) -> np.ndarray:
 
 
 def to_srgb(image, exposure: float = 0.0, view: str = "clip", rows_done=None) -> np.ndarray:
-    """A linear RGB image (H, W, 3) as the 8-bit sRGB colors a PNG holds, after ``exposure``
-    (stops) and ``view``; ``rows_done(n)`` is called after each band of rows."""
+    """A linear RGB image as the 8-bit sRGB a PNG holds; ``rows_done(n)`` after each band."""
     return _banded(image, exposure, view, np.uint8, _srgb8_band, rows_done)
 
 

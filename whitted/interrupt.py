@@ -1,8 +1,7 @@
-"""Ctrl-C and SIGTERM: one clean stop, whatever was running.
-
-Some places wrap a ``KeyboardInterrupt`` (Dr.Jit returns one raised in a ``custom``
-operation as a ``RuntimeError``), so the handler also remembers the stop: code that reacts
-to one asks :func:`requested`, not the exception's type. SIGTERM is treated the same way.
+"""Ctrl-C and SIGTERM: one clean stop, whatever was running. Some places wrap a
+``KeyboardInterrupt`` (Dr.Jit returns one raised in a ``custom`` operation as a
+``RuntimeError``), so the handler also remembers the stop: code that reacts to one asks
+:func:`requested`, not the exception's type.
 """
 
 from __future__ import annotations

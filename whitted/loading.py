@@ -4,6 +4,7 @@ description, the one the XML writer writes out, goes to ``mi.load_dict`` without
 
 from __future__ import annotations
 
+import functools
 import os
 import re
 from dataclasses import dataclass
@@ -206,7 +207,7 @@ def _scene_dict(model, params: dict, ellipsoids: bool | None, integrator: str) -
     grouping = None
     if ellipsoids or (ellipsoids is None and count >= D.SEALED_MIN_GROUP):
         from . import sealed
-        grouping = sealed.choose(model, min_group=1 if ellipsoids else sealed.MIN_GROUP,
+        grouping = sealed.choose(model, min_group=1 if ellipsoids else D.SEALED_MIN_GROUP,
                                  classes=sealed.MAX_LAYERS, smaller=integrator == "whitted")
     if grouping is None:
         return mitsuba_dict(describe(model, base_dir=None), params), model, [], 1.0
@@ -216,20 +217,16 @@ def _scene_dict(model, params: dict, ellipsoids: bool | None, integrator: str) -
 
 
 def _loaded(scene: dict, meshes: bool):
+    """``mi.load_dict(scene)``; ``meshes=False``: giant spheres' meshes made spheres again."""
     import mitsuba as mi
-    return mi.load_dict(scene if meshes else _giants_as_spheres(scene), parallel=PARALLEL)
 
-
-def _giants_as_spheres(scene: dict) -> dict:
     from .converter.giants import parse_exact_spheres
-    listed = scene.get("integrator", {}).get("exact_spheres")
-    if not listed:
-        return scene
-    for key, center, radius in parse_exact_spheres(listed):
+    listed = "" if meshes else scene.get("integrator", {}).get("exact_spheres")
+    for key, center, radius in parse_exact_spheres(listed or ""):
         shape = scene.get(key)
         if isinstance(shape, dict) and shape.get("type") == "ply":
             scene[key] = {"type": "sphere", "center": center, "radius": radius, "bsdf": shape["bsdf"]}
-    return scene
+    return mi.load_dict(scene, parallel=PARALLEL)
 
 
 def _sealed_dict(remaining, model, grouping, params: dict) -> tuple[dict, list]:
@@ -261,15 +258,10 @@ class Source:
     text: str | None = None
 
 
-_kept = None
-
-
+@functools.cache
 def _store():
-    global _kept
-    if _kept is None:
-        from .plugins.scene_tables import KeptByScene
-        _kept = KeptByScene(REMEMBERED)
-    return _kept
+    from .plugins.scene_tables import KeptByScene
+    return KeptByScene(REMEMBERED)
 
 
 def recall(scene) -> Source | None:

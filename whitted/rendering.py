@@ -198,12 +198,21 @@ def render_checked(scene, integrator: str = D.INTEGRATOR, spp: int | None = None
                     "min_weight": whitted.min_weight, "culled_rays": rays.culled,
                     "culled_weight": rays.culled_weight, "error_bound": rendering.error_bound}
     else:
-        path = _path_integrator(scene, max_depth, depth)
+        import mitsuba as mi
+
+        from .plugins import scene_effects
+        path = scene.integrator()   # the scene's own path tracer when no depth is asked for
+        if max_depth is not None or path is None or path.class_name() != "PathIntegrator":
+            path = mi.load_dict({"type": "path", "max_depth": D.path_depth(depth)})
         with progress_bar(progress, width * height * spp, "path tracing") as bar, Clock(fresh_memory) as clock:
             image = _render_path(scene, path, sensor, spp, seed, bar.update)
         # Mitsuba's path tracer counts nothing: only what the caller knows is reported.
-        stats_rays, effects = {"camera": width * height * spp}, _effects_or_none(scene, depth)
+        stats_rays = {"camera": width * height * spp}
         adaptive = {}
+        try:
+            effects = list(scene_effects(scene, depth))
+        except WhittedError:
+            effects = []
 
     image = image[..., :3]
     stats = {"rays": stats_rays, "spp": spp, "seconds": clock.seconds, "compile_seconds": clock.compile,
@@ -222,15 +231,6 @@ def check_article_materials(scene, name: str | None = None):
         raise WhittedError(f"{name + ': ' if name else ''}{error} (Mitsuba's stock materials, a "
                            "portable scene? use the path integrator (--integrator path), or the "
                            "default XML)") from None
-
-
-def _path_integrator(scene, max_depth: int | None, depth: int):
-    """The scene's own path tracer when no depth is asked for, else one for ``depth``."""
-    import mitsuba as mi
-    own = scene.integrator()
-    if max_depth is None and own is not None and own.class_name() == "PathIntegrator":
-        return own
-    return mi.load_dict({"type": "path", "max_depth": D.path_depth(depth)})
 
 
 def path_passes(spp: int, pixels: int) -> list[int]:
@@ -261,14 +261,6 @@ def _render_path(scene, integrator, sensor, spp, seed, progress) -> np.ndarray:
     finally:
         sensor.sampler().set_sample_count(own_spp)
     return (total / spp).astype(np.float32)
-
-
-def _effects_or_none(scene, depth: int) -> list:
-    from .plugins import scene_effects
-    try:
-        return list(scene_effects(scene, depth))
-    except WhittedError:
-        return []
 
 
 # The process's resident memory and its peak: Linux keeps the peak (``VmHWM``) and lets a

@@ -25,7 +25,6 @@ MAX_REACH = 1e6
 #: the most other radii grouped for the Whitted integrator (a layer, and a traversal per
 #: ray, each; a sphere left as a shape slows every shadow ray more)
 MAX_LAYERS = 8
-MIN_GROUP = D.SEALED_MIN_GROUP
 
 
 def sealed(scene: Scene, spheres: SphereArrays | None = None) -> np.ndarray:
@@ -54,7 +53,7 @@ class Grouping:
     radii: tuple[float, ...] = ()   # every grouped radius, ``radius`` first
 
 
-def choose(scene: Scene, min_group: int = MIN_GROUP, classes: int = 0,
+def choose(scene: Scene, min_group: int = D.SEALED_MIN_GROUP, classes: int = 0,
            smaller: bool = True) -> Grouping | None:
     """The sealed spheres of the commonest radius if ``min_group`` share it, and of up to
     ``classes`` other radii, the ones most spheres share (ties: the larger), smaller ones
@@ -68,7 +67,7 @@ def choose(scene: Scene, min_group: int = MIN_GROUP, classes: int = 0,
         return None
     if any(tuple(light.position) == tuple(scene.lookat) for light in scene.lights):
         return None
-    mask = sealed(scene, spheres) & ~_coarse(scene, spheres)
+    mask = sealed(scene, spheres) & ~coarse_candidates(spheres, tuple(scene.lookat))[1]
     if mask.sum() < min_group:
         return None
     values, counts = np.unique(spheres.radius[mask], return_counts=True)
@@ -85,11 +84,6 @@ def choose(scene: Scene, min_group: int = MIN_GROUP, classes: int = 0,
         order = np.lexsort((-values, -counts))[:classes]
         radii += [float(values[k]) for k in order]
     return Grouping(1.0 / r, r, mask & np.isin(spheres.radius, radii), spheres, tuple(radii))
-
-
-def _coarse(scene: Scene, spheres: SphereArrays) -> np.ndarray:
-    """Per sphere: whether it may be giant (the converter judges it: converter/giants.py)."""
-    return coarse_candidates(spheres, tuple(scene.lookat))[1]
 
 
 def _about(point, origin, scale):
@@ -140,7 +134,7 @@ def ellipsoids_ply(centers: np.ndarray) -> bytes:
     return header.encode("ascii") + rows.tobytes()
 
 
-def described(scene: Scene, base_dir, min_group: int = MIN_GROUP) -> Description:
+def described(scene: Scene, base_dir, min_group: int = D.SEALED_MIN_GROUP) -> Description:
     """The portable XML's description of ``scene``: the spheres grouped for Mitsuba's own
     integrators as ``ellipsoids`` shapes read from ``SCENE.sealed_K.ply`` files (docs/portable.md)."""
     grouping = choose(scene, min_group, classes=MAX_LAYERS, smaller=False)

@@ -1,9 +1,7 @@
-"""Choosing Mitsuba's variant, and a libLLVM that Dr.Jit can use.
-
-Dr.Jit's llvm backend *aborts the process* on a libLLVM older than 16, so before Dr.Jit
-starts the newest libLLVM >= 16 is found and ``DRJIT_LIBLLVM_PATH`` points at it; without
-one the default variant is ``scalar_rgb``, with a warning. The only place that decides the
-variant.
+"""Choosing Mitsuba's variant (only here), and a libLLVM that Dr.Jit can use: its llvm
+backend *aborts the process* on a libLLVM older than 16, so before Dr.Jit starts the newest
+libLLVM >= 16 is found and ``DRJIT_LIBLLVM_PATH`` points at it; without one the default
+variant is ``scalar_rgb``, with a warning.
 """
 
 from __future__ import annotations
@@ -70,12 +68,13 @@ def prepare_llvm() -> str | None:
     return path
 
 
-def check_environment() -> None:
-    """A clean error for a ``$WHITTED_VARIANT`` that names no supported variant."""
+def check_environment() -> str | None:
+    """``$WHITTED_VARIANT`` (None: unset), or a clean error if it names no supported variant."""
     requested = os.environ.get("WHITTED_VARIANT")
     if requested and requested not in VARIANTS:
         raise WhittedError(f"WHITTED_VARIANT={requested}: not a variant whitted runs in; choose one of "
                            + ", ".join(VARIANTS))
+    return requested or None
 
 
 def default_variant() -> str:
@@ -83,8 +82,7 @@ def default_variant() -> str:
     global _fallback_warned
     if _requested is not None:
         return _requested
-    check_environment()
-    requested = os.environ.get("WHITTED_VARIANT")
+    requested = check_environment()
     if requested:
         return requested
     if prepare_llvm() is not None:
@@ -102,7 +100,27 @@ def set_variant(variant: str | None = None) -> str:
     from .interrupt import deferred
     request(variant)
     with deferred():
-        return _set_variant(variant)
+        import mitsuba as mi
+
+        if variant is None:
+            variant = mi.variant() or default_variant()
+        if variant not in VARIANTS:
+            raise WhittedError(f"unsupported variant '{variant}'; choose one of "
+                               + ", ".join(VARIANTS))
+        if variant.startswith("llvm") and prepare_llvm() is None:
+            raise WhittedError(f"variant {variant} needs libLLVM >= {MIN_LLVM_VERSION}: install "
+                               "Debian's libllvm19 or set DRJIT_LIBLLVM_PATH")
+        if variant.startswith("cuda"):
+            import drjit as dr
+            if not dr.has_backend(dr.JitBackend.CUDA):
+                raise WhittedError(f"variant {variant} needs an NVIDIA GPU with a CUDA driver")
+        if variant not in mi.variants():
+            raise WhittedError(f"this Mitsuba build has no variant {variant}")
+        if mi.variant() != variant:
+            mi.set_variant(variant)
+        from whitted import plugins
+        plugins.register()
+        return variant
 
 
 def request(variant: str | None) -> None:
@@ -110,30 +128,6 @@ def request(variant: str | None) -> None:
     global _requested
     if variant in VARIANTS and "mitsuba" not in sys.modules:
         _requested = variant
-
-
-def _set_variant(variant: str | None) -> str:
-    import mitsuba as mi
-
-    if variant is None:
-        variant = mi.variant() or default_variant()
-    if variant not in VARIANTS:
-        raise WhittedError(f"unsupported variant '{variant}'; choose one of "
-                           + ", ".join(VARIANTS))
-    if variant.startswith("llvm") and prepare_llvm() is None:
-        raise WhittedError(f"variant {variant} needs libLLVM >= {MIN_LLVM_VERSION}: install "
-                           "Debian's libllvm19 or set DRJIT_LIBLLVM_PATH")
-    if variant.startswith("cuda"):
-        import drjit as dr
-        if not dr.has_backend(dr.JitBackend.CUDA):
-            raise WhittedError(f"variant {variant} needs an NVIDIA GPU with a CUDA driver")
-    if variant not in mi.variants():
-        raise WhittedError(f"this Mitsuba build has no variant {variant}")
-    if mi.variant() != variant:
-        mi.set_variant(variant)
-    from whitted import plugins
-    plugins.register()
-    return variant
 
 
 def on_variant_changed(old: str | None, new: str | None) -> None:

@@ -34,15 +34,6 @@ def check_fps(fps: float) -> float:
     return float(fps)
 
 
-def video_frames(inputs: list[str | os.PathLike]) -> list[Path]:
-    """The frames ``inputs`` name: files as given, a folder's PNGs by name (else its EXRs)."""
-    from .converter.batch import expand_folders
-    frames = expand_folders(inputs, FRAME_SUFFIXES, ".png or .exr frames", _check_frame)
-    if not frames:
-        raise WhittedError("no frames given: name .png or .exr files or folders")
-    return frames
-
-
 def _check_frame(path: Path) -> None:
     if path.suffix.lower() not in FRAME_SUFFIXES:
         raise WhittedError(f"{path}: not a frame (.png or .exr)")
@@ -111,10 +102,14 @@ def write_video(path: str | os.PathLike, frames: list[Path], fps: float = D.DEFA
 
 
 def video_command(args) -> None:
-    """``whitted video FRAMES... -o OUT.mp4 [--fps N]``."""
+    """``whitted video FRAMES... -o OUT.mp4 [--fps N]``: files as given, a folder's PNGs by
+    name (else its EXRs)."""
+    from .converter.batch import expand_folders
     check_video_path(args.output)
     check_fps(args.fps)
-    frames = video_frames(args.frames)
+    frames = expand_folders(args.frames, FRAME_SUFFIXES, ".png or .exr frames", _check_frame)
+    if not frames:
+        raise WhittedError("no frames given: name .png or .exr files or folders")
     write_video(args.output, frames, args.fps, progress=not args.quiet)
     if args.verbose:
         import sys

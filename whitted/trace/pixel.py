@@ -15,16 +15,6 @@ from ..errors import WhittedError
 from .nodes import Node, SphereRef, text_tree
 
 
-def _comment(line: str) -> tuple[str, str | None]:
-    quoted = False
-    for i, c in enumerate(line):
-        if c == '"':
-            quoted = not quoted
-        elif c == "#" and not quoted:
-            return line[:i].strip(), line[i + 1:].strip() or None
-    return line.strip(), None
-
-
 @dataclass
 class SceneView:
     """The scene's spheres and lights in the file's coordinates and names (world = frame /
@@ -84,9 +74,17 @@ class SceneView:
         return int(np.argmin(np.linalg.norm(spots - np.asarray(position), axis=1)))
 
     def words(self, line: int | None) -> tuple[str | None, str | None]:
+        """The statement on ``line`` of the file, and its comment (a ``#`` outside quotes)."""
         if not line or not self.text or not 0 < line <= len(self.text):
             return None, None
-        return _comment(self.text[line - 1])
+        text = self.text[line - 1]
+        quoted = False
+        for i, c in enumerate(text):
+            if c == '"':
+                quoted = not quoted
+            elif c == "#" and not quoted:
+                return text[:i].strip(), text[i + 1:].strip() or None
+        return text.strip(), None
 
 
 def scene_view(scene) -> SceneView:
