@@ -21,8 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from whitted.converter.scene import Light, Material, Scene, Sphere, Vec3
-
-from .scenes import to_scn
+from whitted.converter.scn_writer import scene_to_scn
 
 #: the levels written here (0 is a lone sphere; 6 holds 597 871 spheres)
 LEVELS = range(0, 7)
@@ -146,7 +145,7 @@ def title(level: int, floor_radius: float = FLOOR_RADIUS) -> str:
 
 def write(level: int, path: str | Path, floor_radius: float = FLOOR_RADIUS) -> Path:
     path = Path(path)
-    path.write_text(to_scn(scene(level, floor_radius), title(level, floor_radius)))
+    path.write_text(scene_to_scn(scene(level, floor_radius), ".", title(level, floor_radius)))
     return path
 
 
