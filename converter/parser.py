@@ -10,7 +10,6 @@ a sphere in doubt is read again on its own by the statement reader, which alone 
 
 from __future__ import annotations
 
-import contextlib
 import difflib
 import gc
 import math
@@ -36,6 +35,9 @@ MIN_POSITIVE = Decimal(defaults.MIN_POSITIVE)
 
 GLOBALS = ("size", "eye", "lookat", "up", "fov", "background", "ambient", "depth", "samples", "minweight")
 STATEMENTS = GLOBALS + ("light", "sphere")
+#: statement of one number -> the scene's field, its placeholder (N: an integer), its range
+NUMBERS = {"ambient": ("ambient", "A", 0, 1), "depth": ("depth", "N", 1, MAX_DEPTH),
+           "samples": ("samples", "N", 1, MAX_SAMPLES), "minweight": ("min_weight", "W", 0, 1)}
 #: Sphere attribute -> names of its values (their count is the attribute's arity).
 ATTRIBUTES = {
     "color": ("R", "G", "B"),
@@ -234,17 +236,11 @@ def parse_text(text: str, source: str | os.PathLike, *, careful: bool = False) -
     if text.startswith("\ufeff"):
         text = text[1:]
     parser = _Parser(source)
-    with _no_gc():   # a large scene makes millions of short-lived lists, none in a cycle
+    enabled = gc.isenabled()
+    gc.disable()   # a large scene makes millions of short-lived lists, none in a cycle
+    try:
         _read(parser, text, careful)
         return parser.finish()
-
-
-@contextlib.contextmanager
-def _no_gc():
-    enabled = gc.isenabled()
-    gc.disable()
-    try:
-        yield
     finally:
         if enabled:
             gc.enable()
@@ -413,7 +409,12 @@ class _Parser:
             if name in self.seen:
                 self.fail(f"{name} given twice (first on line {self.seen[name]})")
             self.seen[name] = line
-        getattr(self, f"statement_{name}")(args)
+        if name in ("eye", "lookat", "up"):
+            self.point(name, args)
+        elif name in NUMBERS:
+            self.one_number(name, args)
+        else:
+            getattr(self, f"statement_{name}")(args)
 
     def statement_size(self, args):
         self.count("size", args, "W H", 2)
@@ -422,19 +423,11 @@ class _Parser:
             self.in_range(value, token, f"size {n}", 1, MAX_SIZE)
         self.scene.width, self.scene.height = int(width), int(height)
 
-    def _point(self, name, args) -> Vec3:
+    def point(self, name: str, args) -> None:
+        """``eye``, ``lookat`` or ``up``."""
         self.count(name, args, "X Y Z", 3)
-        return _floats(self.vector(args, name))
-
-    def statement_eye(self, args):
-        self.scene.eye = self._point("eye", args)
-
-    def statement_lookat(self, args):
-        self.scene.lookat = self._point("lookat", args)
-
-    def statement_up(self, args):
-        self.scene.up = self._point("up", args)
-        if _is_zero(self.scene.up):
+        setattr(self.scene, name, _floats(self.vector(args, name)))
+        if name == "up" and _is_zero(self.scene.up):
             self.fail("up must not be zero")
 
     def statement_fov(self, args):
@@ -442,7 +435,7 @@ class _Parser:
         fov = self.number(args[0], "fov")
         self.in_range(fov, args[0], "fov", 0, 180, low_open=True, high_open=True)
         self.positive(fov, args[0], "fov")
-        if _float32(float(fov)) >= 180.0:
+        if struct.unpack("f", struct.pack("f", float(fov)))[0] >= 180.0:
             self.fail(f"fov must be < 180 (it rounds to 180 in 32-bit floats), got {args[0]}")
         self.scene.fov = float(fov)
 
@@ -450,22 +443,12 @@ class _Parser:
         self.count("background", args, "R G B", 3)
         self.scene.background = _floats(self.color(args, "background color"))
 
-    def _one_number(self, args, statement, placeholder, low, high, integer=False):
-        self.count(statement, args, placeholder, 1)
-        value = self.bounded(args[0], statement, low, high, integer)
-        return int(value) if integer else float(value)
-
-    def statement_ambient(self, args):
-        self.scene.ambient = self._one_number(args, "ambient", "A", 0, 1)
-
-    def statement_depth(self, args):
-        self.scene.depth = self._one_number(args, "depth", "N", 1, MAX_DEPTH, integer=True)
-
-    def statement_samples(self, args):
-        self.scene.samples = self._one_number(args, "samples", "N", 1, MAX_SAMPLES, integer=True)
-
-    def statement_minweight(self, args):
-        self.scene.min_weight = self._one_number(args, "minweight", "W", 0, 1)
+    def one_number(self, name: str, args) -> None:
+        """A statement of one number (:data:`NUMBERS`); N is an integer."""
+        field, placeholder, low, high = NUMBERS[name]
+        self.count(name, args, placeholder, 1)
+        value = self.bounded(args[0], name, low, high, integer=placeholder == "N")
+        setattr(self.scene, field, int(value) if placeholder == "N" else float(value))
 
     def statement_light(self, args):
         self.count("light", args, "X Y Z [R G B]", 3, 6)
@@ -485,7 +468,8 @@ class _Parser:
         while numbers < len(args) and not isinstance(args[numbers], Quoted) and _NUMBER.fullmatch(args[numbers]):
             numbers += 1
         if numbers < 4:
-            if numbers < len(args) and not _looks_like_name(args[numbers]):
+            if numbers < len(args) and (isinstance(args[numbers], Quoted)
+                                        or args[numbers].lower() not in ATTRIBUTES):
                 self.number(args[numbers], "sphere " + ("center" if numbers < 3 else "radius"))
             self.fail(f"sphere takes 4 numbers (CX CY CZ RADIUS), got {numbers}")
         if numbers > 4:
@@ -622,7 +606,10 @@ class _Parser:
                 self.fail(f"sphere {name} takes {len(names)} "
                           f"{'value' if len(names) == 1 else 'values'} ({' '.join(names)}), "
                           f"got {len(given)}")
-            values[name] = self.part(getattr(self, f"attribute_{name}"), given)
+            if name in ("north", "equator"):
+                values[name] = self.part(self.vector, given, f"sphere {name}")
+            else:
+                values[name] = self.part(getattr(self, f"attribute_{name}"), given)
             i += 1 + len(names)
         return values
 
@@ -637,12 +624,6 @@ class _Parser:
         ior = self.number(args[1], "sphere refract IOR")
         self.positive(ior, args[1], "sphere refract IOR")
         return kt, ior
-
-    def attribute_north(self, args):
-        return self.vector(args, "sphere north")
-
-    def attribute_equator(self, args):
-        return self.vector(args, "sphere equator")
 
     def attribute_texture(self, args) -> Path:
         token = args[0]
@@ -700,16 +681,8 @@ def _by_first_use(index: np.ndarray, values: list) -> tuple[np.ndarray, tuple]:
     return remap[index], tuple(values[k] for k in order.tolist())
 
 
-def _looks_like_name(token: str) -> bool:
-    return not isinstance(token, Quoted) and token.lower() in ATTRIBUTES
-
-
 def _floats(values) -> Vec3:
     return tuple(float(v) for v in values)
-
-
-def _float32(x: float) -> float:
-    return struct.unpack("f", struct.pack("f", x))[0]
 
 
 def _is_zero(v) -> bool:
