@@ -98,12 +98,6 @@ def _coarse_of(spheres: SphereArrays, origin: Vec3, smallest: float | None) -> t
     return giant, misplaced.tolist()
 
 
-def giant_spheres(scene: Scene, origin: Vec3, smallest: float | None = None,
-                  spheres: SphereArrays | None = None) -> list[int]:
-    """The giant spheres of :func:`coarse_spheres`."""
-    return coarse_spheres(scene, origin, smallest, spheres)[0]
-
-
 #: Mitsuba's own ray offset near a point p is ``(1 + max|p_i|)·RayEpsilon``, RayEpsilon = 1500 ε
 RAY_EPSILON = 1500 * UNIT_ROUNDOFF
 #: the mesh's deviation from its sphere relative to the eye's distance (below a pixel)
@@ -184,15 +178,6 @@ def sphere_mesh(center: Vec3, radius: float, eye: Vec3, view: float, tolerance: 
     flip = np.einsum("ij,ij->i", np.cross(p1 - p0, p2 - p0), p0 + p1 + p2) < 0
     faces[flip] = faces[flip][:, [0, 2, 1]]
     return c + radius * normals, normals, faces
-
-
-def deviation(positions, faces, center: Vec3, radius: float):
-    """Per triangle, how far its plane lies inside the sphere (bounds its distance off it)."""
-    import numpy as np
-    p0, p1, p2 = (np.asarray(positions, np.float64)[faces[:, k]] for k in range(3))
-    normal = np.cross(p1 - p0, p2 - p0)
-    normal /= np.linalg.norm(normal, axis=1)[:, None]
-    return radius - np.abs(np.einsum("ij,ij->i", normal, p0 - np.asarray(center, np.float64)))
 
 
 def ply_bytes(positions, normals, faces) -> bytes:

@@ -135,11 +135,6 @@ def usage_notes(description: Description) -> list[str]:
             "portable option (docs/portable.md)."]
 
 
-def description_to_xml(description: Description, notes: list[str] = ()) -> str:
-    """The Mitsuba XML of a scene description; ``notes`` are lines of a comment at the top."""
-    return "".join(_pieces(description, notes))
-
-
 def _with_notes(description: Description, portable: bool) -> tuple[Description, list[str]]:
     return to_portable(description) if portable else (description, usage_notes(description))
 
@@ -302,4 +297,4 @@ def scene_to_xml(scene: Scene, base_dir: str | os.PathLike | None, portable: boo
 
 def xml_of(description: Description, portable: bool = False) -> str:
     """The XML of ``description``, in the default or the ``portable`` form."""
-    return description_to_xml(*_with_notes(description, portable))
+    return "".join(_pieces(*_with_notes(description, portable)))
