@@ -43,13 +43,10 @@ def _detail_near(spheres: SphereArrays, k: int) -> float:
     # a few ulps of the numbers involved bound the difference to Python's result
     slack = 1e-14 * (distance + gr + radius)
     near = np.flatnonzero(detail - slack <= (detail + slack).min())
-    return min(_detail_of(tuple(center[j].tolist()), float(radius[j]), (gx, gy, gz), gr) for j in near.tolist())
-
-
-def _detail_of(c: Vec3, r: float, g: Vec3, gr: float) -> float:
-    (x, y, z), (gx, gy, gz) = c, g
-    gap = abs(abs(math.sqrt((x - gx) ** 2 + (y - gy) ** 2 + (z - gz) ** 2) - gr) - r)
-    return max(r, gap)
+    details = []
+    for (x, y, z), r in zip(center[near].tolist(), radius[near].tolist()):
+        details.append(max(r, abs(abs(math.sqrt((x - gx) ** 2 + (y - gy) ** 2 + (z - gz) ** 2) - gr) - r)))
+    return min(details)
 
 
 def coarse_spheres(scene: Scene, origin: Vec3, smallest: float | None = None,

@@ -41,12 +41,7 @@ _OBJECT_TAGS = {
 
 def num(x: float) -> str:
     """Shortest text that reads back as the same float64 (and never '-0.0')."""
-    x = float(x)
-    if x == 0.0:
-        x = 0.0
-    if x == int(x) and abs(x) < 1e15:
-        return repr(float(int(x)))
-    return repr(x)
+    return repr(float(x) + 0.0)
 
 
 def vec(v: Vec3, sep: str = " ") -> str:
