@@ -26,7 +26,7 @@ from .. import defaults
 from ..defaults import MAX_DEPTH, MAX_SAMPLES, MAX_SIZE, PARALLEL_SINE
 from ..errors import SceneError
 from .textures import image_problem
-from .scene import Distinct, Light, Material, Scene, Sphere, SphereArrays, Vec3, first_use
+from .scene import Distinct, Light, Material, Scene, Sphere, SphereArrays, Vec3
 from .scene import cross, length, normalize
 
 # The format's limits live in whitted.defaults (see there why each is what it is).
@@ -673,7 +673,13 @@ def _float_or_nan(token: str) -> float:
 def _by_first_use(index: np.ndarray, values: list) -> tuple[np.ndarray, tuple]:
     """``index`` renumbered so that its values come in order of first use, and those values."""
     import numpy as np
-    order = first_use(index)
+    present = np.flatnonzero(np.bincount(index)) if len(index) else np.zeros(0, np.int64)
+    if len(present) <= 16:    # few values, the usual case: no sort
+        first = [int(np.argmax(index == v)) for v in present.tolist()]
+        order = present[np.argsort(first, kind="stable")]
+    else:
+        distinct, first = np.unique(index, return_index=True)
+        order = distinct[np.argsort(first)]
     if len(order) == len(values) and (order == np.arange(len(values))).all():
         return index, tuple(values)
     remap = np.zeros(len(values), np.int64)
