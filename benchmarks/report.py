@@ -10,6 +10,7 @@ that re-running one keeps the others' results.
 
 from __future__ import annotations
 
+import contextlib
 import datetime
 import math
 import os
@@ -75,12 +76,10 @@ class Table:
 
 
 def _cpu() -> str:
-    try:
+    with contextlib.suppress(OSError):
         for line in Path("/proc/cpuinfo").read_text().splitlines():
             if line.startswith("model name"):
                 return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
     return platform.processor() or platform.machine() or "unknown CPU"
 
 
