@@ -15,7 +15,6 @@ import shutil
 import signal
 import sys
 import tempfile
-from dataclasses import replace
 from pathlib import Path
 from xml.sax.saxutils import escape
 
@@ -225,11 +224,7 @@ def write_xml(description: Description, file, portable: bool = False) -> None:
         for piece in _pieces(description, notes):
             file.write(piece)
         return
-    # _pieces without the block, which comes in two halves
-    later = _later(description)
-    scene = {key: node for key, node in description.scene.items() if key not in later}
-    pieces = list(_pieces(replace(description, spheres=None, scene=scene), notes))
-    file.write(pieces[0])
+    file.write(next(_pieces(description, notes)))   # all but the block, which comes in two halves
     text = _Block(description)
     half = len(block) // 2
     with tempfile.TemporaryFile() as spill:
@@ -251,7 +246,7 @@ def write_xml(description: Description, file, portable: bool = False) -> None:
                 with contextlib.suppress(OSError):
                     os.kill(child, signal.SIGKILL)
                     os.waitpid(child, 0)
-    file.write(pieces[-1])
+    file.write("</scene>\n")
 
 
 def _can_fork(file) -> bool:
