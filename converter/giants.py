@@ -45,7 +45,8 @@ def _detail_near(spheres: SphereArrays, k: int) -> float:
     near = np.flatnonzero(detail - slack <= (detail + slack).min())
     details = []
     for (x, y, z), r in zip(center[near].tolist(), radius[near].tolist()):
-        details.append(max(r, abs(abs(math.sqrt((x - gx) ** 2 + (y - gy) ** 2 + (z - gz) ** 2) - gr) - r)))
+        gap = abs(abs(math.sqrt((x - gx) ** 2 + (y - gy) ** 2 + (z - gz) ** 2) - gr) - r)
+        details.append(max(r, gap))
     return min(details)
 
 
@@ -60,8 +61,20 @@ def coarse_spheres(scene: Scene, origin: Vec3, smallest: float | None = None,
     key = ("coarse", tuple(origin), smallest)
     cache = spheres.__dict__.setdefault("_cache", {})
     if key not in cache:
+        import numpy as np
         cache.clear()
-        cache[key] = _coarse_of(spheres, origin, smallest)
+        giant, misplaced = [], []
+        if len(spheres):
+            radius = spheres.radius
+            x, y, z = (spheres.center - origin).T
+            c = np.maximum(np.maximum(np.abs(x), np.abs(y)), np.abs(z))
+            error, candidate = coarse_candidates(spheres, origin, smallest)
+            offset = MISPLACED_RATIO * RAY_EPSILON * (1 + np.abs(np.sqrt(x * x + y * y + z * z) - radius))
+            misplaced = np.flatnonzero(UNIT_ROUNDOFF * (radius + c) > offset).tolist()
+            limit = smallest if smallest is not None else math.inf
+            giant = [k for k in np.flatnonzero(candidate).tolist()
+                     if float(error[k]) > GIANT_FRACTION * min(_detail_near(spheres, k), limit)]
+        cache[key] = giant, misplaced
     giant, misplaced = cache[key]
     return list(giant), list(misplaced)
 
@@ -78,31 +91,12 @@ def coarse_candidates(spheres: SphereArrays, origin: Vec3, smallest: float | Non
     return error, error > GIANT_FRACTION * detail
 
 
-def _coarse_of(spheres: SphereArrays, origin: Vec3, smallest: float | None) -> tuple[list[int], list[int]]:
-    import numpy as np
-    if not len(spheres):
-        return [], []
-    radius = spheres.radius
-    x, y, z = (spheres.center - origin).T
-    c = np.maximum(np.maximum(np.abs(x), np.abs(y)), np.abs(z))
-    error, candidate = coarse_candidates(spheres, origin, smallest)
-    candidates = np.flatnonzero(candidate)
-    misplaced = np.flatnonzero(UNIT_ROUNDOFF * (radius + c) > MISPLACED_RATIO * RAY_EPSILON *
-                               (1 + np.abs(np.sqrt(x * x + y * y + z * z) - radius)))
-    limit = smallest if smallest is not None else math.inf
-    giant = [k for k in candidates.tolist()
-             if float(error[k]) > GIANT_FRACTION * min(_detail_near(spheres, k), limit)]
-    return giant, misplaced.tolist()
-
-
 #: Mitsuba's own ray offset near a point p is ``(1 + max|p_i|)·RayEpsilon``, RayEpsilon = 1500 ε
 RAY_EPSILON = 1500 * UNIT_ROUNDOFF
 #: the mesh's deviation from its sphere relative to the eye's distance (below a pixel)
 MESH_TOLERANCE = 2e-4
 #: the least height of the eye above a meshed sphere, in distances from the eye to the lookat
 MIN_HEIGHT = 1e-2
-
-
 #: how much coarser than Mitsuba's ray offset a float32 sphere may be before it is meshed
 #: (docs/numerics.md, hazard 14)
 MISPLACED_RATIO = 1.4
