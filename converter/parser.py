@@ -268,8 +268,7 @@ def _read(parser: _Parser, text: str, careful: bool) -> None:
 def suggest(word: str, known) -> str:
     """', did you mean 'x'?' for the nearest known name, or the list of known names."""
     word = word.lower()
-    ranked = sorted(known, key=lambda k: (-difflib.SequenceMatcher(None, word, k).ratio(), k))
-    best = ranked[0]
+    best = min(known, key=lambda k: (-difflib.SequenceMatcher(None, word, k).ratio(), k))
     if difflib.SequenceMatcher(None, word, best).ratio() >= 0.5:
         return f"; did you mean '{best}'?"
     return "; known names: " + ", ".join(known)
