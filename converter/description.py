@@ -211,6 +211,8 @@ def describe(scene: Scene, base_dir: str | os.PathLike | None, smallest: float |
     """The description of ``scene``, texture paths relative to ``base_dir`` (None: absolute).
     ``smallest``: see :func:`.giants.coarse_spheres`. ``block``: a parsed file's plain spheres
     go in :attr:`Description.spheres`. ``ids``: the material ids of a larger scene."""
+    import numpy as np
+
     from .scn_writer import material_text
     base_dir = None if base_dir is None else Path(os.path.abspath(base_dir))
     spheres = scene.sphere_arrays()
@@ -259,14 +261,8 @@ def describe(scene: Scene, base_dir: str | os.PathLike | None, smallest: float |
             comment = f"  # {scene.comments[line]}" if scene.comments.get(line) else ""
             text = material_text(sphere(k), base_dir or scene.source.parent)
             description.notes[ids[material]] = f"{scene.source.name}:{line}: {text}{comment}"
-    return _describe_spheres(scene, spheres, names, ids, meshed, base_dir, block, description)
-
-
-def _describe_spheres(scene: Scene, spheres: SphereArrays, names: list[str], ids: dict, meshed: list[int],
-                      base_dir: Path | None, block: bool, description: Description) -> Description:
-    origin = description.origin
+    # The spheres: plain ones in the scene or in a block, textured and meshed ones in the scene.
     by_index = [ids.get(_shared(material), "") for material in spheres.materials]
-    import numpy as np
     special = sorted(set(meshed) | set(np.flatnonzero(spheres.textured()).tolist()))
     center = spheres.center - origin
     if block and scene.held_sphere_arrays() is not None:
@@ -279,13 +275,12 @@ def _describe_spheres(scene: Scene, spheres: SphereArrays, names: list[str], ids
             description.scene[f"sphere_{name}"] = {"type": "sphere", "center": (x, y, z), "radius": radius,
                                                    "bsdf": dict(bsdfs[material])}
     meshed = set(meshed)
-    for k in special:    # textured and meshed spheres
+    for k in special:
         mesh = None
-        sphere = spheres.sphere(k)
         if k in meshed:
-            data = mesh_bytes(sphere, origin, scene.eye, scene.lookat)
+            data = mesh_bytes(sphere(k), origin, scene.eye, scene.lookat)
             mesh = Mesh(str(cached(data)) if base_dir is None else f"{file_stem(scene)}.sphere_{names[k]}.ply", data)
-        description.scene[f"sphere_{names[k]}"] = _sphere(sphere, origin, by_index[int(spheres.material[k])], mesh)
+        description.scene[f"sphere_{names[k]}"] = _sphere(sphere(k), origin, by_index[int(spheres.material[k])], mesh)
     return description
 
 
