@@ -635,16 +635,12 @@ class _Parser:
             str(path).encode("utf-8")
         except UnicodeEncodeError:
             self.fail(f"sphere texture path {path} is not valid UTF-8")
-        problem = self.image_problem(path)
+        if path not in self._images:   # why Mitsuba could not use it, once per file
+            self._images[path] = image_problem(path)
+        problem = self._images[path]
         if problem:
             self.fail(f"sphere texture {_show(token)}: {problem}")
         return path
-
-    def image_problem(self, path: Path) -> str | None:
-        """Why Mitsuba could not use ``path`` as a texture, or None (cached)."""
-        if path not in self._images:
-            self._images[path] = image_problem(path)
-        return self._images[path]
 
     def check_camera(self) -> None:
         scene, seen = self.scene, self.seen
