@@ -388,32 +388,35 @@ class _Parser:
 
     def statement(self, line: int, tokens: list[str]) -> None:
         """Give one statement its meaning, or note its problem and go on."""
-        try:
-            self._statement(line, tokens)
-        except SceneError as error:
-            self.errors.append((error.line, error.message))
-            self.failed.add(tokens[0].lower())
-        except _PartsFailed:   # its errors are noted already
-            self.failed.add(tokens[0].lower())
-
-    def _statement(self, line: int, tokens: list[str]) -> None:
         self.line = line
         keyword, args = tokens[0], tokens[1:]
         name = keyword.lower()
-        if isinstance(keyword, Quoted):
-            self.fail(f"expected a statement name, got the quoted text {_show(keyword)}")
-        if name not in STATEMENTS:
-            self.fail(f"unknown statement {_show(keyword)}{suggest(keyword, STATEMENTS)}")
-        if name in GLOBALS:
-            if name in self.seen:
-                self.fail(f"{name} given twice (first on line {self.seen[name]})")
-            self.seen[name] = line
-        if name in ("eye", "lookat", "up"):
-            self.point(name, args)
-        elif name in NUMBERS:
-            self.one_number(name, args)
-        else:
-            getattr(self, f"statement_{name}")(args)
+        try:
+            if isinstance(keyword, Quoted):
+                self.fail(f"expected a statement name, got the quoted text {_show(keyword)}")
+            if name not in STATEMENTS:
+                self.fail(f"unknown statement {_show(keyword)}{suggest(keyword, STATEMENTS)}")
+            if name in GLOBALS:
+                if name in self.seen:
+                    self.fail(f"{name} given twice (first on line {self.seen[name]})")
+                self.seen[name] = line
+            if name in ("eye", "lookat", "up"):
+                self.count(name, args, "X Y Z", 3)
+                setattr(self.scene, name, _floats(self.vector(args, name)))
+                if name == "up" and _is_zero(self.scene.up):
+                    self.fail("up must not be zero")
+            elif name in NUMBERS:   # N: an integer
+                field, placeholder, low, high = NUMBERS[name]
+                self.count(name, args, placeholder, 1)
+                value = self.bounded(args[0], name, low, high, integer=placeholder == "N")
+                setattr(self.scene, field, int(value) if placeholder == "N" else float(value))
+            else:
+                getattr(self, f"statement_{name}")(args)
+        except SceneError as error:
+            self.errors.append((error.line, error.message))
+            self.failed.add(name)
+        except _PartsFailed:   # its errors are noted already
+            self.failed.add(name)
 
     def statement_size(self, args):
         self.count("size", args, "W H", 2)
@@ -421,13 +424,6 @@ class _Parser:
         for value, token, n in ((width, args[0], "width"), (height, args[1], "height")):
             self.in_range(value, token, f"size {n}", 1, MAX_SIZE)
         self.scene.width, self.scene.height = int(width), int(height)
-
-    def point(self, name: str, args) -> None:
-        """``eye``, ``lookat`` or ``up``."""
-        self.count(name, args, "X Y Z", 3)
-        setattr(self.scene, name, _floats(self.vector(args, name)))
-        if name == "up" and _is_zero(self.scene.up):
-            self.fail("up must not be zero")
 
     def statement_fov(self, args):
         self.count("fov", args, "DEG", 1)
@@ -441,13 +437,6 @@ class _Parser:
     def statement_background(self, args):
         self.count("background", args, "R G B", 3)
         self.scene.background = _floats(self.color(args, "background color"))
-
-    def one_number(self, name: str, args) -> None:
-        """A statement of one number (:data:`NUMBERS`); N is an integer."""
-        field, placeholder, low, high = NUMBERS[name]
-        self.count(name, args, placeholder, 1)
-        value = self.bounded(args[0], name, low, high, integer=placeholder == "N")
-        setattr(self.scene, field, int(value) if placeholder == "N" else float(value))
 
     def statement_light(self, args):
         self.count("light", args, "X Y Z [R G B]", 3, 6)
