@@ -12,6 +12,7 @@ import sys
 import time
 
 from whitted.converter import Light, Scene, parse_text
+from whitted.converter.scn_writer import scene_to_scn
 
 from . import scenes, sphereflake
 
@@ -28,9 +29,9 @@ def main(argv=None) -> int:
     parser.add_argument("--rounds", type=int, default=5)
     parser.add_argument("--level", type=int, default=5, choices=list(sphereflake.LEVELS))
     args = parser.parse_args(argv)
-    flake = scenes.to_scn(sphereflake.scene(args.level))
-    distinct = scenes.to_scn(Scene(width=64, height=64, lights=[Light((1.0, 2.0, 3.0))],
-                                   spheres=scenes.random_spheres(66_000, reflect=0.5)))
+    flake = scene_to_scn(sphereflake.scene(args.level), ".")
+    distinct = scene_to_scn(Scene(width=64, height=64, lights=[Light((1.0, 2.0, 3.0))],
+                                   spheres=scenes.random_spheres(66_000, reflect=0.5)), ".")
     print("| file | lines | parse_text CPU s | µs/line |\n|---|---|---|---|")
     for name, text in [(f"sphereflake level {args.level} ({sphereflake.count(args.level) + 1} spheres)", flake),
                        ("66 000 spheres, each with its own attributes", distinct)]:

@@ -1,9 +1,8 @@
 """One program run as a user runs it: its wall time, its own peak memory, a time limit.
 
 Linux's ``ru_maxrss`` would carry over the high-water mark of the process that forked it,
-so a small ``python -I -S`` wrapper (about 9 MiB) forks the program, reaps it with
-``os.wait4`` and reports its exit status, peak memory and wall time. A run past its time
-limit is killed and reported as not finished, with the memory it had reached.
+so a small ``python -I -S`` wrapper (about 9 MiB) forks the program, kills it past its time
+limit, reaps it with ``os.wait4`` and reports its exit status, peak memory and wall time.
 """
 
 from __future__ import annotations
@@ -13,7 +12,6 @@ import signal
 import subprocess
 import sys
 import tempfile
-import time
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -53,16 +51,11 @@ class DidNotFinish(RuntimeError):
         self.run = run
 
 
-#: the wrapper: fork, exec the program, wait for it, write "status maxrss-KiB wall-seconds"
+#: the wrapper: fork, exec the program, kill it after TIMEOUT seconds (0: never), wait for it,
+#: write "status maxrss-KiB wall-seconds timed-out"
 _WRAPPER = r"""
 import os, signal, sys, time
-report, argv, pid = sys.argv[1], sys.argv[2:], 0
-def stop(*_):
-    if pid > 0:
-        os.kill(pid, signal.SIGKILL)
-    else:
-        os._exit(128 + signal.SIGTERM)
-signal.signal(signal.SIGTERM, stop)
+report, timeout, argv, killed = sys.argv[1], float(sys.argv[2]), sys.argv[3:], []
 start = time.perf_counter()
 pid = os.fork()
 if pid == 0:
@@ -71,46 +64,31 @@ if pid == 0:
     except BaseException as error:
         os.write(2, f"cannot run {argv[0]}: {error}\n".encode())
     os._exit(127)
+signal.signal(signal.SIGALRM, lambda *_: killed.append(os.kill(pid, signal.SIGKILL)))
+signal.setitimer(signal.ITIMER_REAL, timeout)
 _, status, usage = os.wait4(pid, 0)
 wall = time.perf_counter() - start
 with open(report, "w") as f:
-    f.write(f"{os.waitstatus_to_exitcode(status)} {usage.ru_maxrss} {wall!r}\n")
+    f.write(f"{os.waitstatus_to_exitcode(status)} {usage.ru_maxrss} {wall!r} {len(killed)}")
 """
-
-#: seconds a wrapper gets to report after its program is killed, before it is killed too
-_GRACE = 30.0
 
 
 def run(command: list, timeout: float | None = None, cwd=None, env=None) -> ProcessRun:
     """Run ``command`` to its end, or kill it after ``timeout`` seconds; its output is kept."""
-    command = [str(c) for c in command]
-    with tempfile.TemporaryDirectory() as folder, \
-            open(Path(folder) / "out", "w+b") as out, open(Path(folder) / "err", "w+b") as err:
+    with tempfile.TemporaryDirectory() as folder:
         report = Path(folder) / "report"
-        start = time.perf_counter()
-        wrapper = subprocess.Popen([sys.executable, "-I", "-S", "-c", _WRAPPER, str(report)] + command,
-                                   stdin=subprocess.DEVNULL, stdout=out, stderr=err, cwd=cwd, env=env,
-                                   start_new_session=True)
-        timed_out = False
+        wrapper = subprocess.Popen([sys.executable, "-I", "-S", "-c", _WRAPPER, report, str(timeout or 0),
+                                    *map(str, command)], stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
+                                   stderr=subprocess.PIPE, cwd=cwd, env=env, start_new_session=True)
         try:
-            try:
-                wrapper.wait(timeout)
-            except subprocess.TimeoutExpired:
-                timed_out = True
-                wrapper.terminate()     # the wrapper kills the program and reports
-                wrapper.wait(_GRACE)
-        except BaseException as error:  # no report in time, or Ctrl-C: leave nothing running
+            out, err = wrapper.communicate()
+        except BaseException:   # Ctrl-C: leave nothing running
             os.killpg(wrapper.pid, signal.SIGKILL)
             wrapper.wait()
-            if not isinstance(error, subprocess.TimeoutExpired):
-                raise
-        wall = time.perf_counter() - start
-        returncode, peak_kib = wrapper.returncode, 0
-        if report.exists():
-            status, peak_kib, wall = report.read_text().split()
-            returncode, peak_kib, wall = int(status), int(peak_kib), float(wall)
-        output = [(Path(folder) / name).read_text(errors="replace") for name in ("out", "err")]
-        return ProcessRun(returncode, wall, peak_kib * 1024, timed_out, timeout, *output)
+            raise
+        status, peak_kib, wall, killed = report.read_text().split()
+    return ProcessRun(int(status), float(wall), int(peak_kib) * 1024, killed == "1", timeout,
+                      out.decode(errors="replace"), err.decode(errors="replace"))
 
 
 def whitted(*args, timeout: float | None = None) -> ProcessRun:

@@ -10,6 +10,7 @@ that re-running one keeps the others' results.
 
 from __future__ import annotations
 
+import contextlib
 import datetime
 import math
 import os
@@ -47,11 +48,6 @@ def ratio(a: float | None, b: float | None) -> str:
     return DASH if _missing(a, b) or b == 0 else f"{a / b:.2f}"
 
 
-def cell(value) -> str:
-    """A table cell: strings as they are, floats to three significant digits."""
-    return value if isinstance(value, str) else f"{value:.3g}" if isinstance(value, float) else str(value)
-
-
 class Table:
     """A titled table of results, with a note under it, printed as text and recorded as Markdown."""
 
@@ -59,7 +55,8 @@ class Table:
         self.title, self.columns, self.note, self.rows = title, columns, note, []
 
     def add(self, *cells):
-        self.rows.append([cell(c) for c in cells])
+        """A row: strings as they are, floats to three significant digits."""
+        self.rows.append([c if isinstance(c, str) else f"{c:.3g}" if isinstance(c, float) else str(c) for c in cells])
 
     def text(self) -> str:
         """Columns padded to their widest cell, two spaces apart."""
@@ -75,12 +72,10 @@ class Table:
 
 
 def _cpu() -> str:
-    try:
+    with contextlib.suppress(OSError):
         for line in Path("/proc/cpuinfo").read_text().splitlines():
             if line.startswith("model name"):
                 return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
     return platform.processor() or platform.machine() or "unknown CPU"
 
 

@@ -131,8 +131,6 @@ class Bench:
         self.tables.append(table)
         print(table.text(), flush=True)
 
-    # -- 1: the acceptance scene -------------------------------------------------------------------
-
     def against_direct_and_floor(self):
         width, height, spp = 1024, 768, 4
         model = scenes.diffuse_spheres(10, width, height, spp)
@@ -179,8 +177,6 @@ class Bench:
         self.summary["depth 16 / depth 1"] = timing["whitted (article lighting), max depth 16"].over(
             timing["whitted (article lighting)"])
 
-    # -- 2: scaling ----------------------------------------------------------------------------------
-
     def _whitted_and_direct(self, model, rounds, memory=True):
         label = f"{len(model.spheres)} spheres {model.width}×{model.height} {model.samples} spp "
         scene, scene_direct = scenes.load(model), scenes.load_for_direct(model)
@@ -217,8 +213,6 @@ class Bench:
                 table.add(label, ms(w.median), f"{1e9 * w.median / samples:.1f}", ms(d.median), w.over(d),
                           mib(memory), mib(memory_direct), *extra)
             self.show(table)
-
-    # -- 3 and 4: effects and adaptive depth ----------------------------------------------------------
 
     def effects(self):
         """The every-effect scene with each effect left out by ``whitted render --without``."""

@@ -14,7 +14,6 @@ import mitsuba as mi
 import numpy as np
 
 from whitted.converter import Light, Material, Scene, Sphere, scene_to_xml
-from whitted.converter.scn_writer import scene_to_scn
 
 
 def random_spheres(count: int, seed: int = 1, *, reflect: float = 0.0,
@@ -95,8 +94,3 @@ def direct_integrator():
     """Mitsuba's ``direct`` doing a Whitted render's work at depth 1: one emitter sample per
     hit (for a point light: one shadow ray to it, no random choice), no BSDF samples."""
     return mi.load_dict({"type": "direct", "emitter_samples": 1, "bsdf_samples": 0})
-
-
-def to_scn(model: Scene, title: str = "") -> str:
-    """``model`` as ``.scn`` text, texture paths relative to the working folder."""
-    return scene_to_scn(model, ".", title)

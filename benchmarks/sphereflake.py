@@ -21,8 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from whitted.converter.scene import Light, Material, Scene, Sphere, Vec3
-
-from .scenes import to_scn
+from whitted.converter.scn_writer import scene_to_scn
 
 #: the levels written here (0 is a lone sphere; 6 holds 597 871 spheres)
 LEVELS = range(0, 7)
@@ -37,20 +36,11 @@ FLAKE = Material(color=(1.0, 0.9, 0.7), reflect=0.5)
 FLOOR = Material(color=(1.0, 0.75, 0.33))
 
 
-def _children_directions() -> list[Vec3]:
-    """The nine children's directions around a sphere whose axis is +Z."""
-    directions = []
-    for k in range(6):                                    # the equator, 60° apart
-        azimuth = math.radians(15.0 + 60.0 * k)
-        directions.append((math.cos(azimuth), math.sin(azimuth), 0.0))
-    ring = 1.0 / math.sqrt(3.0)                            # cos of the elevation arcsin(sqrt(2/3))
-    for k in range(3):                                    # above, 120° apart
-        azimuth = math.radians(45.0 + 120.0 * k)
-        directions.append((ring * math.cos(azimuth), ring * math.sin(azimuth), math.sqrt(2.0 / 3.0)))
-    return directions
-
-
-CHILDREN = _children_directions()
+#: the nine children's directions around a sphere whose axis is +Z: six on the equator, 60° apart,
+#: and three above, 120° apart, at the elevation arcsin(sqrt(2/3)) (its cosine 1/sqrt(3))
+CHILDREN = ([(math.cos(a), math.sin(a), 0.0) for a in (math.radians(15.0 + 60.0 * k) for k in range(6))]
+            + [(math.cos(a) / math.sqrt(3.0), math.sin(a) / math.sqrt(3.0), math.sqrt(2.0 / 3.0))
+               for a in (math.radians(45.0 + 120.0 * k) for k in range(3))])
 
 
 @dataclass
@@ -146,7 +136,7 @@ def title(level: int, floor_radius: float = FLOOR_RADIUS) -> str:
 
 def write(level: int, path: str | Path, floor_radius: float = FLOOR_RADIUS) -> Path:
     path = Path(path)
-    path.write_text(to_scn(scene(level, floor_radius), title(level, floor_radius)))
+    path.write_text(scene_to_scn(scene(level, floor_radius), ".", title(level, floor_radius)))
     return path
 
 

@@ -21,6 +21,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from whitted.compare.timing import median
+from whitted.converter.scn_writer import scene_to_scn
 
 from . import parse_speed, povray, process, sphereflake
 from .report import MIB, Table, machine, mib, ratio, replace_section, seconds, summary
@@ -139,7 +140,7 @@ def bench_level(level: int, floor: float, runs: int, folder: Path, pov_exe: str 
     name = f"flake{level}-{floor:g}"
     model = sphereflake.scene(level, floor)
     scn = folder / f"{name}.scn"
-    scn.write_text(sphereflake.to_scn(model, sphereflake.title(level, floor)))
+    scn.write_text(scene_to_scn(model, ".", sphereflake.title(level, floor)))
     pov = folder / f"{name}.pov"
     pov.write_text(povray.scene_to_pov(model))
     width, height = model.width, model.height

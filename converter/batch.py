@@ -14,7 +14,6 @@ from pathlib import Path
 
 from ..atomic import (atomic_path, check_folder, check_folder_creatable, names_folder,
                       writable_folder)
-from ..defaults import SEALED_MIN_GROUP
 from ..errors import WhittedError
 from .description import describe, meshes
 from .frame import warn_scene
@@ -88,16 +87,6 @@ def plan(inputs: list[str | os.PathLike], output: str | os.PathLike | None = Non
     return pairs
 
 
-def mesh_note(target: Path, written: list) -> str:
-    """The one line that names the mesh files written beside ``target``, and why."""
-    size = sum(len(mesh.data) for mesh in written)
-    names = ", ".join(mesh.filename for mesh in written[:3]) + (", …" if len(written) > 3 else "")
-    return (f"whitted: note: wrote {names} ({size / 1e6:.1f} MB) beside {target.name}: the scene's "
-            f"{'giant sphere as a closed mesh' if len(written) == 1 else 'giant spheres as closed meshes'} "
-            f"for Mitsuba's path tracer, which float32 spheres that large would speckle "
-            f"(docs/numerics.md, hazard 14)")
-
-
 def prepare_folders(targets: list[Path], output: str | os.PathLike | None) -> None:
     """Check every folder the ``targets`` go to before the first is written: the one
     ``output`` names may be created, the folder of an output file must exist."""
@@ -115,14 +104,16 @@ def prepare_folders(targets: list[Path], output: str | os.PathLike | None) -> No
 
 
 def convert_file(source: Path, target: Path, portable: bool = False) -> None:
-    """Parse ``source`` and write its XML (``portable``: stock plugins only) to ``target``
-    atomically, with its mesh files beside it; warn on stderr (:func:`.frame.warn_scene`)."""
+    """Parse ``source`` and write its XML (``portable``: stock plugins only, the sealed spheres
+    grouped as the path tracer's loader groups them) to ``target`` atomically, with its mesh
+    files beside it; warn on stderr (:func:`.frame.warn_scene`)."""
+    from ..sealed import described
     from .xml_writer import write_xml
 
     scene = parse_file(source)
     if target.is_dir():
         raise WhittedError(f"{target}: is a folder; give the output file's name")
-    description = _portable_description(scene, target.parent) if portable else \
+    description = described(scene, target.parent) if portable else \
         describe(scene, base_dir=target.parent, block=True)
     warn_scene(scene)
     written = meshes(description)
@@ -130,16 +121,12 @@ def convert_file(source: Path, target: Path, portable: bool = False) -> None:
         with atomic_path(target.parent / mesh.filename) as tmp:
             tmp.write_bytes(mesh.data)
     if written:   # files the user did not ask for, some of them large: say what and why
-        print(mesh_note(target, written), file=sys.stderr)
+        names = ", ".join(m.filename for m in written[:3]) + (", …" if len(written) > 3 else "")
+        what = "sphere as a closed mesh" if len(written) == 1 else "spheres as closed meshes"
+        size = sum(len(m.data) for m in written) / 1e6
+        print(f"whitted: note: wrote {names} ({size:.1f} MB) beside {target.name}: the scene's giant {what} "
+              f"for Mitsuba's path tracer, which float32 spheres that large would speckle "
+              f"(docs/numerics.md, hazard 14)", file=sys.stderr)
     # atomic, written as it is made; an OS error comes back as a one-line WhittedError
     with atomic_path(target) as tmp, open(tmp, "w", encoding="utf-8") as file:
         write_xml(description, file, portable)
-
-
-def _portable_description(scene, folder: Path):
-    """The portable XML's description, the sealed spheres grouped as the path tracer's loader
-    groups them (:func:`whitted.sealed.described`)."""
-    if len(scene.sphere_arrays()) < SEALED_MIN_GROUP:
-        return describe(scene, base_dir=folder, block=True)
-    from ..sealed import described
-    return described(scene, folder)

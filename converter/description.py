@@ -82,15 +82,6 @@ class Description:
     notes: dict = field(default_factory=dict)
 
 
-def texture_frame(north: Vec3, equator: Vec3) -> tuple[Vec3, Vec3, Vec3]:
-    """The sphere's local axes (Ve, Vn x Ve, Vn): Mitsuba's sphere UV is then the article's
-    lat/long mapping (v = 0 the north pole and a bitmap's top row)."""
-    vn = normalize(north)
-    d = dot(equator, vn)
-    ve = normalize((equator[0] - d * vn[0], equator[1] - d * vn[1], equator[2] - d * vn[2]))
-    return ve, cross(vn, ve), vn
-
-
 def light_intensity(scene: Scene, position: Vec3, color: Vec3) -> Vec3:
     """Point-light intensity that matches the article's brightness at ``lookat``."""
     d2 = dot(sub(position, scene.lookat), sub(position, scene.lookat))
@@ -203,9 +194,12 @@ def _sphere(sphere: Sphere, origin: Vec3, material_id: str, mesh: Mesh | None = 
     elif sphere.material.texture is None:
         shape.update(center=center, radius=float(sphere.radius))
     else:
-        # Oriented so that Mitsuba's own UV is the article's mapping.
-        x, y, z = texture_frame(sphere.north, sphere.equator)
-        r = sphere.radius
+        # Local axes (Ve, Vn x Ve, Vn): Mitsuba's sphere UV is then the article's lat/long
+        # mapping (v = 0 the north pole and a bitmap's top row).
+        z, equator = normalize(sphere.north), sphere.equator
+        d = dot(equator, z)
+        x = normalize((equator[0] - d * z[0], equator[1] - d * z[1], equator[2] - d * z[2]))
+        y, r = cross(z, x), sphere.radius
         rows = tuple((x[i] * r, y[i] * r, z[i] * r, center[i]) for i in range(3)) + ((0.0, 0.0, 0.0, 1.0),)
         shape["to_world"] = Matrix(rows)
     shape["bsdf"] = {"type": "ref", "id": material_id}
@@ -217,6 +211,9 @@ def describe(scene: Scene, base_dir: str | os.PathLike | None, smallest: float |
     """The description of ``scene``, texture paths relative to ``base_dir`` (None: absolute).
     ``smallest``: see :func:`.giants.coarse_spheres`. ``block``: a parsed file's plain spheres
     go in :attr:`Description.spheres`. ``ids``: the material ids of a larger scene."""
+    import numpy as np
+
+    from .scn_writer import material_text
     base_dir = None if base_dir is None else Path(os.path.abspath(base_dir))
     spheres = scene.sphere_arrays()
     sphere = spheres.sphere
@@ -259,24 +256,13 @@ def describe(scene: Scene, base_dir: str | os.PathLike | None, smallest: float |
     description = Description(objects, defaults, origin, scene.source.name)
     for material, k in firsts.items():
         objects[ids[material]] = material_dict(material, base_dir)
-        if sphere(k).line > 0 and block:   # for the XML's readers
-            description.notes[ids[material]] = _note(scene, sphere(k), base_dir)
-    return _describe_spheres(scene, spheres, names, ids, meshed, base_dir, block, description)
-
-
-def _note(scene: Scene, sphere: Sphere, base_dir: Path | None) -> str:
-    """Where the material of ``sphere`` is first written: file, line, text and comment."""
-    from .scn_writer import material_text
-    comment = scene.comments.get(sphere.line)
-    return (f"{scene.source.name}:{sphere.line}: {material_text(sphere, base_dir or scene.source.parent)}"
-            + (f"  # {comment}" if comment else ""))
-
-
-def _describe_spheres(scene: Scene, spheres: SphereArrays, names: list[str], ids: dict, meshed: list[int],
-                      base_dir: Path | None, block: bool, description: Description) -> Description:
-    origin = description.origin
+        line = sphere(k).line
+        if line > 0 and block:   # for the XML's readers: where the file first writes it
+            comment = f"  # {scene.comments[line]}" if scene.comments.get(line) else ""
+            text = material_text(sphere(k), base_dir or scene.source.parent)
+            description.notes[ids[material]] = f"{scene.source.name}:{line}: {text}{comment}"
+    # The spheres: plain ones in the scene or in a block, textured and meshed ones in the scene.
     by_index = [ids.get(_shared(material), "") for material in spheres.materials]
-    import numpy as np
     special = sorted(set(meshed) | set(np.flatnonzero(spheres.textured()).tolist()))
     center = spheres.center - origin
     if block and scene.held_sphere_arrays() is not None:
@@ -289,13 +275,12 @@ def _describe_spheres(scene: Scene, spheres: SphereArrays, names: list[str], ids
             description.scene[f"sphere_{name}"] = {"type": "sphere", "center": (x, y, z), "radius": radius,
                                                    "bsdf": dict(bsdfs[material])}
     meshed = set(meshed)
-    for k in special:    # textured and meshed spheres
+    for k in special:
         mesh = None
-        sphere = spheres.sphere(k)
         if k in meshed:
-            data = mesh_bytes(sphere, origin, scene.eye, scene.lookat)
+            data = mesh_bytes(sphere(k), origin, scene.eye, scene.lookat)
             mesh = Mesh(str(cached(data)) if base_dir is None else f"{file_stem(scene)}.sphere_{names[k]}.ply", data)
-        description.scene[f"sphere_{names[k]}"] = _sphere(sphere, origin, by_index[int(spheres.material[k])], mesh)
+        description.scene[f"sphere_{names[k]}"] = _sphere(sphere(k), origin, by_index[int(spheres.material[k])], mesh)
     return description
 
 

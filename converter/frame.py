@@ -12,7 +12,7 @@ import math
 import sys
 
 from ..float32 import UNIT_ROUNDOFF
-from .giants import coarse_spheres, giant_spheres
+from .giants import coarse_spheres
 from .scene import Scene, SphereArrays, Vec3, length, normalize, sub
 
 
@@ -52,7 +52,7 @@ def extent(scene: Scene, origin: Vec3, spheres: SphereArrays) -> tuple[float, in
     """:func:`farthest` of the eye and the spheres but the giant ones (:mod:`.giants`)."""
     import numpy as np
     mask = np.ones(len(spheres), bool)
-    mask[giant_spheres(scene, origin, spheres=spheres)] = False
+    mask[coarse_spheres(scene, origin, spheres=spheres)[0]] = False
     return farthest(origin, [scene.eye], spheres, mask)
 
 

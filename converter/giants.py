@@ -43,13 +43,11 @@ def _detail_near(spheres: SphereArrays, k: int) -> float:
     # a few ulps of the numbers involved bound the difference to Python's result
     slack = 1e-14 * (distance + gr + radius)
     near = np.flatnonzero(detail - slack <= (detail + slack).min())
-    return min(_detail_of(tuple(center[j].tolist()), float(radius[j]), (gx, gy, gz), gr) for j in near.tolist())
-
-
-def _detail_of(c: Vec3, r: float, g: Vec3, gr: float) -> float:
-    (x, y, z), (gx, gy, gz) = c, g
-    gap = abs(abs(math.sqrt((x - gx) ** 2 + (y - gy) ** 2 + (z - gz) ** 2) - gr) - r)
-    return max(r, gap)
+    details = []
+    for (x, y, z), r in zip(center[near].tolist(), radius[near].tolist()):
+        gap = abs(abs(math.sqrt((x - gx) ** 2 + (y - gy) ** 2 + (z - gz) ** 2) - gr) - r)
+        details.append(max(r, gap))
+    return min(details)
 
 
 def coarse_spheres(scene: Scene, origin: Vec3, smallest: float | None = None,
@@ -63,8 +61,20 @@ def coarse_spheres(scene: Scene, origin: Vec3, smallest: float | None = None,
     key = ("coarse", tuple(origin), smallest)
     cache = spheres.__dict__.setdefault("_cache", {})
     if key not in cache:
+        import numpy as np
         cache.clear()
-        cache[key] = _coarse_of(spheres, origin, smallest)
+        giant, misplaced = [], []
+        if len(spheres):
+            radius = spheres.radius
+            x, y, z = (spheres.center - origin).T
+            c = np.maximum(np.maximum(np.abs(x), np.abs(y)), np.abs(z))
+            error, candidate = coarse_candidates(spheres, origin, smallest)
+            offset = MISPLACED_RATIO * RAY_EPSILON * (1 + np.abs(np.sqrt(x * x + y * y + z * z) - radius))
+            misplaced = np.flatnonzero(UNIT_ROUNDOFF * (radius + c) > offset).tolist()
+            limit = smallest if smallest is not None else math.inf
+            giant = [k for k in np.flatnonzero(candidate).tolist()
+                     if float(error[k]) > GIANT_FRACTION * min(_detail_near(spheres, k), limit)]
+        cache[key] = giant, misplaced
     giant, misplaced = cache[key]
     return list(giant), list(misplaced)
 
@@ -81,37 +91,12 @@ def coarse_candidates(spheres: SphereArrays, origin: Vec3, smallest: float | Non
     return error, error > GIANT_FRACTION * detail
 
 
-def _coarse_of(spheres: SphereArrays, origin: Vec3, smallest: float | None) -> tuple[list[int], list[int]]:
-    import numpy as np
-    if not len(spheres):
-        return [], []
-    radius = spheres.radius
-    x, y, z = (spheres.center - origin).T
-    c = np.maximum(np.maximum(np.abs(x), np.abs(y)), np.abs(z))
-    error, candidate = coarse_candidates(spheres, origin, smallest)
-    candidates = np.flatnonzero(candidate)
-    misplaced = np.flatnonzero(UNIT_ROUNDOFF * (radius + c) > MISPLACED_RATIO * RAY_EPSILON *
-                               (1 + np.abs(np.sqrt(x * x + y * y + z * z) - radius)))
-    limit = smallest if smallest is not None else math.inf
-    giant = [k for k in candidates.tolist()
-             if float(error[k]) > GIANT_FRACTION * min(_detail_near(spheres, k), limit)]
-    return giant, misplaced.tolist()
-
-
-def giant_spheres(scene: Scene, origin: Vec3, smallest: float | None = None,
-                  spheres: SphereArrays | None = None) -> list[int]:
-    """The giant spheres of :func:`coarse_spheres`."""
-    return coarse_spheres(scene, origin, smallest, spheres)[0]
-
-
 #: Mitsuba's own ray offset near a point p is ``(1 + max|p_i|)·RayEpsilon``, RayEpsilon = 1500 ε
 RAY_EPSILON = 1500 * UNIT_ROUNDOFF
 #: the mesh's deviation from its sphere relative to the eye's distance (below a pixel)
 MESH_TOLERANCE = 2e-4
 #: the least height of the eye above a meshed sphere, in distances from the eye to the lookat
 MIN_HEIGHT = 1e-2
-
-
 #: how much coarser than Mitsuba's ray offset a float32 sphere may be before it is meshed
 #: (docs/numerics.md, hazard 14)
 MISPLACED_RATIO = 1.4
@@ -184,15 +169,6 @@ def sphere_mesh(center: Vec3, radius: float, eye: Vec3, view: float, tolerance: 
     flip = np.einsum("ij,ij->i", np.cross(p1 - p0, p2 - p0), p0 + p1 + p2) < 0
     faces[flip] = faces[flip][:, [0, 2, 1]]
     return c + radius * normals, normals, faces
-
-
-def deviation(positions, faces, center: Vec3, radius: float):
-    """Per triangle, how far its plane lies inside the sphere (bounds its distance off it)."""
-    import numpy as np
-    p0, p1, p2 = (np.asarray(positions, np.float64)[faces[:, k]] for k in range(3))
-    normal = np.cross(p1 - p0, p2 - p0)
-    normal /= np.linalg.norm(normal, axis=1)[:, None]
-    return radius - np.abs(np.einsum("ij,ij->i", normal, p0 - np.asarray(center, np.float64)))
 
 
 def ply_bytes(positions, normals, faces) -> bytes:

@@ -10,7 +10,6 @@ a sphere in doubt is read again on its own by the statement reader, which alone 
 
 from __future__ import annotations
 
-import contextlib
 import difflib
 import gc
 import math
@@ -27,7 +26,7 @@ from .. import defaults
 from ..defaults import MAX_DEPTH, MAX_SAMPLES, MAX_SIZE, PARALLEL_SINE
 from ..errors import SceneError
 from .textures import image_problem
-from .scene import Distinct, Light, Material, Scene, Sphere, SphereArrays, Vec3, first_use
+from .scene import Distinct, Light, Material, Scene, Sphere, SphereArrays, Vec3
 from .scene import cross, length, normalize
 
 # The format's limits live in whitted.defaults (see there why each is what it is).
@@ -36,6 +35,9 @@ MIN_POSITIVE = Decimal(defaults.MIN_POSITIVE)
 
 GLOBALS = ("size", "eye", "lookat", "up", "fov", "background", "ambient", "depth", "samples", "minweight")
 STATEMENTS = GLOBALS + ("light", "sphere")
+#: statement of one number -> the scene's field, its placeholder (N: an integer), its range
+NUMBERS = {"ambient": ("ambient", "A", 0, 1), "depth": ("depth", "N", 1, MAX_DEPTH),
+           "samples": ("samples", "N", 1, MAX_SAMPLES), "minweight": ("min_weight", "W", 0, 1)}
 #: Sphere attribute -> names of its values (their count is the attribute's arity).
 ATTRIBUTES = {
     "color": ("R", "G", "B"),
@@ -234,17 +236,11 @@ def parse_text(text: str, source: str | os.PathLike, *, careful: bool = False) -
     if text.startswith("\ufeff"):
         text = text[1:]
     parser = _Parser(source)
-    with _no_gc():   # a large scene makes millions of short-lived lists, none in a cycle
+    enabled = gc.isenabled()
+    gc.disable()   # a large scene makes millions of short-lived lists, none in a cycle
+    try:
         _read(parser, text, careful)
         return parser.finish()
-
-
-@contextlib.contextmanager
-def _no_gc():
-    enabled = gc.isenabled()
-    gc.disable()
-    try:
-        yield
     finally:
         if enabled:
             gc.enable()
@@ -272,8 +268,7 @@ def _read(parser: _Parser, text: str, careful: bool) -> None:
 def suggest(word: str, known) -> str:
     """', did you mean 'x'?' for the nearest known name, or the list of known names."""
     word = word.lower()
-    ranked = sorted(known, key=lambda k: (-difflib.SequenceMatcher(None, word, k).ratio(), k))
-    best = ranked[0]
+    best = min(known, key=lambda k: (-difflib.SequenceMatcher(None, word, k).ratio(), k))
     if difflib.SequenceMatcher(None, word, best).ratio() >= 0.5:
         return f"; did you mean '{best}'?"
     return "; known names: " + ", ".join(known)
@@ -393,27 +388,35 @@ class _Parser:
 
     def statement(self, line: int, tokens: list[str]) -> None:
         """Give one statement its meaning, or note its problem and go on."""
-        try:
-            self._statement(line, tokens)
-        except SceneError as error:
-            self.errors.append((error.line, error.message))
-            self.failed.add(tokens[0].lower())
-        except _PartsFailed:   # its errors are noted already
-            self.failed.add(tokens[0].lower())
-
-    def _statement(self, line: int, tokens: list[str]) -> None:
         self.line = line
         keyword, args = tokens[0], tokens[1:]
         name = keyword.lower()
-        if isinstance(keyword, Quoted):
-            self.fail(f"expected a statement name, got the quoted text {_show(keyword)}")
-        if name not in STATEMENTS:
-            self.fail(f"unknown statement {_show(keyword)}{suggest(keyword, STATEMENTS)}")
-        if name in GLOBALS:
-            if name in self.seen:
-                self.fail(f"{name} given twice (first on line {self.seen[name]})")
-            self.seen[name] = line
-        getattr(self, f"statement_{name}")(args)
+        try:
+            if isinstance(keyword, Quoted):
+                self.fail(f"expected a statement name, got the quoted text {_show(keyword)}")
+            if name not in STATEMENTS:
+                self.fail(f"unknown statement {_show(keyword)}{suggest(keyword, STATEMENTS)}")
+            if name in GLOBALS:
+                if name in self.seen:
+                    self.fail(f"{name} given twice (first on line {self.seen[name]})")
+                self.seen[name] = line
+            if name in ("eye", "lookat", "up"):
+                self.count(name, args, "X Y Z", 3)
+                setattr(self.scene, name, _floats(self.vector(args, name)))
+                if name == "up" and _is_zero(self.scene.up):
+                    self.fail("up must not be zero")
+            elif name in NUMBERS:   # N: an integer
+                field, placeholder, low, high = NUMBERS[name]
+                self.count(name, args, placeholder, 1)
+                value = self.bounded(args[0], name, low, high, integer=placeholder == "N")
+                setattr(self.scene, field, int(value) if placeholder == "N" else float(value))
+            else:
+                getattr(self, f"statement_{name}")(args)
+        except SceneError as error:
+            self.errors.append((error.line, error.message))
+            self.failed.add(name)
+        except _PartsFailed:   # its errors are noted already
+            self.failed.add(name)
 
     def statement_size(self, args):
         self.count("size", args, "W H", 2)
@@ -422,50 +425,18 @@ class _Parser:
             self.in_range(value, token, f"size {n}", 1, MAX_SIZE)
         self.scene.width, self.scene.height = int(width), int(height)
 
-    def _point(self, name, args) -> Vec3:
-        self.count(name, args, "X Y Z", 3)
-        return _floats(self.vector(args, name))
-
-    def statement_eye(self, args):
-        self.scene.eye = self._point("eye", args)
-
-    def statement_lookat(self, args):
-        self.scene.lookat = self._point("lookat", args)
-
-    def statement_up(self, args):
-        self.scene.up = self._point("up", args)
-        if _is_zero(self.scene.up):
-            self.fail("up must not be zero")
-
     def statement_fov(self, args):
         self.count("fov", args, "DEG", 1)
         fov = self.number(args[0], "fov")
         self.in_range(fov, args[0], "fov", 0, 180, low_open=True, high_open=True)
         self.positive(fov, args[0], "fov")
-        if _float32(float(fov)) >= 180.0:
+        if struct.unpack("f", struct.pack("f", float(fov)))[0] >= 180.0:
             self.fail(f"fov must be < 180 (it rounds to 180 in 32-bit floats), got {args[0]}")
         self.scene.fov = float(fov)
 
     def statement_background(self, args):
         self.count("background", args, "R G B", 3)
         self.scene.background = _floats(self.color(args, "background color"))
-
-    def _one_number(self, args, statement, placeholder, low, high, integer=False):
-        self.count(statement, args, placeholder, 1)
-        value = self.bounded(args[0], statement, low, high, integer)
-        return int(value) if integer else float(value)
-
-    def statement_ambient(self, args):
-        self.scene.ambient = self._one_number(args, "ambient", "A", 0, 1)
-
-    def statement_depth(self, args):
-        self.scene.depth = self._one_number(args, "depth", "N", 1, MAX_DEPTH, integer=True)
-
-    def statement_samples(self, args):
-        self.scene.samples = self._one_number(args, "samples", "N", 1, MAX_SAMPLES, integer=True)
-
-    def statement_minweight(self, args):
-        self.scene.min_weight = self._one_number(args, "minweight", "W", 0, 1)
 
     def statement_light(self, args):
         self.count("light", args, "X Y Z [R G B]", 3, 6)
@@ -485,7 +456,8 @@ class _Parser:
         while numbers < len(args) and not isinstance(args[numbers], Quoted) and _NUMBER.fullmatch(args[numbers]):
             numbers += 1
         if numbers < 4:
-            if numbers < len(args) and not _looks_like_name(args[numbers]):
+            if numbers < len(args) and (isinstance(args[numbers], Quoted)
+                                        or args[numbers].lower() not in ATTRIBUTES):
                 self.number(args[numbers], "sphere " + ("center" if numbers < 3 else "radius"))
             self.fail(f"sphere takes 4 numbers (CX CY CZ RADIUS), got {numbers}")
         if numbers > 4:
@@ -622,7 +594,10 @@ class _Parser:
                 self.fail(f"sphere {name} takes {len(names)} "
                           f"{'value' if len(names) == 1 else 'values'} ({' '.join(names)}), "
                           f"got {len(given)}")
-            values[name] = self.part(getattr(self, f"attribute_{name}"), given)
+            if name in ("north", "equator"):
+                values[name] = self.part(self.vector, given, f"sphere {name}")
+            else:
+                values[name] = self.part(getattr(self, f"attribute_{name}"), given)
             i += 1 + len(names)
         return values
 
@@ -638,12 +613,6 @@ class _Parser:
         self.positive(ior, args[1], "sphere refract IOR")
         return kt, ior
 
-    def attribute_north(self, args):
-        return self.vector(args, "sphere north")
-
-    def attribute_equator(self, args):
-        return self.vector(args, "sphere equator")
-
     def attribute_texture(self, args) -> Path:
         token = args[0]
         if not token:
@@ -655,16 +624,12 @@ class _Parser:
             str(path).encode("utf-8")
         except UnicodeEncodeError:
             self.fail(f"sphere texture path {path} is not valid UTF-8")
-        problem = self.image_problem(path)
+        if path not in self._images:   # why Mitsuba could not use it, once per file
+            self._images[path] = image_problem(path)
+        problem = self._images[path]
         if problem:
             self.fail(f"sphere texture {_show(token)}: {problem}")
         return path
-
-    def image_problem(self, path: Path) -> str | None:
-        """Why Mitsuba could not use ``path`` as a texture, or None (cached)."""
-        if path not in self._images:
-            self._images[path] = image_problem(path)
-        return self._images[path]
 
     def check_camera(self) -> None:
         scene, seen = self.scene, self.seen
@@ -692,7 +657,13 @@ def _float_or_nan(token: str) -> float:
 def _by_first_use(index: np.ndarray, values: list) -> tuple[np.ndarray, tuple]:
     """``index`` renumbered so that its values come in order of first use, and those values."""
     import numpy as np
-    order = first_use(index)
+    present = np.flatnonzero(np.bincount(index)) if len(index) else np.zeros(0, np.int64)
+    if len(present) <= 16:    # few values, the usual case: no sort
+        first = [int(np.argmax(index == v)) for v in present.tolist()]
+        order = present[np.argsort(first, kind="stable")]
+    else:
+        distinct, first = np.unique(index, return_index=True)
+        order = distinct[np.argsort(first)]
     if len(order) == len(values) and (order == np.arange(len(values))).all():
         return index, tuple(values)
     remap = np.zeros(len(values), np.int64)
@@ -700,16 +671,8 @@ def _by_first_use(index: np.ndarray, values: list) -> tuple[np.ndarray, tuple]:
     return remap[index], tuple(values[k] for k in order.tolist())
 
 
-def _looks_like_name(token: str) -> bool:
-    return not isinstance(token, Quoted) and token.lower() in ATTRIBUTES
-
-
 def _floats(values) -> Vec3:
     return tuple(float(v) for v in values)
-
-
-def _float32(x: float) -> float:
-    return struct.unpack("f", struct.pack("f", x))[0]
 
 
 def _is_zero(v) -> bool:

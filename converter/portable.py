@@ -27,11 +27,6 @@ SUMMARY = (
 )
 
 
-def fresnel_normal(ior: float) -> float:
-    """The share Fresnel reflects at normal incidence, ((n − 1)/(n + 1))² (n the relative index)."""
-    return ((ior - 1.0) / (ior + 1.0)) ** 2
-
-
 def _mix(parts: list[tuple[float, dict]]) -> dict:
     """The lobes ``(weight, bsdf)`` (at most two, weights > 0) as one BSDF with those shares."""
     if len(parts) == 1:
@@ -65,17 +60,14 @@ def inexact(article: dict) -> list[str]:
     reasons = []
     if kt > NEGLIGIBLE and ior != 1.0:
         reasons.append(f"Fresnel: dielectric sends a share F of KT = {kt:g} to the mirror direction "
-                       f"(F = {fresnel_normal(ior):.3g} at normal incidence, 1 at grazing; the article "
+                       f"(F = {((ior - 1.0) / (ior + 1.0)) ** 2:.3g} at normal incidence, 1 at grazing; the article "
                        f"refracts all of it, and both mirror it under total internal reflection)")
-    if diffuse > NEGLIGIBLE and (kr > NEGLIGIBLE or kt > NEGLIGIBLE) and not _white(article["color"]):
+    # exact for B = 1 (a white color): docs/portable.md
+    white = article["color"].get("type") == "rgb" and all(c == 1.0 for c in article["color"]["value"])
+    if diffuse > NEGLIGIBLE and (kr > NEGLIGIBLE or kt > NEGLIGIBLE) and not white:
         reasons.append("blendbsdf of Mitsuba 3.8 to 3.9.1 at least weights a mirror reflection "
                        "mixed with a diffuse color B < 1 too low (docs/portable.md)")
     return reasons
-
-
-def _white(color: dict) -> bool:
-    """B = 1: ``blendbsdf``'s weighting of a mirror against the diffuse lobe is then exact."""
-    return color.get("type") == "rgb" and all(c == 1.0 for c in color["value"])
 
 
 def portable(description: Description) -> tuple[Description, list[str]]:

@@ -96,17 +96,6 @@ class SphereArrays:
                             tuple(orientations.values))
 
 
-def first_use(index: np.ndarray) -> np.ndarray:
-    """The distinct values of the integer array ``index``, in order of first appearance."""
-    import numpy as np
-    present = np.flatnonzero(np.bincount(index)) if len(index) else np.zeros(0, np.int64)
-    if len(present) <= 16:    # few values, the usual case: no sort
-        first = [int(np.argmax(index == v)) for v in present.tolist()]
-        return present[np.argsort(first, kind="stable")]
-    values, first = np.unique(index, return_index=True)
-    return values[np.argsort(first)]
-
-
 class Distinct:
     """Numbers values in order of first appearance; equal means of equal ``repr`` (not -0.0, 0.0)."""
 

@@ -60,21 +60,6 @@ def scene_to_scn(scene: Scene, folder: str | os.PathLike, comment: str = "") -> 
     return "\n".join(lines) + "\n"
 
 
-def _statement(lines: list[str], line: int) -> list[tuple[int, int, int]]:
-    """The tokens ``(line index, start, end)`` of the statement that starts on ``line``
-    (1-based); empty when none starts there."""
-    k = line - 1
-    if not 0 <= k < len(lines) or k and token_spans(lines[k - 1])[1]:
-        return []
-    found = []
-    for k in range(k, len(lines)):
-        spans, continued, _ = token_spans(lines[k])
-        found += [(k, a, z) for a, z in spans]
-        if not continued:
-            break
-    return found
-
-
 def edited_scn(text: str, scene: Scene, folder: str | os.PathLike, note: str = "") -> str | None:
     """``text``, the ``.scn`` file ``scene`` was read from, with the ambient, light and sphere
     colors ``scene`` has changed put in place, textures relative to ``folder``, and ``note``
@@ -97,7 +82,17 @@ def edited_scn(text: str, scene: Scene, folder: str | os.PathLike, note: str = "
             edits.append((k, z, z, f"{'  ' + name if name else ''} {_nums(values)}"))
 
     def statement(line: int, keyword: str):
-        tokens = _statement(lines, line)
+        """The tokens ``(line index, start, end)`` of the ``keyword`` statement that starts on
+        ``line`` (1-based), or None."""
+        k = line - 1
+        if not 0 <= k < len(lines) or k and token_spans(lines[k - 1])[1]:
+            return None
+        tokens = []
+        for k in range(k, len(lines)):
+            spans, continued, _ = token_spans(lines[k])
+            tokens += [(k, a, z) for a, z in spans]
+            if not continued:
+                break
         return tokens if tokens and word(tokens[0]).lower() == keyword else None
 
     ambient = next(filter(None, (statement(k + 1, "ambient") for k, line in enumerate(lines)

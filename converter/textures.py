@@ -99,10 +99,9 @@ def _check_rgbe(path: Path) -> None:
     size = _RGBE_SIZE.match(data, end + 2) if end >= 0 else None
     if not size or not (int(size[1]) and int(size[2])):
         raise ValueError("malformed RGBE header")
-    if size[0].startswith(b"-Y") or size[0].startswith(b"+Y"):
-        height, width = int(size[1]), int(size[2])
-    else:
-        width, height = int(size[1]), int(size[2])
+    width, height = int(size[1]), int(size[2])
+    if size[0][1:2] == b"Y":   # "-Y H +X W": rows first
+        width, height = height, width
     at = size.end()
     for row in range(height):
         head = data[at:at + 4]

@@ -15,7 +15,6 @@ import shutil
 import signal
 import sys
 import tempfile
-from dataclasses import replace
 from pathlib import Path
 from xml.sax.saxutils import escape
 
@@ -41,12 +40,7 @@ _OBJECT_TAGS = {
 
 def num(x: float) -> str:
     """Shortest text that reads back as the same float64 (and never '-0.0')."""
-    x = float(x)
-    if x == 0.0:
-        x = 0.0
-    if x == int(x) and abs(x) < 1e15:
-        return repr(float(int(x)))
-    return repr(x)
+    return repr(float(x) + 0.0)
 
 
 def vec(v: Vec3, sep: str = " ") -> str:
@@ -125,32 +119,21 @@ def _object(key: str, node: dict, defaults: dict, depth: int) -> list[str]:
     return lines + [f"{pad}</{_OBJECT_TAGS[kind]}>"]
 
 
-def usage_notes(description: Description) -> list[str]:
-    """The default XML's header comment: what renders it, and the form for stock ``mitsuba``."""
-    stem = Path(description.source).stem if description.source.endswith(".scn") else "FILE"
-    return ["It needs the whitted plugins (the `whitted` integrator, the `article` BSDF): render it with",
-            f"`whitted render {stem}.xml -o {stem}.png`, or in Python `import whitted`, then mi.load_file.",
-            'The stock `mitsuba` command stops at Plugin "whitted" not found!: give it the portable form,',
-            f"{stem}.portable.xml (Mitsuba's stock plugins), which `whitted convert` writes with its",
-            "portable option (docs/portable.md)."]
-
-
-def description_to_xml(description: Description, notes: list[str] = ()) -> str:
-    """The Mitsuba XML of a scene description; ``notes`` are lines of a comment at the top."""
-    return "".join(_pieces(description, notes))
-
-
 def _with_notes(description: Description, portable: bool) -> tuple[Description, list[str]]:
-    return to_portable(description) if portable else (description, usage_notes(description))
+    """The description as written (``portable``: its stock form) and its header comment: for
+    the default XML, what renders it, and the form for stock ``mitsuba``."""
+    if portable:
+        return to_portable(description)
+    stem = Path(description.source).stem if description.source.endswith(".scn") else "FILE"
+    return description, [
+        "It needs the whitted plugins (the `whitted` integrator, the `article` BSDF): render it with",
+        f"`whitted render {stem}.xml -o {stem}.png`, or in Python `import whitted`, then mi.load_file.",
+        'The stock `mitsuba` command stops at Plugin "whitted" not found!: give it the portable form,',
+        f"{stem}.portable.xml (Mitsuba's stock plugins), which `whitted convert` writes with its",
+        "portable option (docs/portable.md)."]
 
 
-def _later(description: Description) -> set:
-    """The ids of the block's spheres the description's ``scene`` holds (written with the block)."""
-    block = description.spheres
-    return set() if block is None else {f"sphere_{block.names[k]}" for k in block.in_scene}
-
-
-def _pieces(description: Description, notes: list[str] = ()):
+def _pieces(description: Description, notes: list[str]):
     o = description.origin
     out = [
         '<?xml version="1.0" encoding="utf-8"?>',
@@ -166,20 +149,17 @@ def _pieces(description: Description, notes: list[str] = ()):
     ]
     for name, value in description.defaults.items():
         out.append(f'{INDENT}<default name="{name}" value="{_value(value, {})[1]}"/>')
-    # each object comes after a blank line
-    later = _later(description)
+    # each object after a blank line and its note; the block's spheres come with the block
+    block = description.spheres
+    later = set() if block is None else {f"sphere_{block.names[k]}" for k in block.in_scene}
     for key, node in description.scene.items():
         if key != "type" and key not in later:
-            out += [""] + _noted(key, description) + _object(key, node, description.defaults, 1)
+            note = [f"{INDENT}<!-- {comment(description.notes[key])} -->"] if key in description.notes else []
+            out += [""] + note + _object(key, node, description.defaults, 1)
     yield "\n".join(out) + "\n"
     if description.spheres is not None:
         yield from _Block(description).pieces()
     yield "</scene>\n"
-
-
-def _noted(key: str, description: Description) -> list[str]:
-    note = description.notes.get(key)
-    return [] if note is None else [f"{INDENT}<!-- {comment(note)} -->"]
 
 
 #: the objects of :class:`_Block`'s spheres, from the blank line before to the line break after
@@ -235,11 +215,7 @@ def write_xml(description: Description, file, portable: bool = False) -> None:
         for piece in _pieces(description, notes):
             file.write(piece)
         return
-    # _pieces without the block, which comes in two halves
-    later = _later(description)
-    scene = {key: node for key, node in description.scene.items() if key not in later}
-    pieces = list(_pieces(replace(description, spheres=None, scene=scene), notes))
-    file.write(pieces[0])
+    file.write(next(_pieces(description, notes)))   # all but the block, which comes in two halves
     text = _Block(description)
     half = len(block) // 2
     with tempfile.TemporaryFile() as spill:
@@ -261,7 +237,7 @@ def write_xml(description: Description, file, portable: bool = False) -> None:
                 with contextlib.suppress(OSError):
                     os.kill(child, signal.SIGKILL)
                     os.waitpid(child, 0)
-    file.write(pieces[-1])
+    file.write("</scene>\n")
 
 
 def _can_fork(file) -> bool:
@@ -302,4 +278,4 @@ def scene_to_xml(scene: Scene, base_dir: str | os.PathLike | None, portable: boo
 
 def xml_of(description: Description, portable: bool = False) -> str:
     """The XML of ``description``, in the default or the ``portable`` form."""
-    return description_to_xml(*_with_notes(description, portable))
+    return "".join(_pieces(*_with_notes(description, portable)))

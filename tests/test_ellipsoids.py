@@ -16,6 +16,7 @@ from float64_reference import assert_matches, render_reference
 from whitted import float32, sealed
 from whitted.plugins.primitives import ellipsoids_shape
 from whitted.converter import Light, Material, Scene, Sphere
+from whitted.converter.scn_writer import scene_to_scn
 
 
 
@@ -161,7 +162,7 @@ def both_ways(path, model, **render_options):
 
 def test_a_sphereflake_with_its_leaves_as_ellipsoids_matches_the_reference(variant, write_scene):
     model = flake()
-    path = write_scene(sphereflake.to_scn(model))
+    path = write_scene(scene_to_scn(model, "."))
     scene = whitted.load_scene(path, model=model, ellipsoids=True)
     # scaled by 1/r (r = 1/54), the floor of radius 1000 is too coarse for Mitsuba's absolute
     # ray offset and becomes a mesh (converter/giants.py; the Whitted integrator keeps it
@@ -198,9 +199,9 @@ def test_mitsubas_path_tracer_renders_the_same_scene_both_ways(llvm, write_scene
     model = flake(48)
     grouping = sealed.choose(model, min_group=1)
     in_frame = sealed.remaining(model, replace(grouping, member=np.zeros_like(grouping.member)))
-    scenes = [whitted.load_scene(write_scene(sphereflake.to_scn(in_frame), "scaled.scn"), model=in_frame,
+    scenes = [whitted.load_scene(write_scene(scene_to_scn(in_frame, "."), "scaled.scn"), model=in_frame,
                                  ellipsoids=False),
-              whitted.load_scene(write_scene(sphereflake.to_scn(model)), model=model, ellipsoids=True,
+              whitted.load_scene(write_scene(scene_to_scn(model, ".")), model=model, ellipsoids=True,
                                  integrator="path")]
     image = {(k, seed): whitted.render(scenes[k], integrator="path", spp=64, seed=seed).image
              for k in (0, 1) for seed in (1, 2)}

@@ -22,6 +22,7 @@ import pytest
 from benchmarks import povray, process, sphereflake, vs_povray
 from benchmarks.vs_povray import Runs
 from whitted.converter.scene import Light, Material, Scene, Sphere
+from whitted.converter.scn_writer import scene_to_scn
 
 
 
@@ -48,7 +49,7 @@ def test_povray_renders_the_image_whitted_renders(tmp_path):
     assert exe, why
     model = replace(sphereflake.scene(1), width=64, height=48)
     scn = tmp_path / "flake.scn"
-    scn.write_text(sphereflake.to_scn(model))
+    scn.write_text(scene_to_scn(model, "."))
     (tmp_path / "flake.pov").write_text(povray.scene_to_pov(model))
     run = povray.run(exe, tmp_path / "flake.pov", tmp_path / "pov.png", 64, 48, threads=1)
     assert run.trace_seconds >= 0 and run.wall_seconds > 0 and run.reflected_rays > 0

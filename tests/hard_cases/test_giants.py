@@ -21,8 +21,8 @@ from float64_reference import Reference, assert_matches
 from whitted.cli import main
 from whitted.converter import Light, Scene, Sphere, scene_to_xml
 from whitted.converter.description import describe, meshes
-from whitted.converter.giants import MESH_TOLERANCE, deviation, giant_spheres, parse_exact_spheres, sphere_mesh
-from whitted.converter.xml_writer import description_to_xml
+from whitted.converter.giants import MESH_TOLERANCE, coarse_spheres, parse_exact_spheres, sphere_mesh
+from whitted.converter.xml_writer import xml_of
 from whitted.metrics import relative_mse
 
 
@@ -76,11 +76,11 @@ def test_which_spheres_are_giant():
     the sky dome scene's floor of radius 10^3."""
     for name in ("floor_1e4", "floor_1e5", "floor_1e6", "floor_1e7"):
         model = hs.GIANTS[name]()
-        assert giant_spheres(model, model.lookat) == [0], name
+        assert coarse_spheres(model, model.lookat)[0] == [0], name
     box = hs.smallpt_box()
-    assert giant_spheres(box, box.lookat) == []
+    assert coarse_spheres(box, box.lookat)[0] == []
     dome = hs.sky_dome()
-    assert giant_spheres(dome, dome.lookat) == []   # 0.07 is nothing 10^5 away from everything
+    assert coarse_spheres(dome, dome.lookat)[0] == []   # 0.07 is nothing 10^5 away from everything
     for name in hs.HAZARDS:
         if name not in ("texture_poles", "arccos_range"):
             model = hs.HAZARDS[name]()
@@ -128,6 +128,14 @@ def test_a_malformed_exact_spheres_property_is_refused(text, message):
 
 
 # -- the meshes Mitsuba's own integrators get ---------------------------------------------------------
+
+def _deviation(positions, faces, center, radius):
+    """Per triangle, how far its plane lies inside the sphere (bounds its distance off it)."""
+    p0, p1, p2 = (np.asarray(positions, np.float64)[faces[:, k]] for k in range(3))
+    normal = np.cross(p1 - p0, p2 - p0)
+    normal /= np.linalg.norm(normal, axis=1)[:, None]
+    return radius - np.abs(np.einsum("ij,ij->i", normal, p0 - np.asarray(center, np.float64)))
+
 
 def _point_triangle_distance(point, triangles):
     """The exact distance from ``point`` to each triangle (T×3×3): to the plane where the
@@ -178,7 +186,7 @@ def test_the_mesh_keeps_to_the_sphere_within_its_bound(case):
         assert off.min() >= -1e-12 * radius                    # inscribed
         assert (off / distance).max() <= MESH_TOLERANCE
     # the planes' own bound, the one sphere_mesh's docstring derives
-    assert (deviation(positions, faces, center, radius) / distance).max() <= MESH_TOLERANCE
+    assert (_deviation(positions, faces, center, radius) / distance).max() <= MESH_TOLERANCE
     edges = np.sort(np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]]), axis=1)
     _, counts = np.unique(edges, axis=0, return_counts=True)
     assert (counts == 2).all()
@@ -237,7 +245,7 @@ def test_mitsubas_path_tracer_is_free_of_acne(tmp_path, llvm, name, route):
         description = describe(model, base_dir=tmp_path)
         for mesh in meshes(description):
             (tmp_path / mesh.filename).write_bytes(mesh.data)
-        (tmp_path / f"{name}.xml").write_text(description_to_xml(description))
+        (tmp_path / f"{name}.xml").write_text(xml_of(description))
         scene = whitted.load_scene(tmp_path / f"{name}.xml")
     error, off = _path_against_whitted(scene)
     assert error <= 2e-3 and off <= 0.01, f"relative MSE {error:.2e}, {off:.2%} of pixels off by > 0.1"
