@@ -829,3 +829,17 @@ def test_every_error_of_a_statement_is_reported():
     # the checks across a statement's parts run once its parts are good
     assert_error("sphere 0 0 0 1 reflect 0.6 refract 0.6 1.5\n", 1,
                  "sphere reflect + refract must be <= 1, got 0.6 + 0.6")
+
+
+def test_many_distinct_materials_are_numbered_by_first_use():
+    colors = [(k / 20, 1 - k / 20, 0.5) for k in range(20)]
+    uses = [7, 3, 19, 3, 0, 12, 7, 5, 18, 1, 2, 4, 6, 8, 9, 10, 11, 13, 14, 15, 16, 17, 0, 19] * 3
+    text = "".join(f"sphere {i} 0 0 0.5 color {' '.join(map(repr, colors[u]))}\n"
+                   for i, u in enumerate(uses))
+    scene = parse(text)
+    arrays = scene.sphere_arrays()
+    first_use = list(dict.fromkeys(uses))
+    assert [m.color for m in arrays.materials] == [colors[u] for u in first_use]
+    assert [m.color for m in (arrays.materials[int(k)] for k in arrays.material)] == \
+        [colors[u] for u in uses]
+    assert [s.material.color for s in scene.spheres] == [colors[u] for u in uses]
