@@ -14,12 +14,13 @@ from pathlib import Path
 from ..atomic import write_text
 from ..defaults import VERSION
 from ..images import view_text
+from ..templates import environment
 from .analysis import METHOD_NAMES, TIMING, Analysis, spread_text
 from .curves import pareto_front
 from .errormaps import colorbar
 from .plot import COLORS
 from .results import METHODS, Measurement, SceneResult, seconds_text
-from .summary import environment, method_verdict, number, scale_text, scene_words
+from .summary import number, scene_words
 
 PAGE_NAME = "report.html"
 TEMPLATE = "report.html.j2"
@@ -76,12 +77,10 @@ def scene_context(analysis: Analysis, plot: str, out: Path) -> dict:
              if m.setting.method == "path" and m.seconds > 0]
     near = (min(paths, key=lambda p: abs(math.log(p[1].seconds / floor_render.seconds)))[0]
             if paths and floor_render and floor_render.seconds > 0 else None)
+    words = scene_words(analysis)
     return {
-        "headline": method_verdict(analysis.floors[0]) if analysis.floors else None,
-        "more": " ".join([method_verdict(f) for f in analysis.floors[1:]]
-                         + [scale_text(entry.reference_noise)]),
-        "path_near": near,
-        **scene_words(analysis), "key": key,
+        **words, "headline": words["verdicts"][0] if words["verdicts"] else None,
+        "more": " ".join(words["verdicts"][1:] + [words["scale"]]), "path_near": near, "key": key,
         "display_width": entry.width * max(1, math.ceil(VIEWER_WIDTH / entry.width)),
         "variant": entry.variant, "path_depth": entry.path_depth,
         "reference": {"png": entry.reference_png, "exr": reference_exr, "spp": entry.reference_spp,
@@ -102,7 +101,7 @@ def write_page(path: str | os.PathLike, analyses: list[Analysis], plots: dict[st
     """Write the report page (atomically); ``plots``, ``files``: the outputs relative to its
     folder; ``left_out``: the scenes without a reference."""
     path = Path(path)
-    template = environment().get_template(TEMPLATE)
+    template = environment("whitted.compare").get_template(TEMPLATE)
     text = template.render(
         scenes=[scene_context(a, plots[a.entry.name], path.parent) for a in analyses],
         left_out=[{"name": e.name, "notes": list(e.notes) or ["no reference"]} for e in left_out],
