@@ -185,25 +185,19 @@ class Analysis:
                                            "stopped_after_steps": fitted.stopped or None}
                 found["text"] = decomposition.text
             methods[statement.method] = found
-        entry = self.entry
+        entry, model = self.entry, self.entry.path_model
         return {"levels": list(self.levels), "reference_spp": entry.reference_spp,
                 "reference_noise": finite_or_none(entry.reference_noise),
                 "renders": len(entry.measurements), "skipped": len(entry.skipped),
                 "timed_rounds": rounds_of(entry), "methods": methods, "notes": list(entry.notes),
-                "path_model": _model_findings(entry),
+                "path_model": None if model is None else {
+                    "c": model.c, "v": model.v, "fitted_spp": list(model.fitted),
+                    "checked_spp": model.checked, "deviation": model.deviation,
+                    "read_spp": [m.setting.spp for m in modelled_path(entry)],
+                    "text": model_text(entry)},
                 "equal_quality": [{"rel_mse": row.level,
                                    "path_time_over": {m: i.as_dict() for m, i in row.speedups.items()}}
                                   for row in self.equal_quality]}
-
-
-def _model_findings(entry: SceneResult) -> dict | None:
-    model = entry.path_model
-    if model is None:
-        return None
-    return {"c": model.c, "v": model.v, "fitted_spp": list(model.fitted),
-            "checked_spp": model.checked,
-            "deviation": model.deviation, "read_spp": [m.setting.spp for m in modelled_path(entry)],
-            "text": model_text(entry)}
 
 
 def _costliest_two(entry: SceneResult) -> tuple[Measurement, ...]:
@@ -240,15 +234,18 @@ def modelled_path(entry: SceneResult) -> list[Measurement]:
 
 def model_text(entry: SceneResult) -> str:
     """What was rendered of the path tracer, and what read from its fitted curve."""
-    model, pair = entry.path_model, _costliest_two(entry)
-    read = [m.setting.spp for m in modelled_path(entry)]
-    fitted = f"{model.fitted[0]}–{model.fitted[-1]} spp"
-    spp = ", ".join(str(n) for n in read)
-    return (f"The path tracer was rendered at {', '.join(str(n) for n in model.fitted)} spp"
-            + (f"; its {spp} spp are read from its fitted curve" if read else "")
-            + f": error = {model.c:.3g} + {model.v:.3g}/n, fitted to {fitted} and checked at "
-              f"{model.checked} spp within {model.deviation:.0%}; time = a + b·n through its "
-              f"{pair[0].setting.spp} and {pair[1].setting.spp} spp renders, in each timed round.")
+    model, (low, high) = entry.path_model, _costliest_two(entry)
+    read = ", ".join(str(m.setting.spp) for m in modelled_path(entry))
+    return (f"The path tracer was rendered at {', '.join(map(str, model.fitted))} spp"
+            + (f"; its {read} spp are read from its fitted curve" if read else "")
+            + f": {curve_text(model, low.setting.spp, high.setting.label)}, in each timed round.")
+
+
+def curve_text(model: PathModel, low: str, high: str) -> str:
+    """The path tracer's fitted curve, and its time line through its renders ``low``, ``high``."""
+    return (f"error = {model.c:.3g} + {model.v:.3g}/n, fitted to {model.fitted[0]}–"
+            f"{model.fitted[-1]} spp and checked at {model.checked} spp within "
+            f"{model.deviation:.0%}; time = a + b·n through its {low} and {high} renders")
 
 
 def _curve(measurements: list[Measurement], metric: str,
@@ -410,10 +407,10 @@ def floor_text(method: str, floor: Floor[Measurement], path: Reading | None,
         text += (f". Even the path tracer's fastest render ({first.setting.label}, "
                  f"{seconds_text(first.seconds)}) does better, at {first.rel_mse:.3g}.")
     else:
-        how = (f"its {path.between[0].setting.label} render" if path.how == "rendered" else
-               fitted_how(model, spp, path.between) if path.how == "fitted" else
-               f"interpolated between its {path.between[0].setting.label} and "
-               f"{path.between[1].setting.label} renders")
+        names = [m.setting.label for m in path.between]
+        how = (f"its {names[0]} render" if path.how == "rendered" else
+               f"read from its fitted curve at {spp:.3g} spp: {curve_text(model, *names)}"
+               if path.how == "fitted" else f"interpolated between its {names[0]} and {names[1]} renders")
         if interval is None or not interval.known:
             ratio = path.value / render.seconds if render.seconds > 0 else math.nan
             interval = Interval(ratio, ratio, ratio, 1)
@@ -421,14 +418,6 @@ def floor_text(method: str, floor: Floor[Measurement], path: Reading | None,
         text += (f". The path tracer reaches that error in {seconds_text(path.value)} ({how}): "
                  f"{faster}.")
     return text + _noise_caution(floor, reference_noise)
-
-
-def fitted_how(model: PathModel, spp: float, pair: tuple[Measurement, ...]) -> str:
-    """How a reading from the path tracer's fitted curve was made, in words."""
-    return (f"read from its fitted curve at {spp:.3g} spp: error = {model.c:.3g} + "
-            f"{model.v:.3g}/n, fitted to {model.fitted[0]}–{model.fitted[-1]} spp and checked "
-            f"at {model.checked} spp within {model.deviation:.0%}; time = a + b·n through its "
-            f"{pair[0].setting.label} and {pair[1].setting.label} renders")
 
 
 def _noise_caution(floor: Floor, reference_noise: float) -> str:

@@ -20,16 +20,11 @@ def int_list(text: str) -> tuple[int, ...]:
     """'1,4,16' or '1-5' or '1-3,8' -> a sorted tuple of distinct positive integers (argparse type)."""
     values: set[int] = set()
     try:
-        for item in text.split(","):
-            item = item.strip()
-            if "-" in item[1:]:
-                low, high = item.split("-", 1)
-                low, high = int(low), int(high)
-                if high < low:
-                    raise ValueError
-                values.update(range(low, high + 1))
-            else:
-                values.add(int(item))
+        for item in map(str.strip, text.split(",")):
+            low, high = map(int, item.split("-", 1) if "-" in item[1:] else (item, item))
+            if high < low:
+                raise ValueError
+            values.update(range(low, high + 1))
     except ValueError:
         raise argparse.ArgumentTypeError(f"'{text}' is not a list of integers like 1,4,16 or 1-5") from None
     if not values or min(values) < 1:

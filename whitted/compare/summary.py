@@ -23,7 +23,8 @@ def table(rows: list[list[str]]) -> list[str]:
 
 
 def method_verdict(statement: FloorStatement) -> str:
-    render, floor, path, best = statement.render, statement.floor, statement.path, statement.path_best
+    render, floor = statement.render, statement.floor
+    path, best = statement.path, statement.path_best
     where = f"{render.setting.label}, {seconds_text(render.seconds)} (error {floor.error:.3g})"
     text = capital(METHOD_NAMES[statement.method]) + (
         f" is as good as it gets at {where}" if floor.settled
@@ -51,13 +52,14 @@ def equal_time_row(row) -> dict:
     """An equal-time row: its cells, ``line`` those of summary.txt; ``winner``: the more
     accurate method ("" where the interval holds 1 or nothing was compared)."""
     m, compared, ratio = row.whitted, row.rel_mse is not None and row.outside is None, row.ratio
-    winner = ("" if not math.isfinite(ratio) or row.interval is not None and row.interval.straddles_one
-              else "whitted" if ratio < 1 else "path")
+    straddles = row.interval is not None and row.interval.straddles_one
+    winner = "" if straddles or not math.isfinite(ratio) else "whitted" if ratio < 1 else "path"
     line = [m.setting.method, m.setting.label, seconds_text(m.seconds), number(m.rel_mse),
             number(row.rel_mse.value) if compared else "—",
             ratio_text(row.interval) if math.isfinite(ratio) else "—", number(m.flip),
             number(row.flip.value) if compared and row.flip else "—", equal_time_how(row)]
-    keys = ("method", "label", "seconds", "rel_mse", "path_rel_mse", "ratio", "flip", "path_flip", "how")
+    keys = ("method", "label", "seconds", "rel_mse", "path_rel_mse", "ratio", "flip", "path_flip",
+            "how")
     return {**dict(zip(keys, line)), "time": spread_text(m), "winner": winner, "line": line}
 
 
@@ -82,17 +84,20 @@ def scene_words(analysis: Analysis) -> dict:
              + (f"; this reference's own noise is about {noise:.2g}, and no render can measurably "
                 f"score below it." if noisy else "."))
     return {
-        "name": entry.name, "width": entry.width, "height": entry.height, "notes": list(entry.notes),
+        "name": entry.name, "width": entry.width, "height": entry.height,
+        "notes": list(entry.notes), "reference": {"spp": entry.reference_spp},
         "verdicts": verdicts, "scale": scale,
-        "verdict": " ".join((verdicts or ["No Whitted render was done: there is no verdict to state."])
-                            + [scale]),
-        "floors": [f.text for f in analysis.floors] + ([model_text(entry)] if entry.path_model else []),
+        "verdict": " ".join((verdicts or ["No Whitted render was done: there is no verdict to "
+                                          "state."]) + [scale]),
+        "floors": ([f.text for f in analysis.floors]
+                   + ([model_text(entry)] if entry.path_model else [])),
         "decompositions": [d.text for d in analysis.decompositions],
-        "noise_note": f", its noise ≈ {noise:.3g}" if noisy else "", "reference": {"spp": entry.reference_spp},
+        "noise_note": f", its noise ≈ {noise:.3g}" if noisy else "",
         "methods": methods, "whitted": [WHITTED_LIGHTING[m] for m in whitted],
         "equal_quality_header": (["rel_mse ≤", *methods, "fastest"]
                                  + [f"{WHITTED_LIGHTING[m]} vs path" for m in whitted]),
-        "equal_quality": [equal_quality_row(row, methods, whitted) for row in analysis.equal_quality],
+        "equal_quality": [equal_quality_row(row, methods, whitted)
+                          for row in analysis.equal_quality],
         "equal_time": [equal_time_row(row) for row in analysis.equal_time]}
 
 
@@ -106,7 +111,8 @@ def summary(analyses: list[Analysis], equal_time: bool = True,
             interrupted: tuple[int, int] | None = None) -> str:
     """``summary.txt``; ``interrupted``: (renders done, planned) of a stopped run, said first."""
     return environment("whitted.compare").get_template("summary.txt.j2").render(
-        scenes=[scene_words(a) for a in analyses], timing=TIMING, equal_time=equal_time, table=table,
+        scenes=[scene_words(a) for a in analyses], timing=TIMING, equal_time=equal_time,
+        table=table,
         interrupted=interruption_text(*interrupted) if interrupted else None).rstrip("\n")
 
 
