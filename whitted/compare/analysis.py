@@ -410,7 +410,8 @@ def floor_text(method: str, floor: Floor[Measurement], path: Reading | None,
         names = [m.setting.label for m in path.between]
         how = (f"its {names[0]} render" if path.how == "rendered" else
                f"read from its fitted curve at {spp:.3g} spp: {curve_text(model, *names)}"
-               if path.how == "fitted" else f"interpolated between its {names[0]} and {names[1]} renders")
+               if path.how == "fitted" else
+               f"interpolated between its {names[0]} and {names[1]} renders")
         if interval is None or not interval.known:
             ratio = path.value / render.seconds if render.seconds > 0 else math.nan
             interval = Interval(ratio, ratio, ratio, 1)

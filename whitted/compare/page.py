@@ -15,12 +15,12 @@ from ..atomic import write_text
 from ..defaults import VERSION
 from ..images import view_text
 from ..templates import environment
-from .analysis import METHOD_NAMES, TIMING, Analysis, spread_text
+from .analysis import METHOD_NAMES, TIMING, Analysis
 from .curves import pareto_front
 from .errormaps import colorbar
 from .plot import COLORS
 from .results import METHODS, Measurement, SceneResult, seconds_text
-from .summary import number, scene_words
+from .summary import number, render_cells, scene_words
 
 PAGE_NAME = "report.html"
 TEMPLATE = "report.html.j2"
@@ -33,17 +33,14 @@ def _slug(name: str) -> str:
 
 
 def _render(m: Measurement, index: str, card: bool) -> dict:
-    s = m.setting
+    s, cells = m.setting, render_cells(m)
     limit = (f", {number(m.rel_mse_limit)} from its limit"
              if math.isfinite(m.rel_mse_limit) else "")
-    return {"id": index, "method": s.method, "method_name": METHOD_NAMES[s.method],
-            "label": s.label, "depth": s.max_depth, "spp": s.spp, "time": spread_text(m),
-            "seconds": seconds_text(m.seconds),
-            "rel_mse": number(m.rel_mse), "flip": number(m.flip), "rounds": m.rounds,
-            "png": m.image_png, "exr": m.image or "", "map": m.error_map or m.image_png,
-            "title": f"{s.method} {s.label}", "card": card,
-            "caption": f"{METHOD_NAMES[s.method]} ({s.method}), {s.label}: {spread_text(m)}, "
-                       f"relative MSE {number(m.rel_mse)}{limit}, FLIP {number(m.flip)}"}
+    return {**cells, "id": index, "method_name": METHOD_NAMES[s.method], "depth": s.max_depth,
+            "spp": s.spp, "rounds": m.rounds, "png": m.image_png, "exr": m.image or "",
+            "map": m.error_map or m.image_png, "title": f"{s.method} {s.label}", "card": card,
+            "caption": f"{METHOD_NAMES[s.method]} ({s.method}), {s.label}: {cells['time']}, "
+                       f"relative MSE {cells['rel_mse']}{limit}, FLIP {cells['flip']}"}
 
 
 def _on_curves(measurements: list[Measurement]) -> set[int]:

@@ -10,7 +10,7 @@ import math
 from ..templates import environment
 from .analysis import (METHOD_NAMES, TIMING, Analysis, FloorStatement, capital, equal_time_how,
                        model_text, ratio_text, reach_text, speedup_text, spread_text)
-from .results import WHITTED_LIGHTING, WHITTED_METHODS, seconds_text
+from .results import WHITTED_LIGHTING, WHITTED_METHODS, Measurement, seconds_text
 
 SUMMARY_NAME = "summary.txt"
 FINDINGS_NAME = "findings.json"
@@ -48,19 +48,25 @@ def number(value: float) -> str:
     return f"{value:.3g}" if math.isfinite(value) else "—"
 
 
+def render_cells(m: Measurement) -> dict:
+    """A render's cells, as every table and caption shows them."""
+    return {"method": m.setting.method, "label": m.setting.label, "seconds": seconds_text(m.seconds),
+            "time": spread_text(m), "rel_mse": number(m.rel_mse), "flip": number(m.flip)}
+
+
 def equal_time_row(row) -> dict:
     """An equal-time row: its cells, ``line`` those of summary.txt; ``winner``: the more
     accurate method ("" where the interval holds 1 or nothing was compared)."""
-    m, compared, ratio = row.whitted, row.rel_mse is not None and row.outside is None, row.ratio
+    compared, ratio = row.rel_mse is not None and row.outside is None, row.ratio
     straddles = row.interval is not None and row.interval.straddles_one
     winner = "" if straddles or not math.isfinite(ratio) else "whitted" if ratio < 1 else "path"
-    line = [m.setting.method, m.setting.label, seconds_text(m.seconds), number(m.rel_mse),
-            number(row.rel_mse.value) if compared else "—",
-            ratio_text(row.interval) if math.isfinite(ratio) else "—", number(m.flip),
-            number(row.flip.value) if compared and row.flip else "—", equal_time_how(row)]
+    cells = {**render_cells(row.whitted), "path_rel_mse": number(row.rel_mse.value) if compared else "—",
+             "ratio": ratio_text(row.interval) if math.isfinite(ratio) else "—",
+             "path_flip": number(row.flip.value) if compared and row.flip else "—",
+             "how": equal_time_how(row)}
     keys = ("method", "label", "seconds", "rel_mse", "path_rel_mse", "ratio", "flip", "path_flip",
             "how")
-    return {**dict(zip(keys, line)), "time": spread_text(m), "winner": winner, "line": line}
+    return {**cells, "winner": winner, "line": [cells[k] for k in keys]}
 
 
 def equal_quality_row(row, methods: list[str], whitted: list[str]) -> dict:
