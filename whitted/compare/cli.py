@@ -73,7 +73,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="timed rounds over each scene's renders, at least: every render is "
                              "timed once per round, so that methods are timed in the same moments; "
                              f"then rounds of the headlines' renders alone (default {COMPARE_ROUNDS})")
-    # the former name (each render repeated back to back): old scripts keep working
+    # --repeats: --rounds under the name scripts may still use
     parser.add_argument("--repeats", dest="rounds", type=int, help=argparse.SUPPRESS)
     parser.add_argument("--budget", type=float, metavar="SECONDS",
                         help="bound the whole command's time: renders, timing rounds, limits and "
