@@ -97,6 +97,9 @@ class EqualQuality:
     reach: dict[str, Reach]
     speedups: dict[str, Interval] = field(default_factory=dict)
 
+    def reached(self, method: str) -> bool:
+        return method in self.reach and self.reach[method].fastest is not None
+
     @property
     def fastest_method(self) -> str | None:
         hits = [r for r in self.reach.values() if r.fastest is not None]
@@ -167,9 +170,8 @@ class Analysis:
             decomposition = decompositions.get(statement.method)
             if decomposition is not None:
                 limit = decomposition.limit
-                found["limit"] = {"max_depth": limit.max_depth, "spp": limit.spp,
-                                  "rel_mse": limit.rel_mse, "noise": limit.noise,
-                                  "converged": limit.converged, "seconds": limit.seconds}
+                found["limit"] = {k: getattr(limit, k) for k in ("max_depth", "spp", "rel_mse",
+                                                                 "noise", "converged", "seconds")}
                 found["depth_and_sampling_rel_mse"] = decomposition.sampling
                 if statement.method == "whitted-article":
                     found["scene_ambient"] = finite_or_none(limit.ambient)
@@ -499,10 +501,7 @@ def reach_text(reach: Reach | None) -> str:
 def speedup_text(row: EqualQuality, method: str) -> str:
     if method in row.speedups:
         return ratio_text(row.speedups[method])
-    own, path = row.reach.get(method), row.reach.get("path")
-    own_hit = own is not None and own.fastest is not None
-    path_hit = path is not None and path.fastest is not None
-    return "only it" if own_hit else "only path" if path_hit else "neither"
+    return "only it" if row.reached(method) else "only path" if row.reached("path") else "neither"
 
 
 def equal_time_how(row: EqualTime) -> str:
