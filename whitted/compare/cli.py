@@ -120,11 +120,11 @@ def compare_command(args: argparse.Namespace) -> None:
                    if getattr(args, name) is not None})
     if "spp" in chosen:
         chosen["whitted_spp"] = chosen.pop("spp")
-    options = Options(out=Path(args.out), **chosen, path_depth=args.path_depth, levels=args.levels, started=getattr(args, "started", None),
-                      cache=Path(args.cache) if args.cache else None, variant=args.variant,
-                      quiet=args.quiet, reference_chunk_spp=args.reference_chunk_spp,
-                      workers=args.workers, scheduler=args.scheduler, view=args.view,
-                      exposure=args.exposure)
+    given = ("path_depth", "levels", "variant", "quiet", "reference_chunk_spp", "workers", "scheduler",
+             "view", "exposure")   # the options that Options names as the command line does
+    options = Options(out=Path(args.out), **chosen, **{name: getattr(args, name) for name in given},
+                      cache=Path(args.cache) if args.cache else None,
+                      started=getattr(args, "started", None))
     start = time.monotonic()
     entries = compare(args.scenes, options)
     skipped = sum(len(e.skipped) for e in entries)
