@@ -279,13 +279,14 @@ def data_levels(entry: SceneResult, tolerance: float = COMPARE_FLOOR_TOLERANCE) 
     errors = [m.rel_mse for m in measured if math.isfinite(m.rel_mse) and m.rel_mse > 0]
     if not errors:
         return ()
-    floors = []
-    for method in METHODS:
-        floor = error_floor(_curve([m for m in measured if m.setting.method == method],
-                                   "rel_mse"), tolerance, _work)
-        if floor is not None:
-            floors.append(floor.error)
-    return error_levels(floors, min(errors), max(errors), COMPARE_DATA_LEVELS, tolerance)
+    floors = [_floor([m for m in measured if m.setting.method == method], tolerance)
+              for method in METHODS]
+    return error_levels([f.error for f in floors if f is not None], min(errors), max(errors),
+                        COMPARE_DATA_LEVELS, tolerance)
+
+
+def _floor(ms: list[Measurement], tolerance: float) -> Floor[Measurement] | None:
+    return error_floor(_curve(ms, "rel_mse"), tolerance, _work)
 
 
 def analyse(entry: SceneResult, levels: tuple[float, ...] | None = None,
@@ -324,21 +325,19 @@ def analyse(entry: SceneResult, levels: tuple[float, ...] | None = None,
             hits = [m for m in ms if m.rel_mse <= level]
             reach[method] = Reach(method, _cheapest(hits) if hits else None,
                                   min(ms, key=lambda m: m.rel_mse))
-        speedups = {}
-        path_reach = reach.get("path")
+        row = EqualQuality(level, reach)
         for method in WHITTED_METHODS:
-            own = reach.get(method)
-            if own and own.fastest and path_reach and path_reach.fastest:
-                a, b = path_reach.fastest, own.fastest
-                speedups[method] = paired(
+            if row.reached(method) and row.reached("path"):
+                a, b = reach["path"].fastest, reach[method].fastest
+                row.speedups[method] = paired(
                     rounds, lambda r, a=a, b=b: _over(a.seconds_in(r), b.seconds_in(r)))
-        equal_quality.append(EqualQuality(level, reach, speedups))
+        equal_quality.append(row)
 
     floors, decompositions = [], []
     path_best = min(rendered, key=lambda m: m.rel_mse) if rendered else None
     for method in WHITTED_METHODS:
         ms = by_method[method]
-        floor = error_floor(_curve(ms, "rel_mse"), tolerance, _work)
+        floor = _floor(ms, tolerance)
         if floor is None:
             continue
         reading = time_to_reach(_curve(rendered, "rel_mse"), floor.error) if rendered else None

@@ -28,10 +28,6 @@ TEMPLATE = "report.html.j2"
 VIEWER_WIDTH = 640
 
 
-def _slug(name: str) -> str:
-    return "".join(c if c.isalnum() else "-" for c in name)
-
-
 def _render(m: Measurement, index: str, card: bool) -> dict:
     s, cells = m.setting, render_cells(m)
     limit = (f", {number(m.rel_mse_limit)} from its limit"
@@ -55,7 +51,7 @@ def _on_curves(measurements: list[Measurement]) -> set[int]:
 
 def scene_context(analysis: Analysis, plot: str, out: Path) -> dict:
     entry = analysis.entry
-    key = _slug(entry.name)
+    key = "".join(c if c.isalnum() else "-" for c in entry.name)   # an HTML id
     order = {m: i for i, m in enumerate(METHODS)}
     measurements = sorted(entry.measurements, key=lambda m: (order[m.setting.method],
                                                              m.setting.max_depth, m.setting.spp))
