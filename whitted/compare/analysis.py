@@ -130,7 +130,7 @@ class Decomposition:
     floor: Floor[Measurement]
     limit: Limit
     gone: Measurement | None
-    text: str
+    text: str = ""
 
     @property
     def sampling(self) -> float:
@@ -362,9 +362,9 @@ def analyse(entry: SceneResult, levels: tuple[float, ...] | None = None,
         if limit is not None:
             gone = [m for m in ms if m.rel_mse_limit <= tolerance * limit.rel_mse]
             gone = _cheapest(gone) if gone else None
-            decompositions.append(Decomposition(method, floor, limit, gone,
-                                                decomposition_text(method, floor, limit, gone,
-                                                                   entry.reference_noise, tolerance)))
+            decomposition = Decomposition(method, floor, limit, gone)
+            decompositions.append(replace(decomposition, text=decomposition_text(
+                decomposition, entry.reference_noise, tolerance)))
     return Analysis(entry, tuple(levels), equal_time, equal_quality, floors, decompositions)
 
 
@@ -429,38 +429,34 @@ def _noise_caution(floor: Floor, reference_noise: float) -> str:
     return ""
 
 
-def decomposition_text(method: str, floor: Floor[Measurement], limit: Limit,
-                       gone: Measurement | None, reference_noise: float = math.nan,
+def decomposition_text(d: Decomposition, reference_noise: float = math.nan,
                        tolerance: float = COMPARE_FLOOR_TOLERANCE) -> str:
     """What the floor's error is made of, in words."""
-    possessive = POSSESSIVES[method]
-    sampling = max(0.0, floor.error - limit.rel_mse)
-    how = f"d{limit.max_depth}, every ray of the tree, {limit.spp} spp"
-    if sampling > 0:
-        text = (f"Of {possessive} {floor.error:.3g} (at {floor.render.setting.label}), "
-                f"{sampling:.2g} is its depth and sampling")
+    floor, limit, gone = d.floor, d.limit, d.gone
+    text = f"Of {POSSESSIVES[d.method]} {floor.error:.3g} (at {floor.render.setting.label}), "
+    if d.sampling > 0:
+        text += f"{d.sampling:.2g} is its depth and sampling"
         if gone is floor.render:
             text += f", under {tolerance:.0%} of its bias there"
         elif gone is not None:
             text += f" (gone at {gone.setting.label}, {seconds_text(gone.seconds)})"
-        text += f": its limit ({how}) scores {limit.rel_mse:.3g}"
     else:
-        text = (f"Of {possessive} {floor.error:.3g} (at {floor.render.setting.label}), nothing "
-                f"measurable is its depth and sampling: its limit ({how}) scores {limit.rel_mse:.3g}")
-    article = method == "whitted-article"
-    rest = limit.rel_mse_at_best_ambient if article and math.isfinite(limit.best_ambient) else limit.rel_mse
+        text += "nothing measurable is its depth and sampling"
+    text += (f": its limit (d{limit.max_depth}, every ray of the tree, {limit.spp} spp) scores "
+             f"{limit.rel_mse:.3g}")
+    article, rest, best = d.method == "whitted-article", limit.rel_mse, ""
+    if article and math.isfinite(limit.best_ambient):
+        rest = limit.rel_mse_at_best_ambient
+        best = (f"the best ambient ({limit.best_ambient:.2g} instead of {limit.ambient:.2g}) "
+                f"brings it to {rest:.3g}; ")
     fitted = limit.fitted if article else None
     if fitted is not None:
-        best = (f"the best ambient ({limit.best_ambient:.2g} instead of {limit.ambient:.2g}) brings it "
-                f"to {limit.rel_mse_at_best_ambient:.3g}; " if math.isfinite(limit.best_ambient) else "")
         rest = fitted.rel_mse
         cut = f", stopped by --budget after {fitted.stopped} steps" if fitted.stopped else ""
         text += (f"; {best}fitted{cut}, the article's model reaches {rest:.3g} "
-                 f"({fitted_text(fitted)}); "
-                 f"the remaining {rest:.2g}")
-    elif article and math.isfinite(limit.best_ambient):
-        text += (f"; the best ambient ({limit.best_ambient:.2g} instead of {limit.ambient:.2g}) "
-                 f"brings it to {rest:.3g}; the remaining {rest:.2g}")
+                 f"({fitted_text(fitted)}); the remaining {rest:.2g}")
+    elif best:
+        text += f"; {best}the remaining {rest:.2g}"
     elif article:
         text += f"; no pixel depends on the ambient, so all {rest:.2g} of it"
     else:
