@@ -114,8 +114,8 @@ class FloorStatement:
     floor: Floor[Measurement]
     path: Reading[Measurement] | None
     path_best: Measurement | None
-    text: str
-    interval: Interval | None = None
+    interval: Interval | None
+    text: str = ""
 
     @property
     def render(self) -> Measurement:
@@ -354,10 +354,9 @@ def analyse(entry: SceneResult, levels: tuple[float, ...] | None = None,
         elif reading is not None and reading.how != "nearest":
             interval = paired(rounds, lambda r: _over(
                 _path_in_round(rendered, r, own.seconds_in(r), floor.error), own.seconds_in(r)))
-        floors.append(FloorStatement(method, floor, reading, path_best,
-                                     floor_text(method, floor, reading, path_best,
-                                                entry.reference_noise, tolerance, interval,
-                                                entry.path_model, spp), interval))
+        statement = FloorStatement(method, floor, reading, path_best, interval)
+        floors.append(replace(statement, text=floor_text(statement, entry.reference_noise,
+                                                         tolerance, entry.path_model, spp)))
         limit = entry.limits.get(method)
         if limit is not None:
             gone = [m for m in ms if m.rel_mse_limit <= tolerance * limit.rel_mse]
@@ -383,14 +382,13 @@ def _path_in_round(path: list[Measurement], timed_round: int, own: float,
     return math.nan if reading is None or reading.how == "nearest" else reading.value
 
 
-def floor_text(method: str, floor: Floor[Measurement], path: Reading | None,
-               path_best: Measurement | None, reference_noise: float, tolerance: float,
-               interval: Interval | None = None, model: PathModel | None = None,
-               spp: float = math.nan) -> str:
+def floor_text(statement: FloorStatement, reference_noise: float, tolerance: float,
+               model: PathModel | None = None, spp: float = math.nan) -> str:
     """The floor in words; its cheapest render is the one of least work (rays traced), so
     that timing noise does not choose it."""
-    name = METHOD_NAMES[method]
-    render = floor.render
+    floor, path, path_best, interval = (statement.floor, statement.path, statement.path_best,
+                                        statement.interval)
+    name, render = METHOD_NAMES[statement.method], floor.render
     cheapest = (f"{render.setting.label} ({seconds_text(render.seconds)}) at {floor.error:.3g}")
     if floor.settled:
         text = (f"{capital(name)} stops improving at {floor.best:.3g} (relative MSE, its best): "
