@@ -1,7 +1,7 @@
 """``report.html``: one static page that opens anywhere, where a render, the reference and
 its error map flip in place, every image a file of the output folder by relative path.
-The template (``templates/report.html.j2``) shows plain strings made here from the same
-analysis the text summary reads.
+The template (``templates/report.html.j2``) shows the rows summary.txt's shows too
+(:func:`~whitted.compare.summary.scene_words`), and the images and captions made here.
 """
 
 from __future__ import annotations
