@@ -1,6 +1,6 @@
 """``report.html``: one static page that opens anywhere, where a render, the reference and
 its error map flip in place, every image a file of the output folder by relative path.
-The template (``templates/report.html.j2``) shows the rows summary.txt's shows too
+The template (``templates/report.html.j2``) shows the rows that summary.txt shows too
 (:func:`~whitted.compare.summary.scene_words`), and the images and captions made here.
 """
 
