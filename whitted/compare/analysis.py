@@ -397,8 +397,8 @@ def floor_text(statement: FloorStatement, reference_noise: float, tolerance: flo
         text = (f"{capital(name)} is still improving at its costliest render, {cheapest} "
                 f"(relative MSE): no costlier render shows where it stops")
     if path is None and path_best is None:
-        return text + "; the path tracer was not rendered." + _noise_caution(floor, reference_noise)
-    if path is None:
+        text += "; the path tracer was not rendered."
+    elif path is None:
         text += (f". The path tracer never gets there: its best render ({path_best.setting.label}, "
                  f"{seconds_text(path_best.seconds)}) scores {path_best.rel_mse:.3g}.")
     elif path.how == "nearest":
@@ -417,14 +417,10 @@ def floor_text(statement: FloorStatement, reference_noise: float, tolerance: flo
         faster = faster_text(interval, name, "the path tracer")
         text += (f". The path tracer reaches that error in {seconds_text(path.value)} ({how}): "
                  f"{faster}.")
-    return text + _noise_caution(floor, reference_noise)
-
-
-def _noise_caution(floor: Floor, reference_noise: float) -> str:
     if math.isfinite(reference_noise) and floor.error < 2 * reference_noise:
-        return (f" Caution: that is within a factor 2 of the reference's own noise "
-                f"({reference_noise:.3g}).")
-    return ""
+        text += (f" Caution: that is within a factor 2 of the reference's own noise "
+                 f"({reference_noise:.3g}).")
+    return text
 
 
 def decomposition_text(d: Decomposition, reference_noise: float = math.nan,
