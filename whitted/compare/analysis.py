@@ -240,7 +240,8 @@ def model_text(entry: SceneResult) -> str:
     read = ", ".join(str(m.setting.spp) for m in modelled_path(entry))
     return (f"The path tracer was rendered at {', '.join(map(str, model.fitted))} spp"
             + (f"; its {read} spp are read from its fitted curve" if read else "")
-            + f": {curve_text(model, str(low.setting.spp), high.setting.label)}, in each timed round.")
+            + f": {curve_text(model, str(low.setting.spp), high.setting.label)}, "
+              "in each timed round.")
 
 
 def curve_text(model: PathModel, low: str, high: str) -> str:
