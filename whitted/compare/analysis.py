@@ -97,6 +97,9 @@ class EqualQuality:
     reach: dict[str, Reach]
     speedups: dict[str, Interval] = field(default_factory=dict)
 
+    def reached(self, method: str) -> bool:
+        return method in self.reach and self.reach[method].fastest is not None
+
     @property
     def fastest_method(self) -> str | None:
         hits = [r for r in self.reach.values() if r.fastest is not None]
@@ -111,8 +114,8 @@ class FloorStatement:
     floor: Floor[Measurement]
     path: Reading[Measurement] | None
     path_best: Measurement | None
-    text: str
-    interval: Interval | None = None
+    interval: Interval | None
+    text: str = ""
 
     @property
     def render(self) -> Measurement:
@@ -127,7 +130,7 @@ class Decomposition:
     floor: Floor[Measurement]
     limit: Limit
     gone: Measurement | None
-    text: str
+    text: str = ""
 
     @property
     def sampling(self) -> float:
@@ -167,9 +170,8 @@ class Analysis:
             decomposition = decompositions.get(statement.method)
             if decomposition is not None:
                 limit = decomposition.limit
-                found["limit"] = {"max_depth": limit.max_depth, "spp": limit.spp,
-                                  "rel_mse": limit.rel_mse, "noise": limit.noise,
-                                  "converged": limit.converged, "seconds": limit.seconds}
+                found["limit"] = {k: getattr(limit, k) for k in ("max_depth", "spp", "rel_mse",
+                                                                 "noise", "converged", "seconds")}
                 found["depth_and_sampling_rel_mse"] = decomposition.sampling
                 if statement.method == "whitted-article":
                     found["scene_ambient"] = finite_or_none(limit.ambient)
@@ -185,25 +187,19 @@ class Analysis:
                                            "stopped_after_steps": fitted.stopped or None}
                 found["text"] = decomposition.text
             methods[statement.method] = found
-        entry = self.entry
+        entry, model = self.entry, self.entry.path_model
         return {"levels": list(self.levels), "reference_spp": entry.reference_spp,
                 "reference_noise": finite_or_none(entry.reference_noise),
                 "renders": len(entry.measurements), "skipped": len(entry.skipped),
                 "timed_rounds": rounds_of(entry), "methods": methods, "notes": list(entry.notes),
-                "path_model": _model_findings(entry),
+                "path_model": None if model is None else {
+                    "c": model.c, "v": model.v, "fitted_spp": list(model.fitted),
+                    "checked_spp": model.checked, "deviation": model.deviation,
+                    "read_spp": [m.setting.spp for m in modelled_path(entry)],
+                    "text": model_text(entry)},
                 "equal_quality": [{"rel_mse": row.level,
                                    "path_time_over": {m: i.as_dict() for m, i in row.speedups.items()}}
                                   for row in self.equal_quality]}
-
-
-def _model_findings(entry: SceneResult) -> dict | None:
-    model = entry.path_model
-    if model is None:
-        return None
-    return {"c": model.c, "v": model.v, "fitted_spp": list(model.fitted),
-            "checked_spp": model.checked,
-            "deviation": model.deviation, "read_spp": [m.setting.spp for m in modelled_path(entry)],
-            "text": model_text(entry)}
 
 
 def _costliest_two(entry: SceneResult) -> tuple[Measurement, ...]:
@@ -240,15 +236,19 @@ def modelled_path(entry: SceneResult) -> list[Measurement]:
 
 def model_text(entry: SceneResult) -> str:
     """What was rendered of the path tracer, and what read from its fitted curve."""
-    model, pair = entry.path_model, _costliest_two(entry)
-    read = [m.setting.spp for m in modelled_path(entry)]
-    fitted = f"{model.fitted[0]}–{model.fitted[-1]} spp"
-    spp = ", ".join(str(n) for n in read)
-    return (f"The path tracer was rendered at {', '.join(str(n) for n in model.fitted)} spp"
-            + (f"; its {spp} spp are read from its fitted curve" if read else "")
-            + f": error = {model.c:.3g} + {model.v:.3g}/n, fitted to {fitted} and checked at "
-              f"{model.checked} spp within {model.deviation:.0%}; time = a + b·n through its "
-              f"{pair[0].setting.spp} and {pair[1].setting.spp} spp renders, in each timed round.")
+    model, (low, high) = entry.path_model, _costliest_two(entry)
+    read = ", ".join(str(m.setting.spp) for m in modelled_path(entry))
+    return (f"The path tracer was rendered at {', '.join(map(str, model.fitted))} spp"
+            + (f"; its {read} spp are read from its fitted curve" if read else "")
+            + f": {curve_text(model, str(low.setting.spp), high.setting.label)}, "
+              "in each timed round.")
+
+
+def curve_text(model: PathModel, low: str, high: str) -> str:
+    """The path tracer's fitted curve, and its time line through its renders ``low``, ``high``."""
+    return (f"error = {model.c:.3g} + {model.v:.3g}/n, fitted to {model.fitted[0]}–"
+            f"{model.fitted[-1]} spp and checked at {model.checked} spp within "
+            f"{model.deviation:.0%}; time = a + b·n through its {low} and {high} renders")
 
 
 def _curve(measurements: list[Measurement], metric: str,
@@ -280,13 +280,14 @@ def data_levels(entry: SceneResult, tolerance: float = COMPARE_FLOOR_TOLERANCE) 
     errors = [m.rel_mse for m in measured if math.isfinite(m.rel_mse) and m.rel_mse > 0]
     if not errors:
         return ()
-    floors = []
-    for method in METHODS:
-        floor = error_floor(_curve([m for m in measured if m.setting.method == method],
-                                   "rel_mse"), tolerance, _work)
-        if floor is not None:
-            floors.append(floor.error)
-    return error_levels(floors, min(errors), max(errors), COMPARE_DATA_LEVELS, tolerance)
+    floors = [_floor([m for m in measured if m.setting.method == method], tolerance)
+              for method in METHODS]
+    return error_levels([f.error for f in floors if f is not None], min(errors), max(errors),
+                        COMPARE_DATA_LEVELS, tolerance)
+
+
+def _floor(ms: list[Measurement], tolerance: float) -> Floor[Measurement] | None:
+    return error_floor(_curve(ms, "rel_mse"), tolerance, _work)
 
 
 def analyse(entry: SceneResult, levels: tuple[float, ...] | None = None,
@@ -325,21 +326,19 @@ def analyse(entry: SceneResult, levels: tuple[float, ...] | None = None,
             hits = [m for m in ms if m.rel_mse <= level]
             reach[method] = Reach(method, _cheapest(hits) if hits else None,
                                   min(ms, key=lambda m: m.rel_mse))
-        speedups = {}
-        path_reach = reach.get("path")
+        row = EqualQuality(level, reach)
         for method in WHITTED_METHODS:
-            own = reach.get(method)
-            if own and own.fastest and path_reach and path_reach.fastest:
-                a, b = path_reach.fastest, own.fastest
-                speedups[method] = paired(
+            if row.reached(method) and row.reached("path"):
+                a, b = reach["path"].fastest, reach[method].fastest
+                row.speedups[method] = paired(
                     rounds, lambda r, a=a, b=b: _over(a.seconds_in(r), b.seconds_in(r)))
-        equal_quality.append(EqualQuality(level, reach, speedups))
+        equal_quality.append(row)
 
     floors, decompositions = [], []
     path_best = min(rendered, key=lambda m: m.rel_mse) if rendered else None
     for method in WHITTED_METHODS:
         ms = by_method[method]
-        floor = error_floor(_curve(ms, "rel_mse"), tolerance, _work)
+        floor = _floor(ms, tolerance)
         if floor is None:
             continue
         reading = time_to_reach(_curve(rendered, "rel_mse"), floor.error) if rendered else None
@@ -356,17 +355,16 @@ def analyse(entry: SceneResult, levels: tuple[float, ...] | None = None,
         elif reading is not None and reading.how != "nearest":
             interval = paired(rounds, lambda r: _over(
                 _path_in_round(rendered, r, own.seconds_in(r), floor.error), own.seconds_in(r)))
-        floors.append(FloorStatement(method, floor, reading, path_best,
-                                     floor_text(method, floor, reading, path_best,
-                                                entry.reference_noise, tolerance, interval,
-                                                entry.path_model, spp), interval))
+        statement = FloorStatement(method, floor, reading, path_best, interval)
+        floors.append(replace(statement, text=floor_text(statement, entry.reference_noise,
+                                                         tolerance, entry.path_model, spp)))
         limit = entry.limits.get(method)
         if limit is not None:
             gone = [m for m in ms if m.rel_mse_limit <= tolerance * limit.rel_mse]
             gone = _cheapest(gone) if gone else None
-            decompositions.append(Decomposition(method, floor, limit, gone,
-                                                decomposition_text(method, floor, limit, gone,
-                                                                   entry.reference_noise, tolerance)))
+            decomposition = Decomposition(method, floor, limit, gone)
+            decompositions.append(replace(decomposition, text=decomposition_text(
+                decomposition, entry.reference_noise, tolerance)))
     return Analysis(entry, tuple(levels), equal_time, equal_quality, floors, decompositions)
 
 
@@ -385,14 +383,13 @@ def _path_in_round(path: list[Measurement], timed_round: int, own: float,
     return math.nan if reading is None or reading.how == "nearest" else reading.value
 
 
-def floor_text(method: str, floor: Floor[Measurement], path: Reading | None,
-               path_best: Measurement | None, reference_noise: float, tolerance: float,
-               interval: Interval | None = None, model: PathModel | None = None,
-               spp: float = math.nan) -> str:
+def floor_text(statement: FloorStatement, reference_noise: float, tolerance: float,
+               model: PathModel | None = None, spp: float = math.nan) -> str:
     """The floor in words; its cheapest render is the one of least work (rays traced), so
     that timing noise does not choose it."""
-    name = METHOD_NAMES[method]
-    render = floor.render
+    floor, path, path_best, interval = (statement.floor, statement.path, statement.path_best,
+                                        statement.interval)
+    name, render = METHOD_NAMES[statement.method], floor.render
     cheapest = (f"{render.setting.label} ({seconds_text(render.seconds)}) at {floor.error:.3g}")
     if floor.settled:
         text = (f"{capital(name)} stops improving at {floor.best:.3g} (relative MSE, its best): "
@@ -401,8 +398,8 @@ def floor_text(method: str, floor: Floor[Measurement], path: Reading | None,
         text = (f"{capital(name)} is still improving at its costliest render, {cheapest} "
                 f"(relative MSE): no costlier render shows where it stops")
     if path is None and path_best is None:
-        return text + "; the path tracer was not rendered." + _noise_caution(floor, reference_noise)
-    if path is None:
+        text += "; the path tracer was not rendered."
+    elif path is None:
         text += (f". The path tracer never gets there: its best render ({path_best.setting.label}, "
                  f"{seconds_text(path_best.seconds)}) scores {path_best.rel_mse:.3g}.")
     elif path.how == "nearest":
@@ -410,66 +407,51 @@ def floor_text(method: str, floor: Floor[Measurement], path: Reading | None,
         text += (f". Even the path tracer's fastest render ({first.setting.label}, "
                  f"{seconds_text(first.seconds)}) does better, at {first.rel_mse:.3g}.")
     else:
-        how = (f"its {path.between[0].setting.label} render" if path.how == "rendered" else
-               fitted_how(model, spp, path.between) if path.how == "fitted" else
-               f"interpolated between its {path.between[0].setting.label} and "
-               f"{path.between[1].setting.label} renders")
+        names = [m.setting.label for m in path.between]
+        how = (f"its {names[0]} render" if path.how == "rendered" else
+               f"read from its fitted curve at {spp:.3g} spp: {curve_text(model, *names)}"
+               if path.how == "fitted" else
+               f"interpolated between its {names[0]} and {names[1]} renders")
         if interval is None or not interval.known:
             ratio = path.value / render.seconds if render.seconds > 0 else math.nan
             interval = Interval(ratio, ratio, ratio, 1)
         faster = faster_text(interval, name, "the path tracer")
         text += (f". The path tracer reaches that error in {seconds_text(path.value)} ({how}): "
                  f"{faster}.")
-    return text + _noise_caution(floor, reference_noise)
-
-
-def fitted_how(model: PathModel, spp: float, pair: tuple[Measurement, ...]) -> str:
-    """How a reading from the path tracer's fitted curve was made, in words."""
-    return (f"read from its fitted curve at {spp:.3g} spp: error = {model.c:.3g} + "
-            f"{model.v:.3g}/n, fitted to {model.fitted[0]}–{model.fitted[-1]} spp and checked "
-            f"at {model.checked} spp within {model.deviation:.0%}; time = a + b·n through its "
-            f"{pair[0].setting.label} and {pair[1].setting.label} renders")
-
-
-def _noise_caution(floor: Floor, reference_noise: float) -> str:
     if math.isfinite(reference_noise) and floor.error < 2 * reference_noise:
-        return (f" Caution: that is within a factor 2 of the reference's own noise "
-                f"({reference_noise:.3g}).")
-    return ""
+        text += (f" Caution: that is within a factor 2 of the reference's own noise "
+                 f"({reference_noise:.3g}).")
+    return text
 
 
-def decomposition_text(method: str, floor: Floor[Measurement], limit: Limit,
-                       gone: Measurement | None, reference_noise: float = math.nan,
+def decomposition_text(d: Decomposition, reference_noise: float = math.nan,
                        tolerance: float = COMPARE_FLOOR_TOLERANCE) -> str:
     """What the floor's error is made of, in words."""
-    possessive = POSSESSIVES[method]
-    sampling = max(0.0, floor.error - limit.rel_mse)
-    how = f"d{limit.max_depth}, every ray of the tree, {limit.spp} spp"
-    if sampling > 0:
-        text = (f"Of {possessive} {floor.error:.3g} (at {floor.render.setting.label}), "
-                f"{sampling:.2g} is its depth and sampling")
+    floor, limit, gone = d.floor, d.limit, d.gone
+    text = f"Of {POSSESSIVES[d.method]} {floor.error:.3g} (at {floor.render.setting.label}), "
+    if d.sampling > 0:
+        text += f"{d.sampling:.2g} is its depth and sampling"
         if gone is floor.render:
             text += f", under {tolerance:.0%} of its bias there"
         elif gone is not None:
             text += f" (gone at {gone.setting.label}, {seconds_text(gone.seconds)})"
-        text += f": its limit ({how}) scores {limit.rel_mse:.3g}"
     else:
-        text = (f"Of {possessive} {floor.error:.3g} (at {floor.render.setting.label}), nothing "
-                f"measurable is its depth and sampling: its limit ({how}) scores {limit.rel_mse:.3g}")
-    article = method == "whitted-article"
-    rest = limit.rel_mse_at_best_ambient if article and math.isfinite(limit.best_ambient) else limit.rel_mse
+        text += "nothing measurable is its depth and sampling"
+    text += (f": its limit (d{limit.max_depth}, every ray of the tree, {limit.spp} spp) scores "
+             f"{limit.rel_mse:.3g}")
+    article, rest, best = d.method == "whitted-article", limit.rel_mse, ""
+    if article and math.isfinite(limit.best_ambient):
+        rest = limit.rel_mse_at_best_ambient
+        best = (f"the best ambient ({limit.best_ambient:.2g} instead of {limit.ambient:.2g}) "
+                f"brings it to {rest:.3g}; ")
     fitted = limit.fitted if article else None
     if fitted is not None:
-        best = (f"the best ambient ({limit.best_ambient:.2g} instead of {limit.ambient:.2g}) brings it "
-                f"to {limit.rel_mse_at_best_ambient:.3g}; " if math.isfinite(limit.best_ambient) else "")
         rest = fitted.rel_mse
         cut = f", stopped by --budget after {fitted.stopped} steps" if fitted.stopped else ""
         text += (f"; {best}fitted{cut}, the article's model reaches {rest:.3g} "
-                 f"({fitted_text(fitted)}); "
-                 f"the remaining {rest:.2g}")
-    elif article and math.isfinite(limit.best_ambient):
-        text += (f"; the best ambient ({limit.best_ambient:.2g} instead of {limit.ambient:.2g}) "
-                 f"brings it to {rest:.3g}; the remaining {rest:.2g}")
+                 f"({fitted_text(fitted)}); the remaining {rest:.2g}")
+    elif best:
+        text += f"; {best}the remaining {rest:.2g}"
     elif article:
         text += f"; no pixel depends on the ambient, so all {rest:.2g} of it"
     else:
@@ -509,10 +491,7 @@ def reach_text(reach: Reach | None) -> str:
 def speedup_text(row: EqualQuality, method: str) -> str:
     if method in row.speedups:
         return ratio_text(row.speedups[method])
-    own, path = row.reach.get(method), row.reach.get("path")
-    own_hit = own is not None and own.fastest is not None
-    path_hit = path is not None and path.fastest is not None
-    return "only it" if own_hit else "only path" if path_hit else "neither"
+    return "only it" if row.reached(method) else "only path" if row.reached("path") else "neither"
 
 
 def equal_time_how(row: EqualTime) -> str:

@@ -20,16 +20,11 @@ def int_list(text: str) -> tuple[int, ...]:
     """'1,4,16' or '1-5' or '1-3,8' -> a sorted tuple of distinct positive integers (argparse type)."""
     values: set[int] = set()
     try:
-        for item in text.split(","):
-            item = item.strip()
-            if "-" in item[1:]:
-                low, high = item.split("-", 1)
-                low, high = int(low), int(high)
-                if high < low:
-                    raise ValueError
-                values.update(range(low, high + 1))
-            else:
-                values.add(int(item))
+        for item in map(str.strip, text.split(",")):
+            low, high = map(int, item.split("-", 1) if "-" in item[1:] else (item, item))
+            if high < low:
+                raise ValueError
+            values.update(range(low, high + 1))
     except ValueError:
         raise argparse.ArgumentTypeError(f"'{text}' is not a list of integers like 1,4,16 or 1-5") from None
     if not values or min(values) < 1:
@@ -78,7 +73,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="timed rounds over each scene's renders, at least: every render is "
                              "timed once per round, so that methods are timed in the same moments; "
                              f"then rounds of the headlines' renders alone (default {COMPARE_ROUNDS})")
-    # the former name (each render repeated back to back): old scripts keep working
+    # --repeats: --rounds under the name scripts may still use
     parser.add_argument("--repeats", dest="rounds", type=int, help=argparse.SUPPRESS)
     parser.add_argument("--budget", type=float, metavar="SECONDS",
                         help="bound the whole command's time: renders, timing rounds, limits and "
@@ -125,11 +120,11 @@ def compare_command(args: argparse.Namespace) -> None:
                    if getattr(args, name) is not None})
     if "spp" in chosen:
         chosen["whitted_spp"] = chosen.pop("spp")
-    options = Options(out=Path(args.out), **chosen, path_depth=args.path_depth, levels=args.levels, started=getattr(args, "started", None),
-                      cache=Path(args.cache) if args.cache else None, variant=args.variant,
-                      quiet=args.quiet, reference_chunk_spp=args.reference_chunk_spp,
-                      workers=args.workers, scheduler=args.scheduler, view=args.view,
-                      exposure=args.exposure)
+    given = ("path_depth", "levels", "variant", "quiet", "reference_chunk_spp", "workers", "scheduler",
+             "view", "exposure")   # the options that Options names as the command line does
+    options = Options(out=Path(args.out), **chosen, **{name: getattr(args, name) for name in given},
+                      cache=Path(args.cache) if args.cache else None,
+                      started=getattr(args, "started", None))
     start = time.monotonic()
     entries = compare(args.scenes, options)
     skipped = sum(len(e.skipped) for e in entries)

@@ -129,5 +129,3 @@ def sweep_on_cluster(client, scenes: list[SceneFile], entries: list[SceneResult]
         raise
     finally:
         bar.close()
-
-

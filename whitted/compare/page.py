@@ -1,7 +1,7 @@
 """``report.html``: one static page that opens anywhere, where a render, the reference and
 its error map flip in place, every image a file of the output folder by relative path.
-The template (``templates/report.html.j2``) shows plain strings made here from the same
-analysis the text summary reads.
+The template (``templates/report.html.j2``) shows the rows that summary.txt shows too
+(:func:`~whitted.compare.summary.scene_words`), and the images and captions made here.
 """
 
 from __future__ import annotations
@@ -14,12 +14,13 @@ from pathlib import Path
 from ..atomic import write_text
 from ..defaults import VERSION
 from ..images import view_text
-from .analysis import METHOD_NAMES, TIMING, Analysis, spread_text
+from ..templates import environment
+from .analysis import METHOD_NAMES, TIMING, Analysis
 from .curves import pareto_front
 from .errormaps import colorbar
 from .plot import COLORS
 from .results import METHODS, Measurement, SceneResult, seconds_text
-from .summary import environment, method_verdict, number, scale_text, scene_words
+from .summary import number, render_cells, scene_words
 
 PAGE_NAME = "report.html"
 TEMPLATE = "report.html.j2"
@@ -27,22 +28,15 @@ TEMPLATE = "report.html.j2"
 VIEWER_WIDTH = 640
 
 
-def _slug(name: str) -> str:
-    return "".join(c if c.isalnum() else "-" for c in name)
-
-
 def _render(m: Measurement, index: str, card: bool) -> dict:
-    s = m.setting
+    s, cells = m.setting, render_cells(m)
     limit = (f", {number(m.rel_mse_limit)} from its limit"
              if math.isfinite(m.rel_mse_limit) else "")
-    return {"id": index, "method": s.method, "method_name": METHOD_NAMES[s.method],
-            "label": s.label, "depth": s.max_depth, "spp": s.spp, "time": spread_text(m),
-            "seconds": seconds_text(m.seconds),
-            "rel_mse": number(m.rel_mse), "flip": number(m.flip), "rounds": m.rounds,
-            "png": m.image_png, "exr": m.image or "", "map": m.error_map or m.image_png,
-            "title": f"{s.method} {s.label}", "card": card,
-            "caption": f"{METHOD_NAMES[s.method]} ({s.method}), {s.label}: {spread_text(m)}, "
-                       f"relative MSE {number(m.rel_mse)}{limit}, FLIP {number(m.flip)}"}
+    return {**cells, "id": index, "method_name": METHOD_NAMES[s.method], "depth": s.max_depth,
+            "spp": s.spp, "rounds": m.rounds, "png": m.image_png, "exr": m.image or "",
+            "map": m.error_map or m.image_png, "title": f"{s.method} {s.label}", "card": card,
+            "caption": f"{METHOD_NAMES[s.method]} ({s.method}), {s.label}: {cells['time']}, "
+                       f"relative MSE {cells['rel_mse']}{limit}, FLIP {cells['flip']}"}
 
 
 def _on_curves(measurements: list[Measurement]) -> set[int]:
@@ -57,7 +51,7 @@ def _on_curves(measurements: list[Measurement]) -> set[int]:
 
 def scene_context(analysis: Analysis, plot: str, out: Path) -> dict:
     entry = analysis.entry
-    key = _slug(entry.name)
+    key = "".join(c if c.isalnum() else "-" for c in entry.name)   # an HTML id
     order = {m: i for i, m in enumerate(METHODS)}
     measurements = sorted(entry.measurements, key=lambda m: (order[m.setting.method],
                                                              m.setting.max_depth, m.setting.spp))
@@ -76,12 +70,10 @@ def scene_context(analysis: Analysis, plot: str, out: Path) -> dict:
              if m.setting.method == "path" and m.seconds > 0]
     near = (min(paths, key=lambda p: abs(math.log(p[1].seconds / floor_render.seconds)))[0]
             if paths and floor_render and floor_render.seconds > 0 else None)
+    words = scene_words(analysis)
     return {
-        "headline": method_verdict(analysis.floors[0]) if analysis.floors else None,
-        "more": " ".join([method_verdict(f) for f in analysis.floors[1:]]
-                         + [scale_text(entry.reference_noise)]),
-        "path_near": near,
-        **scene_words(analysis), "key": key,
+        **words, "headline": words["verdicts"][0] if words["verdicts"] else None,
+        "more": " ".join(words["verdicts"][1:] + [words["scale"]]), "path_near": near, "key": key,
         "display_width": entry.width * max(1, math.ceil(VIEWER_WIDTH / entry.width)),
         "variant": entry.variant, "path_depth": entry.path_depth,
         "reference": {"png": entry.reference_png, "exr": reference_exr, "spp": entry.reference_spp,
@@ -102,7 +94,7 @@ def write_page(path: str | os.PathLike, analyses: list[Analysis], plots: dict[st
     """Write the report page (atomically); ``plots``, ``files``: the outputs relative to its
     folder; ``left_out``: the scenes without a reference."""
     path = Path(path)
-    template = environment().get_template(TEMPLATE)
+    template = environment("whitted.compare").get_template(TEMPLATE)
     text = template.render(
         scenes=[scene_context(a, plots[a.entry.name], path.parent) for a in analyses],
         left_out=[{"name": e.name, "notes": list(e.notes) or ["no reference"]} for e in left_out],

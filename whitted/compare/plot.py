@@ -160,17 +160,14 @@ def _time_axis(ax, seconds: list[float]) -> None:
     decade (else their labels would collide)."""
     from matplotlib.ticker import FuncFormatter, NullFormatter
 
-    def label(value, _position=None):
-        return seconds_text(value) if value > 0 else ""
+    def label(value, _position=None, minor=False):   # minor ticks: 2 and 5 of each decade
+        leading = round(value / 10 ** math.floor(math.log10(value) + 1e-9)) if value > 0 else 0
+        return seconds_text(value) if value > 0 and (not minor or leading in (2, 5)) else ""
 
     ax.xaxis.set_major_formatter(FuncFormatter(label))
     narrow = seconds and math.log10(max(seconds) / min(seconds)) < 1.0
-    ax.xaxis.set_minor_formatter(FuncFormatter(lambda v, p=None: label(v) if _leading(v) in (2, 5) else "")
+    ax.xaxis.set_minor_formatter(FuncFormatter(lambda v, p=None: label(v, minor=True))
                                  if narrow else NullFormatter())
-
-
-def _leading(value: float) -> int:
-    return int(round(value / 10 ** math.floor(math.log10(value) + 1e-9)))
 
 
 def save_figure(fig, path: str | os.PathLike, dpi: int) -> None:

@@ -17,6 +17,10 @@ from .results import SceneResult
 from .sheet import SHEET_NAME, contact_sheet
 from .summary import FINDINGS_NAME, SUMMARY_NAME, findings, interruption_text, json_safe, summary
 
+#: Every output, by the name the page gives it, in the order the command lists them.
+FILES = {"page": PAGE_NAME, "summary": SUMMARY_NAME, "findings": FINDINGS_NAME, "csv": CSV_NAME,
+         "plot": PLOT_NAME, "sheet": SHEET_NAME}
+
 
 def write_all(out: str | os.PathLike, entries: list[SceneResult], levels: tuple[float, ...] | None,
               interrupted: tuple[int, int] | None = None) -> list[Analysis]:
@@ -41,14 +45,10 @@ def write_all(out: str | os.PathLike, entries: list[SceneResult], levels: tuple[
     write_text(out / SUMMARY_NAME, summary(analyses, interrupted=interrupted) + "\n")
     write_text(out / FINDINGS_NAME, json.dumps(json_safe(findings(analyses, interrupted)), indent=2,
                                                allow_nan=False) + "\n")
-    write_page(out / PAGE_NAME, analyses, plots, {"csv": CSV_NAME, "plot": PLOT_NAME,
-                                                   "sheet": SHEET_NAME, "summary": SUMMARY_NAME,
-                                                   "findings": FINDINGS_NAME},
-               left_out, interruption_text(*interrupted) if interrupted else None)
+    write_page(out / PAGE_NAME, analyses, plots, FILES, left_out,
+               interruption_text(*interrupted) if interrupted else None)
     return analyses
 
 
 def output_files(out: str | os.PathLike) -> str:
-    out = Path(out)
-    return ", ".join(str(out / name) for name in (PAGE_NAME, SUMMARY_NAME, FINDINGS_NAME, CSV_NAME,
-                                                  PLOT_NAME, SHEET_NAME))
+    return ", ".join(str(Path(out) / name) for name in FILES.values())

@@ -31,8 +31,7 @@ def scene_files(arguments: list[str | os.PathLike]) -> list[Path]:
             files.append(path)
         else:
             raise WhittedError(f"{path}: no such file or folder")
-    unique = list(dict.fromkeys(p.resolve() for p in files))
-    return [Path(p) for p in unique]
+    return list(dict.fromkeys(p.resolve() for p in files))
 
 
 def scene_names(files: list[Path]) -> list[str]:
@@ -65,8 +64,8 @@ class SceneFile:
         return cls(path, name, data, None, *_xml_textures_and_depth(path, data))
 
     def load(self, variant: str | None = None):
-        """The ``mi.Scene``, loaded as ``whitted render --integrator path`` loads it (sealed spheres
-    grouped, :mod:`whitted.sealed`), for the Whitted renders too."""
+        """The ``mi.Scene``, loaded as ``whitted render --integrator path`` loads it (sealed
+        spheres grouped, :mod:`whitted.sealed`), for the Whitted renders too."""
         from ..loading import load_scene
         from ..rendering import check_article_materials
         loaded = load_scene(self.path, variant, model=self.model, integrator="path")

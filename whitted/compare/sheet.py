@@ -31,25 +31,6 @@ def thumbnail(image: np.ndarray, width: int = THUMBNAIL_WIDTH, exposure: float =
     return to_srgb(np.ascontiguousarray(image, dtype=np.float32), exposure, view)
 
 
-def _sheet_rows(entry: SceneResult) -> list[list[tuple[str, np.ndarray | None, str]]]:
-    done = {(m.setting.method, m.setting.max_depth, m.setting.spp): m for m in entry.measurements}
-
-    def cell(title: str, m: Measurement | None) -> tuple[str, np.ndarray | None, str]:
-        if m is None:
-            return title, None, "not rendered"
-        return title, m.thumbnail, f"rel {m.rel_mse:.3g} · FLIP {m.flip:.3f}\n{seconds_text(m.seconds)}"
-
-    rows = [[(f"reference: path · {entry.reference_spp} spp", entry.reference_thumbnail,
-              "cached" if entry.reference_cached else seconds_text(entry.reference_seconds))]
-            + [cell(f"path · {spp} spp", done.get(("path", entry.path_depth, spp)))
-               for spp in entry.path_spp]]
-    for depth in entry.depths:
-        rows.append([cell(f"{WHITTED_LIGHTING[method]} d{depth} · {spp} spp",
-                          done.get((method, depth, spp)))
-                     for method in WHITTED_METHODS for spp in entry.whitted_spp])
-    return rows
-
-
 def contact_sheet(path: str | os.PathLike, entries: list[SceneResult]) -> None:
     """One block per scene: the reference and the path tracer's ladder on top, then a row per
     Whitted depth: its spp ladder in article, then in physical lighting."""
@@ -60,12 +41,26 @@ def contact_sheet(path: str | os.PathLike, entries: list[SceneResult]) -> None:
         fig.text(0.5, 0.5, "nothing rendered within the budget", ha="center", va="center")
         save_figure(fig, path, dpi=100)
         return
+
+    def cell(title: str, m: Measurement | None) -> tuple[str, np.ndarray | None, str]:
+        if m is None:
+            return title, None, "not rendered"
+        return title, m.thumbnail, f"rel {m.rel_mse:.3g} · FLIP {m.flip:.3f}\n{seconds_text(m.seconds)}"
+
     cell_w = 1.45
     blocks = []
     for entry in entries:
-        rows = _sheet_rows(entry)
-        aspect = entry.height / entry.width
-        blocks.append((entry, rows, len(rows) * (cell_w * aspect + 0.5) + 0.3))
+        done = {(m.setting.method, m.setting.max_depth, m.setting.spp): m
+                for m in entry.measurements}
+        rows = [[(f"reference: path · {entry.reference_spp} spp", entry.reference_thumbnail,
+                  "cached" if entry.reference_cached else seconds_text(entry.reference_seconds))]
+                + [cell(f"path · {spp} spp", done.get(("path", entry.path_depth, spp)))
+                   for spp in entry.path_spp]]
+        rows += [[cell(f"{WHITTED_LIGHTING[method]} d{depth} · {spp} spp",
+                       done.get((method, depth, spp)))
+                  for method in WHITTED_METHODS for spp in entry.whitted_spp]
+                 for depth in entry.depths]
+        blocks.append((entry, rows, len(rows) * (cell_w * entry.height / entry.width + 0.5) + 0.3))
     columns = max(len(row) for _, rows, _ in blocks for row in rows)
     fig = Figure(figsize=(cell_w * columns, sum(b[2] for b in blocks)), layout="constrained")
     subfigs = fig.subfigures(len(blocks), 1, squeeze=False, height_ratios=[b[2] for b in blocks])

@@ -1,33 +1,34 @@
-"""``summary.txt`` and ``findings.json``: the run's conclusions in words and as JSON, read
-from each scene's :class:`~whitted.compare.analysis.Analysis` (as the page is).
+"""What the reports say of each scene, built once from its
+:class:`~whitted.compare.analysis.Analysis` as rows of text that the templates of
+``summary.txt`` and ``report.html`` render; and ``findings.json``.
 """
 
 from __future__ import annotations
 
 import math
 
+from ..templates import environment
 from .analysis import (METHOD_NAMES, TIMING, Analysis, FloorStatement, capital, equal_time_how,
                        model_text, ratio_text, reach_text, speedup_text, spread_text)
-from .results import WHITTED_LIGHTING, WHITTED_METHODS, seconds_text
+from .results import WHITTED_LIGHTING, WHITTED_METHODS, Measurement, seconds_text
 
 SUMMARY_NAME = "summary.txt"
 FINDINGS_NAME = "findings.json"
 
 
-def _table(rows: list[list[str]], indent: str = "  ") -> list[str]:
+def table(rows: list[list[str]]) -> list[str]:
+    """Rows of cells as text lines, each column as wide as its widest cell."""
     widths = [max(len(r[i]) for r in rows) for i in range(len(rows[0]))]
-    return [indent + "   ".join(cell.ljust(w) for cell, w in zip(r, widths)).rstrip() for r in rows]
+    return ["  " + "   ".join(cell.ljust(w) for cell, w in zip(r, widths)).rstrip() for r in rows]
 
 
 def method_verdict(statement: FloorStatement) -> str:
-    name = METHOD_NAMES[statement.method]
     render, floor = statement.render, statement.floor
-    where = f"{render.setting.label}, {seconds_text(render.seconds)} (error {floor.error:.3g})"
-    if floor.settled:
-        text = f"{capital(name)} is as good as it gets at {where}"
-    else:
-        text = f"{capital(name)} is still improving at its costliest render, {where}"
     path, best = statement.path, statement.path_best
+    where = f"{render.setting.label}, {seconds_text(render.seconds)} (error {floor.error:.3g})"
+    text = capital(METHOD_NAMES[statement.method]) + (
+        f" is as good as it gets at {where}" if floor.settled
+        else f" is still improving at its costliest render, {where}")
     if path is None and best is None:
         return text + "."
     if path is None:
@@ -43,71 +44,66 @@ def method_verdict(statement: FloorStatement) -> str:
     return text + f"; from about {seconds_text(path.value)} on, the path tracer is more accurate."
 
 
-def scale_text(reference_noise: float = math.nan) -> str:
-    noise = (f"; this reference's own noise is about {reference_noise:.2g}, and no render can "
-             f"measurably score below it" if math.isfinite(reference_noise) and reference_noise > 0 else "")
-    return ("Errors are relative MSE against the converged path-traced reference: 0 is identical, "
-            f"1 about as far off as a black image{noise}.")
-
-
-def verdict(analysis: Analysis) -> str:
-    sentences = [method_verdict(s) for s in analysis.floors]
-    if not sentences:
-        sentences = ["No Whitted render was done: there is no verdict to state."]
-    return " ".join(sentences + [scale_text(analysis.entry.reference_noise)])
-
-
 def number(value: float) -> str:
     return f"{value:.3g}" if math.isfinite(value) else "—"
 
 
-def equal_quality_rows(analysis: Analysis) -> list[dict]:
-    """The equal-quality table's rows as cells of text, for summary.txt and the page."""
-    methods = analysis.table_methods
+def render_cells(m: Measurement) -> dict:
+    """A render's cells, as every table and caption shows them."""
+    return {"method": m.setting.method, "label": m.setting.label, "seconds": seconds_text(m.seconds),
+            "time": spread_text(m), "rel_mse": number(m.rel_mse), "flip": number(m.flip)}
+
+
+def equal_time_row(row) -> dict:
+    """An equal-time row: its cells, ``line`` those of summary.txt; ``winner``: the more
+    accurate method ("" where the interval holds 1 or nothing was compared)."""
+    compared, ratio = row.rel_mse is not None and row.outside is None, row.ratio
+    straddles = row.interval is not None and row.interval.straddles_one
+    winner = "" if straddles or not math.isfinite(ratio) else "whitted" if ratio < 1 else "path"
+    cells = {**render_cells(row.whitted), "path_rel_mse": number(row.rel_mse.value) if compared else "—",
+             "ratio": ratio_text(row.interval) if math.isfinite(ratio) else "—",
+             "path_flip": number(row.flip.value) if compared and row.flip else "—",
+             "how": equal_time_how(row)}
+    keys = ("method", "label", "seconds", "rel_mse", "path_rel_mse", "ratio", "flip", "path_flip",
+            "how")
+    return {**cells, "winner": winner, "line": [cells[k] for k in keys]}
+
+
+def equal_quality_row(row, methods: list[str], whitted: list[str]) -> dict:
+    """An equal-quality row: a cell per method, ``line`` summary.txt's."""
+    cells = [{"text": reach_text(row.reach.get(m)), "reached": row.reached(m)} for m in methods]
+    fastest, speedups = row.fastest_method or "none", [speedup_text(row, m) for m in whitted]
+    return {"level": f"{row.level:g}", "cells": cells, "fastest": fastest, "speedups": speedups,
+            "line": [f"{row.level:g}", *(c["text"] for c in cells), fastest, *speedups]}
+
+
+def scene_words(analysis: Analysis) -> dict:
+    """What summary.txt and the page say of one scene (both templates read this)."""
+    entry, methods = analysis.entry, analysis.table_methods
+    noise = entry.reference_noise
+    noisy = math.isfinite(noise) and noise > 0
     whitted = [m for m in WHITTED_METHODS if m in methods]
-    return [{"level": f"{row.level:g}",
-             "cells": [{"text": reach_text(row.reach.get(m)),
-                        "reached": m in row.reach and row.reach[m].fastest is not None}
-                       for m in methods],
-             "fastest": row.fastest_method or "none",
-             "speedups": [speedup_text(row, m) for m in whitted]}
-            for row in analysis.equal_quality]
-
-
-def equal_time_rows(analysis: Analysis) -> list[dict]:
-    """The equal-time table's rows as cells of text; ``winner``: the more accurate method (""
-    where the interval holds 1 or nothing was compared)."""
-    rows = []
-    for row in analysis.equal_time:
-        m = row.whitted
-        compared = row.rel_mse is not None and row.outside is None
-        winner = "" if row.interval is not None and row.interval.straddles_one else \
-            "whitted" if row.ratio < 1 else "path"
-        rows.append({
-            "method": m.setting.method, "label": m.setting.label,
-            "seconds": seconds_text(m.seconds), "time": spread_text(m), "rel_mse": number(m.rel_mse),
-            "path_rel_mse": number(row.rel_mse.value) if compared else "—",
-            "ratio": ratio_text(row.interval) if math.isfinite(row.ratio) else "—",
-            "winner": winner if math.isfinite(row.ratio) else "", "flip": number(m.flip),
-            "path_flip": number(row.flip.value) if compared and row.flip else "—",
-            "how": equal_time_how(row), "outside": row.outside is not None})
-    return rows
-
-
-def equal_quality_lines(analysis: Analysis) -> list[str]:
-    whitted = [m for m in WHITTED_METHODS if m in analysis.table_methods]
-    header = (["rel_mse ≤"] + analysis.table_methods + ["fastest"]
-              + [f"{WHITTED_LIGHTING[m]} vs path" for m in whitted])
-    return _table([header] + [[r["level"], *(c["text"] for c in r["cells"]), r["fastest"],
-                               *r["speedups"]] for r in equal_quality_rows(analysis)])
-
-
-def equal_time_lines(analysis: Analysis) -> list[str]:
-    columns = ["method", "label", "seconds", "rel_mse", "path_rel_mse", "ratio", "flip", "path_flip",
-               "how"]
-    return _table([["method", "setting", "time", "rel_mse", "path rel_mse then", "ratio", "flip",
-                    "path flip then", "path read"]]
-                  + [[r[c] for c in columns] for r in equal_time_rows(analysis)])
+    verdicts = [method_verdict(s) for s in analysis.floors]
+    scale = ("Errors are relative MSE against the converged path-traced reference: 0 is identical, "
+             "1 about as far off as a black image"
+             + (f"; this reference's own noise is about {noise:.2g}, and no render can measurably "
+                f"score below it." if noisy else "."))
+    return {
+        "name": entry.name, "width": entry.width, "height": entry.height,
+        "notes": list(entry.notes), "reference": {"spp": entry.reference_spp},
+        "verdicts": verdicts, "scale": scale,
+        "verdict": " ".join((verdicts or ["No Whitted render was done: there is no verdict to "
+                                          "state."]) + [scale]),
+        "floors": ([f.text for f in analysis.floors]
+                   + ([model_text(entry)] if entry.path_model else [])),
+        "decompositions": [d.text for d in analysis.decompositions],
+        "noise_note": f", its noise ≈ {noise:.3g}" if noisy else "",
+        "methods": methods, "whitted": [WHITTED_LIGHTING[m] for m in whitted],
+        "equal_quality_header": (["rel_mse ≤", *methods, "fastest"]
+                                 + [f"{WHITTED_LIGHTING[m]} vs path" for m in whitted]),
+        "equal_quality": [equal_quality_row(row, methods, whitted)
+                          for row in analysis.equal_quality],
+        "equal_time": [equal_time_row(row) for row in analysis.equal_time]}
 
 
 def interruption_text(done: int, planned: int) -> str:
@@ -116,41 +112,12 @@ def interruption_text(done: int, planned: int) -> str:
     return f"Interrupted after {done} of {planned} renders; the conclusions are drawn from those."
 
 
-def scene_words(analysis: Analysis) -> dict:
-    """What summary.txt and the page say of one scene (both templates read this)."""
-    entry = analysis.entry
-    methods = analysis.table_methods
-    noisy = math.isfinite(entry.reference_noise) and entry.reference_noise > 0
-    return {
-        "name": entry.name, "width": entry.width, "height": entry.height, "verdict": verdict(analysis),
-        "notes": list(entry.notes),
-        "floors": ([f.text for f in analysis.floors]
-                   + ([model_text(entry)] if entry.path_model else [])),
-        "decompositions": [d.text for d in analysis.decompositions],
-        "noise_note": f", its noise ≈ {entry.reference_noise:.3g}" if noisy else "",
-        "methods": methods, "whitted": [WHITTED_LIGHTING[m] for m in WHITTED_METHODS
-                                        if m in methods],
-        "equal_quality": equal_quality_rows(analysis), "equal_time": equal_time_rows(analysis),
-        "equal_quality_lines": (equal_quality_lines(analysis)
-                                if analysis.equal_quality and entry.measurements else []),
-        "equal_time_lines": equal_time_lines(analysis) if analysis.equal_time else []}
-
-
-def environment():
-    import jinja2
-
-    return jinja2.Environment(loader=jinja2.PackageLoader("whitted.compare", "templates"),
-                              autoescape=jinja2.select_autoescape(["html.j2"]),
-                              undefined=jinja2.StrictUndefined, trim_blocks=True,
-                              lstrip_blocks=True, keep_trailing_newline=False)
-
-
 def summary(analyses: list[Analysis], equal_time: bool = True,
             interrupted: tuple[int, int] | None = None) -> str:
     """``summary.txt``; ``interrupted``: (renders done, planned) of a stopped run, said first."""
-    scenes = [{**scene_words(a), "reference": {"spp": a.entry.reference_spp}} for a in analyses]
-    return environment().get_template("summary.txt.j2").render(
-        scenes=scenes, timing=TIMING, equal_time=equal_time,
+    return environment("whitted.compare").get_template("summary.txt.j2").render(
+        scenes=[scene_words(a) for a in analyses], timing=TIMING, equal_time=equal_time,
+        table=table,
         interrupted=interruption_text(*interrupted) if interrupted else None).rstrip("\n")
 
 
@@ -167,6 +134,4 @@ def json_safe(value):
         return {k: json_safe(v) for k, v in value.items()}
     if isinstance(value, (list, tuple)):
         return [json_safe(v) for v in value]
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    return value
+    return None if isinstance(value, float) and not math.isfinite(value) else value
