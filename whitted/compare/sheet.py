@@ -66,7 +66,7 @@ def contact_sheet(path: str | os.PathLike, entries: list[SceneResult]) -> None:
     subfigs = fig.subfigures(len(blocks), 1, squeeze=False, height_ratios=[b[2] for b in blocks])
     for (entry, rows, _), subfig in zip(blocks, subfigs[:, 0]):
         subfig.suptitle(f"{entry.name} ({entry.width}×{entry.height}): relative MSE · FLIP against "
-                        f"the reference, render time (fastest repeat)", fontsize=8)
+                        f"the reference, render time (median of its timed rounds)", fontsize=8)
         axes = subfig.subplots(len(rows), columns, squeeze=False)
         for ax in axes.flat:
             ax.set_axis_off()
