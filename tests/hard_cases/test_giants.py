@@ -52,6 +52,29 @@ def giants():
     return get
 
 
+#: the scenes whose ``.scn`` file :func:`loaded` reads: the giants and the hazard scene with one
+SCN_SCENES = {**hs.GIANTS, "large_floor": hs.large_floor}
+
+
+@pytest.fixture(scope="module")
+def loaded(tmp_path_factory):
+    """``loaded(name, meshes)``: the image of :data:`SCN_SCENES`' scene ``name`` written as a
+    ``.scn`` file and read by ``whitted.load_scene(path, meshes=meshes)`` in the current
+    variant, each rendered once (the loading paths' test and the meshes' test share it)."""
+    folder = tmp_path_factory.mktemp("loaded")
+    cache = {}
+
+    def get(name: str, meshes: bool):
+        key = (name, mi.variant(), meshes)
+        if key not in cache:
+            path = folder / f"{name}.scn"
+            if not path.exists():
+                path.write_text(_written(SCN_SCENES[name](), folder)[1])
+            cache[key] = _rendered(whitted.load_scene(path, meshes=meshes))
+        return cache[key]
+    return get
+
+
 @pytest.mark.parametrize("variant", VARIANTS)
 @pytest.mark.parametrize("name", list(hs.GIANTS))
 def test_giant_scene_matches_the_reference(giants, name, variant):
@@ -350,7 +373,7 @@ LOADING_PATHS = {
 
 @pytest.mark.parametrize("variant", VARIANTS)
 @pytest.mark.parametrize("name", list(hs.GIANTS))
-def test_every_loading_path_matches_the_reference(giants, tmp_path, name, variant):
+def test_every_loading_path_matches_the_reference(giants, loaded, tmp_path, name, variant):
     """Each way a scene is loaded (:data:`LOADING_PATHS`) gives the Whitted integrator the
     exact giant spheres: floors of radius 10^4 to 10^7, smallpt's walls, the sky dome, all
     against the float64 reference. A way that hands over Mitsuba's float32 sphere where the
@@ -364,25 +387,22 @@ def test_every_loading_path_matches_the_reference(giants, tmp_path, name, varian
         folder = tmp_path / way.replace(" ", "_").replace("/", "").replace(",", "")
         folder.mkdir()
         try:
-            assert_matches(load(path, folder), giants(name, "reference"))
+            image = loaded(name, True) if way == "whitted.load_scene" else load(path, folder)
+            assert_matches(image, giants(name, "reference"))
         except AssertionError as error:
             failures.append(f"{way}: {error}".splitlines()[0])
     assert not failures, "\n".join(failures)
 
 
 @pytest.mark.parametrize("variant", VARIANTS)
-def test_meshes_or_spheres_the_whitted_image_is_the_same(tmp_path, variant):
+@pytest.mark.parametrize("name", list(SCN_SCENES))
+def test_meshes_or_spheres_the_whitted_image_is_the_same(loaded, name, variant):
     """``whitted render`` loads a ``.scn`` with its giant spheres as Mitsuba spheres, not the
     meshes Mitsuba's own integrators get (``load_scene(meshes=False)``): the Whitted
     integrator intersects them itself, so the images are the same bit for bit, on every giant
-    scene and the hazard scenes that hold a giant."""
+    scene and the hazard scene that holds a giant."""
     whitted.set_variant(variant)
-    models = {**{name: build() for name, build in hs.GIANTS.items()}, "large_floor": hs.large_floor()}
-    for name, model in models.items():
-        path = tmp_path / f"{name}.scn"
-        path.write_text(_written(model, tmp_path)[1])
-        meshed, plain = (_rendered(whitted.load_scene(path, meshes=meshes)) for meshes in (True, False))
-        assert meshed.tobytes() == plain.tobytes(), name
+    assert loaded(name, True).tobytes() == loaded(name, False).tobytes()
 
 
 def test_an_exact_sphere_the_scene_lacks_is_refused(llvm):
