@@ -186,8 +186,8 @@ def ply_bytes(positions, normals, faces) -> bytes:
     return header.encode("ascii") + vertices.tobytes() + face_records.tobytes()
 
 
-#: meshes kept in memory (a few MB each): an animation's frames mostly share their floor
-MESH_MEMORY = 4
+#: meshes kept in memory (a few MB each): all six walls of a giant box, shared by its frames
+MESH_MEMORY = 8
 
 
 def mesh_bytes(sphere: Sphere, origin: Vec3, eye: Vec3, lookat: Vec3) -> bytes:
