@@ -9,6 +9,7 @@ proves nothing) and then what the user sees.
 from __future__ import annotations
 
 import os
+import resource
 import signal
 import subprocess
 import sys
@@ -71,13 +72,11 @@ class Work:
     total (the reaped children's usage) less what it had used when this was made."""
 
     def __init__(self, process):
-        import resource
         self.before = cpu_seconds(process.pid)
         usage = resource.getrusage(resource.RUSAGE_CHILDREN)
         self.reaped = usage.ru_utime + usage.ru_stime
 
     def after_exit(self) -> float:
-        import resource
         usage = resource.getrusage(resource.RUSAGE_CHILDREN)
         return usage.ru_utime + usage.ru_stime - self.reaped - self.before
 
