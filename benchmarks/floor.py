@@ -11,12 +11,13 @@ from __future__ import annotations
 import drjit as dr
 import mitsuba as mi
 
+from whitted.plugins.film import CameraSamples, FilmSplats
+
 HIT_FINDERS = ("ray_intersect", "sphere table")
 
 
 class RayCastingFloor:
     def __init__(self, scene, light_position, spp: int, hit_finder: str, film: bool = False):
-        from whitted.plugins.film import CameraSamples
         from whitted.plugins.scene_tables import scene_tables
         from whitted.plugins.hits import SphereHits
         self.scene, self.spp, self.film = scene, spp, film
@@ -53,12 +54,8 @@ class RayCastingFloor:
         if not self.film:
             dr.eval(value)
             return value
-        film = self.scene.sensors()[0].film()
-        film.prepare([])
-        block = film.create_block()
-        block.set_coalesce(block.coalesce() and self.spp >= 4)
-        block.put(self.position, [value, value, value, mi.Float(1)])
-        film.put_block(block)
+        film = FilmSplats(self.scene.sensors()[0].film(), self.spp)   # the integrator's own
+        film.put(None, self.position, mi.Color3f(value))
         image = film.develop()
         dr.eval(image)
         return image

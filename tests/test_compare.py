@@ -487,7 +487,7 @@ def test_folder_of_scenes_through_the_cli(tmp_path, capsys):
 @pytest.mark.parametrize("arguments, message", [
     (["missing.scn"], "missing.scn: no such file or folder"),
     (["bad.scn"], "bad.scn:2:"),
-    (["empty"], "empty: folder holds no .scn or .xml scene"),
+    (["empty"], "empty: no .scn or .xml files in this folder"),
     (["notes.txt"], "notes.txt: not a scene"),
 ])
 def test_bad_input_is_one_clean_error_and_no_output(tmp_path, capsys, monkeypatch, arguments, message):

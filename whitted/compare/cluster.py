@@ -13,7 +13,8 @@ import uuid
 from dataclasses import replace
 from pathlib import Path
 
-from ..cluster import available_cores, cancel, task_result, worker_task, worker_threads
+from ..cluster import (available_cores, cancel, on_worker, task_result, worker_task,
+                       worker_threads)
 from .budget import Budget
 from .csvfile import CSV_NAME, write_csv
 from .reference import Chunk, ReferenceCache, ReferencePlan, plan_reference, render_chunk
@@ -24,17 +25,15 @@ from .sweep import sweep_scene
 
 def chunk_task(scene: SceneFile, variant: str, max_depth: int, spp: int, seed: int, half: int,
                threads: dict[str, int]) -> Chunk:
-    with worker_task(variant, threads) as worker:
-        chunk = render_chunk(scene.load(variant), spp, seed, half, max_depth)
-        chunk.worker = worker
-        return chunk
+    return on_worker(lambda: render_chunk(scene.load(variant), spp, seed, half, max_depth),
+                     variant, threads)
 
 
-def _seconds(seconds: float, end: float | None, began: float | None = None) -> float:
-    """A scene's time left now: its share less what passed since ``began``, none past ``end``."""
+def _seconds(seconds: float, end: float | None, plan: ReferencePlan | None = None) -> float:
+    """A scene's time left now: its share less what passed since its ``plan``, none past ``end``."""
     now = time.time()
-    if began is not None:
-        seconds -= max(0.0, now - began)
+    if plan is not None:
+        seconds -= max(0.0, now - plan.began)
     return seconds if end is None else min(seconds, max(0.0, end - now))
 
 
@@ -52,11 +51,10 @@ def sweep_task(scene: SceneFile, entry: SceneResult, settings: list[Setting], op
                seconds: float, end: float | None, threads: dict[str, int],
                plan: ReferencePlan | None, chunks: list[Chunk] | None) -> SceneResult:
     """One scene's sweep on this worker; with ``plan``, its time counts from the planning."""
-    with worker_task(entry.variant, threads) as worker:
-        seconds = _seconds(seconds, end, plan.began if plan is not None else None)
-        result = sweep_scene(scene, entry, settings, options, seconds, plan=plan, chunks=chunks)
-        result.worker = worker
-        return result
+    def sweep():
+        return sweep_scene(scene, entry, settings, options, _seconds(seconds, end, plan), plan=plan,
+                           chunks=chunks)
+    return on_worker(sweep, entry.variant, threads)
 
 
 def sweep_on_cluster(client, scenes: list[SceneFile], entries: list[SceneResult],

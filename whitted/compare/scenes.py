@@ -9,7 +9,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from ..converter import Scene
-from ..converter.batch import folder_scenes
+from ..batch import SCENE_SUFFIXES
+from ..converter.batch import expand_folders
 from ..converter.parser import decode, parse_text, read_scene_file
 from ..errors import WhittedError
 
@@ -17,21 +18,15 @@ from ..errors import WhittedError
 def scene_files(arguments: list[str | os.PathLike]) -> list[Path]:
     """The scene files named on the command line; a folder stands for its ``.scn`` files, or
     its ``.xml`` files when it has none (converted copies are not counted twice)."""
-    files: list[Path] = []
-    for argument in arguments:
-        path = Path(argument)
-        if path.is_dir():
-            found = folder_scenes(path, (".scn", ".xml"))
-            if not found:
-                raise WhittedError(f"{path}: folder holds no .scn or .xml scene")
-            files.extend(found)
-        elif path.exists():
-            if path.suffix.lower() not in (".scn", ".xml"):
-                raise WhittedError(f"{path}: not a scene (.scn or .xml)")
-            files.append(path)
-        else:
-            raise WhittedError(f"{path}: no such file or folder")
+    files = expand_folders(arguments, SCENE_SUFFIXES, ".scn or .xml files", _check_scene_path)
     return list(dict.fromkeys(p.resolve() for p in files))
+
+
+def _check_scene_path(path: Path) -> None:
+    if not path.exists():
+        raise WhittedError(f"{path}: no such file or folder")
+    if path.suffix.lower() not in SCENE_SUFFIXES:
+        raise WhittedError(f"{path}: not a scene (.scn or .xml)")
 
 
 def scene_names(files: list[Path]) -> list[str]:

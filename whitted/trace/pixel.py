@@ -77,14 +77,12 @@ class SceneView:
         """The statement on ``line`` of the file, and its comment (a ``#`` outside quotes)."""
         if not line or not self.text or not 0 < line <= len(self.text):
             return None, None
+        from ..converter.parser import token_spans
         text = self.text[line - 1]
-        quoted = False
-        for i, c in enumerate(text):
-            if c == '"':
-                quoted = not quoted
-            elif c == "#" and not quoted:
-                return text[:i].strip(), text[i + 1:].strip() or None
-        return text.strip(), None
+        comment = token_spans(text)[2]
+        if comment < 0:
+            return text.strip(), None
+        return text[:comment].strip(), text[comment + 1:].strip() or None
 
 
 def scene_view(scene) -> SceneView:
