@@ -54,7 +54,7 @@ class SceneFile:
         name = path.stem if name is None else name
         if path.suffix.lower() == ".scn":
             model = parse_text(decode(data, path), path)
-            textures = sorted({Path(s.material.texture) for s in model.spheres if s.material.texture})
+            textures = sorted({Path(m.texture) for m in model.sphere_arrays().materials if m.texture})
             return cls(path, name, data, model, tuple(textures), int(model.depth))
         return cls(path, name, data, None, *_xml_textures_and_depth(path, data))
 
