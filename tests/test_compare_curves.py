@@ -322,3 +322,19 @@ def test_equal_time_past_the_rendered_path_says_it_is_read_from_the_fitted_curve
     assert row.outside is None and row.rel_mse.how == "fitted"
     assert row.rel_mse.value == pytest.approx(0.005)
     assert equal_time_how(row) == "on the fitted curve 64–256 spp"
+
+
+def test_contact_sheet_says_which_path_counts_are_read_from_the_fitted_curve(scene_result):
+    from whitted.compare.sheet import _rows
+
+    scene_result.path_spp = (1, 4, 16, 64, 256, 1024)
+    scene_result.path_model = PathModel(0.0, 0.64, (1, 4, 16, 64), 64, 0.02)
+    (reference, *path), *_ = _rows(scene_result)
+    cells = {title: (image, caption) for title, image, caption in path}
+    # rendered: its thumbnail; 256 and 1024 spp: no image, 0.64 / n on the line of 0.01 s per spp
+    assert "FLIP" in cells["path · 64 spp"][1]
+    assert cells["path · 256 spp"] == (None, "fitted curve, not rendered\nrel 0.0025 · 2.56 s")
+    assert cells["path · 1024 spp"] == (None, "fitted curve, not rendered\nrel 0.000625 · 10.2 s")
+    scene_result.path_model = None
+    (_, *path), *_ = _rows(scene_result)
+    assert [caption for title, _, caption in path if "256" in title] == ["not rendered"]

@@ -144,6 +144,16 @@ def to_srgb(image, exposure: float = 0.0, view: str = "clip", rows_done=None) ->
     return _banded(image, exposure, view, np.uint8, _srgb8_band, rows_done)
 
 
+def srgb_of_display(shown: np.ndarray, image, exposure: float = 0.0,
+                    view: str = "clip") -> np.ndarray:
+    """:func:`to_srgb` of ``image`` given ``shown``, its :func:`to_display`: under ``aces``
+    the same bits without tone-mapping it again; under ``clip``, Mitsuba's own 8-bit
+    encoding (not a rounding of ``shown``), from ``image``."""
+    if view == "aces":
+        return np.rint(np.asarray(shown, np.float32) * np.float32(255.0)).astype(np.uint8)
+    return to_srgb(image, exposure, view)
+
+
 def clipped_fraction(srgb8: np.ndarray) -> float:
     """The share of pixels with a channel at full scale (255): what a view has clipped."""
     return float(np.mean(np.any(np.asarray(srgb8) >= 255, axis=-1)))

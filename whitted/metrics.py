@@ -5,6 +5,8 @@ measures").
 
 from __future__ import annotations
 
+import os
+
 import numpy as np
 
 #: Keeps black reference pixels from dividing by zero in :func:`relative_mse`.
@@ -26,12 +28,22 @@ def flip_map(image: np.ndarray, reference: np.ndarray, exposure: float = 0.0,
              view: str = "clip") -> tuple[np.ndarray, float]:
     """LDR-FLIP's per-pixel error map (H, W) in [0, 1] and its mean, both images displayed
     with ``exposure`` and ``view``."""
-    import flip_evaluator
-
     from .images import to_display
 
-    a, b = (np.ascontiguousarray(to_display(x, exposure, view), np.float32)
-            for x in _pair(image, reference))
+    return displayed_flip_map(*(to_display(x, exposure, view) for x in _pair(image, reference)))
+
+
+def displayed_flip_map(shown: np.ndarray, shown_reference: np.ndarray) -> tuple[np.ndarray, float]:
+    """:func:`flip_map` of two images already displayed (:func:`~whitted.images.to_display`),
+    so that a reference scored against many renders is displayed once."""
+    # FLIP's OpenMP threads sleep between evaluations: spinning, they took 40% of its CPU
+    # time on 2 cores, and cores from the renders in between
+    os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
+    import flip_evaluator
+
+    a, b = (np.ascontiguousarray(x, np.float32) for x in (shown, shown_reference))
+    if a.shape != b.shape:
+        raise ValueError(f"image of shape {a.shape} compared with a reference of shape {b.shape}")
     error_map, mean, _ = flip_evaluator.evaluate(b, a, "LDR", inputsRGB=True, applyMagma=False)
     return np.asarray(error_map, dtype=np.float32).reshape(a.shape[:2]), float(mean)
 

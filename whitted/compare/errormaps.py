@@ -21,25 +21,33 @@ def colorbar(stops: int = 11) -> list[str]:
     return [matplotlib.colors.to_hex(colormap(i / (stops - 1))) for i in range(stops)]
 
 
-def write_render(out: Path, stem: str, image: np.ndarray, error_map: np.ndarray | None,
-                 exposure: float = 0.0, view: str = "clip") -> dict:
-    """Keep one render: ``STEM.exr`` (linear), ``STEM.png`` (as displayed) and its
-    ``STEM-flip.png``; returns their paths relative to ``out`` by kind."""
-    from ..atomic import atomic_path
-    from ..images import write_image
+def write_render(out: Path, stem: str, image: np.ndarray, shown: np.ndarray,
+                 error_map: np.ndarray | None, exposure: float = 0.0, view: str = "clip") -> dict:
+    """Keep one render: ``STEM.exr`` (linear), ``STEM.png`` (as displayed: ``shown``, its
+    :func:`~whitted.images.to_display`) and its ``STEM-flip.png``; returns their paths
+    relative to ``out`` by kind."""
+    from ..images import srgb_of_display, write_image
 
     (out / stem).parent.mkdir(parents=True, exist_ok=True)
     files = {"image": f"{stem}.exr", "image_png": f"{stem}.png"}
     write_image(out / files["image"], image)
-    write_image(out / files["image_png"], image, exposure=exposure, view=view)
+    _write_png(out / files["image_png"], srgb_of_display(shown, image, exposure, view))
     if error_map is not None:   # as FLIP draws it: display colors, no transfer curve
         import matplotlib
-        import mitsuba as mi
 
         files["error_map"] = f"{stem}-flip.png"
         values = np.clip(np.nan_to_num(np.asarray(error_map, dtype=np.float64)), 0.0, 1.0)
         colors = np.round(matplotlib.colormaps[COLORMAP](values)[..., :3] * 255.0).astype(np.uint8)
-        bitmap = mi.Bitmap(colors, pixel_format=mi.Bitmap.PixelFormat.RGB)
-        with atomic_path(out / files["error_map"]) as tmp:
-            bitmap.write(str(tmp))
+        _write_png(out / files["error_map"], colors)
     return files
+
+
+def _write_png(path: Path, pixels: np.ndarray) -> None:
+    """8-bit RGB ``pixels`` as they are, atomically."""
+    import mitsuba as mi
+
+    from ..atomic import atomic_path
+
+    bitmap = mi.Bitmap(pixels, pixel_format=mi.Bitmap.PixelFormat.RGB)
+    with atomic_path(path) as tmp:
+        bitmap.write(str(tmp))

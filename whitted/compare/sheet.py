@@ -1,5 +1,7 @@
 """``contact_sheet.png``: a thumbnail of every render beside the reference, with its error
 and time; and :func:`thumbnail`, kept with each measurement instead of its image.
+The sheet is one canvas of pixels, each thumbnail enlarged by a whole factor (pixels stay
+square, colors exact) and its captions drawn above it: no axes, no layout engine.
 """
 
 from __future__ import annotations
@@ -9,11 +11,20 @@ import os
 
 import numpy as np
 
+from .analysis import modelled_path
 from .plot import save_figure
 from .results import WHITTED_LIGHTING, WHITTED_METHODS, Measurement, SceneResult, seconds_text
 
 SHEET_NAME = "contact_sheet.png"
 THUMBNAIL_WIDTH = 160
+#: The sheet's resolution, and in its pixels: a cell's caption (three lines), the space
+#: around cells and a scene's title line.
+SHEET_DPI = 110
+CAPTION_HEIGHT = 32
+GAP = 6
+TITLE_HEIGHT = 20
+CAPTION_SIZE = 5.5
+TITLE_SIZE = 8
 
 
 def thumbnail(image: np.ndarray, width: int = THUMBNAIL_WIDTH, exposure: float = 0.0,
@@ -31,9 +42,42 @@ def thumbnail(image: np.ndarray, width: int = THUMBNAIL_WIDTH, exposure: float =
     return to_srgb(np.ascontiguousarray(image, dtype=np.float32), exposure, view)
 
 
+def _cell(title: str, m: Measurement | None) -> tuple[str, np.ndarray | None, str]:
+    """(title, thumbnail, caption) of a render; one read from the path tracer's fitted curve
+    says so, with the error and time read there."""
+    if m is None:
+        return title, None, "not rendered"
+    if m.modelled:
+        return title, None, (f"fitted curve, not rendered\n"
+                             f"rel {m.rel_mse:.3g} · {seconds_text(m.seconds)}")
+    return title, m.thumbnail, (f"rel {m.rel_mse:.3g} · FLIP {m.flip:.3f}\n"
+                                f"{seconds_text(m.seconds)}")
+
+
+def _rows(entry: SceneResult) -> list[list[tuple[str, np.ndarray | None, str]]]:
+    """The reference and the path tracer's ladder, then a row per Whitted depth: its spp
+    ladder in article, then in physical lighting."""
+    done = {(m.setting.method, m.setting.max_depth, m.setting.spp): m
+            for m in entry.measurements + modelled_path(entry)}
+    rows = [[(f"reference: path · {entry.reference_spp} spp", entry.reference_thumbnail,
+              "cached" if entry.reference_cached else seconds_text(entry.reference_seconds))]
+            + [_cell(f"path · {spp} spp", done.get(("path", entry.path_depth, spp)))
+               for spp in entry.path_spp]]
+    return rows + [[_cell(f"{WHITTED_LIGHTING[method]} d{depth} · {spp} spp",
+                          done.get((method, depth, spp)))
+                    for method in WHITTED_METHODS for spp in entry.whitted_spp]
+                   for depth in entry.depths]
+
+
+def _enlarged(image: np.ndarray) -> np.ndarray:
+    """A thumbnail at most :data:`THUMBNAIL_WIDTH` wide, enlarged by a whole factor towards it."""
+    factor = max(1, THUMBNAIL_WIDTH // image.shape[1])
+    return np.repeat(np.repeat(image, factor, axis=0), factor, axis=1)[:, :THUMBNAIL_WIDTH]
+
+
 def contact_sheet(path: str | os.PathLike, entries: list[SceneResult]) -> None:
-    """One block per scene: the reference and the path tracer's ladder on top, then a row per
-    Whitted depth: its spp ladder in article, then in physical lighting."""
+    """One block per scene, a row of cells per line of :func:`_rows`; every thumbnail of a
+    scene has its reference's size."""
     from matplotlib.figure import Figure
 
     if not entries:
@@ -41,39 +85,34 @@ def contact_sheet(path: str | os.PathLike, entries: list[SceneResult]) -> None:
         fig.text(0.5, 0.5, "nothing rendered within the budget", ha="center", va="center")
         save_figure(fig, path, dpi=100)
         return
-
-    def cell(title: str, m: Measurement | None) -> tuple[str, np.ndarray | None, str]:
-        if m is None:
-            return title, None, "not rendered"
-        return title, m.thumbnail, f"rel {m.rel_mse:.3g} · FLIP {m.flip:.3f}\n{seconds_text(m.seconds)}"
-
-    cell_w = 1.45
-    blocks = []
-    for entry in entries:
-        done = {(m.setting.method, m.setting.max_depth, m.setting.spp): m
-                for m in entry.measurements}
-        rows = [[(f"reference: path · {entry.reference_spp} spp", entry.reference_thumbnail,
-                  "cached" if entry.reference_cached else seconds_text(entry.reference_seconds))]
-                + [cell(f"path · {spp} spp", done.get(("path", entry.path_depth, spp)))
-                   for spp in entry.path_spp]]
-        rows += [[cell(f"{WHITTED_LIGHTING[method]} d{depth} · {spp} spp",
-                       done.get((method, depth, spp)))
-                  for method in WHITTED_METHODS for spp in entry.whitted_spp]
-                 for depth in entry.depths]
-        blocks.append((entry, rows, len(rows) * (cell_w * entry.height / entry.width + 0.5) + 0.3))
+    blocks = [(entry, _rows(entry), _enlarged(entry.reference_thumbnail).shape[0])
+              for entry in entries]
     columns = max(len(row) for _, rows, _ in blocks for row in rows)
-    fig = Figure(figsize=(cell_w * columns, sum(b[2] for b in blocks)), layout="constrained")
-    subfigs = fig.subfigures(len(blocks), 1, squeeze=False, height_ratios=[b[2] for b in blocks])
-    for (entry, rows, _), subfig in zip(blocks, subfigs[:, 0]):
-        subfig.suptitle(f"{entry.name} ({entry.width}×{entry.height}): relative MSE · FLIP against "
-                        f"the reference, render time (median of its timed rounds)", fontsize=8)
-        axes = subfig.subplots(len(rows), columns, squeeze=False)
-        for ax in axes.flat:
-            ax.set_axis_off()
-        for row, ax_row in zip(rows, axes):
-            for (title, image, caption), ax in zip(row, ax_row):
+    cell = THUMBNAIL_WIDTH + GAP
+    width = GAP + columns * cell
+    height = sum(TITLE_HEIGHT + len(rows) * (CAPTION_HEIGHT + tall + GAP)
+                 for _, rows, tall in blocks)
+    canvas = np.full((height, width, 3), 255, np.uint8)
+    texts = []   # (x, y, text, size, color) in pixels from the top left
+    top = 0
+    for entry, rows, tall in blocks:
+        texts.append((width / 2, top + 4, f"{entry.name} ({entry.width}×{entry.height}): relative "
+                      f"MSE · FLIP against the reference, render time (median of its timed "
+                      f"rounds)", TITLE_SIZE, "black"))
+        top += TITLE_HEIGHT
+        for row in rows:
+            for k, (title, image, caption) in enumerate(row):
+                left = GAP + k * cell
+                texts.append((left + THUMBNAIL_WIDTH / 2, top, f"{title}\n{caption}", CAPTION_SIZE,
+                              "0.5" if image is None else "black"))
                 if image is not None:
-                    ax.imshow(image, interpolation="nearest")
-                ax.set_title(f"{title}\n{caption}", fontsize=5.5,
-                             color="0.5" if image is None else "black")
-    save_figure(fig, path, dpi=110)
+                    shown = _enlarged(image)[:tall]
+                    x = left + (THUMBNAIL_WIDTH - shown.shape[1]) // 2
+                    y = top + CAPTION_HEIGHT
+                    canvas[y:y + shown.shape[0], x:x + shown.shape[1]] = shown[..., :3]
+            top += CAPTION_HEIGHT + tall + GAP
+    fig = Figure(figsize=(width / SHEET_DPI, height / SHEET_DPI), dpi=SHEET_DPI)
+    fig.figimage(canvas, 0, 0, origin="upper", resize=False)
+    for x, y, text, size, color in texts:
+        fig.text(x / width, 1 - y / height, text, ha="center", va="top", fontsize=size, color=color)
+    save_figure(fig, path, dpi=SHEET_DPI)

@@ -21,7 +21,8 @@ from ..defaults import (COMPARE_CLOCK, COMPARE_HEADLINE_ROUNDS, COMPARE_KEPT_MEM
                         COMPARE_PATH_FIT_COUNTS, COMPARE_ROUND_REPEATS,
                         COMPARE_ROUND_SECONDS, COMPARE_ROUNDS_SECONDS, COMPARE_ROUNDS_SHARE,
                         COMPARE_TIMING_THREADS)
-from ..images import clipped_fraction, fitting_view, read_image, to_srgb, write_image
+from ..images import (clipped_fraction, fitting_view, read_image, to_display, to_srgb,
+                      write_image)
 from ..progress import progress_bar
 from .analysis import analyse
 from .budget import Budget
@@ -92,13 +93,17 @@ def _work(result) -> int:
 
 def measure(loaded, setting: Setting, reference: np.ndarray,
             out: Path | None = None, folder: str = "", exposure: float = 0.0,
-            view: str = "clip") -> Measurement:
+            view: str = "clip", shown_reference: np.ndarray | None = None) -> Measurement:
     """Render ``setting`` once and score it against ``reference`` (its time is that render's
-    until :func:`time_rounds` times it); with ``out``, keep the image and its error map."""
+    until :func:`time_rounds` times it); with ``out``, keep the image and its error map.
+    ``shown_reference``: the reference's :func:`~whitted.images.to_display`, made once a scene."""
     result = _render(loaded, setting)
     image = np.asarray(result.image, dtype=np.float32)
-    error_map, flip = metrics.flip_map(image, reference, exposure, view)
-    files = (write_render(out, f"{folder}/{setting.slug}", image, error_map, exposure, view)
+    if shown_reference is None:
+        shown_reference = to_display(reference, exposure, view)
+    shown = to_display(image, exposure, view)
+    error_map, flip = metrics.displayed_flip_map(shown, shown_reference)
+    files = (write_render(out, f"{folder}/{setting.slug}", image, shown, error_map, exposure, view)
              if out is not None else {})
     return Measurement(setting, float(result.seconds), float(result.compile_seconds),
                        metrics.relative_mse(image, reference), flip, _work(result),
@@ -216,6 +221,7 @@ def sweep_scene(scene: SceneFile, entry: SceneResult, settings: list[Setting], o
     entry.reference_thumbnail = thumbnail(reference, exposure=entry.exposure, view=entry.view)
     entry.reference_png = f"{entry.folder}/reference.png"  # its EXR is the cache's
     (out / entry.folder).mkdir(parents=True, exist_ok=True)
+    shown_reference = to_display(reference, entry.exposure, entry.view)
     write_image(out / entry.reference_png, reference, exposure=entry.exposure, view=entry.view)
     if options.budget is not None:
         settings = _below_the_reference(entry, settings, progress)
@@ -238,7 +244,7 @@ def sweep_scene(scene: SceneFile, entry: SceneResult, settings: list[Setting], o
         else:
             start = time.monotonic()
             measurement = measure(loaded, setting, reference, out, entry.folder, entry.exposure,
-                                  entry.view)
+                                  entry.view, shown_reference)
             entry.measurements.append(measurement)
             done.append((setting, measurement.render_seconds, time.monotonic() - start))
             if setting.integrator == "path":
