@@ -169,6 +169,18 @@ def texture_png(tmp_path):
     return make
 
 
+def without_report_pictures(patch: pytest.MonkeyPatch) -> None:
+    """``whitted compare``'s plots and contact sheet left as empty files, through ``patch``,
+    for the comparisons whose tests read neither: drawing them takes most of a small
+    comparison's time. The pictures themselves are checked where they are drawn: test_compare.py's
+    sweep (the contact sheet's thumbnails), test_compare_page.py's report (the page loads them)
+    and test_compare_display.py's label test (the plot's figure)."""
+    def empty(path, *args, **kwargs):
+        Path(path).touch()
+    patch.setattr("whitted.compare.report.plot_error_vs_time", empty)
+    patch.setattr("whitted.compare.report.contact_sheet", empty)
+
+
 def session_left(sid: int, seconds: float = 30.0) -> list[int]:
     """The processes still in session ``sid`` (a ``start_new_session`` child's pid) once
     they have all ended or ``seconds`` have passed: what a finished command left behind."""

@@ -32,7 +32,7 @@ pytest.importorskip("distributed")
 psutil = pytest.importorskip("psutil")  # a dependency of distributed
 
 from test_compare import MIRROR_SCENE  # noqa: E402  (the same small scene as the in-process tests)
-from conftest import session_left  # noqa: E402
+from conftest import session_left, without_report_pictures  # noqa: E402
 
 DASK = Path(sys.executable).parent / "dask"
 
@@ -95,9 +95,13 @@ def scenes(tmp_path_factory) -> Path:
 
 @pytest.fixture(scope="module")
 def in_process(scenes, tmp_path_factory) -> Path:
-    """The expectation: the comparison run in this process, as without a cluster."""
+    """The expectation: the comparison run in this process, as without a cluster (its plots
+    and contact sheet left out: the tests compare the CSV and the references)."""
     out = tmp_path_factory.mktemp("in-process")
-    assert main(["compare", str(scenes), "--out", str(out), "--cache", str(out / "references"), *OPTIONS]) == 0
+    with pytest.MonkeyPatch.context() as patch:
+        without_report_pictures(patch)
+        assert main(["compare", str(scenes), "--out", str(out), "--cache", str(out / "references"),
+                     *OPTIONS]) == 0
     return out
 
 
@@ -223,7 +227,8 @@ def test_threads_are_the_host_cores_shared_among_its_workers():
 # --------------------------------------------------------------------------- a local cluster
 
 
-def test_local_cluster_writes_the_in_process_results(scenes, in_process, tmp_path):
+def test_local_cluster_writes_the_in_process_results(scenes, in_process, tmp_path, monkeypatch):
+    without_report_pictures(monkeypatch)
     out = tmp_path / "out"
     before = children()
     assert main(["compare", str(scenes), "--out", str(out), "--cache", str(out / "references"), "--workers", "2", *OPTIONS]) == 0
@@ -240,11 +245,12 @@ def test_local_cluster_writes_the_in_process_results(scenes, in_process, tmp_pat
     assert children() <= before
 
 
-def test_local_cluster_chunks_a_reference_under_a_budget(scenes, tmp_path):
+def test_local_cluster_chunks_a_reference_under_a_budget(scenes, tmp_path, monkeypatch):
     """Under --budget a worker probes each reference and the rest of it runs as chunk tasks:
     each cache entry lists the probe's renders first (1, 2, ... spp), then chunks of at most
     --reference-chunk-spp, all rendered by the cluster's workers."""
     import json
+    without_report_pictures(monkeypatch)
     out = tmp_path / "out"
     before = children()
     assert main(["compare", str(scenes), "--out", str(out), "--cache", str(out / "references"), "--workers", "2", "--budget", "300",

@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from conftest import without_report_pictures
 from whitted import compare as cmp
 from whitted import metrics
 from whitted.cli import main
@@ -165,6 +166,7 @@ def test_references_are_shared_between_runs_in_the_user_cache(mirror_scene, tmp_
     """Without --cache, references live in the user's cache folder ($XDG_CACHE_HOME/whitted/
     references): a second run of the same scene into another folder renders none; a
     relative $XDG_CACHE_HOME is not a cache folder (the XDG specification), ~/.cache is."""
+    without_report_pictures(monkeypatch)
     import os
 
     from whitted.defaults import user_cache_folder
@@ -182,6 +184,7 @@ def test_references_are_shared_between_runs_in_the_user_cache(mirror_scene, tmp_
 
 
 def test_second_run_reuses_the_cached_reference(sweep, mirror_scene, tmp_path, monkeypatch):
+    without_report_pictures(monkeypatch)
     out, first = sweep
     reference_file = first[0].reference_file
     stamp = reference_file.stat().st_mtime_ns
@@ -319,6 +322,7 @@ def test_interrupted_sweep_writes_what_was_done(sweep, mirror_scene, tmp_path, m
 
 def test_each_scene_file_is_read_once_per_run(sweep, mirror_scene, tmp_path, monkeypatch):
     """Planning, loading, the cache key and the sweep share one reading of the scene."""
+    without_report_pictures(monkeypatch)
     import builtins
     import io
 
@@ -342,9 +346,10 @@ def test_each_scene_file_is_read_once_per_run(sweep, mirror_scene, tmp_path, mon
     assert len(opened) == 1
 
 
-def test_one_scene_sweeps_from_plain_data_alone(sweep, mirror_scene, tmp_path):
+def test_one_scene_sweeps_from_plain_data_alone(sweep, mirror_scene, tmp_path, monkeypatch):
     """What a worker process gets: everything pickles, no mi.Scene is handed over, and the
     result comes back as plain data, measured as the whole command measures it."""
+    without_report_pictures(monkeypatch)
     import pickle
 
     out, _ = sweep
@@ -463,7 +468,8 @@ def test_budget_refuses_a_reference_it_cannot_afford_and_says_why(mirror_scene, 
 # --------------------------------------------------------------------------- several scenes, CLI
 
 
-def test_folder_of_scenes_through_the_cli(tmp_path, capsys):
+def test_folder_of_scenes_through_the_cli(tmp_path, capsys, monkeypatch):
+    without_report_pictures(monkeypatch)
     folder = tmp_path / "scenes"
     folder.mkdir()
     (folder / "mirror.scn").write_text(MIRROR_SCENE)
@@ -545,6 +551,13 @@ def test_relative_mse_is_the_documented_formula():
     expected = sum((a.flat[i] - b.flat[i]) ** 2 / (b.flat[i] ** 2 + 0.01) for i in range(b.size)) / b.size
     assert metrics.relative_mse(a, b) == pytest.approx(expected, rel=1e-12)
     assert metrics.relative_mse(b, b) == 0
+
+
+def test_durations_read_as_their_docstring_says():
+    """The plots' axes, the page and the budget's notes write times through seconds_text."""
+    from whitted.compare.results import seconds_text
+    assert [seconds_text(s) for s in (0.0123, 1.25, 250.0, 12060.0, math.inf)] == [
+        "12.3 ms", "1.25 s", "4 min 10 s", "3 h 21 min", "time unknown"]
 
 
 def test_flip_is_zero_for_equal_images_and_grows_with_the_difference():

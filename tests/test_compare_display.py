@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from conftest import without_report_pictures
 from whitted import compare as cmp
 from whitted import metrics
 from whitted.images import read_image
@@ -37,13 +38,15 @@ def shrunk(folder: Path, name: str, size: str = "48 30") -> Path:
 @pytest.fixture(scope="module")
 def examples(tmp_path_factory):
     """The comparison, without fitting the article's model to each reference: nothing here
-    reads the fit (test_fit.py and test_compare_findings.py do), and it takes a third of the time."""
+    reads the fit (test_fit.py and test_compare_findings.py do), and it takes a third of the
+    time; nor the plots and contact sheet it writes (the label test draws its own figure)."""
     folder = tmp_path_factory.mktemp("examples")
     (folder / "earth.png").write_bytes((REPO / "scenes" / "earth.png").read_bytes())
     scenes = [shrunk(folder, name) for name in EXAMPLES]
     out = folder / "out"
     with pytest.MonkeyPatch.context() as patch:
         patch.setattr("whitted.compare.limits.fit_to_reference", lambda *args, **kwargs: None)
+        without_report_pictures(patch)
         return out, cmp.compare(scenes, cmp.Options(out=out, **LADDERS))
 
 
@@ -122,9 +125,10 @@ def test_plot_labels_do_not_overlap_on_the_four_examples(examples):
         assert len(ax.texts) >= 3
 
 
-def test_progress_counts_agree_with_the_last_line(tmp_path, capsys):
+def test_progress_counts_agree_with_the_last_line(tmp_path, capsys, monkeypatch):
     from whitted.compare.planning import progress_units
 
+    without_report_pictures(monkeypatch)
     scene = shrunk(tmp_path, "mirrors", "24 16")
     options = dict(LADDERS, quiet=False)
     seen = []

@@ -21,6 +21,7 @@ from pathlib import Path
 
 import pytest
 
+from conftest import without_report_pictures
 from whitted import compare as cmp
 from whitted.defaults import COMPARE_FLOOR_TOLERANCE
 
@@ -56,7 +57,8 @@ DEPTHS, WHITTED_SPP, PATH_SPP = (1, 3), (1, 4), (1, 4, 16)
 
 @pytest.fixture(scope="module")
 def run(tmp_path_factory):
-    """One comparison of the six scenes; (its output folder, findings.json, the CSV's rows)."""
+    """One comparison of the six scenes; (its output folder, findings.json, the CSV's rows).
+    Nothing here looks at the plots or the contact sheet, which are left out."""
     folder = tmp_path_factory.mktemp("findings")
     scenes = folder / "scenes"
     shutil.copytree(REPO / "scenes", scenes, ignore=shutil.ignore_patterns("*.xml", "*.py", "__pycache__"))
@@ -67,7 +69,9 @@ def run(tmp_path_factory):
     out = folder / "out"
     options = cmp.Options(out=out, reference_spp=256, depths=DEPTHS, whitted_spp=WHITTED_SPP,
                           path_spp=PATH_SPP, rounds=1, quiet=True)
-    result = cmp.compare([scenes], options)
+    with pytest.MonkeyPatch.context() as patch:
+        without_report_pictures(patch)
+        result = cmp.compare([scenes], options)
     findings = json.loads((out / "findings.json").read_text(encoding="utf-8"))
     assert result.findings == findings  # the Python entry point returns what the file holds
     with open(out / "results.csv", newline="", encoding="utf-8") as f:

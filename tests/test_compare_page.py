@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from conftest import without_report_pictures
 from whitted import compare as cmp
 from whitted.images import read_image
 from whitted.cli import main
@@ -362,7 +363,8 @@ def test_first_screen_is_the_verdict_and_the_images_with_every_term_defined(brow
 # --------------------------------------------------------------------------- CLI
 
 
-def test_cli_names_the_page(tmp_path, capsys):
+def test_cli_names_the_page(tmp_path, capsys, monkeypatch):
+    without_report_pictures(monkeypatch)
     scene = tmp_path / "pair.scn"
     scene.write_text(SCENE)
     status = main(["compare", str(scene), "--out", str(tmp_path / "out"), "--reference-spp", "32",
