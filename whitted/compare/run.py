@@ -22,7 +22,7 @@ from .csvfile import CSV_NAME, write_csv
 from .planning import plan_scene, progress_units
 from .results import Comparison, Options, SceneResult
 from .scenes import SceneFile, scene_files, scene_names
-from .summary import findings
+from .summary import findings, json_safe
 from .sweep import sweep_scene
 
 
@@ -118,7 +118,7 @@ def _compare_on_cluster(scenes: list[SceneFile], entries: list[SceneResult], pla
 
 def _written(out: Path, entries: list[SceneResult], options: Options) -> Comparison:
     analyses = report.write_all(out, entries, options.levels)
-    return Comparison(entries, analyses, findings(analyses))
+    return Comparison(entries, analyses, json_safe(findings(analyses)))  # as findings.json holds it
 
 
 def _write_what_was_done(out: Path, entries: list[SceneResult], plans: list, options: Options) -> None:
