@@ -11,13 +11,19 @@ from .scenes import SceneFile
 
 
 def plan(depths: tuple[int, ...], whitted_spp: tuple[int, ...], path_spp: tuple[int, ...],
-         path_depth: int) -> list[Setting]:
+         path_depth: int, quick: bool = False) -> list[Setting]:
+    """The settings in order; ``quick``: the Whitted ladder's densest renders last, after the
+    path tracer's (whose curve every headline is read on), so that a budget cuts them first."""
     settings = [Setting("whitted", lighting, spp, depth)
                 for lighting in LIGHTING_MODES for spp in whitted_spp for depth in depths]
     settings += [Setting("path", "physical", spp, path_depth) for spp in path_spp]
     order = {m: i for i, m in enumerate(METHODS)}
-    return sorted(settings, key=lambda s: (s.spp, s.max_depth if s.integrator == "whitted" else 0,
-                                           order[s.method]))
+    settings.sort(key=lambda s: (s.spp, s.max_depth if s.integrator == "whitted" else 0,
+                                 order[s.method]))
+    if not quick or len(whitted_spp) < 2:
+        return settings
+    densest = [s for s in settings if s.integrator == "whitted" and s.spp == max(whitted_spp)]
+    return [s for s in settings if s not in densest] + densest
 
 
 def plan_scene(scene: SceneFile, loaded, options: Options,
@@ -31,7 +37,7 @@ def plan_scene(scene: SceneFile, loaded, options: Options,
     result = SceneResult(scene.name, scene.path, width, height, variant, options.reference_spp,
                          path_depth, whitted_spp=options.whitted_spp, path_spp=options.path_spp,
                          depths=depths)
-    return result, plan(depths, options.whitted_spp, options.path_spp, path_depth)
+    return result, plan(depths, options.whitted_spp, options.path_spp, path_depth, options.quick)
 
 
 def limit_methods(settings: list[Setting]) -> list[str]:

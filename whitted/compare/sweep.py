@@ -17,7 +17,7 @@ from .. import metrics
 from .. import rendering  # rendering.render looked up at call time: tests count calls
 from ..defaults import (COMPARE_CLOCK, COMPARE_HEADLINE_ROUNDS, COMPARE_KEPT_MEMORY,
                         COMPARE_LIMITS_SHARE, COMPARE_LONG_ROUNDS, COMPARE_LONG_SECONDS,
-                        COMPARE_MAX_ROUNDS, COMPARE_PATH_CHECK,
+                        COMPARE_MAX_ROUNDS, COMPARE_PATH_CHECK, COMPARE_QUICK_LIMITS_SHARE,
                         COMPARE_PATH_FIT_COUNTS, COMPARE_ROUND_REPEATS,
                         COMPARE_ROUND_SECONDS, COMPARE_ROUNDS_SECONDS, COMPARE_ROUNDS_SHARE,
                         COMPARE_TIMING_THREADS)
@@ -222,8 +222,10 @@ def sweep_scene(scene: SceneFile, entry: SceneResult, settings: list[Setting], o
     done: list[tuple[Setting, float, float]] = []
     overran = 0
     # what is left, shared: the renders, then their timing rounds, then the limits and fit
+    # (under --quick, what the verdict leaves: they are not part of it)
     left, slower = (deadline - time.monotonic() if seconds < math.inf else 0.0), _slower()
-    timed_until = deadline - COMPARE_LIMITS_SHARE * left
+    timed_until = deadline - (COMPARE_QUICK_LIMITS_SHARE if options.quick
+                              else COMPARE_LIMITS_SHARE) * left
     renders_until = timed_until - COMPARE_ROUNDS_SHARE * left
     for setting in settings:
         progress.set_postfix_str(f"{entry.name}: {setting.method} {setting.label}", refresh=False)
