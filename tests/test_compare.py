@@ -626,11 +626,15 @@ def test_plan_puts_cheap_renders_of_every_method_first():
 def test_quick_renders_the_path_tracers_ladder_before_the_densest_whitted_renders():
     """Under --quick a budget cuts the Whitted ladder's densest renders first, never the path
     renders every headline is read on; without it the order is the default's."""
-    settings = cmp.plan((1, 2), (1, 4, 16), (1, 4, 16, 64), 5, quick=True)
-    assert sorted(settings, key=str) == sorted(cmp.plan((1, 2), (1, 4, 16), (1, 4, 16, 64), 5), key=str)
-    last_path = max(i for i, s in enumerate(settings) if s.integrator == "path")
-    assert {(s.integrator, s.spp) for s in settings[last_path + 1:]} == {("whitted", 16)}
-    assert [s.spp for s in settings[:last_path + 1] if s.integrator == "whitted"] == [1] * 4 + [4] * 4
+    from whitted.defaults import COMPARE_PATH_FIT_COUNTS
+    ladder = (1, 4, 16, 64, 256, 1024)
+    settings = cmp.plan((1, 2), (1, 4, 16), ladder, 5, quick=True)
+    assert sorted(settings, key=str) == sorted(cmp.plan((1, 2), (1, 4, 16), ladder, 5), key=str)
+    checked = max(i for i, s in enumerate(settings) if s.spp == ladder[COMPARE_PATH_FIT_COUNTS])
+    assert [s.spp for s in settings[:checked + 1] if s.integrator == "path"] == [1, 4, 16, 64]
+    assert [s.spp for s in settings[:checked + 1] if s.integrator == "whitted"] == [1] * 4 + [4] * 4
+    assert [(s.integrator, s.spp) for s in settings[checked + 1:]] == [("whitted", 16)] * 4 + [
+        ("path", 256), ("path", 1024)]
 
 
 def test_a_floor_among_renders_of_equal_work_does_not_follow_the_clock():
@@ -750,9 +754,9 @@ def test_quick_sets_what_the_docs_say_and_options_beside_it_win(mirror_scene, tm
     assert main(["compare", str(mirror_scene), "--out", str(tmp_path), "--quick", *given]) == 2
     # the default's depths (None: the scene's) and Whitted ladder: its floors are the default's
     # the default's reference (as many spp as its noise needs, within the budget)
-    from whitted.defaults import COMPARE_REFERENCE_SPP
+    from whitted.defaults import COMPARE_PATH_SPP, COMPARE_REFERENCE_SPP
     expected = {"reference_spp": COMPARE_REFERENCE_SPP, "depths": None, "whitted_spp": (1, 4, 16),
-                "path_spp": (1, 4, 16, 64), "rounds": 2, "budget": 25.0, "quick": True, **wins}
+                "path_spp": COMPARE_PATH_SPP, "rounds": 2, "budget": 25.0, "quick": True, **wins}
     assert {name: getattr(seen[0], name) for name in expected} == expected
     docs = " ".join((Path(__file__).parents[1] / "docs" / "compare.md").read_text().split())
     assert f"`--quick` stands for `{quick_text()}`" in docs

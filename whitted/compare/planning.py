@@ -5,15 +5,16 @@ there rather than all of one method.
 
 from __future__ import annotations
 
-from ..defaults import COMPARE_MAX_DEFAULT_DEPTH, DEPTH, LIGHTING_MODES
+from ..defaults import COMPARE_MAX_DEFAULT_DEPTH, COMPARE_PATH_FIT_COUNTS, DEPTH, LIGHTING_MODES
 from .results import METHODS, WHITTED_METHODS, Options, SceneResult, Setting
 from .scenes import SceneFile
 
 
 def plan(depths: tuple[int, ...], whitted_spp: tuple[int, ...], path_spp: tuple[int, ...],
          path_depth: int, quick: bool = False) -> list[Setting]:
-    """The settings in order; ``quick``: the Whitted ladder's densest renders last, after the
-    path tracer's (whose curve every headline is read on), so that a budget cuts them first."""
+    """The settings in order; ``quick``: the Whitted ladder's densest renders after the path
+    tracer's that fit and check its curve (every headline is read on it), so that a budget
+    cuts them first."""
     settings = [Setting("whitted", lighting, spp, depth)
                 for lighting in LIGHTING_MODES for spp in whitted_spp for depth in depths]
     settings += [Setting("path", "physical", spp, path_depth) for spp in path_spp]
@@ -22,8 +23,10 @@ def plan(depths: tuple[int, ...], whitted_spp: tuple[int, ...], path_spp: tuple[
                                  order[s.method]))
     if not quick or len(whitted_spp) < 2:
         return settings
-    densest = [s for s in settings if s.integrator == "whitted" and s.spp == max(whitted_spp)]
-    return [s for s in settings if s not in densest] + densest
+    checking = path_spp[:COMPARE_PATH_FIT_COUNTS + 1]
+    late = [s for s in settings if (s.spp == max(whitted_spp) if s.integrator == "whitted"
+                                    else s.spp not in checking)]
+    return [s for s in settings if s not in late] + late
 
 
 def plan_scene(scene: SceneFile, loaded, options: Options,

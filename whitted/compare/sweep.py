@@ -278,8 +278,9 @@ def checked_path_model(measurements: list[Measurement], noise: float) -> PathMod
 
 def _below_the_reference(entry: SceneResult, settings: list[Setting], progress) -> list[Setting]:
     """Against a reference the budget scaled down, the path tracer's renders of as many spp
-    or more would measure only its noise: skipped, with a note."""
-    if entry.reference_spp >= entry.reference_requested:
+    or more would measure only its noise: skipped, with a note (not against one of as many spp
+    as its noise needs, as without --budget)."""
+    if entry.reference_enough or entry.reference_spp >= entry.reference_requested:
         return settings
     kept = [s for s in settings if s.integrator != "path" or s.spp < entry.reference_spp]
     dropped = [s for s in settings if s not in kept]
