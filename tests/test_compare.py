@@ -158,6 +158,29 @@ def test_reference_is_the_path_tracer_at_high_spp(sweep):
     assert not entries[0].reference_cached
 
 
+def test_quick_draws_the_defaults_floors_and_levels_from_the_same_renders(sweep, mirror_scene,
+                                                                          tmp_path):
+    """Under a budget that cuts nothing, --quick's rules change what is cut first and how long
+    the timing takes, not what is measured: its reference, its renders' errors, its floors and
+    its equal-quality levels are the default's (its times, and so its ratios, are its own)."""
+    out, entries = sweep
+    options = cmp.Options(out=tmp_path, reference_spp=REFERENCE_SPP, depths=DEPTHS,
+                          whitted_spp=WHITTED_SPP, path_spp=PATH_SPP, rounds=2, budget=600.0,
+                          quick=True, cache=tmp_path / "references", quiet=True)
+    quick = cmp.compare([mirror_scene], options)
+    assert not quick[0].skipped and quick[0].reference_enough
+    assert quick[0].reference_spp == entries[0].reference_spp
+    errors = [{m.setting: m.rel_mse for m in e.measurements} for e in (entries[0], quick[0])]
+    assert errors[0] == errors[1]
+    default, mine = (result.findings["scenes"]["mirror"] for result in (entries, quick))
+    assert mine["levels"] == default["levels"]
+    for method in ("whitted-article", "whitted-physical"):
+        same = ("max_depth", "spp", "rel_mse")
+        floors = [f["methods"][method]["floor"] for f in (default, mine)]
+        assert [{k: floor[k] for k in same} for floor in floors[1:]] == [
+            {k: floors[0][k] for k in same}]
+
+
 # --------------------------------------------------------------------------- cache
 
 
