@@ -645,18 +645,22 @@ def test_plan_puts_cheap_renders_of_every_method_first():
     assert [s.spp for s in settings] == sorted(s.spp for s in settings)
 
 
-def test_quick_renders_the_path_tracers_ladder_before_the_densest_whitted_renders():
-    """Under --quick a budget cuts the Whitted ladder's densest renders first, never the path
-    renders every headline is read on; without it the order is the default's."""
+def test_quick_renders_what_its_verdict_needs_first():
+    """Under --quick a budget cuts last what the verdict needs: the Whitted ladder's cheapest
+    renders (the floors' candidates), the path renders its curve is fitted to and checked by
+    (every headline is read on it), then each Whitted method's deepest, densest render (its
+    best error); without --quick the order is the default's."""
     from whitted.defaults import COMPARE_PATH_FIT_COUNTS
     ladder = (1, 4, 16, 64, 256, 1024)
     settings = cmp.plan((1, 2), (1, 4, 16), ladder, 5, quick=True)
-    assert sorted(settings, key=str) == sorted(cmp.plan((1, 2), (1, 4, 16), ladder, 5), key=str)
-    checked = max(i for i, s in enumerate(settings) if s.spp == ladder[COMPARE_PATH_FIT_COUNTS])
-    assert [s.spp for s in settings[:checked + 1] if s.integrator == "path"] == [1, 4, 16, 64]
-    assert [s.spp for s in settings[:checked + 1] if s.integrator == "whitted"] == [1] * 4 + [4] * 4
-    assert [(s.integrator, s.spp) for s in settings[checked + 1:]] == [("whitted", 16)] * 4 + [
-        ("path", 256), ("path", 1024)]
+    default = cmp.plan((1, 2), (1, 4, 16), ladder, 5)
+    assert sorted(settings, key=str) == sorted(default, key=str) and settings != default
+    assert [(s.integrator, s.spp, s.max_depth) for s in settings[:10]] == [
+        ("whitted", 1, 1)] * 2 + [("whitted", 1, 2)] * 2 + [
+        ("path", n, 5) for n in ladder[:COMPARE_PATH_FIT_COUNTS + 1]] + [("whitted", 16, 2)] * 2
+    rest = settings[10:]
+    assert [s.spp for s in rest] == [4] * 4 + [16] * 2 + [256, 1024]
+    assert {s.method for s in settings[8:10]} == {"whitted-article", "whitted-physical"}
 
 
 def test_a_floor_among_renders_of_equal_work_does_not_follow_the_clock():

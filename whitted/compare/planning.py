@@ -12,21 +12,28 @@ from .scenes import SceneFile
 
 def plan(depths: tuple[int, ...], whitted_spp: tuple[int, ...], path_spp: tuple[int, ...],
          path_depth: int, quick: bool = False) -> list[Setting]:
-    """The settings in order; ``quick``: the Whitted ladder's densest renders after the path
-    tracer's that fit and check its curve (every headline is read on it), so that a budget
-    cuts them first."""
+    """The settings in order; ``quick``: what the verdict needs first, so that a budget cuts
+    the rest: the Whitted ladder's cheapest renders (the floors' candidates), the path
+    tracer's that fit and check its curve (every headline is read on it), each Whitted
+    method's deepest, densest render (its best error, which the floor is within 5% of), then
+    the others, cheapest first, and the path tracer's counts its curve may stand for."""
     settings = [Setting("whitted", lighting, spp, depth)
                 for lighting in LIGHTING_MODES for spp in whitted_spp for depth in depths]
     settings += [Setting("path", "physical", spp, path_depth) for spp in path_spp]
     order = {m: i for i, m in enumerate(METHODS)}
     settings.sort(key=lambda s: (s.spp, s.max_depth if s.integrator == "whitted" else 0,
                                  order[s.method]))
-    if not quick or len(whitted_spp) < 2:
+    if not quick:
         return settings
     checking = path_spp[:COMPARE_PATH_FIT_COUNTS + 1]
-    late = [s for s in settings if (s.spp == max(whitted_spp) if s.integrator == "whitted"
-                                    else s.spp not in checking)]
-    return [s for s in settings if s not in late] + late
+
+    def need(s: Setting) -> int:
+        if s.integrator == "path":
+            return 1 if s.spp in checking else 4
+        if s.spp == min(whitted_spp):
+            return 0
+        return 2 if (s.spp, s.max_depth) == (max(whitted_spp), max(depths)) else 3
+    return sorted(settings, key=need)   # stable: cheapest first within each
 
 
 def plan_scene(scene: SceneFile, loaded, options: Options,

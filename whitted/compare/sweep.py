@@ -227,14 +227,18 @@ def sweep_scene(scene: SceneFile, entry: SceneResult, settings: list[Setting], o
     timed_until = deadline - (COMPARE_QUICK_LIMITS_SHARE if options.quick
                               else COMPARE_LIMITS_SHARE) * left
     renders_until = timed_until - COMPARE_ROUNDS_SHARE * left
+    kept = 0.0   # under --quick, the rounds of the renders done: kept for them, not shared
+
+    def rounds_of(seconds: float) -> float:
+        return options.rounds * max(seconds * max(1.0, slower), COMPARE_ROUND_SECONDS)
     for setting in settings:
         progress.set_postfix_str(f"{entry.name}: {setting.method} {setting.label}", refresh=False)
         if setting.integrator == "path" and entry.path_model is not None:
             progress.update(1)   # read from the fitted curve, which its last render checked
             continue
         render, scoring = Budget.predict(setting, done)   # then its rounds, on the timing threads
-        rounds = options.rounds * max(render * max(1.0, slower), COMPARE_ROUND_SECONDS)
-        if time.monotonic() + render + scoring + rounds > renders_until:
+        until = timed_until - kept if options.quick else renders_until
+        if time.monotonic() + render + scoring + rounds_of(render) > until:
             entry.skipped.append(setting)
             overran += 1
         else:
@@ -243,6 +247,7 @@ def sweep_scene(scene: SceneFile, entry: SceneResult, settings: list[Setting], o
                                   entry.view)
             entry.measurements.append(measurement)
             done.append((setting, measurement.render_seconds, time.monotonic() - start))
+            kept += rounds_of(measurement.render_seconds)
             if setting.integrator == "path":
                 entry.path_model = checked_path_model(entry.measurements, entry.reference_noise)
         progress.update(1)
