@@ -159,6 +159,28 @@ def test_reference_is_the_path_tracer_at_high_spp(sweep):
     assert not entries[0].reference_cached
 
 
+def test_quick_draws_the_defaults_floors_and_levels_from_the_same_renders(sweep, mirror_scene,
+                                                                          tmp_path):
+    """Under a budget that cuts nothing, --quick's rules change what is cut first and how long
+    the timing takes, not what is measured: its reference, its renders' errors, its floors and
+    its equal-quality levels are the default's (its times, and so its ratios, are its own)."""
+    out, entries = sweep
+    options = cmp.Options(out=tmp_path, reference_spp=REFERENCE_SPP, depths=DEPTHS,
+                          whitted_spp=WHITTED_SPP, path_spp=PATH_SPP, rounds=2, budget=600.0,
+                          quick=True, cache=tmp_path / "references", quiet=True)
+    quick = cmp.compare([mirror_scene], options)
+    assert not quick[0].skipped and quick[0].reference_enough
+    assert quick[0].reference_spp == entries[0].reference_spp
+    errors = [{m.setting: m.rel_mse for m in e.measurements} for e in (entries[0], quick[0])]
+    assert errors[0] == errors[1]
+    default, mine = (result.findings["scenes"]["mirror"] for result in (entries, quick))
+    assert mine["levels"] == default["levels"]
+    for method in ("whitted-article", "whitted-physical"):
+        same = ("max_depth", "spp", "rel_mse")
+        floors = [f["methods"][method]["floor"] for f in (default, mine)]
+        assert {k: floors[1][k] for k in same} == {k: floors[0][k] for k in same}
+
+
 # --------------------------------------------------------------------------- cache
 
 
@@ -248,6 +270,40 @@ def test_the_reference_stops_once_its_noise_is_small_beside_the_whitted_errors(m
     wanted = COMPARE_REFERENCE_NOISE_SHARE * (whitted - noise)
     # the rule's noise came from its first samples: within a factor 2 of the final one's
     assert noise < 2 * wanted and 2 * noise > wanted / 2
+
+
+@pytest.mark.parametrize("affordable", [True, False])
+def test_quick_renders_the_reference_its_noise_needs_when_its_budget_affords_it(
+        mirror_scene, tmp_path, monkeypatch, affordable):
+    """Under --quick's budget the reference stops by its noise as the default's does: the same
+    spp, the same image bit for bit and the same cache entry; one the budget cannot afford is
+    scaled down from what its noise needs, and says so."""
+    from whitted.compare.planning import plan_scene
+    from whitted.compare.reference import ReferenceCache, reference_image
+
+    scene = cmp.SceneFile.read(mirror_scene)
+    loaded = scene.load()
+    made, seconds = {}, 60.0
+    for quick in (False, True):
+        if quick and not affordable:   # a sample costs so much that all of it would take 2 budgets
+            spp = made[False][0].reference_spp
+            monkeypatch.setattr("whitted.compare.reference.fit_cost",
+                                lambda points: (0.0, 2 * seconds / spp))
+        options = cmp.Options(out=tmp_path, reference_spp=1 << 16, depths=DEPTHS, quiet=True,
+                              quick=quick, budget=seconds if quick else None)
+        entry, _ = plan_scene(scene, loaded, options, "llvm_ad_rgb")
+        image = reference_image(scene, loaded, entry, ReferenceCache(tmp_path / f"cache-{quick}"),
+                                options, seconds=seconds if quick else math.inf)
+        made[quick] = entry, image
+    (default, image), (quick, quick_image) = made[False], made[True]
+    assert default.reference_enough and default.reference_spp < 1 << 16
+    if affordable:
+        assert quick.reference_enough and quick.reference_spp == default.reference_spp
+        assert quick.reference_file.name == default.reference_file.name
+        assert np.array_equal(quick_image, image)
+    else:
+        assert not quick.reference_enough and quick.reference_spp <= default.reference_spp // 2
+        assert f"from {default.reference_spp} to {quick.reference_spp} spp" in quick.notes[0]
 
 
 def test_cache_key_follows_scene_content_and_settings(mirror_scene, tmp_path):
@@ -602,6 +658,39 @@ def test_plan_puts_cheap_renders_of_every_method_first():
     assert [s.spp for s in settings] == sorted(s.spp for s in settings)
 
 
+def test_quick_renders_what_its_verdict_needs_first():
+    """Under --quick a budget cuts last what the verdict needs: the Whitted ladder's cheapest
+    renders (the floors' candidates), the path renders its curve is fitted to and checked by
+    (every headline is read on it), then each Whitted method's deepest, densest render (its
+    best error); without --quick the order is the default's."""
+    from whitted.defaults import COMPARE_PATH_FIT_COUNTS
+    ladder = (1, 4, 16, 64, 256, 1024)
+    settings = cmp.plan((1, 2), (1, 4, 16), ladder, 5, quick=True)
+    default = cmp.plan((1, 2), (1, 4, 16), ladder, 5)
+    assert sorted(settings, key=str) == sorted(default, key=str) and settings != default
+    assert [(s.integrator, s.spp, s.max_depth) for s in settings[:10]] == [
+        ("whitted", 1, 1)] * 2 + [("whitted", 1, 2)] * 2 + [
+        ("path", n, 5) for n in ladder[:COMPARE_PATH_FIT_COUNTS + 1]] + [("whitted", 16, 2)] * 2
+    rest = settings[10:]
+    assert [s.spp for s in rest] == [4] * 4 + [16] * 2 + [256, 1024]
+    assert {s.method for s in settings[8:10]} == {"whitted-article", "whitted-physical"}
+
+
+def test_a_floor_among_renders_of_equal_work_does_not_follow_the_clock():
+    """A deeper tree that finds nothing more to trace draws the same image with the same work:
+    the floor is the shallower one, however the timing rounds fell."""
+    from whitted.compare.analysis import analyse
+    from whitted.compare.results import Measurement, SceneResult, Setting
+
+    entry = SceneResult("s", Path("s.scn"), 32, 24, "llvm_ad_rgb", 256, 5)
+    for depth, seconds in ((1, 0.02), (2, 0.031), (3, 0.030), (4, 0.029)):
+        error, work = (0.2, 100) if depth == 1 else (0.1, 150)
+        entry.measurements.append(Measurement(Setting("whitted", "physical", 4, depth), seconds,
+                                              0.0, error, 0.1, work, times=(seconds,)))
+    floor, = [f for f in analyse(entry).floors if f.method == "whitted-physical"]
+    assert (floor.render.setting.max_depth, floor.render.seconds) == (2, 0.031)
+
+
 def test_pareto_front_keeps_only_unbeaten_points():
     from whitted.compare.curves import pareto_front
     points = [(1.0, 0.5), (2.0, 0.6), (3.0, 0.2), (0.5, 0.9), (4.0, 0.2)]
@@ -703,8 +792,10 @@ def test_quick_sets_what_the_docs_say_and_options_beside_it_win(mirror_scene, tm
     monkeypatch.setattr("whitted.compare.run.compare", fake_compare)
     assert main(["compare", str(mirror_scene), "--out", str(tmp_path), "--quick", *given]) == 2
     # the default's depths (None: the scene's) and Whitted ladder: its floors are the default's
-    expected = {"reference_spp": 256, "depths": None, "whitted_spp": (1, 4, 16),
-                "path_spp": (1, 4, 16, 64), "rounds": 2, "budget": 25.0, **wins}
+    # the default's reference (as many spp as its noise needs, within the budget)
+    from whitted.defaults import COMPARE_PATH_SPP, COMPARE_REFERENCE_SPP
+    expected = {"reference_spp": COMPARE_REFERENCE_SPP, "depths": None, "whitted_spp": (1, 4, 16),
+                "path_spp": COMPARE_PATH_SPP, "rounds": 2, "budget": 25.0, "quick": True, **wins}
     assert {name: getattr(seen[0], name) for name in expected} == expected
     docs = " ".join((Path(__file__).parents[1] / "docs" / "compare.md").read_text().split())
     assert f"`--quick` stands for `{quick_text()}`" in docs

@@ -127,7 +127,8 @@ COMPARE_PROBE_SECONDS = 0.1   #: under --budget, the render time of the referenc
 COMPARE_REPORT_SECONDS = 3.0
 COMPARE_ROUNDS_SHARE = 0.2
 COMPARE_LIMITS_SHARE = 0.25
-COMPARE_QUICK = {"reference_spp": 256, "path_spp": (1, 4, 16, 64), "rounds": 2, "budget": 25.0}
+COMPARE_QUICK = {"rounds": 2, "budget": 25.0}
+COMPARE_QUICK_LIMITS_SHARE = 0.0
 
 
 # --- Validation, written once ----------------------------------------------------------------------

@@ -269,8 +269,14 @@ def _work(m: Measurement) -> float:
     return m.work if m.work > 0 else m.setting.spp * m.setting.max_depth
 
 
+def _cost(m: Measurement) -> tuple[float, int, int]:
+    """Its work, then (a deeper tree that finds nothing more to trace draws the same image
+    with the same work) its samples and depth: never its time, which noise would choose."""
+    return _work(m), m.setting.spp, m.setting.max_depth
+
+
 def _cheapest(ms: list[Measurement]) -> Measurement:
-    return min(ms, key=lambda m: (_work(m), m.seconds))
+    return min(ms, key=_cost)
 
 
 def data_levels(entry: SceneResult, tolerance: float = COMPARE_FLOOR_TOLERANCE) -> tuple[float, ...]:
@@ -287,7 +293,7 @@ def data_levels(entry: SceneResult, tolerance: float = COMPARE_FLOOR_TOLERANCE) 
 
 
 def _floor(ms: list[Measurement], tolerance: float) -> Floor[Measurement] | None:
-    return error_floor(_curve(ms, "rel_mse"), tolerance, _work)
+    return error_floor(_curve(ms, "rel_mse"), tolerance, _cost)
 
 
 def analyse(entry: SceneResult, levels: tuple[float, ...] | None = None,

@@ -121,7 +121,8 @@ def compare_command(args: argparse.Namespace) -> None:
     if "spp" in chosen:
         chosen["whitted_spp"] = chosen.pop("spp")
     given = ("path_depth", "levels", "variant", "quiet", "reference_chunk_spp", "workers", "scheduler",
-             "view", "exposure")   # the options that Options names as the command line does
+             "view", "exposure",
+             "quick")   # the options that Options names as the command line does
     options = Options(out=Path(args.out), **chosen, **{name: getattr(args, name) for name in given},
                       cache=Path(args.cache) if args.cache else None,
                       started=getattr(args, "started", None))

@@ -248,21 +248,26 @@ def plan_reference(scene: SceneFile, loaded, entry: SceneResult, cache: Referenc
 
     start, began = time.monotonic(), time.time()
     requested, chunk_spp = options.reference_spp, options.reference_chunk_spp
-    enough = (not math.isfinite(seconds) and loaded is not None
+    # as many spp as its noise needs: always without --budget, and within it under --quick
+    enough = ((not math.isfinite(seconds) or options.quick) and loaded is not None
               and requested > COMPARE_REFERENCE_START_SPP)
     key, cached = lookup(requested, enough)
     if cached is not None or not math.isfinite(seconds) and not enough:
         return ReferencePlan(requested, requested, key, cached, began=began, enough=enough)
-    if enough:
+    if enough and not math.isfinite(seconds):
         spp, probes = enough_spp(loaded, entry, requested)
         return ReferencePlan(spp, spp, key, None, probes, began=began, enough=True)
     if seconds <= 0:
         return ReferencePlan(requested, 0, key, began=began, notes=[
             "skipped whole: no time was left to render its reference"])
     pixels = entry.width * entry.height
-    pass_spp = rendering.path_passes(requested, pixels)[0]  # the most spp of one pass
-    probes = probe(loaded, entry.path_depth, most_spp=min(pass_spp, max(1, requested // 4), chunk_spp),
-                   most_seconds=COMPARE_REFERENCE_SHARE * seconds / 4, progress=not options.quiet)
+    if enough:   # what its noise needs is asked for; its two probes time a sample (a = 0)
+        requested, probes = enough_spp(loaded, entry, requested)
+    else:
+        pass_spp = rendering.path_passes(requested, pixels)[0]  # the most spp of one pass
+        probes = probe(loaded, entry.path_depth,
+                       most_spp=min(pass_spp, max(1, requested // 4), chunk_spp),
+                       most_seconds=COMPARE_REFERENCE_SHARE * seconds / 4, progress=not options.quiet)
     overhead, per_spp = fit_cost([(c.spp, c.seconds) for c in probes])
     done = [c.planned for c in probes]
 
@@ -271,6 +276,8 @@ def plan_reference(scene: SceneFile, loaded, entry: SceneResult, cache: Referenc
                    for n, _, _ in reference_chunks(spp, chunk_spp, done))
 
     fitted = Budget.reference_spp(requested, cost, seconds, spent=time.monotonic() - start)
+    if enough and fitted == requested:
+        return ReferencePlan(fitted, fitted, key, None, probes, began=began, enough=True)
     last = probes[-1]
     estimate = (f"probe renders of 1–{last.spp} spp: {seconds_text(overhead)} a render "
                 f"plus {seconds_text(per_spp)} per spp" if overhead > 0 else

@@ -163,6 +163,7 @@ class Options:
     path_depth: int | None = None
     rounds: int = COMPARE_ROUNDS
     budget: float | None = None
+    quick: bool = False   # --quick's rules under its budget (docs/compare.md, "--quick")
     levels: tuple[float, ...] | None = None
     cache: Path | None = None
     variant: str | None = None

@@ -17,7 +17,7 @@ from .. import metrics
 from .. import rendering  # rendering.render looked up at call time: tests count calls
 from ..defaults import (COMPARE_CLOCK, COMPARE_HEADLINE_ROUNDS, COMPARE_KEPT_MEMORY,
                         COMPARE_LIMITS_SHARE, COMPARE_LONG_ROUNDS, COMPARE_LONG_SECONDS,
-                        COMPARE_MAX_ROUNDS, COMPARE_PATH_CHECK,
+                        COMPARE_MAX_ROUNDS, COMPARE_PATH_CHECK, COMPARE_QUICK_LIMITS_SHARE,
                         COMPARE_PATH_FIT_COUNTS, COMPARE_ROUND_REPEATS,
                         COMPARE_ROUND_SECONDS, COMPARE_ROUNDS_SECONDS, COMPARE_ROUNDS_SHARE,
                         COMPARE_TIMING_THREADS)
@@ -228,17 +228,23 @@ def sweep_scene(scene: SceneFile, entry: SceneResult, settings: list[Setting], o
     done: list[tuple[Setting, float, float]] = []
     overran = 0
     # what is left, shared: the renders, then their timing rounds, then the limits and fit
+    # (under --quick, what the verdict leaves: they are not part of it)
     left, slower = (deadline - time.monotonic() if seconds < math.inf else 0.0), _slower()
-    timed_until = deadline - COMPARE_LIMITS_SHARE * left
+    timed_until = deadline - (COMPARE_QUICK_LIMITS_SHARE if options.quick
+                              else COMPARE_LIMITS_SHARE) * left
     renders_until = timed_until - COMPARE_ROUNDS_SHARE * left
+    kept = 0.0   # under --quick, the rounds of the renders done: kept for them, not shared
+
+    def rounds_of(seconds: float) -> float:
+        return options.rounds * max(seconds * max(1.0, slower), COMPARE_ROUND_SECONDS)
     for setting in settings:
         progress.set_postfix_str(f"{entry.name}: {setting.method} {setting.label}", refresh=False)
         if setting.integrator == "path" and entry.path_model is not None:
             progress.update(1)   # read from the fitted curve, which its last render checked
             continue
         render, scoring = Budget.predict(setting, done)   # then its rounds, on the timing threads
-        rounds = options.rounds * max(render * max(1.0, slower), COMPARE_ROUND_SECONDS)
-        if time.monotonic() + render + scoring + rounds > renders_until:
+        until = timed_until - kept if options.quick else renders_until
+        if time.monotonic() + render + scoring + rounds_of(render) > until:
             entry.skipped.append(setting)
             overran += 1
         else:
@@ -247,6 +253,7 @@ def sweep_scene(scene: SceneFile, entry: SceneResult, settings: list[Setting], o
                                   entry.view, shown_reference)
             entry.measurements.append(measurement)
             done.append((setting, measurement.render_seconds, time.monotonic() - start))
+            kept += rounds_of(measurement.render_seconds)
             if setting.integrator == "path":
                 entry.path_model = checked_path_model(entry.measurements, entry.reference_noise)
         progress.update(1)
@@ -282,8 +289,9 @@ def checked_path_model(measurements: list[Measurement], noise: float) -> PathMod
 
 def _below_the_reference(entry: SceneResult, settings: list[Setting], progress) -> list[Setting]:
     """Against a reference the budget scaled down, the path tracer's renders of as many spp
-    or more would measure only its noise: skipped, with a note."""
-    if entry.reference_spp >= entry.reference_requested:
+    or more would measure only its noise: skipped, with a note (not against one of as many spp
+    as its noise needs, as without --budget)."""
+    if entry.reference_enough or entry.reference_spp >= entry.reference_requested:
         return settings
     kept = [s for s in settings if s.integrator != "path" or s.spp < entry.reference_spp]
     dropped = [s for s in settings if s not in kept]
