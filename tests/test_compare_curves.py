@@ -5,6 +5,7 @@ spp, and the tables built from them (on made-up measurements: nothing is rendere
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -235,6 +236,21 @@ def test_equal_quality_shows_floors_and_speedups(scene_result):
     assert at_005.reach["whitted-article"].fastest is None
     assert at_005.reach["whitted-article"].best.rel_mse == 0.098
     assert "whitted-article" not in at_005.speedups and at_005.fastest_method == "path"
+
+
+@pytest.mark.parametrize("physical_times, tied", [
+    ((0.0041, 0.0042, 0.0046), True),    # per round 1.14, 1.05, 0.96 of the article's: ≈ 1
+    ((0.0080, 0.0078, 0.0094), False),   # twice the article's in every round
+])
+def test_equal_quality_says_which_methods_tie_for_fastest(scene_result, physical_times, tied):
+    """The article's and the physical lighting's renders of one ray tree do the same work:
+    which is "fastest" is the clock's noise unless their paired rounds tell them apart."""
+    physical = _measurement("whitted-physical", 2, 1, physical_times[1], 0.15)
+    scene_result.measurements.append(replace(physical, times=physical_times))
+    at_02 = analyse(scene_result, (0.2,)).equal_quality[0]
+    assert at_02.fastest_method == "whitted-article"   # times (0.0036, 0.004, 0.0048)
+    assert at_02.ties == (("whitted-physical",) if tied else ())
+    assert at_02.fastest_text == ("whitted-article ≈ whitted-physical" if tied else "whitted-article")
 
 
 def test_floor_is_stated_with_the_path_tracers_time_to_reach_it(scene_result):

@@ -96,6 +96,8 @@ class EqualQuality:
     level: float
     reach: dict[str, Reach]
     speedups: dict[str, Interval] = field(default_factory=dict)
+    #: the methods there no measurably slower than the fastest (their paired interval holds 1)
+    ties: tuple[str, ...] = ()
 
     def reached(self, method: str) -> bool:
         return method in self.reach and self.reach[method].fastest is not None
@@ -104,6 +106,11 @@ class EqualQuality:
     def fastest_method(self) -> str | None:
         hits = [r for r in self.reach.values() if r.fastest is not None]
         return min(hits, key=lambda r: r.fastest.seconds).method if hits else None
+
+    @property
+    def fastest_text(self) -> str:
+        """The fastest method, with those it is not measurably faster than: "a ≈ b"."""
+        return " ≈ ".join([self.fastest_method, *self.ties]) if self.fastest_method else "none"
 
 
 @dataclass(frozen=True)
@@ -198,6 +205,7 @@ class Analysis:
                     "read_spp": [m.setting.spp for m in modelled_path(entry)],
                     "text": model_text(entry)},
                 "equal_quality": [{"rel_mse": row.level,
+                                   "fastest": [row.fastest_method, *row.ties] if row.fastest_method else [],
                                    "path_time_over": {m: i.as_dict() for m, i in row.speedups.items()}}
                                   for row in self.equal_quality]}
 
@@ -338,6 +346,12 @@ def analyse(entry: SceneResult, levels: tuple[float, ...] | None = None,
                 a, b = reach["path"].fastest, reach[method].fastest
                 row.speedups[method] = paired(
                     rounds, lambda r, a=a, b=b: _over(a.seconds_in(r), b.seconds_in(r)))
+        if row.fastest_method is not None:
+            first = reach[row.fastest_method].fastest
+            row = replace(row, ties=tuple(
+                m for m in reach if m != row.fastest_method and row.reached(m) and paired(
+                    rounds, lambda r, a=reach[m].fastest: _over(a.seconds_in(r), first.seconds_in(r))
+                ).straddles_one))
         equal_quality.append(row)
 
     floors, decompositions = [], []

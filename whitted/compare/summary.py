@@ -72,7 +72,7 @@ def equal_time_row(row) -> dict:
 def equal_quality_row(row, methods: list[str], whitted: list[str]) -> dict:
     """An equal-quality row: a cell per method, ``line`` summary.txt's."""
     cells = [{"text": reach_text(row.reach.get(m)), "reached": row.reached(m)} for m in methods]
-    fastest, speedups = row.fastest_method or "none", [speedup_text(row, m) for m in whitted]
+    fastest, speedups = row.fastest_text, [speedup_text(row, m) for m in whitted]
     return {"level": f"{row.level:g}", "cells": cells, "fastest": fastest, "speedups": speedups,
             "line": [f"{row.level:g}", *(c["text"] for c in cells), fastest, *speedups]}
 
