@@ -169,9 +169,10 @@ def image_format(path: str | os.PathLike) -> str:
 
 
 def write_image(path: str | os.PathLike, image, progress: bool = False, exposure: float = 0.0,
-                view: str = "clip") -> None:
+                view: str = "clip", shown: np.ndarray | None = None) -> None:
     """Write a linear RGB image (H, W, 3) as EXR (linear, ``exposure`` and ``view`` ignored) or
-    PNG (8-bit sRGB as displayed); ``progress`` shows the conversion and the writing on stderr."""
+    PNG (8-bit sRGB as displayed); ``progress`` shows the conversion and the writing on stderr;
+    ``shown``: the image's :func:`to_display` when already made (see :func:`srgb_of_display`)."""
     import mitsuba as mi
 
     from .atomic import atomic_path
@@ -180,7 +181,9 @@ def write_image(path: str | os.PathLike, image, progress: bool = False, exposure
     suffix = image_format(path)
     pixels = _rgb_pixels(image, f"{path}: ")
     name = Path(path).name
-    if suffix == ".png":
+    if suffix == ".png" and shown is not None:
+        data = srgb_of_display(shown, pixels, exposure, view)
+    elif suffix == ".png":
         with progress_bar(progress, pixels.shape[0], f"encoding {name}", unit="row", unit_scale=False) as bar:
             data = to_srgb(pixels, exposure, view, rows_done=bar.update)
     else:

@@ -120,9 +120,9 @@ def compare_command(args: argparse.Namespace) -> None:
                    if getattr(args, name) is not None})
     if "spp" in chosen:
         chosen["whitted_spp"] = chosen.pop("spp")
+    # the options that Options names as the command line does
     given = ("path_depth", "levels", "variant", "quiet", "reference_chunk_spp", "workers", "scheduler",
-             "view", "exposure",
-             "quick")   # the options that Options names as the command line does
+             "view", "exposure", "quick")
     options = Options(out=Path(args.out), **chosen, **{name: getattr(args, name) for name in given},
                       cache=Path(args.cache) if args.cache else None,
                       started=getattr(args, "started", None))

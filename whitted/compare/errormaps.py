@@ -26,12 +26,12 @@ def write_render(out: Path, stem: str, image: np.ndarray, shown: np.ndarray,
     """Keep one render: ``STEM.exr`` (linear), ``STEM.png`` (as displayed: ``shown``, its
     :func:`~whitted.images.to_display`) and its ``STEM-flip.png``; returns their paths
     relative to ``out`` by kind."""
-    from ..images import srgb_of_display, write_image
+    from ..images import write_image
 
     (out / stem).parent.mkdir(parents=True, exist_ok=True)
     files = {"image": f"{stem}.exr", "image_png": f"{stem}.png"}
     write_image(out / files["image"], image)
-    _write_png(out / files["image_png"], srgb_of_display(shown, image, exposure, view))
+    write_image(out / files["image_png"], image, exposure=exposure, view=view, shown=shown)
     if error_map is not None:   # as FLIP draws it: display colors, no transfer curve
         import matplotlib
 

@@ -222,7 +222,8 @@ def sweep_scene(scene: SceneFile, entry: SceneResult, settings: list[Setting], o
     entry.reference_png = f"{entry.folder}/reference.png"  # its EXR is the cache's
     (out / entry.folder).mkdir(parents=True, exist_ok=True)
     shown_reference = to_display(reference, entry.exposure, entry.view)
-    write_image(out / entry.reference_png, reference, exposure=entry.exposure, view=entry.view)
+    write_image(out / entry.reference_png, reference, exposure=entry.exposure, view=entry.view,
+                shown=shown_reference)
     if options.budget is not None:
         settings = _below_the_reference(entry, settings, progress)
     done: list[tuple[Setting, float, float]] = []
