@@ -108,9 +108,16 @@ class EqualQuality:
         return min(hits, key=lambda r: r.fastest.seconds).method if hits else None
 
     @property
+    def fastest_group(self) -> list[str]:
+        """The fastest method and those it is not measurably faster than, in :data:`METHODS`'
+        order (a tie has no order for the clock to pick)."""
+        group = {self.fastest_method, *self.ties} - {None}
+        return [m for m in METHODS if m in group]
+
+    @property
     def fastest_text(self) -> str:
-        """The fastest method, with those it is not measurably faster than: "a ≈ b"."""
-        return " ≈ ".join([self.fastest_method, *self.ties]) if self.fastest_method else "none"
+        """:attr:`fastest_group` as "a ≈ b", or "none"."""
+        return " ≈ ".join(self.fastest_group) or "none"
 
 
 @dataclass(frozen=True)
@@ -205,7 +212,7 @@ class Analysis:
                     "read_spp": [m.setting.spp for m in modelled_path(entry)],
                     "text": model_text(entry)},
                 "equal_quality": [{"rel_mse": row.level,
-                                   "fastest": [row.fastest_method, *row.ties] if row.fastest_method else [],
+                                   "fastest": row.fastest_group,
                                    "path_time_over": {m: i.as_dict() for m, i in row.speedups.items()}}
                                   for row in self.equal_quality]}
 
