@@ -17,7 +17,7 @@ import pytest
 import whitted.compare as cmp
 from whitted.compare.analysis import analyse
 from whitted.compare.results import Measurement, SceneResult, Setting
-from whitted.compare.summary import findings, summary
+from whitted.compare.report import findings, summary
 from whitted.compare.analysis import faster_text, ratio_text
 from whitted.compare.timing import Interval, _order_rank
 from whitted.defaults import COMPARE_LONG_ROUNDS, COMPARE_MAX_ROUNDS, COMPARE_SETTLED_WIDTH
@@ -168,7 +168,7 @@ def test_interval_and_unsettled_flag_reach_findings_summary_and_page(tmp_path):
     text = summary([analysis])
     assert "unsettled" in text and f"{headline['low']:.3g}–{headline['high']:.3g}× over 7 rounds" in text
 
-    from whitted.compare.page import write_page
+    from whitted.compare.report import write_page
     page = tmp_path / "report.html"
     write_page(page, [analysis], {"made-up": "plot.png"},
                {"csv": "results.csv", "plot": "plot.png", "sheet": "sheet.png",

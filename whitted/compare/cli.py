@@ -111,9 +111,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def compare_command(args: argparse.Namespace) -> None:
-    from .report import output_files
+    from .report import output_files, summary
     from .run import compare
-    from .summary import summary
 
     chosen = dict(COMPARE_QUICK if args.quick else {})   # then what the command line gives
     chosen.update({name: getattr(args, name) for name in LADDERS

@@ -16,7 +16,7 @@ from pathlib import Path
 from ..cluster import (available_cores, cancel, on_worker, task_result, worker_task,
                        worker_threads)
 from .budget import Budget
-from .csvfile import CSV_NAME, write_csv
+from .report import CSV_NAME, write_csv
 from .reference import Chunk, ReferenceCache, ReferencePlan, plan_reference, render_chunk
 from .results import Options, SceneResult, Setting
 from .scenes import SceneFile

@@ -16,13 +16,11 @@ from ..cluster import check_where, connect
 from ..defaults import check_depth
 from ..errors import WhittedError
 from ..progress import progress_bar
-from . import report
 from .budget import Budget
-from .csvfile import CSV_NAME, write_csv
 from .planning import plan_scene, progress_units
+from .report import CSV_NAME, findings, json_safe, write_all, write_csv
 from .results import Comparison, Options, SceneResult
 from .scenes import SceneFile, scene_files, scene_names
-from .summary import findings, json_safe
 from .sweep import sweep_scene
 
 
@@ -117,7 +115,7 @@ def _compare_on_cluster(scenes: list[SceneFile], entries: list[SceneResult], pla
 
 
 def _written(out: Path, entries: list[SceneResult], options: Options) -> Comparison:
-    analyses = report.write_all(out, entries, options.levels)
+    analyses = write_all(out, entries, options.levels)
     return Comparison(entries, analyses, json_safe(findings(analyses)))  # as findings.json holds it
 
 
@@ -127,6 +125,6 @@ def _write_what_was_done(out: Path, entries: list[SceneResult], plans: list, opt
     if not out.is_dir():
         return
     done, planned = sum(len(e.measurements) for e in entries), sum(map(len, plans))
-    report.write_all(out, entries, options.levels, interrupted=(done, planned))
+    write_all(out, entries, options.levels, interrupted=(done, planned))
     interrupt.tell(f"the outputs in {out} hold what was done ({done} of {planned} renders)" if done
                    else f"the outputs in {out} say nothing was measured")
