@@ -181,7 +181,7 @@ def test_a_budgeted_reference_is_the_same_in_process_and_in_chunks(llvm, write_s
     import json
 
     import whitted.compare.reference as reference
-    from whitted.compare.planning import plan_scene
+    from whitted.compare.scenes import plan_scene
     monkeypatch.setattr(reference, "COMPARE_PROBE_SECONDS", math.inf)  # the probe's spp alone decide
     monkeypatch.setattr(reference, "fit_cost", lambda points: (0.0, per_spp))
     scene = cmp.SceneFile.read(write_scene(MIRROR_SCENE), "mirror")

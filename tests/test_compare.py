@@ -252,7 +252,7 @@ def test_the_reference_stops_once_its_noise_is_small_beside_the_whitted_errors(m
     COMPARE_REFERENCE_NOISE_SHARE of the smallest Whitted error it scores (its 1-spp render at
     the scene's depth, less that noise), at most --reference-spp."""
     import whitted.rendering as rendering
-    from whitted.compare.planning import plan_scene
+    from whitted.compare.scenes import plan_scene
     from whitted.compare.reference import ReferenceCache, reference_image
     from whitted.defaults import COMPARE_REFERENCE_NOISE_SHARE, COMPARE_REFERENCE_START_SPP
     from whitted.metrics import relative_mse
@@ -278,7 +278,7 @@ def test_quick_renders_the_reference_its_noise_needs_when_its_budget_affords_it(
     """Under --quick's budget the reference stops by its noise as the default's does: the same
     spp, the same image bit for bit and the same cache entry; one the budget cannot afford is
     scaled down from what its noise needs, and says so."""
-    from whitted.compare.planning import plan_scene
+    from whitted.compare.scenes import plan_scene
     from whitted.compare.reference import ReferenceCache, reference_image
 
     scene = cmp.SceneFile.read(mirror_scene)
@@ -746,7 +746,7 @@ def test_progress_estimate_comes_from_the_renders_not_the_reference(sweep, mirro
                           path_spp=(1, 4), rounds=1, cache=out / "references", quiet=True)
     scene = cmp.SceneFile.read(mirror_scene, "mirror")
     entry, settings = cmp.plan_scene(scene, scene.load(), options, mi.variant())
-    from whitted.compare.planning import progress_units
+    from whitted.compare.scenes import progress_units
     bar = tqdm.std.tqdm(total=progress_units(settings), file=io.StringIO(), mininterval=0, miniters=1)
     cmp.sweep_scene(scene, entry, settings, options, progress=bar)
     assert bar.n == bar.total == len(settings) + 2  # the renders and the two limits

@@ -126,7 +126,7 @@ def test_plot_labels_do_not_overlap_on_the_four_examples(examples):
 
 
 def test_progress_counts_agree_with_the_last_line(tmp_path, capsys, monkeypatch):
-    from whitted.compare.planning import progress_units
+    from whitted.compare.scenes import progress_units
 
     without_report_pictures(monkeypatch)
     scene = shrunk(tmp_path, "mirrors", "24 16")

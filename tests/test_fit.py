@@ -195,7 +195,7 @@ def test_the_fitted_file_is_the_scene_s_text_with_the_fitted_numbers(llvm, tmp_p
 
 
 def test_compare_s_fitted_text_names_materials_and_lights_as_the_file_does(llvm):
-    from whitted.compare.fitted import fit_to_reference, fitted_text
+    from whitted.compare.limits import fit_to_reference, fitted_text
     text = COMMENTED.replace("size 40 25", "size 16 10")
     model = parse_text(text, "scene.scn")
     fitted = fit_to_reference(model, render(model) * 0.9, depth=model.depth, spp=1, seed=0)
@@ -211,7 +211,7 @@ def test_a_fit_at_its_deadline_stops_between_steps_and_keeps_its_numbers(truth):
     step that reached it, and the fitted scene is still scored and reported as stopped."""
     import time
 
-    from whitted.compare.fitted import fit_to_reference
+    from whitted.compare.limits import fit_to_reference
     from whitted.defaults import FIT_ITERATIONS
     target = render(truth)
     fitted = fit_to_reference(perturbed(truth), target, truth.depth, 1, 0,

@@ -10,7 +10,7 @@ import importlib
 #: public name -> submodule, imported on first use: the CLI's parser loads no numpy or Mitsuba
 _EXPORTS = {
     "Budget": "budget", "add_arguments": "cli", "compare_command": "cli", "float_list": "cli",
-    "int_list": "cli", "plan": "planning", "plan_scene": "planning", "ReferenceCache": "reference",
+    "int_list": "cli", "plan": "scenes", "plan_scene": "scenes", "ReferenceCache": "reference",
     "METHODS": "results", "WHITTED_METHODS": "results", "Measurement": "results",
     "Comparison": "results", "Limit": "results",
     "Options": "results", "SceneResult": "results", "Setting": "results", "compare": "run",

@@ -11,7 +11,7 @@ from dataclasses import dataclass, field, replace
 
 from ..defaults import (COMPARE_CLOCK, COMPARE_CONFIDENCE, COMPARE_DATA_LEVELS, COMPARE_FLOOR_TOLERANCE,
                         COMPARE_ROUNDS, COMPARE_TIMING_THREADS)
-from .fitted import fitted_text
+from .limits import fitted_text
 from .curves import (Floor, PathModel, Reading, error_at_time, error_floor, error_levels,
                      time_to_reach)
 from .results import (METHODS, WHITTED_METHODS, Limit, Measurement, SceneResult, Setting,

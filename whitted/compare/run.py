@@ -17,10 +17,9 @@ from ..defaults import check_depth
 from ..errors import WhittedError
 from ..progress import progress_bar
 from .budget import Budget
-from .planning import plan_scene, progress_units
 from .report import CSV_NAME, findings, json_safe, write_all, write_csv
 from .results import Comparison, Options, SceneResult
-from .scenes import SceneFile, scene_files, scene_names
+from .scenes import SceneFile, plan_scene, progress_units, scene_files, scene_names
 from .sweep import sweep_scene
 
 

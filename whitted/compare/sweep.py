@@ -29,10 +29,9 @@ from .budget import Budget
 from .curves import PathModel, fit_inverse
 from .sheet import thumbnail, write_render
 from .limits import render_limit
-from .planning import limit_methods
 from .reference import Chunk, ReferenceCache, ReferencePlan, reference_image
 from .results import WHITTED_LIGHTING, Measurement, Options, SceneResult, Setting
-from .scenes import SceneFile
+from .scenes import SceneFile, limit_methods
 from .timing import interleaved, median
 
 #: The seed of every render of the sweep (the reference has its own).
