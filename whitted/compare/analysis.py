@@ -116,7 +116,6 @@ class EqualQuality:
 
     @property
     def fastest_text(self) -> str:
-        """:attr:`fastest_group` as "a ≈ b", or "none"."""
         return " ≈ ".join(self.fastest_group) or "none"
 
 
@@ -279,19 +278,12 @@ def rounds_of(entry: SceneResult) -> int:
     return max([len(m.times) for m in entry.measurements] + [1])
 
 
-def _work(m: Measurement) -> float:
-    """What chooses a render among those good enough: its work, not its time."""
-    return m.work if m.work > 0 else m.setting.spp * m.setting.max_depth
-
-
 def _cost(m: Measurement) -> tuple[float, int, int]:
-    """Its work, then (a deeper tree that finds nothing more to trace draws the same image
-    with the same work) its samples and depth: never its time, which noise would choose."""
-    return _work(m), m.setting.spp, m.setting.max_depth
-
-
-def _cheapest(ms: list[Measurement]) -> Measurement:
-    return min(ms, key=_cost)
+    """What chooses a render among those good enough: its work, then (a deeper tree that finds
+    nothing more to trace draws the same image with the same work) its samples and depth;
+    never its time, which noise would choose."""
+    work = m.work if m.work > 0 else m.setting.spp * m.setting.max_depth
+    return work, m.setting.spp, m.setting.max_depth
 
 
 def data_levels(entry: SceneResult, tolerance: float = COMPARE_FLOOR_TOLERANCE) -> tuple[float, ...]:
@@ -344,9 +336,8 @@ def analyse(entry: SceneResult, levels: tuple[float, ...] | None = None,
         for method, ms in by_method.items():
             if not ms:
                 continue
-            hits = [m for m in ms if m.rel_mse <= level]
-            reach[method] = Reach(method, _cheapest(hits) if hits else None,
-                                  min(ms, key=lambda m: m.rel_mse))
+            reach[method] = Reach(method, min((m for m in ms if m.rel_mse <= level), key=_cost,
+                                              default=None), min(ms, key=lambda m: m.rel_mse))
         row = EqualQuality(level, reach)
         for method in WHITTED_METHODS:
             if row.reached(method) and row.reached("path"):
@@ -387,8 +378,8 @@ def analyse(entry: SceneResult, levels: tuple[float, ...] | None = None,
                                                          tolerance, entry.path_model, spp)))
         limit = entry.limits.get(method)
         if limit is not None:
-            gone = [m for m in ms if m.rel_mse_limit <= tolerance * limit.rel_mse]
-            gone = _cheapest(gone) if gone else None
+            gone = min((m for m in ms if m.rel_mse_limit <= tolerance * limit.rel_mse), key=_cost,
+                       default=None)
             decomposition = Decomposition(method, floor, limit, gone)
             decompositions.append(replace(decomposition, text=decomposition_text(
                 decomposition, entry.reference_noise, tolerance)))

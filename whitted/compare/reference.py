@@ -18,10 +18,13 @@ from pathlib import Path
 
 import numpy as np
 
+from .. import atomic  # atomic.write_text looked up at call time: tests interrupt it
 from .. import rendering  # rendering.render looked up at call time: tests count calls
 from ..defaults import (COMPARE_MIN_REFERENCE_SPP, COMPARE_PROBE_SECONDS,
                         COMPARE_REFERENCE_NOISE_SHARE, COMPARE_REFERENCE_SHARE,
-                        COMPARE_REFERENCE_START_SPP, IN_PROCESS, LIGHTING_MODES)
+                        COMPARE_REFERENCE_START_SPP, IN_PROCESS, LIGHTING_MODES, STALE_SECONDS,
+                        VERSION)
+from ..images import read_image, write_image
 from ..progress import progress_bar
 from .budget import Budget, fit_cost, render_cost
 from .curves import reference_noise
@@ -101,10 +104,7 @@ class ReferenceCache:
     def clean(self) -> None:
         """Once per cache object: remove the temporary files that killed writers left."""
         if not self._cleaned:
-            from ..atomic import remove_stale_leftovers
-            from ..defaults import STALE_SECONDS
-
-            remove_stale_leftovers(self.folder, STALE_SECONDS)
+            atomic.remove_stale_leftovers(self.folder, STALE_SECONDS)
             self._cleaned = True
 
     @staticmethod
@@ -112,7 +112,6 @@ class ReferenceCache:
         """The SHA-256 (hex) of the scene's content and the reference's ``settings``."""
         import mitsuba as mi
 
-        import whitted
         from ..converter import scene_to_xml
 
         digest = hashlib.sha256()
@@ -123,7 +122,7 @@ class ReferenceCache:
 
         add("format", CACHE_FORMAT.encode())
         add("settings", json.dumps(settings, sort_keys=True).encode())
-        add("versions", f"{whitted.__version__} {mi.__version__}".encode())
+        add("versions", f"{VERSION} {mi.__version__}".encode())
         add("scene", scene.data)
         if scene.model is not None:
             # What the scene means to today's converter, independent of where the file lies:
@@ -140,8 +139,6 @@ class ReferenceCache:
 
     def load(self, name: str, key: str, shape: tuple[int, int]) -> tuple[np.ndarray, dict] | None:
         """The cached (image, description); None when missing, damaged or of another key."""
-        from ..images import read_image
-
         self.clean()
         image_file, info_file = self.entry(name, key)
         try:
@@ -156,14 +153,12 @@ class ReferenceCache:
         return image, info
 
     def store(self, name: str, key: str, image: np.ndarray, info: dict) -> Path:
-        from ..images import write_image
-        from ..atomic import write_text
-
         self.folder.mkdir(parents=True, exist_ok=True)
         self.clean()
         image_file, info_file = self.entry(name, key)
         write_image(image_file, image)
-        write_text(info_file, json.dumps({**info, "key": key}, indent=2, sort_keys=True) + "\n")
+        atomic.write_text(info_file,
+                          json.dumps({**info, "key": key}, indent=2, sort_keys=True) + "\n")
         return image_file
 
 
@@ -336,13 +331,13 @@ def reference_image(scene: SceneFile, loaded, entry: SceneResult, cache: Referen
     entry.notes.extend(plan.notes)
     if not plan.spp:
         return None
+    entry.reference_enough = plan.enough
     if plan.cached is not None:
         image, info = plan.cached
         entry.reference_cached = True
         entry.reference_seconds = float(info.get("seconds", math.nan))
         entry.reference_noise = float(info.get("noise_rel_mse", math.nan))
         entry.reference_spp = int(info.get("settings", {}).get("spp", plan.spp))
-        entry.reference_enough = plan.enough
     else:
         planned = plan.chunks(options.reference_chunk_spp)
         if not options.quiet:
@@ -363,7 +358,6 @@ def reference_image(scene: SceneFile, loaded, entry: SceneResult, cache: Referen
         entry.reference_spp = halves.spp
         entry.reference_seconds = halves.seconds
         entry.reference_noise = halves.noise()
-        entry.reference_enough = plan.enough
         cache.store(entry.name, plan.key, image, {
             "scene": str(entry.path),
             "settings": reference_settings(entry, halves.spp, plan.enough),

@@ -14,6 +14,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ..atomic import atomic_path
+from ..images import to_srgb, write_image
 from .analysis import modelled_path
 from .plot import save_figure
 from .results import WHITTED_LIGHTING, WHITTED_METHODS, Measurement, SceneResult, seconds_text
@@ -45,39 +47,27 @@ def write_render(out: Path, stem: str, image: np.ndarray, shown: np.ndarray,
     """Keep one render: ``STEM.exr`` (linear), ``STEM.png`` (as displayed: ``shown``, its
     :func:`~whitted.images.to_display`) and its ``STEM-flip.png``; returns their paths
     relative to ``out`` by kind."""
-    from ..images import write_image
-
     (out / stem).parent.mkdir(parents=True, exist_ok=True)
     files = {"image": f"{stem}.exr", "image_png": f"{stem}.png"}
     write_image(out / files["image"], image)
     write_image(out / files["image_png"], image, exposure=exposure, view=view, shown=shown)
     if error_map is not None:   # as FLIP draws it: display colors, no transfer curve
         import matplotlib
+        import mitsuba as mi
 
         files["error_map"] = f"{stem}-flip.png"
         values = np.clip(np.nan_to_num(np.asarray(error_map, dtype=np.float64)), 0.0, 1.0)
         colors = np.round(matplotlib.colormaps[COLORMAP](values)[..., :3] * 255.0).astype(np.uint8)
-        _write_png(out / files["error_map"], colors)
+        bitmap = mi.Bitmap(colors, pixel_format=mi.Bitmap.PixelFormat.RGB)
+        with atomic_path(out / files["error_map"]) as tmp:
+            bitmap.write(str(tmp))
     return files
-
-
-def _write_png(path: Path, pixels: np.ndarray) -> None:
-    """8-bit RGB ``pixels`` as they are, atomically."""
-    import mitsuba as mi
-
-    from ..atomic import atomic_path
-
-    bitmap = mi.Bitmap(pixels, pixel_format=mi.Bitmap.PixelFormat.RGB)
-    with atomic_path(path) as tmp:
-        bitmap.write(str(tmp))
 
 
 def thumbnail(image: np.ndarray, width: int = THUMBNAIL_WIDTH, exposure: float = 0.0,
               view: str = "clip") -> np.ndarray:
     """A small sRGB uint8 copy of a linear image, box-averaged by an integer factor so that
     noise shows as it would at full size."""
-    from ..images import to_srgb
-
     image = np.nan_to_num(np.asarray(image, dtype=np.float32), nan=0.0, posinf=0.0, neginf=0.0)
     factor = max(1, math.ceil(image.shape[1] / width))
     if factor > 1:

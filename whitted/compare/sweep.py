@@ -46,14 +46,10 @@ def _render(loaded, setting: Setting, timed: bool = False):
                             seed=SWEEP_SEED, progress=False, fresh_memory=not timed)
 
 
-def _on_gpu() -> bool:
-    import mitsuba as mi
-    return mi.variant().startswith("cuda")
-
-
 def _seconds(result) -> float:
     """A timed render's time on the COMPARE_CLOCK (the wall clock on a GPU, where the CPU waits)."""
-    cpu = COMPARE_CLOCK == "cpu" and not _on_gpu()
+    import mitsuba as mi
+    cpu = COMPARE_CLOCK == "cpu" and not mi.variant().startswith("cuda")
     return float(result.cpu_seconds if cpu else result.seconds)
 
 
@@ -118,46 +114,42 @@ def time_rounds(loaded, entry: SceneResult, rounds: int, deadline: float = math.
         return
     if progress is None:
         progress = progress_bar(False, 0, "")   # silent
+    times = {id(m): [] for m in measured}
+    extra_until = math.inf
     with timing_threads() as slower:
         # the scored renders' times (all threads): a round on fewer threads takes longer
-        _rounds(loaded, entry, measured, rounds, deadline, progress, _cost(measured, slower))
+        predicted = _cost(measured, slower)
+        for k in range(COMPARE_MAX_ROUNDS):
+            started = time.monotonic()
+            if k >= rounds:
+                if k == rounds:
+                    extra_until = started + COMPARE_ROUNDS_SECONDS
+                    # the headlines' renders alone, back to back, the same ones in every round
+                    measured = _headline_renders(entry)
+                    predicted = _cost(measured)
+                wanted = (k < rounds + COMPARE_HEADLINE_ROUNDS
+                          or _headline_renders(entry, unsettled=True))
+                if not measured or not wanted or started + predicted > extra_until:
+                    break
+            if started + predicted > deadline:
+                if k < rounds:
+                    entry.notes.append(f"timed in {k} rounds, not {rounds}: the next would have "
+                                       f"overrun the scene's share of --budget")
+                break
+            progress.set_postfix_str(f"{entry.name}: timing, round {k + 1}", refresh=True)
+            for m in interleaved(measured, k):
+                # a long render is known to a few percent from its first rounds
+                long = COMPARE_LONG_ROUNDS <= k < rounds and m.seconds > COMPARE_LONG_SECONDS
+                times[id(m)].append(math.nan if long else _time_in_a_round(loaded, m.setting))
+                _bound_memory()
+            for m in measured:
+                m.times = tuple(times[id(m)])
+                m.seconds = median(m.times)
+            predicted = time.monotonic() - started
 
 
 def _cost(ms: list[Measurement], slower: float = 1.0) -> float:
     return sum(max(m.seconds * slower, COMPARE_ROUND_SECONDS) for m in ms)
-
-
-def _rounds(loaded, entry: SceneResult, measured: list[Measurement], rounds: int, deadline: float,
-            progress, predicted: float) -> None:
-    times = {id(m): [] for m in measured}
-    extra_until = math.inf
-    for k in range(COMPARE_MAX_ROUNDS):
-        started = time.monotonic()
-        if k >= rounds:
-            if k == rounds:
-                extra_until = started + COMPARE_ROUNDS_SECONDS
-                # the headlines' renders alone, back to back, the same ones in every round
-                measured = _headline_renders(entry)
-                predicted = _cost(measured)
-            wanted = (k < rounds + COMPARE_HEADLINE_ROUNDS
-                      or _headline_renders(entry, unsettled=True))
-            if not measured or not wanted or started + predicted > extra_until:
-                break
-        if started + predicted > deadline:
-            if k < rounds:
-                entry.notes.append(f"timed in {k} rounds, not {rounds}: the next would have overrun "
-                                   f"the scene's share of --budget")
-            break
-        progress.set_postfix_str(f"{entry.name}: timing, round {k + 1}", refresh=True)
-        for m in interleaved(measured, k):
-            # a long render is known to a few percent from its first rounds
-            long = COMPARE_LONG_ROUNDS <= k < rounds and m.seconds > COMPARE_LONG_SECONDS
-            times[id(m)].append(math.nan if long else _time_in_a_round(loaded, m.setting))
-            _bound_memory()
-        for m in measured:
-            m.times = tuple(times[id(m)])
-            m.seconds = median(m.times)
-        predicted = time.monotonic() - started
 
 
 def _bound_memory() -> None:
