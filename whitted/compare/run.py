@@ -74,46 +74,26 @@ def compare(scenes: list[str | os.PathLike], options: Options) -> Comparison:
     if max(options.path_spp) >= options.reference_spp and not options.quiet:
         print(f"whitted compare: warning: the path tracer's ladder reaches the reference's "
               f"{options.reference_spp} spp; its error will stop falling there", file=sys.stderr)
-    if on_cluster:
-        return _compare_on_cluster(read, entries, plans, options, budget)
-
-    out.mkdir(parents=True, exist_ok=True)
-    bar = progress_bar(not options.quiet, sum(map(progress_units, plans)), "compare", unit="render",
-                       unit_scale=False)
     try:
-        for index, (scene, entry, settings) in enumerate(zip(read, entries, plans)):
-            sweep_scene(scene, entry, settings, options, budget.share(len(entries) - index),
-                        loaded=loaded[index], progress=bar)
-            write_csv(out / CSV_NAME, entries[:index + 1])
-            loaded[index] = None  # free the scene's memory
+        if on_cluster:
+            from .cluster import sweep_on_cluster
+            with connect(options.workers, options.scheduler) as client:
+                out.mkdir(parents=True, exist_ok=True)
+                sweep_on_cluster(client, read, entries, plans, options, budget)
+        else:
+            out.mkdir(parents=True, exist_ok=True)
+            with progress_bar(not options.quiet, sum(map(progress_units, plans)), "compare",
+                              unit="render", unit_scale=False) as bar:
+                for index, (scene, entry, settings) in enumerate(zip(read, entries, plans)):
+                    sweep_scene(scene, entry, settings, options, budget.share(len(entries) - index),
+                                loaded=loaded[index], progress=bar)
+                    write_csv(out / CSV_NAME, entries[:index + 1])
+                    loaded[index] = None  # free the scene's memory
     except BaseException as error:   # Ctrl-C may arrive wrapped (see whitted.interrupt)
         if not interrupt.requested(error):
             raise
-        bar.close()
-        _write_what_was_done(out, entries, plans, options)
+        _write_what_was_done(out, entries, plans, options)   # a cluster is stopped by now
         raise
-    bar.close()
-    return _written(out, entries, options)
-
-
-def _compare_on_cluster(scenes: list[SceneFile], entries: list[SceneResult], plans: list,
-                        options: Options, budget: Budget) -> list[SceneResult]:
-    from .cluster import sweep_on_cluster
-
-    out = Path(options.out)
-    try:
-        with connect(options.workers, options.scheduler) as client:
-            out.mkdir(parents=True, exist_ok=True)
-            sweep_on_cluster(client, scenes, entries, plans, options, budget)
-    except BaseException as error:  # the cluster is stopped by now: its cores are free to write
-        if not interrupt.requested(error):
-            raise
-        _write_what_was_done(out, entries, plans, options)
-        raise
-    return _written(out, entries, options)
-
-
-def _written(out: Path, entries: list[SceneResult], options: Options) -> Comparison:
     analyses = write_all(out, entries, options.levels)
     return Comparison(entries, analyses, json_safe(findings(analyses)))  # as findings.json holds it
 
