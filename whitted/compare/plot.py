@@ -20,20 +20,21 @@ SCENE_PLOT = "{folder}/error_vs_time.png"
 #: Each method's colour, here and on the page (``report.html``'s method swatches).
 COLORS = {"whitted-article": "#1f77b4", "whitted-physical": "#ff7f0e", "path": "#2ca02c"}
 MARKERS = {"whitted-article": "o", "whitted-physical": "s", "path": "^"}
-
-
-def _usable(value: float) -> bool:
-    return math.isfinite(value) and value > 0
-
-
 #: Where a label may go around its point (offset in points, alignment), tried in order.
 LABEL_PLACES = ((4, 3, "left", "bottom"), (4, -3, "left", "top"), (-4, 3, "right", "bottom"),
                 (-4, -3, "right", "top"), (0, 7, "center", "bottom"), (0, -7, "center", "top"),
                 (10, 0, "left", "center"), (-10, 0, "right", "center"))
-
-
 #: Display pixels kept free around a label, so that two labels never read as one.
 LABEL_GAP = 3
+#: The plot's resolution: its labels are placed at it, so it is saved at it.
+FIGURE_DPI = 100
+#: Room left above and below the data on the log error axes, as a fraction of their span:
+#: the Whitted methods' points sit at the top, and their labels need a place to go.
+Y_MARGIN = 0.12
+
+
+def _usable(value: float) -> bool:
+    return math.isfinite(value) and value > 0
 
 
 def line_boxes(ax, line: list[tuple[float, float]], step: float = 3.0) -> list:
@@ -80,13 +81,6 @@ def plot_error_vs_time(path: str | os.PathLike, entries: list[SceneResult]) -> N
     save_figure(error_vs_time_figure(entries), path, dpi=FIGURE_DPI)
 
 
-#: The plot's resolution: its labels are placed at it, so it is saved at it.
-FIGURE_DPI = 100
-#: Room left above and below the data on the log error axes, as a fraction of their span:
-#: the Whitted methods' points sit at the top, and their labels need a place to go.
-Y_MARGIN = 0.12
-
-
 def error_vs_time_figure(entries: list[SceneResult]):
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
@@ -128,12 +122,11 @@ def error_vs_time_figure(entries: list[SceneResult]):
             if metric == "rel_mse" and _usable(entry.reference_noise):
                 ax.axhline(entry.reference_noise, color="0.35", linestyle="--", linewidth=0.9,
                            label=f"reference noise ({entry.reference_spp} spp, est. from two halves)")
-            ax.set_xscale("log")
-            ax.set_yscale("log")
+            ax.set(xscale="log", yscale="log")
             ax.margins(x=0.06, y=Y_MARGIN)
             _time_axis(ax, [x for x, _ in points])
-            ax.set_xlabel("render time (median of rounds; bars: fastest to slowest)")
-            ax.set_ylabel(f"{name} vs reference")
+            ax.set(xlabel="render time (median of rounds; bars: fastest to slowest)",
+                   ylabel=f"{name} vs reference")
             ax.grid(True, which="both", alpha=0.2)
             pending.append((ax, labels, points, lines))
         ax_mse.set_title(f"{entry.name} ({entry.width}×{entry.height}): relative MSE", fontsize=9)
