@@ -77,6 +77,4 @@ def fit_cost(points: list[tuple[int, float]]) -> tuple[float, float]:
 
 
 def render_cost(spp: int, passes: int, overhead: float, per_spp: float) -> float:
-    if spp <= 0:
-        return 0.0
-    return passes * overhead + spp * per_spp
+    return passes * overhead + spp * per_spp if spp > 0 else 0.0

@@ -11,8 +11,7 @@ from pathlib import Path
 
 from ..defaults import (COMPARE_MAX_DEFAULT_DEPTH, COMPARE_PATH_SPP, COMPARE_QUICK,
                         COMPARE_REFERENCE_CHUNK_SPP, COMPARE_REFERENCE_SPP, COMPARE_ROUNDS,
-                        COMPARE_WHITTED_SPP, VIEWS)
-from ..defaults import VARIANTS as SUPPORTED_VARIANTS
+                        COMPARE_WHITTED_SPP, VARIANTS, VIEWS)
 from .results import Options
 
 
@@ -87,7 +86,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "the best and worst errors measured)")
     parser.add_argument("--cache", metavar="DIR", help="where references are cached (default: ~/.cache/whitted/references, or "
                              "$XDG_CACHE_HOME/whitted/references; shared by every run; safe to delete)")
-    parser.add_argument("--variant", choices=SUPPORTED_VARIANTS,
+    parser.add_argument("--variant", choices=VARIANTS,
                         help="Mitsuba variant (default as for render)")
     parser.add_argument("--reference-chunk-spp", type=int, default=COMPARE_REFERENCE_CHUNK_SPP,
                         metavar="N", help="render the reference in chunks of N spp, each with its "

@@ -12,6 +12,8 @@ from typing import Callable, Generic, TypeVar
 
 import numpy as np
 
+from .. import metrics
+
 T = TypeVar("T")
 
 
@@ -131,8 +133,6 @@ def _two_digits_up(value: float) -> float:
 def best_ambient(dark: np.ndarray, lit: np.ndarray, reference: np.ndarray) -> tuple[float, float]:
     """The article's ambient in [0, 1] closest to ``reference`` in relative MSE, and that
     error, from renders at A = 0 and A = 1 (NaN: no pixel depends on A)."""
-    from .. import metrics
-
     i0 = np.asarray(dark, dtype=np.float64)
     d = np.asarray(lit, dtype=np.float64) - i0
     r = np.asarray(reference, dtype=np.float64)
@@ -146,8 +146,6 @@ def best_ambient(dark: np.ndarray, lit: np.ndarray, reference: np.ndarray) -> tu
 
 def reference_noise(half_a: np.ndarray, half_b: np.ndarray, count_a: int, count_b: int) -> float:
     """The relative MSE of a reference against the converged image, from its two halves."""
-    from .. import metrics
-
     a = np.asarray(half_a, dtype=np.float64)
     b = np.asarray(half_b, dtype=np.float64)
     total = count_a + count_b

@@ -16,8 +16,12 @@ import numpy as np
 
 from .. import metrics
 from .. import rendering  # rendering.render looked up at call time: tests count calls
-from ..defaults import COMPARE_LIMIT_MAX_SPP, COMPARE_LIMIT_NOISE_SHARE, COMPARE_LIMIT_SPP_FACTOR
+from ..converter.description import line_label, material_labels
+from ..defaults import (COMPARE_LIMIT_MAX_SPP, COMPARE_LIMIT_NOISE_SHARE,
+                        COMPARE_LIMIT_SPP_FACTOR, FIT_ITERATIONS, FIT_SPP)
+from ..fitting import fit
 from ..images import write_image
+from ..loading import _load_model
 from .curves import best_ambient, reference_noise
 from .results import WHITTED_LIGHTING, Limit, Measurement, SceneResult
 
@@ -122,11 +126,6 @@ def fit_to_reference(model, reference: np.ndarray, depth: int, spp: int, seed: i
     """Fit the article's model of the parsed ``.scn`` ``model`` to ``reference`` and score it
     there as the limit is; None without a model, or when its scoring does not fit before
     ``deadline``. A fit whose next step would overrun stops (:attr:`Fitted.stopped`)."""
-    from ..converter.description import line_label, material_labels
-    from ..defaults import FIT_ITERATIONS, FIT_SPP
-    from ..fitting import fit
-    from ..loading import _load_model
-
     import drjit as dr
     import mitsuba as mi
     if model is None or not dr.is_diff_v(mi.Float):

@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from .. import atomic  # atomic.write_text looked up at call time: tests interrupt it
+from .. import metrics
 from .. import rendering  # rendering.render looked up at call time: tests count calls
 from ..defaults import (COMPARE_MIN_REFERENCE_SPP, COMPARE_PROBE_SECONDS,
                         COMPARE_REFERENCE_NOISE_SHARE, COMPARE_REFERENCE_SHARE,
@@ -303,8 +304,6 @@ def enough_spp(loaded, entry: SceneResult, most: int) -> tuple[int, list[Chunk]]
     halves (kept: its first chunks), give its noise per sample; each Whitted method's 1-spp
     render at the scene's depth (the reference's), scored against them less that noise, the
     error. The power of two that gets there, at most ``most``; with the chunks rendered."""
-    from .. import metrics
-
     start = COMPARE_REFERENCE_START_SPP
     probes = [render_chunk(loaded, start // 2, chunk_seed(half, 0), half, entry.path_depth)
               for half in (0, 1)]

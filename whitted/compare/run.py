@@ -15,7 +15,9 @@ from ..atomic import check_folder_creatable
 from ..cluster import check_where, connect
 from ..defaults import check_depth
 from ..errors import WhittedError
+from ..images import check_exposure, check_view
 from ..progress import progress_bar
+from ..variant import set_variant
 from .budget import Budget
 from .report import CSV_NAME, findings, json_safe, write_all, write_csv
 from .results import Comparison, Options, SceneResult
@@ -43,7 +45,6 @@ def check_options(options: Options) -> None:
     if options.reference_chunk_spp < 1:
         raise WhittedError("--reference-chunk-spp must be >= 1")
     check_where(options.workers, options.scheduler)
-    from ..images import check_exposure, check_view
     if options.view is not None:
         check_view(options.view)
     check_exposure(options.exposure)
@@ -52,8 +53,6 @@ def check_options(options: Options) -> None:
 def compare(scenes: list[str | os.PathLike], options: Options) -> Comparison:
     """Run the whole comparison and write its outputs under ``options.out``; returns the
     scenes' results with their analyses and findings."""
-    from ..variant import set_variant
-
     budget = Budget(options.budget, options.started)
     check_options(options)
     out = Path(options.out)
