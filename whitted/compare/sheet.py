@@ -64,12 +64,11 @@ def write_render(out: Path, stem: str, image: np.ndarray, shown: np.ndarray,
     return files
 
 
-def thumbnail(image: np.ndarray, width: int = THUMBNAIL_WIDTH, exposure: float = 0.0,
-              view: str = "clip") -> np.ndarray:
+def thumbnail(image: np.ndarray, exposure: float = 0.0, view: str = "clip") -> np.ndarray:
     """A small sRGB uint8 copy of a linear image, box-averaged by an integer factor so that
     noise shows as it would at full size."""
     image = np.nan_to_num(np.asarray(image, dtype=np.float32), nan=0.0, posinf=0.0, neginf=0.0)
-    factor = max(1, math.ceil(image.shape[1] / width))
+    factor = max(1, math.ceil(image.shape[1] / THUMBNAIL_WIDTH))
     if factor > 1:
         h, w = image.shape[0] // factor * factor, image.shape[1] // factor * factor
         h, w = max(h, factor), max(w, factor)

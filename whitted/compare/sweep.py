@@ -85,20 +85,16 @@ def _work(result) -> int:
     return int(sum(rays.values()) - result.stats.get("merged_rays", 0))
 
 
-def measure(loaded, setting: Setting, reference: np.ndarray,
-            out: Path | None = None, folder: str = "", exposure: float = 0.0,
-            view: str = "clip", shown_reference: np.ndarray | None = None) -> Measurement:
-    """Render ``setting`` once and score it against ``reference`` (its time is that render's
-    until :func:`time_rounds` times it); with ``out``, keep the image and its error map.
-    ``shown_reference``: the reference's :func:`~whitted.images.to_display`, made once a scene."""
+def measure(loaded, setting: Setting, reference: np.ndarray, out: Path, folder: str,
+            exposure: float, view: str, shown_reference: np.ndarray) -> Measurement:
+    """Render ``setting`` once, score it against ``reference`` (``shown_reference``: its
+    :func:`~whitted.images.to_display`, made once a scene) and keep the image and its error
+    map; its time is that render's until :func:`time_rounds` times it."""
     result = _render(loaded, setting)
     image = np.asarray(result.image, dtype=np.float32)
-    if shown_reference is None:
-        shown_reference = to_display(reference, exposure, view)
     shown = to_display(image, exposure, view)
     error_map, flip = metrics.displayed_flip_map(shown, shown_reference)
-    files = (write_render(out, f"{folder}/{setting.slug}", image, shown, error_map, exposure, view)
-             if out is not None else {})
+    files = write_render(out, f"{folder}/{setting.slug}", image, shown, error_map, exposure, view)
     return Measurement(setting, float(result.seconds), float(result.compile_seconds),
                        metrics.relative_mse(image, reference), flip, _work(result),
                        thumbnail(image, exposure=exposure, view=view), **files,
