@@ -227,7 +227,7 @@ def path_seconds(pair: tuple[Measurement, ...], spp: float,
                  timed_round: int | None = None) -> float:
     """The path tracer's time at ``spp`` on the line time = a + b·n through ``pair`` (their
     median times, or those of one timed round; NaN where one is missing)."""
-    times = [m.seconds if timed_round is None else m.seconds_in(timed_round) for m in pair]
+    times = [m.seconds_in(timed_round) for m in pair]
     if len(pair) < 2 or not all(math.isfinite(t) and t > 0 for t in times):
         return math.nan
     (n0, t0), (n1, t1) = zip([m.setting.spp for m in pair], times)
@@ -268,8 +268,7 @@ def curve_text(model: PathModel, low: str, high: str) -> str:
 def _curve(measurements: list[Measurement], metric: str,
            timed_round: int | None = None) -> list[tuple[float, float, Measurement]]:
     """(time, error, render): their median times, or those of one timed round."""
-    points = [(m.seconds if timed_round is None else m.seconds_in(timed_round), getattr(m, metric), m)
-              for m in measurements]
+    points = [(m.seconds_in(timed_round), getattr(m, metric), m) for m in measurements]
     return [p for p in points if not math.isnan(p[0])]
 
 

@@ -78,9 +78,9 @@ class Measurement:
         """The rounds it was timed in (a long render sits out the later ones, NaN there)."""
         return sum(1 for t in self.times if math.isfinite(t))
 
-    def seconds_in(self, timed_round: int) -> float:
-        """Its time in a round (NaN: it missed it; its :attr:`seconds` when it has none)."""
-        if not self.times:
+    def seconds_in(self, timed_round: int | None) -> float:
+        """Its time in a round (NaN: it missed it); its :attr:`seconds` for None or untimed."""
+        if timed_round is None or not self.times:
             return self.seconds
         return self.times[timed_round] if timed_round < len(self.times) else math.nan
 

@@ -114,7 +114,7 @@ def time_rounds(loaded, entry: SceneResult, rounds: int, deadline: float = math.
     extra_until = math.inf
     with timing_threads() as slower:
         # the scored renders' times (all threads): a round on fewer threads takes longer
-        predicted = _cost(measured, slower)
+        predicted = _cost([m.seconds for m in measured], slower)
         for k in range(COMPARE_MAX_ROUNDS):
             started = time.monotonic()
             if k >= rounds:
@@ -122,7 +122,7 @@ def time_rounds(loaded, entry: SceneResult, rounds: int, deadline: float = math.
                     extra_until = started + COMPARE_ROUNDS_SECONDS
                     # the headlines' renders alone, back to back, the same ones in every round
                     measured = _headline_renders(entry)
-                    predicted = _cost(measured)
+                    predicted = _cost([m.seconds for m in measured])
                 wanted = (k < rounds + COMPARE_HEADLINE_ROUNDS
                           or _headline_renders(entry, unsettled=True))
                 if not measured or not wanted or started + predicted > extra_until:
@@ -144,8 +144,10 @@ def time_rounds(loaded, entry: SceneResult, rounds: int, deadline: float = math.
             predicted = time.monotonic() - started
 
 
-def _cost(ms: list[Measurement], slower: float = 1.0) -> float:
-    return sum(max(m.seconds * slower, COMPARE_ROUND_SECONDS) for m in ms)
+def _cost(seconds: list[float], slower: float = 1.0) -> float:
+    """One timing round of renders of these ``seconds`` (each repeated for at least
+    COMPARE_ROUND_SECONDS), on threads ``slower`` times slower."""
+    return sum(max(s * slower, COMPARE_ROUND_SECONDS) for s in seconds)
 
 
 def _bound_memory() -> None:
@@ -223,7 +225,7 @@ def sweep_scene(scene: SceneFile, entry: SceneResult, settings: list[Setting], o
     kept = 0.0   # under --quick, the rounds of the renders done: kept for them, not shared
 
     def rounds_of(seconds: float) -> float:
-        return options.rounds * max(seconds * max(1.0, slower), COMPARE_ROUND_SECONDS)
+        return options.rounds * _cost([seconds], max(1.0, slower))
     for setting in settings:
         progress.set_postfix_str(f"{entry.name}: {setting.method} {setting.label}", refresh=False)
         if setting.integrator == "path" and entry.path_model is not None:
