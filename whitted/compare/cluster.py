@@ -107,8 +107,7 @@ def sweep_on_cluster(client, scenes: list[SceneFile], entries: list[SceneResult]
             name = entries[index].name
             if kind == "probe":
                 submitted = submit_sweep(index, task_result(future, name))
-                for task in submitted:
-                    running.add(task)
+                running.update(submitted)
                 bar.total += len(submitted)
             elif kind == "sweep":
                 entries[index] = result = task_result(future, name)
