@@ -161,10 +161,6 @@ class Analysis:
     floors: list[FloorStatement]
     decompositions: list[Decomposition] = field(default_factory=list)
 
-    @property
-    def table_methods(self) -> list[str]:
-        return [m for m in METHODS if any(m in row.reach for row in self.equal_quality)]
-
     def findings(self) -> dict:
         """The scene's conclusions as plain JSON data (``findings.json``, docs/compare.md)."""
         methods = {}

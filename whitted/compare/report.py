@@ -109,7 +109,8 @@ def equal_quality_row(row, methods: list[str], whitted: list[str]) -> dict:
 
 def scene_words(analysis: Analysis) -> dict:
     """What summary.txt and the page say of one scene (both templates read this)."""
-    entry, methods = analysis.entry, analysis.table_methods
+    entry = analysis.entry
+    methods = [m for m in METHODS if any(m in row.reach for row in analysis.equal_quality)]
     noise = entry.reference_noise
     noisy = math.isfinite(noise) and noise > 0
     whitted = [m for m in WHITTED_METHODS if m in methods]

@@ -20,7 +20,7 @@ from ..progress import progress_bar
 from ..variant import set_variant
 from .budget import Budget
 from .report import CSV_NAME, findings, json_safe, write_all, write_csv
-from .results import Comparison, Options, SceneResult
+from .results import Comparison, Options
 from .scenes import SceneFile, plan_scene, progress_units, scene_files, scene_names
 from .sweep import sweep_scene
 
@@ -89,20 +89,14 @@ def compare(scenes: list[str | os.PathLike], options: Options) -> Comparison:
                     write_csv(out / CSV_NAME, entries[:index + 1])
                     loaded[index] = None  # free the scene's memory
     except BaseException as error:   # Ctrl-C may arrive wrapped (see whitted.interrupt)
-        if not interrupt.requested(error):
+        if not interrupt.requested(error) or not out.is_dir():
             raise
-        _write_what_was_done(out, entries, plans, options)   # a cluster is stopped by now
+        # the outputs of what was done, marked so at the top, or a page that says nothing was
+        # measured (a cluster is stopped by now: its cores are free to write)
+        done, planned = sum(len(e.measurements) for e in entries), sum(map(len, plans))
+        write_all(out, entries, options.levels, interrupted=(done, planned))
+        interrupt.tell(f"the outputs in {out} hold what was done ({done} of {planned} renders)"
+                       if done else f"the outputs in {out} say nothing was measured")
         raise
     analyses = write_all(out, entries, options.levels)
     return Comparison(entries, analyses, json_safe(findings(analyses)))  # as findings.json holds it
-
-
-def _write_what_was_done(out: Path, entries: list[SceneResult], plans: list, options: Options) -> None:
-    """The outputs of an interrupted run, marked so at the top: what was done, or a page
-    that says nothing was measured."""
-    if not out.is_dir():
-        return
-    done, planned = sum(len(e.measurements) for e in entries), sum(map(len, plans))
-    write_all(out, entries, options.levels, interrupted=(done, planned))
-    interrupt.tell(f"the outputs in {out} hold what was done ({done} of {planned} renders)" if done
-                   else f"the outputs in {out} say nothing was measured")
