@@ -331,8 +331,8 @@ def analyse(entry: SceneResult, levels: tuple[float, ...] | None = None,
         for method, ms in by_method.items():
             if not ms:
                 continue
-            reach[method] = Reach(method, min((m for m in ms if m.rel_mse <= level), key=_cost,
-                                              default=None), min(ms, key=lambda m: m.rel_mse))
+            cheapest = min((m for m in ms if m.rel_mse <= level), key=_cost, default=None)
+            reach[method] = Reach(method, cheapest, min(ms, key=lambda m: m.rel_mse))
         row = EqualQuality(level, reach)
         for method in WHITTED_METHODS:
             if row.reached(method) and row.reached("path"):
