@@ -54,12 +54,9 @@ def error_at_time(curve: list[tuple[float, float, T]], seconds: float) -> Readin
     front = _front(curve)
     if not front:
         return None
-    if seconds <= front[0][0]:
-        first = front[0]
-        return Reading(first[1], "rendered" if seconds == first[0] else "nearest", (first[2],))
-    if seconds >= front[-1][0]:
-        last = front[-1]
-        return Reading(last[1], "rendered" if seconds == last[0] else "nearest", (last[2],))
+    if seconds <= front[0][0] or seconds >= front[-1][0]:   # at or past an end: that render
+        end = front[0] if seconds <= front[0][0] else front[-1]
+        return Reading(end[1], "rendered" if seconds == end[0] else "nearest", (end[2],))
     for (x0, y0, a), (x1, y1, b) in zip(front, front[1:]):
         if x0 <= seconds <= x1:
             return Reading(loglog_between(seconds, (x0, y0), (x1, y1)), "interpolated", (a, b))
@@ -71,10 +68,8 @@ def time_to_reach(curve: list[tuple[float, float, T]], error: float) -> Reading[
     front = _front(curve)
     for index, (x1, y1, b) in enumerate(front):
         if y1 <= error:
-            if index == 0:
+            if index == 0 or y1 == error:
                 return Reading(x1, "rendered" if y1 == error else "nearest", (b,))
-            if y1 == error:
-                return Reading(x1, "rendered", (b,))
             x0, y0, a = front[index - 1]
             slope = math.log(y1 / y0) / math.log(x1 / x0)
             return Reading(x0 * (error / y0) ** (1.0 / slope), "interpolated", (a, b))
