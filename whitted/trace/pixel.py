@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import WhittedError
-from .nodes import Node, SphereRef, text_tree
+from .nodes import Node, SphereRef, text
 
 
 @dataclass
@@ -142,12 +142,7 @@ class PixelTree:
         return list(self.root.walk())
 
     def __str__(self) -> str:
-        total, count = self.total(), self.root.count()
-        head = (f"pixel ({self.x}, {self.y}) of {self.view.source}: color ({self.color[0]:.6g} "
-                f"{self.color[1]:.6g} {self.color[2]:.6g}), the sum of the contributions of its {count} "
-                f"ray{'s' if count != 1 else ''} ({total[0]:.6g} {total[1]:.6g} {total[2]:.6g})")
-        physical = self.settings.get("lighting") == "physical"
-        return "\n".join([head, *text_tree(self.root, physical=physical)])
+        return text([self])
 
     def json(self) -> dict:
         return {"pixel": [self.x, self.y], "color": list(self.color), "sum": list(self.total()),
@@ -167,7 +162,7 @@ class Traces(list):
         self.scene = scene   # the mi.Scene traced
 
     def __str__(self) -> str:
-        return "\n\n".join(str(tree) for tree in self)
+        return text(self)
 
     def json(self) -> dict:
         return {"scene": self.view.source, "settings": self.settings,
