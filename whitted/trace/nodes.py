@@ -22,13 +22,6 @@ class SphereRef:
     comment: str | None = None
     name: str = ""   # how the text names it: "tir.scn:17", or the shape's id
 
-    def label(self) -> str:
-        """``tir.scn:19: sphere 0 0.9 0 1.4 ... # the glass ball``."""
-        if not self.statement:
-            return self.short()
-        comment = f"  # {self.comment}" if self.comment else ""
-        return f"{self.name}: {' '.join(self.statement.split())}{comment}"
-
     def short(self) -> str:
         """``tir.scn:19 (the glass ball)``."""
         return f"{self.name} ({self.comment})" if self.comment else self.name

@@ -15,7 +15,6 @@ from ..atomic import write_text
 from ..defaults import VERSION
 from .nodes import KINDS, xyz
 
-TEMPLATE = "trace.html.j2"
 #: each kind of ray's colour, in the view and the tables
 COLORS = {"camera": "#222222", "reflection": "#1f77b4", "refraction": "#2ca02c",
           "total internal reflection": "#b03cc8", "shadow": "#e0a800", "blocked": "#888888",
@@ -56,13 +55,6 @@ def _sphere_mesh(center, radius, toward, reach):
     return vertices, (i.ravel().tolist(), j.ravel().tolist(), k.ravel().tolist())
 
 
-def _sphere_color(view, k: int) -> str:
-    """A sphere's color in the view, glass tinted blue so that it shows."""
-    if view.glass is not None and view.glass[k]:
-        return "rgb(140,190,225)"
-    return _color(view.colors[k]) if view.colors is not None else "rgb(190,190,190)"
-
-
 def _color(rgb) -> str:
     r, g, b = (int(round(255 * min(1.0, max(0.0, float(c))) ** (1 / 2.2))) for c in rgb)
     return f"rgb({r},{g},{b})"
@@ -83,8 +75,10 @@ def figure(view, trees):
     for k in shown:
         ref = view.sphere(k)
         vertices, (i, j, kk) = _sphere_mesh(ref.center, ref.radius, center, reach)
+        color = ("rgb(140,190,225)" if view.glass is not None and view.glass[k]   # glass, so that it shows
+                 else _color(view.colors[k]) if view.colors is not None else "rgb(190,190,190)")
         fig.add_trace(go.Mesh3d(x=vertices[:, 0], y=vertices[:, 1], z=vertices[:, 2], i=i, j=j, k=kk,
-                                color=_sphere_color(view, k), opacity=0.3 if k in used else 0.15,
+                                color=color, opacity=0.3 if k in used else 0.15,
                                 name=ref.short(), hovertext=ref.short(), hoverinfo="text",
                                 showlegend=False, flatshading=True))
     if view.lights:
@@ -178,7 +172,7 @@ def _render(view, trees, div_id: str, **parts) -> str:
 
     legend = [*((kind, kind) for kind in KINDS), ("shadow", "shadow ray, lit"),
               ("blocked", "shadow ray, blocked (dashed)"), ("background", "missed (dashed)")]
-    return environment("whitted.trace").get_template(TEMPLATE).render(
+    return environment("whitted.trace").get_template("trace.html.j2").render(
         trees=trees, version=VERSION, legend=legend, colors=COLORS, css=_color, xyz=xyz,
         gap=lambda tree: float(np.abs(np.subtract(tree.total(), tree.color)).max()),
         figure=figure(view, trees).to_html(full_html=False, include_plotlyjs=True, div_id=div_id,

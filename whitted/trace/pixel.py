@@ -174,17 +174,6 @@ class Traces(list):
         return fragment(self.view, list(self))
 
 
-def _load(scene, variant, overrides: dict):
-    if isinstance(scene, (str, os.PathLike)):
-        from ..loading import load_scene
-        from ..rendering import quiet_mitsuba
-        with quiet_mitsuba():
-            return load_scene(scene, variant=variant, meshes=False, **overrides)
-    if variant is not None:
-        raise WhittedError("variant applies to a scene given by its path; a loaded scene keeps its own")
-    return scene
-
-
 def trace_pixels(scene, pixels, *, variant: str | None = None, max_depth: int | None = None,
                  ambient: float | None = None, lighting: str | None = None,
                  min_weight: float | None = None) -> Traces:
@@ -192,8 +181,15 @@ def trace_pixels(scene, pixels, *, variant: str | None = None, max_depth: int | 
     ``("50%", "45%")``) of ``scene`` (a ``mi.Scene`` or a path), as a 1 spp render traces them."""
     from ..rendering import check_article_materials, check_settings, whitted_integrator
     check_settings(None, max_depth, lighting, "whitted", min_weight, ambient=ambient)
-    given = scene
-    scene = _load(scene, variant, {"max_depth": max_depth, "ambient": ambient, "lighting": lighting})
+    path = scene if isinstance(scene, (str, os.PathLike)) else None
+    if path is not None:
+        from ..loading import load_scene
+        from ..rendering import quiet_mitsuba
+        with quiet_mitsuba():
+            scene = load_scene(path, variant=variant, meshes=False, max_depth=max_depth, ambient=ambient,
+                               lighting=lighting)
+    elif variant is not None:
+        raise WhittedError("variant applies to a scene given by its path; a loaded scene keeps its own")
     if not scene.sensors():
         raise WhittedError("the scene has no sensor (camera) to trace from")
     width, height = (int(c) for c in scene.sensors()[0].film().crop_size())
@@ -213,8 +209,8 @@ def trace_pixels(scene, pixels, *, variant: str | None = None, max_depth: int | 
     recorder.blockers(roots)
     flat = np.concatenate([np.asarray(c, np.float64).reshape(3, -1).T for c in colors])
     view = scene_view(scene)
-    if view.lines is None and isinstance(given, (str, os.PathLike)):
-        view.source = Path(given).name   # (a converted .xml: no scene file names its spheres)
+    if view.lines is None and path is not None:
+        view.source = Path(path).name   # (a converted .xml: no scene file names its spheres)
     for root in roots:
         _to_file(root, view)
     used = {k: v for k, v in integrator.settings().items() if k not in ("exact_spheres", "light_reference")}
