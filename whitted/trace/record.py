@@ -28,9 +28,9 @@ def _lanes(value, n: int, vector: bool) -> np.ndarray:
         array = array.astype(np.float64)
     if vector:
         array = array.reshape(3, -1).T if array.ndim else np.full((1, 3), float(array))
-        return np.broadcast_to(array, (n, 3)) if len(array) != n else array
-    array = array.reshape(-1)
-    return np.broadcast_to(array, (n,)) if len(array) != n else array
+    else:
+        array = array.reshape(-1)
+    return np.broadcast_to(array, (n, *array.shape[1:]))
 
 
 class Recorder:
@@ -62,13 +62,9 @@ class Recorder:
                 values["tir"] = record["tir"]
         lights = []
         for terms in record["lights"]:
-            light = {"position": terms["position"], "strength": terms["strength"],
-                     "facing": terms["facing"], "cos": terms["cos"]}
+            light = {key: value for key, value in terms.items() if key != "ray"}
             if "ray" in terms:   # (none when the render leaves shadows out)
-                light.update(ray_o=terms["ray"].o, ray_d=terms["ray"].d, maxt=terms["ray"].maxt,
-                             shadowed=terms["shadowed"])
-            if "value" in terms:
-                light["value"] = terms["value"]
+                light.update(ray_o=terms["ray"].o, ray_d=terms["ray"].d, maxt=terms["ray"].maxt)
             lights.append(light)
         children = [(child.kind, {"child_o": child.branch.ray.o, "child_d": child.branch.ray.d,
                                   "weight": child.branch.weight, "traced": child.traced,
