@@ -1,6 +1,6 @@
-"""The nodes of a pixel's ray tree and their text and JSON forms. A :class:`Node` is one ray,
-what the shader computed where it went, its *contribution* to the pixel and why its branch
-stops: the pixel is the sum of its tree's contributions.
+"""The nodes of a pixel's ray tree, as JSON and as text (templates/trace.txt.j2). A
+:class:`Node` is one ray, what the shader computed where it went, its *contribution* to the
+pixel and why its branch stops: the pixel is the sum of its tree's contributions.
 """
 
 from __future__ import annotations

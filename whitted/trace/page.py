@@ -170,10 +170,8 @@ def _camera(view, trees, middle, span, aspect):
 def _render(view, trees, div_id: str, **parts) -> str:
     from ..templates import environment
 
-    legend = [*((kind, kind) for kind in KINDS), ("shadow", "shadow ray, lit"),
-              ("blocked", "shadow ray, blocked (dashed)"), ("background", "missed (dashed)")]
     return environment("whitted.trace").get_template("trace.html.j2").render(
-        trees=trees, version=VERSION, legend=legend, colors=COLORS, css=_color, xyz=xyz,
+        trees=trees, version=VERSION, kinds=KINDS, colors=COLORS, css=_color, xyz=xyz,
         gap=lambda tree: float(np.abs(np.subtract(tree.total(), tree.color)).max()),
         figure=figure(view, trees).to_html(full_html=False, include_plotlyjs=True, div_id=div_id,
                                            config={"displaylogo": False, "responsive": True}),

@@ -114,8 +114,7 @@ def scene_view(scene) -> SceneView:
     spheres = np.flatnonzero(primitives.sphere)
     shapes = scene.shapes()
     owner = np.searchsorted(primitives.first, spheres, side="right") - 1
-    counts = primitives.counts
-    names = [shapes[s].id() + (f"[{p - primitives.first[s]}]" if counts[s] > 1 else "")
+    names = [shapes[s].id() + (f"[{p - primitives.first[s]}]" if primitives.counts[s] > 1 else "")
              for p, s in zip(spheres.tolist(), owner.tolist())]
     eye = tuple(float(c) for c in np.asarray(sensor.world_transform().translation()).reshape(-1))
     return SceneView(source="the scene", origin=np.zeros(3), scale=1.0,
@@ -158,8 +157,7 @@ class Traces(list):
 
     def __init__(self, trees, view: SceneView, settings: dict, scene=None):
         super().__init__(trees)
-        self.view, self.settings = view, settings
-        self.scene = scene   # the mi.Scene traced
+        self.view, self.settings, self.scene = view, settings, scene   # scene: the mi.Scene traced
 
     def __str__(self) -> str:
         return text(self)
