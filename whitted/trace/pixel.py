@@ -99,12 +99,12 @@ def scene_view(scene) -> SceneView:
                 text = Path(model.source).read_text(encoding="utf-8", errors="replace")
         palette = np.array([(0.7, 0.7, 0.7) if m.texture is not None else m.color for m in arrays.materials]
                            or [(0.7, 0.7, 0.7)], np.float64)
+        glass = np.array([m.refract > 0 for m in arrays.materials] or [False])
+        material = np.asarray(arrays.material, np.int64)
         return SceneView(source=Path(str(model.source)).name, origin=np.asarray(model.lookat, np.float64),
                          scale=float(source.scale), centers=np.asarray(arrays.center, np.float64).reshape(-1, 3),
                          radii=np.asarray(arrays.radius, np.float64), lines=np.asarray(arrays.line),
-                         colors=palette[np.asarray(arrays.material, np.int64)],
-                         glass=np.array([m.refract > 0 for m in arrays.materials] or [False])[
-                             np.asarray(arrays.material, np.int64)],
+                         colors=palette[material], glass=glass[material],
                          text=None if text is None else text.splitlines(),
                          lights=[(tuple(light.position), tuple(light.color), light.line) for light in model.lights],
                          eye=tuple(model.eye))

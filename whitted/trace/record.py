@@ -96,18 +96,17 @@ class Recorder:
             for lane in range(level["n"]):
                 o, d, weight = _t(v["o"][lane]), _t(v["d"][lane]), float(v["weight"][lane])
                 if level["level"] == 1:
-                    node = Node(kind="camera", level=1, weight=weight, origin=o, direction=d)
-                    node.camera_weight = _t(self.weights[level["batch"]][lane])
-                    roots.append(node)
+                    parent, kind, merged = None, "camera", False
+                    camera_weight = _t(self.weights[level["batch"]][lane])
                 else:
                     waiting = pending.get((level["level"], o, d, weight))
                     if not waiting:
                         raise RuntimeError(f"a ray of level {level['level']} that no parent spawned")
                     parent, kind, merged = waiting.popleft()
-                    node = Node(kind=kind, level=level["level"], weight=weight, origin=o, direction=d,
-                                merged=merged)
-                    node.camera_weight = parent.camera_weight
-                    parent.children.append(node)
+                    camera_weight = parent.camera_weight
+                node = Node(kind=kind, level=level["level"], weight=weight, origin=o, direction=d,
+                            merged=merged, camera_weight=camera_weight)
+                (roots if parent is None else parent.children).append(node)
                 self._shade(node, level, lane, ambient)
                 for kind, entry in level["children"]:
                     w = float(entry["weight"][lane])
