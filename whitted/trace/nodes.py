@@ -1,6 +1,6 @@
-"""The nodes of a pixel's ray tree and their text and JSON forms. A :class:`Node` is one ray,
-what the shader computed where it went, its *contribution* to the pixel and why its branch
-stops: the pixel is the sum of its tree's contributions.
+"""The nodes of a pixel's ray tree, as JSON and as text (templates/trace.txt.j2). A
+:class:`Node` is one ray, what the shader computed where it went, its *contribution* to the
+pixel and why its branch stops: the pixel is the sum of its tree's contributions.
 """
 
 from __future__ import annotations
@@ -21,13 +21,6 @@ class SphereRef:
     statement: str | None = None
     comment: str | None = None
     name: str = ""   # how the text names it: "tir.scn:17", or the shape's id
-
-    def label(self) -> str:
-        """``tir.scn:19: sphere 0 0.9 0 1.4 ... # the glass ball``."""
-        if not self.statement:
-            return self.short()
-        comment = f"  # {self.comment}" if self.comment else ""
-        return f"{self.name}: {' '.join(self.statement.split())}{comment}"
 
     def short(self) -> str:
         """``tir.scn:19 (the glass ball)``."""
@@ -155,35 +148,7 @@ def xyz(p) -> str:
     return f"({shown[0]:.5g}, {shown[1]:.5g}, {shown[2]:.5g})"
 
 
-def text_tree(node: Node, physical: bool = False, indent: str = "") -> list[str]:
-    """The tree as indented lines of text, a node and its terms, then its children."""
-    merged = " (carries KR + KT)" if node.merged else ""
-    lines = [f"{indent}{node.kind}{merged}, level {node.level}, weight {node.weight:.4g}: "
-             f"from {xyz(node.origin)} along {xyz(node.direction)}"]
-    pad = indent + "  "
-    if not node.hit:
-        lines.append(f"{pad}missed: the background")
-        lines.append(f"{pad}contribution w·background = {rgb(node.contribution)}")
-    else:
-        where = node.sphere.label() if node.sphere else "a surface"
-        side = "inside" if node.inside else "outside"
-        lines.append(f"{pad}hits {where}")
-        lines.append(f"{pad}at {xyz(node.position)}, distance {node.distance:.5g}, normal {xyz(node.normal)}, "
-                     f"from {side}")
-        lines.append(f"{pad}color B {rgb(node.material['color'])}, {node.coefficients()}")
-        if not physical:
-            lines.append(f"{pad}ambient B·A {rgb(node.ambient)}")
-        for term in node.lights:
-            name = f"light {term.index + 1}" + (f" (line {term.line})" if term.line else "")
-            lines.append(f"{pad}{name}: {term.state()[0]}")
-        formula = "(B/π)·Σ I·s/r²" if physical else "B·(A + (1 − A)·Σ s·light)"
-        lines.append(f"{pad}point {formula} = {rgb(node.local)}")
-        lines.append(f"{pad}contribution w·(1 − KR − KT)·point = {node.weight:.4g} × {node.diffuse_weight:.4g} "
-                     f"× point = {rgb(node.contribution)}")
-    for u in node.untraced:
-        lines.append(f"{pad}{u['kind']} of weight {u['weight']:.4g} not traced: {u['why']}")
-    if node.stop and node.hit:
-        lines.append(f"{pad}branch ends: {node.stop}")
-    for child in node.children:
-        lines += text_tree(child, physical, pad)
-    return lines
+def text(trees) -> str:
+    """Pixels' trees as indented text (templates/trace.txt.j2), a blank line between two."""
+    from ..templates import environment
+    return environment("whitted.trace").get_template("trace.txt.j2").render(trees=trees, xyz=xyz, rgb=rgb)

@@ -13,9 +13,8 @@ import numpy as np
 
 from ..atomic import write_text
 from ..defaults import VERSION
-from .nodes import KINDS, Node, xyz
+from .nodes import KINDS, xyz
 
-TEMPLATE = "trace.html.j2"
 #: each kind of ray's colour, in the view and the tables
 COLORS = {"camera": "#222222", "reflection": "#1f77b4", "refraction": "#2ca02c",
           "total internal reflection": "#b03cc8", "shadow": "#e0a800", "blocked": "#888888",
@@ -56,13 +55,6 @@ def _sphere_mesh(center, radius, toward, reach):
     return vertices, (i.ravel().tolist(), j.ravel().tolist(), k.ravel().tolist())
 
 
-def _sphere_color(view, k: int) -> str:
-    """A sphere's color in the view, glass tinted blue so that it shows."""
-    if view.glass is not None and view.glass[k]:
-        return "rgb(140,190,225)"
-    return _color(view.colors[k]) if view.colors is not None else "rgb(190,190,190)"
-
-
 def _color(rgb) -> str:
     r, g, b = (int(round(255 * min(1.0, max(0.0, float(c))) ** (1 / 2.2))) for c in rgb)
     return f"rgb({r},{g},{b})"
@@ -83,8 +75,10 @@ def figure(view, trees):
     for k in shown:
         ref = view.sphere(k)
         vertices, (i, j, kk) = _sphere_mesh(ref.center, ref.radius, center, reach)
+        color = ("rgb(140,190,225)" if view.glass is not None and view.glass[k]   # glass, so that it shows
+                 else _color(view.colors[k]) if view.colors is not None else "rgb(190,190,190)")
         fig.add_trace(go.Mesh3d(x=vertices[:, 0], y=vertices[:, 1], z=vertices[:, 2], i=i, j=j, k=kk,
-                                color=_sphere_color(view, k), opacity=0.3 if k in used else 0.15,
+                                color=color, opacity=0.3 if k in used else 0.15,
                                 name=ref.short(), hovertext=ref.short(), hoverinfo="text",
                                 showlegend=False, flatshading=True))
     if view.lights:
@@ -173,72 +167,23 @@ def _camera(view, trees, middle, span, aspect):
                 center=dict(x=float(target[0]), y=float(target[1]), z=float(target[2])), up=dict(x=0, y=1, z=0))
 
 
-def _rows(tree) -> list[dict]:
-    rows = []
-
-    def visit(node: Node, label: str):
-        m = node.material
-        lights = [(f"light {term.index + 1}", *term.state()) for term in node.lights]
-        stops = [f"{u['kind']} (weight {u['weight']:.3g}) not traced: {u['why']}" for u in node.untraced]
-        if node.stop and node.hit and not node.untraced:
-            stops.append(node.stop)
-        if not node.hit:
-            stops.append("missed: background")
-        rows.append({
-            "label": label, "level": node.level, "kind": node.kind + (" (KR + KT)" if node.merged else ""),
-            "color": COLORS[node.kind], "weight": f"{node.weight:.4g}",
-            "origin": xyz(node.origin), "direction": xyz(node.direction),
-            "hit": (node.sphere.short() if node.sphere else "a surface") if node.hit else "nothing: background",
-            "statement": " ".join(node.sphere.statement.split()) if node.hit and node.sphere and node.sphere.statement
-            else "",
-            "distance": f"{node.distance:.4g}" if node.hit else "—",
-            "point": xyz(node.position) if node.hit else "",
-            "normal": xyz(node.normal) if node.hit else "",
-            "side": ("inside" if node.inside else "outside") if node.hit else "",
-            "base": _swatch(m["color"]) if m else None,
-            "coefficients": node.coefficients() if m else "",
-            "ambient": _swatch(node.ambient) if node.hit else None,
-            "lights": lights,
-            "local": _swatch(node.local) if node.hit else None,
-            "diffuse": f"{node.diffuse_weight:.3g}" if node.hit else "",
-            "contribution": _swatch(node.contribution),
-            "stops": stops,
-        })
-        for k, child in enumerate(node.children, start=1):
-            visit(child, f"{label}.{k}")
-    visit(tree.root, "1")
-    return rows
-
-
-def _swatch(rgb) -> dict:
-    return {"css": _color(rgb), "text": f"{rgb[0]:.4g} {rgb[1]:.4g} {rgb[2]:.4g}"}
-
-
-def _pixels(trees) -> list[dict]:
-    return [{"number": n, "x": t.x, "y": t.y, "color": _swatch(t.color), "sum": _swatch(t.total()),
-             "gap": f"{float(np.abs(np.subtract(t.total(), t.color)).max()):.2g}", "rays": t.root.count(),
-             "rows": _rows(t)} for n, t in enumerate(trees, start=1)]
-
-
 def _render(view, trees, div_id: str, **parts) -> str:
     from ..templates import environment
 
-    legend = [*((kind, kind) for kind in KINDS), ("shadow", "shadow ray, lit"),
-              ("blocked", "shadow ray, blocked (dashed)"), ("background", "missed (dashed)")]
-    return environment("whitted.trace").get_template(TEMPLATE).render(
-        pixels=_pixels(trees), version=VERSION,
+    return environment("whitted.trace").get_template("trace.html.j2").render(
+        trees=trees, version=VERSION, kinds=KINDS, colors=COLORS, css=_color, xyz=xyz,
+        gap=lambda tree: float(np.abs(np.subtract(tree.total(), tree.color)).max()),
         figure=figure(view, trees).to_html(full_html=False, include_plotlyjs=True, div_id=div_id,
                                            config={"displaylogo": False, "responsive": True}),
-        legend=[{"name": name, "color": COLORS[key]} for key, name in legend], **parts)
+        **parts)
 
 
 def fragment(view, trees) -> str:
     """The 3D view and the tables, for a notebook (no image: nothing is rendered)."""
-    return _render(view, trees, f"trace-3d-{id(trees):x}", page=False, scene=view.source,
-                   settings="", image=None, marks=[])
+    return _render(view, trees, f"trace-3d-{id(trees):x}", page=False, image=None)
 
 
-def _image(traces) -> tuple[str, int, int, int]:
+def _image(traces) -> dict:
     """The 1 spp image as a PNG data URI, its size and its zoom."""
     from PIL import Image
 
@@ -251,23 +196,12 @@ def _image(traces) -> tuple[str, int, int, int]:
     buffer = io.BytesIO()
     Image.fromarray(srgb).save(buffer, "PNG")
     height, width = srgb.shape[:2]
-    return ("data:image/png;base64," + base64.b64encode(buffer.getvalue()).decode("ascii"),
-            width, height, max(1, math.ceil(IMAGE_WIDTH / width)))
+    return {"uri": "data:image/png;base64," + base64.b64encode(buffer.getvalue()).decode("ascii"),
+            "width": width, "height": height, "zoom": max(1, math.ceil(IMAGE_WIDTH / width))}
 
 
 def write_page(path, traces, scene) -> None:
     """The page of ``traces`` of the scene file ``scene`` at ``path``."""
     from pathlib import Path
-    uri, width, height, zoom = _image(traces)
-    s = traces.settings
-    settings = (f"depth {s['max_depth']}, ambient {s['ambient']:.3g}, {s['lighting']} lighting, "
-                f"min weight {s['min_weight']:.3g}, {width}×{height}, one sample per pixel")
-    marks = []
-    for n, t in enumerate(traces, 1):
-        x, y = (t.x + 0.5) * zoom, (t.y + 0.5) * zoom
-        # the number beside its circle, inside the image
-        marks.append({"number": n, "x": x, "y": y, "tx": x + 12 if x < width * zoom - 30 else x - 26,
-                      "ty": y - 8 if y > 24 else y + 24})
-    write_text(path, _render(traces.view, list(traces), "trace-3d", page=True,
-                             scene=Path(scene).name, settings=settings, marks=marks,
-                             image={"uri": uri, "width": width * zoom, "height": height * zoom}))
+    write_text(path, _render(traces.view, list(traces), "trace-3d", page=True, scene=Path(scene).name,
+                             settings=traces.settings, image=_image(traces)))

@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import WhittedError
-from .nodes import Node, SphereRef, text_tree
+from .nodes import Node, SphereRef, text
 
 
 @dataclass
@@ -99,12 +99,12 @@ def scene_view(scene) -> SceneView:
                 text = Path(model.source).read_text(encoding="utf-8", errors="replace")
         palette = np.array([(0.7, 0.7, 0.7) if m.texture is not None else m.color for m in arrays.materials]
                            or [(0.7, 0.7, 0.7)], np.float64)
+        glass = np.array([m.refract > 0 for m in arrays.materials] or [False])
+        material = np.asarray(arrays.material, np.int64)
         return SceneView(source=Path(str(model.source)).name, origin=np.asarray(model.lookat, np.float64),
                          scale=float(source.scale), centers=np.asarray(arrays.center, np.float64).reshape(-1, 3),
                          radii=np.asarray(arrays.radius, np.float64), lines=np.asarray(arrays.line),
-                         colors=palette[np.asarray(arrays.material, np.int64)],
-                         glass=np.array([m.refract > 0 for m in arrays.materials] or [False])[
-                             np.asarray(arrays.material, np.int64)],
+                         colors=palette[material], glass=glass[material],
                          text=None if text is None else text.splitlines(),
                          lights=[(tuple(light.position), tuple(light.color), light.line) for light in model.lights],
                          eye=tuple(model.eye))
@@ -114,8 +114,7 @@ def scene_view(scene) -> SceneView:
     spheres = np.flatnonzero(primitives.sphere)
     shapes = scene.shapes()
     owner = np.searchsorted(primitives.first, spheres, side="right") - 1
-    counts = primitives.counts
-    names = [shapes[s].id() + (f"[{p - primitives.first[s]}]" if counts[s] > 1 else "")
+    names = [shapes[s].id() + (f"[{p - primitives.first[s]}]" if primitives.counts[s] > 1 else "")
              for p, s in zip(spheres.tolist(), owner.tolist())]
     eye = tuple(float(c) for c in np.asarray(sensor.world_transform().translation()).reshape(-1))
     return SceneView(source="the scene", origin=np.zeros(3), scale=1.0,
@@ -142,12 +141,7 @@ class PixelTree:
         return list(self.root.walk())
 
     def __str__(self) -> str:
-        total, count = self.total(), self.root.count()
-        head = (f"pixel ({self.x}, {self.y}) of {self.view.source}: color ({self.color[0]:.6g} "
-                f"{self.color[1]:.6g} {self.color[2]:.6g}), the sum of the contributions of its {count} "
-                f"ray{'s' if count != 1 else ''} ({total[0]:.6g} {total[1]:.6g} {total[2]:.6g})")
-        physical = self.settings.get("lighting") == "physical"
-        return "\n".join([head, *text_tree(self.root, physical=physical)])
+        return text([self])
 
     def json(self) -> dict:
         return {"pixel": [self.x, self.y], "color": list(self.color), "sum": list(self.total()),
@@ -163,11 +157,10 @@ class Traces(list):
 
     def __init__(self, trees, view: SceneView, settings: dict, scene=None):
         super().__init__(trees)
-        self.view, self.settings = view, settings
-        self.scene = scene   # the mi.Scene traced
+        self.view, self.settings, self.scene = view, settings, scene   # scene: the mi.Scene traced
 
     def __str__(self) -> str:
-        return "\n\n".join(str(tree) for tree in self)
+        return text(self)
 
     def json(self) -> dict:
         return {"scene": self.view.source, "settings": self.settings,
@@ -179,17 +172,6 @@ class Traces(list):
         return fragment(self.view, list(self))
 
 
-def _load(scene, variant, overrides: dict):
-    if isinstance(scene, (str, os.PathLike)):
-        from ..loading import load_scene
-        from ..rendering import quiet_mitsuba
-        with quiet_mitsuba():
-            return load_scene(scene, variant=variant, meshes=False, **overrides)
-    if variant is not None:
-        raise WhittedError("variant applies to a scene given by its path; a loaded scene keeps its own")
-    return scene
-
-
 def trace_pixels(scene, pixels, *, variant: str | None = None, max_depth: int | None = None,
                  ambient: float | None = None, lighting: str | None = None,
                  min_weight: float | None = None) -> Traces:
@@ -197,8 +179,15 @@ def trace_pixels(scene, pixels, *, variant: str | None = None, max_depth: int | 
     ``("50%", "45%")``) of ``scene`` (a ``mi.Scene`` or a path), as a 1 spp render traces them."""
     from ..rendering import check_article_materials, check_settings, whitted_integrator
     check_settings(None, max_depth, lighting, "whitted", min_weight, ambient=ambient)
-    given = scene
-    scene = _load(scene, variant, {"max_depth": max_depth, "ambient": ambient, "lighting": lighting})
+    path = scene if isinstance(scene, (str, os.PathLike)) else None
+    if path is not None:
+        from ..loading import load_scene
+        from ..rendering import quiet_mitsuba
+        with quiet_mitsuba():
+            scene = load_scene(path, variant=variant, meshes=False, max_depth=max_depth, ambient=ambient,
+                               lighting=lighting)
+    elif variant is not None:
+        raise WhittedError("variant applies to a scene given by its path; a loaded scene keeps its own")
     if not scene.sensors():
         raise WhittedError("the scene has no sensor (camera) to trace from")
     width, height = (int(c) for c in scene.sensors()[0].film().crop_size())
@@ -218,8 +207,8 @@ def trace_pixels(scene, pixels, *, variant: str | None = None, max_depth: int | 
     recorder.blockers(roots)
     flat = np.concatenate([np.asarray(c, np.float64).reshape(3, -1).T for c in colors])
     view = scene_view(scene)
-    if view.lines is None and isinstance(given, (str, os.PathLike)):
-        view.source = Path(given).name   # (a converted .xml: no scene file names its spheres)
+    if view.lines is None and path is not None:
+        view.source = Path(path).name   # (a converted .xml: no scene file names its spheres)
     for root in roots:
         _to_file(root, view)
     used = {k: v for k, v in integrator.settings().items() if k not in ("exact_spheres", "light_reference")}

@@ -28,9 +28,9 @@ def _lanes(value, n: int, vector: bool) -> np.ndarray:
         array = array.astype(np.float64)
     if vector:
         array = array.reshape(3, -1).T if array.ndim else np.full((1, 3), float(array))
-        return np.broadcast_to(array, (n, 3)) if len(array) != n else array
-    array = array.reshape(-1)
-    return np.broadcast_to(array, (n,)) if len(array) != n else array
+    else:
+        array = array.reshape(-1)
+    return np.broadcast_to(array, (n, *array.shape[1:]))
 
 
 class Recorder:
@@ -62,13 +62,9 @@ class Recorder:
                 values["tir"] = record["tir"]
         lights = []
         for terms in record["lights"]:
-            light = {"position": terms["position"], "strength": terms["strength"],
-                     "facing": terms["facing"], "cos": terms["cos"]}
+            light = {key: value for key, value in terms.items() if key != "ray"}
             if "ray" in terms:   # (none when the render leaves shadows out)
-                light.update(ray_o=terms["ray"].o, ray_d=terms["ray"].d, maxt=terms["ray"].maxt,
-                             shadowed=terms["shadowed"])
-            if "value" in terms:
-                light["value"] = terms["value"]
+                light.update(ray_o=terms["ray"].o, ray_d=terms["ray"].d, maxt=terms["ray"].maxt)
             lights.append(light)
         children = [(child.kind, {"child_o": child.branch.ray.o, "child_d": child.branch.ray.d,
                                   "weight": child.branch.weight, "traced": child.traced,
@@ -100,18 +96,17 @@ class Recorder:
             for lane in range(level["n"]):
                 o, d, weight = _t(v["o"][lane]), _t(v["d"][lane]), float(v["weight"][lane])
                 if level["level"] == 1:
-                    node = Node(kind="camera", level=1, weight=weight, origin=o, direction=d)
-                    node.camera_weight = _t(self.weights[level["batch"]][lane])
-                    roots.append(node)
+                    parent, kind, merged = None, "camera", False
+                    camera_weight = _t(self.weights[level["batch"]][lane])
                 else:
                     waiting = pending.get((level["level"], o, d, weight))
                     if not waiting:
                         raise RuntimeError(f"a ray of level {level['level']} that no parent spawned")
                     parent, kind, merged = waiting.popleft()
-                    node = Node(kind=kind, level=level["level"], weight=weight, origin=o, direction=d,
-                                merged=merged)
-                    node.camera_weight = parent.camera_weight
-                    parent.children.append(node)
+                    camera_weight = parent.camera_weight
+                node = Node(kind=kind, level=level["level"], weight=weight, origin=o, direction=d,
+                            merged=merged, camera_weight=camera_weight)
+                (roots if parent is None else parent.children).append(node)
                 self._shade(node, level, lane, ambient)
                 for kind, entry in level["children"]:
                     w = float(entry["weight"][lane])
