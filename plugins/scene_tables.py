@@ -27,7 +27,6 @@ import drjit as dr
 import mitsuba as mi
 import numpy as np
 
-from whitted.defaults import SWITCHABLE_EFFECTS
 from whitted.errors import WhittedError
 
 from .primitives import Primitives, as_table, bounds, bsdf_key, corners, layers, shape_rows
@@ -114,12 +113,9 @@ class Materials:
     @classmethod
     def of(cls, bsdfs) -> tuple["Materials", np.ndarray]:
         """The distinct materials among ``bsdfs`` (one per shape), and each shape's key."""
-        distinct = {}
-        for bsdf in bsdfs:
-            distinct.setdefault(id(bsdf), bsdf)
-        objects = list(distinct.values())
+        objects = list({id(bsdf): bsdf for bsdf in bsdfs}.values())
         rows = np.array([material_row(bsdf) for bsdf in objects], np.float64).reshape(-1, 8)
-        key_of = dict(zip(distinct, rows[:, KEY].astype(np.int64).tolist()))
+        key_of = dict(zip(map(id, objects), rows[:, KEY].astype(np.int64).tolist()))
         shape_keys = np.fromiter((key_of[id(bsdf)] for bsdf in bsdfs), np.int64, len(bsdfs))
         order = np.argsort(rows[:, KEY], kind="stable")
         rows = rows[order]
@@ -420,9 +416,6 @@ class SceneAnalysis:
 def analyse(tables: SceneTables, max_depth: int, light_reference, without=()) -> SceneAnalysis:
     """What a render of the scene of ``tables`` to ``max_depth``, ``without`` some effects,
     calls for; ``light_reference``: where the article's light colors were measured."""
-    unknown = set(without) - set(SWITCHABLE_EFFECTS)
-    if unknown:
-        raise ValueError(f"unknown effects {sorted(unknown)}")
     reference = floats(light_reference)
     lights = [PointLight(position, intensity, article_color(intensity, position, reference))
               for position, intensity in tables.lights]
