@@ -42,12 +42,11 @@ class Branch:
 
 @dataclass
 class Child:
-    """A branch one level down, where it is traced and, for a reflection, where it carries
-    the refracted share too (total internal reflection: one ray, counted as both kinds)."""
+    """A branch one level down."""
     kind: str        # "reflection" or "refraction"
     branch: Branch
     traced: object   # mi.Bool
-    merged: object = None
+    merged: object = None   # mi.Bool, where a reflection carries the refracted share too (TIR)
 
 
 class Recursion:
