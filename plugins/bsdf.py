@@ -218,13 +218,12 @@ class ArticleBSDF(mi.BSDF):
         return self.color.eval(si, active)
 
     def eval_attribute_1(self, name, si, active=True):
-        value = {"reflect": self.reflect, "refract": self.refract, "ior": self.ior}.get(name)
-        if value is None:
+        if name not in self.SCALARS:
             raise ValueError(f"article BSDF has no attribute '{name}'")
-        return mi.Float(value)
+        return mi.Float(getattr(self, name))
 
     def has_attribute(self, name, active=True):
-        return name in ("color", "reflect", "refract", "ior")
+        return name in ("color", *self.SCALARS)
 
     #: the parameters the Whitted integrator differentiates (JIT AD variants); the IOR
     #: bends rays, which would move what they hit (visibility: not differentiated)

@@ -351,9 +351,6 @@ def scene_tables(scene) -> SceneTables:
 
 # -- what a render calls for ---------------------------------------------------------------------
 
-EFFECTS = ("lights", "reflection", "refraction", "textures", "background")
-
-
 @dataclass(frozen=True)
 class PointLight:
     """A point emitter: its radiant intensity I and the article's color (:func:`article_color`)."""
@@ -387,10 +384,9 @@ class SceneAnalysis:
             "textures": bool(self.surfaces.textures),
             "background": self.environment is not None,
         }
-        self.effects = tuple(name for name in EFFECTS if present[name])
+        self.effects = tuple(name for name, called_for in present.items() if called_for)
         # Only reflected and refracted rays make a tree deeper than its root.
-        self.depth = self.max_depth if ("reflection" in self.effects
-                                        or "refraction" in self.effects) else 1
+        self.depth = self.max_depth if present["reflection"] or present["refraction"] else 1
 
     @property
     def environment(self):
@@ -404,8 +400,8 @@ class SceneAnalysis:
         return self.surfaces.table()
 
     def has(self, effect: str) -> bool:
-        """Whether the render simulates ``effect``: one of :data:`EFFECTS` the scene calls
-        for, or ``shadows`` (lights, tested for shadow) or ``ambient`` (A is taken)."""
+        """Whether the render simulates ``effect``: one of :attr:`effects`, or ``shadows``
+        (lights, tested for shadow) or ``ambient`` (A is taken)."""
         if effect == "shadows":
             return "lights" in self.effects and "shadows" not in self.without
         if effect == "ambient":
