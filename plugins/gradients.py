@@ -74,8 +74,7 @@ class Attached:
 
 
 def attached(scene, analysis, integrator) -> Attached:
-    """:class:`Attached` for a render of ``scene`` by ``integrator`` (``analysis``: the
-    render's :class:`.scene_tables.SceneAnalysis`)."""
+    """:class:`Attached` for a render of ``scene`` by ``integrator`` (its ``analysis``)."""
     values = getattr(integrator, "_values", {})
     ambient = mi.Float(values["ambient"]) if "ambient" in values else mi.Float(integrator.ambient)
     reference = mi.Point3f(*(float(c) for c in integrator.light_reference))

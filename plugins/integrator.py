@@ -249,8 +249,7 @@ class WhittedIntegrator(mi.SamplingIntegrator):
     # -- Rendering ------------------------------------------------------------------------------
 
     def _recursion(self, scene, tables=None, attached=False):
-        """The recursion of a render of ``scene`` and the scene's analysis (``attached``: for
-        gradients)."""
+        """The recursion and the analysis of a render of ``scene`` (``attached``: for gradients)."""
         analysis = analyse(tables or scene_tables(scene), self.max_depth, self.light_reference,
                            self.without)
         values = None

@@ -70,9 +70,8 @@ class Primitives:
 
     @classmethod
     def read(cls, shapes, corners, types, textured, rows, bsdf_keys) -> "Primitives":
-        """The primitives of ``shapes`` (``scene.shapes()``), from their bounding boxes
-        ``corners`` (N×2×3), their ``mi.ShapeType``s, whether each one's color is a texture,
-        their rows and their BSDFs' keys."""
+        """The primitives of ``shapes`` (``scene.shapes()``; ``corners``: their bounding
+        boxes, N×2×3; ``types``: their ``mi.ShapeType``s)."""
         low, high = corners[:, 0].T, corners[:, 1].T
         center, radius = (low + high) / 2, (high - low).max(axis=0, initial=0.0) / 2
         sphere = types == int(mi.ShapeType.Sphere)
