@@ -13,17 +13,8 @@ from dataclasses import dataclass
 import drjit as dr
 import mitsuba as mi
 
-from whitted.errors import WhittedError
-
 from .primitives import bsdf_key
 from .scene_tables import COLOR, scene_tables
-
-
-def require_gradients(what: str) -> None:
-    """Refuse a gradient in a variant without automatic differentiation (one clear line)."""
-    if not dr.is_diff_v(mi.Float):
-        raise WhittedError(f"whitted: {what} needs gradients, which the {mi.variant()} variant "
-                           "cannot compute: use llvm_ad_rgb (or cuda_ad_rgb)")
 
 
 def differentiated(scene, integrator) -> list:
