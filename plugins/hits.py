@@ -222,7 +222,7 @@ class LayeredHits:
         self.need_uv = need_uv
         self.primitives = tables.primitives
         # per-render constants are opaque: one kernel serves every scale
-        self.scales = [dr.opaque(mi.Float, layer.scale) for layer in self.layers]
+        self.scales = [dr.opaque(mi.Float, 1.0 / layer.radius) for layer in self.layers]
         self.radii = [dr.opaque(mi.Float, layer.radius) for layer in self.layers]
         # OptiX traces one scene per kernel: a kernel that reaches a second scene's shader
         # binding table has its ray tracing switched off (with a warning only), so on CUDA

@@ -220,9 +220,8 @@ def slot_of(tables, shape, prim_index, active):
 
 @dataclass
 class Layer:
-    """Spheres of one radius, traced in the scene's frame scaled by ``scale`` (= 1/radius);
-    ``tables``: their :class:`PrimitiveTables`, in the scene's frame."""
-    scale: float
+    """Spheres of one radius, traced in the scene's frame scaled by 1/radius; ``tables``:
+    their :class:`PrimitiveTables`, in the scene's frame."""
     radius: float
     scene: object
     tables: PrimitiveTables
@@ -254,7 +253,7 @@ def layers(shapes, types, primitives: Primitives) -> tuple[list[Layer], list[int
                                   np.zeros(len(own), bool), shape_rows(scene), keys)
         spheres.center, spheres.radius = center, np.full(center.shape[1], radius)
         spheres.error = hit_error(radius, np.abs(center).max(axis=0, initial=0.0))
-        built.append(Layer(scale, radius, scene, spheres.tables(own)))
+        built.append(Layer(radius, scene, spheres.tables(own)))
     return built, held
 
 

@@ -131,8 +131,7 @@ class Materials:
         if not self.textures:
             return self
         rows = self.rows.copy()
-        textured = rows[:, TEXTURED] != 0
-        rows[textured, COLOR] = 1.0
+        rows[rows[:, TEXTURED] != 0, COLOR] = 1.0
         rows[:, TEXTURED] = 0.0
         return Materials(self.key, rows, {}, 0.0, self.bsdfs)
 
