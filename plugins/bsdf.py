@@ -1,9 +1,5 @@
-"""``article``: the article's material as a Mitsuba BSDF, for Mitsuba's own integrators.
-
-``(1 − KR − KT)·point + KR·reflected + KT·refracted`` read as three lobes, a Lambertian one
-of albedo B, a perfect mirror and a perfect refraction, two-sided, with total internal
-reflection moving KT onto the mirror and no η² scaling: docs/radiometry.md, "Materials".
-The ``whitted`` integrator reads the parameters directly (:mod:`.scene_tables`).
+"""``article``: the article's material as a Mitsuba BSDF, for Mitsuba's own integrators;
+the ``whitted`` integrator reads the parameters directly (:mod:`.scene_tables`).
 """
 
 from __future__ import annotations
@@ -70,11 +66,12 @@ class ArticleBSDF(mi.BSDF):
          the critical angle. (Default: 1)
        - |exposed|
 
-    A mixture of a Lambertian lobe (weight 1 − KR − KT, albedo B), a perfect mirror (KR)
-    and a perfect refraction (KT) (docs/radiometry.md, "Materials"). ``mi.traverse``
-    exposes ``reflect``, ``refract`` and ``ior`` as one-value float64 vectors (JIT: the
-    ``whitted`` integrator differentiates KR and KT); loaded values and edits (of these or
-    a uniform ``color.value``) meet one rule (:data:`whitted.defaults.PLUGIN_PARAMETERS`),
+    ``(1 − KR − KT)·point + KR·reflected + KT·refracted`` read as three lobes, two-sided: a
+    Lambertian one of albedo B, a perfect mirror and a perfect refraction, total internal
+    reflection moving KT onto the mirror, no η² scaling (docs/radiometry.md, "Materials").
+    ``mi.traverse`` exposes ``reflect``, ``refract`` and ``ior`` as one-value float64 vectors
+    (JIT: the ``whitted`` integrator differentiates KR and KT); loaded values and edits (of
+    these or a uniform ``color.value``) meet one rule (:data:`whitted.defaults.PLUGIN_PARAMETERS`),
     and a refused edit is undone. A texture's texels are not checked.
 
     An example: the :ref:`whitted integrator <integrator-whitted>`'s scene.
@@ -153,13 +150,11 @@ class ArticleBSDF(mi.BSDF):
         """The weights of the enabled lobes (diffuse, mirror, refraction) for ``wi``,
         with total internal reflection moving KT onto the mirror."""
         _, _, tir, _ = delta_directions(wi, self.ior)
-        enabled = [ctx.is_enabled(_LOBE_TYPES[i], i) for i in range(3)]
-        w_d = mi.Float(self.diffuse_weight if enabled[DIFFUSE] else 0.0)
-        w_r = mi.Float(self.reflect) + dr.select(tir, self.refract, 0.0)
-        w_t = dr.select(tir, 0.0, self.refract)
-        w_r = w_r if enabled[REFLECTION] else mi.Float(0.0)
-        w_t = w_t if enabled[TRANSMISSION] else mi.Float(0.0)
-        return w_d, w_r, w_t
+        weights = (mi.Float(self.diffuse_weight),
+                   mi.Float(self.reflect) + dr.select(tir, self.refract, 0.0),
+                   dr.select(tir, 0.0, self.refract))
+        return tuple(w if ctx.is_enabled(_LOBE_TYPES[i], i) else mi.Float(0.0)
+                     for i, w in enumerate(weights))
 
     # -- Mitsuba's BSDF interface -------------------------------------------
 
@@ -202,12 +197,10 @@ class ArticleBSDF(mi.BSDF):
         return bs, dr.select(valid, weight, 0.0)
 
     def eval(self, ctx, si, wo, active=True):
-        value, _ = self.eval_pdf(ctx, si, wo, active)
-        return value
+        return self.eval_pdf(ctx, si, wo, active)[0]
 
     def pdf(self, ctx, si, wo, active=True):
-        _, pdf = self.eval_pdf(ctx, si, wo, active)
-        return pdf
+        return self.eval_pdf(ctx, si, wo, active)[1]
 
     def eval_pdf(self, ctx, si, wo, active=True):
         w_d, w_r, w_t = self._lobe_weights(ctx, si.wi)
@@ -225,13 +218,12 @@ class ArticleBSDF(mi.BSDF):
         return self.color.eval(si, active)
 
     def eval_attribute_1(self, name, si, active=True):
-        value = {"reflect": self.reflect, "refract": self.refract, "ior": self.ior}.get(name)
-        if value is None:
+        if name not in self.SCALARS:
             raise ValueError(f"article BSDF has no attribute '{name}'")
-        return mi.Float(value)
+        return mi.Float(getattr(self, name))
 
     def has_attribute(self, name, active=True):
-        return name in ("color", "reflect", "refract", "ior")
+        return name in ("color", *self.SCALARS)
 
     #: the parameters the Whitted integrator differentiates (JIT AD variants); the IOR
     #: bends rays, which would move what they hit (visibility: not differentiated)

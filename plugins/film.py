@@ -1,11 +1,8 @@
-"""Camera samples on the film: where each one starts in its pixel, and where its color goes.
-
-One sample per pixel passes through the pixel's center (the scene format's rule); N samples
-are jittered in an ``nx × ny = N`` grid by a hash of (pixel, sample, seed): an image does not
-depend on how the render is split into passes (:class:`CameraSamples`). A sample's color goes
-through Mitsuba's film (:class:`FilmSplats`, 44 bytes a pixel) or, for a box-filtered RGB
-``hdrfilm`` in the JIT variants, straight into the developed image (:class:`PixelMeans`, 12
-bytes a pixel); either way the film holds the render afterwards.
+"""Camera samples on the film: where each one starts in its pixel (:class:`CameraSamples`;
+jittered by a hash of (pixel, sample, seed): an image does not depend on how the render is
+split into passes), and where its color goes: through Mitsuba's film (:class:`FilmSplats`, 44
+bytes a pixel) or, for a box-filtered RGB ``hdrfilm`` in the JIT variants, straight into the
+developed image (:class:`PixelMeans`, 12 bytes a pixel); either way the film holds the render.
 """
 
 from __future__ import annotations
@@ -70,10 +67,11 @@ def sample_count(sensor, spp: int) -> int:
 
 class CameraSamples:
     """The camera rays of a render: where each sample starts in its pixel and on the lens.
-    One sample per pixel: the centers, whatever the sampler, seed or lens (:attr:`unused`
-    names what that leaves unused). More: :func:`pixel_offset` and :func:`lens_offset` for
-    the ``independent`` sampler, else that sampler's own samples, seeded per pass of whole
-    pixels. With ``sample_border``, :attr:`border` pixels beyond the crop too."""
+    One sample per pixel: the centers (the scene format's rule), whatever the sampler, seed or
+    lens (:attr:`unused` names what that leaves unused). More: an ``nx × ny`` grid jittered by
+    :func:`pixel_offset` and :func:`lens_offset` for the ``independent`` sampler, else that
+    sampler's own samples, seeded per pass of whole pixels. With ``sample_border``,
+    :attr:`border` pixels beyond the crop too."""
 
     def __init__(self, sensor, spp: int, seed: int):
         spp = sample_count(sensor, spp)

@@ -13,17 +13,8 @@ from dataclasses import dataclass
 import drjit as dr
 import mitsuba as mi
 
-from whitted.errors import WhittedError
-
 from .primitives import bsdf_key
 from .scene_tables import COLOR, scene_tables
-
-
-def require_gradients(what: str) -> None:
-    """Refuse a gradient in a variant without automatic differentiation (one clear line)."""
-    if not dr.is_diff_v(mi.Float):
-        raise WhittedError(f"whitted: {what} needs gradients, which the {mi.variant()} variant "
-                           "cannot compute: use llvm_ad_rgb (or cuda_ad_rgb)")
 
 
 def differentiated(scene, integrator) -> list:
@@ -74,8 +65,7 @@ class Attached:
 
 
 def attached(scene, analysis, integrator) -> Attached:
-    """:class:`Attached` for a render of ``scene`` by ``integrator`` (``analysis``: the
-    render's :class:`.scene_tables.SceneAnalysis`)."""
+    """:class:`Attached` for a render of ``scene`` by ``integrator`` (its ``analysis``)."""
     values = getattr(integrator, "_values", {})
     ambient = mi.Float(values["ambient"]) if "ambient" in values else mi.Float(integrator.ambient)
     reference = mi.Point3f(*(float(c) for c in integrator.light_reference))

@@ -100,9 +100,8 @@ def spawn_ray_to(si, error, target, target_error=0.0, target_normal=None):
     origin = offset_origin(si.p, si.n, error, target - si.p)
     d = target - origin
     distance2 = dr.squared_norm(d)
-    distance = dr.sqrt(distance2)
     ray = mi.Ray3f(origin, d * dr.rsqrt(dr.maximum(distance2, TINY)))  # no 0/0 at the target
-    ray.maxt = distance
+    ray.maxt = dr.sqrt(distance2)
     return ray
 
 
@@ -148,28 +147,23 @@ def hit_finder(scene, tables, need_uv: bool, sphere_table: bool = True):
     return MitsubaHits(scene, tables, need_uv)
 
 
-class _SceneHits:
+class MitsubaHits:
+    """A :class:`HitFinder` by Mitsuba's own ``ray_intersect`` (any shape); a textured
+    sphere's UV from :func:`lat_long_uv` (Mitsuba's misses the poles and seam by a rounding)."""
+
     def __init__(self, scene, tables, need_uv: bool):
         self.scene = scene
         self.need_uv = need_uv
         self.primitives = tables.primitives
         self.spheres = tables.sphere_shapes
         self.tables = tables.hit_tables
+        self.flags = mi.RayFlags.Minimal | (mi.RayFlags.UV if need_uv else mi.RayFlags.Empty)
 
     def surface_at(self, point):
         return self.primitives.surface_at(point)
 
     def blocked(self, ray, active):
         return blocked(self.scene, ray, active, self.spheres)
-
-
-class MitsubaHits(_SceneHits):
-    """A :class:`HitFinder` by Mitsuba's own ``ray_intersect`` (any shape); a textured
-    sphere's UV from :func:`lat_long_uv` (Mitsuba's misses the poles and seam by a rounding)."""
-
-    def __init__(self, scene, tables, need_uv: bool):
-        super().__init__(scene, tables, need_uv)
-        self.flags = mi.RayFlags.Minimal | (mi.RayFlags.UV if need_uv else mi.RayFlags.Empty)
 
     def intersect(self, ray, coherent: bool):
         si = self.scene.ray_intersect(ray, ray_flags=self.flags, coherent=coherent)
@@ -186,7 +180,7 @@ class MitsubaHits(_SceneHits):
         return hit, si, bsdf, read(mi.Float, tables.error, slot, hit)
 
 
-class SphereHits(_SceneHits):
+class SphereHits(MitsubaHits):
     """A :class:`HitFinder` for scenes of spheres (JIT variants): Embree's preliminary hit, the
     rest from the primitive tables, re-projected onto the sphere as Mitsuba's sphere does."""
 
@@ -228,7 +222,7 @@ class LayeredHits:
         self.need_uv = need_uv
         self.primitives = tables.primitives
         # per-render constants are opaque: one kernel serves every scale
-        self.scales = [dr.opaque(mi.Float, layer.scale) for layer in self.layers]
+        self.scales = [dr.opaque(mi.Float, 1.0 / layer.radius) for layer in self.layers]
         self.radii = [dr.opaque(mi.Float, layer.radius) for layer in self.layers]
         # OptiX traces one scene per kernel: a kernel that reaches a second scene's shader
         # binding table has its ray tracing switched off (with a warning only), so on CUDA
@@ -249,7 +243,7 @@ class LayeredHits:
         scaled.maxt = maxt * self.scales[k]
         return scaled
 
-    surface_at = _SceneHits.surface_at
+    surface_at = MitsubaHits.surface_at
 
     def blocked(self, ray, active):
         tests = [lambda mask, k=k, layer=layer: self._traced(

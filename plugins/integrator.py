@@ -239,9 +239,12 @@ class WhittedIntegrator(mi.SamplingIntegrator):
             dr.traverse(dr.ADMode.Backward)
 
     def _attached_image(self, what, scene, params, sensor, seed, spp):
-        """The image of a gradient render, naming once the parameters it does not differentiate."""
+        """The image of a gradient render (refused in a variant without automatic
+        differentiation), naming once the parameters it does not differentiate."""
+        if not dr.is_diff_v(mi.Float):
+            raise WhittedError(f"whitted: {what} needs gradients, which the {mi.variant()} variant "
+                               "cannot compute: use llvm_ad_rgb (or cuda_ad_rgb)")
         from . import gradients
-        gradients.require_gradients(what)
         gradients.name_undifferentiated(scene, mi.traverse(scene) if params is None else params, self,
                                         self._gradient_keys)
         return self.render_detailed(scene, sensor, seed, spp, attached=True).image
@@ -249,8 +252,7 @@ class WhittedIntegrator(mi.SamplingIntegrator):
     # -- Rendering ------------------------------------------------------------------------------
 
     def _recursion(self, scene, tables=None, attached=False):
-        """The recursion of a render of ``scene`` and the scene's analysis (``attached``: for
-        gradients)."""
+        """The recursion and the analysis of a render of ``scene`` (``attached``: for gradients)."""
         analysis = analyse(tables or scene_tables(scene), self.max_depth, self.light_reference,
                            self.without)
         values = None

@@ -70,9 +70,8 @@ class Primitives:
 
     @classmethod
     def read(cls, shapes, corners, types, textured, rows, bsdf_keys) -> "Primitives":
-        """The primitives of ``shapes`` (``scene.shapes()``), from their bounding boxes
-        ``corners`` (N×2×3), their ``mi.ShapeType``s, whether each one's color is a texture,
-        their rows and their BSDFs' keys."""
+        """The primitives of ``shapes`` (``scene.shapes()``; ``corners``: their bounding
+        boxes, N×2×3; ``types``: their ``mi.ShapeType``s)."""
         low, high = corners[:, 0].T, corners[:, 1].T
         center, radius = (low + high) / 2, (high - low).max(axis=0, initial=0.0) / 2
         sphere = types == int(mi.ShapeType.Sphere)
@@ -221,9 +220,8 @@ def slot_of(tables, shape, prim_index, active):
 
 @dataclass
 class Layer:
-    """Spheres of one radius, traced in the scene's frame scaled by ``scale`` (= 1/radius);
-    ``tables``: their :class:`PrimitiveTables`, in the scene's frame."""
-    scale: float
+    """Spheres of one radius, traced in the scene's frame scaled by 1/radius; ``tables``:
+    their :class:`PrimitiveTables`, in the scene's frame."""
     radius: float
     scene: object
     tables: PrimitiveTables
@@ -255,7 +253,7 @@ def layers(shapes, types, primitives: Primitives) -> tuple[list[Layer], list[int
                                   np.zeros(len(own), bool), shape_rows(scene), keys)
         spheres.center, spheres.radius = center, np.full(center.shape[1], radius)
         spheres.error = hit_error(radius, np.abs(center).max(axis=0, initial=0.0))
-        built.append(Layer(scale, radius, scene, spheres.tables(own)))
+        built.append(Layer(radius, scene, spheres.tables(own)))
     return built, held
 
 

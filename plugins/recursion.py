@@ -32,24 +32,21 @@ ROUND_OFF_MARGIN = 1e-5
 
 @dataclass
 class Branch:
-    """Rays of one level with their path weights (a wavefront, or one ray in scalar variants),
-    the weight each may still leave untraced below it (None: the exact tree) and, for
-    progress, the sum of the weights."""
+    """Rays of one level (a wavefront, or one ray in scalar variants)."""
     ray: object      # mi.Ray3f
-    weight: object   # mi.Float
+    weight: object   # mi.Float, the path weight
     level: int       # primary rays have level 1
-    allowance: object = None   # mi.Float
-    total: float = 0.0
+    allowance: object = None   # mi.Float, the weight each may leave untraced (None: exact)
+    total: float = 0.0         # the sum of the weights (for progress)
 
 
 @dataclass
 class Child:
-    """A branch one level down, where it is traced and, for a reflection, where it carries
-    the refracted share too (total internal reflection: one ray, counted as both kinds)."""
+    """A branch one level down."""
     kind: str        # "reflection" or "refraction"
     branch: Branch
     traced: object   # mi.Bool
-    merged: object = None
+    merged: object = None   # mi.Bool, where a reflection carries the refracted share too (TIR)
 
 
 class Recursion:
@@ -68,7 +65,7 @@ class Recursion:
             if integrator.min_weight > 0 else None
         self.epsilon = 0.0 if self.bright is None \
             else integrator.min_weight / max(self.bright, 1e-30) * (1 - ROUND_OFF_MARGIN)
-        # Per-render constants are opaque: kernels are reused across scenes.
+        # per-render constants are opaque: kernels are reused across scenes
         self.ambient = dr.opaque(mi.Float, ambient) \
             if attached is None or not analysis.has("ambient") else attached.ambient
         self.hits = scene_hits(scene, analysis.tables, analysis.has("textures"),

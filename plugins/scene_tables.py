@@ -27,7 +27,6 @@ import drjit as dr
 import mitsuba as mi
 import numpy as np
 
-from whitted.defaults import SWITCHABLE_EFFECTS
 from whitted.errors import WhittedError
 
 from .primitives import Primitives, as_table, bounds, bsdf_key, corners, layers, shape_rows
@@ -114,12 +113,9 @@ class Materials:
     @classmethod
     def of(cls, bsdfs) -> tuple["Materials", np.ndarray]:
         """The distinct materials among ``bsdfs`` (one per shape), and each shape's key."""
-        distinct = {}
-        for bsdf in bsdfs:
-            distinct.setdefault(id(bsdf), bsdf)
-        objects = list(distinct.values())
+        objects = list({id(bsdf): bsdf for bsdf in bsdfs}.values())
         rows = np.array([material_row(bsdf) for bsdf in objects], np.float64).reshape(-1, 8)
-        key_of = dict(zip(distinct, rows[:, KEY].astype(np.int64).tolist()))
+        key_of = dict(zip(map(id, objects), rows[:, KEY].astype(np.int64).tolist()))
         shape_keys = np.fromiter((key_of[id(bsdf)] for bsdf in bsdfs), np.int64, len(bsdfs))
         order = np.argsort(rows[:, KEY], kind="stable")
         rows = rows[order]
@@ -135,8 +131,7 @@ class Materials:
         if not self.textures:
             return self
         rows = self.rows.copy()
-        textured = rows[:, TEXTURED] != 0
-        rows[textured, COLOR] = 1.0
+        rows[rows[:, TEXTURED] != 0, COLOR] = 1.0
         rows[:, TEXTURED] = 0.0
         return Materials(self.key, rows, {}, 0.0, self.bsdfs)
 
@@ -355,9 +350,6 @@ def scene_tables(scene) -> SceneTables:
 
 # -- what a render calls for ---------------------------------------------------------------------
 
-EFFECTS = ("lights", "reflection", "refraction", "textures", "background")
-
-
 @dataclass(frozen=True)
 class PointLight:
     """A point emitter: its radiant intensity I and the article's color (:func:`article_color`)."""
@@ -391,10 +383,9 @@ class SceneAnalysis:
             "textures": bool(self.surfaces.textures),
             "background": self.environment is not None,
         }
-        self.effects = tuple(name for name in EFFECTS if present[name])
+        self.effects = tuple(name for name, called_for in present.items() if called_for)
         # Only reflected and refracted rays make a tree deeper than its root.
-        self.depth = self.max_depth if ("reflection" in self.effects
-                                        or "refraction" in self.effects) else 1
+        self.depth = self.max_depth if present["reflection"] or present["refraction"] else 1
 
     @property
     def environment(self):
@@ -408,8 +399,8 @@ class SceneAnalysis:
         return self.surfaces.table()
 
     def has(self, effect: str) -> bool:
-        """Whether the render simulates ``effect``: one of :data:`EFFECTS` the scene calls
-        for, or ``shadows`` (lights, tested for shadow) or ``ambient`` (A is taken)."""
+        """Whether the render simulates ``effect``: one of :attr:`effects`, or ``shadows``
+        (lights, tested for shadow) or ``ambient`` (A is taken)."""
         if effect == "shadows":
             return "lights" in self.effects and "shadows" not in self.without
         if effect == "ambient":
@@ -420,9 +411,6 @@ class SceneAnalysis:
 def analyse(tables: SceneTables, max_depth: int, light_reference, without=()) -> SceneAnalysis:
     """What a render of the scene of ``tables`` to ``max_depth``, ``without`` some effects,
     calls for; ``light_reference``: where the article's light colors were measured."""
-    unknown = set(without) - set(SWITCHABLE_EFFECTS)
-    if unknown:
-        raise ValueError(f"unknown effects {sorted(unknown)}")
     reference = floats(light_reference)
     lights = [PointLight(position, intensity, article_color(intensity, position, reference))
               for position, intensity in tables.lights]
