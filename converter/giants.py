@@ -30,24 +30,15 @@ GIANT_FRACTION = 1e-2
 
 def _detail_near(spheres: SphereArrays, k: int) -> float:
     """The finest detail next to sphere ``k``'s surface: over the other spheres, the larger of
-    radius and gap; the least ones again in Python floats, independent of numpy's rounding."""
+    radius and gap."""
     import numpy as np
-    center, radius = spheres.center, spheres.radius
-    (gx, gy, gz), gr = center[k].tolist(), float(radius[k])
-    offset = center - (gx, gy, gz)
-    distance = np.sqrt(np.einsum("ij,ij->i", offset, offset))
-    detail = np.maximum(radius, np.abs(np.abs(distance - gr) - radius))
-    detail[k] = np.inf
-    if len(detail) <= 1:
+    if len(spheres) <= 1:
         return math.inf
-    # a few ulps of the numbers involved bound the difference to Python's result
-    slack = 1e-14 * (distance + gr + radius)
-    near = np.flatnonzero(detail - slack <= (detail + slack).min())
-    details = []
-    for (x, y, z), r in zip(center[near].tolist(), radius[near].tolist()):
-        gap = abs(abs(math.sqrt((x - gx) ** 2 + (y - gy) ** 2 + (z - gz) ** 2) - gr) - r)
-        details.append(max(r, gap))
-    return min(details)
+    x, y, z = (spheres.center - spheres.center[k]).T
+    gap = np.abs(np.abs(np.sqrt(x * x + y * y + z * z) - spheres.radius[k]) - spheres.radius)
+    detail = np.maximum(spheres.radius, gap)
+    detail[k] = np.inf
+    return float(detail.min())
 
 
 def coarse_spheres(scene: Scene, origin: Vec3, smallest: float | None = None,
