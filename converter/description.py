@@ -186,24 +186,17 @@ def material_dict(material: Material, base_dir: Path | None) -> dict:
 
 
 def _sphere(sphere: Sphere, origin: Vec3, material_id: str, mesh: Mesh | None = None) -> dict:
-    """A ``sphere`` shape, or the ``ply`` shape of ``mesh`` when given."""
-    center = to_frame(sphere.center, origin)
-    shape = {"type": "sphere"}
+    """The ``ply`` shape of ``mesh`` when given, else the textured ``sphere``: on the local axes
+    (Ve, Vn x Ve, Vn), Mitsuba's sphere UV is the article's lat/long mapping (v = 0 the north
+    pole and a bitmap's top row)."""
     if mesh is not None:
-        shape = {"type": "ply", "filename": mesh}
-    elif sphere.material.texture is None:
-        shape.update(center=center, radius=float(sphere.radius))
-    else:
-        # Local axes (Ve, Vn x Ve, Vn): Mitsuba's sphere UV is then the article's lat/long
-        # mapping (v = 0 the north pole and a bitmap's top row).
-        z, equator = normalize(sphere.north), sphere.equator
-        d = dot(equator, z)
-        x = normalize((equator[0] - d * z[0], equator[1] - d * z[1], equator[2] - d * z[2]))
-        y, r = cross(z, x), sphere.radius
-        rows = tuple((x[i] * r, y[i] * r, z[i] * r, center[i]) for i in range(3)) + ((0.0, 0.0, 0.0, 1.0),)
-        shape["to_world"] = Matrix(rows)
-    shape["bsdf"] = {"type": "ref", "id": material_id}
-    return shape
+        return {"type": "ply", "filename": mesh, "bsdf": {"type": "ref", "id": material_id}}
+    center, z, equator = to_frame(sphere.center, origin), normalize(sphere.north), sphere.equator
+    d = dot(equator, z)
+    x = normalize((equator[0] - d * z[0], equator[1] - d * z[1], equator[2] - d * z[2]))
+    y, r = cross(z, x), sphere.radius
+    rows = tuple((x[i] * r, y[i] * r, z[i] * r, center[i]) for i in range(3)) + ((0.0, 0.0, 0.0, 1.0),)
+    return {"type": "sphere", "to_world": Matrix(rows), "bsdf": {"type": "ref", "id": material_id}}
 
 
 def describe(scene: Scene, base_dir: str | os.PathLike | None, smallest: float | None = None,
