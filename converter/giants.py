@@ -93,10 +93,10 @@ MIN_HEIGHT = 1e-2
 MISPLACED_RATIO = 1.4
 
 
-def sphere_mesh(center: Vec3, radius: float, eye: Vec3, view: float, tolerance: float = MESH_TOLERANCE):
+def sphere_mesh(center: Vec3, radius: float, eye: Vec3, view: float):
     """A closed, watertight triangle mesh inscribed in the sphere, finest where the eye is
     nearest: ``(positions, normals, faces)``, faces counter-clockwise from outside. Rings of
-    latitude around the point nearest the eye, spaced to stay within ``tolerance``
+    latitude around the point nearest the eye, spaced to stay within :data:`MESH_TOLERANCE`
     (docs/numerics.md, hazard 14). ``view``: the eye's distance to the lookat."""
     import numpy as np
     c = np.asarray(center, np.float64)
@@ -116,7 +116,7 @@ def sphere_mesh(center: Vec3, radius: float, eye: Vec3, view: float, tolerance: 
         # outside, h + s/π from inside
         arc = radius * theta
         near = height + (2 if length > radius else 1) * arc / np.pi
-        step = np.sqrt(2 * tolerance * near / radius)
+        step = np.sqrt(2 * MESH_TOLERANCE * near / radius)
         if theta + 1.5 * step >= np.pi:
             break
         theta += step
