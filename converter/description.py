@@ -121,23 +121,18 @@ def slug(text: str) -> str:
 def sphere_names(scene: Scene, spheres: SphereArrays) -> list[str]:
     """Per sphere, what its ids end in: ``l12_the_floor`` (line 12, comment "the floor"),
     ``l12`` without a comment, its index without a line of its own."""
-    order = spheres.line
-    comments = scene.comments
-    if len(order) and order[0] > 0 and (order[1:] > order[:-1]).all():
-        names = list(map("l%d".__mod__, order.tolist()))   # a file's lines, in order: fast
-        for line, text in comments.items():
-            k = int(order.searchsorted(line))
-            if k < len(names) and order[k] == line and slug(text):
-                names[k] = f"l{line}_{slug(text)}"
-        return names
-    seen, names = set(), []
-    for k, line in enumerate(order.tolist()):
-        if line > 0 and line not in seen:
-            seen.add(line)
-            tag = slug(comments[line]) if line in comments else ""
-            names.append(f"l{line}_{tag}" if tag else f"l{line}")
-        else:
-            names.append(str(k))
+    import numpy as np
+    line = spheres.line
+    lines, first = np.unique(line, return_index=True)
+    names = list(map("l%d".__mod__, line.tolist()))
+    shared = np.ones(len(line), bool)
+    shared[first[lines > 0]] = False
+    for k in np.flatnonzero(shared).tolist():
+        names[k] = str(k)
+    for number, text in scene.comments.items():
+        i = int(lines.searchsorted(number))
+        if i < len(lines) and lines[i] == number > 0 and slug(text):
+            names[first[i]] = f"l{number}_{slug(text)}"
     return names
 
 

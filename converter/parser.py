@@ -657,13 +657,8 @@ def _float_or_nan(token: str) -> float:
 def _by_first_use(index: np.ndarray, values: list) -> tuple[np.ndarray, tuple]:
     """``index`` renumbered so that its values come in order of first use, and those values."""
     import numpy as np
-    present = np.flatnonzero(np.bincount(index)) if len(index) else np.zeros(0, np.int64)
-    if len(present) <= 16:    # few values, the usual case: no sort
-        first = [int(np.argmax(index == v)) for v in present.tolist()]
-        order = present[np.argsort(first, kind="stable")]
-    else:
-        distinct, first = np.unique(index, return_index=True)
-        order = distinct[np.argsort(first)]
+    distinct, first = np.unique(index, return_index=True)
+    order = distinct[np.argsort(first)]
     if len(order) == len(values) and (order == np.arange(len(values))).all():
         return index, tuple(values)
     remap = np.zeros(len(values), np.int64)
