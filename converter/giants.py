@@ -58,7 +58,7 @@ def coarse_spheres(scene: Scene, origin: Vec3, smallest: float | None = None,
         if len(spheres):
             radius = spheres.radius
             x, y, z = (spheres.center - origin).T
-            c = np.maximum(np.maximum(np.abs(x), np.abs(y)), np.abs(z))
+            c = np.abs(spheres.center - origin).max(axis=1)
             error, candidate = coarse_candidates(spheres, origin, smallest)
             offset = MISPLACED_RATIO * RAY_EPSILON * (1 + np.abs(np.sqrt(x * x + y * y + z * z) - radius))
             misplaced = np.flatnonzero(UNIT_ROUNDOFF * (radius + c) > offset).tolist()
@@ -74,11 +74,8 @@ def coarse_candidates(spheres: SphereArrays, origin: Vec3, smallest: float | Non
     """``(error, candidate)`` per sphere: the float32 error bound, and whether it exceeds
     :data:`GIANT_FRACTION` of the scene's smallest radius (only these can be giant)."""
     import numpy as np
-    detail = float(spheres.radius.min())
-    if smallest is not None:
-        detail = min(detail, smallest)
-    x, y, z = (spheres.center - origin).T
-    error = hit_error(spheres.radius, np.maximum(np.maximum(np.abs(x), np.abs(y)), np.abs(z)))
+    detail = min(float(spheres.radius.min()), math.inf if smallest is None else smallest)
+    error = hit_error(spheres.radius, np.abs(spheres.center - origin).max(axis=1))
     return error, error > GIANT_FRACTION * detail
 
 
