@@ -354,15 +354,10 @@ class _Parser:
         """``low <= value <= high`` (or strict where open); None means unbounded."""
         bad_low = low is not None and (value <= low if low_open else value < low)
         bad_high = high is not None and (value >= high if high_open else value > high)
-        if not (bad_low or bad_high):
-            return
-        token_text = _clip(token_text)
-        if low is not None and high is not None:
-            left, right = (">" if low_open else ">="), ("<" if high_open else "<=")
-            self.fail(f"{what} must be {left} {low} and {right} {high}, got {token_text}")
-        if low is not None:
-            self.fail(f"{what} must be {'>' if low_open else '>='} {low}, got {token_text}")
-        self.fail(f"{what} must be {'<' if high_open else '<='} {high}, got {token_text}")
+        if bad_low or bad_high:
+            bounds = [f"{'>' if low_open else '>='} {low}" if low is not None else "",
+                      f"{'<' if high_open else '<='} {high}" if high is not None else ""]
+            self.fail(f"{what} must be {' and '.join(filter(None, bounds))}, got {_clip(token_text)}")
 
     def positive(self, value: Decimal, token_text: str, what: str) -> None:
         self.in_range(value, token_text, what, 0, None, low_open=True)
