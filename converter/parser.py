@@ -357,7 +357,8 @@ class _Parser:
         if bad_low or bad_high:
             bounds = [f"{'>' if low_open else '>='} {low}" if low is not None else "",
                       f"{'<' if high_open else '<='} {high}" if high is not None else ""]
-            self.fail(f"{what} must be {' and '.join(filter(None, bounds))}, got {_clip(token_text)}")
+            bounds = " and ".join(filter(None, bounds))
+            self.fail(f"{what} must be {bounds}, got {_clip(token_text)}")
 
     def positive(self, value: Decimal, token_text: str, what: str) -> None:
         self.in_range(value, token_text, what, 0, None, low_open=True)
