@@ -31,11 +31,11 @@ COLORS = [(0.9, 0.2, 0.2), (0.2, 0.8, 0.3), (0.2, 0.3, 0.9), (0.9, 0.8, 0.2), (0
           (0.2, 0.8, 0.8)]
 
 
-def frame_scene(k: int, frames: int, width: int = 320, height: int = 200, depth: int = 6) -> str:
+def frame_scene(k: int, frames: int, width: int = 320, height: int = 200) -> str:
     """Frame ``k`` of ``frames``: six balls orbit a glass ball, bobbing, above a floor sphere
     of radius 10⁴, beside a mirror."""
     lines = [f"# frame {k + 1} of {frames} (benchmarks/frames.py)", f"size {width} {height}",
-             "eye 0 3.5 12", "lookat 0 0.8 0", "fov 50", f"depth {depth}", "background 0.25 0.35 0.55",
+             "eye 0 3.5 12", "lookat 0 0.8 0", "fov 50", "depth 6", "background 0.25 0.35 0.55",
              "light 8 14 10", "light -10 9 4 0.4 0.4 0.5",
              "sphere 0 -10000 0 10000 color 0.75 0.75 0.7",
              "sphere 0 1.3 0 1.3 color 1 1 1 refract 0.9 1.5",

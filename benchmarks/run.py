@@ -177,15 +177,14 @@ class Bench:
         self.summary["depth 16 / depth 1"] = timing["whitted (article lighting), max depth 16"].over(
             timing["whitted (article lighting)"])
 
-    def _whitted_and_direct(self, model, rounds, memory=True):
+    def _whitted_and_direct(self, model, rounds):
+        """Both renders of ``model`` timed, and the two runs."""
         label = f"{len(model.spheres)} spheres {model.width}×{model.height} {model.samples} spp "
         scene, scene_direct = scenes.load(model), scenes.load_for_direct(model)
         whitted_run = renderer(scene, scenes.load_whitted(model, lighting="physical"), model.samples)
         direct_run = renderer(scene_direct, scenes.direct_integrator(), model.samples)
-        timing = self.measure({"whitted": whitted_run, "direct": direct_run}, rounds, label)
-        if not memory:
-            return timing, None, None
-        return timing, peak_memory(whitted_run), peak_memory(direct_run)
+        runs = {"whitted": whitted_run, "direct": direct_run}
+        return self.measure(runs, rounds, label), whitted_run, direct_run
 
     def scaling(self):
         columns = ["whitted ms", "ns/sample", "direct ms", "whitted / direct", "whitted MiB", "direct MiB"]
@@ -205,13 +204,13 @@ class Bench:
                 extra = []
                 if fixed:
                     small = replace(model, width=1, height=1, samples=1)
-                    timing = self._whitted_and_direct(small, rounds, memory=False)[0]
+                    timing = self._whitted_and_direct(small, rounds)[0]
                     extra.append(f"{ms(timing['whitted'].median)} / {ms(timing['direct'].median)}")
-                timing, memory, memory_direct = self._whitted_and_direct(model, rounds)
+                timing, *runs = self._whitted_and_direct(model, rounds)
                 w, d = timing["whitted"], timing["direct"]
                 samples = model.width * model.height * model.samples
                 table.add(label, ms(w.median), f"{1e9 * w.median / samples:.1f}", ms(d.median), w.over(d),
-                          mib(memory), mib(memory_direct), *extra)
+                          *(mib(peak_memory(run)) for run in runs), *extra)
             self.show(table)
 
     def effects(self):

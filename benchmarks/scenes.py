@@ -34,13 +34,13 @@ def random_spheres(count: int, seed: int = 1, *, reflect: float = 0.0,
     return [Sphere(tuple(c), r, m) for c, r, m in zip(center.tolist(), radius.tolist(), materials)]
 
 
-def diffuse_spheres(count: int, width: int, height: int, spp: int, depth: int = 1, seed: int = 1) -> Scene:
+def diffuse_spheres(count: int, width: int, height: int, spp: int) -> Scene:
     """``count`` diffuse spheres (a ground sphere and ``count - 1`` :func:`random_spheres`, each
     its own color, in a box above it) under one light."""
     ground = Sphere((0.0, -1000.0, 0.0), 1000.0, Material(color=(0.8, 0.8, 0.75)))
-    balls = random_spheres(count - 1, seed, low=(-5.0, 0.0, -6.0), high=(5.0, 5.0, 3.0))
+    balls = random_spheres(count - 1, low=(-5.0, 0.0, -6.0), high=(5.0, 5.0, 3.0))
     return Scene(width=width, height=height, eye=(0.0, 3.0, 12.0), lookat=(0.0, 0.8, 0.0), fov=50.0,
-                 samples=spp, depth=depth, lights=[Light((6.0, 10.0, 8.0))], spheres=[ground, *balls])
+                 samples=spp, depth=1, lights=[Light((6.0, 10.0, 8.0))], spheres=[ground, *balls])
 
 
 def every_effect(texture: Path, width: int, height: int, spp: int, depth: int = 5) -> Scene:

@@ -121,23 +121,18 @@ def slug(text: str) -> str:
 def sphere_names(scene: Scene, spheres: SphereArrays) -> list[str]:
     """Per sphere, what its ids end in: ``l12_the_floor`` (line 12, comment "the floor"),
     ``l12`` without a comment, its index without a line of its own."""
-    order = spheres.line
-    comments = scene.comments
-    if len(order) and order[0] > 0 and (order[1:] > order[:-1]).all():
-        names = list(map("l%d".__mod__, order.tolist()))   # a file's lines, in order: fast
-        for line, text in comments.items():
-            k = int(order.searchsorted(line))
-            if k < len(names) and order[k] == line and slug(text):
-                names[k] = f"l{line}_{slug(text)}"
-        return names
-    seen, names = set(), []
-    for k, line in enumerate(order.tolist()):
-        if line > 0 and line not in seen:
-            seen.add(line)
-            tag = slug(comments[line]) if line in comments else ""
-            names.append(f"l{line}_{tag}" if tag else f"l{line}")
-        else:
-            names.append(str(k))
+    import numpy as np
+    line = spheres.line
+    lines, first = np.unique(line, return_index=True)
+    names = list(map("l%d".__mod__, line.tolist()))
+    shared = np.ones(len(line), bool)
+    shared[first[lines > 0]] = False
+    for k in np.flatnonzero(shared).tolist():
+        names[k] = str(k)
+    for number, text in scene.comments.items():
+        i = int(lines.searchsorted(number))
+        if i < len(lines) and lines[i] == number > 0 and slug(text):
+            names[first[i]] = f"l{number}_{slug(text)}"
     return names
 
 
@@ -186,24 +181,17 @@ def material_dict(material: Material, base_dir: Path | None) -> dict:
 
 
 def _sphere(sphere: Sphere, origin: Vec3, material_id: str, mesh: Mesh | None = None) -> dict:
-    """A ``sphere`` shape, or the ``ply`` shape of ``mesh`` when given."""
-    center = to_frame(sphere.center, origin)
-    shape = {"type": "sphere"}
+    """The ``ply`` shape of ``mesh`` when given, else the textured ``sphere``: on the local axes
+    (Ve, Vn x Ve, Vn), Mitsuba's sphere UV is the article's lat/long mapping (v = 0 the north
+    pole and a bitmap's top row)."""
     if mesh is not None:
-        shape = {"type": "ply", "filename": mesh}
-    elif sphere.material.texture is None:
-        shape.update(center=center, radius=float(sphere.radius))
-    else:
-        # Local axes (Ve, Vn x Ve, Vn): Mitsuba's sphere UV is then the article's lat/long
-        # mapping (v = 0 the north pole and a bitmap's top row).
-        z, equator = normalize(sphere.north), sphere.equator
-        d = dot(equator, z)
-        x = normalize((equator[0] - d * z[0], equator[1] - d * z[1], equator[2] - d * z[2]))
-        y, r = cross(z, x), sphere.radius
-        rows = tuple((x[i] * r, y[i] * r, z[i] * r, center[i]) for i in range(3)) + ((0.0, 0.0, 0.0, 1.0),)
-        shape["to_world"] = Matrix(rows)
-    shape["bsdf"] = {"type": "ref", "id": material_id}
-    return shape
+        return {"type": "ply", "filename": mesh, "bsdf": {"type": "ref", "id": material_id}}
+    center, z, equator = to_frame(sphere.center, origin), normalize(sphere.north), sphere.equator
+    d = dot(equator, z)
+    x = normalize((equator[0] - d * z[0], equator[1] - d * z[1], equator[2] - d * z[2]))
+    y, r = cross(z, x), sphere.radius
+    rows = tuple((x[i] * r, y[i] * r, z[i] * r, center[i]) for i in range(3)) + ((0.0, 0.0, 0.0, 1.0),)
+    return {"type": "sphere", "to_world": Matrix(rows), "bsdf": {"type": "ref", "id": material_id}}
 
 
 def describe(scene: Scene, base_dir: str | os.PathLike | None, smallest: float | None = None,

@@ -134,19 +134,17 @@ def sight_warning(scene: Scene) -> str | None:
     return None
 
 
-def warn_scene(scene: Scene, stream=None, integrator: str = "whitted") -> None:
-    """Every warning about a parsed scene, one line each on ``stream`` (stderr)."""
+def warn_scene(scene: Scene, integrator: str = "whitted") -> None:
+    """Every warning about a parsed scene, one line each on stderr."""
     message = sight_warning(scene)
     if message:
-        print(f"whitted: warning: {message}", file=stream or sys.stderr)
-    warn_precision(scene, stream, integrator)
+        print(f"whitted: warning: {message}", file=sys.stderr)
+    warn_precision(scene, integrator)
 
 
-def warn_precision(scene: Scene, stream=None, integrator: str = "whitted") -> None:
-    """:func:`precision_warning` (for ``integrator`` "path", else :func:`path_warning`) on
-    ``stream`` (stderr), when there is one."""
-    message = precision_warning(scene)
-    if integrator == "path":
-        message = message or path_warning(scene)
+def warn_precision(scene: Scene, integrator: str = "whitted") -> None:
+    """:func:`precision_warning` on stderr, or for ``integrator`` "path" :func:`path_warning`
+    when there is none."""
+    message = precision_warning(scene) or (path_warning(scene) if integrator == "path" else None)
     if message:
-        print(f"whitted: warning: {message}", file=stream or sys.stderr)
+        print(f"whitted: warning: {message}", file=sys.stderr)

@@ -30,24 +30,15 @@ GIANT_FRACTION = 1e-2
 
 def _detail_near(spheres: SphereArrays, k: int) -> float:
     """The finest detail next to sphere ``k``'s surface: over the other spheres, the larger of
-    radius and gap; the least ones again in Python floats, independent of numpy's rounding."""
+    radius and gap."""
     import numpy as np
-    center, radius = spheres.center, spheres.radius
-    (gx, gy, gz), gr = center[k].tolist(), float(radius[k])
-    offset = center - (gx, gy, gz)
-    distance = np.sqrt(np.einsum("ij,ij->i", offset, offset))
-    detail = np.maximum(radius, np.abs(np.abs(distance - gr) - radius))
-    detail[k] = np.inf
-    if len(detail) <= 1:
+    if len(spheres) <= 1:
         return math.inf
-    # a few ulps of the numbers involved bound the difference to Python's result
-    slack = 1e-14 * (distance + gr + radius)
-    near = np.flatnonzero(detail - slack <= (detail + slack).min())
-    details = []
-    for (x, y, z), r in zip(center[near].tolist(), radius[near].tolist()):
-        gap = abs(abs(math.sqrt((x - gx) ** 2 + (y - gy) ** 2 + (z - gz) ** 2) - gr) - r)
-        details.append(max(r, gap))
-    return min(details)
+    x, y, z = (spheres.center - spheres.center[k]).T
+    gap = np.abs(np.abs(np.sqrt(x * x + y * y + z * z) - spheres.radius[k]) - spheres.radius)
+    detail = np.maximum(spheres.radius, gap)
+    detail[k] = np.inf
+    return float(detail.min())
 
 
 def coarse_spheres(scene: Scene, origin: Vec3, smallest: float | None = None,
@@ -67,7 +58,7 @@ def coarse_spheres(scene: Scene, origin: Vec3, smallest: float | None = None,
         if len(spheres):
             radius = spheres.radius
             x, y, z = (spheres.center - origin).T
-            c = np.maximum(np.maximum(np.abs(x), np.abs(y)), np.abs(z))
+            c = np.abs(spheres.center - origin).max(axis=1)
             error, candidate = coarse_candidates(spheres, origin, smallest)
             offset = MISPLACED_RATIO * RAY_EPSILON * (1 + np.abs(np.sqrt(x * x + y * y + z * z) - radius))
             misplaced = np.flatnonzero(UNIT_ROUNDOFF * (radius + c) > offset).tolist()
@@ -83,11 +74,8 @@ def coarse_candidates(spheres: SphereArrays, origin: Vec3, smallest: float | Non
     """``(error, candidate)`` per sphere: the float32 error bound, and whether it exceeds
     :data:`GIANT_FRACTION` of the scene's smallest radius (only these can be giant)."""
     import numpy as np
-    detail = float(spheres.radius.min())
-    if smallest is not None:
-        detail = min(detail, smallest)
-    x, y, z = (spheres.center - origin).T
-    error = hit_error(spheres.radius, np.maximum(np.maximum(np.abs(x), np.abs(y)), np.abs(z)))
+    detail = min(float(spheres.radius.min()), math.inf if smallest is None else smallest)
+    error = hit_error(spheres.radius, np.abs(spheres.center - origin).max(axis=1))
     return error, error > GIANT_FRACTION * detail
 
 
@@ -102,10 +90,10 @@ MIN_HEIGHT = 1e-2
 MISPLACED_RATIO = 1.4
 
 
-def sphere_mesh(center: Vec3, radius: float, eye: Vec3, view: float, tolerance: float = MESH_TOLERANCE):
+def sphere_mesh(center: Vec3, radius: float, eye: Vec3, view: float):
     """A closed, watertight triangle mesh inscribed in the sphere, finest where the eye is
     nearest: ``(positions, normals, faces)``, faces counter-clockwise from outside. Rings of
-    latitude around the point nearest the eye, spaced to stay within ``tolerance``
+    latitude around the point nearest the eye, spaced to stay within :data:`MESH_TOLERANCE`
     (docs/numerics.md, hazard 14). ``view``: the eye's distance to the lookat."""
     import numpy as np
     c = np.asarray(center, np.float64)
@@ -125,7 +113,7 @@ def sphere_mesh(center: Vec3, radius: float, eye: Vec3, view: float, tolerance: 
         # outside, h + s/π from inside
         arc = radius * theta
         near = height + (2 if length > radius else 1) * arc / np.pi
-        step = np.sqrt(2 * tolerance * near / radius)
+        step = np.sqrt(2 * MESH_TOLERANCE * near / radius)
         if theta + 1.5 * step >= np.pi:
             break
         theta += step

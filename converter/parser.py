@@ -354,15 +354,11 @@ class _Parser:
         """``low <= value <= high`` (or strict where open); None means unbounded."""
         bad_low = low is not None and (value <= low if low_open else value < low)
         bad_high = high is not None and (value >= high if high_open else value > high)
-        if not (bad_low or bad_high):
-            return
-        token_text = _clip(token_text)
-        if low is not None and high is not None:
-            left, right = (">" if low_open else ">="), ("<" if high_open else "<=")
-            self.fail(f"{what} must be {left} {low} and {right} {high}, got {token_text}")
-        if low is not None:
-            self.fail(f"{what} must be {'>' if low_open else '>='} {low}, got {token_text}")
-        self.fail(f"{what} must be {'<' if high_open else '<='} {high}, got {token_text}")
+        if bad_low or bad_high:
+            bounds = [f"{'>' if low_open else '>='} {low}" if low is not None else "",
+                      f"{'<' if high_open else '<='} {high}" if high is not None else ""]
+            bounds = " and ".join(filter(None, bounds))
+            self.fail(f"{what} must be {bounds}, got {_clip(token_text)}")
 
     def positive(self, value: Decimal, token_text: str, what: str) -> None:
         self.in_range(value, token_text, what, 0, None, low_open=True)
@@ -657,13 +653,8 @@ def _float_or_nan(token: str) -> float:
 def _by_first_use(index: np.ndarray, values: list) -> tuple[np.ndarray, tuple]:
     """``index`` renumbered so that its values come in order of first use, and those values."""
     import numpy as np
-    present = np.flatnonzero(np.bincount(index)) if len(index) else np.zeros(0, np.int64)
-    if len(present) <= 16:    # few values, the usual case: no sort
-        first = [int(np.argmax(index == v)) for v in present.tolist()]
-        order = present[np.argsort(first, kind="stable")]
-    else:
-        distinct, first = np.unique(index, return_index=True)
-        order = distinct[np.argsort(first)]
+    distinct, first = np.unique(index, return_index=True)
+    order = distinct[np.argsort(first)]
     if len(order) == len(values) and (order == np.arange(len(values))).all():
         return index, tuple(values)
     remap = np.zeros(len(values), np.int64)

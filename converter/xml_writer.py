@@ -212,8 +212,7 @@ def write_xml(description: Description, file, portable: bool = False) -> None:
     description, notes = _with_notes(description, portable)
     block = description.spheres
     if block is None or len(block) < PARALLEL_FROM or not _can_fork(file):
-        for piece in _pieces(description, notes):
-            file.write(piece)
+        file.writelines(_pieces(description, notes))
         return
     file.write(next(_pieces(description, notes)))   # all but the block, which comes in two halves
     text = _Block(description)
@@ -221,8 +220,7 @@ def write_xml(description: Description, file, portable: bool = False) -> None:
     with tempfile.TemporaryFile() as spill:
         child = _fork_writer(text, half, spill)
         try:
-            for piece in text.pieces(0, half):
-                file.write(piece)
+            file.writelines(text.pieces(0, half))
             done = child is not None and os.waitpid(child, 0)[1] == 0
             child = None
             if done:
@@ -230,8 +228,7 @@ def write_xml(description: Description, file, portable: bool = False) -> None:
                 spill.seek(0)
                 shutil.copyfileobj(spill, file.buffer, 1 << 20)
             else:
-                for piece in text.pieces(half):
-                    file.write(piece)
+                file.writelines(text.pieces(half))
         finally:
             if child is not None:   # this process failed or was interrupted: stop the child
                 with contextlib.suppress(OSError):
@@ -261,8 +258,7 @@ def _fork_writer(text: _Block, half: int, spill) -> int | None:
     status = 1
     try:   # the child: never returns, never runs the parent's clean-up or flushes its files
         with open(spill.fileno(), "w", encoding="utf-8", closefd=False) as out:
-            for piece in text.pieces(half):
-                out.write(piece)
+            out.writelines(text.pieces(half))
         status = 0
     except BaseException:
         pass
