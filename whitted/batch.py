@@ -79,9 +79,7 @@ def up_to_date(scene: Path, outputs: tuple[Path, ...]) -> bool:
             with contextlib.suppress(OSError):
                 files += [scene.parent / name for name in named_files(scene)]
         else:
-            model = parse_file(scene)
-            arrays = model.held_sphere_arrays()
-            materials = [s.material for s in model.spheres] if arrays is None else arrays.materials
+            materials = parse_file(scene).sphere_arrays().materials
             files.extend(sorted({Path(m.texture) for m in materials if m.texture is not None}))
         return all(p.stat().st_mtime_ns < oldest for p in files)
     except (OSError, WhittedError):

@@ -55,12 +55,6 @@ def resampled(image: np.ndarray, size) -> np.ndarray:
     return np.array(bitmap.resample([int(size[0]), int(size[1])]), np.float32).reshape(size[1], size[0], 3)
 
 
-def _light_scale(model, light) -> float:
-    """``π d²``: a light's intensity over its article color."""
-    from .converter.description import light_intensity
-    return light_intensity(model, light.position, (1.0, 1.0, 1.0))[0]
-
-
 def fit(scene, target, *, free=FREE, iterations: int = D.FIT_ITERATIONS, width: int = D.FIT_WIDTH,
         rate=D.FIT_RATE, spp: int | None = None, progress: bool = False, on_step=None,
         target_name: str = "the target", min_gain: float = D.FIT_MIN_GAIN) -> FitResult:
@@ -75,6 +69,7 @@ def fit(scene, target, *, free=FREE, iterations: int = D.FIT_ITERATIONS, width: 
     import mitsuba as mi
 
     from .converter import parse_file
+    from .converter.description import light_intensity
     from .images import read_image
     from .loading import checked_overrides, load_model_parts
     from .metrics import EPSILON, relative_mse
@@ -110,7 +105,9 @@ def fit(scene, target, *, free=FREE, iterations: int = D.FIT_ITERATIONS, width: 
     fitted = {mid: bsdfs[material] for material, mid in material_ids(model).items()
               if material.texture is None}
     fitted_ids = list(fitted)
-    scales = [_light_scale(described, light) for light in described.lights]
+    # each light's intensity over its article color, π d²
+    scales = [light_intensity(described, light.position, (1.0, 1.0, 1.0))[0]
+              for light in described.lights]
     shapes = {shape.id(): shape for shape in loaded.shapes()}
     own = {name: mi.traverse(shapes[name].bsdf()) for names in fitted.values() for name in names
            if name in shapes}

@@ -11,12 +11,11 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from . import defaults as D
-from .defaults import check_lighting
 from .errors import WhittedError, first_line
 
 #: the scene parameters a load may override (the XML's ``<default>``s), and their checks
 OVERRIDES = {"spp": D.check_spp, "max_depth": D.check_depth, "ambient": D.check_ambient,
-             "lighting": check_lighting, "width": lambda v: D.check_size(v, "width"),
+             "lighting": D.check_lighting, "width": lambda v: D.check_size(v, "width"),
              "height": lambda v: D.check_size(v, "height"), "without": D.check_without}
 
 #: Mitsuba's parallel loading: off, slower at every size measured (benchmarks/RESULTS.md,
@@ -149,8 +148,6 @@ def check_referenced_files(path: Path) -> None:
 def loads(text: str, variant: str | None = None, *, base_dir: str | os.PathLike = ".",
           ellipsoids: bool | None = None, integrator: str = D.INTEGRATOR, **overrides):
     """:func:`load_scene` of ``.scn`` text (textures relative to ``base_dir``)."""
-    import mitsuba as mi  # noqa: F401  (the variant hook runs on import)
-
     from .converter import parse_text
     from .converter.frame import warn_scene
     if not isinstance(text, str):
