@@ -241,15 +241,13 @@ class Totals:
     def count(self, status: str) -> int:
         return sum(item.status == status for item in self.items)
 
-    def line(self, out, interrupted: bool = False) -> str:
+    def line(self, out) -> str:
         rendered, skipped, failed = self.count("rendered"), self.count("skipped"), self.count("failed")
         parts = [f"rendered {rendered} of {self.planned} scenes"]
         if skipped:
             parts.append(f"{skipped} up to date")
         if failed:
             parts.append(f"{failed} failed")
-        if interrupted:
-            parts.append(f"{self.planned - len(self.items)} not done")
         where = f" into {out}" if out is not None else ""
         return f"whitted: {', '.join(parts)} in {time.perf_counter() - self.start:.1f} s{where}"
 
