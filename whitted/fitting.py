@@ -97,7 +97,7 @@ def fit(scene, target, *, free=FREE, iterations: int = D.FIT_ITERATIONS, width: 
     # a sphere shape costs ~18 KB, a million of them gigabytes), each fitted color written
     # into every BSDF of its material, each light's through the scene's own frame.
     overrides = checked_overrides({"width": size[0], "height": size[1], "spp": spp})
-    loaded, bsdfs, described = load_model_parts(model, overrides, None, "whitted", False)
+    loaded, bsdfs, shown = load_model_parts(model, overrides, None, "whitted", False)
     params = mi.traverse(loaded)
     params["integrator.min_weight"] = 0.0   # the exact tree: the loss is smooth
     params.update()
@@ -106,8 +106,8 @@ def fit(scene, target, *, free=FREE, iterations: int = D.FIT_ITERATIONS, width: 
               if material.texture is None}
     fitted_ids = list(fitted)
     # each light's intensity over its article color, π d²
-    scales = [light_intensity(described, light.position, (1.0, 1.0, 1.0))[0]
-              for light in described.lights]
+    scales = [light_intensity(shown, light.position, (1.0, 1.0, 1.0))[0]
+              for light in shown.lights]
     shapes = {shape.id(): shape for shape in loaded.shapes()}
     own = {name: mi.traverse(shapes[name].bsdf()) for names in fitted.values() for name in names
            if name in shapes}

@@ -185,15 +185,15 @@ def _load_model(model, params: dict, ellipsoids: bool | None, integrator: str, m
 
 
 def load_model_parts(model, params: dict, ellipsoids: bool | None, integrator: str, meshes: bool = True):
-    """``(scene, bsdfs, described)`` for a fit: the loaded scene, each material's BSDF and
+    """``(scene, bsdfs, shown)`` for a fit: the loaded scene, each material's BSDF and
     ``sealed_K`` ids, and the model as the scene shows it."""
     from .converter.description import _shared, first_spheres, material_ids
-    scene, described, grouped, _ = _scene_dict(model, params, ellipsoids, integrator)
+    scene, shown, grouped, _ = _scene_dict(model, params, ellipsoids, integrator)
     ids = material_ids(model)
-    bsdfs = {material: [ids[material]] for material in first_spheres(described)}
+    bsdfs = {material: [ids[material]] for material in first_spheres(shown)}
     for k, material in enumerate(grouped):
         bsdfs.setdefault(_shared(material), []).append(f"sealed_{k}")
-    return _loaded(scene, meshes), bsdfs, described
+    return _loaded(scene, meshes), bsdfs, shown
 
 
 def _scene_dict(model, params: dict, ellipsoids: bool | None, integrator: str) -> tuple[dict, object, list, float]:
@@ -208,9 +208,9 @@ def _scene_dict(model, params: dict, ellipsoids: bool | None, integrator: str) -
                                  classes=sealed.MAX_LAYERS, smaller=integrator == "whitted")
     if grouping is None:
         return mitsuba_dict(describe(model, base_dir=None), params), model, [], 1.0
-    described = sealed.remaining(model, grouping)
-    scene, grouped = _sealed_dict(described, model, grouping, params)
-    return scene, described, grouped, grouping.scale
+    shown = sealed.remaining(model, grouping)
+    scene, grouped = _sealed_dict(shown, model, grouping, params)
+    return scene, shown, grouped, grouping.scale
 
 
 def _loaded(scene: dict, meshes: bool):
