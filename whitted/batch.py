@@ -140,8 +140,10 @@ def render_scenes(scenes: Iterable[str | os.PathLike], out: str | os.PathLike | 
                   scheduler: str | None = None, **options) -> Iterator[SceneRender]:
     """Render scene files (a folder stands for its scenes), yielding a :class:`SceneRender` for
     each as it is done; a failed one does not stop the others (docs/CONTRACTS.md)."""
+    from .cluster import check_where
     settings = Settings(**options)
     settings.check()
+    check_where(workers, scheduler)
     _, skipped, todo = plan_batch(scenes, out, formats, force)
     yield from skipped
     yield from render_planned(todo, settings, out is None if keep_images is None else keep_images,
@@ -191,11 +193,9 @@ def _on_cluster(todo, settings: Settings, keep: bool, workers: int | None,
     import uuid
     from dataclasses import replace
 
-    from .cluster import (available_cores, cancel, check_where, connect, on_worker, task_result,
-                          worker_threads)
+    from .cluster import available_cores, cancel, connect, on_worker, task_result, worker_threads
     from .variant import default_variant
 
-    check_where(workers, scheduler)
     if not todo:
         return
     # The workers may start elsewhere: paths absolute, the variant decided here.
