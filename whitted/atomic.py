@@ -86,14 +86,13 @@ def check_writable(target: str | os.PathLike, inputs: tuple = ()) -> Path:
     return target
 
 
-def check_folder(folder: str | os.PathLike, named: str | os.PathLike) -> Path:
+def check_folder(folder: str | os.PathLike, named: str | os.PathLike) -> None:
     """``folder`` exists and accepts a new file; errors name ``named``, the user's path."""
     folder = Path(folder)
     if not folder.is_dir():
         what = "is not a folder" if folder.exists() else "does not exist"
         raise WhittedError(f"{named}: output folder {folder} {what}")
     _probe(folder, named)
-    return folder
 
 
 def _probe(folder: Path, named: Path) -> None:
@@ -108,7 +107,7 @@ def _probe(folder: Path, named: Path) -> None:
     os.unlink(probe)
 
 
-def check_folder_creatable(folder: str | os.PathLike) -> Path:
+def check_folder_creatable(folder: str | os.PathLike) -> None:
     """Check, creating nothing, that ``folder`` accepts files or can be made."""
     folder = Path(folder)
     existing = folder
@@ -117,10 +116,9 @@ def check_folder_creatable(folder: str | os.PathLike) -> Path:
     if not existing.is_dir():
         raise WhittedError(f"{folder}: cannot create a folder under the file {existing}")
     _probe(existing, folder)
-    return folder
 
 
-def writable_folder(folder: str | os.PathLike) -> Path:
+def writable_folder(folder: str | os.PathLike) -> None:
     """Create ``folder`` if needed and check it accepts files."""
     folder = Path(folder)
     try:
@@ -130,7 +128,6 @@ def writable_folder(folder: str | os.PathLike) -> Path:
     if not folder.is_dir():
         raise WhittedError(f"{folder}: is not a folder")
     _probe(folder, folder)
-    return folder
 
 
 def write_text(target: str | os.PathLike, text: str) -> None:

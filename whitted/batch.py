@@ -79,9 +79,7 @@ def up_to_date(scene: Path, outputs: tuple[Path, ...]) -> bool:
             with contextlib.suppress(OSError):
                 files += [scene.parent / name for name in named_files(scene)]
         else:
-            model = parse_file(scene)
-            arrays = model.held_sphere_arrays()
-            materials = [s.material for s in model.spheres] if arrays is None else arrays.materials
+            materials = parse_file(scene).sphere_arrays().materials
             files.extend(sorted({Path(m.texture) for m in materials if m.texture is not None}))
         return all(p.stat().st_mtime_ns < oldest for p in files)
     except (OSError, WhittedError):
@@ -142,8 +140,10 @@ def render_scenes(scenes: Iterable[str | os.PathLike], out: str | os.PathLike | 
                   scheduler: str | None = None, **options) -> Iterator[SceneRender]:
     """Render scene files (a folder stands for its scenes), yielding a :class:`SceneRender` for
     each as it is done; a failed one does not stop the others (docs/CONTRACTS.md)."""
+    from .cluster import check_where
     settings = Settings(**options)
     settings.check()
+    check_where(workers, scheduler)
     _, skipped, todo = plan_batch(scenes, out, formats, force)
     yield from skipped
     yield from render_planned(todo, settings, out is None if keep_images is None else keep_images,
@@ -193,11 +193,9 @@ def _on_cluster(todo, settings: Settings, keep: bool, workers: int | None,
     import uuid
     from dataclasses import replace
 
-    from .cluster import (available_cores, cancel, check_where, connect, on_worker, task_result,
-                          worker_threads)
+    from .cluster import available_cores, cancel, connect, on_worker, task_result, worker_threads
     from .variant import default_variant
 
-    check_where(workers, scheduler)
     if not todo:
         return
     # The workers may start elsewhere: paths absolute, the variant decided here.
@@ -243,15 +241,13 @@ class Totals:
     def count(self, status: str) -> int:
         return sum(item.status == status for item in self.items)
 
-    def line(self, out, interrupted: bool = False) -> str:
+    def line(self, out) -> str:
         rendered, skipped, failed = self.count("rendered"), self.count("skipped"), self.count("failed")
         parts = [f"rendered {rendered} of {self.planned} scenes"]
         if skipped:
             parts.append(f"{skipped} up to date")
         if failed:
             parts.append(f"{failed} failed")
-        if interrupted:
-            parts.append(f"{self.planned - len(self.items)} not done")
         where = f" into {out}" if out is not None else ""
         return f"whitted: {', '.join(parts)} in {time.perf_counter() - self.start:.1f} s{where}"
 

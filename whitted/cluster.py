@@ -6,6 +6,7 @@ runs where, and what a failure does: docs/cluster.md.
 from __future__ import annotations
 
 import contextlib
+import logging
 import os
 import signal
 import sys
@@ -130,8 +131,6 @@ def check_where(workers: int | None, scheduler: str | None) -> None:
 @contextlib.contextmanager
 def connect(workers: int | None, scheduler: str | None):
     """A Dask client of a local cluster of ``workers`` processes, or of ``scheduler``'s."""
-    import logging
-
     from distributed import Client, LocalCluster
 
     cluster = client = None
@@ -179,8 +178,6 @@ def _workers_ignore_ctrl_c():
 
 def _connect_scheduler(address: str):
     """A client of the scheduler at ``address`` with at least one worker, or one clean error."""
-    import logging
-
     from distributed import Client
     from distributed.comm import parse_address, parse_host_port
     from distributed.comm.registry import get_backend

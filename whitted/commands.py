@@ -50,7 +50,7 @@ def _summary(args, result) -> str:
             f"{s['peak_resident_bytes'] / 2**20:.1f} MiB resident")
 
 
-def render_command(args) -> int:
+def render_command(args) -> int | None:
     """``whitted render``, of one scene or into a folder."""
     from .atomic import names_folder
     if names_folder(args.scenes, args.output):
@@ -60,7 +60,6 @@ def render_command(args) -> int:
         if given is not None:
             raise WhittedError(f"{option} renders scenes into a folder: give -o OUT/ (with a trailing /)")
     render_single(args)
-    return 0
 
 
 def _settings(args):

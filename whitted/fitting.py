@@ -55,12 +55,6 @@ def resampled(image: np.ndarray, size) -> np.ndarray:
     return np.array(bitmap.resample([int(size[0]), int(size[1])]), np.float32).reshape(size[1], size[0], 3)
 
 
-def _light_scale(model, light) -> float:
-    """``π d²``: a light's intensity over its article color."""
-    from .converter.description import light_intensity
-    return light_intensity(model, light.position, (1.0, 1.0, 1.0))[0]
-
-
 def fit(scene, target, *, free=FREE, iterations: int = D.FIT_ITERATIONS, width: int = D.FIT_WIDTH,
         rate=D.FIT_RATE, spp: int | None = None, progress: bool = False, on_step=None,
         target_name: str = "the target", min_gain: float = D.FIT_MIN_GAIN) -> FitResult:
@@ -75,6 +69,7 @@ def fit(scene, target, *, free=FREE, iterations: int = D.FIT_ITERATIONS, width: 
     import mitsuba as mi
 
     from .converter import parse_file
+    from .converter.description import light_intensity
     from .images import read_image
     from .loading import checked_overrides, load_model_parts
     from .metrics import EPSILON, relative_mse
@@ -102,20 +97,21 @@ def fit(scene, target, *, free=FREE, iterations: int = D.FIT_ITERATIONS, width: 
     # a sphere shape costs ~18 KB, a million of them gigabytes), each fitted color written
     # into every BSDF of its material, each light's through the scene's own frame.
     overrides = checked_overrides({"width": size[0], "height": size[1], "spp": spp})
-    loaded, bsdfs, described = load_model_parts(model, overrides, None, "whitted", False)
+    loaded, bsdfs, shown = load_model_parts(model, overrides, None, "whitted", False)
     params = mi.traverse(loaded)
     params["integrator.min_weight"] = 0.0   # the exact tree: the loss is smooth
     params.update()
     # each fitted color's places: BSDFs among the scene's parameters, or a group's own
-    fitted = {mid: bsdfs[material] for material, mid in material_ids(model).items()
+    places = {mid: bsdfs[material] for material, mid in material_ids(model).items()
               if material.texture is None}
-    fitted_ids = list(fitted)
-    scales = [_light_scale(described, light) for light in described.lights]
+    # each light's intensity over its article color, π d²
+    scales = [light_intensity(shown, light.position, (1.0, 1.0, 1.0))[0]
+              for light in shown.lights]
     shapes = {shape.id(): shape for shape in loaded.shapes()}
-    own = {name: mi.traverse(shapes[name].bsdf()) for names in fitted.values() for name in names
+    own = {name: mi.traverse(shapes[name].bsdf()) for names in places.values() for name in names
            if name in shapes}
     color_slots = {mid: [(own[name], "color.value") if name in own else (params, f"{name}.color.value")
-                         for name in names] for mid, names in fitted.items()}
+                         for name in names] for mid, names in places.items()}
     # Only what the fit writes: mi.render and params.update() walk every kept parameter
     # at each step (seconds per step with 66 431 grouped spheres' centers otherwise).
     params.keep(["integrator.ambient", *(key for slots in color_slots.values() for table, key in slots
@@ -127,7 +123,7 @@ def fit(scene, target, *, free=FREE, iterations: int = D.FIT_ITERATIONS, width: 
     if "ambient" in free:
         opt["ambient"] = mi.Float(float(params["integrator.ambient"][0]))
     if "colors" in free:
-        for mid in fitted_ids:
+        for mid in color_slots:
             table, key = color_slots[mid][0]
             opt[mid] = mi.Color3f(table[key])
     if "lights" in free:
@@ -137,7 +133,7 @@ def fit(scene, target, *, free=FREE, iterations: int = D.FIT_ITERATIONS, width: 
     def write_parameters():
         if "ambient" in opt:
             params["integrator.ambient"] = mi.Float64(opt["ambient"])
-        for mid in fitted_ids if "colors" in free else ():
+        for mid in color_slots if "colors" in free else ():
             for table, key in color_slots[mid]:
                 table[key] = opt[mid]
         for k, scale in enumerate(scales if "lights" in free else ()):
@@ -175,15 +171,14 @@ def fit(scene, target, *, free=FREE, iterations: int = D.FIT_ITERATIONS, width: 
 
     # the fitted values, as the format writes them (float32 values, exact in a float64)
     ambient = float(opt["ambient"][0]) if "ambient" in opt else model.ambient
-    colors = {mid: tuple(float(c[0]) for c in opt[mid]) for mid in fitted_ids if mid in opt}
+    colors = {mid: tuple(float(c[0]) for c in opt[mid]) for mid in color_slots if mid in opt}
     lights = [tuple(float(c[0]) for c in opt[f"light_{k}"]) if f"light_{k}" in opt else light.color
               for k, light in enumerate(model.lights)]
     with dr.suspend_grad():
         write_parameters()
     final = np.array(mi.render(loaded), np.float32)
-    fitted = fitted_model(model, ambient, colors, lights)
-    return FitResult(fitted, losses, relative_mse(final, reference), size, ambient, colors,
-                     lights, final)
+    return FitResult(fitted_model(model, ambient, colors, lights), losses,
+                     relative_mse(final, reference), size, ambient, colors, lights, final)
 
 
 def fitted_model(model, ambient: float, colors: dict, lights: list):

@@ -87,16 +87,14 @@ def _exposed(band: np.ndarray, exposure: float) -> np.ndarray:
     return np.clip(band, 0.0, BRIGHTEST, out=band)
 
 
-def _clipped(band: np.ndarray, exposure: float) -> np.ndarray:
-    return np.minimum(_exposed(band, exposure), 1.0, out=band)
-
-
-def _display_band(band: np.ndarray, exposure: float, view: str) -> np.ndarray:
-    """A band of linear RGB (in place) as sRGB-encoded display values in [0, 1]."""
-    if view == "aces":
-        _aces_processor().applyRGB(_exposed(band, exposure))
-        return np.clip(band, 0.0, 1.0, out=band)
-    return _srgb_encoded(_clipped(band, exposure), "Float32")
+def _display_band(band: np.ndarray, exposure: float, view: str, kind: str) -> np.ndarray:
+    """A band of linear RGB (in place) as sRGB-encoded display values, ``kind`` "Float32" (in
+    [0, 1]) or "UInt8" (``clip``: Mitsuba's own 8-bit encoding, as PNGs were always written)."""
+    if view == "clip":
+        return _srgb_encoded(np.minimum(_exposed(band, exposure), 1.0, out=band), kind)
+    _aces_processor().applyRGB(_exposed(band, exposure))
+    band = np.clip(band, 0.0, 1.0, out=band)
+    return band if kind == "Float32" else np.rint(band * 255.0)
 
 
 def _srgb_encoded(band: np.ndarray, kind: str) -> np.ndarray:
@@ -116,13 +114,13 @@ def _rgb_pixels(image, where: str = "") -> np.ndarray:
     return pixels
 
 
-def _banded(image, exposure, view, dtype, encode, rows_done=None) -> np.ndarray:
-    """``encode(band, exposure, view)`` of each band of rows of a linear RGB image."""
+def _banded(image, exposure, view, kind, rows_done=None) -> np.ndarray:
+    """:func:`_display_band` of each band of rows of a linear RGB image."""
     pixels, exposure, view = _rgb_pixels(image), check_exposure(exposure), check_view(view)
-    out = np.empty(pixels.shape, dtype)
+    out = np.empty(pixels.shape, np.float32 if kind == "Float32" else np.uint8)
     for start in range(0, pixels.shape[0], BAND_ROWS):
         band = np.array(pixels[start:start + BAND_ROWS], dtype=np.float32)
-        out[start:start + BAND_ROWS] = encode(band, exposure, view)
+        out[start:start + BAND_ROWS] = _display_band(band, exposure, view, kind)
         if rows_done is not None:
             rows_done(band.shape[0])
     return out
@@ -130,28 +128,12 @@ def _banded(image, exposure, view, dtype, encode, rows_done=None) -> np.ndarray:
 
 def to_display(image, exposure: float = 0.0, view: str = "clip") -> np.ndarray:
     """A linear RGB image as sRGB-encoded float32 in [0, 1]: what FLIP scores, to_srgb rounds."""
-    return _banded(image, exposure, view, np.float32, _display_band)
-
-
-def _srgb8_band(band: np.ndarray, exposure: float, view: str) -> np.ndarray:
-    if view == "clip":   # Mitsuba's own 8-bit sRGB encoding, as PNGs were always written
-        return _srgb_encoded(_clipped(band, exposure), "UInt8")
-    return np.rint(_display_band(band, exposure, view) * 255.0)
+    return _banded(image, exposure, view, "Float32")
 
 
 def to_srgb(image, exposure: float = 0.0, view: str = "clip", rows_done=None) -> np.ndarray:
     """A linear RGB image as the 8-bit sRGB a PNG holds; ``rows_done(n)`` after each band."""
-    return _banded(image, exposure, view, np.uint8, _srgb8_band, rows_done)
-
-
-def srgb_of_display(shown: np.ndarray, image, exposure: float = 0.0,
-                    view: str = "clip") -> np.ndarray:
-    """:func:`to_srgb` of ``image`` given ``shown``, its :func:`to_display`: under ``aces``
-    the same bits without tone-mapping it again; under ``clip``, Mitsuba's own 8-bit
-    encoding (not a rounding of ``shown``), from ``image``."""
-    if view == "aces":
-        return np.rint(np.asarray(shown, np.float32) * np.float32(255.0)).astype(np.uint8)
-    return to_srgb(image, exposure, view)
+    return _banded(image, exposure, view, "UInt8", rows_done)
 
 
 def clipped_fraction(srgb8: np.ndarray) -> float:
@@ -172,7 +154,8 @@ def write_image(path: str | os.PathLike, image, progress: bool = False, exposure
                 view: str = "clip", shown: np.ndarray | None = None) -> None:
     """Write a linear RGB image (H, W, 3) as EXR (linear, ``exposure`` and ``view`` ignored) or
     PNG (8-bit sRGB as displayed); ``progress`` shows the conversion and the writing on stderr;
-    ``shown``: the image's :func:`to_display` when already made (see :func:`srgb_of_display`)."""
+    ``shown``: the image's :func:`to_display` when already made, whose bits an ``aces`` PNG
+    takes without tone-mapping again (``clip`` is Mitsuba's own encoding, of ``image``)."""
     import mitsuba as mi
 
     from .atomic import atomic_path
@@ -181,8 +164,8 @@ def write_image(path: str | os.PathLike, image, progress: bool = False, exposure
     suffix = image_format(path)
     pixels = _rgb_pixels(image, f"{path}: ")
     name = Path(path).name
-    if suffix == ".png" and shown is not None:
-        data = srgb_of_display(shown, pixels, exposure, view)
+    if suffix == ".png" and shown is not None and view == "aces":
+        data = np.rint(np.asarray(shown, np.float32) * np.float32(255.0)).astype(np.uint8)
     elif suffix == ".png":
         with progress_bar(progress, pixels.shape[0], f"encoding {name}", unit="row", unit_scale=False) as bar:
             data = to_srgb(pixels, exposure, view, rows_done=bar.update)

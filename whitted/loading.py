@@ -11,12 +11,11 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from . import defaults as D
-from .defaults import check_lighting
 from .errors import WhittedError, first_line
 
 #: the scene parameters a load may override (the XML's ``<default>``s), and their checks
 OVERRIDES = {"spp": D.check_spp, "max_depth": D.check_depth, "ambient": D.check_ambient,
-             "lighting": check_lighting, "width": lambda v: D.check_size(v, "width"),
+             "lighting": D.check_lighting, "width": lambda v: D.check_size(v, "width"),
              "height": lambda v: D.check_size(v, "height"), "without": D.check_without}
 
 #: Mitsuba's parallel loading: off, slower at every size measured (benchmarks/RESULTS.md,
@@ -149,8 +148,6 @@ def check_referenced_files(path: Path) -> None:
 def loads(text: str, variant: str | None = None, *, base_dir: str | os.PathLike = ".",
           ellipsoids: bool | None = None, integrator: str = D.INTEGRATOR, **overrides):
     """:func:`load_scene` of ``.scn`` text (textures relative to ``base_dir``)."""
-    import mitsuba as mi  # noqa: F401  (the variant hook runs on import)
-
     from .converter import parse_text
     from .converter.frame import warn_scene
     if not isinstance(text, str):
@@ -188,15 +185,15 @@ def _load_model(model, params: dict, ellipsoids: bool | None, integrator: str, m
 
 
 def load_model_parts(model, params: dict, ellipsoids: bool | None, integrator: str, meshes: bool = True):
-    """``(scene, bsdfs, described)`` for a fit: the loaded scene, each material's BSDF and
+    """``(scene, bsdfs, shown)`` for a fit: the loaded scene, each material's BSDF and
     ``sealed_K`` ids, and the model as the scene shows it."""
     from .converter.description import _shared, first_spheres, material_ids
-    scene, described, grouped, _ = _scene_dict(model, params, ellipsoids, integrator)
+    scene, shown, grouped, _ = _scene_dict(model, params, ellipsoids, integrator)
     ids = material_ids(model)
-    bsdfs = {material: [ids[material]] for material in first_spheres(described)}
+    bsdfs = {material: [ids[material]] for material in first_spheres(shown)}
     for k, material in enumerate(grouped):
         bsdfs.setdefault(_shared(material), []).append(f"sealed_{k}")
-    return _loaded(scene, meshes), bsdfs, described
+    return _loaded(scene, meshes), bsdfs, shown
 
 
 def _scene_dict(model, params: dict, ellipsoids: bool | None, integrator: str) -> tuple[dict, object, list, float]:
@@ -211,9 +208,9 @@ def _scene_dict(model, params: dict, ellipsoids: bool | None, integrator: str) -
                                  classes=sealed.MAX_LAYERS, smaller=integrator == "whitted")
     if grouping is None:
         return mitsuba_dict(describe(model, base_dir=None), params), model, [], 1.0
-    described = sealed.remaining(model, grouping)
-    scene, grouped = _sealed_dict(described, model, grouping, params)
-    return scene, described, grouped, grouping.scale
+    shown = sealed.remaining(model, grouping)
+    scene, grouped = _sealed_dict(shown, model, grouping, params)
+    return scene, shown, grouped, grouping.scale
 
 
 def _loaded(scene: dict, meshes: bool):

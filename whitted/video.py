@@ -61,8 +61,6 @@ def _even(pixels):
     """Pad an odd width or height by one repeated column or row (yuv420p needs even sizes)."""
     import numpy as np
     height, width = pixels.shape[:2]
-    if height % 2 == 0 and width % 2 == 0:
-        return pixels
     return np.pad(pixels, ((0, height % 2), (0, width % 2), (0, 0)), mode="edge")
 
 

@@ -49,7 +49,7 @@ def pixel_coordinate(text: str):
                                          "such as 45%") from None
 
 
-def trace_command(args) -> int:
+def trace_command(args) -> None:
     """Trace the pixels, print their trees, write the page (everything checked first)."""
     from ..atomic import check_writable
     from ..converter.parser import check_scene_file
@@ -75,4 +75,3 @@ def trace_command(args) -> int:
         print(str(traces))
     if page is not None:
         print(f"whitted: wrote {page}", file=sys.stderr)
-    return 0

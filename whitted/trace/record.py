@@ -13,7 +13,7 @@ import numpy as np
 
 from .nodes import LightTerm, Node
 
-_VECTORS = {"o", "d", "color", "p", "n", "n_facing", "base", "point", "position", "strength",
+_VECTORS = {"o", "d", "color", "p", "n", "base", "point", "position", "strength",
             "ray_o", "ray_d", "value", "child_o", "child_d"}
 
 
