@@ -128,10 +128,9 @@ _following: dict = {}
 _owed: list[str] = []
 
 
-@pytest.hookimpl(wrapper=True)
+@pytest.hookimpl(tryfirst=True)
 def pytest_runtest_protocol(item, nextitem):
     _following["item"] = nextitem
-    return (yield)
 
 
 def selected(item) -> str | None:
