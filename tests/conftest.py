@@ -64,13 +64,18 @@ def group(nodeid: str) -> str:
 
 @pytest.hookimpl(tryfirst=True)
 def pytest_collection_modifyitems(config, items):
-    """The tests in the order of :data:`SLOW_FIRST` (a stable sort: within a group, tests keep
-    their order)."""
+    """The tests in the order of :data:`SLOW_FIRST`, and within a file, those that select
+    scalar_rgb through :func:`variant` last, so that they follow one another
+    (:func:`restore_variant`); a stable sort: otherwise tests keep their order."""
     rank = {name: k for k, name in enumerate(SLOW_FIRST)}
+    first = {}
+    for k, item in enumerate(items):
+        first.setdefault(item.path, k)
 
-    def order(item) -> int:
+    def order(item) -> tuple[int, int, bool]:
         name = group(item.nodeid)
-        return rank.get(name, len(rank) + (item.path.name in SPLIT))
+        return (rank.get(name, len(rank) + (item.path.name in SPLIT)), first[item.path],
+                selected(item) == "scalar_rgb")
     items.sort(key=order)
 
 
@@ -117,12 +122,58 @@ def own_user_cache(tmp_path_factory):
     yield from _fresh_user_cache(tmp_path_factory)
 
 
+#: the test that runs after the one running now on this worker (None: the last one)
+_following: dict = {}
+#: the variant that the tests since the last restore found before them (:func:`restore_variant`)
+_owed: list[str] = []
+
+
+@pytest.hookimpl(tryfirst=True)
+def pytest_runtest_protocol(item, nextitem):
+    _following["item"] = nextitem
+
+
+def selected(item) -> str | None:
+    """The variant that the test ``item`` selects through :func:`variant` or :func:`llvm`."""
+    fixtures = getattr(item, "_fixtureinfo", None)
+    for name, variant in (("variant", None), ("llvm", "llvm_ad_rgb")):
+        definitions = fixtures.name2fixturedefs.get(name) if fixtures else None
+        if definitions and definitions[-1].func.__module__ == __name__:
+            return variant or item.callspec.params[name]
+    return None
+
+
+def sees_no_difference(item) -> bool:
+    """Whether the test ``item`` sets up nothing that could see the variant before it selects
+    its own: its fixtures of a wider scope are set up already (with its parameters), those of
+    a test's scope are pytest's, its parameters or this file's (which ignore the variant)."""
+    params = getattr(item, "callspec", None)
+    params = params.params if params else {}
+    for definitions in item._fixtureinfo.name2fixturedefs.values():
+        definition = definitions[-1]
+        if definition.scope == "function":
+            if not getattr(definition.func, "__module__", "").startswith(("_pytest.", __name__)):
+                return False
+        elif definition.cached_result is None or \
+                definition.cached_result[1] != params.get(definition.argname):
+            return False
+    return True
+
+
 @pytest.fixture(autouse=True)
-def restore_variant():
-    """Every test leaves Mitsuba's variant as it found it."""
-    previous = mi.variant()
+def restore_variant(request):
+    """Every test leaves Mitsuba's variant as it found it, but where the next test, in the
+    same file, selects the variant this one leaves and :func:`sees_no_difference`: that
+    one then restores it, or the next. Switching to an llvm variant costs ~70 ms of CPU
+    (Mitsuba re-imports its Python integrators), after every scalar_rgb test otherwise."""
+    found = _owed.pop() if _owed else mi.variant()
     yield
-    whitted.set_variant(previous)
+    following = _following.get("item")
+    if mi.variant() != found and following is not None and following.path == request.node.path \
+            and selected(following) == mi.variant() and sees_no_difference(following):
+        _owed.append(found)
+    else:
+        whitted.set_variant(found)
 
 
 @pytest.fixture(params=VARIANTS)

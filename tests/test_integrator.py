@@ -161,7 +161,6 @@ def suite(tmp_path_factory):
 
 # -- the scene suite ---------------------------------------------------------------------------------
 
-@pytest.mark.parametrize("variant", VARIANTS)
 @pytest.mark.parametrize("name", SUITE)
 def test_matches_the_reference(suite, name, variant):
     assert_matches(suite(name, variant), suite(name, "reference"))
@@ -199,7 +198,6 @@ def test_ambient_one_without_lights_shows_base_colors(suite):
 
 # -- lighting ----------------------------------------------------------------------------------------
 
-@pytest.mark.parametrize("variant", VARIANTS)
 @pytest.mark.parametrize("name", ("diffuse_shadow", "mirror", "colored_lights"))
 def test_physical_lighting_matches_the_reference(tmp_path, name, variant):
     model = scene(name, tmp_path)
@@ -318,7 +316,6 @@ def test_mi_render_uses_the_integrator(suite):
     np.testing.assert_array_equal(image, suite("mirror", "llvm_ad_rgb"))
 
 
-@pytest.mark.parametrize("variant", VARIANTS)
 def test_sample_traces_a_whole_tree(suite, variant):
     """``sample()`` (Mitsuba's per-ray entry point) gives a ray's full color."""
     model = suite("glass", "model")
@@ -344,7 +341,6 @@ def test_bad_properties_are_rejected(props, message):
 EXAMPLES = sorted((Path(__file__).resolve().parent.parent / "scenes").glob("*.scn"))
 
 
-@pytest.mark.parametrize("variant", VARIANTS)
 @pytest.mark.parametrize("path", EXAMPLES, ids=[p.stem for p in EXAMPLES])
 def test_example_scenes_match_the_reference(path, variant):
     """The scenes/ examples (parsed, at a fifth of their size) match the reference."""

@@ -17,7 +17,6 @@ import whitted.rendering
 from float64_reference import Reference
 from whitted.converter import Light, Material, Scene, Sphere, scene_to_xml
 
-from conftest import VARIANTS
 W, H = 24, 16
 #: the keys issue 6 requires; the adaptive depth control adds its own (tests/test_adaptive.py)
 KEYS = {"rays", "seconds", "compile_seconds", "effects", "max_depth_reached", "peak_memory_bytes"}
@@ -42,7 +41,6 @@ def mixed(depth=5) -> Scene:
                           Sphere((1.2, 0.0, 0.5), 0.9, Material(reflect=0.1, refract=0.85, ior=1.5))])
 
 
-@pytest.mark.parametrize("variant", VARIANTS)
 def test_diffuse_scene_at_depth_16_traces_no_secondary_rays(variant):
     stats = whitted.render(load(diffuse(depth=16), variant), spp=3).stats
     assert KEYS <= set(stats)
@@ -53,14 +51,12 @@ def test_diffuse_scene_at_depth_16_traces_no_secondary_rays(variant):
     assert stats["effects"] == ["lights"]
 
 
-@pytest.mark.parametrize("variant", VARIANTS)
 def test_scene_without_lights_casts_no_shadow_rays(variant):
     stats = whitted.render(load(diffuse(lights=False), variant)).stats
     assert stats["rays"]["shadow"] == 0
     assert "lights" not in stats["effects"]
 
 
-@pytest.mark.parametrize("variant", VARIANTS)
 @pytest.mark.parametrize("depth", (1, 2, 5))
 def test_ray_counts_match_the_reference(variant, depth):
     """Every ray the article's recursion traces is counted once, and no other.

@@ -19,9 +19,10 @@ sys.path.insert(0, str(REPO / "tests" / "hard_cases"))
 import hazard_scenes as hs  # noqa: E402
 
 
-@pytest.fixture(autouse=True)
+@pytest.fixture(scope="module", autouse=True)
 def one_thread():
-    """One Dr.Jit thread: multi-level renders are then bit-identical run to run."""
+    """One Dr.Jit thread for the file's tests: multi-level renders are then bit-identical run to
+    run."""
     threads = dr.thread_count()
     dr.set_thread_count(1)
     yield

@@ -20,7 +20,7 @@ from whitted.cli import main
 from whitted.converter import Light, Material, Scene, Sphere, scene_to_xml
 from whitted.converter.scn_writer import scene_to_scn
 
-from conftest import REPO, VARIANTS
+from conftest import REPO
 
 W, H = 24, 16
 
@@ -49,27 +49,23 @@ def render(scene: Scene, variant: str, **options) -> whitted.RenderResult:
     return whitted.render(load(scene, variant), min_weight=0, **options)
 
 
-@pytest.mark.parametrize("variant", VARIANTS)
 def test_without_ambient_is_the_scene_with_ambient_0(variant):
     left_out = render(model(), variant, without="ambient")
     assert np.array_equal(left_out.image, render(model(ambient=0.0), variant).image)
 
 
-@pytest.mark.parametrize("variant", VARIANTS)
 def test_without_diffuse_is_the_scene_without_lights(variant):
     left_out = render(model(), variant, without=["diffuse"])
     assert np.array_equal(left_out.image, render(model(lights=[]), variant).image)
     assert left_out.stats["rays"]["shadow"] == 0 and "lights" not in left_out.stats["effects"]
 
 
-@pytest.mark.parametrize("variant", VARIANTS)
 def test_without_reflection_and_refraction_is_depth_1(variant):
     left_out = render(model(), variant, without="reflection,refraction")
     assert np.array_equal(left_out.image, render(model(depth=1), variant).image)
     assert left_out.stats["rays"]["reflection"] == left_out.stats["rays"]["refraction"] == 0
 
 
-@pytest.mark.parametrize("variant", VARIANTS)
 @pytest.mark.parametrize("effect", ["shadows", "reflection", "refraction", "textures"])
 def test_without_an_effect_matches_the_reference_without_it(variant, effect):
     """Against the float64 reference renderer with the same effect left out; and the rays
@@ -86,7 +82,6 @@ def test_without_an_effect_matches_the_reference_without_it(variant, effect):
         assert "textures" not in result.stats["effects"]
 
 
-@pytest.mark.parametrize("variant", VARIANTS)
 def test_without_textures_is_the_scene_with_white_spheres(variant):
     """The textured ball made plain (white, the format's default color): the same image, to
     float32 round-off of the textured sphere's rotated frame (exact in scalar_rgb)."""
@@ -96,7 +91,6 @@ def test_without_textures_is_the_scene_with_white_spheres(variant):
     assert np.abs(left_out - edited).max() <= 1e-6
 
 
-@pytest.mark.parametrize("variant", VARIANTS)
 def test_without_reflection_keeps_the_diffuse_share(variant):
     """A mirror alone in the scene: without reflection its pixels are (1 - KR)·point, the
     mirror's rays cut as at the tree's last level (``max_depth`` 1)."""

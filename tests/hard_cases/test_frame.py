@@ -14,7 +14,6 @@ import pytest
 
 import hazard_scenes as hs
 import whitted
-from conftest import VARIANTS
 from float64_reference import assert_matches, render_reference
 from whitted.cli import main
 from whitted.converter import Sphere, parse_file, scene_to_xml
@@ -142,13 +141,11 @@ def far_eye(distance: float):
     return scene
 
 
-@pytest.mark.parametrize("variant", VARIANTS)
 def test_the_warning_marks_where_float32_loses_the_detail(variant):
     """Giant floors are exact in the Whitted integrator (converter/giants.py), so a floor of
     radius 10^6 under balls of 0.3 is not warned about (and matches: test_giants.py); an eye
     10^5 away is not either (ε·extent/r = 0.02, 0.2 % of the pixels off), one 10^6 away is
     (0.2; measured 2 % off, 19 % at 10^7: docs/numerics.md, hazard 6)."""
-    whitted.set_variant(variant)
     assert precision_warning(floor_scene(1e6)) is None
     for distance, warned in ((1e5, False), (1e6, True)):
         scene = far_eye(distance)

@@ -16,7 +16,6 @@ import pytest
 
 import hazard_scenes as hs
 import whitted
-from conftest import VARIANTS
 from float64_reference import Reference, assert_matches
 from whitted.cli import main
 from whitted.converter import Light, Scene, Sphere, scene_to_xml
@@ -75,7 +74,6 @@ def loaded(tmp_path_factory):
     return get
 
 
-@pytest.mark.parametrize("variant", VARIANTS)
 @pytest.mark.parametrize("name", list(hs.GIANTS))
 def test_giant_scene_matches_the_reference(giants, name, variant):
     assert_matches(giants(name, variant), giants(name, "reference"))
@@ -121,7 +119,6 @@ def test_the_integrator_gets_the_exact_values():
     assert float(np.float32(center[1])) != center[1]
 
 
-@pytest.mark.parametrize("variant", VARIANTS)
 def test_without_the_exact_values_the_floor_breaks_up(giants, variant):
     """The same XML with ``exact_spheres`` emptied is what the integrator did before: on a
     floor of radius 10^6 its offsets lift shadow and reflection rays over the balls."""
@@ -274,14 +271,12 @@ def test_mitsubas_path_tracer_is_free_of_acne(tmp_path, llvm, name, route):
     assert error <= 2e-3 and off <= 0.01, f"relative MSE {error:.2e}, {off:.2%} of pixels off by > 0.1"
 
 
-@pytest.mark.parametrize("variant", VARIANTS)
 @pytest.mark.parametrize("radius", [1e4, 1e7])
 def test_rays_leaving_a_giant_floor_do_not_meet_it_again(variant, radius):
     """test_acne.py's experiment on the float64 finder: hits on a floor of radius 10^4 or
     10^7 near the balls, found by camera rays; a ray leaving each hit upwards must miss the
     floor, one leaving downwards must meet it again (its far side), and the shadow segment
     to a light above must be clear, all with the offsets of the point's own error bound."""
-    whitted.set_variant(variant)
     from whitted.plugins.scene_tables import scene_tables
     from whitted.plugins.hits import scene_hits
     from whitted.plugins.hits import spawn_ray, spawn_ray_to
@@ -371,7 +366,6 @@ LOADING_PATHS = {
 }
 
 
-@pytest.mark.parametrize("variant", VARIANTS)
 @pytest.mark.parametrize("name", list(hs.GIANTS))
 def test_every_loading_path_matches_the_reference(giants, loaded, tmp_path, name, variant):
     """Each way a scene is loaded (:data:`LOADING_PATHS`) gives the Whitted integrator the
@@ -379,7 +373,6 @@ def test_every_loading_path_matches_the_reference(giants, loaded, tmp_path, name
     against the float64 reference. A way that hands over Mitsuba's float32 sphere where the
     integrator expects the exact one (a light 3 units above a floor of radius 10^7 lies
     within that sphere's error bound of 7) moves the shadows."""
-    whitted.set_variant(variant)
     model = hs.GIANTS[name]()
     path, _ = _written(model, tmp_path)
     failures = []
@@ -394,14 +387,12 @@ def test_every_loading_path_matches_the_reference(giants, loaded, tmp_path, name
     assert not failures, "\n".join(failures)
 
 
-@pytest.mark.parametrize("variant", VARIANTS)
 @pytest.mark.parametrize("name", list(SCN_SCENES))
 def test_meshes_or_spheres_the_whitted_image_is_the_same(loaded, name, variant):
     """``whitted render`` loads a ``.scn`` with its giant spheres as Mitsuba spheres, not the
     meshes Mitsuba's own integrators get (``load_scene(meshes=False)``): the Whitted
     integrator intersects them itself, so the images are the same bit for bit, on every giant
     scene and the hazard scene that holds a giant."""
-    whitted.set_variant(variant)
     assert loaded(name, True).tobytes() == loaded(name, False).tobytes()
 
 

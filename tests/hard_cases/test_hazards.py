@@ -18,7 +18,6 @@ import pytest
 import hazard_scenes as hs
 import whitted
 import whitted.rendering
-from conftest import VARIANTS
 from float64_reference import Reference, assert_matches, lat_long, load_texels, texel
 from whitted.converter import scene_to_xml
 
@@ -48,7 +47,6 @@ def hazards(tmp_path_factory):
     return get
 
 
-@pytest.mark.parametrize("variant", VARIANTS)
 @pytest.mark.parametrize("name", list(hs.HAZARDS))
 def test_hazard_scene_matches_the_reference(hazards, name, variant):
     assert_matches(hazards(name, variant).image, hazards(name, "reference").image)
@@ -56,7 +54,6 @@ def test_hazard_scene_matches_the_reference(hazards, name, variant):
 
 # -- sharper checks where a hazard strikes -------------------------------------------------------
 
-@pytest.mark.parametrize("variant", VARIANTS)
 @pytest.mark.parametrize("name", ["texture_poles", "arccos_range"])
 def test_the_pole_pixel_shows_u_0(hazards, name, variant):
     """The middle pixel's ray meets a pole: sin(phi) = 0, so u = 0, and v is 1 (the north
@@ -82,7 +79,6 @@ def test_scenes_exercise_total_internal_reflection(hazards, name):
     assert hazards(name, "reference").tir_events > 0
 
 
-@pytest.mark.parametrize("variant", VARIANTS)
 def test_facing_mirrors_trace_to_the_last_level(hazards, variant):
     """Rays bounce between the mirrors down to depth 64, as many as in the reference."""
     stats = hazards("facing_mirrors", variant).stats
@@ -91,7 +87,6 @@ def test_facing_mirrors_trace_to_the_last_level(hazards, variant):
     assert stats["rays"]["reflection"] == pytest.approx(reference.rays["reflection"], rel=0.005)
 
 
-@pytest.mark.parametrize("variant", VARIANTS)
 def test_light_at_the_hit_point_adds_nothing_there(hazards, variant):
     """The middle pixel's hit is the first light's position: L has no direction, and the
     spec's s is taken as its limit along the surface, 0. The pixel shows the ambient term
@@ -114,12 +109,10 @@ SINGULAR = {
 }
 
 
-@pytest.mark.parametrize("variant", VARIANTS)
 @pytest.mark.parametrize("where", list(SINGULAR))
 def test_lat_long_uv_at_singular_points(variant, where):
     """The integrator's UV (plugins/hits.py) is the spec's (u, 1 - v) at the poles, on the
     seam and an ulp beyond |Vn·Vp| = 1, where arccos and the division by sin(phi) fail."""
-    whitted.set_variant(variant)
     from whitted.converter import Sphere
     from whitted.plugins.hits import lat_long_uv
     n = SINGULAR[where]
@@ -133,10 +126,8 @@ def test_lat_long_uv_at_singular_points(variant, where):
     assert 1 - v == pytest.approx(expected_v, abs=1e-6)
 
 
-@pytest.mark.parametrize("variant", VARIANTS)
 def test_a_shadow_ray_to_its_own_origin_is_finite(variant):
     """A light exactly at the offset origin: the shadow segment has length 0 (no 0/0)."""
-    whitted.set_variant(variant)
     from whitted.plugins.hits import offset_origin, spawn_ray_to
     si = dr.zeros(mi.SurfaceInteraction3f)
     si.p, si.n = mi.Point3f(1.0, 2.0, 3.0), mi.Vector3f(0.0, 1.0, 0.0)
@@ -148,12 +139,10 @@ def test_a_shadow_ray_to_its_own_origin_is_finite(variant):
     assert np.all(np.array(ray.maxt) <= 0)   # an empty segment: nothing can block it
 
 
-@pytest.mark.parametrize("variant", VARIANTS)
 def test_refraction_stays_finite_beyond_the_critical_angle(variant):
     """k = 1 - n²(1 - c1²) < 0: the caller takes the mirror direction, but T itself must
     stay finite (plugins/hits.py), from grazing (c1 = 0) to just past the critical angle,
     and for c1 an ulp above 1."""
-    whitted.set_variant(variant)
     from whitted.plugins import hits as optics
     n = mi.Vector3f(0.0, 0.0, 1.0)
     for eta in (1.5, 1 / 0.6, 50.0):
@@ -167,11 +156,9 @@ def test_refraction_stays_finite_beyond_the_critical_angle(variant):
                 assert bool(np.ravel(np.array(tir))[0])
 
 
-@pytest.mark.parametrize("variant", VARIANTS)
 def test_directions_stay_unit_along_a_deep_mirror_chain(variant):
     """64 reflections (the deepest tree the format allows) off random normals: the ray
     direction keeps |d| = 1 to float32 round-off, so c1 and k keep their meaning at depth 64."""
-    whitted.set_variant(variant)
     from whitted.plugins import hits as optics
     rng = np.random.default_rng(2)
     lanes = 1000 if dr.is_jit_v(mi.Float) else 20

@@ -20,7 +20,6 @@ import pytest
 import hazard_scenes as hs
 import whitted
 import whitted.rendering
-from conftest import VARIANTS
 from float64_reference import assert_matches, render_reference
 from whitted.converter import scene_to_xml
 
@@ -73,7 +72,6 @@ def cached(tmp_path_factory):
     return get
 
 
-@pytest.mark.parametrize("variant", VARIANTS)
 @pytest.mark.parametrize("transform", list(TRANSFORMS))
 @pytest.mark.parametrize("name", SCENES)
 def test_same_image_after_moving_or_scaling(cached, name, transform, variant):
@@ -82,7 +80,6 @@ def test_same_image_after_moving_or_scaling(cached, name, transform, variant):
     assert_matches(image, cached(name, transform, "reference"))
 
 
-@pytest.mark.parametrize("variant", VARIANTS)
 def test_path_tracer_far_from_the_origin_is_the_same_render(cached, variant):
     """Mitsuba's own ``path`` integrator, same seed, at the origin and moved by 10^6: in the
     converter's frame both are the same float32 scene, so the two renders agree to float
