@@ -232,6 +232,15 @@ def without_report_pictures(patch: pytest.MonkeyPatch) -> None:
     patch.setattr("whitted.compare.report.contact_sheet", empty)
 
 
+def without_headline_rounds(patch: pytest.MonkeyPatch) -> None:
+    """``whitted compare``'s timing rounds stopped after the rounds asked for, through ``patch``:
+    no extra rounds of the headlines' renders, for the comparisons whose tests read no headline
+    interval (those rounds are most of a small comparison's timing). The extra rounds themselves
+    are checked in test_compare_timing.py."""
+    patch.setattr("whitted.compare.sweep.COMPARE_HEADLINE_ROUNDS", 0)
+    patch.setattr("whitted.compare.sweep.COMPARE_ROUNDS_SECONDS", 0.0)
+
+
 def session_left(sid: int, seconds: float = 30.0) -> list[int]:
     """The processes still in session ``sid`` (a ``start_new_session`` child's pid) once
     they have all ended or ``seconds`` have passed: what a finished command left behind."""

@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from conftest import without_report_pictures
+from conftest import without_headline_rounds, without_report_pictures
 from whitted import compare as cmp
 from whitted import metrics
 from whitted.images import read_image
@@ -47,6 +47,7 @@ def examples(tmp_path_factory):
     with pytest.MonkeyPatch.context() as patch:
         patch.setattr("whitted.compare.limits.fit_to_reference", lambda *args, **kwargs: None)
         without_report_pictures(patch)
+        without_headline_rounds(patch)
         return out, cmp.compare(scenes, cmp.Options(out=out, **LADDERS))
 
 

@@ -21,7 +21,7 @@ from pathlib import Path
 
 import pytest
 
-from conftest import without_report_pictures
+from conftest import without_headline_rounds, without_report_pictures
 from whitted import compare as cmp
 from whitted.defaults import COMPARE_FLOOR_TOLERANCE
 
@@ -71,6 +71,7 @@ def run(tmp_path_factory):
                           path_spp=PATH_SPP, rounds=1, quiet=True)
     with pytest.MonkeyPatch.context() as patch:
         without_report_pictures(patch)
+        without_headline_rounds(patch)
         result = cmp.compare([scenes], options)
     findings = json.loads((out / "findings.json").read_text(encoding="utf-8"))
     assert result.findings == findings  # the Python entry point returns what the file holds
