@@ -32,7 +32,7 @@ pytest.importorskip("distributed")
 psutil = pytest.importorskip("psutil")  # a dependency of distributed
 
 from test_compare import MIRROR_SCENE  # noqa: E402  (the same small scene as the in-process tests)
-from conftest import session_left, without_report_pictures  # noqa: E402
+from conftest import session_left, without_headline_rounds, without_report_pictures  # noqa: E402
 
 DASK = Path(sys.executable).parent / "dask"
 
@@ -100,6 +100,7 @@ def in_process(scenes, tmp_path_factory) -> Path:
     out = tmp_path_factory.mktemp("in-process")
     with pytest.MonkeyPatch.context() as patch:
         without_report_pictures(patch)
+        without_headline_rounds(patch)   # the rounds are among the VARYING columns
         assert main(["compare", str(scenes), "--out", str(out), "--cache", str(out / "references"),
                      *OPTIONS]) == 0
     return out
