@@ -156,10 +156,7 @@ def write_image(path: str | os.PathLike, image, progress: bool = False, exposure
     PNG (8-bit sRGB as displayed); ``progress`` shows the conversion and the writing on stderr;
     ``shown``: the image's :func:`to_display` when already made, whose bits an ``aces`` PNG
     takes without tone-mapping again (``clip`` is Mitsuba's own encoding, of ``image``)."""
-    import mitsuba as mi
-
-    from .atomic import atomic_path
-    from .progress import elapsed, progress_bar
+    from .progress import progress_bar
 
     suffix = image_format(path)
     pixels = _rgb_pixels(image, f"{path}: ")
@@ -171,9 +168,19 @@ def write_image(path: str | os.PathLike, image, progress: bool = False, exposure
             data = to_srgb(pixels, exposure, view, rows_done=bar.update)
     else:
         data = np.ascontiguousarray(pixels)
+    write_pixels(path, data, progress)
+
+
+def write_pixels(path: str | os.PathLike, data: np.ndarray, progress: bool = False) -> None:
+    """Write RGB pixels (H, W, 3) as they are, atomically: EXR of floats, PNG of 8-bit values."""
+    import mitsuba as mi
+
+    from .atomic import atomic_path
+    from .progress import elapsed
+
     bitmap = mi.Bitmap(data, pixel_format=mi.Bitmap.PixelFormat.RGB)
     del data
-    with atomic_path(path) as tmp, elapsed(progress, f"writing {name}"):
+    with atomic_path(path) as tmp, elapsed(progress, f"writing {Path(path).name}"):
         try:
             bitmap.write(str(tmp))
         except RuntimeError as error:

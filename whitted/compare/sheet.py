@@ -14,8 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..atomic import atomic_path
-from ..images import to_srgb, write_image
+from ..images import to_srgb, write_image, write_pixels
 from .analysis import modelled_path
 from .plot import save_figure
 from .results import WHITTED_LIGHTING, WHITTED_METHODS, Measurement, SceneResult, seconds_text
@@ -53,14 +52,11 @@ def write_render(out: Path, stem: str, image: np.ndarray, shown: np.ndarray,
     write_image(out / files["image_png"], image, exposure=exposure, view=view, shown=shown)
     if error_map is not None:   # as FLIP draws it: display colors, no transfer curve
         import matplotlib
-        import mitsuba as mi
 
         files["error_map"] = f"{stem}-flip.png"
         values = np.clip(np.nan_to_num(np.asarray(error_map, dtype=np.float64)), 0.0, 1.0)
         colors = np.round(matplotlib.colormaps[COLORMAP](values)[..., :3] * 255.0).astype(np.uint8)
-        bitmap = mi.Bitmap(colors, pixel_format=mi.Bitmap.PixelFormat.RGB)
-        with atomic_path(out / files["error_map"]) as tmp:
-            bitmap.write(str(tmp))
+        write_pixels(out / files["error_map"], colors)
     return files
 
 
