@@ -103,6 +103,10 @@ COMPARE_CONFIDENCE = 0.9   #: how surely a headline's interval holds the median 
 COMPARE_ROUND_SECONDS = 0.05
 COMPARE_ROUND_REPEATS = 8
 COMPARE_SETTLED_WIDTH = 0.25
+#: the equal-quality table's fastest method ties with each method not measurably more than this
+#: share slower (paired interval's low end): a render's time moves ~5% between runs of a shared
+#: machine, so a smaller lead would name a winner by the machine's load
+COMPARE_TIE_SHARE = 0.05
 COMPARE_TIMING_THREADS = 1   #: LLVM threads of a timed render (None: all)
 COMPARE_CLOCK = "cpu"   #: the timing rounds' clock, "cpu" or "wall"
 #: Dr.Jit's memory cache is handed back between settings once the process holds more than this
