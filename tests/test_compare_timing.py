@@ -214,8 +214,10 @@ def _sweep_entry() -> SceneResult:
 
 
 def test_rounds_interleave_the_settings_forward_then_backward(monkeypatch):
-    """Every setting once per round, in order, then in reverse; within a round a render under
-    50 ms is repeated until its renders add up to 50 ms (at most 8) and the fastest kept."""
+    """The first round times every setting once, in order; the next ones, in reverse then in
+    order, only the renders the verdict reads (the path tracer's, floors, each level's
+    cheapest); within a round a render under 50 ms is repeated until its renders add up to
+    50 ms (at most 8) and the fastest kept."""
     import itertools
 
     import whitted.compare.sweep as sweep_module
@@ -224,12 +226,17 @@ def test_rounds_interleave_the_settings_forward_then_backward(monkeypatch):
     base = {("whitted", 1, 1): 0.001, ("whitted", 2, 1): 0.002, ("path", 6, 1): 0.012, ("path", 6, 4): 0.04}
     # every third render is slowed 1.5×: the fastest of a round's repeats is the base time
     renders = _FakeRenders(lambda setting, call: base[setting] * (1.5 if call % 3 == 0 else 1.0), monkeypatch)
-    entry = _sweep_entry()
+    entry = SceneResult("made-up", None, 4, 4, "test", 1024, 6)
+    # d2 has d1's error for twice its work: neither the floor nor any level's cheapest
+    entry.measurements += [_measurement("whitted-article", 1, 1, (), 0.2, 1),
+                           _measurement("whitted-article", 2, 1, (), 0.2, 2),
+                           _measurement("path", 6, 1, (), 0.4, 1), _measurement("path", 6, 4, (), 0.1, 4)]
     time_rounds(None, entry, 3)
     order = [(m.setting.integrator, m.setting.max_depth, m.setting.spp) for m in entry.measurements]
+    verdict = [setting for setting in order if setting != ("whitted", 2, 1)]
     runs = [(setting, len(list(group))) for setting, group in itertools.groupby(renders.calls)]
     # (a round's last setting is the next round's first: their renders run together)
-    expected = [setting for setting, _ in itertools.groupby(order + order[::-1] + order)]
+    expected = [setting for setting, _ in itertools.groupby(order + verdict[::-1] + verdict)]
     assert [setting for setting, _ in runs] == expected   # three rounds: settled at once
     repeats = dict(runs[:len(order)])
     assert repeats[("whitted", 1, 1)] == 8                   # 8 ms < 50 ms: the cap
@@ -237,9 +244,10 @@ def test_rounds_interleave_the_settings_forward_then_backward(monkeypatch):
     # (40 ms: one or two renders a round; its first round's run together with the second's)
     for m in entry.measurements:
         setting = (m.setting.integrator, m.setting.max_depth, m.setting.spp)
-        assert m.rounds == 3 and m.seconds == float(np.median(m.times))
-        if repeats[setting] > 1:
-            assert m.times == (base[setting],) * 3
+        rounds = 3 if setting in verdict else 1
+        assert m.rounds == rounds and m.seconds == float(np.median(m.times))
+        if base[setting] * 1.5 < 0.05:   # repeated in every round: one of two renders is not slowed
+            assert m.times == (base[setting],) * rounds
 
 
 class _Recording(_FakeRenders):
@@ -277,7 +285,9 @@ def test_rounds_time_one_thread_s_cpu_time_with_the_memory_cache_kept(monkeypatc
     time_rounds(None, entry, 3)
     assert renders.seen and set(renders.seen) == {(1, False)}
     assert dr.thread_count() == before
-    assert all(m.times == (0.05,) * 3 and m.seconds == 0.05 for m in entry.measurements)
+    # (the path renders, which the verdict reads, in every round; the others in the first)
+    assert all(m.times == (0.05,) * (3 if m.setting.integrator == "path" else len(m.times))
+               and m.seconds == 0.05 for m in entry.measurements)
     _Recording(lambda setting, call: 0.1, monkeypatch, stop=2)
     with pytest.raises(KeyboardInterrupt):
         time_rounds(None, _sweep_entry(), 3)
@@ -295,15 +305,18 @@ def test_the_headline_s_renders_get_extra_rounds_of_their_own(monkeypatch):
     entry = _sweep_entry()
     time_rounds(None, entry, 3)
     assert EXTRA >= 1
+    # d1 (0.3) is not the floor (d2, 0.2) and reaches none of the levels (0.26 down to 0.11):
+    # the first round alone; the 200-ms path render is known from two (COMPARE_LONG_SECONDS)
     assert {(m.setting.integrator, m.setting.max_depth, m.setting.spp): m.rounds
-            for m in entry.measurements} == {("whitted", 1, 1): 3, ("whitted", 2, 1): 3 + EXTRA,
-                                             ("path", 6, 1): 3 + EXTRA, ("path", 6, 4): 3 + EXTRA}
+            for m in entry.measurements} == {("whitted", 1, 1): 1, ("whitted", 2, 1): 3 + EXTRA,
+                                             ("path", 6, 1): 3 + EXTRA, ("path", 6, 4): 2 + EXTRA}
     last_regular = max(k for k, setting in enumerate(renders.calls) if setting == ("whitted", 1, 1))
     extra = renders.calls[last_regular + 1:]
     assert set(extra) == {("whitted", 2, 1), ("path", 6, 1), ("path", 6, 4)}
-    assert len(extra) == 3 * (EXTRA + 1)   # the extra rounds, and the rest of the third round
+    # the rest of the first round, the second, the third without the long one, the extra rounds
+    assert len(extra) == 3 + 3 + 2 + 3 * EXTRA
     floor = analyse(entry).floors[0]
-    assert floor.interval.rounds == 3 + EXTRA and floor.interval.settled
+    assert floor.interval.rounds == 2 + EXTRA and floor.interval.settled
 
 
 def test_the_memory_cache_is_handed_back_above_the_bound(monkeypatch):
@@ -336,10 +349,11 @@ def test_more_rounds_while_the_headline_is_unsettled_up_to_the_cap(monkeypatch):
                  else 0.01 * setting[2] * 16 ** swing.random(), monkeypatch)
     import whitted.compare.sweep as sweep_module
     monkeypatch.setattr(sweep_module, "COMPARE_ROUNDS_SECONDS", math.inf)   # the rounds' cap alone
+    monkeypatch.setattr(sweep_module, "COMPARE_LONG_SECONDS", math.inf)     # no render sits out
     entry = _sweep_entry()
     time_rounds(None, entry, 3)
     rounds = {m.setting.label: m.rounds for m in entry.measurements}
-    assert rounds == {"d1 · 1 spp": 3, "d2 · 1 spp": COMPARE_MAX_ROUNDS, "1 spp": COMPARE_MAX_ROUNDS,
+    assert rounds == {"d1 · 1 spp": 1, "d2 · 1 spp": COMPARE_MAX_ROUNDS, "1 spp": COMPARE_MAX_ROUNDS,
                       "4 spp": COMPARE_MAX_ROUNDS}
     assert not analyse(entry).floors[0].interval.settled
 
@@ -348,8 +362,10 @@ def test_rounds_stop_before_the_budget_runs_out(monkeypatch):
     from whitted.compare.sweep import time_rounds
     clock = _FakeRenders(lambda setting, call: 0.01, monkeypatch)
     entry = _sweep_entry()
-    time_rounds(None, entry, 5, deadline=clock.now + 0.5)   # a round: 4 × 50 ms; 2 fit
-    assert all(m.rounds == 2 for m in entry.measurements)
+    # the first round: 4 × 50 ms, the next: the verdict's 3 × 50 ms (not d1, see above); 2 fit
+    time_rounds(None, entry, 5, deadline=clock.now + 0.4)
+    assert {m.setting.label: m.rounds for m in entry.measurements} == {
+        "d1 · 1 spp": 1, "d2 · 1 spp": 2, "1 spp": 2, "4 spp": 2}
     assert entry.notes == ["timed in 2 rounds, not 5: the next would have overrun the scene's "
                            "share of --budget"]
 
@@ -359,7 +375,9 @@ def test_extra_rounds_time_the_unsettled_headline_s_renders_only(monkeypatch):
     time is known by then): the headline is read between
     the path tracer's 1 and 4 spp renders, which the extra rounds time with the floor render;
     the ratio pairs the rounds that timed all three."""
+    import whitted.compare.sweep as sweep_module
     from whitted.compare.sweep import time_rounds
+    monkeypatch.setattr(sweep_module, "COMPARE_LONG_SECONDS", 1.0)   # the 3-s render alone is long
     swing = random.Random(3)
     _FakeRenders(lambda setting, call: 3.0 if setting[2] == 64 else 0.002 if setting[0] == "whitted"
                  else 0.01 * setting[2] * 16 ** swing.random(), monkeypatch)
@@ -367,7 +385,7 @@ def test_extra_rounds_time_the_unsettled_headline_s_renders_only(monkeypatch):
     entry.measurements.append(_measurement("path", 6, 64, (), 0.02, 64))
     time_rounds(None, entry, 3)
     rounds = {m.setting.label: m.rounds for m in entry.measurements}
-    assert rounds["d1 · 1 spp"] == 3 and rounds["64 spp"] == COMPARE_LONG_ROUNDS
+    assert rounds["d1 · 1 spp"] == 1 and rounds["64 spp"] == COMPARE_LONG_ROUNDS
     assert rounds["d2 · 1 spp"] == rounds["1 spp"] == rounds["4 spp"] > 3
     assert 3 < analyse(entry).floors[0].interval.rounds <= rounds["1 spp"]
 

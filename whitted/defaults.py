@@ -95,7 +95,7 @@ COMPARE_ROUNDS = 3
 COMPARE_HEADLINE_ROUNDS = 8
 COMPARE_MAX_ROUNDS = 25
 COMPARE_ROUNDS_SECONDS = 8.0
-COMPARE_LONG_SECONDS = 1.0
+COMPARE_LONG_SECONDS = 0.1
 COMPARE_LONG_ROUNDS = 2
 COMPARE_CONFIDENCE = 0.9   #: how surely a headline's interval holds the median ratio
 #: a round repeats a render back to back for COMPARE_ROUND_SECONDS (its fastest time counts), at
@@ -309,6 +309,6 @@ FIT_MIN_GAIN = 0.005
 #: the widest image a fit renders (the target is box-filtered down to it)
 FIT_WIDTH = 80
 #: the most samples per pixel compare's fit renders with (as many as the limit has, up to this)
-FIT_SPP = 16
+FIT_SPP = 8
 #: Adam's learning rate at the first and at the last step (it falls geometrically between)
 FIT_RATE = (0.03, 1e-4)

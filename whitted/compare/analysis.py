@@ -27,8 +27,9 @@ POSSESSIVES = {"whitted-article": "the article model's",
 _THREADS = {None: "the process's threads", 1: "one thread"}.get(COMPARE_TIMING_THREADS,
                                                                 f"{COMPARE_TIMING_THREADS} threads")
 #: What the reports say the renders' times are.
-TIMING = ("the median of timed rounds in which every render of a scene is timed once (so that "
-          "what is compared is timed in the same moments), each render's "
+TIMING = ("the median of timed rounds: a first in which every render of a scene is timed once, "
+          "then rounds of the renders the verdict reads (so that what is compared is timed in "
+          "the same moments), each render's "
           f"{'CPU' if COMPARE_CLOCK == 'cpu' else 'wall'} time on {_THREADS} (wall time on a GPU), "
           "kernel compilation excluded; a ratio of times is the median of its per-round ratios, "
           f"with its interval ({COMPARE_CONFIDENCE:.0%} confidence over 5 rounds or more; over "

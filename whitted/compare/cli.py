@@ -69,9 +69,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--path-depth", type=int, metavar="N",
                         help="the path tracer's max depth, for the reference too (default: the scene's)")
     parser.add_argument("--rounds", type=int, metavar="N",
-                        help="timed rounds over each scene's renders, at least: every render is "
-                             "timed once per round, so that methods are timed in the same moments; "
-                             f"then rounds of the headlines' renders alone (default {COMPARE_ROUNDS})")
+                        help="timed rounds of the renders the verdict reads, at least, each timed once "
+                             "per round so that methods are timed in the same moments (the first "
+                             "round times every render); then rounds of the headlines' renders "
+                             f"alone (default {COMPARE_ROUNDS})")
     # --repeats: --rounds under the name scripts may still use
     parser.add_argument("--repeats", dest="rounds", type=int, help=argparse.SUPPRESS)
     parser.add_argument("--budget", type=float, metavar="SECONDS",

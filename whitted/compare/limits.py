@@ -20,10 +20,11 @@ from ..converter.description import line_label, material_labels
 from ..defaults import (COMPARE_LIMIT_MAX_SPP, COMPARE_LIMIT_NOISE_SHARE,
                         COMPARE_LIMIT_SPP_FACTOR, FIT_ITERATIONS, FIT_SPP)
 from ..fitting import fit
-from ..images import write_image
+from ..images import read_image, write_image
 from ..loading import _load_model
 from .curves import best_ambient, reference_noise
-from .results import WHITTED_LIGHTING, Limit, Measurement, SceneResult
+from .results import WHITTED_LIGHTING, Limit, Measurement, SceneResult, Setting
+from .scenes import limit_methods
 
 #: The seeds of a limit's halves: this and the next, apart from the sweep's and the reference's.
 LIMIT_SEED = 0x11A10000
@@ -34,10 +35,29 @@ def _halves(loaded, lighting: str, depth: int, spp: int, ambient: float | None) 
     for half in (0, 1):
         result = rendering.render(loaded, integrator="whitted", spp=spp, max_depth=depth,
                                   lighting=lighting, seed=LIMIT_SEED + half, min_weight=0.0,
-                                  ambient=ambient)
+                                  ambient=ambient, fresh_memory=False)
         images.append(np.asarray(result.image, dtype=np.float64))
         seconds += float(result.seconds)
     return images, seconds
+
+
+def render_limits(loaded, entry: SceneResult, settings: list[Setting], reference: np.ndarray, out: Path,
+                  deadline: float, progress, model=None) -> None:
+    """Each Whitted method's limit, its renders read back from their EXRs and scored against it."""
+    methods = limit_methods(settings)
+    weights = [2 if WHITTED_LIGHTING[m] == "article" else 1 for m in methods]  # its renders
+    for k, method in enumerate(methods):   # each its share of the time left
+        until = time.monotonic() + (deadline - time.monotonic()) * weights[k] / sum(weights[k:])
+        progress.set_postfix_str(f"{entry.name}: {method} limit", refresh=False)
+        measured = [(m, read_image(out / m.image)) for m in entry.measurements
+                    if m.setting.method == method and m.image]
+        limit = render_limit(loaded, entry, method, measured, reference, out, until, model)
+        if limit is not None:
+            entry.limits[method] = limit
+        elif measured:
+            entry.notes.append(f"{method}: its limit was not rendered: it would have overrun the "
+                               f"scene's share of --budget")
+        progress.update(1)
 
 
 def render_limit(loaded, entry: SceneResult, method: str, measured: list[tuple[Measurement, np.ndarray]],
@@ -149,7 +169,8 @@ def fit_to_reference(model, reference: np.ndarray, depth: int, spp: int, seed: i
     result = fit(model, reference, on_step=on_step, spp=min(spp, FIT_SPP))
     loaded = _load_model(result.model, {}, None, "whitted", False)   # grouped, as the sweep's scene
     image = rendering.render(loaded, integrator="whitted", spp=spp, max_depth=depth, lighting="article",
-                             seed=seed, min_weight=0.0, ambient=result.ambient).image
+                             seed=seed, min_weight=0.0, ambient=result.ambient,
+                             fresh_memory=False).image
     error = metrics.relative_mse(np.asarray(image, np.float64), reference)
     names = {**material_labels(model), **{f"light_{k}": line_label(model, light.line)
                                           for k, light in enumerate(model.lights) if light.line}}

@@ -21,16 +21,16 @@ from ..defaults import (COMPARE_CLOCK, COMPARE_HEADLINE_ROUNDS, COMPARE_KEPT_MEM
                         COMPARE_PATH_FIT_COUNTS, COMPARE_ROUND_REPEATS,
                         COMPARE_ROUND_SECONDS, COMPARE_ROUNDS_SECONDS, COMPARE_ROUNDS_SHARE,
                         COMPARE_TIMING_THREADS)
-from ..images import (clipped_fraction, fitting_view, read_image, to_display, to_srgb,
+from ..images import (clipped_fraction, fitting_view, to_display, to_srgb,
                       write_image)
 from ..progress import progress_bar
 from .analysis import analyse
 from .budget import Budget
 from .curves import PathModel, fit_inverse
 from .sheet import thumbnail, write_render
-from .limits import render_limit
+from .limits import render_limits
 from .reference import Chunk, ReferenceCache, ReferencePlan, reference_image
-from .results import WHITTED_LIGHTING, Measurement, Options, SceneResult, Setting
+from .results import Measurement, Options, SceneResult, Setting
 from .scenes import SceneFile, limit_methods
 from .timing import interleaved, median
 
@@ -38,12 +38,14 @@ from .timing import interleaved, median
 SWEEP_SEED = 0
 
 
-def _render(loaded, setting: Setting, timed: bool = False):
-    """One render with the sweep's seed; a timed one keeps Dr.Jit's memory cache."""
+def _render(loaded, setting: Setting):
+    """One render with the sweep's seed. Dr.Jit's memory cache is kept between renders (and
+    bounded by :func:`_bound_memory`): memory handed back to the system costs the next render
+    its page faults, time that is the process's history, not the render's."""
     return rendering.render(loaded, integrator=setting.integrator, spp=setting.spp,
                             max_depth=setting.max_depth,
                             lighting=setting.lighting if setting.integrator == "whitted" else None,
-                            seed=SWEEP_SEED, progress=False, fresh_memory=not timed)
+                            seed=SWEEP_SEED, progress=False, fresh_memory=False)
 
 
 def _seconds(result) -> float:
@@ -91,6 +93,7 @@ def measure(loaded, setting: Setting, reference: np.ndarray, out: Path, folder: 
     :func:`~whitted.images.to_display`, made once a scene) and keep the image and its error
     map; its time is that render's until :func:`time_rounds` times it."""
     result = _render(loaded, setting)
+    _bound_memory()
     image = np.asarray(result.image, dtype=np.float32)
     shown = to_display(image, exposure, view)
     error_map, flip = metrics.displayed_flip_map(shown, shown_reference)
@@ -102,9 +105,10 @@ def measure(loaded, setting: Setting, reference: np.ndarray, out: Path, folder: 
 
 
 def time_rounds(loaded, entry: SceneResult, rounds: int, deadline: float = math.inf,
-                progress=None) -> None:
-    """Time every render of ``entry`` once per round, then the headlines' renders alone
-    while a headline is unsettled (docs/compare.md, "Timing"), never past ``deadline``."""
+                progress=None, levels: tuple[float, ...] | None = None) -> None:
+    """Time every render of ``entry`` in a first round, the renders the verdict reads (at
+    ``levels``) in ``rounds`` in all, then the headlines' renders alone while a headline is
+    unsettled (docs/compare.md, "Timing"), never past ``deadline``."""
     measured = list(entry.measurements)
     if not measured:
         return
@@ -117,6 +121,11 @@ def time_rounds(loaded, entry: SceneResult, rounds: int, deadline: float = math.
         predicted = _cost([m.seconds for m in measured], slower)
         for k in range(COMPARE_MAX_ROUNDS):
             started = time.monotonic()
+            if k == 1 < rounds:
+                # then only the renders the verdict reads: a time the verdict does not read
+                # is known from one round to what one round can tell
+                measured = _verdict_renders(entry, levels)
+                predicted = _cost([m.seconds for m in measured])
             if k >= rounds:
                 if k == rounds:
                     extra_until = started + COMPARE_ROUNDS_SECONDS
@@ -163,12 +172,24 @@ def _time_in_a_round(loaded, setting: Setting) -> float:
     nothing and is rendered again; NaN if none measured anything."""
     fastest, start = math.inf, time.monotonic()
     for _ in range(COMPARE_ROUND_REPEATS):
-        seconds = _seconds(_render(loaded, setting, timed=True))
+        seconds = _seconds(_render(loaded, setting))
         if seconds > 0:
             fastest = min(fastest, seconds)
         if time.monotonic() - start >= COMPARE_ROUND_SECONDS and fastest < math.inf:
             break
     return fastest if fastest < math.inf else math.nan
+
+
+def _verdict_renders(entry: SceneResult, levels: tuple[float, ...] | None) -> list[Measurement]:
+    """The renders whose times the verdict reads: the path tracer's (its time curve), each
+    method's floor render and each method's cheapest render at each equal-quality level.
+    Which they are follows from errors and work, not from times."""
+    analysis = analyse(entry, levels)
+    chosen = {id(m) for m in entry.measurements if m.setting.integrator == "path"}
+    chosen.update(id(floor.render) for floor in analysis.floors)
+    chosen.update(id(reach.fastest) for row in analysis.equal_quality
+                  for reach in row.reach.values() if reach.fastest is not None)
+    return [m for m in entry.measurements if id(m) in chosen]
 
 
 def _headline_renders(entry: SceneResult, unsettled: bool = False) -> list[Measurement]:
@@ -246,8 +267,8 @@ def sweep_scene(scene: SceneFile, entry: SceneResult, settings: list[Setting], o
             if setting.integrator == "path":
                 entry.path_model = checked_path_model(entry.measurements, entry.reference_noise)
         progress.update(1)
-    time_rounds(loaded, entry, options.rounds, timed_until, progress)
-    _limits(loaded, entry, settings, reference, out, deadline, progress, scene.model)
+    time_rounds(loaded, entry, options.rounds, timed_until, progress, options.levels)
+    render_limits(loaded, entry, settings, reference, out, deadline, progress, scene.model)
     if settings and not entry.measurements:
         took = ("was read from the cache" if entry.reference_cached
                 else f"took {entry.reference_seconds:.1f} s")
@@ -291,21 +312,3 @@ def _below_the_reference(entry: SceneResult, settings: list[Setting], progress) 
         progress.update(len(dropped))
     return kept
 
-
-def _limits(loaded, entry: SceneResult, settings: list[Setting], reference: np.ndarray, out: Path,
-            deadline: float, progress, model=None) -> None:
-    """Each Whitted method's limit, its renders read back from their EXRs and scored against it."""
-    methods = limit_methods(settings)
-    weights = [2 if WHITTED_LIGHTING[m] == "article" else 1 for m in methods]  # its renders
-    for k, method in enumerate(methods):   # each its share of the time left
-        until = time.monotonic() + (deadline - time.monotonic()) * weights[k] / sum(weights[k:])
-        progress.set_postfix_str(f"{entry.name}: {method} limit", refresh=False)
-        measured = [(m, read_image(out / m.image)) for m in entry.measurements
-                    if m.setting.method == method and m.image]
-        limit = render_limit(loaded, entry, method, measured, reference, out, until, model)
-        if limit is not None:
-            entry.limits[method] = limit
-        elif measured:
-            entry.notes.append(f"{method}: its limit was not rendered: it would have overrun the "
-                               f"scene's share of --budget")
-        progress.update(1)
