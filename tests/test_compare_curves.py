@@ -249,8 +249,8 @@ def test_equal_quality_says_which_methods_tie_for_fastest(scene_result, physical
                                                           tied):
     """The article's and the physical lighting's renders of one ray tree do the same work:
     which is "fastest" is the clock's noise unless their paired rounds put one more than
-    COMPARE_TIE_SHARE (5%) ahead, which a run beside another program does not undo; a tie is
-    said in one order, whichever the clock favoured."""
+    COMPARE_RUN_SHARE (5%, what moves between runs) ahead, which a run beside another program
+    does not undo; a tie is said in one order, whichever the clock favoured."""
     physical = _measurement("whitted-physical", 2, 1, physical_times[1], 0.15)
     scene_result.measurements.append(replace(physical, times=physical_times))
     at_02 = analyse(scene_result, (0.2,)).equal_quality[0]

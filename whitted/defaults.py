@@ -103,10 +103,11 @@ COMPARE_CONFIDENCE = 0.9   #: how surely a headline's interval holds the median 
 COMPARE_ROUND_SECONDS = 0.05
 COMPARE_ROUND_REPEATS = 8
 COMPARE_SETTLED_WIDTH = 0.25
-#: the equal-quality table's fastest method ties with each method not measurably more than this
-#: share slower (paired interval's low end): a render's time moves ~5% between runs of a shared
-#: machine, so a smaller lead would name a winner by the machine's load
-COMPARE_TIE_SHARE = 0.05
+#: how far a ratio of times moves between runs of one command on a shared machine (tir's headline:
+#: 2.02-2.13x over nine runs, each run's own interval ~1% wide): every ratio's interval is widened
+#: by it each way, so that it holds what another run measures; the equal-quality table's fastest
+#: method ties with each method whose interval then holds 1
+COMPARE_RUN_SHARE = 0.05
 COMPARE_TIMING_THREADS = 1   #: LLVM threads of a timed render (None: all)
 COMPARE_CLOCK = "cpu"   #: the timing rounds' clock, "cpu" or "wall"
 #: Dr.Jit's memory cache is handed back between settings once the process holds more than this

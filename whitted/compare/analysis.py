@@ -10,7 +10,7 @@ import math
 from dataclasses import dataclass, field, replace
 
 from ..defaults import (COMPARE_CLOCK, COMPARE_CONFIDENCE, COMPARE_DATA_LEVELS, COMPARE_FLOOR_TOLERANCE,
-                        COMPARE_ROUNDS, COMPARE_TIE_SHARE, COMPARE_TIMING_THREADS)
+                        COMPARE_ROUNDS, COMPARE_RUN_SHARE, COMPARE_TIMING_THREADS)
 from .limits import fitted_text
 from .curves import (Floor, PathModel, Reading, error_at_time, error_floor, error_levels,
                      time_to_reach)
@@ -33,7 +33,8 @@ TIMING = ("the median of timed rounds: a first in which every render of a scene 
           f"{'CPU' if COMPARE_CLOCK == 'cpu' else 'wall'} time on {_THREADS} (wall time on a GPU), "
           "kernel compilation excluded; a ratio of times is the median of its per-round ratios, "
           f"with its interval ({COMPARE_CONFIDENCE:.0%} confidence over 5 rounds or more; over "
-          f"{COMPARE_ROUNDS}, its extremes: {coverage(COMPARE_ROUNDS):.0%})")
+          f"{COMPARE_ROUNDS}, its extremes: {coverage(COMPARE_ROUNDS):.0%}), widened by "
+          f"{COMPARE_RUN_SHARE:.0%} each way: what a ratio moves between runs")
 
 
 def capital(text: str) -> str:
@@ -97,7 +98,7 @@ class EqualQuality:
     level: float
     reach: dict[str, Reach]
     speedups: dict[str, Interval] = field(default_factory=dict)
-    #: the methods there not measurably more than COMPARE_TIE_SHARE slower than the fastest
+    #: the methods there not measurably slower than the fastest (their interval holds 1)
     ties: tuple[str, ...] = ()
 
     def reached(self, method: str) -> bool:
@@ -110,8 +111,8 @@ class EqualQuality:
 
     @property
     def fastest_group(self) -> list[str]:
-        """The fastest method and those it is not measurably more than COMPARE_TIE_SHARE
-        faster than, in :data:`METHODS`' order (a tie has no order for the clock to pick)."""
+        """The fastest method and those it is not measurably faster than, in :data:`METHODS`'
+        order (a tie has no order for the clock to pick)."""
         group = {self.fastest_method, *self.ties} - {None}
         return [m for m in METHODS if m in group]
 
@@ -345,7 +346,7 @@ def analyse(entry: SceneResult, levels: tuple[float, ...] | None = None,
             row = replace(row, ties=tuple(
                 m for m in reach if m != row.fastest_method and row.reached(m) and paired(
                     rounds, lambda r, a=reach[m].fastest: _over(a.seconds_in(r), first.seconds_in(r))
-                ).low <= 1.0 + COMPARE_TIE_SHARE))
+                ).low <= 1.0))
         equal_quality.append(row)
 
     floors, decompositions = [], []

@@ -10,7 +10,7 @@ import statistics
 from dataclasses import dataclass
 from typing import Callable
 
-from ..defaults import COMPARE_CONFIDENCE, COMPARE_SETTLED_WIDTH
+from ..defaults import COMPARE_CONFIDENCE, COMPARE_RUN_SHARE, COMPARE_SETTLED_WIDTH
 
 
 def interleaved(items: list, k: int):
@@ -54,6 +54,7 @@ class Interval:
     low: float
     high: float
     rounds: int
+    spread: float = 0.0   #: the share it is widened by each way (:meth:`widened`)
 
     @classmethod
     def of(cls, values) -> "Interval":
@@ -69,9 +70,16 @@ class Interval:
 
     @property
     def settled(self) -> bool:
-        """Narrow enough to quote: high / low within 1 + COMPARE_SETTLED_WIDTH, over two rounds."""
-        return (self.rounds >= 2 and self.low > 0
-                and self.high / self.low <= 1.0 + COMPARE_SETTLED_WIDTH)
+        """Narrow enough to quote: high / low within 1 + COMPARE_SETTLED_WIDTH over two rounds
+        or more (before :meth:`widened`: the rounds' own width)."""
+        return (self.rounds >= 2 and self.low > 0 and self.high / self.low
+                <= (1.0 + COMPARE_SETTLED_WIDTH) * (1.0 + self.spread) ** 2)
+
+    def widened(self, share: float) -> Interval:
+        """Wider by ``share`` each way (a ratio's low end divided by 1 + share, its high end
+        multiplied): what moves between runs, which one run's rounds cannot show."""
+        return Interval(self.value, self.low / (1.0 + share), self.high * (1.0 + share),
+                        self.rounds, share)
 
     @property
     def straddles_one(self) -> bool:
@@ -91,5 +99,6 @@ class Interval:
 
 
 def paired(rounds: int, ratio_in_round: Callable[[int], float]) -> Interval:
-    """The :class:`Interval` of ``ratio_in_round(r)`` over rounds r = 0 … rounds - 1."""
-    return Interval.of(ratio_in_round(r) for r in range(rounds))
+    """The :class:`Interval` of ``ratio_in_round(r)`` over rounds r = 0 … rounds - 1, widened
+    by COMPARE_RUN_SHARE: the rounds of one run share its moment, another run has its own."""
+    return Interval.of(ratio_in_round(r) for r in range(rounds)).widened(COMPARE_RUN_SHARE)
