@@ -58,7 +58,8 @@ def _seconds(result) -> float:
 @contextlib.contextmanager
 def timing_threads():
     """Dr.Jit's LLVM backend on COMPARE_TIMING_THREADS threads while rounds are timed;
-    yields how many times slower a parallel render may be on them."""
+    yields how many times slower a parallel render may be on them. No image file is read or
+    written meanwhile: on one thread, Mitsuba 3.9.1's EXR reading and writing wait forever."""
     import drjit as dr
     slower = _slower()
     if slower == 0:
