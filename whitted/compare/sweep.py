@@ -312,4 +312,3 @@ def _below_the_reference(entry: SceneResult, settings: list[Setting], progress) 
                            f"skipped: not below the scaled-down reference's {entry.reference_spp} spp")
         progress.update(len(dropped))
     return kept
-
