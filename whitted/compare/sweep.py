@@ -246,8 +246,11 @@ def sweep_scene(scene: SceneFile, entry: SceneResult, settings: list[Setting], o
     renders_until = timed_until - COMPARE_ROUNDS_SHARE * left
     kept = 0.0   # under --quick, the rounds of the renders done: kept for them, not shared
 
-    def rounds_of(seconds: float) -> float:
-        return options.rounds * _cost([seconds], max(1.0, slower))
+    def rounds_of(setting: Setting, seconds: float) -> float:
+        """Its timing rounds: the path tracer's, all (the verdict reads every one); a Whitted
+        render's, the first (the few the verdict reads get theirs while the deadline allows)."""
+        rounds = options.rounds if setting.integrator == "path" else 1
+        return rounds * _cost([seconds], max(1.0, slower))
     for setting in settings:
         progress.set_postfix_str(f"{entry.name}: {setting.method} {setting.label}", refresh=False)
         if setting.integrator == "path" and entry.path_model is not None:
@@ -255,7 +258,7 @@ def sweep_scene(scene: SceneFile, entry: SceneResult, settings: list[Setting], o
             continue
         render, scoring = Budget.predict(setting, done)   # then its rounds, on the timing threads
         until = timed_until - kept if options.quick else renders_until
-        if time.monotonic() + render + scoring + rounds_of(render) > until:
+        if time.monotonic() + render + scoring + rounds_of(setting, render) > until:
             entry.skipped.append(setting)
             overran += 1
         else:
@@ -264,7 +267,7 @@ def sweep_scene(scene: SceneFile, entry: SceneResult, settings: list[Setting], o
                                   entry.view, shown_reference)
             entry.measurements.append(measurement)
             done.append((setting, measurement.render_seconds, time.monotonic() - start))
-            kept += rounds_of(measurement.render_seconds)
+            kept += rounds_of(setting, measurement.render_seconds)
             if setting.integrator == "path":
                 entry.path_model = checked_path_model(entry.measurements, entry.reference_noise)
         progress.update(1)
