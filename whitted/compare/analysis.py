@@ -48,8 +48,7 @@ def faster_text(interval: Interval, name: str, other: str) -> str:
                 f"({interval.value:.3g}×, {interval.range_text()})")
     if interval.value < 1:
         name, other = other, name
-        interval = Interval(1 / interval.value, 1 / interval.high, 1 / interval.low,
-                            interval.rounds, interval.spread)
+        interval = interval.reciprocal()
     flag = "" if interval.settled or interval.rounds < 2 else "; unsettled: the machine's load kept changing"
     return f"{name} gets there {interval.value:.3g}× faster ({interval.range_text()}{flag})"
 

@@ -75,6 +75,10 @@ class Interval:
         return (self.rounds >= 2 and self.low > 0 and self.high / self.low
                 <= (1.0 + COMPARE_SETTLED_WIDTH) * (1.0 + self.spread) ** 2)
 
+    def reciprocal(self) -> Interval:
+        """The same ratio the other way round (b / a for a / b), as wide between runs."""
+        return Interval(1 / self.value, 1 / self.high, 1 / self.low, self.rounds, self.spread)
+
     def widened(self, share: float) -> Interval:
         """Wider by ``share`` each way (a ratio's low end divided by 1 + share, its high end
         multiplied): what moves between runs, which one run's rounds cannot show."""
