@@ -280,3 +280,30 @@ def test_a_stop_swallowed_where_it_landed_ends_the_next_render(monkeypatch):
     monkeypatch.setattr(interrupt, "_received", signal.SIGINT)
     with pytest.raises(KeyboardInterrupt):
         whitted.render(scene)
+
+
+@pytest.mark.parametrize("how", ["file", "probe"])
+def test_a_stop_while_a_temporary_file_is_made_leaves_none_behind(monkeypatch, tmp_path, how):
+    """A stop can land in ``tempfile.mkstemp`` once the file exists but before its name is
+    returned (a loaded machine's slow file creation made that window wide enough to hit: a
+    ``.NAME.XXXXXXXX.exr`` was left in compare's renders/). The stop still ends the work,
+    and the folder holds no file."""
+    import tempfile
+
+    from whitted import interrupt
+    from whitted.atomic import atomic_path, check_folder
+    made = tempfile.mkstemp
+
+    def interrupted_mkstemp(*args, **kwargs):
+        made_now = made(*args, **kwargs)
+        interrupt._handler(signal.SIGINT, None)   # what the installed handler does there
+        return made_now
+    monkeypatch.setattr(interrupt, "_received", None)
+    monkeypatch.setattr(tempfile, "mkstemp", interrupted_mkstemp)
+    with pytest.raises(KeyboardInterrupt):
+        if how == "file":
+            with atomic_path(tmp_path / "image.exr") as tmp:
+                tmp.write_bytes(b"not reached")
+        else:
+            check_folder(tmp_path, tmp_path)
+    assert list(tmp_path.iterdir()) == []

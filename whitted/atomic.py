@@ -12,6 +12,7 @@ import time
 from pathlib import Path
 
 from .errors import WhittedError
+from .interrupt import deferred
 
 
 @contextlib.contextmanager
@@ -21,19 +22,22 @@ def atomic_path(target: str | os.PathLike):
     folder = target.parent
     if not folder.is_dir():
         raise WhittedError(f"{target}: output folder {folder} does not exist")
+    tmp = None
     try:
-        fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=target.suffix or ".tmp",
-                                   dir=folder)
-    except OSError as error:
-        raise WhittedError(f"{target}: cannot write: {error.strerror or error}") from None
-    os.close(fd)
-    try:
+        with deferred():   # a stop while the file is made lands once its name is known
+            try:
+                fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.",
+                                           suffix=target.suffix or ".tmp", dir=folder)
+            except OSError as error:
+                raise WhittedError(f"{target}: cannot write: {error.strerror or error}") from None
+            os.close(fd)
         yield Path(tmp)
         os.chmod(tmp, 0o644)
         os.replace(tmp, target)
     except BaseException as error:
-        with contextlib.suppress(OSError):
-            os.unlink(tmp)
+        if tmp is not None:
+            with contextlib.suppress(OSError):
+                os.unlink(tmp)
         if isinstance(error, OSError):
             raise WhittedError(f"{target}: cannot write: {error.strerror or error}") from None
         raise
@@ -96,15 +100,16 @@ def check_folder(folder: str | os.PathLike, named: str | os.PathLike) -> None:
 
 
 def _probe(folder: Path, named: Path) -> None:
-    try:
-        fd, probe = tempfile.mkstemp(prefix=".whitted-", suffix=".probe", dir=folder)
-    except OSError as error:
-        # /proc and /sys answer ENOENT for a new file in a folder that exists.
-        why = ("it accepts no new files" if error.errno == errno.ENOENT
-               else error.strerror or str(error))
-        raise WhittedError(f"{named}: cannot write in {folder}: {why}") from None
-    os.close(fd)
-    os.unlink(probe)
+    with deferred():   # made and removed as one step: a stop never leaves the probe behind
+        try:
+            fd, probe = tempfile.mkstemp(prefix=".whitted-", suffix=".probe", dir=folder)
+        except OSError as error:
+            # /proc and /sys answer ENOENT for a new file in a folder that exists.
+            why = ("it accepts no new files" if error.errno == errno.ENOENT
+                   else error.strerror or str(error))
+            raise WhittedError(f"{named}: cannot write in {folder}: {why}") from None
+        os.close(fd)
+        os.unlink(probe)
 
 
 def check_folder_creatable(folder: str | os.PathLike) -> None:
