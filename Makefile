@@ -21,9 +21,11 @@ $(PY):
 
 # Reinstalled only when the package's metadata changes. setuptools' note that an editable
 # install maps folders (converter/ and plugins/ into whitted) is information, not a problem.
+# The bytecode is compiled after, on every core (pip compiles file after file).
 $(STAMP): pyproject.toml | $(PY)
 	$(PY) -m pip install --quiet --upgrade pip
-	PYTHONWARNINGS="ignore:Editable installation" $(PY) -m pip install --quiet -e '.[test]'
+	PYTHONWARNINGS="ignore:Editable installation" $(PY) -m pip install --quiet --no-compile -e '.[test]'
+	$(PY) -m compileall -q -j 0 $(VENV)/lib
 	touch $(STAMP)
 
 # Finds libLLVM >= 16, or installs Debian's libllvm19 when missing and allowed;
@@ -75,9 +77,10 @@ chromium:
 
 # in parallel, one worker per core; a test file's tests share a worker (and the renders its
 # fixtures make once), but for a few long files split by a parameter, and the slowest files
-# start first (tests/conftest.py: SLOW_FIRST, SPLIT_BY)
+# start first (tests/conftest.py: SLOW_FIRST, SPLIT). A worker that crashes ends the run,
+# naming its test: xdist's replacement worker can wait forever under --dist loadgroup.
 test: setup chromium
-	$(PY) -m pytest -q -n auto --dist loadgroup --no-loadscope-reorder
+	$(PY) -m pytest -q -n auto --dist loadgroup --no-loadscope-reorder --max-worker-restart 0
 
 # POV-Ray 3.7 for the side-by-side benchmark: Debian's povray, installed when missing and
 # allowed (root, or sudo without a password), like the llvm step; otherwise its rows say why.
