@@ -35,6 +35,8 @@ from test_compare import MIRROR_SCENE  # noqa: E402  (the same small scene as th
 from conftest import session_left, without_headline_rounds, without_report_pictures  # noqa: E402
 
 DASK = Path(sys.executable).parent / "dask"
+#: what each Dask worker of these runs preloads (their comparisons' rows are compared without times)
+PRELOAD = str(Path(__file__).with_name("dask_worker_rounds.py"))
 
 SCENES = {
     "mirror": MIRROR_SCENE,
@@ -228,7 +230,16 @@ def test_threads_are_the_host_cores_shared_among_its_workers():
 # --------------------------------------------------------------------------- a local cluster
 
 
-def test_local_cluster_writes_the_in_process_results(scenes, in_process, tmp_path, monkeypatch):
+@pytest.fixture
+def preloaded_workers():
+    """A local cluster's workers preload :data:`PRELOAD` (Dask hands its config to them)."""
+    import dask
+    with dask.config.set({"distributed.worker.preload": [PRELOAD]}):
+        yield
+
+
+def test_local_cluster_writes_the_in_process_results(scenes, in_process, tmp_path, monkeypatch,
+                                                     preloaded_workers):
     without_report_pictures(monkeypatch)
     out = tmp_path / "out"
     before = children()
@@ -246,7 +257,8 @@ def test_local_cluster_writes_the_in_process_results(scenes, in_process, tmp_pat
     assert children() <= before
 
 
-def test_local_cluster_chunks_a_reference_under_a_budget(scenes, tmp_path, monkeypatch):
+def test_local_cluster_chunks_a_reference_under_a_budget(scenes, tmp_path, monkeypatch,
+                                                        preloaded_workers):
     """Under --budget a worker probes each reference and the rest of it runs as chunk tasks:
     each cache entry lists the probe's renders first (1, 2, ... spp), then chunks of at most
     --reference-chunk-spp, all rendered by the cluster's workers."""
@@ -298,7 +310,8 @@ def dask_cluster(tmp_path):
             process = subprocess.Popen(
                 [DASK, "worker", address, "--host", "127.0.0.1", "--worker-port", str(worker_port),
                  "--nthreads", "1", "--no-nanny", "--no-dashboard", "--dashboard-address",
-                 "127.0.0.1:0", "--death-timeout", "60"], stdout=logs, stderr=logs)
+                 "127.0.0.1:0", "--death-timeout", "60", "--preload", PRELOAD],
+                stdout=logs, stderr=logs)
             processes.append(process)
             workers[f"tcp://127.0.0.1:{worker_port}"] = process
         with Client(address, timeout=60, set_as_default=False) as client:

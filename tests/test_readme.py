@@ -37,6 +37,8 @@ import pytest
 from whitted.cli import main
 from whitted.converter import parse_text
 
+from conftest import without_headline_rounds
+
 REPO = Path(__file__).resolve().parent.parent
 README = REPO / "README.md"
 #: Every file whose blocks must run: the README, then docs/ by name.
@@ -152,8 +154,9 @@ def in_process(command: str) -> list[str] | None:
 
 def run_in_process(arguments: list[str], workdir: Path, monkeypatch, capsys) -> tuple[int, str]:
     """(exit status, stderr) of ``whitted ARGUMENTS`` run by :func:`whitted.cli.main` in
-    ``workdir``."""
+    ``workdir``; a comparison without its headlines' extra rounds (no test reads them here)."""
     from whitted.cli import main
+    without_headline_rounds(monkeypatch)
     monkeypatch.chdir(workdir)
     monkeypatch.setenv("PATH", environment()["PATH"])
     try:
