@@ -366,7 +366,12 @@ LOADING_PATHS = {
 }
 
 
-@pytest.mark.parametrize("name", list(hs.GIANTS))
+#: the loading paths' cases: every giant scene in llvm_ad_rgb; in scalar_rgb, whose scenes are
+#: loaded by the same code, the floor of radius 10^7, where a float32 sphere is farthest off
+LOADED_CASES = [*(("llvm_ad_rgb", name) for name in hs.GIANTS), ("scalar_rgb", "floor_1e7")]
+
+
+@pytest.mark.parametrize("variant, name", LOADED_CASES, indirect=["variant"])
 def test_every_loading_path_matches_the_reference(giants, loaded, tmp_path, name, variant):
     """Each way a scene is loaded (:data:`LOADING_PATHS`) gives the Whitted integrator the
     exact giant spheres: floors of radius 10^4 to 10^7, smallpt's walls, the sky dome, all
