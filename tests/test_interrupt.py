@@ -307,3 +307,25 @@ def test_a_stop_while_a_temporary_file_is_made_leaves_none_behind(monkeypatch, t
         else:
             check_folder(tmp_path, tmp_path)
     assert list(tmp_path.iterdir()) == []
+
+
+def test_a_stop_that_lands_in_a_finalizer_prints_no_traceback(monkeypatch):
+    """Python prints an exception raised in a ``__del__`` ("Exception ignored in: <function
+    tqdm.__del__ ...>", a traceback on stderr) and goes on: seen once in a Ctrl-C'd compare.
+    A stop that lands there is not raised there; it ends the next unit of work instead."""
+    import gc
+
+    from whitted import interrupt
+    ignored = []
+    monkeypatch.setattr("sys.unraisablehook", ignored.append)
+    monkeypatch.setattr(interrupt, "_received", None)
+
+    class Bar:
+        def __del__(self):
+            interrupt._handler(signal.SIGINT, sys._getframe())   # the handler, run here
+
+    Bar()
+    gc.collect()
+    assert ignored == [] and interrupt.requested()
+    with pytest.raises(KeyboardInterrupt):
+        interrupt.check()

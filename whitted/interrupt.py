@@ -21,8 +21,19 @@ def _handler(number, frame):
     _received = number
     if _deferring:
         _pending = True
-    else:
+    elif not _in_finalizer(frame):
         raise KeyboardInterrupt
+    # (in a finalizer Python would print the stop as an ignored exception, a traceback on
+    # stderr, and go on: it is left to the next check())
+
+
+def _in_finalizer(frame) -> bool:
+    """Whether ``frame`` runs inside a ``__del__`` (tqdm's bars have one)."""
+    while frame is not None:
+        if frame.f_code.co_name == "__del__":
+            return True
+        frame = frame.f_back
+    return False
 
 
 def install() -> None:
