@@ -237,8 +237,9 @@ def without_headline_rounds(patch: pytest.MonkeyPatch) -> None:
     no extra rounds of the headlines' renders, for the comparisons whose tests read no headline
     interval (those rounds are most of a small comparison's timing). The extra rounds themselves
     are checked in test_compare_timing.py."""
-    patch.setattr("whitted.compare.sweep.COMPARE_HEADLINE_ROUNDS", 0)
-    patch.setattr("whitted.compare.sweep.COMPARE_ROUNDS_SECONDS", 0.0)
+    from dask_worker_rounds import WITHOUT_HEADLINE_ROUNDS
+    for name, value in WITHOUT_HEADLINE_ROUNDS.items():
+        patch.setattr(f"whitted.compare.sweep.{name}", value)
 
 
 def session_left(sid: int, seconds: float = 30.0) -> list[int]:
