@@ -329,3 +329,28 @@ def test_a_stop_that_lands_in_a_finalizer_prints_no_traceback(monkeypatch):
     assert ignored == [] and interrupt.requested()
     with pytest.raises(KeyboardInterrupt):
         interrupt.check()
+
+
+def test_a_stop_swallowed_by_the_last_finalizer_still_exits_130(monkeypatch, capsys):
+    """A command that finishes after a stop no check() saw (it landed in a ``__del__`` after the
+    last unit of work) does not exit 0 as if nobody had pressed Ctrl-C."""
+    from whitted import commands, interrupt
+    from whitted.cli import main
+
+    class Bar:
+        def __del__(self):
+            interrupt._handler(signal.SIGINT, sys._getframe())   # the handler, run here
+
+    def finishes_after_a_swallowed_stop(args):
+        Bar()
+        return 0
+    monkeypatch.setattr(commands, "convert_command", finishes_after_a_swallowed_stop)
+    for name in ("_received", "_outcome"):
+        monkeypatch.setattr(interrupt, name, None)   # (and back to None after the test)
+    previous = signal.getsignal(signal.SIGINT)
+    try:
+        assert main(["convert", "x.scn"]) == 130
+    finally:
+        signal.signal(signal.SIGINT, previous)
+        signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    assert capsys.readouterr().err == "whitted: interrupted\n"

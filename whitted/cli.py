@@ -260,7 +260,8 @@ def main(argv: list[str] | None = None) -> int:
         if not interrupt.requested(error):
             raise
     else:
-        return status
+        if not interrupt.requested():   # (a stop swallowed in a finalizer still ends as one)
+            return status
     print(interrupt.message(), file=sys.stderr)
     return interrupt.exit_status()
 
