@@ -16,6 +16,7 @@ from conftest import MIRROR_AND_GLASS
 from whitted.cli import main
 from whitted.compare.curves import best_ambient
 from whitted.converter import parse_file, parse_text
+from whitted import defaults as D
 from whitted.defaults import SEALED_MIN_GROUP
 from whitted.fitting import fit, fitted_model, material_ids, write_fitted
 from whitted.images import write_image
@@ -141,25 +142,22 @@ def _crowd() -> str:
 def test_a_fit_of_a_scene_with_grouped_spheres_writes_every_bsdf_of_a_material(llvm):
     """Grouped spheres (whitted.sealed: an ellipsoids shape per material, in a scaled frame) keep
     their own BSDFs: a fit must write each material's color into all of them, and the lights'
-    colors through the scaled frame's distances; the target is rendered from sphere shapes."""
+    colors through the scaled frame's distances. So the fitted model, rendered from sphere
+    shapes, is the image the fit's grouped scene ended on (lights written 1.3x too bright leave
+    0.18 between them), and the fit nears the target, rendered from sphere shapes."""
     from whitted import sealed
     truth = parse_text(_crowd(), "crowd.scn")
     assert sealed.choose(truth, SEALED_MIN_GROUP, sealed.MAX_LAYERS, smaller=True) is not None
     _, bsdfs, _ = load_model_parts(truth, {}, None, "whitted", False)
     assert sorted(map(len, bsdfs.values())) == [1, 1, 1, 2]   # the floor's and a group's color
     target = render(truth)
-    result = fit(perturbed(truth, seed=7), target, free=("ambient", "colors"), iterations=200,
-                 min_gain=0)
-    assert result.losses[0] > 1e-3 and result.error < 1e-5
-    assert result.ambient == pytest.approx(truth.ambient, abs=1e-3)
-    for material, mid in material_ids(truth).items():
-        np.testing.assert_allclose(result.colors[mid], material.color, atol=2e-3)
     dimmed = [tuple(0.7 * c for c in light.color) for light in truth.lights]
-    result = fit(fitted_model(truth, truth.ambient, {}, dimmed), target, free=("lights",), iterations=200,
-                 min_gain=0)
-    assert result.error < 1e-5
-    for light, color in zip(truth.lights, result.lights):
-        np.testing.assert_allclose(color, light.color, atol=2e-3)
+    for start, free, steps, rate, gain in ((perturbed(truth, seed=7), ("ambient", "colors"), 20, D.FIT_RATE, 10),
+                                          (fitted_model(truth, truth.ambient, {}, dimmed), ("lights",), 60,
+                                           (0.1, 1e-3), 300)):
+        result = fit(start, target, free=free, iterations=steps, rate=rate, min_gain=0)
+        assert result.losses[0] > 1e-3 and result.error < result.losses[0] / gain, free
+        np.testing.assert_allclose(result.image, render(result.model), atol=1e-4, err_msg=str(free))
 
 
 def test_the_fitted_file_is_the_scene_s_text_with_the_fitted_numbers(llvm, tmp_path, texture_png):
