@@ -391,7 +391,8 @@ def test_ctrl_c_stops_the_local_cluster_in_one_line(scenes, tmp_path, busy_machi
                             "--workers", "2", *OPTIONS[:-1], "--path-spp", "1,64", "--rounds", "3",
                             "-q"],
                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                           start_new_session=True)
+                           start_new_session=True,
+                           env={**os.environ, "DASK_DISTRIBUTED__WORKER__PRELOAD": repr([PRELOAD])})
     try:
         deadline = time.monotonic() + 180
         while time.monotonic() < deadline and run.poll() is None:
