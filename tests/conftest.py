@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import os
 from pathlib import Path
 
@@ -10,6 +11,7 @@ import pytest
 from hypothesis import settings
 
 import whitted  # selects the default variant and registers the plugins
+from whitted.converter import giants
 
 REPO = Path(__file__).resolve().parent.parent
 
@@ -17,6 +19,11 @@ REPO = Path(__file__).resolve().parent.parent
 # new examples come from a change to the tests, not from the luck of a run.
 settings.register_profile("fixed", derandomize=True, database=None)
 settings.load_profile("fixed")
+
+# The tests load the same giant scenes again and again, in many files: keep every giant sphere's
+# mesh made (a pure function's value; the package keeps the last MESH_MEMORY = 8, six walls and a
+# floor or two, and the suite's 16 would make them about 120 times instead of 16).
+giants._mesh_bytes = functools.lru_cache(maxsize=32)(giants._mesh_bytes.__wrapped__)
 
 #: the variants every rendering test runs in (cuda_ad_rgb needs a GPU, which CI lacks)
 VARIANTS = ("scalar_rgb", "llvm_ad_rgb")
