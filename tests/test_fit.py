@@ -16,8 +16,7 @@ from conftest import MIRROR_AND_GLASS
 from whitted.cli import main
 from whitted.compare.curves import best_ambient
 from whitted.converter import parse_file, parse_text
-from whitted import defaults as D
-from whitted.defaults import SEALED_MIN_GROUP
+from whitted.defaults import FIT_RATE, SEALED_MIN_GROUP
 from whitted.fitting import fit, fitted_model, material_ids, write_fitted
 from whitted.images import write_image
 from whitted.loading import _load_model, load_model_parts
@@ -152,7 +151,7 @@ def test_a_fit_of_a_scene_with_grouped_spheres_writes_every_bsdf_of_a_material(l
     assert sorted(map(len, bsdfs.values())) == [1, 1, 1, 2]   # the floor's and a group's color
     target = render(truth)
     dimmed = [tuple(0.7 * c for c in light.color) for light in truth.lights]
-    for start, free, steps, rate, gain in ((perturbed(truth, seed=7), ("ambient", "colors"), 20, D.FIT_RATE, 10),
+    for start, free, steps, rate, gain in ((perturbed(truth, seed=7), ("ambient", "colors"), 20, FIT_RATE, 10),
                                           (fitted_model(truth, truth.ambient, {}, dimmed), ("lights",), 60,
                                            (0.1, 1e-3), 300)):
         result = fit(start, target, free=free, iterations=steps, rate=rate, min_gain=0)

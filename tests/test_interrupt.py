@@ -295,6 +295,15 @@ def test_a_stop_swallowed_where_it_landed_ends_the_next_render(monkeypatch):
         whitted.render(scene)
 
 
+class StoppedInFinalizer:
+    """An object whose ``__del__`` is where a Ctrl-C lands: it runs the installed handler there,
+    as a tqdm bar's finalizer did in a Ctrl-C'd compare."""
+
+    def __del__(self):
+        from whitted import interrupt
+        interrupt._handler(signal.SIGINT, sys._getframe())
+
+
 @pytest.mark.parametrize("how", ["file", "probe"])
 def test_a_stop_while_a_temporary_file_is_made_leaves_none_behind(monkeypatch, tmp_path, how):
     """A stop can land in ``tempfile.mkstemp`` once the file exists but before its name is
@@ -333,11 +342,7 @@ def test_a_stop_that_lands_in_a_finalizer_prints_no_traceback(monkeypatch):
     monkeypatch.setattr("sys.unraisablehook", ignored.append)
     monkeypatch.setattr(interrupt, "_received", None)
 
-    class Bar:
-        def __del__(self):
-            interrupt._handler(signal.SIGINT, sys._getframe())   # the handler, run here
-
-    Bar()
+    StoppedInFinalizer()
     gc.collect()
     assert ignored == [] and interrupt.requested()
     with pytest.raises(KeyboardInterrupt):
@@ -350,12 +355,8 @@ def test_a_stop_swallowed_by_the_last_finalizer_still_exits_130(monkeypatch, cap
     from whitted import commands, interrupt
     from whitted.cli import main
 
-    class Bar:
-        def __del__(self):
-            interrupt._handler(signal.SIGINT, sys._getframe())   # the handler, run here
-
     def finishes_after_a_swallowed_stop(args):
-        Bar()
+        StoppedInFinalizer()
         return 0
     monkeypatch.setattr(commands, "convert_command", finishes_after_a_swallowed_stop)
     for name in ("_received", "_outcome"):
