@@ -291,20 +291,31 @@ def test_scalar_samples_match_llvm_samples(tmp_path):
     assert np.abs(a - b).max() < 1e-3
 
 
-def test_passes_and_split_wavefronts_give_the_same_image(tmp_path):
+@pytest.mark.parametrize("min_weight", [0.0, 0.05])
+def test_passes_and_split_wavefronts_give_the_same_image(tmp_path, monkeypatch, min_weight):
     """Memory is bounded by rendering in passes and splitting wide wavefronts: the image
-    must not depend on either."""
+    must not depend on either, traced exactly or with the adaptive depth control's culling.
+    Passes of 63 samples split pixels (2 spp), and a level's children (up to two a ray)
+    outgrow them, so the deeper levels are traced a piece at a time."""
+    from whitted.plugins.recursion import Wavefronts
     model = scene("everything", tmp_path)
     loaded = load(model, "llvm_ad_rgb")
-    whole = mi.load_dict({"type": "whitted", "max_depth": 6, "ambient": model.ambient,
-                          "light_reference": mi.ScalarPoint3f(model.lookat)})
-    pieces = mi.load_dict({"type": "whitted", "max_depth": 6, "ambient": model.ambient,
-                           "light_reference": mi.ScalarPoint3f(model.lookat), "wavefront_size": 99})  # odd: passes split pixels
+    settings = {"type": "whitted", "max_depth": 6, "ambient": model.ambient, "min_weight": min_weight,
+                "light_reference": mi.ScalarPoint3f(model.lookat)}
+    whole = mi.load_dict(settings)
+    pieces = mi.load_dict({**settings, "wavefront_size": 63})
+    split = []
+    in_pieces = Wavefronts._pieces
+    monkeypatch.setattr(Wavefronts, "_pieces", lambda self, front, walk: split.append(front.level)
+                        or in_pieces(self, front, walk))
     one = whole.render_detailed(loaded, spp=2, seed=4)
+    assert not split
     many = pieces.render_detailed(loaded, spp=2, seed=4)
-    assert one.passes == 1 and many.passes == math.ceil(W * H * 2 / 99)
+    assert one.passes == 1 and many.passes == math.ceil(W * H * 2 / 63)
+    assert split and min(split) == 2
     np.testing.assert_allclose(np.array(many.image), np.array(one.image), atol=1e-6)
     assert many.rays == one.rays
+    assert (one.rays.culled > 0) == (min_weight > 0)
 
 
 # -- Mitsuba's entry points ---------------------------------------------------------------------------
