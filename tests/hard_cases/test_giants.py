@@ -7,6 +7,7 @@ hazard suite's thresholds, at one sample per pixel.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 
 import drjit as dr
@@ -77,6 +78,27 @@ def loaded(tmp_path_factory):
 @pytest.mark.parametrize("name", list(hs.GIANTS))
 def test_giant_scene_matches_the_reference(giants, name, variant):
     assert_matches(giants(name, variant), giants(name, "reference"))
+
+
+@functools.lru_cache(maxsize=None)
+def _lit_floor(name: str) -> tuple[Scene, np.ndarray]:
+    """The giant floor ``name`` with two more lights on it, and its reference image."""
+    model = hs.GIANTS[name]()
+    lit = dataclasses.replace(model, lights=[*model.lights[:1], Light((0.0, 0.0, 0.0), (0.6, 0.6, 0.6)),
+                                             Light((-2.5, 0.0, 0.9), (0.3, 0.3, 0.3))])
+    return lit, Reference(lit).render()
+
+
+@pytest.mark.parametrize("name", ["floor_1e4", "floor_1e7"])
+def test_lights_on_a_giant_floor_light_the_scene_as_in_the_reference(giants, name, variant):
+    """Lights on a giant floor: one exactly on its top, one 7.06 / 2R above it, which is
+    within the float64 bound of a floor of radius 10^7. A light lying on the floor starts
+    its shadow rays off that floor's exact surface, not Mitsuba's float32 surface, which is
+    ulps of R away. The two lights change more than half the pixels, so a black or unlit
+    floor could not pass."""
+    lit, reference = _lit_floor(name)
+    assert (np.abs(reference - giants(name, "reference")).max(axis=2) > 0.02).mean() > 0.5
+    assert_matches(whitted.render(mi.load_string(scene_to_xml(lit, base_dir=None))).image, reference)
 
 
 def test_the_scenes_show_what_they_test(giants):
