@@ -16,7 +16,7 @@ import pytest
 
 import whitted.compare as cmp
 from whitted.compare.analysis import analyse
-from whitted.compare.results import Measurement, SceneResult, Setting
+from whitted.compare.results import Limit, Measurement, SceneResult, Setting
 from whitted.compare.report import findings, summary
 from whitted.compare.analysis import faster_text, ratio_text
 from whitted.compare.timing import Interval, _order_rank
@@ -148,6 +148,33 @@ def test_a_load_shared_by_a_round_leaves_the_headline_alone():
     assert loaded.interval.settled and loaded.interval.rounds == 7
     # unpaired, the same times would give anything from a quarter to four times the ratio
     assert max(load) / min(load) == 4.0
+
+
+@pytest.mark.parametrize("noise", [0.06, 0.04])
+def test_errors_within_twice_the_reference_noise_say_so(noise):
+    """An error within a factor 2 of the reference's own noise cannot be told from that
+    noise: the floor's words and the decomposition's say so, and with a quieter reference
+    they do not. A limit whose own noise is too high says that its parts are rough.
+    What the report says is read from findings.json and summary.txt."""
+    entry = _entry(_steady_whitted, _steady_path)
+    entry.reference_noise = noise
+    entry.limits["whitted-article"] = Limit("whitted-article", 6, 64, noise=0.02, converged=False,
+                                            rel_mse=0.09, seconds=1.0)
+    analysis = analyse(entry)
+    (floor,), (decomposition,) = analysis.floors, analysis.decompositions
+    cautioned = floor.floor.error < 2 * noise
+    assert cautioned == (noise == 0.06)   # the two cases: 0.102 against 0.12, then 0.08
+    assert ("Caution: that is within a factor 2 of the reference's own noise" in floor.text) == cautioned
+    assert (decomposition.limit.rel_mse < 2 * noise) == cautioned
+    assert ("within a factor 2 of the reference's own noise" in decomposition.text) == cautioned
+    assert ("is light the model does not transport" in decomposition.text) != cautioned
+    assert "no pixel depends on the ambient, so all 0.09 of it" in decomposition.text
+    assert "The limit's own noise, 0.02, is not yet a tenth" in decomposition.text
+    found = findings([analysis])["scenes"]["made-up"]["methods"]["whitted-article"]
+    assert (found["floor_text"], found["text"]) == (floor.text, decomposition.text)
+    assert found["limit"]["converged"] is False
+    text = " ".join(summary([analysis]).split())
+    assert floor.text in text and decomposition.text in text
 
 
 def test_interval_and_unsettled_flag_reach_findings_summary_and_page(tmp_path):
