@@ -802,3 +802,24 @@ def test_quick_sets_what_the_docs_say_and_options_beside_it_win(mirror_scene, tm
     assert {name: getattr(seen[0], name) for name in expected} == expected
     docs = " ".join((Path(__file__).parents[1] / "docs" / "compare.md").read_text().split())
     assert f"`--quick` stands for `{quick_text()}`" in docs
+
+
+def test_a_limit_past_the_deadline_is_not_rendered_and_the_notes_say_so(tmp_path):
+    """A Whitted method whose limit would overrun the scene's share of --budget gets none,
+    and the scene's notes (which every report prints) say that it was cut."""
+    from tqdm import tqdm
+    from whitted.compare.limits import render_limits
+    from whitted.compare.results import Measurement, SceneResult, Setting
+    from whitted.images import write_image
+    entry = SceneResult("cut", None, 4, 3, "llvm_ad_rgb", 16, 2)
+    image = np.full((3, 4, 3), 0.5, np.float32)
+    measured = Measurement(Setting("whitted", "physical", 1, 2), 0.01, 0.0, 0.1, 0.1,
+                           image=f"{entry.folder}/d2-1spp.exr", render_seconds=0.01)
+    (tmp_path / entry.folder).mkdir(parents=True)
+    write_image(tmp_path / measured.image, image)
+    entry.measurements.append(measured)
+    with tqdm(disable=True) as progress:
+        render_limits(None, entry, [measured.setting], image, tmp_path, time.monotonic(), progress)
+    assert entry.limits == {}
+    assert entry.notes == ["whitted-physical: its limit was not rendered: it would have overrun "
+                           "the scene's share of --budget"]
