@@ -12,6 +12,7 @@ from __future__ import annotations
 import csv
 from collections import Counter
 import math
+import re
 import time
 from pathlib import Path
 
@@ -823,3 +824,21 @@ def test_a_limit_past_the_deadline_is_not_rendered_and_the_notes_say_so(tmp_path
     assert entry.limits == {}
     assert entry.notes == ["whitted-physical: its limit was not rendered: it would have overrun "
                            "the scene's share of --budget"]
+
+
+def test_a_scene_whose_every_render_would_overrun_says_none_fitted(sweep, mirror_scene, tmp_path,
+                                                                    monkeypatch):
+    """Each render predicted to take an hour, past the scene's share of --budget: the
+    reference is read, nothing is rendered, and the scene's notes say why."""
+    from whitted.compare.budget import Budget
+    out, _ = sweep
+    monkeypatch.setattr(Budget, "predict", staticmethod(lambda setting, done: (3600.0, 0.0)))
+    options = cmp.Options(out=tmp_path, reference_spp=REFERENCE_SPP, depths=(1,), whitted_spp=(1,),
+                          path_spp=(1,), rounds=1, budget=60.0, cache=out / "references", quiet=True)
+    (entry,) = cmp.compare([mirror_scene], options)
+    assert entry.measurements == [] and len(entry.skipped) == 3
+    (note,) = [note for note in entry.notes if note.startswith("no render fitted")]
+    took = "was read from the cache" if entry.reference_cached else f"took {entry.reference_seconds:.1f} s"
+    match = re.fullmatch(r"no render fitted in the time left of the scene's ([\d.]+) s share after "
+                         r"its reference \((.*)\)", note)
+    assert match and 0 < float(match[1]) <= 60.0 and match[2] == took
