@@ -223,6 +223,29 @@ def test_video_decodes_to_the_frames(tmp_path, capsys):
     assert not (tmp_path / "o2").exists() and not (tmp_path / "film.gif").exists()
 
 
+@pytest.mark.parametrize("frames, options, message", [
+    (["a.png", "b.png", "short.png"], [], "short.png: a 8x4 frame among 8x6 ones; a video's frames share one size"),
+    (["a.png", "broken.png"], [], "broken.png: could not read the frame"),
+    (["a.png", "notes.txt"], [], "notes.txt: not a frame (.png or .exr)"),
+    (["a.png", "gone.png"], [], "gone.png: no such frame"),
+    (["a.png", "b.png"], ["--fps", "0"], "--fps must be a number of frames per second in (0, 1000], got 0")])
+def test_a_bad_frame_or_rate_is_one_line_and_no_video(tmp_path, capsys, frames, options, message):
+    """A frame of another size (found while encoding), one that cannot be read, a file that is
+    no frame, a missing one, a rate of 0: status 2, one line naming it, and no video, not even
+    a partial one, nor a temporary file."""
+    for name, height in (("a.png", 6), ("b.png", 6), ("short.png", 4)):
+        mi.Bitmap(np.full((height, 8, 3), 0.5, np.float32)).convert(
+            mi.Bitmap.PixelFormat.RGB, mi.Struct.Type.UInt8, srgb_gamma=True).write(str(tmp_path / name))
+    (tmp_path / "broken.png").write_bytes(b"not a png")
+    (tmp_path / "notes.txt").write_text("frame list")
+    capsys.readouterr()
+    video = tmp_path / "film.mp4"
+    assert main(["video", *(str(tmp_path / f) for f in frames), "-o", str(video), *options, "-q"]) == 2
+    err = capsys.readouterr().err.splitlines()
+    assert len(err) == 1 and err[0].startswith("whitted: error: ") and message in err[0], err
+    assert not video.exists() and not hidden(tmp_path)
+
+
 # --------------------------------------------------------------------------- Ctrl-C
 
 
