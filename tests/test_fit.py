@@ -112,19 +112,39 @@ def test_fit_command_writes_a_fitted_scene(truth, tmp_path, capsys):
     assert f"line {floor} (the floor): color 0.6 0.65 0.6 -> " in run.stderr
 
 
-@pytest.mark.parametrize("problem", ["size", "unwritable"])
+#: a problem of ``whitted fit``'s command line -> (its options, the output, what the one line names)
+COMMAND_PROBLEMS = {"size": ([], "fitted.scn", "target.exr"),
+                    "unwritable": ([], "missing/fitted.scn", "fitted.scn"),
+                    "not a .scn": ([], "fitted.xml", "fitted.xml: the fitted scene is a .scn file"),
+                    "iterations": (["--iterations", "0"], "fitted.scn", "--iterations must be >= 1, got 0"),
+                    "width": (["--width", "0"], "fitted.scn", "--width must be >= 1, got 0")}
+
+
+@pytest.mark.parametrize("problem", COMMAND_PROBLEMS)
 def test_fit_command_errors_are_one_line(truth, tmp_path, problem, capsys):
+    options, output, named = COMMAND_PROBLEMS[problem]
     scene = tmp_path / "scene.scn"
     scene.write_text(SCENE)
     target = tmp_path / "target.exr"
     image = render(truth).astype(np.float32)
     write_image(target, image[:, :20] if problem == "size" else image)
-    out = tmp_path / ("missing/fitted.scn" if problem == "unwritable" else "fitted.scn")
-    run = whitted_cli(capsys, "fit", scene, "--to", target, "-o", out)
+    out = tmp_path / output
+    run = whitted_cli(capsys, "fit", scene, "--to", target, "-o", out, *options)
     assert run.returncode == 2
     assert len(run.stderr.strip().splitlines()) == 1 and "Traceback" not in run.stderr, run.stderr
-    assert (str(target) if problem == "size" else "fitted.scn") in run.stderr
+    assert named in run.stderr
     assert not out.exists()
+
+
+def test_fit_refuses_unknown_parameters_and_a_target_that_is_not_rgb(truth):
+    from whitted.errors import WhittedError
+    image = render(truth).astype(np.float32)
+    for call, message in ((lambda: fit(truth, image, free=("colors", "fov")), "unknown free parameter(s) fov"),
+                          (lambda: fit(truth, image, iterations=0), "iterations must be an integer >= 1, got 0"),
+                          (lambda: fit(truth, image[..., :2]), "the target must be an RGB image"),
+                          (lambda: fit(truth, image[..., 0]), "the target must be an RGB image")):
+        with pytest.raises(WhittedError, match=re.escape(message)):
+            call()
 
 
 def _crowd() -> str:
