@@ -147,7 +147,8 @@ def test_verbose_summary_says_the_spp_rendered(options, spp, scene_xml, tmp_path
 # -- failures: a clean line, status 2, nothing written -------------------------------------------------
 
 @pytest.mark.parametrize("case", ["missing scene", "bad extension", "bad scene", "zero spp", "depth 0",
-                                  "missing folder", "bad ambient", "missing stats folder"])
+                                  "missing folder", "bad ambient", "missing stats folder",
+                                  "lighting of the path tracer", "exposure out of range"])
 def test_bad_input_fails_cleanly_and_writes_nothing(case, scene_xml, tmp_path, capsys):
     out = tmp_path / "out.exr"
     args = {
@@ -159,6 +160,8 @@ def test_bad_input_fails_cleanly_and_writes_nothing(case, scene_xml, tmp_path, c
         "missing folder": [scene_xml, "-o", tmp_path / "no" / "out.exr"],
         "bad ambient": [scene_xml, "-o", out, "--ambient", 2],
         "missing stats folder": [scene_xml, "-o", out, "--stats", tmp_path / "no" / "s.json"],
+        "lighting of the path tracer": [scene_xml, "-o", out, "--integrator", "path", "--lighting", "physical"],
+        "exposure out of range": [scene_xml, "-o", tmp_path / "out.png", "--exposure", 100],
     }[case]
     (tmp_path / "broken.xml").write_text("<scene version='3.0.0'><shape type='sphere'><float name='radius' "
                                          "value='oops'/></shape></scene>")
