@@ -5,9 +5,11 @@ parsed. The format is told from the first bytes, as Mitsuba does, then the file 
 
 from __future__ import annotations
 
+import io
 import os
 import re
 import warnings
+import zlib
 from pathlib import Path
 
 #: an image's first bytes -> its format, as Mitsuba detects it
@@ -15,8 +17,8 @@ _MAGIC = ((b"BM", "BMP"), (b"#?", "RGBE"), (b"PF", "PFM"), (b"Pf", "PFM"), (b"P6
           (b"\xff\xd8", "JPEG"), (b"\x89PNG\r\n\x1a\n", "PNG"), (b"\x76\x2f\x31\x01", "OpenEXR"))
 #: the last 18 bytes of a TGA 2.0 file (Mitsuba's test for TGA, the one format without a magic)
 _TGA_FOOTER = b"TRUEVISION-XFILE.\0"
+_RGBE_NUMBER = re.compile(rb"\s*\+?(\d+)")
 _PFM_HEADER = re.compile(rb"P([Ff])\s+(\d+)\s+(\d+)\s+([-+]?[0-9.]+(?:[eE][-+]?\d+)?)\s")
-_RGBE_SIZE = re.compile(rb"[-+][XY] (\d+) [-+][XY] (\d+)\n")
 
 
 def image_problem(path: Path) -> str | None:
@@ -68,7 +70,8 @@ def _decode(path: Path, kind: str) -> None:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", Image.DecompressionBombWarning)
             try:
-                with Image.open(path, formats=[kind]) as image:
+                with Image.open(io.BytesIO(_png_as_libpng_reads_it(path)) if kind == "PNG" else path,
+                                formats=[kind]) as image:
                     image.load()
             except Image.DecompressionBombError:
                 pass                       # a valid header, too large to decode twice: Mitsuba will
@@ -76,6 +79,28 @@ def _decode(path: Path, kind: str) -> None:
                 # libjpeg, as Mitsuba uses it, reads a truncated JPEG (with a warning)
                 if not (kind == "JPEG" and "truncated" in str(error)):
                     raise
+
+
+def _png_as_libpng_reads_it(path: Path) -> bytes:
+    """The PNG ``path`` without the ancillary chunks whose CRC is wrong (libpng, as Mitsuba
+    uses it, warns and drops them); a wrong CRC of a critical chunk, or a name that is not
+    four letters, is an error there, up to the end of the pixels."""
+    data = path.read_bytes()
+    kept, at, pixels = [data[:8]], 8, False
+    while at + 12 <= len(data):
+        size = int.from_bytes(data[at:at + 4], "big")
+        chunk = data[at:at + 12 + size]
+        if len(chunk) < 12 + size or (pixels and chunk[4:8] != b"IDAT"):
+            break           # truncated (the decoder says so), or past the pixels: not read there
+        pixels = chunk[4:8] == b"IDAT"
+        if not chunk[4:8].isalpha():
+            raise ValueError(f"a chunk named {chunk[4:8]!r}: not four letters")
+        if zlib.crc32(chunk[4:8 + size]) == int.from_bytes(chunk[8 + size:], "big"):
+            kept.append(chunk)
+        elif not chunk[4] & 0x20:              # critical: its name's first letter is upper case
+            raise ValueError(f"CRC error in its {chunk[4:8].decode('latin-1')} chunk")
+        at += 12 + size
+    return b"".join(kept) + data[at:]
 
 
 def _check_pfm(path: Path) -> None:
@@ -93,16 +118,29 @@ def _check_pfm(path: Path) -> None:
 
 
 def _check_rgbe(path: Path) -> None:
-    """The header and the scanlines (flat, or run-length encoded) of an RGBE image."""
+    """The header as Mitsuba's ``read_rgbe`` reads it (a ``FORMAT=32-bit_rle_rgbe`` or ``xyze``
+    line before the size line, which must be ``-Y H +X W``), then the scanlines (flat, or
+    run-length encoded)."""
     data = path.read_bytes()
-    end = data.find(b"\n\n")
-    size = _RGBE_SIZE.match(data, end + 2) if end >= 0 else None
-    if not size or not (int(size[1]) and int(size[2])):
-        raise ValueError("malformed RGBE header")
-    width, height = int(size[1]), int(size[2])
-    if size[0][1:2] == b"Y":   # "-Y H +X W": rows first
-        width, height = height, width
-    at = size.end()
+    at, known = data.find(b"\n") + 1, False
+    while True:
+        end = data.find(b"\n", at)
+        if not at or end < 0:
+            raise ValueError("malformed RGBE header (no '-Y H +X W' line)")
+        line, at = data[at:end], end + 1
+        tokens = [token for token in re.split(rb"[, ]", line) if token]   # Mitsuba's tokenize
+        if line.startswith((b"FORMAT=32-bit_rle_rgbe", b"FORMAT=32-bit_rle_xyze")):
+            known = True
+        elif len(tokens) == 4 and tokens[0] == b"-Y" and tokens[2] == b"+X":
+            break
+    if not known:
+        raise ValueError("RGBE header without FORMAT=32-bit_rle_rgbe or 32-bit_rle_xyze")
+    numbers = [_RGBE_NUMBER.match(token) for token in (tokens[1], tokens[3])]   # as std::stoull
+    if not all(numbers):
+        raise ValueError("RGBE header with a size that is not a number")
+    height, width = (int(number[1]) for number in numbers)
+    if not (width and height):
+        raise ValueError("RGBE header with a zero size")
     for row in range(height):
         head = data[at:at + 4]
         if not 8 <= width <= 0x7FFF or head[:2] != b"\2\2" or head[2] & 0x80:

@@ -260,6 +260,79 @@ def test_textures_are_checked_as_mitsuba_reads_them(tmp_path, suffix):
     assert suffix == "jpg" or not mitsuba_reads   # the cut file: the case this test is about
 
 
+def _png_chunks(data: bytes) -> dict[bytes, int]:
+    """Each chunk's name -> where it starts in the PNG ``data`` (its length field)."""
+    chunks, at = {}, 8
+    while at < len(data):
+        chunks.setdefault(data[at + 4:at + 8], at)
+        at += 12 + int.from_bytes(data[at:at + 4], "big")
+    return chunks
+
+
+def _flipped(data: bytes, at: int) -> bytes:
+    return data[:at] + bytes([data[at] ^ 0x80]) + data[at + 1:]
+
+
+def _rgbe_headers(data: bytes) -> dict[str, bytes]:
+    head, rest = data.split(b"\n\n", 1)
+    size, pixels = rest.split(b"\n", 1)
+    lines = {"no blank line": head + b"\n" + size, "no FORMAT line": b"#?RGBE\n\n" + size,
+             "an EXPOSURE line": head + b"\nEXPOSURE=1.0\n\n" + size,
+             "+Y H +X W": head + b"\n\n" + size.replace(b"-Y", b"+Y"),
+             "+X W -Y H": head + b"\n\n" + b" ".join(size.split()[2:] + size.split()[:2]),
+             "two spaces": head + b"\n\n" + size.replace(b" ", b"  "),
+             "commas": head + b"\n\n" + size.replace(b" ", b","),
+             "tabs": head + b"\n\n" + size.replace(b" ", b"\t"),
+             "CR LF": head.replace(b"\n", b"\r\n") + b"\r\n\r\n" + size + b"\r",
+             "letters for a size": head + b"\n\n" + size.replace(size.split()[1], b"ab")}
+    return {name: header + b"\n" + pixels for name, header in lines.items()}
+
+
+def _damaged(suffix: str, data: bytes) -> dict[str, bytes]:
+    if suffix == "hdr":
+        return _rgbe_headers(data)
+    chunks = _png_chunks(data)
+    idat, text, end = chunks[b"IDAT"], chunks[b"tEXt"], chunks[b"IEND"]
+    idat_crc = idat + 8 + int.from_bytes(data[idat:idat + 4], "big")
+    return {"an ancillary chunk's byte": _flipped(data, text + 10),
+            "an ancillary chunk's name": _flipped(data, text + 5),
+            "the pixels' checksum": _flipped(data, idat_crc),
+            "the end chunk's name": _flipped(data, end + 5)}
+
+
+@pytest.mark.parametrize("suffix", ["hdr", "png"])
+def test_damaged_textures_are_judged_as_mitsuba_judges_them(tmp_path, suffix):
+    """RGBE headers that Mitsuba's ``read_rgbe`` reads (no blank line, an extra line, spaces
+    or commas between the numbers, CR LF) or refuses (no FORMAT line, another axis order,
+    tabs, letters); PNG chunks damaged where libpng, as Mitsuba uses it, warns and reads on
+    (an ancillary chunk's bytes, anything past the pixels) or stops (a critical chunk's
+    checksum, a name that is not four letters): the converter accepts what Mitsuba reads
+    and refuses the rest, naming the line."""
+    import mitsuba as mi
+    import numpy as np
+    pixels = np.linspace(0.05, 0.95, 9 * 13 * 3, dtype=np.float32).reshape(9, 13, 3)
+    whole = tmp_path / f"whole.{suffix}"
+    mi.Bitmap(pixels if suffix == "hdr" else (pixels * 255).astype(np.uint8),
+              pixel_format=mi.Bitmap.PixelFormat.RGB).write(str(whole))
+    judged = set()
+    for k, (damage, data) in enumerate(_damaged(suffix, whole.read_bytes()).items()):
+        path = tmp_path / f"damaged{k}.{suffix}"
+        path.write_bytes(data)
+        try:
+            mi.load_dict({"type": "bitmap", "filename": str(path)})
+            mitsuba_reads = True
+        except (RuntimeError, ValueError):
+            mitsuba_reads = False
+        text = f"size 10 10\nsphere 0 0 0 1 texture {path.name}\n"
+        if mitsuba_reads:
+            assert parse_text(text, tmp_path / "a.scn").spheres, damage
+        else:
+            error = error_of(text, tmp_path / "a.scn")
+            assert error.line == 2 and "is not an image Mitsuba can read" in error.message, damage
+        judged.add(mitsuba_reads)
+    assert judged == {True, False}
+
+
 def test_texture_without_read_permission(tmp_path, texture_png, monkeypatch):
     texture = texture_png("tex.png")
     real_access = os.access
