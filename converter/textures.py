@@ -70,8 +70,8 @@ def _decode(path: Path, kind: str) -> None:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", Image.DecompressionBombWarning)
             try:
-                with Image.open(io.BytesIO(_png_as_libpng_reads_it(path)) if kind == "PNG" else path,
-                                formats=[kind]) as image:
+                source = io.BytesIO(_png_as_libpng_reads_it(path)) if kind == "PNG" else path
+                with Image.open(source, formats=[kind]) as image:
                     image.load()
             except Image.DecompressionBombError:
                 pass                       # a valid header, too large to decode twice: Mitsuba will
