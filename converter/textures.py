@@ -90,8 +90,10 @@ def _png_as_libpng_reads_it(path: Path) -> bytes:
     while at + 12 <= len(data):
         size = int.from_bytes(data[at:at + 4], "big")
         chunk = data[at:at + 12 + size]
-        if len(chunk) < 12 + size or (pixels and chunk[4:8] != b"IDAT"):
-            break           # truncated (the decoder says so), or past the pixels: not read there
+        if pixels and chunk[4:8] != b"IDAT":
+            break                              # past the pixels: not read there
+        if len(chunk) < 12 + size:
+            raise ValueError("truncated PNG file")
         pixels = chunk[4:8] == b"IDAT"
         if not chunk[4:8].isalpha():
             raise ValueError(f"a chunk named {chunk[4:8]!r}: not four letters")
