@@ -349,6 +349,36 @@ def test_a_stop_that_lands_in_a_finalizer_prints_no_traceback(monkeypatch):
         interrupt.check()
 
 
+def test_a_stop_that_lands_in_a_weakref_callback_prints_no_traceback(monkeypatch, capsys):
+    """A weakref's callback is a finalizer the handler cannot tell from other code: a stop
+    raised there (in ``WeakSet._remove``, seen once in a Ctrl-C'd compare) would be printed as
+    an ignored exception, a traceback on stderr. Installed, the CLI keeps it for the next
+    unit of work instead, and prints nothing."""
+    import weakref
+
+    from whitted import interrupt
+    monkeypatch.setattr("sys.unraisablehook", sys.__unraisablehook__)   # Python's own printer
+    for name in ("_received", "_outcome"):
+        monkeypatch.setattr(interrupt, name, None)   # (and back to None after the test)
+    previous = signal.getsignal(signal.SIGINT)
+    try:
+        interrupt.install()
+
+        class Watched:
+            pass
+        watched = Watched()
+        watcher = weakref.ref(watched, lambda ref: interrupt._handler(signal.SIGINT, sys._getframe()))
+        del watched
+        assert watcher() is None
+    finally:
+        signal.signal(signal.SIGINT, previous)
+        signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    assert capsys.readouterr().err == ""
+    assert interrupt.requested()
+    with pytest.raises(KeyboardInterrupt):
+        interrupt.check()
+
+
 def test_a_stop_swallowed_by_the_last_finalizer_still_exits_130(monkeypatch, capsys):
     """A command that finishes after a stop no check() saw (it landed in a ``__del__`` after the
     last unit of work) does not exit 0 as if nobody had pressed Ctrl-C."""

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import contextlib
 import signal
+import sys
 
 _received: int | None = None
 _outcome: str | None = None
@@ -36,6 +37,13 @@ def _in_finalizer(frame) -> bool:
     return False
 
 
+def _unraisable(unraisable) -> None:
+    """A stop raised where Python cannot raise it (a weakref's callback, which the handler cannot
+    tell from other code) is kept for the next :func:`check`, not printed as ignored."""
+    if not (_received is not None and issubclass(unraisable.exc_type, KeyboardInterrupt)):
+        _unraisable.previous(unraisable)
+
+
 def install() -> None:
     """Route SIGINT and SIGTERM through :func:`requested` (the CLI calls this first)."""
     global _received, _outcome, _pending
@@ -43,6 +51,8 @@ def install() -> None:
     _pending = False
     for number in (signal.SIGINT, signal.SIGTERM):
         signal.signal(number, _handler)
+    if sys.unraisablehook is not _unraisable:
+        _unraisable.previous, sys.unraisablehook = sys.unraisablehook, _unraisable
 
 
 def check() -> None:
