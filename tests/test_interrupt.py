@@ -353,7 +353,7 @@ def test_a_stop_that_lands_in_a_weakref_callback_prints_no_traceback(monkeypatch
     """A weakref's callback is a finalizer the handler cannot tell from other code: a stop
     raised there (in ``WeakSet._remove``, seen once in a Ctrl-C'd compare) would be printed as
     an ignored exception, a traceback on stderr. Installed, the CLI keeps it for the next
-    unit of work instead, and prints nothing."""
+    unit of work instead, and prints nothing; any other error there is printed as before."""
     import weakref
 
     from whitted import interrupt
@@ -366,6 +366,12 @@ def test_a_stop_that_lands_in_a_weakref_callback_prints_no_traceback(monkeypatch
 
         class Watched:
             pass
+        def fails(ref):
+            raise ValueError("a callback's own error")
+        watched = Watched()
+        watcher = weakref.ref(watched, fails)
+        del watched
+        assert "ValueError: a callback's own error" in capsys.readouterr().err   # still printed
         watched = Watched()
         watcher = weakref.ref(watched, lambda ref: interrupt._handler(signal.SIGINT, sys._getframe()))
         del watched
