@@ -116,6 +116,26 @@ def test_the_integrator_property_and_load_scene_take_it(tmp_path):
         assert np.array_equal(np.array(mi.render(loaded)), expected)
 
 
+def test_a_scene_of_another_integrator_renders_without_the_effect_too():
+    """A scene loaded with Mitsuba's path integrator, rendered with the whitted one (its
+    defaults: the scene's ambient and light reference are the defaults here): ``without``
+    leaves the effect out as in the scene that holds the whitted integrator, and an unknown
+    effect is refused by name."""
+    from whitted import defaults
+    scene = model(ambient=defaults.AMBIENT, lookat=defaults.LOOKAT)
+    xml = scene_to_xml(scene, base_dir=None)
+    whitted.set_variant("llvm_ad_rgb")
+    path_scene = mi.load_string(re.sub(r'<integrator type="whitted".*?</integrator>',
+                                       '<integrator type="path"/>', xml, flags=re.S))
+    assert "whitted" not in str(path_scene.integrator()).lower()
+    expected = render(scene, "llvm_ad_rgb", without="shadows").image
+    left_out = whitted.render(path_scene, integrator="whitted", min_weight=0, without=["shadows"])
+    assert np.array_equal(left_out.image, expected)
+    assert not np.array_equal(expected, render(scene, "llvm_ad_rgb").image)
+    with pytest.raises(whitted.WhittedError, match="unknown effect 'nonsense'"):
+        whitted.render(path_scene, integrator="whitted", without="nonsense")
+
+
 def test_cli_without_is_repeatable_and_counts_no_such_rays(tmp_path, capsys):
     path = tmp_path / "scene.scn"
     path.write_text(scene_to_scn(model(), tmp_path))
