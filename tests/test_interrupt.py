@@ -366,6 +366,7 @@ def test_a_stop_that_lands_in_a_weakref_callback_prints_no_traceback(monkeypatch
 
         class Watched:
             pass
+
         def fails(ref):
             raise ValueError("a callback's own error")
         watched = Watched()

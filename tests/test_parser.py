@@ -296,7 +296,8 @@ def _damaged(suffix: str, data: bytes) -> dict[str, bytes]:
     idat_crc = idat + 8 + int.from_bytes(data[idat:idat + 4], "big")
     return {"an ancillary chunk's byte": _flipped(data, text + 10),
             "an ancillary chunk's name": _flipped(data, text + 5),
-            "the pixels' checksum": _flipped(data, idat_crc), "the pixels' length": _flipped(data, idat),
+            "the pixels' checksum": _flipped(data, idat_crc),
+            "the pixels' length": _flipped(data, idat),
             "the end chunk's name": _flipped(data, end + 5)}
 
 
@@ -306,8 +307,8 @@ def test_damaged_textures_are_judged_as_mitsuba_judges_them(tmp_path, suffix):
     or commas between the numbers, CR LF) or refuses (no FORMAT line, another axis order,
     tabs, letters); PNG chunks damaged where libpng, as Mitsuba uses it, warns and reads on
     (an ancillary chunk's bytes, anything past the pixels) or stops (a critical chunk's
-    checksum or a length past the end, a name that is not four letters): the converter accepts what Mitsuba reads
-    and refuses the rest, naming the line."""
+    checksum, or its length past the end; a name that is not four letters): the converter
+    accepts what Mitsuba reads and refuses the rest, naming the line."""
     import mitsuba as mi
     import numpy as np
     pixels = np.linspace(0.05, 0.95, 9 * 13 * 3, dtype=np.float32).reshape(9, 13, 3)
