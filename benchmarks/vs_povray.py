@@ -154,26 +154,23 @@ def bench_level(level: int, floor: float, runs: int, folder: Path, pov_exe: str 
     run_p = lambda: povray.run(pov_exe, pov, p_image, width, height, threads, timeout)   # noqa: E731
     path_image = folder / f"path-{name}.png"
     run_path = lambda: run_whitted(scn, path_image, stats, timeout, path=True)   # noqa: E731
-    # One untimed run of each first: the kernels a scene needs depend on its radii (one layer
-    # each: plugins/hits.py), and Dr.Jit compiles them once, then reads its cache.
-    _attempt(row, "whitted", run_w)
-    _attempt(row, "pov", run_p)
-    _attempt(row, "path", run_path)
-    for _ in range(runs):
+    # Round 0 is an untimed run of each: the kernels a scene needs depend on its radii (one
+    # layer each: plugins/hits.py), and Dr.Jit compiles them once, then reads its cache.
+    for timed in range(runs + 1):
         done = _attempt(row, "whitted", run_w)
-        if done is not None:
+        if timed and done is not None:
             result, stats_read = done
             row.whitted.add(result.wall_seconds, stats_read["seconds"], result.peak_rss)
             row.whitted_compile.append(stats_read["compile_seconds"])
             row.whitted_rays = stats_read["rays"]
         p = _attempt(row, "pov", run_p)
-        if p is not None:
+        if timed and p is not None:
             row.pov.add(p.wall_seconds, p.trace_seconds, p.peak_rss)
             row.pov_parse.append(p.parse_seconds)
             row.pov_bounding.append(p.bounding_seconds)
             row.pov_rays = (p.shadow_rays, p.reflected_rays)
         done = _attempt(row, "path", run_path)
-        if done is not None:
+        if timed and done is not None:
             row.path.add(done[0].wall_seconds, done[1]["seconds"], done[0].peak_rss)
     if row.whitted.wall and row.pov.wall and not (row.whitted.failure or row.pov.failure):
         row.image_difference = image_difference(w_image, p_image)
