@@ -178,13 +178,12 @@ class Bench:
             timing["whitted (article lighting)"])
 
     def _whitted_and_direct(self, model, rounds):
-        """Both renders of ``model`` timed, and the two runs."""
+        """Both renders of ``model`` timed, and the two runs by name."""
         label = f"{len(model.spheres)} spheres {model.width}×{model.height} {model.samples} spp "
         scene, scene_direct = scenes.load(model), scenes.load_for_direct(model)
-        whitted_run = renderer(scene, scenes.load_whitted(model, lighting="physical"), model.samples)
-        direct_run = renderer(scene_direct, scenes.direct_integrator(), model.samples)
-        runs = {"whitted": whitted_run, "direct": direct_run}
-        return self.measure(runs, rounds, label), whitted_run, direct_run
+        runs = {"whitted": renderer(scene, scenes.load_whitted(model, lighting="physical"), model.samples),
+                "direct": renderer(scene_direct, scenes.direct_integrator(), model.samples)}
+        return self.measure(runs, rounds, label), runs
 
     def scaling(self):
         columns = ["whitted ms", "ns/sample", "direct ms", "whitted / direct", "whitted MiB", "direct MiB"]
@@ -206,11 +205,11 @@ class Bench:
                     small = replace(model, width=1, height=1, samples=1)
                     timing = self._whitted_and_direct(small, rounds)[0]
                     extra.append(f"{ms(timing['whitted'].median)} / {ms(timing['direct'].median)}")
-                timing, *runs = self._whitted_and_direct(model, rounds)
+                timing, runs = self._whitted_and_direct(model, rounds)
                 w, d = timing["whitted"], timing["direct"]
                 samples = model.width * model.height * model.samples
                 table.add(label, ms(w.median), f"{1e9 * w.median / samples:.1f}", ms(d.median), w.over(d),
-                          *(mib(peak_memory(run)) for run in runs), *extra)
+                          *(mib(peak_memory(run)) for run in runs.values()), *extra)
             self.show(table)
 
     def effects(self):
