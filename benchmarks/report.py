@@ -29,22 +29,18 @@ def _missing(*values) -> bool:
 
 
 def ms(seconds: float | None) -> str:
-    """Milliseconds, one decimal."""
     return DASH if _missing(seconds) else f"{1000 * seconds:.1f}"
 
 
 def seconds(x: float | None) -> str:
-    """Seconds: three decimals below 10 s, one above."""
     return DASH if _missing(x) else f"{x:.3f}" if x < 10 else f"{x:.1f}"
 
 
 def mib(n: float | None, decimals: int = 1) -> str:
-    """Bytes in MiB."""
     return DASH if _missing(n) else f"{n / MIB:.{decimals}f}"
 
 
 def ratio(a: float | None, b: float | None) -> str:
-    """``a / b``, two decimals."""
     return DASH if _missing(a, b) or b == 0 else f"{a / b:.2f}"
 
 
