@@ -27,7 +27,8 @@ from . import parse_speed, povray, process, sphereflake
 from .report import MIB, Table, machine, mib, ratio, replace_section, seconds, summary
 
 FLOORS = (1000.0, 10000.0)
-#: runs of each level and of reading it (``--quick``: levels 1-3, reading level 3, one run each)
+#: runs of each level and of reading it (``--quick``: levels 1-3, reading level 3, one run each);
+#: level 0, asked for by --levels only, runs as level 1
 RUNS = {1: 5, 2: 5, 3: 5, 4: 3, 5: 2, 6: 1}
 READ_RUNS = {5: 3, 6: 2}
 #: seconds after which a run is killed and reported as not finished
@@ -326,7 +327,7 @@ def main(argv=None) -> int:
                              [level for level in ((3,) if args.quick else READ_RUNS) if level in levels]))
     if "convert" not in args.programs:
         read_levels = []
-    runs = {level: args.runs or (1 if args.quick else RUNS[level]) for level in levels}
+    runs = {level: args.runs or (1 if args.quick else RUNS.get(level, RUNS[1])) for level in levels}
     read_runs = {level: args.runs or (1 if args.quick else READ_RUNS.get(level, 3)) for level in read_levels}
     timeout = args.timeout if args.timeout > 0 else None
     threads = len(os.sched_getaffinity(0))

@@ -136,3 +136,12 @@ def test_path_tracer_rows_stand_beside_the_whitted_render():
     assert cells[1]["path process s"] == "did not finish in 600 s" and cells[1]["path peak RSS MiB"] == "≥ 3072"
     assert cells[1]["process path / whitted"] == "—"
     assert vs_povray.failures([done, late], []) == ["level 6, floor 10^4: path: did not finish in 600 s"]
+
+
+def test_level_zero_is_a_level_the_command_runs(tmp_path, capsys):
+    """``--levels`` offers level 0 (one sphere on the floor); its runs are level 1's."""
+    assert vs_povray.main(["--levels", "0", "--programs", "convert",
+                           "--plot", str(tmp_path / "curve.png")]) == 0
+    rows = [line.split() for line in capsys.readouterr().out.splitlines()]
+    assert [row[:3] for row in rows if row[:1] == ["0"]] == [["0", "10^3", "2"], ["0", "10^4", "2"]]
+    assert (tmp_path / "curve.png").is_file()
