@@ -62,8 +62,6 @@ _NOT_PLAIN = re.compile(f"[{re.escape(_ODD)}]|[^\\x00-\\x7f]")
 _BATCH = 1 << 16
 _MAX = float(defaults.MAX_MAGNITUDE)        # |x| < this: inside the magnitude limit
 _MIN = float(defaults.MIN_POSITIVE)         # x > this: at least MIN_POSITIVE
-#: a sphere's (north, equator) when its statement gives neither
-_DEFAULT_ORIENTATION = (tuple(map(float, defaults.NORTH)), tuple(map(float, defaults.EQUATOR)))
 
 
 def parse_file(path: str | os.PathLike) -> Scene:
@@ -105,7 +103,7 @@ def decode(data: bytes, path: str | os.PathLike) -> str:
     except UnicodeDecodeError as error:
         raise SceneError(path, _line_of(data, error.start),
                          f"not UTF-8 text (byte 0x{data[error.start]:02x})") from None
-    return text[1:] if text.startswith("\ufeff") else text
+    return text.removeprefix("\ufeff")
 
 
 def _line_of(data: bytes, offset: int) -> int:
@@ -232,10 +230,8 @@ def parse_text(text: str, source: str | os.PathLike, *, careful: bool = False) -
     """Parse scene text; ``source`` names the file in messages and anchors relative textures.
     ``careful=True``: every statement read on its own, none in a batch (the parser's tests and
     benchmark compare both)."""
-    source = Path(source)
-    if text.startswith("\ufeff"):
-        text = text[1:]
-    parser = _Parser(source)
+    parser = _Parser(Path(source))
+    text = text.removeprefix("\ufeff")
     enabled = gc.isenabled()
     gc.disable()   # a large scene makes millions of short-lived lists, none in a cycle
     try:
@@ -351,13 +347,12 @@ class _Parser:
 
     def in_range(self, value: Decimal, token_text: str, what: str, low, high,
                  *, low_open: bool = False, high_open: bool = False) -> None:
-        """``low <= value <= high`` (or strict where open); None means unbounded."""
-        bad_low = low is not None and (value <= low if low_open else value < low)
+        """``low <= value <= high`` (or strict where open); a ``high`` of None: unbounded."""
         bad_high = high is not None and (value >= high if high_open else value > high)
-        if bad_low or bad_high:
-            bounds = [f"{'>' if low_open else '>='} {low}" if low is not None else "",
-                      f"{'<' if high_open else '<='} {high}" if high is not None else ""]
-            bounds = " and ".join(filter(None, bounds))
+        if bad_high or (value <= low if low_open else value < low):
+            bounds = f"{'>' if low_open else '>='} {low}"
+            if high is not None:
+                bounds += f" and {'<' if high_open else '<='} {high}"
             self.fail(f"{what} must be {bounds}, got {_clip(token_text)}")
 
     def positive(self, value: Decimal, token_text: str, what: str) -> None:
@@ -472,24 +467,17 @@ class _Parser:
         kr, kt = values.get("reflect", (0,))[0], values.get("refract", (0, 1))[0]
         if kr + kt > 1:
             self.fail(f"sphere reflect + refract must be <= 1, got {kr} + {kt}")
-        orientation = _DEFAULT_ORIENTATION
-        if "north" in values or "equator" in values:
-            orientation = north, equator = (_floats(values.get("north", Sphere.north)),
-                                            _floats(values.get("equator", Sphere.equator)))
-            for name, direction in (("north", north), ("equator", equator)):
-                if _is_zero(direction):
-                    self.fail(f"sphere {name} must not be zero")
-            if _sine(north, equator) < PARALLEL_SINE:
-                default = "" if "equator" in values else " (the default)"
-                self.fail(f"sphere equator {_show_vec(equator)}{default} must not be parallel "
-                          f"to north {_show_vec(north)}")
-        material = Material(
-            color=_floats(values.get("color", Material.color)),
-            reflect=float(kr),
-            refract=float(kt),
-            ior=float(values.get("refract", (0, 1))[1]),
-            texture=values.get("texture"),
-        )
+        orientation = north, equator = (_floats(values.get("north", Sphere.north)),
+                                        _floats(values.get("equator", Sphere.equator)))
+        for name, direction in (("north", north), ("equator", equator)):
+            if _is_zero(direction):
+                self.fail(f"sphere {name} must not be zero")
+        if _sine(north, equator) < PARALLEL_SINE:
+            default = "" if "equator" in values else " (the default)"
+            self.fail(f"sphere equator {_show_vec(equator)}{default} must not be parallel "
+                      f"to north {_show_vec(north)}")
+        material = Material(_floats(values.get("color", Material.color)), float(kr), float(kt),
+                            float(values.get("refract", (0, 1))[1]), values.get("texture"))
         key = self.materials.index(material), self.orientations.index(orientation)
         return self.looks.setdefault(key, len(self.looks))
 
