@@ -39,14 +39,8 @@ STATEMENTS = GLOBALS + ("light", "sphere")
 NUMBERS = {"ambient": ("ambient", "A", 0, 1), "depth": ("depth", "N", 1, MAX_DEPTH),
            "samples": ("samples", "N", 1, MAX_SAMPLES), "minweight": ("min_weight", "W", 0, 1)}
 #: Sphere attribute -> names of its values (their count is the attribute's arity).
-ATTRIBUTES = {
-    "color": ("R", "G", "B"),
-    "reflect": ("KR",),
-    "refract": ("KT", "IOR"),
-    "texture": ("PATH",),
-    "north": ("X", "Y", "Z"),
-    "equator": ("X", "Y", "Z"),
-}
+ATTRIBUTES = {"color": ("R", "G", "B"), "reflect": ("KR",), "refract": ("KT", "IOR"),
+              "texture": ("PATH",), "north": ("X", "Y", "Z"), "equator": ("X", "Y", "Z")}
 
 _NUMBER = re.compile(r"[+-]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][+-]?[0-9]+)?")
 _INTEGER = re.compile(r"[+-]?[0-9]+")
@@ -364,10 +358,7 @@ class _Parser:
         """The scene once every statement is read, or every problem, in file order, as one
         :class:`SceneError`."""
         if not self.failed & {"eye", "lookat", "up"}:  # else the camera is not what the file says
-            try:
-                self.check_camera()
-            except SceneError as error:
-                self.errors.append((error.line, error.message))
+            self.part(self.check_camera)
         self.read_spheres()
         if self.errors:
             self.errors.sort(key=lambda error: error[0] or 0)

@@ -135,10 +135,8 @@ def _with_notes(description: Description, portable: bool) -> tuple[Description, 
 
 def _pieces(description: Description, notes: list[str]):
     o = description.origin
-    out = [
-        '<?xml version="1.0" encoding="utf-8"?>',
-        f'<!-- Converted by whitted from {comment(description.source)} -->',
-    ]
+    out = ['<?xml version="1.0" encoding="utf-8"?>',
+           f'<!-- Converted by whitted from {comment(description.source)} -->']
     if notes:
         out += [f"<!-- {comment(notes[0])}"] + [f"     {comment(n)}" for n in notes[1:]]
         out[-1] += " -->"
