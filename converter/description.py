@@ -255,11 +255,10 @@ def describe(scene: Scene, base_dir: str | os.PathLike | None, smallest: float |
         description.spheres = SphereBlock(center, spheres.radius, spheres.material, tuple(by_index), names,
                                           frozenset(special))
     else:
-        bsdfs = [{"type": "ref", "id": i} for i in by_index]   # one dict per material: copied below
-        for name, (x, y, z), radius, material in zip(names, center.tolist(), spheres.radius.tolist(),
-                                                     spheres.material.tolist()):
+        for name, (x, y, z), radius, m in zip(names, center.tolist(), spheres.radius.tolist(),
+                                              spheres.material.tolist()):
             description.scene[f"sphere_{name}"] = {"type": "sphere", "center": (x, y, z), "radius": radius,
-                                                   "bsdf": dict(bsdfs[material])}
+                                                   "bsdf": {"type": "ref", "id": by_index[m]}}
     for k in special:
         mesh = None
         if k in meshed:
