@@ -56,6 +56,8 @@ _NOT_PLAIN = re.compile(f"[{re.escape(_ODD)}]|[^\\x00-\\x7f]")
 _BATCH = 1 << 16
 _MAX = float(defaults.MAX_MAGNITUDE)        # |x| < this: inside the magnitude limit
 _MIN = float(defaults.MIN_POSITIVE)         # x > this: at least MIN_POSITIVE
+#: a sphere's (north, equator) when its statement gives neither
+_DEFAULT_ORIENTATION = (tuple(map(float, defaults.NORTH)), tuple(map(float, defaults.EQUATOR)))
 
 
 def parse_file(path: str | os.PathLike) -> Scene:
@@ -458,15 +460,17 @@ class _Parser:
         kr, kt = values.get("reflect", (0,))[0], values.get("refract", (0, 1))[0]
         if kr + kt > 1:
             self.fail(f"sphere reflect + refract must be <= 1, got {kr} + {kt}")
-        orientation = north, equator = (_floats(values.get("north", Sphere.north)),
-                                        _floats(values.get("equator", Sphere.equator)))
-        for name, direction in (("north", north), ("equator", equator)):
-            if _is_zero(direction):
-                self.fail(f"sphere {name} must not be zero")
-        if _sine(north, equator) < PARALLEL_SINE:
-            default = "" if "equator" in values else " (the default)"
-            self.fail(f"sphere equator {_show_vec(equator)}{default} must not be parallel "
-                      f"to north {_show_vec(north)}")
+        orientation = _DEFAULT_ORIENTATION
+        if "north" in values or "equator" in values:
+            orientation = north, equator = (_floats(values.get("north", Sphere.north)),
+                                            _floats(values.get("equator", Sphere.equator)))
+            for name, direction in (("north", north), ("equator", equator)):
+                if _is_zero(direction):
+                    self.fail(f"sphere {name} must not be zero")
+            if _sine(north, equator) < PARALLEL_SINE:
+                default = "" if "equator" in values else " (the default)"
+                self.fail(f"sphere equator {_show_vec(equator)}{default} must not be parallel "
+                          f"to north {_show_vec(north)}")
         material = Material(_floats(values.get("color", Material.color)), float(kr), float(kt),
                             float(values.get("refract", (0, 1))[1]), values.get("texture"))
         key = self.materials.index(material), self.orientations.index(orientation)
