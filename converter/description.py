@@ -84,9 +84,7 @@ class Description:
 
 def light_intensity(scene: Scene, position: Vec3, color: Vec3) -> Vec3:
     """Point-light intensity that matches the article's brightness at ``lookat``."""
-    d2 = dot(sub(position, scene.lookat), sub(position, scene.lookat))
-    if d2 == 0.0:
-        d2 = 1.0
+    d2 = dot(sub(position, scene.lookat), sub(position, scene.lookat)) or 1.0
     return tuple(c * math.pi * d2 for c in color)
 
 
@@ -220,8 +218,8 @@ def describe(scene: Scene, base_dir: str | os.PathLike | None, smallest: float |
     integrator["light_reference"] = to_frame(scene.lookat, origin)
     # Spheres too coarse in float32 for the whitted integrator, and for Mitsuba's (meshed).
     giants, misplaced = coarse_spheres(scene, origin, smallest, spheres)
-    meshed = [k for k in misplaced if sphere(k).material.texture is None]
-    giants = sorted(set(giants) | set(meshed))
+    meshed = {k for k in misplaced if sphere(k).material.texture is None}
+    giants = sorted(set(giants) | meshed)
     if giants:
         # Their exact values, for the integrator to intersect in float64 (plugins/hits.py).
         integrator["exact_spheres"] = exact_spheres(
@@ -251,18 +249,16 @@ def describe(scene: Scene, base_dir: str | os.PathLike | None, smallest: float |
             description.notes[ids[material]] = f"{scene.source.name}:{line}: {text}{comment}"
     # The spheres: plain ones in the scene or in a block, textured and meshed ones in the scene.
     by_index = [ids.get(_shared(material), "") for material in spheres.materials]
-    special = sorted(set(meshed) | set(np.flatnonzero(spheres.textured()).tolist()))
+    special = sorted(meshed | set(np.flatnonzero(spheres.textured()).tolist()))
     center = spheres.center - origin
     if block and scene.held_sphere_arrays() is not None:
         description.spheres = SphereBlock(center, spheres.radius, spheres.material, tuple(by_index), names,
                                           frozenset(special))
     else:
-        bsdfs = [{"type": "ref", "id": i} for i in by_index]   # one dict per material: copied below
-        for name, (x, y, z), radius, material in zip(names, center.tolist(), spheres.radius.tolist(),
-                                                     spheres.material.tolist()):
+        for name, (x, y, z), radius, m in zip(names, center.tolist(), spheres.radius.tolist(),
+                                              spheres.material.tolist()):
             description.scene[f"sphere_{name}"] = {"type": "sphere", "center": (x, y, z), "radius": radius,
-                                                   "bsdf": dict(bsdfs[material])}
-    meshed = set(meshed)
+                                                   "bsdf": {"type": "ref", "id": by_index[m]}}
     for k in special:
         mesh = None
         if k in meshed:

@@ -123,8 +123,7 @@ def sphere_mesh(center: Vec3, radius: float, eye: Vec3, view: float):
         counts.append(count)
     thetas.append(np.pi)
     counts.append(1)
-    rings, start = [], 0
-    positions = []
+    rings, positions, start = [], [], 0
     for theta, count in zip(thetas, counts):
         phi = 2 * np.pi * np.arange(count) / count
         direction = (np.cos(theta) * axis[None, :] +

@@ -39,14 +39,8 @@ STATEMENTS = GLOBALS + ("light", "sphere")
 NUMBERS = {"ambient": ("ambient", "A", 0, 1), "depth": ("depth", "N", 1, MAX_DEPTH),
            "samples": ("samples", "N", 1, MAX_SAMPLES), "minweight": ("min_weight", "W", 0, 1)}
 #: Sphere attribute -> names of its values (their count is the attribute's arity).
-ATTRIBUTES = {
-    "color": ("R", "G", "B"),
-    "reflect": ("KR",),
-    "refract": ("KT", "IOR"),
-    "texture": ("PATH",),
-    "north": ("X", "Y", "Z"),
-    "equator": ("X", "Y", "Z"),
-}
+ATTRIBUTES = {"color": ("R", "G", "B"), "reflect": ("KR",), "refract": ("KT", "IOR"),
+              "texture": ("PATH",), "north": ("X", "Y", "Z"), "equator": ("X", "Y", "Z")}
 
 _NUMBER = re.compile(r"[+-]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][+-]?[0-9]+)?")
 _INTEGER = re.compile(r"[+-]?[0-9]+")
@@ -105,7 +99,7 @@ def decode(data: bytes, path: str | os.PathLike) -> str:
     except UnicodeDecodeError as error:
         raise SceneError(path, _line_of(data, error.start),
                          f"not UTF-8 text (byte 0x{data[error.start]:02x})") from None
-    return text[1:] if text.startswith("\ufeff") else text
+    return text.removeprefix("\ufeff")
 
 
 def _line_of(data: bytes, offset: int) -> int:
@@ -232,10 +226,8 @@ def parse_text(text: str, source: str | os.PathLike, *, careful: bool = False) -
     """Parse scene text; ``source`` names the file in messages and anchors relative textures.
     ``careful=True``: every statement read on its own, none in a batch (the parser's tests and
     benchmark compare both)."""
-    source = Path(source)
-    if text.startswith("\ufeff"):
-        text = text[1:]
-    parser = _Parser(source)
+    parser = _Parser(Path(source))
+    text = text.removeprefix("\ufeff")
     enabled = gc.isenabled()
     gc.disable()   # a large scene makes millions of short-lived lists, none in a cycle
     try:
@@ -351,13 +343,12 @@ class _Parser:
 
     def in_range(self, value: Decimal, token_text: str, what: str, low, high,
                  *, low_open: bool = False, high_open: bool = False) -> None:
-        """``low <= value <= high`` (or strict where open); None means unbounded."""
-        bad_low = low is not None and (value <= low if low_open else value < low)
+        """``low <= value <= high`` (or strict where open); a ``high`` of None: unbounded."""
         bad_high = high is not None and (value >= high if high_open else value > high)
-        if bad_low or bad_high:
-            bounds = [f"{'>' if low_open else '>='} {low}" if low is not None else "",
-                      f"{'<' if high_open else '<='} {high}" if high is not None else ""]
-            bounds = " and ".join(filter(None, bounds))
+        if bad_high or (value <= low if low_open else value < low):
+            bounds = f"{'>' if low_open else '>='} {low}"
+            if high is not None:
+                bounds += f" and {'<' if high_open else '<='} {high}"
             self.fail(f"{what} must be {bounds}, got {_clip(token_text)}")
 
     def positive(self, value: Decimal, token_text: str, what: str) -> None:
@@ -369,10 +360,7 @@ class _Parser:
         """The scene once every statement is read, or every problem, in file order, as one
         :class:`SceneError`."""
         if not self.failed & {"eye", "lookat", "up"}:  # else the camera is not what the file says
-            try:
-                self.check_camera()
-            except SceneError as error:
-                self.errors.append((error.line, error.message))
+            self.part(self.check_camera)
         self.read_spheres()
         if self.errors:
             self.errors.sort(key=lambda error: error[0] or 0)
@@ -483,13 +471,8 @@ class _Parser:
                 default = "" if "equator" in values else " (the default)"
                 self.fail(f"sphere equator {_show_vec(equator)}{default} must not be parallel "
                           f"to north {_show_vec(north)}")
-        material = Material(
-            color=_floats(values.get("color", Material.color)),
-            reflect=float(kr),
-            refract=float(kt),
-            ior=float(values.get("refract", (0, 1))[1]),
-            texture=values.get("texture"),
-        )
+        material = Material(_floats(values.get("color", Material.color)), float(kr), float(kt),
+                            float(values.get("refract", (0, 1))[1]), values.get("texture"))
         key = self.materials.index(material), self.orientations.index(orientation)
         return self.looks.setdefault(key, len(self.looks))
 

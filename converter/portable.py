@@ -79,8 +79,7 @@ def portable(description: Description) -> tuple[Description, list[str]]:
     defaults = {"spp": description.defaults["spp"], "max_depth": D.path_depth(depth),
                 "width": description.defaults["width"], "height": description.defaults["height"]}
     scene["integrator"] = {"type": "path", "max_depth": Param("max_depth")}
-    notes = list(SUMMARY)
-    notes.append(f"The article's depth is {depth}: max_depth = {defaults['max_depth']}.")
+    notes = [*SUMMARY, f"The article's depth is {depth}: max_depth = {defaults['max_depth']}."]
     if integrator.get("min_weight") is not None:
         notes.append("The scene's minweight (the whitted integrator's adaptive depth) has no stock form.")
     _replace_materials(scene, notes)

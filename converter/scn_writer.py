@@ -47,7 +47,6 @@ def material_text(sphere: Sphere, folder: Path) -> str:
 def scene_to_scn(scene: Scene, folder: str | os.PathLike, comment: str = "") -> str:
     """``scene`` as ``.scn`` text, for a file in ``folder`` (texture paths are relative to
     it); ``comment`` opens the file, one ``#`` line per line."""
-    folder = Path(folder)
     lines = [f"# {line}" for line in comment.splitlines()]
     lines += [f"size {scene.width} {scene.height}", f"eye {_nums(scene.eye)}",
               f"lookat {_nums(scene.lookat)}", f"up {_nums(scene.up)}", f"fov {_num(scene.fov)}",

@@ -75,10 +75,8 @@ def _value(value, defaults: dict) -> tuple[str, str]:
         return "integer", str(value)
     if isinstance(value, float):
         return "float", num(value)
-    if isinstance(value, str):
-        return "string", string_value(value)
-    if isinstance(value, Mesh):
-        return "string", string_value(value.filename)
+    if isinstance(value, (str, Mesh)):   # a mesh: its file's name
+        return "string", string_value(value if isinstance(value, str) else value.filename)
     if isinstance(value, tuple) and len(value) == 3:
         return "point", vec(value, ", ")
     raise TypeError(f"no XML form for {value!r}")
@@ -135,10 +133,8 @@ def _with_notes(description: Description, portable: bool) -> tuple[Description, 
 
 def _pieces(description: Description, notes: list[str]):
     o = description.origin
-    out = [
-        '<?xml version="1.0" encoding="utf-8"?>',
-        f'<!-- Converted by whitted from {comment(description.source)} -->',
-    ]
+    out = ['<?xml version="1.0" encoding="utf-8"?>',
+           f'<!-- Converted by whitted from {comment(description.source)} -->']
     if notes:
         out += [f"<!-- {comment(notes[0])}"] + [f"     {comment(n)}" for n in notes[1:]]
         out[-1] += " -->"
