@@ -43,8 +43,7 @@ def whitted_settings(scene) -> dict:
 
 #: how :func:`whitted_integrator` takes each setting it may change
 _SETTING_TYPES = {"max_depth": int, "lighting": str, "min_weight": float,
-                  "ambient": lambda value: D.check_ambient(value, "ambient"),
-                  "without": lambda value: D.check_without(value, "without")}
+                  "ambient": D.check_ambient, "without": D.check_without}
 
 
 def whitted_integrator(scene, **changes):
