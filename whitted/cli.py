@@ -6,6 +6,7 @@ needs is imported here: each command imports its own module when it runs.
 from __future__ import annotations
 
 import argparse
+import importlib
 import os
 import sys
 import time
@@ -20,15 +21,17 @@ SCENE_KEYWORD_OPTIONS = {"--samples": "--spp", "--depth": "--max-depth",
                          "--minweight": "--min-weight"}
 
 
-def _command(sub, name: str, module: str, function: str, help: str,
-             description: str) -> argparse.ArgumentParser:
+def _command(sub, name: str, module: str, function: str, help: str, description: str,
+             options: bool = False) -> argparse.ArgumentParser:
     """The subcommand ``name``'s parser (kept in the arguments: errors speak its terms), run by
-    ``module.function(args)``, imported when it runs."""
+    ``module.function(args)``, imported when it runs; ``options``: ``module.add_arguments``
+    adds its options now."""
     def run(args: argparse.Namespace):
-        import importlib
         return getattr(importlib.import_module(module, __package__), function)(args)
     command = sub.add_parser(name, help=help, description=description)
     command.set_defaults(run=run, parser=command)
+    if options:
+        importlib.import_module(module, __package__).add_arguments(command)
     return command
 
 
@@ -176,8 +179,8 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
                      help=f"the widest image the fit renders (default {FIT_WIDTH})")
     _talk(fit, None, "no progress bar, no losses")
 
-    trace = _command(
-        sub, "trace", ".trace.cli", "trace_command",
+    _command(
+        sub, "trace", ".trace.cli", "trace_command", options=command in (None, "trace"),
         help="the ray tree of a pixel, as the renderer computed it",
         description="""\
         Trace pixels' center rays as a render at one sample per pixel traces them (the whitted
@@ -188,12 +191,9 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
         pixel and why its branch stops. The contributions add up to the pixel. Positions are in
         the scene file's coordinates. -o PAGE.html also writes a page to project: the image with
         the pixels marked, each tree as a table and a 3D view of the rays.""")
-    if command in (None, "trace"):
-        from .trace.cli import add_arguments
-        add_arguments(trace)
 
-    compare = _command(
-        sub, "compare", ".compare.cli", "compare_command",
+    _command(
+        sub, "compare", ".compare.cli", "compare_command", options=command in (None, "compare"),
         help="what accuracy costs in time: sweep the methods against a path-traced reference",
         description="""\
         Render a converged path-traced reference (cached), then sweep the Whitted integrator (max
@@ -202,9 +202,6 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
         open it from disk), DIR/summary.txt (its conclusions in text), DIR/findings.json (the same
         for scripts), DIR/results.csv (one row per render), DIR/error_vs_time.png,
         DIR/contact_sheet.png and every render under DIR/renders/.""")
-    if command in (None, "compare"):
-        from .compare.cli import add_arguments
-        add_arguments(compare)
     return parser
 
 

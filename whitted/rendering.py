@@ -25,8 +25,6 @@ PATH_SAMPLES_PER_PASS = 1 << 20
 
 @dataclass
 class RenderResult:
-    """What :func:`render` returns."""
-
     image: np.ndarray        # float32 (H, W, 3), linear RGB
     seconds: float           # render time, kernel compilation excluded
     compile_seconds: float   # kernel compilation (0 when every kernel was cached)
@@ -45,8 +43,7 @@ def whitted_settings(scene) -> dict:
 
 #: how :func:`whitted_integrator` takes each setting it may change
 _SETTING_TYPES = {"max_depth": int, "lighting": str, "min_weight": float,
-                  "ambient": lambda value: D.check_ambient(value, "ambient"),
-                  "without": lambda value: D.check_without(value, "without")}
+                  "ambient": D.check_ambient, "without": D.check_without}
 
 
 def whitted_integrator(scene, **changes):
@@ -61,7 +58,7 @@ def whitted_integrator(scene, **changes):
         if own is not None:
             return own.with_settings(**changes)
         if "without" in changes:
-            changes["without"] = ",".join(D.check_without(changes["without"]))
+            changes["without"] = ",".join(changes["without"])
         return mi.load_dict({"type": "whitted", **changes})
 
 
@@ -171,14 +168,13 @@ def render_checked(scene, integrator: str = D.INTEGRATOR, spp: int | None = None
     """:func:`render` for settings :func:`check_settings` has passed (the CLI checks them first)."""
     interrupt.check()   # a stop swallowed since the last render
     seed = D.check_seed(seed)
-    spp_asked = spp
     if not scene.sensors():
         raise WhittedError("the scene has no sensor (camera) to render from")
     depth = int(max_depth) if max_depth is not None else whitted_settings(scene)["max_depth"]
     sensor = scene.sensors()[0]
+    if spp is None and integrator == "path":
+        spp = max(sensor.sampler().sample_count(), D.PATH_MIN_SPP)
     spp = int(spp) if spp is not None else sensor.sampler().sample_count()
-    if integrator == "path" and spp_asked is None:
-        spp = max(spp, D.PATH_MIN_SPP)
     width, height = (int(c) for c in sensor.film().crop_size())
 
     if integrator == "whitted":
