@@ -21,9 +21,8 @@ from ..atomic import atomic_path, write_text
 from ..defaults import VERSION
 from ..images import view_text
 from ..templates import environment
-from .analysis import (METHOD_NAMES, TIMING, Analysis, FloorStatement, analyse, capital,
-                       equal_time_how, model_text, ratio_text, reach_text, speedup_text,
-                       spread_text)
+from .analysis import (METHOD_NAMES, TIMING, Analysis, FloorStatement, analyse, equal_time_how,
+                       model_text, ratio_text, reach_text, speedup_text, spread_text)
 from .curves import pareto_front
 from .plot import COLORS, PLOT_NAME, SCENE_PLOT, plot_error_vs_time
 from .results import (METHODS, WHITTED_LIGHTING, WHITTED_METHODS, Measurement, SceneResult,
@@ -56,7 +55,7 @@ def method_verdict(statement: FloorStatement) -> str:
     render, floor = statement.render, statement.floor
     path, best = statement.path, statement.path_best
     where = f"{render.setting.label}, {seconds_text(render.seconds)} (error {floor.error:.3g})"
-    text = capital(METHOD_NAMES[statement.method]) + (
+    text = METHOD_NAMES[statement.method].capitalize() + (
         f" is as good as it gets at {where}" if floor.settled
         else f" is still improving at its costliest render, {where}")
     if path is None and best is None:
