@@ -144,14 +144,11 @@ def json_safe(value):
 
 
 def _render(m: Measurement, index: str, card: bool) -> dict:
-    s, cells = m.setting, render_cells(m)
-    limit = (f", {number(m.rel_mse_limit)} from its limit"
-             if math.isfinite(m.rel_mse_limit) else "")
-    return {**cells, "id": index, "method_name": METHOD_NAMES[s.method], "depth": s.max_depth,
-            "spp": s.spp, "rounds": m.rounds, "png": m.image_png, "exr": m.image or "",
-            "map": m.error_map or m.image_png, "title": f"{s.method} {s.label}", "card": card,
-            "caption": f"{METHOD_NAMES[s.method]} ({s.method}), {s.label}: {cells['time']}, "
-                       f"relative MSE {cells['rel_mse']}{limit}, FLIP {cells['flip']}"}
+    s = m.setting
+    return {**render_cells(m), "id": index, "method_name": METHOD_NAMES[s.method],
+            "depth": s.max_depth, "spp": s.spp, "rounds": m.rounds, "png": m.image_png,
+            "exr": m.image or "", "map": m.error_map or m.image_png, "title": f"{s.method} {s.label}",
+            "card": card, "limit": number(m.rel_mse_limit) if math.isfinite(m.rel_mse_limit) else ""}
 
 
 def _on_curves(measurements: list[Measurement]) -> set[int]:
