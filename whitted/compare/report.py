@@ -164,8 +164,7 @@ def _on_curves(measurements: list[Measurement]) -> set[int]:
 def scene_context(analysis: Analysis, plot: str, out: Path) -> dict:
     entry = analysis.entry
     key = "".join(c if c.isalnum() else "-" for c in entry.name)   # an HTML id
-    order = {m: i for i, m in enumerate(METHODS)}
-    measurements = sorted(entry.measurements, key=lambda m: (order[m.setting.method],
+    measurements = sorted(entry.measurements, key=lambda m: (METHODS.index(m.setting.method),
                                                              m.setting.max_depth, m.setting.spp))
     cards = _on_curves(measurements) | {id(f.render) for f in analysis.floors}
     renders = [_render(m, f"{key}-{i}", id(m) in cards) for i, m in enumerate(measurements)]
