@@ -100,7 +100,8 @@ def scene_words(analysis: Analysis) -> dict:
     return {
         "name": entry.name, "width": entry.width, "height": entry.height,
         "notes": list(entry.notes), "reference": {"spp": entry.reference_spp},
-        "statements": analysis.floors, "noise": noise if math.isfinite(noise) and noise > 0 else None,
+        "statements": analysis.floors,
+        "noise": noise if math.isfinite(noise) and noise > 0 else None,
         "floors": ([f.text for f in analysis.floors]
                    + ([model_text(entry)] if entry.path_model else [])),
         "decompositions": [d.text for d in analysis.decompositions],
@@ -147,8 +148,9 @@ def _render(m: Measurement, index: str, card: bool) -> dict:
     s = m.setting
     return {**render_cells(m), "id": index, "method_name": METHOD_NAMES[s.method],
             "depth": s.max_depth, "spp": s.spp, "rounds": m.rounds, "png": m.image_png,
-            "exr": m.image or "", "map": m.error_map or m.image_png, "title": f"{s.method} {s.label}",
-            "card": card, "limit": number(m.rel_mse_limit) if math.isfinite(m.rel_mse_limit) else ""}
+            "exr": m.image or "", "map": m.error_map or m.image_png, "card": card,
+            "title": f"{s.method} {s.label}",
+            "limit": number(m.rel_mse_limit) if math.isfinite(m.rel_mse_limit) else ""}
 
 
 def _on_curves(measurements: list[Measurement]) -> set[int]:
