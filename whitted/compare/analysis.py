@@ -16,7 +16,7 @@ from .curves import (Floor, PathModel, Reading, error_at_time, error_floor, erro
                      time_to_reach)
 from .results import (METHODS, WHITTED_METHODS, Limit, Measurement, SceneResult, Setting,
                       seconds_text)
-from .timing import Interval, coverage, finite_or_none, paired
+from .timing import Interval, coverage, paired
 
 #: How the prose names each method.
 METHOD_NAMES = {"whitted-article": "the article's model",
@@ -35,10 +35,6 @@ TIMING = ("the median of timed rounds: a first in which every render of a scene 
           f"with its interval ({COMPARE_CONFIDENCE:.0%} confidence over 5 rounds or more; over "
           f"{COMPARE_ROUNDS}, its extremes: {coverage(COMPARE_ROUNDS):.0%}), widened by "
           f"{COMPARE_RUN_SHARE:.0%} each way: what a ratio moves between runs")
-
-
-def capital(text: str) -> str:
-    return text[0].upper() + text[1:]
 
 
 def faster_text(interval: Interval, name: str, other: str) -> str:
@@ -163,7 +159,7 @@ class Analysis:
     decompositions: list[Decomposition] = field(default_factory=list)
 
     def findings(self) -> dict:
-        """The scene's conclusions as plain JSON data (``findings.json``, docs/compare.md)."""
+        """The scene's conclusions (``findings.json``, docs/compare.md; NaN: not measured)."""
         methods = {}
         decompositions = {d.method: d for d in self.decompositions}
         for statement in self.floors:
@@ -184,12 +180,12 @@ class Analysis:
                                                                  "noise", "converged", "seconds")}
                 found["depth_and_sampling_rel_mse"] = decomposition.sampling
                 if statement.method == "whitted-article":
-                    found["scene_ambient"] = finite_or_none(limit.ambient)
-                    found["best_ambient"] = finite_or_none(limit.best_ambient)
-                    found["rel_mse_at_best_ambient"] = finite_or_none(limit.rel_mse_at_best_ambient)
+                    found["scene_ambient"] = limit.ambient
+                    found["best_ambient"] = limit.best_ambient
+                    found["rel_mse_at_best_ambient"] = limit.rel_mse_at_best_ambient
                     if limit.fitted is not None:
                         fitted = limit.fitted
-                        found["fitted"] = {"rel_mse": finite_or_none(fitted.rel_mse), "ambient": fitted.ambient,
+                        found["fitted"] = {"rel_mse": fitted.rel_mse, "ambient": fitted.ambient,
                                            "colors": {k: list(v) for k, v in fitted.colors.items()},
                                            "lights": [list(c) for c in fitted.lights],
                                            "fit_size": list(fitted.size), "fit_rel_mse": fitted.fit_rel_mse,
@@ -199,7 +195,7 @@ class Analysis:
             methods[statement.method] = found
         entry, model = self.entry, self.entry.path_model
         return {"levels": list(self.levels), "reference_spp": entry.reference_spp,
-                "reference_noise": finite_or_none(entry.reference_noise),
+                "reference_noise": entry.reference_noise,
                 "renders": len(entry.measurements), "skipped": len(entry.skipped),
                 "timed_rounds": rounds_of(entry), "methods": methods, "notes": list(entry.notes),
                 "path_model": None if model is None else {
@@ -406,10 +402,10 @@ def floor_text(statement: FloorStatement, reference_noise: float, tolerance: flo
     name, render = METHOD_NAMES[statement.method], floor.render
     cheapest = (f"{render.setting.label} ({seconds_text(render.seconds)}) at {floor.error:.3g}")
     if floor.settled:
-        text = (f"{capital(name)} stops improving at {floor.best:.3g} (relative MSE, its best): "
-                f"its cheapest render within {tolerance:.0%} of that is {cheapest}")
+        text = (f"{name.capitalize()} stops improving at {floor.best:.3g} (relative MSE, its "
+                f"best): its cheapest render within {tolerance:.0%} of that is {cheapest}")
     else:
-        text = (f"{capital(name)} is still improving at its costliest render, {cheapest} "
+        text = (f"{name.capitalize()} is still improving at its costliest render, {cheapest} "
                 f"(relative MSE): no costlier render shows where it stops")
     if path is None and path_best is None:
         text += "; the path tracer was not rendered."
@@ -495,11 +491,9 @@ def reach_text(reach: Reach | None) -> str:
     """An equal-quality cell: the cheapest render reaching the level, else the best."""
     if reach is None:
         return "not rendered"
-    if reach.fastest is not None:
-        fitted = ", fitted" if reach.fastest.modelled else ""
-        return f"{seconds_text(reach.fastest.seconds)} ({reach.fastest.setting.label}{fitted})"
-    fitted = ", fitted" if reach.best.modelled else ""
-    return f"best {reach.best.rel_mse:.3g} ({reach.best.setting.label}{fitted})"
+    m = reach.fastest or reach.best
+    what = seconds_text(m.seconds) if reach.fastest else f"best {m.rel_mse:.3g}"
+    return f"{what} ({m.setting.label}{', fitted' if m.modelled else ''})"
 
 
 def speedup_text(row: EqualQuality, method: str) -> str:

@@ -21,9 +21,8 @@ from ..atomic import atomic_path, write_text
 from ..defaults import VERSION
 from ..images import view_text
 from ..templates import environment
-from .analysis import (METHOD_NAMES, TIMING, Analysis, FloorStatement, analyse, capital,
-                       equal_time_how, model_text, ratio_text, reach_text, speedup_text,
-                       spread_text)
+from .analysis import (METHOD_NAMES, TIMING, Analysis, analyse, equal_time_how, model_text,
+                       ratio_text, reach_text, speedup_text, spread_text)
 from .curves import pareto_front
 from .plot import COLORS, PLOT_NAME, SCENE_PLOT, plot_error_vs_time
 from .results import (METHODS, WHITTED_LIGHTING, WHITTED_METHODS, Measurement, SceneResult,
@@ -52,26 +51,11 @@ def table(rows: list[list[str]]) -> list[str]:
     return ["  " + "   ".join(cell.ljust(w) for cell, w in zip(r, widths)).rstrip() for r in rows]
 
 
-def method_verdict(statement: FloorStatement) -> str:
-    render, floor = statement.render, statement.floor
-    path, best = statement.path, statement.path_best
-    where = f"{render.setting.label}, {seconds_text(render.seconds)} (error {floor.error:.3g})"
-    text = capital(METHOD_NAMES[statement.method]) + (
-        f" is as good as it gets at {where}" if floor.settled
-        else f" is still improving at its costliest render, {where}")
-    if path is None and best is None:
-        return text + "."
-    if path is None:
-        return (text + f"; the path tracer never got as close (its best: {best.rel_mse:.3g} at "
-                f"{best.setting.label}, {seconds_text(best.seconds)}).")
-    if path.how == "nearest":
-        first = path.between[0]
-        return (text + f"; the path tracer is more accurate from its fastest render on "
-                f"({first.setting.label}, {seconds_text(first.seconds)}).")
-    if path.value <= render.seconds:
-        return (text + f"; the path tracer is as accurate already from about {seconds_text(path.value)} "
-                f"on: faster there, and more accurate beyond.")
-    return text + f"; from about {seconds_text(path.value)} on, the path tracer is more accurate."
+def template(name: str):
+    """One of the command's templates, given what words.txt.j2 reads."""
+    env = environment("whitted.compare")
+    env.globals.update(seconds_text=seconds_text, method_names=METHOD_NAMES)
+    return env.get_template(name)
 
 
 def number(value: float) -> str:
@@ -110,25 +94,17 @@ def equal_quality_row(row, methods: list[str], whitted: list[str]) -> dict:
 def scene_words(analysis: Analysis) -> dict:
     """What summary.txt and the page say of one scene (both templates read this)."""
     entry = analysis.entry
-    methods = [m for m in METHODS if any(m in row.reach for row in analysis.equal_quality)]
     noise = entry.reference_noise
-    noisy = math.isfinite(noise) and noise > 0
+    methods = [m for m in METHODS if any(m in row.reach for row in analysis.equal_quality)]
     whitted = [m for m in WHITTED_METHODS if m in methods]
-    verdicts = [method_verdict(s) for s in analysis.floors]
-    scale = ("Errors are relative MSE against the converged path-traced reference: 0 is identical, "
-             "1 about as far off as a black image"
-             + (f"; this reference's own noise is about {noise:.2g}, and no render can measurably "
-                f"score below it." if noisy else "."))
     return {
         "name": entry.name, "width": entry.width, "height": entry.height,
         "notes": list(entry.notes), "reference": {"spp": entry.reference_spp},
-        "verdicts": verdicts, "scale": scale,
-        "verdict": " ".join((verdicts or ["No Whitted render was done: there is no verdict to "
-                                          "state."]) + [scale]),
+        "statements": analysis.floors,
+        "noise": noise if math.isfinite(noise) and noise > 0 else None,
         "floors": ([f.text for f in analysis.floors]
                    + ([model_text(entry)] if entry.path_model else [])),
         "decompositions": [d.text for d in analysis.decompositions],
-        "noise_note": f", its noise ≈ {noise:.3g}" if noisy else "",
         "methods": methods, "whitted": [WHITTED_LIGHTING[m] for m in whitted],
         "equal_quality_header": (["rel_mse ≤", *methods, "fastest"]
                                  + [f"{WHITTED_LIGHTING[m]} vs path" for m in whitted]),
@@ -146,7 +122,7 @@ def interruption_text(done: int, planned: int) -> str:
 def summary(analyses: list[Analysis], equal_time: bool = True,
             interrupted: tuple[int, int] | None = None) -> str:
     """``summary.txt``; ``interrupted``: (renders done, planned) of a stopped run, said first."""
-    return environment("whitted.compare").get_template("summary.txt.j2").render(
+    return template("summary.txt.j2").render(
         scenes=[scene_words(a) for a in analyses], timing=TIMING, equal_time=equal_time,
         table=table,
         interrupted=interruption_text(*interrupted) if interrupted else None).rstrip("\n")
@@ -169,14 +145,12 @@ def json_safe(value):
 
 
 def _render(m: Measurement, index: str, card: bool) -> dict:
-    s, cells = m.setting, render_cells(m)
-    limit = (f", {number(m.rel_mse_limit)} from its limit"
-             if math.isfinite(m.rel_mse_limit) else "")
-    return {**cells, "id": index, "method_name": METHOD_NAMES[s.method], "depth": s.max_depth,
-            "spp": s.spp, "rounds": m.rounds, "png": m.image_png, "exr": m.image or "",
-            "map": m.error_map or m.image_png, "title": f"{s.method} {s.label}", "card": card,
-            "caption": f"{METHOD_NAMES[s.method]} ({s.method}), {s.label}: {cells['time']}, "
-                       f"relative MSE {cells['rel_mse']}{limit}, FLIP {cells['flip']}"}
+    s = m.setting
+    return {**render_cells(m), "id": index, "method_name": METHOD_NAMES[s.method],
+            "depth": s.max_depth, "spp": s.spp, "rounds": m.rounds, "png": m.image_png,
+            "exr": m.image or "", "map": m.error_map or m.image_png, "card": card,
+            "title": f"{s.method} {s.label}",
+            "limit": number(m.rel_mse_limit) if math.isfinite(m.rel_mse_limit) else ""}
 
 
 def _on_curves(measurements: list[Measurement]) -> set[int]:
@@ -192,8 +166,7 @@ def _on_curves(measurements: list[Measurement]) -> set[int]:
 def scene_context(analysis: Analysis, plot: str, out: Path) -> dict:
     entry = analysis.entry
     key = "".join(c if c.isalnum() else "-" for c in entry.name)   # an HTML id
-    order = {m: i for i, m in enumerate(METHODS)}
-    measurements = sorted(entry.measurements, key=lambda m: (order[m.setting.method],
+    measurements = sorted(entry.measurements, key=lambda m: (METHODS.index(m.setting.method),
                                                              m.setting.max_depth, m.setting.spp))
     cards = _on_curves(measurements) | {id(f.render) for f in analysis.floors}
     renders = [_render(m, f"{key}-{i}", id(m) in cards) for i, m in enumerate(measurements)]
@@ -210,10 +183,8 @@ def scene_context(analysis: Analysis, plot: str, out: Path) -> dict:
              if m.setting.method == "path" and m.seconds > 0]
     near = (min(paths, key=lambda p: abs(math.log(p[1].seconds / floor_render.seconds)))[0]
             if paths and floor_render and floor_render.seconds > 0 else None)
-    words = scene_words(analysis)
     return {
-        **words, "headline": words["verdicts"][0] if words["verdicts"] else None,
-        "more": " ".join(words["verdicts"][1:] + [words["scale"]]), "path_near": near, "key": key,
+        **scene_words(analysis), "path_near": near, "key": key,
         "display_width": entry.width * max(1, math.ceil(VIEWER_WIDTH / entry.width)),
         "variant": entry.variant, "path_depth": entry.path_depth,
         "reference": {"png": entry.reference_png, "exr": reference_exr, "spp": entry.reference_spp,
@@ -234,8 +205,7 @@ def write_page(path: str | os.PathLike, analyses: list[Analysis], plots: dict[st
     """Write the report page (atomically); ``plots``, ``files``: the outputs relative to its
     folder; ``left_out``: the scenes without a reference."""
     path = Path(path)
-    template = environment("whitted.compare").get_template("report.html.j2")
-    text = template.render(
+    text = template("report.html.j2").render(
         scenes=[scene_context(a, plots[a.entry.name], path.parent) for a in analyses],
         left_out=[{"name": e.name, "notes": list(e.notes) or ["no reference"]} for e in left_out],
         files=files, colorbar=colorbar(), colors=COLORS, version=VERSION, interrupted=interrupted, timing=TIMING,

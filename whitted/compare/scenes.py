@@ -104,9 +104,8 @@ def plan(depths: tuple[int, ...], whitted_spp: tuple[int, ...], path_spp: tuple[
     settings = [Setting("whitted", lighting, spp, depth)
                 for lighting in LIGHTING_MODES for spp in whitted_spp for depth in depths]
     settings += [Setting("path", "physical", spp, path_depth) for spp in path_spp]
-    order = {m: i for i, m in enumerate(METHODS)}
     settings.sort(key=lambda s: (s.spp, s.max_depth if s.integrator == "whitted" else 0,
-                                 order[s.method]))
+                                 METHODS.index(s.method)))
     if not quick:
         return settings
     checking = path_spp[:COMPARE_PATH_FIT_COUNTS + 1]

@@ -18,10 +18,6 @@ def interleaved(items: list, k: int):
     return items if k % 2 == 0 else reversed(items)
 
 
-def finite_or_none(value: float) -> float | None:
-    return value if math.isfinite(value) else None
-
-
 def median(values) -> float:
     """The median of the finite ``values`` (NaN: none)."""
     finite = [v for v in values if math.isfinite(v)]
@@ -96,9 +92,8 @@ class Interval:
         return f"{self.low:.3g}–{self.high:.3g}× over {self.rounds} rounds"
 
     def as_dict(self) -> dict:
-        return {"value": finite_or_none(self.value), "low": finite_or_none(self.low),
-                "high": finite_or_none(self.high),
-                "rounds": self.rounds, "confidence": coverage(self.rounds), "settled": self.settled,
+        return {"value": self.value, "low": self.low, "high": self.high, "rounds": self.rounds,
+                "confidence": coverage(self.rounds), "settled": self.settled,
                 "no_measurable_difference": self.straddles_one}
 
 
