@@ -53,9 +53,11 @@ def quick_text() -> str:
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("scenes", nargs="+", metavar="SCENE",
+    from ..cli import path_argument
+    parser.add_argument("scenes", nargs="+", metavar="SCENE", type=path_argument,
                         help="scenes (.scn or .xml), or folders of them")
-    parser.add_argument("-o", "--out", required=True, metavar="DIR", help="output folder")
+    parser.add_argument("-o", "--out", required=True, metavar="DIR", type=path_argument,
+                        help="output folder")
     parser.add_argument("--reference-spp", type=int, metavar="N",
                         help=f"the reference's samples per pixel, at most: fewer where its noise "
                              f"needs fewer (default {COMPARE_REFERENCE_SPP})")
@@ -85,7 +87,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="relative MSE levels of the equal-quality table, e.g. 0.1,0.03 "
                              "(default: from the data: each method's floor, and levels between "
                              "the best and worst errors measured)")
-    parser.add_argument("--cache", metavar="DIR", help="where references are cached (default: ~/.cache/whitted/references, or "
+    parser.add_argument("--cache", metavar="DIR", type=path_argument, help="where references are cached (default: ~/.cache/whitted/references, or "
                              "$XDG_CACHE_HOME/whitted/references; shared by every run; safe to delete)")
     parser.add_argument("--variant", choices=VARIANTS,
                         help="Mitsuba variant (default as for render)")
