@@ -15,6 +15,10 @@ from ..defaults import (COMPARE_MAX_DEFAULT_DEPTH, COMPARE_PATH_SPP, COMPARE_QUI
 from .results import Options
 
 
+#: the most values a list option holds (each one a render of every scene)
+MAX_LIST = 1000
+
+
 def int_list(text: str) -> tuple[int, ...]:
     """'1,4,16' or '1-5' or '1-3,8' -> a sorted tuple of distinct positive integers (argparse type)."""
     values: set[int] = set()
@@ -23,6 +27,8 @@ def int_list(text: str) -> tuple[int, ...]:
             low, high = map(int, item.split("-", 1) if "-" in item[1:] else (item, item))
             if high < low:
                 raise ValueError
+            if len(values) + high - low >= MAX_LIST:
+                raise argparse.ArgumentTypeError(f"'{text}': a list holds at most {MAX_LIST} values")
             values.update(range(low, high + 1))
     except ValueError:
         raise argparse.ArgumentTypeError(f"'{text}' is not a list of integers like 1,4,16 or 1-5") from None
