@@ -58,3 +58,13 @@ def test_random_spheres_do_not_overlap_and_stay_in_their_box():
     shiny = scenes.random_spheres(200, reflect=0.3)
     assert len({s.material for s in shiny}) == 200
     assert all(0 <= s.material.reflect <= 0.3 for s in shiny) and max(s.material.reflect for s in shiny) > 0.2
+
+
+@pytest.mark.parametrize("rounds", ["0", "-1"])
+def test_parse_speed_refuses_no_rounds(rounds, capsys):
+    """No rounds has no median: a usage error (it was a StatisticsError traceback)."""
+    from benchmarks import parse_speed
+    with pytest.raises(SystemExit) as stop:
+        parse_speed.main(["--rounds", rounds, "--level", "0"])
+    assert stop.value.code == 2
+    assert capsys.readouterr().err.splitlines()[-1].endswith(f"error: --rounds must be >= 1, got {rounds}")
