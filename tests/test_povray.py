@@ -136,3 +136,18 @@ def test_path_tracer_rows_stand_beside_the_whitted_render():
     assert cells[1]["path process s"] == "did not finish in 600 s" and cells[1]["path peak RSS MiB"] == "≥ 3072"
     assert cells[1]["process path / whitted"] == "—"
     assert vs_povray.failures([done, late], []) == ["level 6, floor 10^4: path: did not finish in 600 s"]
+
+
+@pytest.mark.parametrize("options, message", [
+    (["--runs", "0"], "--runs must be >= 1, got 0"), (["--runs=-2"], "--runs must be >= 1, got -2"),
+    (["--floors", "1000", "0"], "--floors: a radius must be positive and at most 1e12 - 0.5, got 0"),
+    (["--floors", "nan"], "got nan"), (["--floors", "1e300"], "got 1e+300")])
+def test_a_bad_run_count_or_floor_is_a_usage_error(options, message, tmp_path, capsys):
+    """--runs 0 ran the default counts and a negative count no run; a floor radius of 0 or NaN
+    was a ValueError traceback, and one the scene format cannot hold made a failed conversion."""
+    with pytest.raises(SystemExit) as stop:
+        vs_povray.main(["--levels", "1", "--programs", "convert", *options,
+                        "--plot", str(tmp_path / "curve.png")])
+    assert stop.value.code == 2
+    assert capsys.readouterr().err.splitlines()[-1].endswith(message)
+    assert not (tmp_path / "curve.png").exists()
