@@ -32,8 +32,13 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     if args.quick:
         args.size, args.rounds = (160, 100), 1
-    scene = whitted.load_scene(args.scene, variant="llvm_ad_rgb", ellipsoids=False, spp=args.spp,
-                               width=args.size[0], height=args.size[1])
+    if args.rounds < 1:
+        parser.error(f"--rounds must be >= 1, got {args.rounds}")
+    try:   # a missing scene, a size or spp out of range
+        scene = whitted.load_scene(args.scene, variant="llvm_ad_rgb", ellipsoids=False,
+                                   spp=args.spp, width=args.size[0], height=args.size[1])
+    except whitted.WhittedError as error:
+        parser.error(str(error))
     params = mi.traverse(scene)
     keys = [k for k in params.keys() if k.endswith("color.value") or k.endswith("intensity.value")
             or k == "integrator.ambient"]

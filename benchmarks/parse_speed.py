@@ -29,6 +29,8 @@ def main(argv=None) -> int:
     parser.add_argument("--rounds", type=int, default=5)
     parser.add_argument("--level", type=int, default=5, choices=list(sphereflake.LEVELS))
     args = parser.parse_args(argv)
+    if args.rounds < 1:
+        parser.error(f"--rounds must be >= 1, got {args.rounds}")
     flake = scene_to_scn(sphereflake.scene(args.level), ".")
     distinct = scene_to_scn(Scene(width=64, height=64, lights=[Light((1.0, 2.0, 3.0))],
                                    spheres=scenes.random_spheres(66_000, reflect=0.5)), ".")

@@ -20,8 +20,11 @@ from pathlib import Path
 
 import numpy as np
 
+from whitted.atomic import check_writable, write_text
 from whitted.converter.scene import Light, Material, Scene, Sphere, Vec3
 from whitted.converter.scn_writer import scene_to_scn
+from whitted.defaults import MAX_MAGNITUDE
+from whitted.errors import WhittedError
 
 #: the levels written here (0 is a lone sphere; 6 holds 597 871 spheres)
 LEVELS = range(0, 7)
@@ -135,8 +138,9 @@ def title(level: int, floor_radius: float = FLOOR_RADIUS) -> str:
 
 
 def write(level: int, path: str | Path, floor_radius: float = FLOOR_RADIUS) -> Path:
+    """The scene written to ``path`` whole or not at all."""
     path = Path(path)
-    path.write_text(scene_to_scn(scene(level, floor_radius), ".", title(level, floor_radius)))
+    write_text(path, scene_to_scn(scene(level, floor_radius), ".", title(level, floor_radius)))
     return path
 
 
@@ -149,9 +153,15 @@ def main(argv=None) -> int:
                              f"(default {FLOOR_RADIUS:g})")
     parser.add_argument("-o", "--output", required=True, metavar="FILE.scn", help="the scene file to write")
     args = parser.parse_args(argv)
-    if not args.floor_radius > 0:
-        parser.error(f"--floor-radius must be positive, got {args.floor_radius}")
-    write(args.level, args.output, args.floor_radius)
+    # the floor's center, at FLOOR_HEIGHT - R, within the scene format's numbers
+    if not 0 < args.floor_radius <= float(MAX_MAGNITUDE) + FLOOR_HEIGHT:
+        parser.error(f"--floor-radius must be positive and at most {MAX_MAGNITUDE} - 0.5, "
+                     f"got {args.floor_radius}")
+    try:
+        check_writable(args.output)
+        write(args.level, args.output, args.floor_radius)
+    except WhittedError as error:
+        parser.error(str(error))
     return 0
 
 

@@ -22,6 +22,7 @@ from pathlib import Path
 
 from whitted.compare.timing import median
 from whitted.converter.scn_writer import scene_to_scn
+from whitted.defaults import MAX_MAGNITUDE
 
 from . import parse_speed, povray, process, sphereflake
 from .report import MIB, Table, machine, mib, ratio, replace_section, seconds, summary
@@ -321,6 +322,12 @@ def main(argv=None) -> int:
     parser.add_argument("--programs", nargs="+", choices=PROGRAMS, default=list(PROGRAMS),
                         help="what to run: whitted render, POV-Ray, whitted convert (default: all)")
     args, _ = parser.parse_known_args(argv)
+    if args.runs is not None and args.runs < 1:   # 0 ran the default counts
+        parser.error(f"--runs must be >= 1, got {args.runs}")
+    for radius in args.floors:
+        if not 0 < radius <= float(MAX_MAGNITUDE) + sphereflake.FLOOR_HEIGHT:
+            parser.error(f"--floors: a radius must be positive and at most {MAX_MAGNITUDE} - 0.5, "
+                         f"got {radius:g}")
     levels = sorted(set(args.levels or ((1, 2, 3) if args.quick else RUNS)))
     # by default, reading is timed where POV-Ray's runs give its Parse Time beside it
     read_levels = sorted(set(args.read_levels if args.read_levels is not None else

@@ -58,3 +58,27 @@ def test_random_spheres_do_not_overlap_and_stay_in_their_box():
     shiny = scenes.random_spheres(200, reflect=0.3)
     assert len({s.material for s in shiny}) == 200
     assert all(0 <= s.material.reflect <= 0.3 for s in shiny) and max(s.material.reflect for s in shiny) > 0.2
+
+
+@pytest.mark.parametrize("rounds", ["0", "-1"])
+def test_parse_speed_refuses_no_rounds(rounds, capsys):
+    """No rounds has no median: a usage error (it was a StatisticsError traceback)."""
+    from benchmarks import parse_speed
+    with pytest.raises(SystemExit) as stop:
+        parse_speed.main(["--rounds", rounds, "--level", "0"])
+    assert stop.value.code == 2
+    assert capsys.readouterr().err.splitlines()[-1].endswith(f"error: --rounds must be >= 1, got {rounds}")
+
+
+@pytest.mark.parametrize("options, message", [
+    (["--size", "0", "0"], "width must be in 1…16384 pixels, got 0"),
+    (["--spp", "0"], "spp must be a positive integer up to 2^31, got 0"),
+    (["--scene", "nope.scn"], "nope.scn: no such file"), (["--rounds", "0"], "--rounds must be >= 1, got 0")])
+def test_gradients_says_what_is_wrong(options, message, capsys):
+    """A size, spp or scene the render refuses was a traceback, no rounds a table of nothing
+    measured: usage errors."""
+    from benchmarks import gradients
+    with pytest.raises(SystemExit) as stop:
+        gradients.main(["--size", "8", "6", "--spp", "1", "--rounds", "1", *options])
+    assert stop.value.code == 2
+    assert capsys.readouterr().err.splitlines()[-1].endswith(f"error: {message}")

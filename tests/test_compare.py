@@ -652,6 +652,16 @@ def test_lists_of_the_command_line():
     assert cmp.int_list("1-3,8") == (1, 2, 3, 8)
     assert cmp.int_list("16,1,4,4") == (1, 4, 16)
     assert cmp.float_list("0.01,0.1") == (0.1, 0.01)
+    assert len(cmp.int_list("1-1000")) == 1000
+
+
+@pytest.mark.parametrize("text", ["1-2000000", "1-600,601-1200"])
+def test_a_list_of_too_many_values_is_refused(text):
+    """A range of millions of renders is a typo: refused at once (1-99999999999 was a
+    MemoryError traceback after seconds of filling the memory)."""
+    import argparse
+    with pytest.raises(argparse.ArgumentTypeError, match="a list holds at most 1000 values"):
+        cmp.int_list(text)
 
 
 def test_plan_puts_cheap_renders_of_every_method_first():

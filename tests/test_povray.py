@@ -145,3 +145,18 @@ def test_level_zero_is_a_level_the_command_runs(tmp_path, capsys):
     rows = [line.split() for line in capsys.readouterr().out.splitlines()]
     assert [row[:3] for row in rows if row[:1] == ["0"]] == [["0", "10^3", "2"], ["0", "10^4", "2"]]
     assert (tmp_path / "curve.png").is_file()
+
+
+@pytest.mark.parametrize("options, message", [
+    (["--runs", "0"], "--runs must be >= 1, got 0"), (["--runs=-2"], "--runs must be >= 1, got -2"),
+    (["--floors", "1000", "0"], "--floors: a radius must be positive and at most 1e12 - 0.5, got 0"),
+    (["--floors", "nan"], "got nan"), (["--floors", "1e300"], "got 1e+300")])
+def test_a_bad_run_count_or_floor_is_a_usage_error(options, message, tmp_path, capsys):
+    """--runs 0 ran the default counts and a negative count no run; a floor radius of 0 or NaN
+    was a ValueError traceback, and one the scene format cannot hold made a failed conversion."""
+    with pytest.raises(SystemExit) as stop:
+        vs_povray.main(["--levels", "1", "--programs", "convert", *options,
+                        "--plot", str(tmp_path / "curve.png")])
+    assert stop.value.code == 2
+    assert capsys.readouterr().err.splitlines()[-1].endswith(message)
+    assert not (tmp_path / "curve.png").exists()

@@ -267,3 +267,23 @@ def test_a_variant_given_is_set_once(scene_xml, tmp_path):
     assert run.returncode == 0, run.stderr
     assert run.stdout.strip() == "0 [(None, 'scalar_rgb')] scalar_rgb ['scalar_rgb']", run.stdout
     assert out.exists()
+
+
+@pytest.mark.parametrize("command", [
+    ["render", "{scene}", "-o", ""], ["render", "{scene}", "{scene}", "-o", ""],
+    ["render", "", "-o", "{tmp}/x.png"], ["render", "{scene}", "-o", "{tmp}/x.png", "--stats", ""],
+    ["convert", "{scene}", "-o", ""], ["video", "{tmp}", "-o", ""], ["fit", "{scene}", "--to", "",
+                                                                     "-o", "{tmp}/f.scn"],
+    ["trace", "{scene}", "--pixel", "1", "1", "-o", ""], ["compare", "{scene}", "-o", ""],
+    ["compare", "{scene}", "-o", "{tmp}/c", "--cache", ""]])
+def test_an_empty_path_is_refused(command, scene_xml, tmp_path, monkeypatch, capsys):
+    """An empty path (an unset shell variable) is no file: it used to mean the current folder,
+    and -o "" of several scenes wrote their images into the root folder."""
+    monkeypatch.chdir(tmp_path)
+    before = files(tmp_path)
+    with pytest.raises(SystemExit) as stop:
+        main([word.format(scene=scene_xml, tmp=tmp_path) for word in command])
+    assert stop.value.code == 2
+    err = capsys.readouterr().err
+    assert err.splitlines()[-1].endswith(": an empty path names no file or folder"), err
+    assert files(tmp_path) == before

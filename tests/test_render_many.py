@@ -228,11 +228,13 @@ def test_video_decodes_to_the_frames(tmp_path, capsys):
     (["a.png", "broken.png"], [], "broken.png: could not read the frame"),
     (["a.png", "notes.txt"], [], "notes.txt: not a frame (.png or .exr)"),
     (["a.png", "gone.png"], [], "gone.png: no such frame"),
-    (["a.png", "b.png"], ["--fps", "0"], "--fps must be a number of frames per second in (0, 1000], got 0")])
+    (["a.png", "b.png"], ["--fps", "0"], "--fps must be a number of frames per second in [0.001, 1000], got 0"),
+    (["a.png", "b.png"], ["--fps", "1e-9"], "in [0.001, 1000], got 1e-09")])
 def test_a_bad_frame_or_rate_is_one_line_and_no_video(tmp_path, capsys, frames, options, message):
     """A frame of another size (found while encoding), one that cannot be read, a file that is
-    no frame, a missing one, a rate of 0: status 2, one line naming it, and no video, not even
-    a partial one, nor a temporary file."""
+    no frame, a missing one, a rate of 0 or one too low for FFmpeg (it ended with status 0 and
+    an empty file): status 2, one line naming it, and no video, not even a partial one, nor a
+    temporary file."""
     for name, height in (("a.png", 6), ("b.png", 6), ("short.png", 4)):
         mi.Bitmap(np.full((height, 8, 3), 0.5, np.float32)).convert(
             mi.Bitmap.PixelFormat.RGB, mi.Struct.Type.UInt8, srgb_gamma=True).write(str(tmp_path / name))

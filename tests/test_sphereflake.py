@@ -158,6 +158,26 @@ def test_command_line(tmp_path):
         sphereflake.main(["1", "--floor-radius", "0", "-o", str(out)])
 
 
+@pytest.mark.parametrize("options, message", [
+    (["--floor-radius", "inf"], "--floor-radius must be positive and at most 1e12 - 0.5, got inf"),
+    (["--floor-radius", "1e300"], "--floor-radius must be positive and at most 1e12 - 0.5"),
+    (["--floor-radius", "nan"], "--floor-radius must be positive"),
+    (["-o", "/proc/f1.scn"], "/proc/f1.scn: cannot write in /proc"),
+    (["-o", "{tmp}/no/f1.scn"], "{tmp}/no/f1.scn: output folder {tmp}/no does not exist"),
+    (["-o", "{tmp}"], "{tmp}: is a folder; give a file name")])
+def test_a_bad_option_is_one_line_and_no_file(tmp_path, capsys, options, message):
+    """A floor the scene format cannot hold (an exit status of 0 and a scene no command
+    reads) and an output that cannot be written (a traceback) are usage errors; nothing is
+    written."""
+    words = [w.format(tmp=tmp_path) for w in options]
+    with pytest.raises(SystemExit) as stop:
+        sphereflake.main(["1", *words] + ([] if "-o" in words else ["-o", str(tmp_path / "f1.scn")]))
+    assert stop.value.code == 2
+    err = capsys.readouterr().err.splitlines()
+    assert "Traceback" not in err and message.format(tmp=tmp_path) in err[-1], err
+    assert list(tmp_path.iterdir()) == []
+
+
 @pytest.mark.parametrize("radius", [1000.0, 1e4])
 def test_floor_radius_keeps_the_floor_top_in_place(tmp_path, radius):
     out = tmp_path / "f1.scn"

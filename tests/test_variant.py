@@ -90,3 +90,19 @@ def test_variant_already_chosen_is_kept():
 def test_unknown_variant_is_a_clean_error():
     with pytest.raises(variant.WhittedError, match="unsupported variant"):
         variant.set_variant("llvm_ad_spectral_polarized_typo")
+
+
+def test_a_libllvm_dr_jit_cannot_load_is_a_clean_error(tmp_path):
+    """$DRJIT_LIBLLVM_PATH naming a file that is no library: status 2 and the error naming
+    it, no traceback (it was Dr.Jit's ImportError) and no image."""
+    broken = tmp_path / "libLLVM-19.so"
+    broken.write_bytes(b"not a library")
+    (tmp_path / "ball.scn").write_text("size 8 6\nlight 0 5 5\nsphere 0 0 0 1\n")
+    env = {k: v for k, v in os.environ.items() if k != "WHITTED_VARIANT"}
+    done = subprocess.run([sys.executable, "-m", "whitted", "render", "ball.scn", "-o", "ball.png"],
+                          cwd=tmp_path, capture_output=True, text=True, timeout=300,
+                          env={**env, "DRJIT_LIBLLVM_PATH": str(broken)})
+    assert done.returncode == 2 and "Traceback" not in done.stderr, done.stderr
+    assert done.stderr.splitlines()[-1] == (f"whitted: error: variant llvm_ad_rgb: Dr.Jit could not "
+                                            f"load {broken} ($DRJIT_LIBLLVM_PATH) as libLLVM")
+    assert not (tmp_path / "ball.png").exists()

@@ -35,6 +35,14 @@ def _command(sub, name: str, module: str, function: str, help: str, description:
     return command
 
 
+def path_argument(text: str) -> str:
+    """A file or folder named on the command line (argparse type): an empty name is refused,
+    where it would stand for the current folder (as ``-o`` of several scenes: the root)."""
+    if not text:
+        raise argparse.ArgumentTypeError("an empty path names no file or folder")
+    return text
+
+
 def _talk(command, verbose: str | None, quiet: str | None = "no progress bar") -> None:
     """A command's ``-v`` and ``-q`` options, with their help (None: none)."""
     if verbose:
@@ -65,9 +73,9 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
         stock plugins and loads in any Mitsuba 3 (the mitsuba command too), as the path tracer
         renders it. A bad file is reported as FILE:LINE: message and nothing is written for it; the
         others are still converted, and the exit status is 2.""")
-    convert.add_argument("scenes", nargs="+", metavar="SCENE",
+    convert.add_argument("scenes", nargs="+", metavar="SCENE", type=path_argument,
                          help="legacy scene files (.scn), or folders holding them")
-    convert.add_argument("-o", "--output", metavar="OUT",
+    convert.add_argument("-o", "--output", metavar="OUT", type=path_argument,
                          help="the XML file (one input file), or the folder that receives every "
                               "X.xml (default: beside each input)")
     convert.add_argument("--portable", action="store_true",
@@ -88,9 +96,9 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
         outputs: OUT/X.png (or --format exr) per scene X, skipping scenes whose images are newer
         than the scene and its textures (--force renders them again). A bad scene is reported as
         FILE:LINE: message and the others go on; the exit status is then 2.""")
-    render.add_argument("scenes", nargs="+", metavar="SCENE",
+    render.add_argument("scenes", nargs="+", metavar="SCENE", type=path_argument,
                         help="the scene (.scn or converted .xml), or several, or folders of them")
-    render.add_argument("-o", "--output", required=True, metavar="OUT",
+    render.add_argument("-o", "--output", required=True, metavar="OUT", type=path_argument,
                         help="output image, .exr (linear) or .png (sRGB); for several scenes or a "
                              "folder, the folder that receives every image (created when missing)")
     render.add_argument("--format", action="append", choices=IMAGE_FORMATS, metavar="{png,exr}",
@@ -98,7 +106,7 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
                              "give it twice for both")
     render.add_argument("--force", action="store_true",
                         help="render every scene, even those whose images are up to date")
-    render.add_argument("--video", metavar="OUT.mp4",
+    render.add_argument("--video", metavar="OUT.mp4", type=path_argument,
                         help="also encode the images, in the scenes' order, as an H.264 video "
                              "(see whitted video)")
     render.add_argument("--fps", type=float, default=DEFAULT_FPS, metavar="N",
@@ -140,7 +148,7 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
                         help="a PNG's view transform: clip (sRGB clipped to [0, 1]; default for the "
                              "article's model) or aces (OpenColorIO's ACES 2.0 SDR view, highlights "
                              "rolled off; default for --lighting physical and --integrator path)")
-    render.add_argument("--stats", metavar="FILE.json",
+    render.add_argument("--stats", metavar="FILE.json", type=path_argument,
                         help="write ray counts and timings as JSON (for several scenes: one file, "
                              "every scene's and the totals)")
     _talk(render, "print a one-line summary")
@@ -152,9 +160,9 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
         Encode frames (image files, or folders of them: their PNG files sorted by name, else their
         EXR files) as an H.264 video through FFmpeg (imageio-ffmpeg). EXR frames are encoded to sRGB
         as PNG output is.""")
-    video.add_argument("frames", nargs="+", metavar="FRAME",
+    video.add_argument("frames", nargs="+", metavar="FRAME", type=path_argument,
                        help="frames (.png or .exr), or folders of them")
-    video.add_argument("-o", "--output", required=True, metavar="OUT.mp4",
+    video.add_argument("-o", "--output", required=True, metavar="OUT.mp4", type=path_argument,
                        help="the video (.mp4, .mkv or .mov)")
     video.add_argument("--fps", type=float, default=DEFAULT_FPS, metavar="N",
                        help=f"frames per second (default {DEFAULT_FPS:g})")
@@ -168,10 +176,10 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
         photograph of the same view) by gradient descent (Mitsuba's Adam on the relative MSE, at low
         resolution): every untextured material's color, the ambient and the lights' colors. Writes
         the fitted scene as a .scn file and prints the loss of each step.""")
-    fit.add_argument("scene", metavar="SCENE.scn", help="the legacy scene to fit")
-    fit.add_argument("--to", required=True, metavar="IMAGE.exr", dest="target",
+    fit.add_argument("scene", metavar="SCENE.scn", type=path_argument, help="the legacy scene to fit")
+    fit.add_argument("--to", required=True, metavar="IMAGE.exr", dest="target", type=path_argument,
                      help="the target image (EXR or PNG), of the scene's view (its aspect ratio)")
-    fit.add_argument("-o", "--output", required=True, metavar="FITTED.scn",
+    fit.add_argument("-o", "--output", required=True, metavar="FITTED.scn", type=path_argument,
                      help="the fitted scene to write")
     fit.add_argument("--iterations", type=int, default=FIT_ITERATIONS, metavar="N",
                      help=f"gradient steps (default {FIT_ITERATIONS})")

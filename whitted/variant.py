@@ -12,7 +12,7 @@ import re
 import sys
 
 from .defaults import DEFAULT_VARIANT, FALLBACK_VARIANT, VARIANTS
-from .errors import WhittedError
+from .errors import WhittedError, first_line
 
 MIN_LLVM_VERSION = 16
 
@@ -117,7 +117,13 @@ def set_variant(variant: str | None = None) -> str:
         if variant not in mi.variants():
             raise WhittedError(f"this Mitsuba build has no variant {variant}")
         if mi.variant() != variant:
-            mi.set_variant(variant)
+            try:
+                mi.set_variant(variant)
+            except ImportError as error:   # Dr.Jit could not start the variant's backend
+                what = (f"Dr.Jit could not load {os.environ['DRJIT_LIBLLVM_PATH']} "
+                        "($DRJIT_LIBLLVM_PATH) as libLLVM" if variant.startswith("llvm")
+                        else first_line(error))
+                raise WhittedError(f"variant {variant}: {what}") from None
         from whitted import plugins
         plugins.register()
         return variant

@@ -28,9 +28,10 @@ def check_video_path(path: str | os.PathLike) -> Path:
 
 
 def check_fps(fps: float) -> float:
-    import math
-    if not (math.isfinite(fps) and 0 < fps <= 1000):
-        raise WhittedError(f"--fps must be a number of frames per second in (0, 1000], got {fps:g}")
+    """A rate FFmpeg encodes: from a frame every 1000 s (below about 1e-6 it ends without a
+    video, or with an empty file) to 1000 frames a second."""
+    if not 1e-3 <= fps <= 1000:
+        raise WhittedError(f"--fps must be a number of frames per second in [0.001, 1000], got {fps:g}")
     return float(fps)
 
 

@@ -15,6 +15,10 @@ from ..defaults import (COMPARE_MAX_DEFAULT_DEPTH, COMPARE_PATH_SPP, COMPARE_QUI
 from .results import Options
 
 
+#: the most values a list option holds (each one a render of every scene)
+MAX_LIST = 1000
+
+
 def int_list(text: str) -> tuple[int, ...]:
     """'1,4,16' or '1-5' or '1-3,8' -> a sorted tuple of distinct positive integers (argparse type)."""
     values: set[int] = set()
@@ -23,6 +27,8 @@ def int_list(text: str) -> tuple[int, ...]:
             low, high = map(int, item.split("-", 1) if "-" in item[1:] else (item, item))
             if high < low:
                 raise ValueError
+            if len(values) + high - low >= MAX_LIST:
+                raise argparse.ArgumentTypeError(f"'{text}': a list holds at most {MAX_LIST} values")
             values.update(range(low, high + 1))
     except ValueError:
         raise argparse.ArgumentTypeError(f"'{text}' is not a list of integers like 1,4,16 or 1-5") from None
@@ -53,9 +59,11 @@ def quick_text() -> str:
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("scenes", nargs="+", metavar="SCENE",
+    from ..cli import path_argument
+    parser.add_argument("scenes", nargs="+", metavar="SCENE", type=path_argument,
                         help="scenes (.scn or .xml), or folders of them")
-    parser.add_argument("-o", "--out", required=True, metavar="DIR", help="output folder")
+    parser.add_argument("-o", "--out", required=True, metavar="DIR", type=path_argument,
+                        help="output folder")
     parser.add_argument("--reference-spp", type=int, metavar="N",
                         help=f"the reference's samples per pixel, at most: fewer where its noise "
                              f"needs fewer (default {COMPARE_REFERENCE_SPP})")
@@ -85,7 +93,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="relative MSE levels of the equal-quality table, e.g. 0.1,0.03 "
                              "(default: from the data: each method's floor, and levels between "
                              "the best and worst errors measured)")
-    parser.add_argument("--cache", metavar="DIR", help="where references are cached (default: ~/.cache/whitted/references, or "
+    parser.add_argument("--cache", metavar="DIR", type=path_argument, help="where references are cached (default: ~/.cache/whitted/references, or "
                              "$XDG_CACHE_HOME/whitted/references; shared by every run; safe to delete)")
     parser.add_argument("--variant", choices=VARIANTS,
                         help="Mitsuba variant (default as for render)")

@@ -10,8 +10,10 @@ from ..errors import WhittedError
 
 
 def add_arguments(command) -> None:
+    from ..cli import path_argument
     from ..defaults import LIGHTING_MODES, VARIANTS
-    command.add_argument("scene", metavar="SCENE", help="the scene (.scn, or a converted .xml)")
+    command.add_argument("scene", metavar="SCENE", type=path_argument,
+                         help="the scene (.scn, or a converted .xml)")
     command.add_argument("--pixel", nargs=2, type=pixel_coordinate, action="append", required=True,
                          metavar=("X", "Y"),
                          help="a pixel: X the column from the left, Y the row from the top, from 0, "
@@ -19,7 +21,7 @@ def add_arguments(command) -> None:
                               "near the middle at any size); give it again for more pixels")
     command.add_argument("--json", action="store_true",
                          help="print the trees as JSON (for scripts) instead of indented text")
-    command.add_argument("-o", "--output", metavar="PAGE.html",
+    command.add_argument("-o", "--output", metavar="PAGE.html", type=path_argument,
                          help="also write a page to project: the image with the pixels marked, each "
                               "tree as a table and a 3D view of the rays (self-contained, works offline)")
     command.add_argument("--variant", choices=VARIANTS,
