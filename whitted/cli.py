@@ -250,8 +250,8 @@ def main(argv: list[str] | None = None) -> int:
     if unknown:   # the command's own usage, not the top-level one
         args.parser.error(f"unrecognized arguments: {' '.join(unknown)}{suggestion(args.parser, unknown)}")
     try:
-        from .variant import check_environment, request
-        check_environment()
+        from .variant import check_environment, check_user_libllvm, request
+        check_user_libllvm(getattr(args, "variant", None) or check_environment())
         request(getattr(args, "variant", None))   # chosen once, when Mitsuba is imported
         status = args.run(args) or 0
     except WhittedError as error:

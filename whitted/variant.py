@@ -24,6 +24,8 @@ _VERSIONED = re.compile(r"^libLLVM(?:\.so\.(\d+)|[-.](\d+)(?:\.\d+)*\.(?:so|dyli
 _fallback_warned = False
 #: the variant asked for before Mitsuba's import, whose hook then sets it (set once)
 _requested: str | None = None
+#: $DRJIT_LIBLLVM_PATH as the user set it, before :func:`prepare_llvm` may set it
+_USER_LIBLLVM = os.environ.get("DRJIT_LIBLLVM_PATH")
 
 
 def llvm_version_of(path: str) -> int | None:
@@ -75,6 +77,30 @@ def check_environment() -> str | None:
         raise WhittedError(f"WHITTED_VARIANT={requested}: not a variant whitted runs in; choose one of "
                            + ", ".join(VARIANTS))
     return requested or None
+
+
+def check_user_libllvm(variant: str | None) -> None:
+    """Refuse, before Dr.Jit starts, a ``$DRJIT_LIBLLVM_PATH`` that an llvm variant (``variant``,
+    or the default: None) could not use: Dr.Jit *aborts the process* on libLLVM 15. The version
+    is asked of the library (LLVM-C's ``LLVMGetVersion``, which libLLVM has from 16 on)."""
+    import ctypes
+    path = _USER_LIBLLVM
+    if not path or (variant is not None and not variant.startswith("llvm")):
+        return
+    where = f"DRJIT_LIBLLVM_PATH={path}"
+    if not os.path.isfile(path):
+        raise WhittedError(f"{where}: no such file")
+    try:
+        library = ctypes.CDLL(path)
+    except OSError as error:
+        why = first_line(error).removeprefix(f"{path}: ")
+        raise WhittedError(f"{where}: not a library Dr.Jit can load ({why})") from None
+    version = [ctypes.c_uint() for _ in range(3)]
+    if hasattr(library, "LLVMGetVersion"):
+        library.LLVMGetVersion(*map(ctypes.byref, version))
+    if version[0].value < MIN_LLVM_VERSION:
+        raise WhittedError(f"{where}: not libLLVM {MIN_LLVM_VERSION} or newer, which Dr.Jit needs "
+                           "(install Debian's libllvm19, or unset it to let whitted find one)")
 
 
 def default_variant() -> str:
