@@ -47,6 +47,8 @@ _INTEGER = re.compile(r"[+-]?[0-9]+")
 _NON_FINITE = re.compile(r"[+-]?(?:nan|inf|infinity)", re.IGNORECASE)
 _BLANKS = " \t\f\v"
 LINE_BREAK = re.compile(r"\r\n|\r|\n")
+#: what starts an XML file (no statement of the format starts with "<")
+_XML_START = re.compile(r"\s*<")
 #: what makes a line not plain: a plain line splits into the tokenizer's tokens with
 #: str.split(), and float() reads its numbers as the format does (no quote, continuation, NUL,
 #: '_', non-ASCII character or separator the format does not know)
@@ -228,6 +230,10 @@ def parse_text(text: str, source: str | os.PathLike, *, careful: bool = False) -
     benchmark compare both)."""
     parser = _Parser(Path(source))
     text = text.removeprefix("\ufeff")
+    xml = _XML_START.match(text)
+    if xml:
+        raise SceneError(source, len(LINE_BREAK.findall(xml[0])) + 1, "XML, not a legacy scene (a Mitsuba "
+                         "scene is read from a .xml file, by whitted render or mi.load_file)")
     enabled = gc.isenabled()
     gc.disable()   # a large scene makes millions of short-lived lists, none in a cycle
     try:

@@ -587,6 +587,18 @@ def test_binary_and_non_utf8_files(write_scene, data, line, message):
     assert str(info.value).startswith(f"{path}:{line}: {message}")
 
 
+@pytest.mark.parametrize("text, line", [('<?xml version="1.0"?>\n<scene version="3.0.0"/>\n', 1),
+                                        ("\ufeff\r\n\n  <scene version='3.0.0'>\n", 3)])
+def test_an_xml_file_is_one_error_not_one_per_line(write_scene, text, line):
+    """A Mitsuba scene given where a legacy one goes (convert, fit, a .scn name) is said to be
+    XML, once: it was an error per line, the first of them about a quote."""
+    path = write_scene(text.encode())
+    with pytest.raises(SceneError) as info:
+        parse_file(path)
+    assert len(info.value.errors) == 1 and (info.value.path, info.value.line) == (str(path), line)
+    assert info.value.message.startswith("XML, not a legacy scene")
+
+
 def test_utf8_in_comments_and_texture_names(tmp_path, texture_png):
     texture = texture_png("Erde ü €.png")
     scene = parse_text('# Grüße, 地球\nsphere 0 0 0 1 texture "Erde ü €.png" # ok\n', tmp_path / "s.scn")
