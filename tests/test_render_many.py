@@ -123,6 +123,12 @@ def test_files_and_folders_name_their_images_as_convert_does(tmp_path, capsys):
     assert main(["render", str(b), "-o", str(tmp_path / "y.png"), "--format", "exr", "-q"]) == 2
     assert "--format renders scenes into a folder" in capsys.readouterr().err
     assert not (tmp_path / "y.png").exists()
+    # --fps without --video was accepted and did nothing
+    for output in (tmp_path / "y.png", f"{tmp_path / 'z'}/"):
+        assert main(["render", str(b), "-o", str(output), "--fps", "12", "-q"]) == 2
+        assert capsys.readouterr().err == ("whitted: error: --fps is the rate of a video: "
+                                           "give --video OUT.mp4 too\n")
+    assert not (tmp_path / "y.png").exists() and not (tmp_path / "z").exists()
 
 
 def test_resume_skips_what_is_up_to_date(tmp_path, capsys, texture_png):
@@ -228,11 +234,12 @@ def test_video_decodes_to_the_frames(tmp_path, capsys):
     (["a.png", "broken.png"], [], "broken.png: could not read the frame"),
     (["a.png", "notes.txt"], [], "notes.txt: not a frame (.png or .exr)"),
     (["a.png", "gone.png"], [], "gone.png: no such frame"),
+    (["a.png", "gone"], [], "gone: no such frame or folder"),
     (["a.png", "b.png"], ["--fps", "0"], "--fps must be a number of frames per second in [0.001, 1000], got 0"),
     (["a.png", "b.png"], ["--fps", "1e-9"], "in [0.001, 1000], got 1e-09")])
 def test_a_bad_frame_or_rate_is_one_line_and_no_video(tmp_path, capsys, frames, options, message):
     """A frame of another size (found while encoding), one that cannot be read, a file that is
-    no frame, a missing one, a rate of 0 or one too low for FFmpeg (it ended with status 0 and
+    no frame, a missing one (or folder: it was called no frame), a rate of 0 or one too low for FFmpeg (it ended with status 0 and
     an empty file): status 2, one line naming it, and no video, not even a partial one, nor a
     temporary file."""
     for name, height in (("a.png", 6), ("b.png", 6), ("short.png", 4)):

@@ -109,7 +109,7 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
     render.add_argument("--video", metavar="OUT.mp4", type=path_argument,
                         help="also encode the images, in the scenes' order, as an H.264 video "
                              "(see whitted video)")
-    render.add_argument("--fps", type=float, default=DEFAULT_FPS, metavar="N",
+    render.add_argument("--fps", type=float, metavar="N",
                         help=f"the video's frames per second (default {DEFAULT_FPS:g})")
     where = render.add_mutually_exclusive_group()
     where.add_argument("--workers", type=int, metavar="N",

@@ -59,7 +59,13 @@ def render_command(args) -> int | None:
                           (args.scheduler, "--scheduler")):
         if given is not None:
             raise WhittedError(f"{option} renders scenes into a folder: give -o OUT/ (with a trailing /)")
+    _check_fps_has_video(args)
     render_single(args)
+
+
+def _check_fps_has_video(args) -> None:
+    if args.fps is not None and not args.video:
+        raise WhittedError("--fps is the rate of a video: give --video OUT.mp4 too")
 
 
 def _settings(args):
@@ -106,17 +112,18 @@ def render_many_command(args) -> int:
     from . import interrupt
     from .atomic import check_writable, write_text
     from .batch import Totals, plan_batch, render_planned
-    from .defaults import IN_PROCESS
+    from .defaults import DEFAULT_FPS, IN_PROCESS
     from .cluster import check_where
     from .progress import progress_bar
 
     settings = _settings(args)
     settings.check()
     check_where(args.workers, args.scheduler)
+    _check_fps_has_video(args)
     if args.video:
         from .video import check_fps, check_video_path
         check_video_path(args.video)
-        check_fps(args.fps)
+        args.fps = check_fps(DEFAULT_FPS if args.fps is None else args.fps)
     formats = args.format or ["png"]
     planned, skipped, todo = plan_batch(args.scenes, args.output, formats, args.force)
     images = {Path(p).resolve() for _, outputs in planned for p in outputs}

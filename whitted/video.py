@@ -36,6 +36,8 @@ def check_fps(fps: float) -> float:
 
 
 def _check_frame(path: Path) -> None:
+    if not path.exists() and path.suffix.lower() not in FRAME_SUFFIXES:
+        raise WhittedError(f"{path}: no such frame or folder")
     if path.suffix.lower() not in FRAME_SUFFIXES:
         raise WhittedError(f"{path}: not a frame (.png or .exr)")
     if not path.is_file():
