@@ -17,7 +17,7 @@ from whitted.errors import WhittedError
 from whitted.float32 import parse_exact_spheres
 
 from .film import CameraSamples, image_for
-from .recursion import RayCounts, recursion
+from .recursion import RayCounts, Recursion, Wavefronts
 from .scene_tables import analyse, scene_tables
 
 
@@ -259,7 +259,8 @@ class WhittedIntegrator(mi.SamplingIntegrator):
         if attached:
             from .gradients import attached as attached_values
             values = attached_values(scene, analysis, self)
-        return recursion(scene, analysis, self, values), analysis
+        walk = Wavefronts if dr.is_jit_v(mi.Float) else Recursion
+        return walk(scene, analysis, self, values), analysis
 
     def render_detailed(self, scene, sensor=0, seed=0, spp=0, progress=None, tables=None,
                         attached=False) -> DetailedRender:

@@ -248,12 +248,6 @@ class Recursion:
         """Finish a pass's work (its image block's accumulation) before the next one."""
 
 
-def recursion(scene, analysis, integrator, attached=None) -> Recursion:
-    """The recursion of a render of ``scene`` by ``integrator``: wavefronts in JIT variants."""
-    walk = Wavefronts if dr.is_jit_v(mi.Float) else Recursion
-    return walk(scene, analysis, integrator, attached)
-
-
 # -- the wavefront walk (JIT variants) ------------------------------------------------------------
 
 class Wavefronts(Recursion):
