@@ -81,7 +81,7 @@ class Recursion:
                 if attached is None else attached.lights[k]
             self.lights.append((position, strength, (dr.opaque(mi.Float, error),
                                 dr.opaque(mi.Vector3f, normal)) if error else None))
-        self.environment = analysis.environment
+        self.environment = analysis.tables.environment
         self.reflection = analysis.has("reflection")
         self.refraction = analysis.has("refraction")
         self.shadows = analysis.has("shadows")

@@ -381,15 +381,11 @@ class SceneAnalysis:
             "reflection": deep and self.surfaces.reflective and "reflection" not in self.without,
             "refraction": deep and self.surfaces.refractive and "refraction" not in self.without,
             "textures": bool(self.surfaces.textures),
-            "background": self.environment is not None,
+            "background": self.tables.environment is not None,
         }
         self.effects = tuple(name for name, called_for in present.items() if called_for)
         # Only reflected and refracted rays make a tree deeper than its root.
         self.depth = self.max_depth if present["reflection"] or present["refraction"] else 1
-
-    @property
-    def environment(self):
-        return self.tables.environment
 
     @property
     def material_table(self):
