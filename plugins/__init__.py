@@ -11,16 +11,14 @@ import importlib
 
 #: (variant, plugin name) -> the plugin's class for that variant
 _classes: dict[tuple[str, str], type] = {}
+#: variants in which the plugins' names are registered to refuse with a clear error
+_refused: set = set()
 
 # (module, registration function name, plugin name, class name)
 _PLUGINS = (
     ("whitted.plugins.bsdf", "register_bsdf", "article", "ArticleBSDF"),
     ("whitted.plugins.integrator", "register_integrator", "whitted", "WhittedIntegrator"),
 )
-
-
-#: variants in which the plugins' names are registered to refuse with a clear error
-_refused: set = set()
 
 
 def register() -> None:
