@@ -247,17 +247,16 @@ class SceneTables:
         self.primitives = Primitives.read(shapes, corners(boxes), types, textured,
                                           shape_rows(scene), keys)
         self._types = types
+        spheres = types == int(mi.ShapeType.Sphere)
         self.spheres_only = bool(len(shapes)) and bool(self.primitives.sphere.all())
-        self.sphere_shapes = bool((types == int(mi.ShapeType.Sphere)).any())
+        self.sphere_shapes = bool(spheres.any())
         self.hit_tables = self.primitives.tables(shapes)
         self.layers, self.layered = layers(shapes, types, self.primitives)
         self._rest_scenes = {}
         # what the tables were built from (:meth:`matches`)
         self._boxes, self._changes = boxes, _changes(self.materials.bsdfs)
-        ellipsoids = types == int(mi.ShapeType.Ellipsoids)
         self._ellipsoids = {k: _ellipsoid_data(shapes[k])
-                            for k in np.flatnonzero(ellipsoids).tolist()}
-        spheres = types == int(mi.ShapeType.Sphere)
+                            for k in np.flatnonzero(types == int(mi.ShapeType.Ellipsoids)).tolist()}
         self._frames = {k: _to_world(shapes[k])
                         for k in np.flatnonzero(textured & spheres).tolist()}
 
@@ -282,8 +281,7 @@ class SceneTables:
             part = copy.copy(self)   # these tables, for the scene without those shapes
             kept = np.ones(len(self._types), bool)
             kept[list(left_out)] = False
-            shape_sphere = np.add.reduceat(~self.primitives.sphere, self.primitives.first) == 0 \
-                if len(self._types) else np.zeros(0, bool)
+            shape_sphere = np.add.reduceat(~self.primitives.sphere, self.primitives.first) == 0
             part.spheres_only = bool(kept.any()) and bool(shape_sphere[kept].all())
             part.sphere_shapes = bool((self._types[kept] == int(mi.ShapeType.Sphere)).any())
             part.layers, part.layered, part._rest_scenes = [], [], {}
@@ -313,14 +311,13 @@ class KeptByScene:
 
     def get(self, scene):
         """The value kept for ``scene``, or None."""
-        kept = self._kept.get((scene.variant_name(), scene.ptr))
-        witness = _witness(scene)
-        if kept is None or witness is None:
-            return None
-        if not (all(a.index == b.index for a, b in zip(kept[0], witness))
+        address = (scene.variant_name(), scene.ptr)
+        kept, witness = self._kept.get(address), _witness(scene)
+        if kept is None or witness is None or not (
+                all(a.index == b.index for a, b in zip(kept[0], witness))
                 if isinstance(witness, tuple) else kept[0] is witness):
             return None
-        self._kept.move_to_end((scene.variant_name(), scene.ptr))
+        self._kept.move_to_end(address)
         return kept[1]
 
     def put(self, scene, value) -> None:   # (nothing, for a scene with nothing to witness it)
