@@ -205,24 +205,8 @@ def _to_world(shape) -> tuple:
 
 
 class SceneTables:
-    """Everything the Whitted integrator reads from one state of a scene, built in one pass.
-
-    ============== =======================================================================
-    lights         ``(position, intensity)`` of each point light
-    environment    the environment emitter (the background) or None
-    background     the largest channel of its radiance (0 without one; None: not known)
-    materials      the distinct ``article`` BSDFs (:class:`Materials`)
-    material_table their numbers as lookup tables (:meth:`Materials.table`)
-    primitives     each primitive's bounding sphere and error bound (:class:`.primitives.Primitives`)
-    spheres_only   whether every primitive is a sphere (the JIT variants' sphere table applies)
-    sphere_shapes  whether a shape is a ``sphere`` shape (shadow rays must avoid its ray_test)
-    hit_tables     the primitives' tables (:meth:`.primitives.Primitives.tables`)
-    layers         spheres traced in frames of their own (:func:`.primitives.layers`)
-    layered        the indices of the shapes the layers hold
-    ============== =======================================================================
-
-    Raises :class:`~whitted.errors.WhittedError` for a shape without the ``article`` BSDF.
-    """
+    """Everything the Whitted integrator reads from one state of a scene, built in one pass
+    (a :class:`~whitted.errors.WhittedError` where a shape lacks the ``article`` BSDF)."""
 
     def __init__(self, scene):
         shapes = scene.shapes()
@@ -248,9 +232,12 @@ class SceneTables:
                                           shape_rows(scene), keys)
         self._types = types
         spheres = types == int(mi.ShapeType.Sphere)
+        # whether every primitive is a sphere (the JIT variants' sphere table applies), and
+        # whether a shape is a ``sphere`` shape (shadow rays must avoid its ray_test)
         self.spheres_only = bool(len(shapes)) and bool(self.primitives.sphere.all())
         self.sphere_shapes = bool(spheres.any())
         self.hit_tables = self.primitives.tables(shapes)
+        # spheres traced in frames of their own, and the indices of the shapes they hold
         self.layers, self.layered = layers(shapes, types, self.primitives)
         self._rest_scenes = {}
         # what the tables were built from (:meth:`matches`)
