@@ -70,7 +70,7 @@ def check_scene(scene):
     return scene_tables(scene)
 
 
-def scene_effects(scene, max_depth: int, light_reference=(0.0, 0.0, 0.0)) -> tuple[str, ...]:
+def scene_effects(scene, max_depth: int) -> tuple[str, ...]:
     """The effects a render of ``scene`` to ``max_depth`` calls for (:func:`.scene_tables.analyse`)."""
     from .scene_tables import analyse, scene_tables
-    return analyse(scene_tables(scene), max_depth, light_reference).effects
+    return analyse(scene_tables(scene), max_depth, (0.0, 0.0, 0.0)).effects
