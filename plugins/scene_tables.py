@@ -151,7 +151,6 @@ class Materials:
                    self.largest_texel)
 
     def largest_gain(self) -> float:
-        """The largest KR + KT."""
         return float((self.rows[:, REFLECT] + self.rows[:, REFRACT]).max(initial=0.0))
 
     def table(self):
