@@ -11,16 +11,14 @@ import importlib
 
 #: (variant, plugin name) -> the plugin's class for that variant
 _classes: dict[tuple[str, str], type] = {}
+#: variants in which the plugins' names are registered to refuse with a clear error
+_refused: set = set()
 
 # (module, registration function name, plugin name, class name)
 _PLUGINS = (
     ("whitted.plugins.bsdf", "register_bsdf", "article", "ArticleBSDF"),
     ("whitted.plugins.integrator", "register_integrator", "whitted", "WhittedIntegrator"),
 )
-
-
-#: variants in which the plugins' names are registered to refuse with a clear error
-_refused: set = set()
 
 
 def register() -> None:
@@ -72,7 +70,7 @@ def check_scene(scene):
     return scene_tables(scene)
 
 
-def scene_effects(scene, max_depth: int, light_reference=(0.0, 0.0, 0.0)) -> tuple[str, ...]:
+def scene_effects(scene, max_depth: int) -> tuple[str, ...]:
     """The effects a render of ``scene`` to ``max_depth`` calls for (:func:`.scene_tables.analyse`)."""
     from .scene_tables import analyse, scene_tables
-    return analyse(scene_tables(scene), max_depth, light_reference).effects
+    return analyse(scene_tables(scene), max_depth, (0.0, 0.0, 0.0)).effects

@@ -87,8 +87,7 @@ def attached(scene, analysis, integrator) -> Attached:
     # The material table with its color, KR and KT columns scattered from the BSDFs' own
     # values (a textured material's color stays 0: its texture is read at the hit, unless the
     # render leaves textures out).
-    row_of, columns = analysis.material_table
-    (color_tp, color), (f_tp, reflect), (_, refract), ior, slot = columns
+    row_of, ((color_tp, _), (f_tp, reflect), _, ior, slot) = analysis.material_table
     size = dr.width(reflect)
     color, reflect, refract = dr.zeros(mi.Color3f, size), dr.zeros(mi.Float, size), dr.zeros(mi.Float, size)
     surfaces = analysis.surfaces   # (rows in the same order as the BSDFs)

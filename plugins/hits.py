@@ -387,22 +387,19 @@ class GiantHits:
         hit, si, bsdf, error = self.inner.intersect(ray, coherent) if self.inner is not None else no_hits()
         o, d = mi.Point3d(ray.o), mi.Vector3d(ray.d)
         best = dr.select(hit, mi.Float64(si.t), dr.inf)
-        which = mi.Int32(-1)
-        for k, giant in enumerate(self.giants):
+        which, center, radius = mi.Int32(-1), mi.Point3d(0.0), mi.Float64(1.0)
+        size, bsdf_giant = mi.Float(0.0), mi.UInt32(0)
+        for k, giant in enumerate(self.giants):   # the nearest giant's numbers
             t, valid = _roots(o, d, giant.center, giant.radius64)
             nearer = valid & (t < best)
             best, which = dr.select(nearer, t, best), dr.select(nearer, k, which)
+            center = dr.select(nearer, giant.center, center)
+            radius = dr.select(nearer, giant.radius64, radius)
+            size = dr.select(nearer, giant.size, size)
+            bsdf_giant = dr.select(nearer, giant.bsdf, bsdf_giant)
         giant_hit = which >= 0
         if off(giant_hit):
             return hit, si, bsdf, error
-        center, radius = mi.Point3d(0.0), mi.Float64(1.0)
-        size, bsdf_giant = mi.Float(0.0), mi.UInt32(0)
-        for k, giant in enumerate(self.giants):
-            this = which == k
-            center = dr.select(this, giant.center, center)
-            radius = dr.select(this, giant.radius64, radius)
-            size = dr.select(this, giant.size, size)
-            bsdf_giant = dr.select(this, giant.bsdf, bsdf_giant)
         p = dr.fma(d, best, o) if self.jit else o + d * best   # (each variant's own rounding)
         si.p = dr.select(giant_hit, mi.Point3f(p), si.p)
         si.n = dr.select(giant_hit, mi.Vector3f((p - center) / radius), si.n)

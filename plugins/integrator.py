@@ -17,7 +17,7 @@ from whitted.errors import WhittedError
 from whitted.float32 import parse_exact_spheres
 
 from .film import CameraSamples, image_for
-from .recursion import RayCounts, recursion
+from .recursion import RayCounts, Recursion, Wavefronts
 from .scene_tables import analyse, scene_tables
 
 
@@ -220,7 +220,7 @@ class WhittedIntegrator(mi.SamplingIntegrator):
         tracer, analysis = self._recursion(scene)
         tracer.keep_camera_hit = True
         color = tracer.trace(mi.Ray3f(ray))
-        seen = analysis.environment is not None and not self.hide_emitters
+        seen = analysis.has("background") and not self.hide_emitters
         return color, mi.Bool(tracer.camera_hit | seen), []
 
     def render_forward(self, scene, params=None, sensor=0, seed=0, spp=0):
@@ -259,7 +259,8 @@ class WhittedIntegrator(mi.SamplingIntegrator):
         if attached:
             from .gradients import attached as attached_values
             values = attached_values(scene, analysis, self)
-        return recursion(scene, analysis, self, values), analysis
+        walk = Wavefronts if dr.is_jit_v(mi.Float) else Recursion
+        return walk(scene, analysis, self, values), analysis
 
     def render_detailed(self, scene, sensor=0, seed=0, spp=0, progress=None, tables=None,
                         attached=False) -> DetailedRender:
@@ -282,7 +283,7 @@ class WhittedIntegrator(mi.SamplingIntegrator):
         tracer, analysis = self._recursion(scene, tables, attached)
         image = image_for(sensor.film(), spp)
         tracer.keep_camera_hit = image.alpha
-        background_seen = analysis.environment is not None and not self.hide_emitters
+        background_seen = analysis.has("background") and not self.hide_emitters
         # A single-level tree stores nothing between levels: then, where the image takes
         # whole pixels, each lane renders one pixel, looping over its samples in the kernel.
         # (Not in a differentiable render: Dr.Jit differentiates no loop in a kernel backwards.)

@@ -83,13 +83,13 @@ class Primitives:
         first = np.arange(len(shapes))
         groups = np.flatnonzero(types == int(mi.ShapeType.Ellipsoids))
         if len(groups):   # each ellipsoids shape's one entry becomes one per primitive
-            parts, counts, start = [], np.ones(len(shapes), np.int64), 0
+            columns, parts = (low, high, center, radius, sphere), []
+            counts, start = np.ones(len(shapes), np.int64), 0
             for k in groups.tolist():
                 c, r, s = ellipsoid_numbers(shapes[k])
-                parts += [(low[:, start:k], high[:, start:k], center[:, start:k], radius[start:k], sphere[start:k]),
-                          (c - r, c + r, c, r, s)]
+                parts += [[column[..., start:k] for column in columns], (c - r, c + r, c, r, s)]
                 counts[k], start = len(r), k + 1
-            parts.append((low[:, start:], high[:, start:], center[:, start:], radius[start:], sphere[start:]))
+            parts.append([column[..., start:] for column in columns])
             low, high, center, radius, sphere = (np.concatenate(column, axis=-1)
                                                  for column in zip(*parts))
             first = np.concatenate([[0], np.cumsum(counts)[:-1]])

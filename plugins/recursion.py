@@ -81,7 +81,7 @@ class Recursion:
                 if attached is None else attached.lights[k]
             self.lights.append((position, strength, (dr.opaque(mi.Float, error),
                                 dr.opaque(mi.Vector3f, normal)) if error else None))
-        self.environment = analysis.environment
+        self.environment = analysis.tables.environment
         self.reflection = analysis.has("reflection")
         self.refraction = analysis.has("refraction")
         self.shadows = analysis.has("shadows")
@@ -246,12 +246,6 @@ class Recursion:
 
     def finish_pass(self) -> None:
         """Finish a pass's work (its image block's accumulation) before the next one."""
-
-
-def recursion(scene, analysis, integrator, attached=None) -> Recursion:
-    """The recursion of a render of ``scene`` by ``integrator``: wavefronts in JIT variants."""
-    walk = Wavefronts if dr.is_jit_v(mi.Float) else Recursion
-    return walk(scene, analysis, integrator, attached)
 
 
 # -- the wavefront walk (JIT variants) ------------------------------------------------------------

@@ -151,7 +151,6 @@ class Materials:
                    self.largest_texel)
 
     def largest_gain(self) -> float:
-        """The largest KR + KT."""
         return float((self.rows[:, REFLECT] + self.rows[:, REFRACT]).max(initial=0.0))
 
     def table(self):
@@ -205,24 +204,8 @@ def _to_world(shape) -> tuple:
 
 
 class SceneTables:
-    """Everything the Whitted integrator reads from one state of a scene, built in one pass.
-
-    ============== =======================================================================
-    lights         ``(position, intensity)`` of each point light
-    environment    the environment emitter (the background) or None
-    background     the largest channel of its radiance (0 without one; None: not known)
-    materials      the distinct ``article`` BSDFs (:class:`Materials`)
-    material_table their numbers as lookup tables (:meth:`Materials.table`)
-    primitives     each primitive's bounding sphere and error bound (:class:`.primitives.Primitives`)
-    spheres_only   whether every primitive is a sphere (the JIT variants' sphere table applies)
-    sphere_shapes  whether a shape is a ``sphere`` shape (shadow rays must avoid its ray_test)
-    hit_tables     the primitives' tables (:meth:`.primitives.Primitives.tables`)
-    layers         spheres traced in frames of their own (:func:`.primitives.layers`)
-    layered        the indices of the shapes the layers hold
-    ============== =======================================================================
-
-    Raises :class:`~whitted.errors.WhittedError` for a shape without the ``article`` BSDF.
-    """
+    """Everything the Whitted integrator reads from one state of a scene, built in one pass
+    (a :class:`~whitted.errors.WhittedError` where a shape lacks the ``article`` BSDF)."""
 
     def __init__(self, scene):
         shapes = scene.shapes()
@@ -247,17 +230,19 @@ class SceneTables:
         self.primitives = Primitives.read(shapes, corners(boxes), types, textured,
                                           shape_rows(scene), keys)
         self._types = types
+        spheres = types == int(mi.ShapeType.Sphere)
+        # whether every primitive is a sphere (the JIT variants' sphere table applies), and
+        # whether a shape is a ``sphere`` shape (shadow rays must avoid its ray_test)
         self.spheres_only = bool(len(shapes)) and bool(self.primitives.sphere.all())
-        self.sphere_shapes = bool((types == int(mi.ShapeType.Sphere)).any())
+        self.sphere_shapes = bool(spheres.any())
         self.hit_tables = self.primitives.tables(shapes)
+        # spheres traced in frames of their own, and the indices of the shapes they hold
         self.layers, self.layered = layers(shapes, types, self.primitives)
         self._rest_scenes = {}
         # what the tables were built from (:meth:`matches`)
         self._boxes, self._changes = boxes, _changes(self.materials.bsdfs)
-        ellipsoids = types == int(mi.ShapeType.Ellipsoids)
         self._ellipsoids = {k: _ellipsoid_data(shapes[k])
-                            for k in np.flatnonzero(ellipsoids).tolist()}
-        spheres = types == int(mi.ShapeType.Sphere)
+                            for k in np.flatnonzero(types == int(mi.ShapeType.Ellipsoids)).tolist()}
         self._frames = {k: _to_world(shapes[k])
                         for k in np.flatnonzero(textured & spheres).tolist()}
 
@@ -282,8 +267,7 @@ class SceneTables:
             part = copy.copy(self)   # these tables, for the scene without those shapes
             kept = np.ones(len(self._types), bool)
             kept[list(left_out)] = False
-            shape_sphere = np.add.reduceat(~self.primitives.sphere, self.primitives.first) == 0 \
-                if len(self._types) else np.zeros(0, bool)
+            shape_sphere = np.add.reduceat(~self.primitives.sphere, self.primitives.first) == 0
             part.spheres_only = bool(kept.any()) and bool(shape_sphere[kept].all())
             part.sphere_shapes = bool((self._types[kept] == int(mi.ShapeType.Sphere)).any())
             part.layers, part.layered, part._rest_scenes = [], [], {}
@@ -313,14 +297,13 @@ class KeptByScene:
 
     def get(self, scene):
         """The value kept for ``scene``, or None."""
-        kept = self._kept.get((scene.variant_name(), scene.ptr))
-        witness = _witness(scene)
-        if kept is None or witness is None:
-            return None
-        if not (all(a.index == b.index for a, b in zip(kept[0], witness))
+        address = (scene.variant_name(), scene.ptr)
+        kept, witness = self._kept.get(address), _witness(scene)
+        if kept is None or witness is None or not (
+                all(a.index == b.index for a, b in zip(kept[0], witness))
                 if isinstance(witness, tuple) else kept[0] is witness):
             return None
-        self._kept.move_to_end((scene.variant_name(), scene.ptr))
+        self._kept.move_to_end(address)
         return kept[1]
 
     def put(self, scene, value) -> None:   # (nothing, for a scene with nothing to witness it)
@@ -381,15 +364,11 @@ class SceneAnalysis:
             "reflection": deep and self.surfaces.reflective and "reflection" not in self.without,
             "refraction": deep and self.surfaces.refractive and "refraction" not in self.without,
             "textures": bool(self.surfaces.textures),
-            "background": self.environment is not None,
+            "background": self.tables.environment is not None,
         }
         self.effects = tuple(name for name, called_for in present.items() if called_for)
         # Only reflected and refracted rays make a tree deeper than its root.
         self.depth = self.max_depth if present["reflection"] or present["refraction"] else 1
-
-    @property
-    def environment(self):
-        return self.tables.environment
 
     @property
     def material_table(self):
