@@ -82,3 +82,22 @@ def test_gradients_says_what_is_wrong(options, message, capsys):
         gradients.main(["--size", "8", "6", "--spp", "1", "--rounds", "1", *options])
     assert stop.value.code == 2
     assert capsys.readouterr().err.splitlines()[-1].endswith(f"error: {message}")
+
+
+@pytest.mark.parametrize("options, message", [
+    (["--frames", "0"], "--frames must be >= 1, got 0"), (["--frames=-1"], "--frames must be >= 1, got -1"),
+    (["--size", "0", "0"], "--size width must be in 1…16384 pixels, got 0"),
+    (["--size", "160", "20000"], "--size height must be in 1…16384 pixels, got 20000"),
+    (["--rounds", "0"], "--rounds must be >= 1, got 0")])
+def test_frames_refuses_no_frames_rounds_or_pixels(options, message, monkeypatch, capsys):
+    """--frames 0 ran 48 frames; --frames -1, --size 0 0 and --rounds 0 ended in a traceback
+    after the run: usage errors, before any work."""
+    from benchmarks import frames
+
+    def started():
+        raise AssertionError("the run started")
+    monkeypatch.setattr(frames.povray, "find", started)
+    with pytest.raises(SystemExit) as stop:
+        frames.main(["--quick", *options])
+    assert stop.value.code == 2
+    assert capsys.readouterr().err.splitlines()[-1].endswith(f"error: {message}")
