@@ -302,8 +302,12 @@ def main(argv=None) -> int:
     parser.add_argument("--variant", default="llvm_ad_rgb", choices=("llvm_ad_rgb", "cuda_ad_rgb"))
     parser.add_argument("--markdown", metavar="FILE",
                         help="write the results as Markdown (benchmarks/RESULTS.md)")
-    parser.add_argument("--only", choices=SECTIONS, help="run one section only (no acceptance check)")
+    parser.add_argument("--only", choices=SECTIONS,
+                        help="run one section only (no acceptance check; not with --markdown)")
     args = parser.parse_args(argv)
+    if args.only and args.markdown:   # RESULTS.md is a whole run's: one section would drop the others
+        parser.error("--markdown records a whole run (the acceptance table and every section): "
+                     "not with --only")
 
     whitted.set_variant(args.variant)
     info = machine()

@@ -101,3 +101,18 @@ def test_frames_refuses_no_frames_rounds_or_pixels(options, message, monkeypatch
         frames.main(["--quick", *options])
     assert stop.value.code == 2
     assert capsys.readouterr().err.splitlines()[-1].endswith(f"error: {message}")
+
+
+def test_run_refuses_to_record_one_section(monkeypatch, capsys):
+    """--markdown writes RESULTS.md whole, acceptance table first; with --only it was ignored
+    after the section ran, with status 0: a usage error, before any work."""
+    from benchmarks import run
+
+    def started(*args):
+        raise AssertionError("the run started")
+    monkeypatch.setattr(run.whitted, "set_variant", started)
+    with pytest.raises(SystemExit) as stop:
+        run.main(["--quick", "--only", "effects", "--markdown", "RESULTS.md"])
+    assert stop.value.code == 2
+    assert capsys.readouterr().err.splitlines()[-1].endswith(
+        "error: --markdown records a whole run (the acceptance table and every section): not with --only")
