@@ -24,11 +24,13 @@ import mitsuba as mi
 import numpy as np
 
 import whitted  # (selects the variant, registers the plugins)
+from whitted.atomic import write_text
 from whitted.compare.timing import interleaved, median
+from whitted.errors import WhittedError
 from whitted.rendering import Clock
 
 from . import floor, scenes
-from .report import Table, machine, marked_sections, mib, ms, summary
+from .report import Table, check_markdown, machine, marked_sections, mib, ms, summary
 
 #: acceptance targets (ratios of median times)
 TARGET_DEPTH = 1.15
@@ -308,6 +310,11 @@ def main(argv=None) -> int:
     if args.only and args.markdown:   # RESULTS.md is a whole run's: one section would drop the others
         parser.error("--markdown records a whole run (the acceptance table and every section): "
                      "not with --only")
+    if args.markdown:
+        try:   # before the run, not after it
+            check_markdown(args.markdown)
+        except WhittedError as error:
+            parser.error(str(error))
 
     whitted.set_variant(args.variant)
     info = machine()
@@ -332,9 +339,9 @@ def main(argv=None) -> int:
     if args.markdown:
         # Keep the sections other benchmarks own in the same file.
         path = Path(args.markdown)
-        others = marked_sections(path.read_text()) if path.exists() else []
-        path.write_text("\n".join([markdown(bench, info, "quick" if args.quick else "full", seconds, accepted),
-                                   *others]))
+        others = marked_sections(path.read_text(encoding="utf-8")) if path.exists() else []
+        write_text(path, "\n".join([markdown(bench, info, "quick" if args.quick else "full", seconds,
+                                             accepted), *others]))
     return 1 if missed else 0
 
 

@@ -116,3 +116,25 @@ def test_run_refuses_to_record_one_section(monkeypatch, capsys):
     assert stop.value.code == 2
     assert capsys.readouterr().err.splitlines()[-1].endswith(
         "error: --markdown records a whole run (the acceptance table and every section): not with --only")
+
+
+@pytest.mark.parametrize("where, message", [
+    ("missing/RESULTS.md", "output folder {tmp}/missing does not exist"),
+    ("file/RESULTS.md", "output folder {tmp}/file is not a folder"), ("", "is a folder; give a file name"),
+    ("/proc/RESULTS.md", "cannot write in /proc: it accepts no new files"),
+    ("binary.md", "is not a text file (not UTF-8)")])
+def test_run_checks_its_markdown_file_before_the_run(where, message, tmp_path, monkeypatch, capsys):
+    """A --markdown file that could not be read or written ended the whole run in a traceback:
+    a usage error naming it, before any work."""
+    from benchmarks import run
+    (tmp_path / "file").write_text("a file\n")
+    (tmp_path / "binary.md").write_bytes(b"\x89PNG\r\n\x1a\n\xff")
+
+    def started(*args):
+        raise AssertionError("the run started")
+    monkeypatch.setattr(run.whitted, "set_variant", started)
+    with pytest.raises(SystemExit) as stop:
+        run.main(["--quick", "--markdown", str(tmp_path / where)])
+    assert stop.value.code == 2
+    line = capsys.readouterr().err.splitlines()[-1]
+    assert str(tmp_path / where) in line and line.endswith(message.format(tmp=tmp_path))
