@@ -24,7 +24,7 @@ from whitted.compare.timing import median
 from whitted.defaults import check_size
 from whitted.errors import WhittedError
 
-from . import povray, process
+from . import povray, process, run_main
 from .report import Table, ratio, seconds
 
 #: the targets: the folder run's time over POV-Ray's, and over the per-frame loop's
@@ -159,4 +159,4 @@ def main(argv=None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(run_main(main))

@@ -24,12 +24,13 @@ import mitsuba as mi
 import numpy as np
 
 import whitted  # (selects the variant, registers the plugins)
+from whitted import interrupt
 from whitted.atomic import write_text
 from whitted.compare.timing import interleaved, median
 from whitted.errors import WhittedError
 from whitted.rendering import Clock
 
-from . import floor, scenes
+from . import floor, run_main, scenes
 from .report import Table, check_markdown, machine, marked_sections, mib, ms, summary
 
 #: acceptance targets (ratios of median times)
@@ -58,6 +59,7 @@ def renderer(scene, integrator, spp: int):
 def clocked(run, fresh_memory: bool = False) -> Clock:
     """``run()`` to its end on the clock of ``whitted compare``'s renders: its seconds are
     wall seconds without kernel compilation."""
+    interrupt.check()   # a stop the handler could not raise (in a finalizer) ends the run here
     with Clock(fresh_memory=fresh_memory) as clock:
         run()
         dr.sync_thread()
@@ -346,4 +348,4 @@ def main(argv=None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(run_main(main))

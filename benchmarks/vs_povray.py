@@ -26,7 +26,7 @@ from whitted.converter.scn_writer import scene_to_scn
 from whitted.defaults import MAX_MAGNITUDE
 from whitted.errors import WhittedError
 
-from . import parse_speed, povray, process, sphereflake
+from . import parse_speed, povray, process, run_main, sphereflake
 from .report import MIB, Table, check_markdown, machine, mib, ratio, replace_section, seconds, summary
 
 FLOORS = (1000.0, 10000.0)
@@ -405,4 +405,4 @@ def main(argv=None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(run_main(main))

@@ -138,3 +138,31 @@ def test_run_checks_its_markdown_file_before_the_run(where, message, tmp_path, m
     assert stop.value.code == 2
     line = capsys.readouterr().err.splitlines()[-1]
     assert str(tmp_path / where) in line and line.endswith(message.format(tmp=tmp_path))
+
+
+@pytest.mark.parametrize("name, options", [
+    ("run", ["--quick"]), ("vs_povray", ["--quick", "--programs", "whitted"]),
+    ("frames", ["--quick", "--frames", "24", "--rounds", "5"])])
+def test_ctrl_c_ends_a_benchmark_in_one_line(name, options, tmp_path):
+    """Ctrl-C printed a KeyboardInterrupt traceback: now one line and status 130, as whitted's
+    own commands end (whitted/interrupt.py), and promptly: a stop the handler could not raise
+    (in a finalizer) is raised before the next timed run. It is sent once the program has
+    printed its first line, the run under way."""
+    import select
+    import signal
+    command = [sys.executable, "-m", f"benchmarks.{name}", *options]
+    if name == "vs_povray":
+        command += ["--plot", str(tmp_path / "curve.png")]
+    program = subprocess.Popen(command, cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        assert select.select([program.stdout], [], [], 300)[0], "no line in 300 s"
+        assert program.stdout.readline()
+        program.send_signal(signal.SIGINT)
+        _, err = program.communicate(timeout=300)
+    finally:
+        if program.poll() is None:
+            program.kill()
+            program.wait()
+    assert program.returncode == 130, err[-2000:]
+    assert err.splitlines() == ["whitted: interrupted"]
+    assert not (tmp_path / "curve.png").exists()
