@@ -21,8 +21,10 @@ import time
 from pathlib import Path
 
 from whitted.compare.timing import median
+from whitted.defaults import check_size
+from whitted.errors import WhittedError
 
-from . import povray, process
+from . import povray, process, run_main
 from .report import Table, ratio, seconds
 
 #: the targets: the folder run's time over POV-Ray's, and over the per-frame loop's
@@ -105,8 +107,17 @@ def main(argv=None) -> int:
     parser.add_argument("--size", type=int, nargs=2, metavar=("W", "H"), help="frame size (default 320 200)")
     parser.add_argument("--rounds", type=int, default=1, metavar="N", help="rounds of the three (default 1)")
     args, _ = parser.parse_known_args(argv)
+    if args.frames is not None and args.frames < 1:   # 0 ran the default count
+        parser.error(f"--frames must be >= 1, got {args.frames}")
+    if args.rounds < 1:
+        parser.error(f"--rounds must be >= 1, got {args.rounds}")
     frames = args.frames or (6 if args.quick else 48)
     width, height = args.size or ((160, 100) if args.quick else (320, 200))
+    try:   # the size a scene file may give
+        check_size(width, "--size width")
+        check_size(height, "--size height")
+    except WhittedError as error:
+        parser.error(str(error))
     exe, why = povray.find()
     times: dict[str, list[float]] = {"povray": [], "loop": [], "folder": []}
     with tempfile.TemporaryDirectory(prefix="whitted-frames-") as folder:
@@ -148,4 +159,4 @@ def main(argv=None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(run_main(main))

@@ -18,8 +18,9 @@ import mitsuba as mi
 
 import whitted
 
-from .run import measure, peak_memory
+from . import run_main
 from .report import Table, mib, ms
+from .run import measure, peak_memory
 
 
 def main(argv=None) -> int:
@@ -70,4 +71,4 @@ def main(argv=None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(run_main(main))

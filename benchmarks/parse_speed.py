@@ -14,7 +14,7 @@ import time
 from whitted.converter import Light, Scene, parse_text
 from whitted.converter.scn_writer import scene_to_scn
 
-from . import scenes, sphereflake
+from . import run_main, scenes, sphereflake
 
 
 def cpu_seconds(text: str) -> float:
@@ -44,4 +44,4 @@ def main(argv=None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(run_main(main))

@@ -15,6 +15,8 @@ import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
+from whitted import interrupt
+
 
 @dataclass
 class ProcessRun:
@@ -75,6 +77,7 @@ with open(report, "w") as f:
 
 def run(command: list, timeout: float | None = None, cwd=None, env=None) -> ProcessRun:
     """Run ``command`` to its end, or kill it after ``timeout`` seconds; its output is kept."""
+    interrupt.check()   # a stop the handler could not raise (in a finalizer) ends the run here
     with tempfile.TemporaryDirectory() as folder:
         report = Path(folder) / "report"
         wrapper = subprocess.Popen([sys.executable, "-I", "-S", "-c", _WRAPPER, report, str(timeout or 0),

@@ -20,6 +20,9 @@ import subprocess
 import sys
 from pathlib import Path
 
+from whitted.atomic import check_writable, write_text
+from whitted.errors import WhittedError
+
 DASH = "—"
 MIB = 2 ** 20
 
@@ -123,12 +126,27 @@ def marked_sections(text: str) -> list[str]:
     return [m.group(0).rstrip("\n") + "\n" for m in _pattern().finditer(text)]
 
 
+def check_markdown(path: str | Path) -> Path:
+    """Fail now (:class:`WhittedError`, naming ``path``) if the Markdown file a run records its
+    results in could not be read and written once the run is over."""
+    path = check_writable(path)
+    if path.exists():
+        try:
+            path.read_text(encoding="utf-8")
+        except UnicodeDecodeError:
+            raise WhittedError(f"{path}: is not a text file (not UTF-8)") from None
+        except OSError as error:
+            raise WhittedError(f"{path}: cannot read: {error.strerror or error}") from None
+    return path
+
+
 def replace_section(path: str | Path, name: str, body: str) -> None:
-    """Make ``body`` the section ``name`` of the Markdown file ``path`` (appended when new)."""
+    """Make ``body`` the section ``name`` of the Markdown file ``path`` (appended when new); the
+    file is written whole or not at all."""
     path = Path(path)
-    text = path.read_text() if path.exists() else ""
+    text = path.read_text(encoding="utf-8") if path.exists() else ""
     section = f"<!-- begin {name} -->\n{body.rstrip()}\n<!-- end {name} -->\n"
     text, found = _pattern(re.escape(name)).subn(lambda _: section, text, count=1)
     if not found:
         text = text.rstrip("\n") + "\n\n" + section if text else section
-    path.write_text(text)
+    write_text(path, text)

@@ -24,11 +24,14 @@ import mitsuba as mi
 import numpy as np
 
 import whitted  # (selects the variant, registers the plugins)
+from whitted import interrupt
+from whitted.atomic import write_text
 from whitted.compare.timing import interleaved, median
+from whitted.errors import WhittedError
 from whitted.rendering import Clock
 
-from . import floor, scenes
-from .report import Table, machine, marked_sections, mib, ms, summary
+from . import floor, run_main, scenes
+from .report import Table, check_markdown, machine, marked_sections, mib, ms, summary
 
 #: acceptance targets (ratios of median times)
 TARGET_DEPTH = 1.15
@@ -56,6 +59,7 @@ def renderer(scene, integrator, spp: int):
 def clocked(run, fresh_memory: bool = False) -> Clock:
     """``run()`` to its end on the clock of ``whitted compare``'s renders: its seconds are
     wall seconds without kernel compilation."""
+    interrupt.check()   # a stop the handler could not raise (in a finalizer) ends the run here
     with Clock(fresh_memory=fresh_memory) as clock:
         run()
         dr.sync_thread()
@@ -302,8 +306,17 @@ def main(argv=None) -> int:
     parser.add_argument("--variant", default="llvm_ad_rgb", choices=("llvm_ad_rgb", "cuda_ad_rgb"))
     parser.add_argument("--markdown", metavar="FILE",
                         help="write the results as Markdown (benchmarks/RESULTS.md)")
-    parser.add_argument("--only", choices=SECTIONS, help="run one section only (no acceptance check)")
+    parser.add_argument("--only", choices=SECTIONS,
+                        help="run one section only (no acceptance check; not with --markdown)")
     args = parser.parse_args(argv)
+    if args.only and args.markdown:   # RESULTS.md is a whole run's: one section would drop the others
+        parser.error("--markdown records a whole run (the acceptance table and every section): "
+                     "not with --only")
+    if args.markdown:
+        try:   # before the run, not after it
+            check_markdown(args.markdown)
+        except WhittedError as error:
+            parser.error(str(error))
 
     whitted.set_variant(args.variant)
     info = machine()
@@ -328,11 +341,11 @@ def main(argv=None) -> int:
     if args.markdown:
         # Keep the sections other benchmarks own in the same file.
         path = Path(args.markdown)
-        others = marked_sections(path.read_text()) if path.exists() else []
-        path.write_text("\n".join([markdown(bench, info, "quick" if args.quick else "full", seconds, accepted),
-                                   *others]))
+        others = marked_sections(path.read_text(encoding="utf-8")) if path.exists() else []
+        write_text(path, "\n".join([markdown(bench, info, "quick" if args.quick else "full", seconds,
+                                             accepted), *others]))
     return 1 if missed else 0
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(run_main(main))

@@ -26,6 +26,8 @@ from whitted.converter.scn_writer import scene_to_scn
 from whitted.defaults import MAX_MAGNITUDE
 from whitted.errors import WhittedError
 
+from . import run_main
+
 #: the levels written here (0 is a lone sphere; 6 holds 597 871 spheres)
 LEVELS = range(0, 7)
 #: the first sphere's radius (the whole flake fits in a sphere of radius 1), a child's over its parent's
@@ -166,4 +168,4 @@ def main(argv=None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(run_main(main))

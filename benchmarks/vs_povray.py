@@ -20,12 +20,14 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from whitted.atomic import atomic_path, check_folder_creatable, check_writable
 from whitted.compare.timing import median
 from whitted.converter.scn_writer import scene_to_scn
 from whitted.defaults import MAX_MAGNITUDE
+from whitted.errors import WhittedError
 
-from . import parse_speed, povray, process, sphereflake
-from .report import MIB, Table, machine, mib, ratio, replace_section, seconds, summary
+from . import parse_speed, povray, process, run_main, sphereflake
+from .report import MIB, Table, check_markdown, machine, mib, ratio, replace_section, seconds, summary
 
 FLOORS = (1000.0, 10000.0)
 #: runs of each level and of reading it (``--quick``: levels 1-3, reading level 3, one run each);
@@ -297,8 +299,23 @@ def plot(rows: list[Row], path: Path, title: str) -> None:
     fig.suptitle(title, fontsize=10)
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path)
+    with atomic_path(path) as tmp:   # whole or not at all
+        fig.savefig(tmp, format=path.suffix[1:].lower())
     plt.close(fig)
+
+
+def check_plot(path: Path) -> None:
+    """Fail now (:class:`WhittedError`, naming ``path``) if :func:`plot` could not draw there
+    after the run: a format matplotlib draws, and a folder that accepts it or can be made."""
+    from matplotlib.backend_bases import FigureCanvasBase
+    formats = FigureCanvasBase.get_supported_filetypes()
+    if path.suffix[1:].lower() not in formats:
+        raise WhittedError(f"{path}: cannot draw the cost curve as {path.suffix or 'a file with no suffix'}; "
+                           f"give a file name ending in .png, .svg or .pdf")
+    if path.parent.exists():
+        check_writable(path)
+    else:
+        check_folder_creatable(path.parent)
 
 
 def main(argv=None) -> int:
@@ -328,6 +345,14 @@ def main(argv=None) -> int:
         if not 0 < radius <= float(MAX_MAGNITUDE) + sphereflake.FLOOR_HEIGHT:
             parser.error(f"--floors: a radius must be positive and at most {MAX_MAGNITUDE} - 0.5, "
                          f"got {radius:g}")
+    plot_path = Path(args.plot) if args.plot else \
+        (Path(args.markdown).parent / "cost_curve.png" if args.markdown else Path("out/bench/cost_curve.png"))
+    try:   # before the run, not after it
+        if args.markdown:
+            check_markdown(args.markdown)
+        check_plot(plot_path)
+    except WhittedError as error:
+        parser.error(str(error))
     levels = sorted(set(args.levels or ((1, 2, 3) if args.quick else RUNS)))
     # by default, reading is timed where POV-Ray's runs give its Parse Time beside it
     read_levels = sorted(set(args.read_levels if args.read_levels is not None else
@@ -364,8 +389,6 @@ def main(argv=None) -> int:
         print(line)
     print(f"total {total:.0f} s; load average up to {load:.1f} on {threads} cores")
 
-    plot_path = Path(args.plot) if args.plot else \
-        (Path(args.markdown).parent / "cost_curve.png" if args.markdown else Path("out/bench/cost_curve.png"))
     plot(rows, plot_path, f"sphereflake 512×512, depth 5: whitted vs POV-Ray 3.7 ({threads} threads each)")
     print(f"cost curve: {plot_path}")
 
@@ -382,4 +405,4 @@ def main(argv=None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(run_main(main))

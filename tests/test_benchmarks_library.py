@@ -82,3 +82,87 @@ def test_gradients_says_what_is_wrong(options, message, capsys):
         gradients.main(["--size", "8", "6", "--spp", "1", "--rounds", "1", *options])
     assert stop.value.code == 2
     assert capsys.readouterr().err.splitlines()[-1].endswith(f"error: {message}")
+
+
+@pytest.mark.parametrize("options, message", [
+    (["--frames", "0"], "--frames must be >= 1, got 0"), (["--frames=-1"], "--frames must be >= 1, got -1"),
+    (["--size", "0", "0"], "--size width must be in 1…16384 pixels, got 0"),
+    (["--size", "160", "20000"], "--size height must be in 1…16384 pixels, got 20000"),
+    (["--rounds", "0"], "--rounds must be >= 1, got 0")])
+def test_frames_refuses_no_frames_rounds_or_pixels(options, message, monkeypatch, capsys):
+    """--frames 0 ran 48 frames; --frames -1, --size 0 0 and --rounds 0 ended in a traceback
+    after the run: usage errors, before any work."""
+    from benchmarks import frames
+
+    def started():
+        raise AssertionError("the run started")
+    monkeypatch.setattr(frames.povray, "find", started)
+    with pytest.raises(SystemExit) as stop:
+        frames.main(["--quick", *options])
+    assert stop.value.code == 2
+    assert capsys.readouterr().err.splitlines()[-1].endswith(f"error: {message}")
+
+
+def test_run_refuses_to_record_one_section(monkeypatch, capsys):
+    """--markdown writes RESULTS.md whole, acceptance table first; with --only it was ignored
+    after the section ran, with status 0: a usage error, before any work."""
+    from benchmarks import run
+
+    def started(*args):
+        raise AssertionError("the run started")
+    monkeypatch.setattr(run.whitted, "set_variant", started)
+    with pytest.raises(SystemExit) as stop:
+        run.main(["--quick", "--only", "effects", "--markdown", "RESULTS.md"])
+    assert stop.value.code == 2
+    assert capsys.readouterr().err.splitlines()[-1].endswith(
+        "error: --markdown records a whole run (the acceptance table and every section): not with --only")
+
+
+@pytest.mark.parametrize("where, message", [
+    ("missing/RESULTS.md", "output folder {tmp}/missing does not exist"),
+    ("file/RESULTS.md", "output folder {tmp}/file is not a folder"), ("", "is a folder; give a file name"),
+    ("/proc/RESULTS.md", "cannot write in /proc: it accepts no new files"),
+    ("binary.md", "is not a text file (not UTF-8)")])
+def test_run_checks_its_markdown_file_before_the_run(where, message, tmp_path, monkeypatch, capsys):
+    """A --markdown file that could not be read or written ended the whole run in a traceback:
+    a usage error naming it, before any work."""
+    from benchmarks import run
+    (tmp_path / "file").write_text("a file\n")
+    (tmp_path / "binary.md").write_bytes(b"\x89PNG\r\n\x1a\n\xff")
+
+    def started(*args):
+        raise AssertionError("the run started")
+    monkeypatch.setattr(run.whitted, "set_variant", started)
+    with pytest.raises(SystemExit) as stop:
+        run.main(["--quick", "--markdown", str(tmp_path / where)])
+    assert stop.value.code == 2
+    line = capsys.readouterr().err.splitlines()[-1]
+    assert str(tmp_path / where) in line and line.endswith(message.format(tmp=tmp_path))
+
+
+@pytest.mark.parametrize("name, options", [
+    ("run", ["--quick"]), ("vs_povray", ["--quick", "--programs", "whitted"]),
+    ("frames", ["--quick", "--frames", "24", "--rounds", "5"])])
+def test_ctrl_c_ends_a_benchmark_in_one_line(name, options, tmp_path):
+    """Ctrl-C printed a KeyboardInterrupt traceback: now one line and status 130, as whitted's
+    own commands end (whitted/interrupt.py), and promptly: a stop the handler could not raise
+    (in a finalizer) is raised before the next timed run. It is sent once the program has
+    printed its first line, the run under way."""
+    import select
+    import signal
+    command = [sys.executable, "-m", f"benchmarks.{name}", *options]
+    if name == "vs_povray":
+        command += ["--plot", str(tmp_path / "curve.png")]
+    program = subprocess.Popen(command, cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        assert select.select([program.stdout], [], [], 300)[0], "no line in 300 s"
+        assert program.stdout.readline()
+        program.send_signal(signal.SIGINT)
+        _, err = program.communicate(timeout=300)
+    finally:
+        if program.poll() is None:
+            program.kill()
+            program.wait()
+    assert program.returncode == 130, err[-2000:]
+    assert err.splitlines() == ["whitted: interrupted"]
+    assert not (tmp_path / "curve.png").exists()

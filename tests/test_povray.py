@@ -141,10 +141,10 @@ def test_path_tracer_rows_stand_beside_the_whitted_render():
 def test_level_zero_is_a_level_the_command_runs(tmp_path, capsys):
     """``--levels`` offers level 0 (one sphere on the floor); its runs are level 1's."""
     assert vs_povray.main(["--levels", "0", "--programs", "convert",
-                           "--plot", str(tmp_path / "curve.png")]) == 0
+                           "--plot", str(tmp_path / "new" / "curve.png")]) == 0
     rows = [line.split() for line in capsys.readouterr().out.splitlines()]
     assert [row[:3] for row in rows if row[:1] == ["0"]] == [["0", "10^3", "2"], ["0", "10^4", "2"]]
-    assert (tmp_path / "curve.png").is_file()
+    assert (tmp_path / "new" / "curve.png").is_file()   # (its folder made)
 
 
 @pytest.mark.parametrize("options, message", [
@@ -160,3 +160,34 @@ def test_a_bad_run_count_or_floor_is_a_usage_error(options, message, tmp_path, c
     assert stop.value.code == 2
     assert capsys.readouterr().err.splitlines()[-1].endswith(message)
     assert not (tmp_path / "curve.png").exists()
+
+
+@pytest.mark.parametrize("options, message", [
+    (["--markdown", "{tmp}/missing/RESULTS.md"], "output folder {tmp}/missing does not exist"),
+    (["--markdown", "{tmp}/binary.md"], "{tmp}/binary.md: is not a text file (not UTF-8)"),
+    (["--markdown", "/proc/RESULTS.md"], "/proc/RESULTS.md: cannot write in /proc: it accepts no new files"),
+    (["--plot", "{tmp}/file/curve.png"], "{tmp}/file/curve.png: output folder {tmp}/file is not a folder"),
+    (["--plot", "{tmp}/file/more/curve.png"], "cannot create a folder under the file {tmp}/file"),
+    (["--plot", "/proc/curve.png"], "/proc/curve.png: cannot write in /proc: it accepts no new files"),
+    (["--plot", "{tmp}/curve.txt"], "cannot draw the cost curve as .txt; give a file name ending in .png, .svg "
+                                    "or .pdf"),
+    (["--plot", "{tmp}"], "cannot draw the cost curve as a file with no suffix; give a file name ending in "
+                          ".png, .svg or .pdf")])
+def test_a_bad_markdown_or_plot_path_is_a_usage_error_before_the_run(options, message, tmp_path, monkeypatch,
+                                                                       capsys):
+    """A --markdown or --plot path that could not be written (or, for --markdown, read) ended the
+    whole run in a traceback, or its folder was made by the plot: a usage error naming it, before
+    any work. A missing folder for --plot is made, as for its default, out/bench/."""
+    (tmp_path / "file").write_text("a file\n")
+    (tmp_path / "binary.md").write_bytes(b"\x89PNG\r\n\x1a\n\xff")
+
+    def started(*args, **kwargs):
+        raise AssertionError("the run started")
+    monkeypatch.setattr(vs_povray, "bench_level", started)
+    monkeypatch.setattr(vs_povray.povray, "find", started)
+    with pytest.raises(SystemExit) as stop:
+        vs_povray.main(["--levels", "1", "--programs", "convert",
+                        *(option.format(tmp=tmp_path) for option in options)])
+    assert stop.value.code == 2
+    assert capsys.readouterr().err.splitlines()[-1].endswith(message.format(tmp=tmp_path))
+    assert not (tmp_path / "missing").exists()
