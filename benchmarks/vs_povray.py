@@ -151,7 +151,7 @@ def bench_level(level: int, floor: float, runs: int, folder: Path, pov_exe: str 
     row = Row(level, floor, len(model.spheres), scn=scn,
               whitted=Runs(failure="" if "whitted" in programs else "not run"),
               path=Runs(failure="" if "path" in programs else "not run"),
-              pov=Runs(failure=("" if "povray" in programs else "not run") if pov_exe else pov_missing))
+              pov=Runs(failure="not run" if "povray" not in programs else "" if pov_exe else pov_missing))
     del model   # level 6: some 600 MB of Python objects
     w_image, p_image, stats = folder / f"whitted-{name}.png", folder / f"povray-{name}.png", folder / "stats.json"
     run_w = lambda: run_whitted(scn, w_image, stats, timeout)   # noqa: E731
@@ -384,7 +384,7 @@ def main(argv=None) -> int:
     tables = [table for table in (render_table(rows), path_table(rows), read_table(reads)) if table.rows]
     for table in tables:
         print(table.text())
-    failed += [] if pov_exe else [f"POV-Ray rows missing: {pov_missing}"]
+    failed += [] if pov_exe or "povray" not in args.programs else [f"POV-Ray rows missing: {pov_missing}"]
     for line in failed:
         print(line)
     print(f"total {total:.0f} s; load average up to {load:.1f} on {threads} cores")
