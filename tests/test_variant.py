@@ -124,6 +124,17 @@ def test_a_libllvm_choice_dr_jit_would_refuse_or_abort_on_is_refused(kind, tmp_p
     variant.check_user_libllvm("scalar_rgb")
 
 
+def test_import_mitsuba_with_a_libllvm_that_is_none_says_so(tmp_path):
+    """``import whitted, mitsuba`` (a notebook's way) warns once, naming the variable, and sets
+    no variant (Dr.Jit's ImportError was a traceback)."""
+    import _ctypes
+    done = _run_python("import whitted, mitsuba as mi; print(mi.variant())",
+                       DRJIT_LIBLLVM_PATH=_ctypes.__file__)
+    assert done.returncode == 0 and done.stdout.split() == ["None"], done.stderr
+    [warning] = [line for line in done.stderr.splitlines() if line.startswith("whitted:")]
+    assert warning.startswith(f"whitted: warning: DRJIT_LIBLLVM_PATH={_ctypes.__file__}: not libLLVM 16")
+
+
 def test_the_libllvm_whitted_finds_passes_the_check(monkeypatch):
     found = variant.find_libllvm()
     if found is None:

@@ -80,9 +80,10 @@ def check_environment() -> str | None:
 
 
 def check_user_libllvm(variant: str | None) -> None:
-    """Refuse, before Dr.Jit starts, a ``$DRJIT_LIBLLVM_PATH`` that an llvm variant (``variant``,
-    or the default: None) could not use: Dr.Jit *aborts the process* on libLLVM 15. The version
-    is asked of the library (LLVM-C's ``LLVMGetVersion``, which libLLVM has from 16 on)."""
+    """Refuse a ``$DRJIT_LIBLLVM_PATH`` that an llvm variant (``variant``, or the default: None)
+    could not use. The command asks before Mitsuba is imported: Dr.Jit, on its import, *aborts
+    the process* on libLLVM 15. The version is asked of the library (LLVM-C's
+    ``LLVMGetVersion``, which libLLVM has from 16 on)."""
     import ctypes
     path = _USER_LIBLLVM
     if not path or (variant is not None and not variant.startswith("llvm")):
@@ -143,13 +144,11 @@ def set_variant(variant: str | None = None) -> str:
         if variant not in mi.variants():
             raise WhittedError(f"this Mitsuba build has no variant {variant}")
         if mi.variant() != variant:
+            check_user_libllvm(variant)
             try:
                 mi.set_variant(variant)
             except ImportError as error:   # Dr.Jit could not start the variant's backend
-                what = (f"Dr.Jit could not load {os.environ['DRJIT_LIBLLVM_PATH']} "
-                        "($DRJIT_LIBLLVM_PATH) as libLLVM" if variant.startswith("llvm")
-                        else first_line(error))
-                raise WhittedError(f"variant {variant}: {what}") from None
+                raise WhittedError(f"variant {variant}: {first_line(error)}") from None
         from whitted import plugins
         plugins.register()
         return variant
