@@ -249,26 +249,24 @@ def main(argv: list[str] | None = None) -> int:
     args.started = process_start() if argv is None else time.monotonic()   # a test's: now
     if unknown:   # the command's own usage, not the top-level one
         args.parser.error(f"unrecognized arguments: {' '.join(unknown)}{suggestion(args.parser, unknown)}")
+    return interrupt.run(lambda: _run(args))
+
+
+def _run(args) -> int:
+    """The command's status: 2 after a user error (one line per problem), 1 on a closed pipe."""
     try:
         from .variant import check_environment, check_user_libllvm, request
         check_user_libllvm(getattr(args, "variant", None) or check_environment())
         request(getattr(args, "variant", None))   # chosen once, when Mitsuba is imported
-        status = args.run(args) or 0
+        return args.run(args) or 0
     except WhittedError as error:
-        if not interrupt.requested():
-            report(error)
-            return EXIT_USER_ERROR
+        if interrupt.requested():   # the stop's one line says it
+            raise
+        report(error)
+        return EXIT_USER_ERROR
     except BrokenPipeError:
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 1
-    except BaseException as error:
-        if not interrupt.requested(error):
-            raise
-    else:
-        if not interrupt.requested():   # (a stop swallowed in a finalizer still ends as one)
-            return status
-    print(interrupt.message(), file=sys.stderr)
-    return interrupt.exit_status()
 
 
 if __name__ == "__main__":

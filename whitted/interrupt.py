@@ -55,6 +55,22 @@ def install() -> None:
         _unraisable.previous, sys.unraisablehook = sys.unraisablehook, _unraisable
 
 
+def run(main) -> int:
+    """``main()``'s exit status, or after a stop (whatever ``main`` then raised or returned) the
+    one line of :func:`message` and :func:`exit_status`: a program's last step, after
+    :func:`install`."""
+    try:
+        status = main()
+    except BaseException as error:
+        if not requested(error):
+            raise
+    else:
+        if not requested():   # (a stop swallowed in a finalizer still ends as one)
+            return status
+    print(message(), file=sys.stderr)
+    return exit_status()
+
+
 def check() -> None:
     """Raise a stop between units of work: the handler's may have been swallowed (in a ``__del__``)."""
     if _received is not None and not _deferring:
