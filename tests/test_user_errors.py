@@ -152,3 +152,18 @@ def test_seed_folding():
     for bad in (-1, 2 ** 64, 1.5, "3"):
         with pytest.raises(whitted.WhittedError):
             check_seed(bad)
+
+
+def test_render_names_what_it_got_instead_of_a_scene(llvm, tmp_path):
+    """whitted.render of a path, of None or of a scene loaded in another variant is one
+    WhittedError saying so, not an AttributeError or Mitsuba's TypeError from deep inside."""
+    path = tmp_path / "ball.scn"
+    path.write_text("size 4 3\nlight 0 5 5\nsphere 0 0 0 1\n")
+    for wrong in (str(path), None):
+        with pytest.raises(whitted.WhittedError, match="render takes a mi.Scene"):
+            whitted.render(wrong)
+    whitted.set_variant("scalar_rgb")
+    loaded = whitted.load_scene(path)
+    whitted.set_variant("llvm_ad_rgb")
+    with pytest.raises(whitted.WhittedError, match="another Mitsuba variant"):
+        whitted.render(loaded)

@@ -157,6 +157,7 @@ def render(scene, integrator: str = D.INTEGRATOR, spp: int | None = None, max_de
            without=None, fresh_memory: bool = True) -> RenderResult:
     """Render ``scene`` (a ``mi.Scene``), settings left None as the scene's."""
     check_settings(spp, max_depth, lighting, integrator, min_weight, without, ambient)
+    check_loaded(scene)
     return render_checked(scene, integrator, spp, max_depth, lighting, progress, seed, min_weight, ambient,
                           without=without, fresh_memory=fresh_memory)
 
@@ -216,6 +217,18 @@ def render_checked(scene, integrator: str = D.INTEGRATOR, spp: int | None = None
              "peak_resident_bytes": clock.peak_resident, **adaptive}
     return RenderResult(np.ascontiguousarray(image), clock.seconds, clock.compile, stats,
                         clock.cpu_seconds)
+
+
+def check_loaded(scene) -> None:
+    """``scene`` is a ``mi.Scene`` of the current variant, or an error saying what it is."""
+    import mitsuba as mi
+    if isinstance(scene, mi.Scene):
+        return
+    if type(scene).__name__ == "Scene" and type(scene).__module__.startswith("mitsuba"):
+        raise WhittedError(f"the scene was loaded in another Mitsuba variant than the current one, "
+                           f"{mi.variant()}: load it again (whitted.load_scene) after set_variant")
+    raise WhittedError(f"render takes a mi.Scene (whitted.load_scene(path) loads one), "
+                       f"got {type(scene).__name__}")
 
 
 def check_article_materials(scene, name: str | None = None):
