@@ -29,3 +29,13 @@ def test_errors_name_the_text_and_its_lines(tmp_path, monkeypatch):
     assert lines[2].startswith("<text>:3:") and "tex.png" in lines[2]
     with pytest.raises(whitted.WhittedError, match="as a str"):
         whitted.loads(b"sphere 0 0 0 1")
+
+
+def test_an_unknown_integrator_is_refused_as_render_refuses_it(tmp_path):
+    """load_scene and loads check ``integrator`` as whitted.render does: a typo is one
+    WhittedError, not a scene silently built for neither integrator."""
+    (tmp_path / "s.scn").write_text("size 4 3\nlight 5 5 10\nsphere 0 0 0 1\n")
+    for load in (lambda: whitted.load_scene(tmp_path / "s.scn", integrator="paht"),
+                 lambda: whitted.loads("sphere 0 0 0 1", integrator="paht")):
+        with pytest.raises(whitted.WhittedError, match="unknown integrator 'paht'"):
+            load()

@@ -76,6 +76,7 @@ def load_scene(path: str | os.PathLike, variant: str | None = None, *, model=Non
     import mitsuba as mi
 
     from .converter.parser import check_scene_file
+    D.check_integrator(integrator)
     params, without = prepared(variant, overrides)
     path = Path(path)
     xml = path.suffix.lower() == ".xml"
@@ -152,6 +153,7 @@ def loads(text: str, variant: str | None = None, *, base_dir: str | os.PathLike 
     from .converter.frame import warn_scene
     if not isinstance(text, str):
         raise WhittedError(f"loads takes the scene's text as a str, got {type(text).__name__}")
+    D.check_integrator(integrator)
     params, without = prepared(variant, overrides)
     model = parse_text(text, Path(base_dir) / TEXT_NAME)
     warn_scene(model, integrator=integrator)
