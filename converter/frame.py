@@ -102,10 +102,11 @@ def path_warning(scene: Scene) -> str | None:
     return None
 
 
-def sight_warning(scene: Scene) -> str | None:
+def sight_warning(scene: Scene, integrator: str = "whitted") -> str | None:
     """One line when ``scene`` draws nothing useful (the first of: no sphere, the eye shut in
     an opaque sphere no other reaches into, nothing in the cone through the image's corners,
-    no light and ``ambient`` below 1), else None."""
+    no light and ``ambient`` below 1; for ``integrator`` "path", which has no ambient term: no
+    light and a black background), else None."""
     import numpy as np
     spheres = scene.sphere_arrays()
     if not len(spheres):
@@ -128,7 +129,14 @@ def sight_warning(scene: Scene) -> str | None:
     if not seen.any():
         return (f"{scene.source}: no sphere is in the camera's view: the image is only the "
                 f"background; point `lookat` at the spheres (or widen `fov`)")
-    if not scene.lights and scene.ambient < 1:
+    if scene.lights:
+        return None
+    if integrator == "path":
+        if any(scene.background):   # a constant environment emitter lights it
+            return None
+        return (f"{scene.source}: no light and a black background: the path tracer has no ambient "
+                f"term, so the image is all black; add `light X Y Z`")
+    if scene.ambient < 1:
         return (f"{scene.source}: no light: only the ambient term ({scene.ambient:g}) lights the "
                 f"scene; add `light X Y Z`")
     return None
@@ -136,7 +144,7 @@ def sight_warning(scene: Scene) -> str | None:
 
 def warn_scene(scene: Scene, integrator: str = "whitted") -> None:
     """Every warning about a parsed scene, one line each on stderr."""
-    message = sight_warning(scene)
+    message = sight_warning(scene, integrator)
     if message:
         print(f"whitted: warning: {message}", file=sys.stderr)
     warn_precision(scene, integrator)

@@ -559,3 +559,20 @@ def test_a_converted_scene_s_missing_texture_is_not_taken_from_the_current_folde
     assert err == ("whitted: error: scenes/t.xml: the file it names, earth.png, does not exist "
                    f"(looked for {Path('scenes') / 'earth.png'})")
     assert not (tmp_path / "out.png").exists()
+
+
+def test_a_path_traced_scene_without_light_or_background_is_warned_black(write_scene, tmp_path, capsys):
+    """The path tracer has no ambient term: a scene with no light and a black background renders
+    all black, and says so (not 'only the ambient term lights it', and even with ambient 1);
+    a background lights it (a constant environment), which is not warned about."""
+    for text in ("size 8 6\nsphere 0 0 0 1\n", "size 8 6\nambient 1\nsphere 0 0 0 1\n"):
+        scene = write_scene(text)
+        assert main(["render", str(scene), "-o", str(tmp_path / "out.exr"), "-q",
+                     "--integrator", "path", "--spp", "1"]) == 0
+        assert capsys.readouterr().err == (
+            f"whitted: warning: {scene}: no light and a black background: the path tracer has no "
+            "ambient term, so the image is all black; add `light X Y Z`\n")
+        whitted.load_scene(scene, integrator="path")
+        assert "all black" in capsys.readouterr().err
+    whitted.load_scene(write_scene("size 8 6\nbackground 0.2 0.3 0.4\nsphere 0 0 0 1\n"), integrator="path")
+    assert capsys.readouterr().err == ""
