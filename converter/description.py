@@ -92,9 +92,14 @@ def clip_range(scene: Scene, spheres: SphereArrays | None = None) -> tuple[float
     """Near and far clip distances that contain every sphere seen from the eye."""
     spheres = scene.sphere_arrays() if spheres is None else spheres
     far = 4.0 * farthest(scene.eye, [scene.lookat], spheres)[0]
-    # Mitsuba starts primary rays on the near plane: 1e-12 keeps them at the eye while the
-    # directions stay float32-exact (they degrade only below about 1e-16).
-    return far * 1e-12, far
+    # Mitsuba starts primary rays on the near plane: 1e-12 of far keeps them at the eye while
+    # the directions stay float32-exact (they degrade only below about 1e-16), unless a giant
+    # sphere sets far (radius 1e12: 8 units): never past a thousandth of the nearest surface.
+    gap = math.inf
+    if len(spheres):
+        import numpy as np
+        gap = float(np.min(np.abs(np.linalg.norm(spheres.center - scene.eye, axis=1) - spheres.radius)))
+    return max(min(far * 1e-12, gap * 1e-3), far * 1e-16), far
 
 
 def _rgb(value: Vec3) -> dict:

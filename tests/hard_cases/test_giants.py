@@ -19,8 +19,8 @@ import hazard_scenes as hs
 import whitted
 from float64_reference import Reference, assert_matches
 from whitted.cli import main
-from whitted.converter import Light, Scene, Sphere, scene_to_xml
-from whitted.converter.description import describe, meshes
+from whitted.converter import Light, Material, Scene, Sphere, scene_to_xml
+from whitted.converter.description import clip_range, describe, meshes
 from whitted.converter.giants import MESH_TOLERANCE, coarse_spheres, parse_exact_spheres, sphere_mesh
 from whitted.converter.xml_writer import xml_of
 from whitted.metrics import relative_mse
@@ -99,6 +99,22 @@ def test_lights_on_a_giant_floor_light_the_scene_as_in_the_reference(giants, nam
     lit, reference = _lit_floor(name)
     assert (np.abs(reference - giants(name, "reference")).max(axis=2) > 0.02).mean() > 0.5
     assert_matches(whitted.render(mi.load_string(scene_to_xml(lit, base_dir=None))).image, reference)
+
+
+def test_a_floor_of_the_largest_radius_leaves_the_camera_rays_at_the_eye(variant):
+    """A floor of radius 10^12, the format's largest number, sets the far clip to 8·10^12: a
+    near clip of 10^-12 of it (8 units) started the camera rays past the eye, 1 unit above the
+    floor, and inside it (a quarter of the pixels unlit). The near clip stays under a
+    thousandth of the nearest surface, and the image matches the float64 reference."""
+    model = Scene(width=32, height=20, eye=(0.0, 1.0, 10.0), lookat=(0.0, 1.0, 0.0),
+                  lights=[Light((0.0, 5.0, 10.0), (1.0, 1.0, 1.0))],
+                  spheres=[Sphere((0.0, -1e12, 0.0), 1e12, Material((0.5, 0.5, 0.5))),
+                           Sphere((0.0, 1.0, 0.0), 1.0, Material((1.0, 0.0, 0.0)))])
+    near, far = clip_range(model)
+    assert far > 8e12 and 1e-16 * far <= near <= 1e-3
+    reference = Reference(model).render()
+    assert (reference[-5:].max(axis=2) > 0.15).all()   # the floor's near rows are lit
+    assert_matches(whitted.render(mi.load_string(scene_to_xml(model, base_dir=None))).image, reference)
 
 
 def test_the_scenes_show_what_they_test(giants):
