@@ -278,7 +278,8 @@ class WhittedIntegrator(mi.SamplingIntegrator):
             self._warned = camera.unused
             mi.Log(mi.LogLevel.Warn, f"whitted: at 1 sample per pixel every camera ray passes through "
                    f"its pixel's center and the lens's (the scene format's rule): the "
-                   f"{' and the '.join(camera.unused)} change nothing; render spp > 1 for them")
+                   f"{' and the '.join(camera.unused)} change{'s' if len(camera.unused) == 1 else ''} "
+                   "nothing; render spp > 1 for them")
 
         tracer, analysis = self._recursion(scene, tables, attached)
         image = image_for(sensor.film(), spp)

@@ -93,6 +93,11 @@ def test_one_spp_says_what_it_leaves_unused(variant, capfd):
     line = next(line for line in (out.out + out.err).splitlines() if "whitted: at 1 sample" in line)
     for word in ("pixel's center", "seed 9", "thin lens's aperture", "StratifiedSampler", "spp > 1"):
         assert word in line
+    assert "StratifiedSampler change nothing" in line
+    whitted(scene(spp=1), seed=5)
+    out = capfd.readouterr()
+    line = next(line for line in (out.out + out.err).splitlines() if "whitted: at 1 sample" in line)
+    assert "the seed 5 changes nothing" in line
 
 
 @pytest.mark.parametrize("sampler", SAMPLERS[1:])
