@@ -103,9 +103,9 @@ def path_warning(scene: Scene) -> str | None:
 
 
 def sight_warning(scene: Scene, integrator: str = "whitted") -> str | None:
-    """One line when ``scene`` draws nothing useful (the first of: no sphere, the eye shut in
-    an opaque sphere no other reaches into, nothing in the cone through the image's corners,
-    no light and ``ambient`` below 1; for ``integrator`` "path", which has no ambient term: no
+    """One line when ``scene`` draws nothing useful (the first of: no sphere, the eye on a
+    sphere's surface, the eye shut in an opaque sphere no other reaches into, nothing in the
+    cone through the image's corners, no light and ``ambient`` below 1; for ``integrator`` "path", which has no ambient term: no
     light and a black background), else None."""
     import numpy as np
     spheres = scene.sphere_arrays()
@@ -113,6 +113,10 @@ def sight_warning(scene: Scene, integrator: str = "whitted") -> str | None:
         return f"{scene.source}: no sphere: the image is only the background; add `sphere X Y Z R`"
     x, y, z = (spheres.center - np.asarray(scene.eye, np.float64)).T
     r, d2 = spheres.radius, x * x + y * y + z * z
+    on = np.flatnonzero(np.abs(np.sqrt(d2) - r) <= 1e-9 * r)
+    if len(on):   # a camera ray starts on it: inside or outside by rounding (the variants differ)
+        return (f"{_where(scene, spheres.sphere(int(on[0])))}: the eye is on this sphere's surface: "
+                f"what the camera rays see first is decided by rounding; move `eye` off it")
     opaque = np.array([m.refract == 0 and m.texture is None for m in spheres.materials], bool)
     held = np.flatnonzero((d2 < r * r) & opaque[spheres.material])   # opaque, around the eye
     if len(held):

@@ -205,10 +205,14 @@ NOTHING_USEFUL = [
     ("size 8 6\nlight 5 5 5\neye 0 -1 10\nsphere 0 -100 0 100\nsphere 0 1 0 1\n",
      "scene.scn:4: the eye is inside this opaque sphere, which holds no other sphere: the image shows "
      "only its inside; move `eye` out of it (or make it `refract`)"),
+    ("size 8 6\nlight 0 5 5\neye 0 0 2\nsphere 0 0 0 2 color 0.5 0.5 0.5\n",
+     "scene.scn:4: the eye is on this sphere's surface: what the camera rays see first is decided by "
+     "rounding; move `eye` off it"),
 ]
 
 
-@pytest.mark.parametrize("text, warning", NOTHING_USEFUL, ids=["no_light", "looking_away", "eye_shut_in"])
+@pytest.mark.parametrize("text, warning", NOTHING_USEFUL,
+                         ids=["no_light", "looking_away", "eye_shut_in", "eye_on_surface"])
 def test_a_scene_that_draws_nothing_useful_gets_one_warning(text, warning, write_scene, tmp_path, capsys):
     """Convert, render and load_scene all say what the user probably meant, in one line; the
     scene stays valid (exit 0, the outputs written)."""
