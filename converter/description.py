@@ -18,7 +18,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from .. import defaults as D
-from .frame import farthest, scene_origin, to_frame
+from .frame import farthest, scene_origin, surface_distances, to_frame
 from .giants import cached, coarse_spheres, exact_spheres, mesh_bytes
 from .scene import Material, Scene, Sphere, SphereArrays, Vec3
 from .scene import cross, dot, normalize, relative_path, sub
@@ -95,10 +95,7 @@ def clip_range(scene: Scene, spheres: SphereArrays | None = None) -> tuple[float
     # Mitsuba starts primary rays on the near plane: 1e-12 of far keeps them at the eye while
     # the directions stay float32-exact (they degrade only below about 1e-16), unless a giant
     # sphere sets far (radius 1e12: 8 units): never past a thousandth of the nearest surface.
-    gap = math.inf
-    if len(spheres):
-        import numpy as np
-        gap = float(np.min(np.abs(np.linalg.norm(spheres.center - scene.eye, axis=1) - spheres.radius)))
+    gap = float(surface_distances(scene.eye, spheres).min()) if len(spheres) else math.inf
     return max(min(far * 1e-12, gap * 1e-3), far * 1e-16), far
 
 

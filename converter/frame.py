@@ -48,6 +48,13 @@ def farthest(origin: Vec3, points=(), spheres: SphereArrays | None = None,
     return reach, which
 
 
+def surface_distances(origin: Vec3, spheres: SphereArrays):
+    """Each sphere's surface's distance from ``origin``, inside it or out (an array)."""
+    import numpy as np
+    distances = np.linalg.norm(spheres.center - np.asarray(origin, np.float64), axis=1)
+    return np.abs(distances - spheres.radius)
+
+
 def extent(scene: Scene, origin: Vec3, spheres: SphereArrays) -> tuple[float, int | None]:
     """:func:`farthest` of the eye and the spheres but the giant ones (:mod:`.giants`)."""
     import numpy as np
@@ -105,18 +112,19 @@ def path_warning(scene: Scene) -> str | None:
 def sight_warning(scene: Scene, integrator: str = "whitted") -> str | None:
     """One line when ``scene`` draws nothing useful (the first of: no sphere, the eye on a
     sphere's surface, the eye shut in an opaque sphere no other reaches into, nothing in the
-    cone through the image's corners, no light and ``ambient`` below 1; for ``integrator`` "path", which has no ambient term: no
-    light and a black background), else None."""
+    cone through the image's corners, no light and ``ambient`` below 1; for ``integrator``
+    "path", which has no ambient term: no light and a black background), else None."""
     import numpy as np
     spheres = scene.sphere_arrays()
     if not len(spheres):
         return f"{scene.source}: no sphere: the image is only the background; add `sphere X Y Z R`"
     x, y, z = (spheres.center - np.asarray(scene.eye, np.float64)).T
     r, d2 = spheres.radius, x * x + y * y + z * z
-    on = np.flatnonzero(np.abs(np.sqrt(d2) - r) <= 1e-9 * r)
+    on = np.flatnonzero(surface_distances(scene.eye, spheres) <= 1e-9 * r)
     if len(on):   # a camera ray starts on it: inside or outside by rounding (the variants differ)
-        return (f"{_where(scene, spheres.sphere(int(on[0])))}: the eye is on this sphere's surface: "
-                f"what the camera rays see first is decided by rounding; move `eye` off it")
+        where = _where(scene, spheres.sphere(int(on[0])))
+        return (f"{where}: the eye is on this sphere's surface: what the camera rays see first is "
+                f"decided by rounding; move `eye` off it")
     opaque = np.array([m.refract == 0 and m.texture is None for m in spheres.materials], bool)
     held = np.flatnonzero((d2 < r * r) & opaque[spheres.material])   # opaque, around the eye
     if len(held):
