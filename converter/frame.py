@@ -18,6 +18,8 @@ from .scene import Scene, SphereArrays, Vec3, length, normalize, sub
 
 #: :func:`float32_spread` above which a conversion warns (measured: docs/numerics.md, hazard 6)
 SPREAD_WARNING = 0.1
+#: the IOR above which float32 decides where rays leave a sphere (measured: hazard 15)
+IOR_WARNING = 1e4
 
 
 def scene_origin(scene: Scene) -> Vec3:
@@ -92,6 +94,22 @@ def precision_warning(scene: Scene) -> str | None:
             f"small spheres larger (docs/numerics.md, hazard 6)")
 
 
+def ior_warning(scene: Scene) -> str | None:
+    """One line naming the first refracting sphere of IOR above :data:`IOR_WARNING`, else None:
+    a ray inside it leaves only within 1/IOR of the normal, closer than float32 directions
+    follow (docs/numerics.md, hazard 15)."""
+    import numpy as np
+    spheres = scene.sphere_arrays()
+    strong = [m.refract > 0 and m.ior > IOR_WARNING for m in spheres.materials]
+    found = np.flatnonzero(np.asarray(strong, bool)[spheres.material]) if any(strong) else ()
+    if not len(found):
+        return None
+    sphere = spheres.sphere(int(found[0]))
+    return (f"{_where(scene, sphere)}: IOR {sphere.material.ior:g}: above {IOR_WARNING:g}, float32 "
+            f"rounding decides whether rays leave this sphere or are totally reflected near its "
+            f"outline (docs/numerics.md, hazard 15)")
+
+
 def path_warning(scene: Scene) -> str | None:
     """One line naming the first textured sphere that Mitsuba's own integrators misplace (a
     mesh would lose its texture mapping; docs/numerics.md, hazard 14), else None."""
@@ -164,7 +182,8 @@ def warn_scene(scene: Scene, integrator: str = "whitted") -> None:
 
 def warn_precision(scene: Scene, integrator: str = "whitted") -> None:
     """:func:`precision_warning` on stderr, or for ``integrator`` "path" :func:`path_warning`
-    when there is none."""
+    when there is none; then :func:`ior_warning`."""
     message = precision_warning(scene) or (path_warning(scene) if integrator == "path" else None)
-    if message:
-        print(f"whitted: warning: {message}", file=sys.stderr)
+    for message in (message, ior_warning(scene)):
+        if message:
+            print(f"whitted: warning: {message}", file=sys.stderr)

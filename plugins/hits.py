@@ -58,8 +58,10 @@ def relative_ior(ior, inside):
 
 def refract(v, n_facing, c1, eta):
     """``(T, tir)``: Snell's ``T = n·V + (n·c1 - sqrt(k))·N'``, ``k = 1 - n²(1 - c1²)``;
-    ``tir`` where ``k < 0`` (total internal reflection: ``T`` is then finite but meaningless)."""
-    k = 1 - eta * eta * (1 - c1 * c1)
+    ``tir`` where ``k < 0`` (total internal reflection: ``T`` is then finite but meaningless).
+    ``1 - c1²`` is taken as ``|V × N'|²``, exact to ulps however small: n² multiplies it
+    (docs/numerics.md, hazard 15)."""
+    k = 1 - eta * eta * dr.squared_norm(dr.cross(v, n_facing))
     tir = k < 0
     t = dr.fma(eta, v, (eta * c1 - dr.safe_sqrt(k)) * n_facing)
     return t, tir

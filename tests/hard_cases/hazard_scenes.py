@@ -107,6 +107,18 @@ def low_ior() -> Scene:
                           Sphere((0.0, 0.5, -3.0), 0.8, RED)])
 
 
+def high_ior() -> Scene:
+    """IOR 100 and 1000 (and 4 for contrast): a ray leaving such a ball meets its wall almost
+    along the normal, where 1 − c1² keeps only c1's rounding error and n² magnifies it; near
+    the silhouette that decided whether a ray left or was totally reflected."""
+    return Scene(**_camera(depth=5, background=(0.3, 0.4, 0.6)), lights=[Light((3.0, 6.0, 6.0))],
+                 spheres=[Sphere((0.0, -100.0, 0.0), 100.0, FLOOR),
+                          Sphere((-1.6, 1.0, 0.0), 1.0, Material(refract=1.0, ior=100.0)),
+                          Sphere((0.6, 1.0, 0.0), 1.0, Material(color=(0.9, 0.9, 1.0), refract=0.9, ior=1000.0)),
+                          Sphere((2.2, 0.6, 1.0), 0.6, Material(reflect=0.1, refract=0.8, ior=4.0)),
+                          Sphere((0.0, 0.6, -3.0), 0.6, RED)])
+
+
 def large_floor() -> Scene:
     """A reflective floor sphere of radius 10^4 under unit spheres: its float32 surface is
     only known to ~10^-3, where Mitsuba's offset (1 + |p|)·9e-5 leaves acne on the floor."""
@@ -226,6 +238,7 @@ HAZARDS = {
     "total_internal_reflection": total_internal_reflection,
     "grazing": grazing,
     "low_ior": low_ior,
+    "high_ior": high_ior,
     "large_floor": large_floor,
     "far_camera": far_camera,
     "far_occluder": far_occluder,
