@@ -172,11 +172,38 @@ def sight_warning(scene: Scene, integrator: str = "whitted") -> str | None:
     return None
 
 
+def twin_warning(scene: Scene) -> str | None:
+    """One line naming the first sphere that repeats an earlier one's centre and radius with
+    another material or orientation, or refracting, else None: which of the two surfaces a ray
+    meets is then decided by rounding, and the two variants differ."""
+    import numpy as np
+    spheres = scene.sphere_arrays()
+    if len(spheres) < 2:
+        return None
+    keys = np.column_stack([spheres.center, spheres.radius]) + 0.0   # -0.0 as 0.0
+    bits = np.ascontiguousarray(keys).view(np.uint64)
+    mixed = bits[:, 0] ^ bits[:, 1] * np.uint64(0x9E3779B97F4A7C15) \
+        ^ bits[:, 2] * np.uint64(0xC2B2AE3D27D4EB4F) ^ bits[:, 3] * np.uint64(0x165667B19E3779F9)
+    order = np.argsort(mixed, kind="stable")   # equal keys: adjacent, in file order
+    refracting = np.array([m.refract > 0 for m in spheres.materials], bool)
+    textured = spheres.textured()
+    twins = [(int(order[k]), int(order[k + 1])) for k in np.flatnonzero(np.diff(mixed[order]) == 0)]
+    for first, second in sorted(twins, key=lambda pair: pair[1]):
+        looks = spheres.material[first] != spheres.material[second] or textured[first] and \
+            spheres.orientation[first] != spheres.orientation[second]
+        if (keys[first] == keys[second]).all() and (looks or refracting[spheres.material[first]]):
+            line = spheres.sphere(first).line
+            return (f"{_where(scene, spheres.sphere(second))}: the same centre and radius as the "
+                    f"sphere {f'of line {line}' if line else 'before it'}: which of the two a ray "
+                    f"meets is decided by rounding (the variants differ); remove one")
+    return None
+
+
 def warn_scene(scene: Scene, integrator: str = "whitted") -> None:
     """Every warning about a parsed scene, one line each on stderr."""
-    message = sight_warning(scene, integrator)
-    if message:
-        print(f"whitted: warning: {message}", file=sys.stderr)
+    for message in (sight_warning(scene, integrator), twin_warning(scene)):
+        if message:
+            print(f"whitted: warning: {message}", file=sys.stderr)
     warn_precision(scene, integrator)
 
 

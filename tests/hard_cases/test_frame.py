@@ -18,7 +18,7 @@ from float64_reference import assert_matches, render_reference
 from whitted.cli import main
 from whitted.converter import Sphere, parse_file, scene_to_xml
 from whitted.converter.frame import SPREAD_WARNING, float32_spread, path_warning, precision_warning
-from whitted.converter.frame import IOR_WARNING, ior_warning, sight_warning
+from whitted.converter.frame import IOR_WARNING, ior_warning, sight_warning, twin_warning
 
 FAR = (1e7, -1e7, 1e7)
 
@@ -187,6 +187,45 @@ def test_the_ior_warning_names_the_first_sphere_float32_cannot_follow(write_scen
     message = ior_warning(parse_file(source))
     assert message.startswith(f"{source}:6: IOR 100000: ") and "hazard 15" in message
     assert ior_warning(parse_file(write_scene(source.read_text().replace("refract 0.9", "refract 0")))) is None
+
+
+@pytest.mark.parametrize("twin,warned", [
+    ("sphere 0 1 0 1 color 0 1 0", True),            # another colour: red and green by rounding
+    ("sphere -0 1 0 1.0 color 0 1 0", True),         # the same numbers written otherwise
+    ("sphere 0 1 0 1 color 1 0 0", False),           # the same sphere twice: the same image
+    ("sphere 0 1 0 1.0000001 color 0 1 0", False),   # not the same radius
+    ("sphere 0 1 0 1 color 0 1 0 reflect 0.5", True),
+])
+def test_the_twin_warning_names_a_sphere_repeated_with_another_look(write_scene, twin, warned):
+    """A copied line whose colour was changed but not its place: which of the two spheres a
+    ray meets is decided by rounding (scalar_rgb showed a speckle of both, llvm one of them)."""
+    source = write_scene(f"size 8 6\neye 0 1.5 8\nlookat 0 0.5 0\nlight 3 5 4\n"
+                         f"sphere 3 1 0 1\nsphere 0 1 0 1 color 1 0 0\nsphere 0 -100 0 99\n{twin}\n")
+    message = twin_warning(parse_file(source))
+    if warned:
+        assert message.startswith(f"{source}:8: the same centre and radius as the sphere of line 6: ")
+    else:
+        assert message is None
+
+
+def test_a_refracting_twin_is_warned_about_even_in_the_same_material(write_scene, texture_png):
+    """Inside one of two coincident glass spheres a ray meets the other's surface at once; two
+    textured twins differ by their orientation."""
+    texture_png("tex.png")
+    glass = "sphere 0 1 0 1 refract 0.9 1.5\n"
+    source = write_scene("size 8 6\neye 0 1.5 8\nlookat 0 0.5 0\nlight 3 5 4\n" + glass * 2)
+    assert twin_warning(parse_file(source)).startswith(f"{source}:6: ")
+    globe = "sphere 0 1 0 1 texture tex.png north 0 1 0 equator {}\n"
+    source = write_scene("size 8 6\neye 0 1.5 8\nlookat 0 0.5 0\nlight 3 5 4\n"
+                         + globe.format("1 0 0") + globe.format("0 0 1"))
+    assert twin_warning(parse_file(source)).startswith(f"{source}:6: ")
+    assert twin_warning(parse_file(write_scene(source.read_text().replace("0 0 1", "1 0 0")))) is None
+
+
+@pytest.mark.parametrize("name", list(hs.HAZARDS) + list(hs.GIANTS))
+def test_no_hard_case_has_twins(tmp_path, name):
+    scene = hs.build(name, tmp_path) if name in hs.HAZARDS else hs.GIANTS[name]()
+    assert twin_warning(scene) is None
 
 
 def test_convert_and_render_warn_in_one_line_and_still_work(tmp_path, capsys):
