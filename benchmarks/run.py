@@ -245,15 +245,16 @@ class Bench:
         timing = self.measure({f"min_weight {w:g}": renderer(scene, i, spp) for w, i in integrators.items()},
                               self.s["rounds"])
         base = timing["min_weight 0"]
-        reference = np.array(renderer(scene, integrators[0.0], spp)(), np.float64)[..., :3]
+        # mi.render's very images (it calls render_detailed), with what each traced
+        renders = {w: integrator.render_detailed(scene, spp=spp) for w, integrator in integrators.items()}
+        reference = np.array(renders[0.0].image, np.float64)[..., :3]
         table = Table(f"Adaptive depth control (every-effect scene at max depth 16, "
                       f"{width}×{height}, {spp} spp)",
                       ["min weight", "median ms", "vs off", "secondary rays", "culled", "depth reached",
                        "mean abs error"])
-        for w, integrator in integrators.items():
-            rays = integrator.render_detailed(scene, spp=spp).rays
-            t = timing[f"min_weight {w:g}"]
-            error = np.abs(np.array(renderer(scene, integrator, spp)(), np.float64)[..., :3] - reference).mean()
+        for w, rendered in renders.items():
+            rays, t = rendered.rays, timing[f"min_weight {w:g}"]
+            error = np.abs(np.array(rendered.image, np.float64)[..., :3] - reference).mean()
             table.add(f"{w:g}", ms(t.median), t.over(base), rays.reflection + rays.refraction, rays.culled,
                       rays.max_depth_reached, f"{error:.2e}")
         self.show(table)
