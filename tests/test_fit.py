@@ -117,7 +117,8 @@ COMMAND_PROBLEMS = {"size": ([], "fitted.scn", "target.exr"),
                     "unwritable": ([], "missing/fitted.scn", "fitted.scn"),
                     "not a .scn": ([], "fitted.xml", "fitted.xml: the fitted scene is a .scn file"),
                     "iterations": (["--iterations", "0"], "fitted.scn", "--iterations must be >= 1, got 0"),
-                    "width": (["--width", "0"], "fitted.scn", "--width must be >= 1, got 0")}
+                    "width": (["--width", "0"], "fitted.scn", "--width must be >= 1, got 0"),
+                    "not finite": ([], "fitted.scn", "target.exr: 1 of its 1000 pixels are NaN or infinite")}
 
 
 @pytest.mark.parametrize("problem", COMMAND_PROBLEMS)
@@ -127,6 +128,8 @@ def test_fit_command_errors_are_one_line(truth, tmp_path, problem, capsys):
     scene.write_text(SCENE)
     target = tmp_path / "target.exr"
     image = render(truth).astype(np.float32)
+    if problem == "not finite":   # it aborted the process
+        image[3, 4, 1] = np.nan
     write_image(target, image[:, :20] if problem == "size" else image)
     out = tmp_path / output
     run = whitted_cli(capsys, "fit", scene, "--to", target, "-o", out, *options)
@@ -142,7 +145,8 @@ def test_fit_refuses_unknown_parameters_and_a_target_that_is_not_rgb(truth):
     for call, message in ((lambda: fit(truth, image, free=("colors", "fov")), "unknown free parameter(s) fov"),
                           (lambda: fit(truth, image, iterations=0), "iterations must be an integer >= 1, got 0"),
                           (lambda: fit(truth, image[..., :2]), "the target must be an RGB image"),
-                          (lambda: fit(truth, image[..., 0]), "the target must be an RGB image")):
+                          (lambda: fit(truth, image[..., 0]), "the target must be an RGB image"),
+                          (lambda: fit(truth, image * np.inf), "pixels are NaN or infinite")):
         with pytest.raises(WhittedError, match=re.escape(message)):
             call()
 

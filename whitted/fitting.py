@@ -90,6 +90,10 @@ def fit(scene, target, *, free=FREE, iterations: int = D.FIT_ITERATIONS, width: 
     target = np.asarray(target, np.float32)
     if target.ndim != 3 or target.shape[2] != 3:
         raise WhittedError(f"{target_name}: the target must be an RGB image, got an array of shape {target.shape}")
+    unusable = int((~np.isfinite(target)).any(axis=2).sum())
+    if unusable:   # a NaN loss aborted the process inside Dr.Jit's optimizer
+        raise WhittedError(f"{target_name}: {unusable} of its {target.shape[0] * target.shape[1]} pixels "
+                           f"are NaN or infinite; a target must be finite")
     size = fit_size((model.width, model.height), target.shape[1::-1], width, target_name)
     reference = resampled(target, size)
 
