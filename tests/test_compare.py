@@ -852,3 +852,36 @@ def test_a_scene_whose_every_render_would_overrun_says_none_fitted(sweep, mirror
     match = re.fullmatch(r"no render fitted in the time left of the scene's ([\d.]+) s share after "
                          r"its reference \((.*)\)", note)
     assert match and 0 < float(match[1]) <= 60.0 and match[2] == took
+
+
+#: No light and a black background: the path tracer draws black, so does the article's model
+#: with ambient 0.
+BLACK_SCENE = """\
+size 16 12
+ambient 0
+sphere 0 0 0 1 color 0.9 0.2 0.2
+"""
+
+
+def test_a_black_reference_says_there_is_nothing_to_compare(tmp_path, monkeypatch):
+    """Every relative MSE against a black reference is 0 or measures only brightness: the
+    verdict says so in words, not "error 0; the path tracer never got as close (its best: 0)"."""
+    import json
+    scene = tmp_path / "black.scn"
+    scene.write_text(BLACK_SCENE)
+    without_report_pictures(monkeypatch)
+    without_headline_rounds(monkeypatch)
+    out = tmp_path / "out"
+    options = cmp.Options(out=out, reference_spp=64, depths=(1, 2), whitted_spp=(1,),
+                          path_spp=(1, 4), rounds=1, cache=tmp_path / "references", quiet=True)
+    cmp.compare([scene], options)
+    said = "The reference is black everywhere"
+    summary = (out / "summary.txt").read_text(encoding="utf-8")
+    assert said in summary
+    for nonsense in ("never got as close", "instead of 0", "stops improving at 0 ", "no path render"):
+        assert nonsense not in summary
+    found = json.loads((out / "findings.json").read_text(encoding="utf-8"))["scenes"]["black"]
+    assert found["reference_black"] is True and found["methods"] == {} and found["levels"] == []
+    page = (out / "report.html").read_text(encoding="utf-8")
+    verdict = re.search(r'<p class="verdict">(.*?)</p>', page, re.S)[1]
+    assert said in verdict and "no error floor" not in page.lower().replace("\n", " ")

@@ -195,6 +195,7 @@ class Analysis:
             methods[statement.method] = found
         entry, model = self.entry, self.entry.path_model
         return {"levels": list(self.levels), "reference_spp": entry.reference_spp,
+                "reference_black": entry.reference_black,
                 "reference_noise": entry.reference_noise,
                 "renders": len(entry.measurements), "skipped": len(entry.skipped),
                 "timed_rounds": rounds_of(entry), "methods": methods, "notes": list(entry.notes),
@@ -297,7 +298,10 @@ def _floor(ms: list[Measurement], tolerance: float) -> Floor[Measurement] | None
 
 def analyse(entry: SceneResult, levels: tuple[float, ...] | None = None,
             tolerance: float = COMPARE_FLOOR_TOLERANCE) -> Analysis:
-    """The tables, floors and decompositions of one scene (``levels`` None: from the data)."""
+    """The tables, floors and decompositions of one scene (``levels`` None: from the data);
+    none against a black reference, where an error measures only a render's brightness."""
+    if entry.reference_black:
+        return Analysis(entry, (), [], [], [])
     if levels is None:
         levels = data_levels(entry, tolerance)
     by_method = {method: [m for m in entry.measurements if m.setting.method == method]

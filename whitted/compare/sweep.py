@@ -226,6 +226,7 @@ def sweep_scene(scene: SceneFile, entry: SceneResult, settings: list[Setting], o
         return entry
     progress.unpause()  # the estimate of the time left: from the renders' own rate
     entry.exposure = options.exposure
+    entry.reference_black = not np.any(reference)
     entry.reference_clipped = clipped_fraction(to_srgb(reference, entry.exposure, "clip"))
     entry.view = options.view or fitting_view(reference, entry.exposure)
     entry.reference_thumbnail = thumbnail(reference, exposure=entry.exposure, view=entry.view)
