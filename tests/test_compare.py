@@ -885,3 +885,35 @@ def test_a_black_reference_says_there_is_nothing_to_compare(tmp_path, monkeypatc
     page = (out / "report.html").read_text(encoding="utf-8")
     verdict = re.search(r'<p class="verdict">(.*?)</p>', page, re.S)[1]
     assert said in verdict and "no error floor" not in page.lower().replace("\n", " ")
+
+
+def test_a_stop_while_the_outputs_are_written_still_writes_them_all(sweep, mirror_scene, tmp_path,
+                                                                   monkeypatch):
+    """Ctrl-C after the last render, while the report is drawn, left results.csv and the plot
+    but no summary.txt, findings.json or report.html, and said only "whitted: interrupted":
+    the outputs are written whole, marked as a stopped run's, as for a stop during the sweep."""
+    import whitted.compare.report as report
+    from whitted import interrupt
+    out, _ = sweep
+    real, calls = report.contact_sheet, []
+
+    def stopped_the_first_time(*args, **kwargs):
+        calls.append(args)
+        if len(calls) == 1:
+            raise KeyboardInterrupt
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(report, "contact_sheet", stopped_the_first_time)
+    monkeypatch.setattr(interrupt, "_outcome", None)
+    without_headline_rounds(monkeypatch)
+    options = cmp.Options(out=tmp_path, reference_spp=REFERENCE_SPP, depths=(1,), whitted_spp=(1,),
+                          path_spp=(1, 4), rounds=1, cache=out / "references", quiet=True)
+    with pytest.raises(KeyboardInterrupt):
+        cmp.compare([mirror_scene], options)
+    rows = read_rows(tmp_path / "results.csv")
+    marker = f"Interrupted after {len(rows)} of {len(rows)} renders"
+    assert (tmp_path / "summary.txt").read_text(encoding="utf-8").startswith(marker)
+    assert marker in (tmp_path / "report.html").read_text(encoding="utf-8")
+    assert (tmp_path / "findings.json").exists()
+    assert interrupt.message().endswith(f"the outputs in {tmp_path} hold what was done "
+                                        f"({len(rows)} of {len(rows)} renders)")
