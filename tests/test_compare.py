@@ -917,3 +917,24 @@ def test_a_stop_while_the_outputs_are_written_still_writes_them_all(sweep, mirro
     assert (tmp_path / "findings.json").exists()
     assert interrupt.message().endswith(f"the outputs in {tmp_path} hold what was done "
                                         f"({len(rows)} of {len(rows)} renders)")
+
+
+def test_a_best_ambient_that_is_the_scenes_own_is_not_said_to_be_instead_of_it():
+    """mirrors.scn under --quick in a folder: "the best ambient (0.15 instead of 0.15) brings it
+    to 0.0558", the limit's own error: a change that is none, said as one."""
+    from whitted.compare.analysis import Decomposition, decomposition_text
+    from whitted.compare.curves import Floor
+    from whitted.compare.results import Limit, Measurement, Setting
+    render = Measurement(Setting("whitted", "article", 1, 3), 0.0155, 0.0, 0.0581, 0.1)
+    limit = Limit("whitted-article", 4, 8, 0.0001, True, 0.05581, 0.5, ambient=0.15,
+                  best_ambient=0.1512, rel_mse_at_best_ambient=0.05579)
+    text = decomposition_text(Decomposition("whitted-article", Floor(render, 0.0155, 0.0581, 0.0575,
+                                                                    True), limit, None))
+    assert "instead of" not in text
+    assert "the best ambient (0.15, the scene's own) brings it to 0.0558" in text
+    moved = decomposition_text(Decomposition("whitted-article", Floor(render, 0.0155, 0.0581, 0.0575,
+                                                                     True),
+                                             Limit("whitted-article", 4, 8, 0.0001, True, 0.05581,
+                                                   0.5, ambient=0.15, best_ambient=0.3,
+                                                   rel_mse_at_best_ambient=0.04), None))
+    assert "the best ambient (0.3 instead of 0.15) brings it to 0.04" in moved

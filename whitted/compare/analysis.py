@@ -456,8 +456,8 @@ def decomposition_text(d: Decomposition, reference_noise: float = math.nan,
     article, rest, best = d.method == "whitted-article", limit.rel_mse, ""
     if article and math.isfinite(limit.best_ambient):
         rest = limit.rel_mse_at_best_ambient
-        best = (f"the best ambient ({limit.best_ambient:.2g} instead of {limit.ambient:.2g}) "
-                f"brings it to {rest:.3g}; ")
+        best = f"the best ambient ({_ambient_change(limit.best_ambient, limit.ambient)}) " \
+               f"brings it to {rest:.3g}; "
     fitted = limit.fitted if article else None
     if fitted is not None:
         rest = fitted.rel_mse
@@ -480,6 +480,14 @@ def decomposition_text(d: Decomposition, reference_noise: float = math.nan,
         text += (f" (The limit's own noise, {limit.noise:.2g}, is not yet a tenth of the smallest "
                  f"difference it measures: these parts are rough.)")
     return text
+
+
+def _ambient_change(best: float, ambient: float) -> str:
+    """``0.63 instead of 0.3``; ``0.15, the scene's own`` where the two read the same (two
+    digits), not a change that is none said as one."""
+    if f"{best:.2g}" == f"{ambient:.2g}":
+        return f"{ambient:.2g}, the scene's own"
+    return f"{best:.2g} instead of {ambient:.2g}"
 
 
 def spread_text(m: Measurement) -> str:
