@@ -938,3 +938,34 @@ def test_a_best_ambient_that_is_the_scenes_own_is_not_said_to_be_instead_of_it()
                                                    0.5, ambient=0.15, best_ambient=0.3,
                                                    rel_mse_at_best_ambient=0.04), None))
     assert "the best ambient (0.3 instead of 0.15) brings it to 0.04" in moved
+
+
+def test_a_floor_whose_deepest_densest_render_was_skipped_is_not_called_as_good_as_it_gets(
+        sweep, mirror_scene, tmp_path, monkeypatch):
+    """scenes/mirrors.scn under --quick on a busy machine: --budget skipped each Whitted method's
+    d8 · 16 spp (its best error, which the floor is within 5% of), and the verdict still said
+    "The article's model is as good as it gets at d3 · 1 spp" (the default's floor: d4 · 1 spp).
+    A floor without that render is the best of the renders done, and says so."""
+    import json
+    from whitted.compare.budget import Budget
+    out, _ = sweep
+    real = Budget.predict
+
+    def deepest_densest_overruns(setting, done):
+        if setting.integrator == "whitted" and (setting.max_depth, setting.spp) == (3, 4):
+            return 3600.0, 0.0
+        return real(setting, done)
+
+    monkeypatch.setattr(Budget, "predict", staticmethod(deepest_densest_overruns))
+    without_headline_rounds(monkeypatch)
+    options = cmp.Options(out=tmp_path, reference_spp=REFERENCE_SPP, depths=DEPTHS,
+                          whitted_spp=WHITTED_SPP, path_spp=(1, 4), rounds=1, budget=600.0,
+                          cache=out / "references", quiet=True)
+    (entry,) = cmp.compare([mirror_scene], options)
+    assert {(s.max_depth, s.spp) for s in entry.skipped} == {(3, 4)}
+    summary = (tmp_path / "summary.txt").read_text(encoding="utf-8")
+    assert "as good as it gets" not in summary and "stops improving" not in summary
+    assert summary.count("its deepest, densest render (d3 · 4 spp) was skipped") == 4  # 2 verdicts, 2 floors
+    found = json.loads((tmp_path / "findings.json").read_text(encoding="utf-8"))
+    for method in ("whitted-article", "whitted-physical"):
+        assert found["scenes"]["mirror"]["methods"][method]["floor"]["settled"] is False

@@ -126,6 +126,8 @@ class FloorStatement:
     path_best: Measurement | None
     interval: Interval | None
     text: str = ""
+    #: the method's deepest, densest setting, when --budget skipped it (the floor: the best so far)
+    skipped_best: Setting | None = None
 
     @property
     def render(self) -> Measurement:
@@ -355,6 +357,9 @@ def analyse(entry: SceneResult, levels: tuple[float, ...] | None = None,
         floor = _floor(ms, tolerance)
         if floor is None:
             continue
+        skipped_best = _skipped_best(entry, method)
+        if skipped_best is not None:
+            floor = replace(floor, settled=False)
         reading = time_to_reach(_curve(rendered, "rel_mse"), floor.error) if rendered else None
         own, spp = floor.render, math.nan
         if reading is None and entry.path_model is not None:
@@ -369,7 +374,8 @@ def analyse(entry: SceneResult, levels: tuple[float, ...] | None = None,
         elif reading is not None and reading.how != "nearest":
             interval = paired(rounds, lambda r: _over(
                 _path_in_round(rendered, r, own.seconds_in(r), floor.error), own.seconds_in(r)))
-        statement = FloorStatement(method, floor, reading, path_best, interval)
+        statement = FloorStatement(method, floor, reading, path_best, interval,
+                                   skipped_best=skipped_best)
         floors.append(replace(statement, text=floor_text(statement, entry.reference_noise,
                                                          tolerance, entry.path_model, spp)))
         limit = entry.limits.get(method)
@@ -380,6 +386,20 @@ def analyse(entry: SceneResult, levels: tuple[float, ...] | None = None,
             decompositions.append(replace(decomposition, text=decomposition_text(
                 decomposition, entry.reference_noise, tolerance)))
     return Analysis(entry, tuple(levels), equal_time, equal_quality, floors, decompositions)
+
+
+def _skipped_best(entry: SceneResult, method: str) -> Setting | None:
+    """The method's deepest, densest setting when --budget skipped it: that render has its best
+    error, which its floor is read within the tolerance of, so without it the floor is only
+    the best of the renders done (None: it was rendered)."""
+    planned = [m.setting for m in entry.measurements if m.setting.method == method]
+    skipped = [s for s in entry.skipped if s.method == method]
+    if not skipped:
+        return None
+    planned += skipped
+    deepest = max(s.max_depth for s in planned)
+    densest = max(s.spp for s in planned)
+    return next((s for s in skipped if (s.max_depth, s.spp) == (deepest, densest)), None)
 
 
 def _over(a: float, b: float) -> float:
@@ -405,7 +425,12 @@ def floor_text(statement: FloorStatement, reference_noise: float, tolerance: flo
                                         statement.interval)
     name, render = METHOD_NAMES[statement.method], floor.render
     cheapest = (f"{render.setting.label} ({seconds_text(render.seconds)}) at {floor.error:.3g}")
-    if floor.settled:
+    if statement.skipped_best is not None:
+        text = (f"{name.capitalize()} does best at {floor.best:.3g} (relative MSE) of the renders "
+                f"done, but its deepest, densest render ({statement.skipped_best.label}) was "
+                f"skipped by --budget and may do better: its cheapest render within "
+                f"{tolerance:.0%} of that best is {cheapest}")
+    elif floor.settled:
         text = (f"{name.capitalize()} stops improving at {floor.best:.3g} (relative MSE, its "
                 f"best): its cheapest render within {tolerance:.0%} of that is {cheapest}")
     else:
