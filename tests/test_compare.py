@@ -484,6 +484,8 @@ def test_no_reference_is_rendered_once_the_budget_is_spent(tmp_path, monkeypatch
     assert not references.exists() or not any(references.iterdir())
     captured = capsys.readouterr()
     assert "no time was left" in captured.err and "skipped 3 of 3 renders" in captured.out
+    # not "the outputs hold the renders that were done" beside "no render was done"
+    assert "renders that were done" not in captured.out and "nothing was rendered" in captured.out
 
 
 def test_budget_scales_an_unaffordable_reference_down_and_says_so(mirror_scene, tmp_path, capsys):

@@ -454,3 +454,19 @@ def test_a_widened_interval_turned_round_stays_as_settled_as_its_rounds():
     assert interval.high / interval.low > 1 + COMPARE_SETTLED_WIDTH
     text = faster_text(interval, "the article's model", "the path tracer")
     assert text.startswith("the path tracer gets there 1.82× faster") and "unsettled" not in text
+
+
+@pytest.mark.parametrize("deadline, note", [
+    (0.25, "timed in 1 round, not 5: the next would have overrun the scene's share of --budget"),
+    (0.0, "not timed in rounds (5 asked): the first would have overrun the scene's share of --budget; "
+          "its times are those of its scored renders (wall time, every thread, once each), not "
+          "of timed rounds")])
+def test_a_scene_timed_in_one_round_or_none_says_so_in_words(monkeypatch, deadline, note):
+    """A folder of the four examples under --quick on a busy machine: three scenes said "timed in
+    0 rounds, not 2", and their verdicts quoted the scored renders' wall times on every thread,
+    while the header says every time is the rounds' CPU time on one thread."""
+    from whitted.compare.sweep import time_rounds
+    clock = _FakeRenders(lambda setting, call: 0.01, monkeypatch)
+    entry = _sweep_entry()
+    time_rounds(None, entry, 5, deadline=clock.now + deadline)
+    assert entry.notes == [note]
