@@ -971,3 +971,28 @@ def test_a_floor_whose_deepest_densest_render_was_skipped_is_not_called_as_good_
     found = json.loads((tmp_path / "findings.json").read_text(encoding="utf-8"))
     for method in ("whitted-article", "whitted-physical"):
         assert found["scenes"]["mirror"]["methods"][method]["floor"]["settled"] is False
+
+
+def test_a_path_tracer_no_measurably_faster_is_not_said_to_be_faster_there():
+    """The verdict said "the path tracer is as accurate already from about 1.69 ms on: faster
+    there" whenever its median time was under the floor's, while the floor's sentence, from
+    the paired interval (0.86–1.14×), said "no measurable difference in time"."""
+    from whitted.compare.analysis import FloorStatement, floor_text
+    from whitted.compare.curves import Floor, Reading
+    from whitted.compare.report import template
+    from whitted.compare.results import Measurement, Setting
+    from whitted.compare.timing import Interval
+    render = Measurement(Setting("whitted", "article", 16, 1), 0.00171, 0.0, 0.0109, 0.03)
+    low, high = (Measurement(Setting("path", "physical", n, 5), t, 0.0, e, 0.05)
+                 for n, t, e in ((4, 0.0015, 0.02), (16, 0.0029, 0.005)))
+    statement = FloorStatement("whitted-article", Floor(render, 0.00171, 0.0109, 0.0109, True),
+                               Reading(0.00169, "interpolated", (low, high)), high,
+                               Interval(0.99, 0.86, 1.14, 10, 0.05))
+    words = template("words.txt.j2").module
+    assert "no measurable difference" in floor_text(statement, 1e-5, 0.05)
+    verdict = str(words.verdict(statement))
+    assert "faster there" not in verdict
+    assert "from about 1.69 ms on, the path tracer is more accurate" in verdict
+    faster = FloorStatement(statement.method, statement.floor, statement.path, high,
+                            Interval(0.7, 0.6, 0.8, 10, 0.05))
+    assert "faster there" in str(words.verdict(faster))
