@@ -470,3 +470,17 @@ def test_a_scene_timed_in_one_round_or_none_says_so_in_words(monkeypatch, deadli
     entry = _sweep_entry()
     time_rounds(None, entry, 5, deadline=clock.now + deadline)
     assert entry.notes == [note]
+
+
+def test_the_reports_say_how_sure_an_interval_of_few_rounds_is():
+    """--quick times in 2 rounds: an equal-quality ratio over 2 rounds holds its median with 50%
+    confidence (findings.json: "confidence": 0.5), and the reports' header named only 90% over 5
+    rounds or more and 75% over 3."""
+    from whitted.compare.analysis import TIMING
+    from whitted.compare.timing import coverage
+    for rounds in (2, 3, 4):
+        assert f"{coverage(rounds):.0%} over {rounds}" in TIMING
+    from pathlib import Path
+    import whitted.compare
+    page = Path(whitted.compare.__file__).parent / "templates" / "report.html.j2"
+    assert "75% over 3, 50% over 2" in " ".join(page.read_text(encoding="utf-8").split())  # glossary

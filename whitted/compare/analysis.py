@@ -10,7 +10,7 @@ import math
 from dataclasses import dataclass, field, replace
 
 from ..defaults import (COMPARE_CLOCK, COMPARE_CONFIDENCE, COMPARE_DATA_LEVELS, COMPARE_FLOOR_TOLERANCE,
-                        COMPARE_ROUNDS, COMPARE_RUN_SHARE, COMPARE_TIMING_THREADS)
+                        COMPARE_RUN_SHARE, COMPARE_TIMING_THREADS)
 from .limits import fitted_text
 from .curves import (Floor, PathModel, Reading, error_at_time, error_floor, error_levels,
                      time_to_reach)
@@ -33,7 +33,8 @@ TIMING = ("the median of timed rounds: a first in which every render of a scene 
           f"{'CPU' if COMPARE_CLOCK == 'cpu' else 'wall'} time on {_THREADS} (wall time on a GPU), "
           "kernel compilation excluded; a ratio of times is the median of its per-round ratios, "
           f"with its interval ({COMPARE_CONFIDENCE:.0%} confidence over 5 rounds or more; over "
-          f"{COMPARE_ROUNDS}, its extremes: {coverage(COMPARE_ROUNDS):.0%}), widened by "
+          f"fewer, its extremes: {coverage(4):.0%} over 4, {coverage(3):.0%} over 3, "
+          f"{coverage(2):.0%} over 2), widened by "
           f"{COMPARE_RUN_SHARE:.0%} each way: what a ratio moves between runs")
 
 
