@@ -996,3 +996,17 @@ def test_a_path_tracer_no_measurably_faster_is_not_said_to_be_faster_there():
     faster = FloorStatement(statement.method, statement.floor, statement.path, high,
                             Interval(0.7, 0.6, 0.8, 10, 0.05))
     assert "faster there" in str(words.verdict(faster))
+
+
+def test_a_portable_scene_is_refused_with_advice_compare_can_follow(mirror_scene, tmp_path, capsys):
+    """A student's `whitted convert --portable` output: compare renders it with the Whitted
+    integrator too, so "use the path integrator (--integrator path)", render's advice, is an
+    option compare does not have; its own advice names the .scn and the default XML."""
+    assert main(["convert", "--portable", "-o", str(tmp_path), str(mirror_scene)]) == 0
+    capsys.readouterr()
+    status = main(["compare", str(tmp_path / "mirror.portable.xml"), "--out", str(tmp_path / "out"),
+                   "--cache", str(tmp_path / "refs"), "-q"])
+    err = capsys.readouterr().err
+    assert status == 2 and err.count("\n") == 1 and "Traceback" not in err
+    assert "--integrator" not in err and "without --portable" in err
+    assert not (tmp_path / "out").exists()
