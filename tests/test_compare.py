@@ -876,7 +876,8 @@ def test_a_black_reference_says_there_is_nothing_to_compare(tmp_path, monkeypatc
     out = tmp_path / "out"
     options = cmp.Options(out=out, reference_spp=64, depths=(1, 2), whitted_spp=(1,),
                           path_spp=(1, 4), rounds=1, cache=tmp_path / "references", quiet=True)
-    cmp.compare([scene], options)
+    (entry,) = cmp.compare([scene], options)
+    assert entry.limits == {}   # nor the limits and the fit, which no sentence reads there
     said = "The reference is black everywhere"
     summary = (out / "summary.txt").read_text(encoding="utf-8")
     assert said in summary

@@ -283,7 +283,10 @@ def sweep_scene(scene: SceneFile, entry: SceneResult, settings: list[Setting], o
                 entry.path_model = checked_path_model(entry.measurements, entry.reference_noise)
         progress.update(1)
     time_rounds(loaded, entry, options.rounds, timed_until, progress, options.levels)
-    render_limits(loaded, entry, settings, reference, out, deadline, progress, scene.model)
+    if entry.reference_black:   # nothing is compared there (analysis.analyse): no limit, no fit
+        progress.update(len(limit_methods(settings)))
+    else:
+        render_limits(loaded, entry, settings, reference, out, deadline, progress, scene.model)
     if settings and not entry.measurements:
         took = ("was read from the cache" if entry.reference_cached
                 else f"took {entry.reference_seconds:.1f} s")
