@@ -484,3 +484,15 @@ def test_the_reports_say_how_sure_an_interval_of_few_rounds_is():
     import whitted.compare
     page = Path(whitted.compare.__file__).parent / "templates" / "report.html.j2"
     assert "75% over 3, 50% over 2" in " ".join(page.read_text(encoding="utf-8").split())  # glossary
+
+
+def test_an_interval_that_does_not_hold_one_never_reads_as_holding_it():
+    """textured.scn under --quick: "the article's model gets there 1.11× faster (1–1.2× over 10
+    rounds)", its low end 1.0007 shown as 1: "faster" beside an interval that reads as holding 1."""
+    from whitted.compare.analysis import ratio_text
+    from whitted.compare.timing import Interval
+    interval = Interval(1.107, 1.0007, 1.198, 10)
+    assert interval.range_text() == "1.001–1.2× over 10 rounds"
+    assert ratio_text(interval) == "1.11× (1.001–1.2)"
+    assert Interval(0.95, 0.9, 0.9996, 10).range_text() == "0.9–0.9996× over 10 rounds"
+    assert Interval(1.5, 1.2, 1.8, 10).range_text() == "1.2–1.8× over 10 rounds"   # as before

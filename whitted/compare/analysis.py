@@ -16,7 +16,7 @@ from .curves import (Floor, PathModel, Reading, error_at_time, error_floor, erro
                      time_to_reach)
 from .results import (METHODS, WHITTED_METHODS, Limit, Measurement, SceneResult, Setting,
                       seconds_text)
-from .timing import Interval, coverage, paired
+from .timing import Interval, bound_text, coverage, paired
 
 #: How the prose names each method.
 METHOD_NAMES = {"whitted-article": "the article's model",
@@ -58,7 +58,7 @@ def ratio_text(interval: Interval | None) -> str:
         return f"{interval.value:.3g}×"
     flag = "" if interval.settled else " ?"
     value = "≈ 1" if interval.straddles_one else f"{interval.value:.3g}×"
-    return f"{value} ({interval.low:.3g}–{interval.high:.3g}){flag}"
+    return f"{value} ({bound_text(interval.low)}–{bound_text(interval.high)}){flag}"
 
 
 @dataclass(frozen=True)
