@@ -484,6 +484,8 @@ def test_no_reference_is_rendered_once_the_budget_is_spent(tmp_path, monkeypatch
     assert not references.exists() or not any(references.iterdir())
     captured = capsys.readouterr()
     assert "no time was left" in captured.err and "skipped 3 of 3 renders" in captured.out
+    # not "the outputs hold the renders that were done" beside "no render was done"
+    assert "renders that were done" not in captured.out and "nothing was rendered" in captured.out
 
 
 def test_budget_scales_an_unaffordable_reference_down_and_says_so(mirror_scene, tmp_path, capsys):
@@ -852,3 +854,160 @@ def test_a_scene_whose_every_render_would_overrun_says_none_fitted(sweep, mirror
     match = re.fullmatch(r"no render fitted in the time left of the scene's ([\d.]+) s share after "
                          r"its reference \((.*)\)", note)
     assert match and 0 < float(match[1]) <= 60.0 and match[2] == took
+
+
+#: No light and a black background: the path tracer draws black, so does the article's model
+#: with ambient 0.
+BLACK_SCENE = """\
+size 16 12
+ambient 0
+sphere 0 0 0 1 color 0.9 0.2 0.2
+"""
+
+
+def test_a_black_reference_says_there_is_nothing_to_compare(tmp_path, monkeypatch):
+    """Every relative MSE against a black reference is 0 or measures only brightness: the
+    verdict says so in words, not "error 0; the path tracer never got as close (its best: 0)"."""
+    import json
+    scene = tmp_path / "black.scn"
+    scene.write_text(BLACK_SCENE)
+    without_report_pictures(monkeypatch)
+    without_headline_rounds(monkeypatch)
+    out = tmp_path / "out"
+    options = cmp.Options(out=out, reference_spp=64, depths=(1, 2), whitted_spp=(1,),
+                          path_spp=(1, 4), rounds=1, cache=tmp_path / "references", quiet=True)
+    (entry,) = cmp.compare([scene], options)
+    assert entry.limits == {}   # nor the limits and the fit, which no sentence reads there
+    said = "The reference is black everywhere"
+    summary = (out / "summary.txt").read_text(encoding="utf-8")
+    assert said in summary
+    for nonsense in ("never got as close", "instead of 0", "stops improving at 0 ", "no path render"):
+        assert nonsense not in summary
+    found = json.loads((out / "findings.json").read_text(encoding="utf-8"))["scenes"]["black"]
+    assert found["reference_black"] is True and found["methods"] == {} and found["levels"] == []
+    page = (out / "report.html").read_text(encoding="utf-8")
+    verdict = re.search(r'<p class="verdict">(.*?)</p>', page, re.S)[1]
+    assert said in verdict and "no error floor" not in page.lower().replace("\n", " ")
+
+
+def test_a_stop_while_the_outputs_are_written_still_writes_them_all(sweep, mirror_scene, tmp_path,
+                                                                   monkeypatch):
+    """Ctrl-C after the last render, while the report is drawn, left results.csv and the plot
+    but no summary.txt, findings.json or report.html, and said only "whitted: interrupted":
+    the outputs are written whole, marked as a stopped run's, as for a stop during the sweep."""
+    import whitted.compare.report as report
+    from whitted import interrupt
+    out, _ = sweep
+    real, calls = report.contact_sheet, []
+
+    def stopped_the_first_time(*args, **kwargs):
+        calls.append(args)
+        if len(calls) == 1:
+            raise KeyboardInterrupt
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(report, "contact_sheet", stopped_the_first_time)
+    monkeypatch.setattr(interrupt, "_outcome", None)
+    without_headline_rounds(monkeypatch)
+    options = cmp.Options(out=tmp_path, reference_spp=REFERENCE_SPP, depths=(1,), whitted_spp=(1,),
+                          path_spp=(1, 4), rounds=1, cache=out / "references", quiet=True)
+    with pytest.raises(KeyboardInterrupt):
+        cmp.compare([mirror_scene], options)
+    rows = read_rows(tmp_path / "results.csv")
+    marker = f"Interrupted after {len(rows)} of {len(rows)} renders"
+    assert (tmp_path / "summary.txt").read_text(encoding="utf-8").startswith(marker)
+    assert marker in (tmp_path / "report.html").read_text(encoding="utf-8")
+    assert (tmp_path / "findings.json").exists()
+    assert interrupt.message().endswith(f"the outputs in {tmp_path} hold what was done "
+                                        f"({len(rows)} of {len(rows)} renders)")
+
+
+def test_a_best_ambient_that_is_the_scenes_own_is_not_said_to_be_instead_of_it():
+    """mirrors.scn under --quick in a folder: "the best ambient (0.15 instead of 0.15) brings it
+    to 0.0558", the limit's own error: a change that is none, said as one."""
+    from whitted.compare.analysis import Decomposition, decomposition_text
+    from whitted.compare.curves import Floor
+    from whitted.compare.results import Limit, Measurement, Setting
+    render = Measurement(Setting("whitted", "article", 1, 3), 0.0155, 0.0, 0.0581, 0.1)
+    limit = Limit("whitted-article", 4, 8, 0.0001, True, 0.05581, 0.5, ambient=0.15,
+                  best_ambient=0.1512, rel_mse_at_best_ambient=0.05579)
+    text = decomposition_text(Decomposition("whitted-article", Floor(render, 0.0155, 0.0581, 0.0575,
+                                                                    True), limit, None))
+    assert "instead of" not in text
+    assert "the best ambient (0.15, the scene's own) brings it to 0.0558" in text
+    moved = decomposition_text(Decomposition("whitted-article", Floor(render, 0.0155, 0.0581, 0.0575,
+                                                                     True),
+                                             Limit("whitted-article", 4, 8, 0.0001, True, 0.05581,
+                                                   0.5, ambient=0.15, best_ambient=0.3,
+                                                   rel_mse_at_best_ambient=0.04), None))
+    assert "the best ambient (0.3 instead of 0.15) brings it to 0.04" in moved
+
+
+def test_a_floor_whose_deepest_densest_render_was_skipped_is_not_called_as_good_as_it_gets(
+        sweep, mirror_scene, tmp_path, monkeypatch):
+    """scenes/mirrors.scn under --quick on a busy machine: --budget skipped each Whitted method's
+    d8 · 16 spp (its best error, which the floor is within 5% of), and the verdict still said
+    "The article's model is as good as it gets at d3 · 1 spp" (the default's floor: d4 · 1 spp).
+    A floor without that render is the best of the renders done, and says so."""
+    import json
+    from whitted.compare.budget import Budget
+    out, _ = sweep
+    real = Budget.predict
+
+    def deepest_densest_overruns(setting, done):
+        if setting.integrator == "whitted" and (setting.max_depth, setting.spp) == (3, 4):
+            return 3600.0, 0.0
+        return real(setting, done)
+
+    monkeypatch.setattr(Budget, "predict", staticmethod(deepest_densest_overruns))
+    without_headline_rounds(monkeypatch)
+    options = cmp.Options(out=tmp_path, reference_spp=REFERENCE_SPP, depths=DEPTHS,
+                          whitted_spp=WHITTED_SPP, path_spp=(1, 4), rounds=1, budget=600.0,
+                          cache=out / "references", quiet=True)
+    (entry,) = cmp.compare([mirror_scene], options)
+    assert {(s.max_depth, s.spp) for s in entry.skipped} == {(3, 4)}
+    summary = (tmp_path / "summary.txt").read_text(encoding="utf-8")
+    assert "as good as it gets" not in summary and "stops improving" not in summary
+    assert summary.count("its deepest, densest render (d3 · 4 spp) was skipped") == 4  # 2 verdicts, 2 floors
+    found = json.loads((tmp_path / "findings.json").read_text(encoding="utf-8"))
+    for method in ("whitted-article", "whitted-physical"):
+        assert found["scenes"]["mirror"]["methods"][method]["floor"]["settled"] is False
+
+
+def test_a_path_tracer_no_measurably_faster_is_not_said_to_be_faster_there():
+    """The verdict said "the path tracer is as accurate already from about 1.69 ms on: faster
+    there" whenever its median time was under the floor's, while the floor's sentence, from
+    the paired interval (0.86–1.14×), said "no measurable difference in time"."""
+    from whitted.compare.analysis import FloorStatement, floor_text
+    from whitted.compare.curves import Floor, Reading
+    from whitted.compare.report import template
+    from whitted.compare.results import Measurement, Setting
+    from whitted.compare.timing import Interval
+    render = Measurement(Setting("whitted", "article", 16, 1), 0.00171, 0.0, 0.0109, 0.03)
+    low, high = (Measurement(Setting("path", "physical", n, 5), t, 0.0, e, 0.05)
+                 for n, t, e in ((4, 0.0015, 0.02), (16, 0.0029, 0.005)))
+    statement = FloorStatement("whitted-article", Floor(render, 0.00171, 0.0109, 0.0109, True),
+                               Reading(0.00169, "interpolated", (low, high)), high,
+                               Interval(0.99, 0.86, 1.14, 10, 0.05))
+    words = template("words.txt.j2").module
+    assert "no measurable difference" in floor_text(statement, 1e-5, 0.05)
+    verdict = str(words.verdict(statement))
+    assert "faster there" not in verdict
+    assert "from about 1.69 ms on, the path tracer is more accurate" in verdict
+    faster = FloorStatement(statement.method, statement.floor, statement.path, high,
+                            Interval(0.7, 0.6, 0.8, 10, 0.05))
+    assert "faster there" in str(words.verdict(faster))
+
+
+def test_a_portable_scene_is_refused_with_advice_compare_can_follow(mirror_scene, tmp_path, capsys):
+    """A student's `whitted convert --portable` output: compare renders it with the Whitted
+    integrator too, so "use the path integrator (--integrator path)", render's advice, is an
+    option compare does not have; its own advice names the .scn and the default XML."""
+    assert main(["convert", "--portable", "-o", str(tmp_path), str(mirror_scene)]) == 0
+    capsys.readouterr()
+    status = main(["compare", str(tmp_path / "mirror.portable.xml"), "--out", str(tmp_path / "out"),
+                   "--cache", str(tmp_path / "refs"), "-q"])
+    err = capsys.readouterr().err
+    assert status == 2 and err.count("\n") == 1 and "Traceback" not in err
+    assert "--integrator" not in err and "without --portable" in err
+    assert not (tmp_path / "out").exists()

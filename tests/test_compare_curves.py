@@ -362,3 +362,18 @@ def test_contact_sheet_says_which_path_counts_are_read_from_the_fitted_curve(sce
     scene_result.path_model = None
     (_, *path), *_ = _rows(scene_result)
     assert [caption for title, _, caption in path if "256" in title] == ["not rendered"]
+
+
+def test_a_reference_its_probes_rendered_already_is_kept_when_they_overran_the_share():
+    """A 1600×1000 scene under --quick on a busy machine: the two 16-spp halves that probe the
+    reference's noise took 11 s of a 21.6 s share, more than the reference's half of it, and
+    the scene was skipped whole, "affords less than the 8 spp a usable reference needs", with
+    a 32-spp reference rendered: what is rendered costs nothing more, and is used."""
+    share = COMPARE_REFERENCE_SHARE
+
+    def cost(spp):   # the probes' 32 spp are done; each spp more: 0.2 s
+        return 0.2 * max(0, spp - 32)
+
+    assert Budget.reference_spp(256, cost, 21.6, spent=share * 21.6 + 0.5) == 32
+    assert Budget.reference_spp(256, cost, 21.6, spent=share * 21.6 - 6.5) == 64
+    assert Budget.reference_spp(256, lambda spp: 0.2 * spp, 21.6, spent=share * 21.6 + 0.5) is None

@@ -454,3 +454,45 @@ def test_a_widened_interval_turned_round_stays_as_settled_as_its_rounds():
     assert interval.high / interval.low > 1 + COMPARE_SETTLED_WIDTH
     text = faster_text(interval, "the article's model", "the path tracer")
     assert text.startswith("the path tracer gets there 1.82× faster") and "unsettled" not in text
+
+
+@pytest.mark.parametrize("deadline, note", [
+    (0.25, "timed in 1 round, not 5: the next would have overrun the scene's share of --budget"),
+    (0.0, "not timed in rounds (5 asked): the first would have overrun the scene's share of --budget; "
+          "its times are those of its scored renders (wall time, every thread, once each), not "
+          "of timed rounds")])
+def test_a_scene_timed_in_one_round_or_none_says_so_in_words(monkeypatch, deadline, note):
+    """A folder of the four examples under --quick on a busy machine: three scenes said "timed in
+    0 rounds, not 2", and their verdicts quoted the scored renders' wall times on every thread,
+    while the header says every time is the rounds' CPU time on one thread."""
+    from whitted.compare.sweep import time_rounds
+    clock = _FakeRenders(lambda setting, call: 0.01, monkeypatch)
+    entry = _sweep_entry()
+    time_rounds(None, entry, 5, deadline=clock.now + deadline)
+    assert entry.notes == [note]
+
+
+def test_the_reports_say_how_sure_an_interval_of_few_rounds_is():
+    """--quick times in 2 rounds: an equal-quality ratio over 2 rounds holds its median with 50%
+    confidence (findings.json: "confidence": 0.5), and the reports' header named only 90% over 5
+    rounds or more and 75% over 3."""
+    from whitted.compare.analysis import TIMING
+    from whitted.compare.timing import coverage
+    for rounds in (2, 3, 4):
+        assert f"{coverage(rounds):.0%} over {rounds}" in TIMING
+    from pathlib import Path
+    import whitted.compare
+    page = Path(whitted.compare.__file__).parent / "templates" / "report.html.j2"
+    assert "75% over 3, 50% over 2" in " ".join(page.read_text(encoding="utf-8").split())  # glossary
+
+
+def test_an_interval_that_does_not_hold_one_never_reads_as_holding_it():
+    """textured.scn under --quick: "the article's model gets there 1.11× faster (1–1.2× over 10
+    rounds)", its low end 1.0007 shown as 1: "faster" beside an interval that reads as holding 1."""
+    from whitted.compare.analysis import ratio_text
+    from whitted.compare.timing import Interval
+    interval = Interval(1.107, 1.0007, 1.198, 10)
+    assert interval.range_text() == "1.001–1.2× over 10 rounds"
+    assert ratio_text(interval) == "1.11× (1.001–1.2)"
+    assert Interval(0.95, 0.9, 0.9996, 10).range_text() == "0.9–0.9996× over 10 rounds"
+    assert Interval(1.5, 1.2, 1.8, 10).range_text() == "1.2–1.8× over 10 rounds"   # as before

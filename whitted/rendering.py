@@ -231,15 +231,20 @@ def check_loaded(scene) -> None:
                        f"got {type(scene).__name__}")
 
 
-def check_article_materials(scene, name: str | None = None):
-    """The scene's tables (:func:`whitted.plugins.check_scene`), or an error saying what to do."""
+#: What to do about a scene of Mitsuba's stock materials, for render (``advice`` of
+#: :func:`check_article_materials`).
+STOCK_MATERIALS_ADVICE = ("Mitsuba's stock materials, a portable scene? use the path integrator "
+                          "(--integrator path), or the default XML")
+
+
+def check_article_materials(scene, name: str | None = None, advice: str = STOCK_MATERIALS_ADVICE):
+    """The scene's tables (:func:`whitted.plugins.check_scene`), or an error saying what to do
+    (``advice``: the calling command's, which may not have render's options)."""
     from .plugins import check_scene
     try:
         return check_scene(scene)
     except WhittedError as error:
-        raise WhittedError(f"{name + ': ' if name else ''}{error} (Mitsuba's stock materials, a "
-                           "portable scene? use the path integrator (--integrator path), or the "
-                           "default XML)") from None
+        raise WhittedError(f"{name + ': ' if name else ''}{error} ({advice})") from None
 
 
 def path_passes(spp: int, pixels: int) -> list[int]:

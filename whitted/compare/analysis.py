@@ -10,13 +10,13 @@ import math
 from dataclasses import dataclass, field, replace
 
 from ..defaults import (COMPARE_CLOCK, COMPARE_CONFIDENCE, COMPARE_DATA_LEVELS, COMPARE_FLOOR_TOLERANCE,
-                        COMPARE_ROUNDS, COMPARE_RUN_SHARE, COMPARE_TIMING_THREADS)
+                        COMPARE_RUN_SHARE, COMPARE_TIMING_THREADS)
 from .limits import fitted_text
 from .curves import (Floor, PathModel, Reading, error_at_time, error_floor, error_levels,
                      time_to_reach)
 from .results import (METHODS, WHITTED_METHODS, Limit, Measurement, SceneResult, Setting,
                       seconds_text)
-from .timing import Interval, coverage, paired
+from .timing import Interval, bound_text, coverage, paired
 
 #: How the prose names each method.
 METHOD_NAMES = {"whitted-article": "the article's model",
@@ -33,7 +33,8 @@ TIMING = ("the median of timed rounds: a first in which every render of a scene 
           f"{'CPU' if COMPARE_CLOCK == 'cpu' else 'wall'} time on {_THREADS} (wall time on a GPU), "
           "kernel compilation excluded; a ratio of times is the median of its per-round ratios, "
           f"with its interval ({COMPARE_CONFIDENCE:.0%} confidence over 5 rounds or more; over "
-          f"{COMPARE_ROUNDS}, its extremes: {coverage(COMPARE_ROUNDS):.0%}), widened by "
+          f"fewer, its extremes: {coverage(4):.0%} over 4, {coverage(3):.0%} over 3, "
+          f"{coverage(2):.0%} over 2), widened by "
           f"{COMPARE_RUN_SHARE:.0%} each way: what a ratio moves between runs")
 
 
@@ -57,7 +58,7 @@ def ratio_text(interval: Interval | None) -> str:
         return f"{interval.value:.3g}×"
     flag = "" if interval.settled else " ?"
     value = "≈ 1" if interval.straddles_one else f"{interval.value:.3g}×"
-    return f"{value} ({interval.low:.3g}–{interval.high:.3g}){flag}"
+    return f"{value} ({bound_text(interval.low)}–{bound_text(interval.high)}){flag}"
 
 
 @dataclass(frozen=True)
@@ -126,6 +127,8 @@ class FloorStatement:
     path_best: Measurement | None
     interval: Interval | None
     text: str = ""
+    #: the method's deepest, densest setting, when --budget skipped it (the floor: the best so far)
+    skipped_best: Setting | None = None
 
     @property
     def render(self) -> Measurement:
@@ -195,6 +198,7 @@ class Analysis:
             methods[statement.method] = found
         entry, model = self.entry, self.entry.path_model
         return {"levels": list(self.levels), "reference_spp": entry.reference_spp,
+                "reference_black": entry.reference_black,
                 "reference_noise": entry.reference_noise,
                 "renders": len(entry.measurements), "skipped": len(entry.skipped),
                 "timed_rounds": rounds_of(entry), "methods": methods, "notes": list(entry.notes),
@@ -297,7 +301,10 @@ def _floor(ms: list[Measurement], tolerance: float) -> Floor[Measurement] | None
 
 def analyse(entry: SceneResult, levels: tuple[float, ...] | None = None,
             tolerance: float = COMPARE_FLOOR_TOLERANCE) -> Analysis:
-    """The tables, floors and decompositions of one scene (``levels`` None: from the data)."""
+    """The tables, floors and decompositions of one scene (``levels`` None: from the data);
+    none against a black reference, where an error measures only a render's brightness."""
+    if entry.reference_black:
+        return Analysis(entry, (), [], [], [])
     if levels is None:
         levels = data_levels(entry, tolerance)
     by_method = {method: [m for m in entry.measurements if m.setting.method == method]
@@ -351,6 +358,9 @@ def analyse(entry: SceneResult, levels: tuple[float, ...] | None = None,
         floor = _floor(ms, tolerance)
         if floor is None:
             continue
+        skipped_best = _skipped_best(entry, method)
+        if skipped_best is not None:
+            floor = replace(floor, settled=False)
         reading = time_to_reach(_curve(rendered, "rel_mse"), floor.error) if rendered else None
         own, spp = floor.render, math.nan
         if reading is None and entry.path_model is not None:
@@ -365,7 +375,8 @@ def analyse(entry: SceneResult, levels: tuple[float, ...] | None = None,
         elif reading is not None and reading.how != "nearest":
             interval = paired(rounds, lambda r: _over(
                 _path_in_round(rendered, r, own.seconds_in(r), floor.error), own.seconds_in(r)))
-        statement = FloorStatement(method, floor, reading, path_best, interval)
+        statement = FloorStatement(method, floor, reading, path_best, interval,
+                                   skipped_best=skipped_best)
         floors.append(replace(statement, text=floor_text(statement, entry.reference_noise,
                                                          tolerance, entry.path_model, spp)))
         limit = entry.limits.get(method)
@@ -376,6 +387,20 @@ def analyse(entry: SceneResult, levels: tuple[float, ...] | None = None,
             decompositions.append(replace(decomposition, text=decomposition_text(
                 decomposition, entry.reference_noise, tolerance)))
     return Analysis(entry, tuple(levels), equal_time, equal_quality, floors, decompositions)
+
+
+def _skipped_best(entry: SceneResult, method: str) -> Setting | None:
+    """The method's deepest, densest setting when --budget skipped it: that render has its best
+    error, which its floor is read within the tolerance of, so without it the floor is only
+    the best of the renders done (None: it was rendered)."""
+    planned = [m.setting for m in entry.measurements if m.setting.method == method]
+    skipped = [s for s in entry.skipped if s.method == method]
+    if not skipped:
+        return None
+    planned += skipped
+    deepest = max(s.max_depth for s in planned)
+    densest = max(s.spp for s in planned)
+    return next((s for s in skipped if (s.max_depth, s.spp) == (deepest, densest)), None)
 
 
 def _over(a: float, b: float) -> float:
@@ -401,7 +426,12 @@ def floor_text(statement: FloorStatement, reference_noise: float, tolerance: flo
                                         statement.interval)
     name, render = METHOD_NAMES[statement.method], floor.render
     cheapest = (f"{render.setting.label} ({seconds_text(render.seconds)}) at {floor.error:.3g}")
-    if floor.settled:
+    if statement.skipped_best is not None:
+        text = (f"{name.capitalize()} does best at {floor.best:.3g} (relative MSE) of the renders "
+                f"done, but its deepest, densest render ({statement.skipped_best.label}) was "
+                f"skipped by --budget and may do better: its cheapest render within "
+                f"{tolerance:.0%} of that best is {cheapest}")
+    elif floor.settled:
         text = (f"{name.capitalize()} stops improving at {floor.best:.3g} (relative MSE, its "
                 f"best): its cheapest render within {tolerance:.0%} of that is {cheapest}")
     else:
@@ -452,8 +482,8 @@ def decomposition_text(d: Decomposition, reference_noise: float = math.nan,
     article, rest, best = d.method == "whitted-article", limit.rel_mse, ""
     if article and math.isfinite(limit.best_ambient):
         rest = limit.rel_mse_at_best_ambient
-        best = (f"the best ambient ({limit.best_ambient:.2g} instead of {limit.ambient:.2g}) "
-                f"brings it to {rest:.3g}; ")
+        best = f"the best ambient ({_ambient_change(limit.best_ambient, limit.ambient)}) " \
+               f"brings it to {rest:.3g}; "
     fitted = limit.fitted if article else None
     if fitted is not None:
         rest = fitted.rel_mse
@@ -476,6 +506,14 @@ def decomposition_text(d: Decomposition, reference_noise: float = math.nan,
         text += (f" (The limit's own noise, {limit.noise:.2g}, is not yet a tenth of the smallest "
                  f"difference it measures: these parts are rough.)")
     return text
+
+
+def _ambient_change(best: float, ambient: float) -> str:
+    """``0.63 instead of 0.3``; ``0.15, the scene's own`` where the two read the same (two
+    digits), not a change that is none said as one."""
+    if f"{best:.2g}" == f"{ambient:.2g}":
+        return f"{ambient:.2g}, the scene's own"
+    return f"{best:.2g} instead of {ambient:.2g}"
 
 
 def spread_text(m: Measurement) -> str:

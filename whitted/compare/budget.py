@@ -39,10 +39,11 @@ class Budget:
     def reference_spp(requested: int, cost: Callable[[int], float], seconds: float,
                       spent: float = 0.0) -> int | None:
         """The reference's spp in its share of ``seconds`` less ``spent``: ``requested`` when it
-    fits, else the largest power of two below that fits; None below the minimum."""
+    fits, else the largest power of two below that fits; None below the minimum. What costs
+    nothing more (``cost`` 0: its probes rendered it) fits even when they overran the share."""
         if not math.isfinite(seconds):
             return requested
-        allowed = COMPARE_REFERENCE_SHARE * seconds - spent
+        allowed = max(0.0, COMPARE_REFERENCE_SHARE * seconds - spent)
         candidates = [requested] + [1 << k for k in range(requested.bit_length() - 1, -1, -1)
                                     if 1 << k < requested]
         for spp in candidates:

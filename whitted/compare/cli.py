@@ -139,8 +139,8 @@ def compare_command(args: argparse.Namespace) -> None:
     done = sum(len(e.measurements) for e in entries)
     print(summary(entries.analyses, equal_time=False))
     if skipped:
-        print(f"\nbudget of {options.budget:g} s: skipped {skipped} of {skipped + done} renders; "
-              f"the outputs hold the renders that were done")
+        held = "the outputs hold the renders that were done" if done else "nothing was rendered"
+        print(f"\nbudget of {options.budget:g} s: skipped {skipped} of {skipped + done} renders; {held}")
     for e in entries:
         for note in e.notes:  # what the budget did, and why (also in the report)
             print(f"{e.name}: {note}", file=sys.stderr)
@@ -153,6 +153,7 @@ def compare_command(args: argparse.Namespace) -> None:
         print("whitted compare: no render was done (see the lines above for why)", file=sys.stderr)
     # The progress bar counts every render, each Whitted method's limit too: so does this line.
     limits = sum(len(e.limits) for e in entries)
-    counted = f"{done + limits} renders ({done} timed and scored, {limits} limits)" if limits else f"{done} renders"
+    counted = (f"{done + limits} renders ({done} timed and scored, {limits} limit{'s' if limits > 1 else ''})"
+               if limits else f"{done} render{'' if done == 1 else 's'}")
     print(f"\n{counted} in {time.monotonic() - start:.1f} s; wrote {output_files(options.out)}",
           file=sys.stderr)

@@ -290,7 +290,8 @@ def plan_reference(scene: SceneFile, loaded, entry: SceneResult, cache: Referenc
         notes.append(
             f"reference scaled down from {requested} to {fitted} spp to fit --budget "
             f"{options.budget:g} s ({estimate}: {requested} spp would take about "
-            f"{seconds_text(cost(requested))}, {fitted} spp about {seconds_text(cost(fitted))})")
+            f"{seconds_text(cost(requested))}, {fitted} spp "
+            f"{'about ' + seconds_text(cost(fitted)) if cost(fitted) else 'rendered already by the probes'})")
     # a half the probe filled already may hold more than half of ``fitted``
     spp = sum(n for n, _, _ in done + reference_chunks(fitted, chunk_spp, done))
     if spp != requested:

@@ -100,6 +100,7 @@ def scene_words(analysis: Analysis) -> dict:
     return {
         "name": entry.name, "width": entry.width, "height": entry.height,
         "notes": list(entry.notes), "reference": {"spp": entry.reference_spp},
+        "black": entry.reference_black,
         "statements": analysis.floors,
         "noise": noise if math.isfinite(noise) and noise > 0 else None,
         "floors": ([f.text for f in analysis.floors]

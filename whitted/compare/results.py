@@ -142,6 +142,7 @@ class SceneResult:
     exposure: float = 0.0
     reference_clipped: float = math.nan
     path_model: object = None   # the path tracer's fitted curve (curves.PathModel), once checked
+    reference_black: bool = False   # black everywhere: an error against it compares nothing
 
     def __post_init__(self):
         if not self.reference_requested:

@@ -88,6 +88,8 @@ def compare(scenes: list[str | os.PathLike], options: Options) -> Comparison:
                                 loaded=loaded[index], progress=bar)
                     write_csv(out / CSV_NAME, entries[:index + 1])
                     loaded[index] = None  # free the scene's memory
+        # in the try: a stop while they are drawn writes them all again, marked as stopped
+        analyses = write_all(out, entries, options.levels)
     except BaseException as error:   # Ctrl-C may arrive wrapped (see whitted.interrupt)
         if not interrupt.requested(error) or not out.is_dir():
             raise
@@ -98,5 +100,4 @@ def compare(scenes: list[str | os.PathLike], options: Options) -> Comparison:
         interrupt.tell(f"the outputs in {out} hold what was done ({done} of {planned} renders)"
                        if done else f"the outputs in {out} say nothing was measured")
         raise
-    analyses = write_all(out, entries, options.levels)
     return Comparison(entries, analyses, json_safe(findings(analyses)))  # as findings.json holds it

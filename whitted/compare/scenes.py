@@ -68,8 +68,14 @@ class SceneFile:
         from ..loading import load_scene
         from ..rendering import check_article_materials
         loaded = load_scene(self.path, variant, model=self.model, integrator="path")
-        check_article_materials(loaded, str(self.path))   # before any work: compare renders both
+        check_article_materials(loaded, str(self.path), PORTABLE_ADVICE)   # before any work
         return loaded
+
+
+#: compare renders every scene with both integrators: a scene of Mitsuba's stock materials
+#: (``whitted convert --portable``) cannot be compared, whatever its options.
+PORTABLE_ADVICE = ("Mitsuba's stock materials, a portable scene? compare renders it with the "
+                   "Whitted integrator too: give it the .scn, or its XML converted without --portable")
 
 
 def _xml_textures_and_depth(path: Path, data: bytes) -> tuple[tuple[Path, ...], int | None]:

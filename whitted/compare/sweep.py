@@ -139,8 +139,7 @@ def time_rounds(loaded, entry: SceneResult, rounds: int, deadline: float = math.
                     break
             if started + predicted > deadline:
                 if k < rounds:
-                    entry.notes.append(f"timed in {k} rounds, not {rounds}: the next would have "
-                                       f"overrun the scene's share of --budget")
+                    entry.notes.append(_rounds_cut(k, rounds))
                 break
             progress.set_postfix_str(f"{entry.name}: timing, round {k + 1}", refresh=True)
             for m in interleaved(measured, k):
@@ -152,6 +151,17 @@ def time_rounds(loaded, entry: SceneResult, rounds: int, deadline: float = math.
                 m.times = tuple(times[id(m)])
                 m.seconds = median(m.times)
             predicted = time.monotonic() - started
+
+
+def _rounds_cut(done: int, asked: int) -> str:
+    """The note of rounds the budget cut; with none, what the times then are (the scored
+    renders', on another clock than the one the reports name)."""
+    if done == 0:
+        return (f"not timed in rounds ({asked} asked): the first would have overrun the scene's "
+                f"share of --budget; its times are those of its scored renders (wall time, "
+                f"every thread, once each), not of timed rounds")
+    return (f"timed in {done} round{'s' if done > 1 else ''}, not {asked}: the next would have "
+            f"overrun the scene's share of --budget")
 
 
 def _cost(seconds: list[float], slower: float = 1.0) -> float:
@@ -226,6 +236,7 @@ def sweep_scene(scene: SceneFile, entry: SceneResult, settings: list[Setting], o
         return entry
     progress.unpause()  # the estimate of the time left: from the renders' own rate
     entry.exposure = options.exposure
+    entry.reference_black = not np.any(reference)
     entry.reference_clipped = clipped_fraction(to_srgb(reference, entry.exposure, "clip"))
     entry.view = options.view or fitting_view(reference, entry.exposure)
     entry.reference_thumbnail = thumbnail(reference, exposure=entry.exposure, view=entry.view)
@@ -272,7 +283,10 @@ def sweep_scene(scene: SceneFile, entry: SceneResult, settings: list[Setting], o
                 entry.path_model = checked_path_model(entry.measurements, entry.reference_noise)
         progress.update(1)
     time_rounds(loaded, entry, options.rounds, timed_until, progress, options.levels)
-    render_limits(loaded, entry, settings, reference, out, deadline, progress, scene.model)
+    if entry.reference_black:   # nothing is compared there (analysis.analyse): no limit, no fit
+        progress.update(len(limit_methods(settings)))
+    else:
+        render_limits(loaded, entry, settings, reference, out, deadline, progress, scene.model)
     if settings and not entry.measurements:
         took = ("was read from the cache" if entry.reference_cached
                 else f"took {entry.reference_seconds:.1f} s")

@@ -89,12 +89,22 @@ class Interval:
     def range_text(self) -> str:
         if self.rounds < 2:
             return "1 round"
-        return f"{self.low:.3g}–{self.high:.3g}× over {self.rounds} rounds"
+        return f"{bound_text(self.low)}–{bound_text(self.high)}× over {self.rounds} rounds"
 
     def as_dict(self) -> dict:
         return {"value": self.value, "low": self.low, "high": self.high, "rounds": self.rounds,
                 "confidence": coverage(self.rounds), "settled": self.settled,
                 "no_measurable_difference": self.straddles_one}
+
+
+def bound_text(value: float) -> str:
+    """An interval's end to three digits, or more where three would read as 1 and it is not
+    (1.0007: ``1.001``): an interval that does not hold 1 never reads as holding it."""
+    for digits in range(3, 7):
+        text = f"{value:.{digits}g}"
+        if text != "1" or value == 1.0:
+            return text
+    return text
 
 
 def paired(rounds: int, ratio_in_round: Callable[[int], float]) -> Interval:
