@@ -358,3 +358,13 @@ def test_a_render_without_an_effect_adds_up_too(llvm, scene_files, effect):
     pixels = chosen_pixels(image)
     for tree, (x, y) in zip(trace_pixels(scene, pixels), pixels):
         assert float(np.abs(np.asarray(tree.total()) - image[y, x]).max()) <= TOLERANCE, (effect, x, y)
+
+
+@pytest.mark.parametrize("x, y, expected", [("29%", "57%", (29, 57)), ("0%", "100%", (0, 99)),
+                                             ("14.5%", "99.99%", (14, 99))])
+def test_a_percentage_is_that_share_of_the_size_exactly(llvm, write_scene, x, y, expected):
+    """29% of 100 pixels is column 29: 0.29 · 100 in binary floating point is 28.999…, which
+    must not round the pixel down to 28."""
+    path = write_scene("size 100 100\neye 0 0 5\nlight 3 3 3\nsphere 0 0 0 1\n")
+    tree = trace_pixel(path, x, y)
+    assert (tree.x, tree.y) == expected

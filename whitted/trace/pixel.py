@@ -225,11 +225,18 @@ def _coordinate(value, size: int) -> int:
             raise WhittedError(f"pixel coordinate {value!r} is not a percentage such as 45%") from None
         if not 0 <= share <= 1:
             raise WhittedError(f"pixel coordinate {value} must be from 0% to 100%")
-        return min(int(share * size), size - 1)
+        return min(_percent_of(value.strip()[:-1], size), size - 1)
     try:
         return int(value)
     except (TypeError, ValueError):
         raise WhittedError(f"pixel coordinate {value!r} is neither a whole number nor a percentage") from None
+
+
+def _percent_of(number: str, size: int) -> int:
+    """The pixel ``number`` percent into ``size`` pixels, in decimal: 29% of 100 is pixel 29,
+    where binary floating point makes 0.29 · 100 = 28.999… and picks the pixel before."""
+    from decimal import Decimal
+    return int(Decimal(number) * size / 100)
 
 
 def trace_pixel(scene, x: int, y: int, **options) -> PixelTree:
