@@ -368,3 +368,28 @@ def test_a_percentage_is_that_share_of_the_size_exactly(llvm, write_scene, x, y,
     path = write_scene("size 100 100\neye 0 0 5\nlight 3 3 3\nsphere 0 0 0 1\n")
     tree = trace_pixel(path, x, y)
     assert (tree.x, tree.y) == expected
+
+
+def test_a_deep_tree_s_table_fits_a_projector_s_width(llvm, write_scene, tmp_path):
+    """A tree 24 rays deep between two mirrors: its table stays within a 1280-pixel window (the
+    ray labels wrap and the indent stops growing), where it was 2050 pixels wide and the
+    contributions and branch ends lay off the projected screen."""
+    from test_compare_page import CHROMIUM_ARGS, chromium
+    executable = chromium()
+    if executable is None:
+        pytest.skip("no Chromium: install Debian's chromium or set $WHITTED_CHROMIUM")
+    sync_playwright = pytest.importorskip("playwright.sync_api").sync_playwright
+    path = write_scene("size 8 8\neye 0 0 1.5\nfov 30\ndepth 24\nlight 0 0 0\n"
+                       "sphere 0 0 -1002 1000 reflect 1\nsphere 0 0 1002 1000 reflect 1\n")
+    page_file = tmp_path / "deep.html"
+    assert main(["trace", str(path), "--pixel", "4", "4", "-o", str(page_file)]) == 0
+    with sync_playwright() as playwright:
+        browser = playwright.chromium.launch(executable_path=executable, headless=True, args=CHROMIUM_ARGS)
+        try:
+            page = browser.new_page(viewport={"width": 1280, "height": 800})
+            page.goto(page_file.as_uri(), wait_until="load")
+            assert page.locator("table.tree tbody tr").count() == 24
+            right = page.evaluate("document.querySelector('table.tree').getBoundingClientRect().right")
+            assert right <= 1280 and page.evaluate("document.documentElement.scrollWidth") <= 1280
+        finally:
+            browser.close()
