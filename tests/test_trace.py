@@ -393,3 +393,13 @@ def test_a_deep_tree_s_table_fits_a_projector_s_width(llvm, write_scene, tmp_pat
             assert right <= 1280 and page.evaluate("document.documentElement.scrollWidth") <= 1280
         finally:
             browser.close()
+
+
+def test_lights_at_one_spot_are_named_by_their_own_lines(llvm, write_scene):
+    """A red and a blue light at the same position: each term names its own line (the blue
+    one was named by the red one's line, as the first light at that spot)."""
+    path = write_scene("size 20 20\neye 0 0 5\nlight -3 3 3  0 0 0\nlight 3 3 3  1 0 0   # red\n"
+                       "light 3 3 3  0 0 1   # blue\nsphere 0 0 0 1\n")
+    lights = trace_pixel(path, 10, 10).root.lights
+    assert [(t.index, t.line) for t in lights] == [(0, 3), (1, 4), (2, 5)]
+    assert lights[2].statement == "light 3 3 3  0 0 1" and lights[2].term[0] == 0 < lights[2].term[2]

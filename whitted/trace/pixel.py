@@ -67,11 +67,16 @@ class SceneView:
             return self.sphere(int(near[np.argmax(agree - gap[near])]))
         return self.sphere(int(near[0]))
 
-    def light(self, position) -> int | None:
+    def light(self, position, index: int | None = None) -> int | None:
+        """The file's light at ``position``: the nearest; of several as near (lights may share a
+        spot), the renderer's ``index`` (its lights are the file's, in order)."""
         if not self.lights:
             return None
         spots = np.array([p for p, _, _ in self.lights], np.float64)
-        return int(np.argmin(np.linalg.norm(spots - np.asarray(position), axis=1)))
+        distance = np.linalg.norm(spots - np.asarray(position), axis=1)
+        if index is not None and index < len(distance) and distance[index] <= distance.min():
+            return index
+        return int(np.argmin(distance))
 
     def words(self, line: int | None) -> tuple[str | None, str | None]:
         """The statement on ``line`` of the file, and its comment (a ``#`` outside quotes)."""
@@ -253,7 +258,7 @@ def _to_file(root: Node, view: SceneView) -> None:
             node.sphere = view.sphere_at(node.position, node.normal)
         for term in node.lights:
             term.position = view.position(term.position)
-            k = view.light(term.position)
+            k = view.light(term.position, term.index)
             if k is not None:
                 term.index = k
                 _, _, term.line = view.lights[k]
