@@ -403,3 +403,13 @@ def test_lights_at_one_spot_are_named_by_their_own_lines(llvm, write_scene):
     lights = trace_pixel(path, 10, 10).root.lights
     assert [(t.index, t.line) for t in lights] == [(0, 3), (1, 4), (2, 5)]
     assert lights[2].statement == "light 3 3 3  0 0 1" and lights[2].term[0] == 0 < lights[2].term[2]
+
+
+def test_of_two_spheres_in_one_place_the_one_whose_surface_was_shaded_is_named(variant, write_scene):
+    """A red and a blue sphere with the same center and radius: the render shades one of them;
+    the tree names that one's line, not the other's beside its color."""
+    path = write_scene("size 20 20\neye 0 0 5\nlight 3 3 3\nsphere 0 0 0 1 color 1 0 0  # red\n"
+                       "sphere 0 0 0 1 color 0 0 1 reflect 0.2  # blue\n")
+    root = trace_pixel(path, 10, 10).root
+    named = {4: (1.0, 0.0, 0.0, 0.0), 5: (0.0, 0.0, 1.0, 0.2)}[root.sphere.line]
+    assert (*root.material["color"], root.material["reflect"]) == pytest.approx(named)

@@ -28,6 +28,7 @@ class SceneView:
     names: list | None = None     # each sphere's name where there is no file (its shape's id)
     colors: np.ndarray | None = None   # (N, 3), each sphere's color (textured ones grey)
     glass: np.ndarray | None = None    # (N,), whether each sphere refracts (KT > 0)
+    surfaces: np.ndarray | None = None   # (N, 6), each sphere's color (nan: textured), KR, KT, IOR
     text: list | None = None      # the file's lines
     lights: list = field(default_factory=list)   # (position, color, line) in the file's terms
     eye: tuple | None = None
@@ -48,9 +49,10 @@ class SceneView:
         return SphereRef(k, center, radius, line=line, statement=statement, comment=comment,
                          name=f"{self.source}:{line}")
 
-    def sphere_at(self, p, n) -> SphereRef | None:
+    def sphere_at(self, p, n, material: dict | None = None) -> SphereRef | None:
         """The sphere whose surface holds the point ``p`` (file coordinates): the nearest relative
-        to its size; of several within float32's reach, the one whose normal there is ``n``."""
+        to its size; of several within float32's reach, one whose surface is the ``material``
+        shaded there (spheres may coincide), then the one whose normal there is ``n``."""
         if not len(self.radii):
             return None
         p, n = np.asarray(p, np.float64), np.asarray(n, np.float64)
@@ -63,9 +65,23 @@ class SceneView:
             k = int(np.argmin(gap))
             return self.sphere(k) if gap[k] <= 1e-2 else None
         if len(near) > 1:
+            near = self._shaded(near, material)
+        if len(near) > 1:
             agree = np.einsum("ij,j->i", offset[near], n) / np.maximum(distance[near], 1e-300)
             return self.sphere(int(near[np.argmax(agree - gap[near])]))
         return self.sphere(int(near[0]))
+
+    def _shaded(self, near: np.ndarray, material: dict | None) -> np.ndarray:
+        """Of the spheres ``near``, those whose surface is ``material`` (all where none is)."""
+        if material is None or self.surfaces is None:
+            return near
+        m = material
+        shaded = np.array([*m["color"], m["reflect"], m["refract"], m["ior"]], np.float64)
+        surfaces = self.surfaces[near]
+        same = np.isclose(surfaces, shaded, rtol=1e-6, atol=1e-7) | np.isnan(surfaces)
+        same[:, 5] |= surfaces[:, 4] == 0   # (the IOR of a sphere that does not refract: unused)
+        match = near[same.all(axis=1)]
+        return match if len(match) else near
 
     def light(self, position, index: int | None = None) -> int | None:
         """The file's light at ``position``: the nearest; of several as near (lights may share a
@@ -105,11 +121,13 @@ def scene_view(scene) -> SceneView:
         palette = np.array([(0.7, 0.7, 0.7) if m.texture is not None else m.color for m in arrays.materials]
                            or [(0.7, 0.7, 0.7)], np.float64)
         glass = np.array([m.refract > 0 for m in arrays.materials] or [False])
+        surfaces = np.array([(*((np.nan,) * 3 if m.texture is not None else m.color), m.reflect, m.refract,
+                              m.ior) for m in arrays.materials] or [(np.nan,) * 6], np.float64)
         material = np.asarray(arrays.material, np.int64)
         return SceneView(source=Path(str(model.source)).name, origin=np.asarray(model.lookat, np.float64),
                          scale=float(source.scale), centers=np.asarray(arrays.center, np.float64).reshape(-1, 3),
                          radii=np.asarray(arrays.radius, np.float64), lines=np.asarray(arrays.line),
-                         colors=palette[material], glass=glass[material],
+                         colors=palette[material], glass=glass[material], surfaces=surfaces[material],
                          text=None if text is None else text.splitlines(),
                          lights=[(tuple(light.position), tuple(light.color), light.line) for light in model.lights],
                          eye=tuple(model.eye))
@@ -255,7 +273,7 @@ def _to_file(root: Node, view: SceneView) -> None:
         if node.hit:
             node.position = view.position(node.position)
             node.distance = view.length(node.distance)
-            node.sphere = view.sphere_at(node.position, node.normal)
+            node.sphere = view.sphere_at(node.position, node.normal, node.material)
         for term in node.lights:
             term.position = view.position(term.position)
             k = view.light(term.position, term.index)
