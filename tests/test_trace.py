@@ -413,3 +413,16 @@ def test_of_two_spheres_in_one_place_the_one_whose_surface_was_shaded_is_named(v
     root = trace_pixel(path, 10, 10).root
     named = {4: (1.0, 0.0, 0.0, 0.0), 5: (0.0, 0.0, 1.0, 0.2)}[root.sphere.line]
     assert (*root.material["color"], root.material["reflect"]) == pytest.approx(named)
+
+
+def test_a_statement_continued_over_lines_is_shown_whole(llvm, write_scene):
+    """A sphere and a light each written over several lines (a trailing backslash): the tree
+    shows the whole statement and the comment on its last line, not 'sphere 0 0 0 1 \\'."""
+    path = write_scene("size 20 20\neye 0 0 5\nlight 3 3 3 \\\n   1 0.5 0.5\nsphere 0 0 0 1 \\\n"
+                       "  color 1 0 0 \\\n  reflect 0.2   # the red one\n")
+    tree = trace_pixel(path, 10, 10)
+    root = tree.root
+    assert root.sphere.line == 5 and root.sphere.comment == "the red one"
+    assert root.sphere.statement == "sphere 0 0 0 1 color 1 0 0 reflect 0.2"
+    assert root.lights[0].statement == "light 3 3 3 1 0.5 0.5"
+    assert "hits scene.scn:5: sphere 0 0 0 1 color 1 0 0 reflect 0.2  # the red one" in str(tree)

@@ -95,15 +95,22 @@ class SceneView:
         return int(np.argmin(distance))
 
     def words(self, line: int | None) -> tuple[str | None, str | None]:
-        """The statement on ``line`` of the file, and its comment (a ``#`` outside quotes)."""
+        """The statement that starts on ``line`` of the file, its lines continued with a ``\\``
+        joined, and its comment (the first ``#`` outside quotes on those lines), as the parser
+        reads them."""
         if not line or not self.text or not 0 < line <= len(self.text):
             return None, None
         from ..converter.parser import token_spans
-        text = self.text[line - 1]
-        comment = token_spans(text)[2]
-        if comment < 0:
-            return text.strip(), None
-        return text[:comment].strip(), text[comment + 1:].strip() or None
+        parts, comment = [], None
+        for text in self.text[line - 1:]:
+            spans, continued, mark = token_spans(text)
+            if spans:
+                parts.append(text[spans[0][0]:spans[-1][1]].strip())
+            if comment is None and mark >= 0:
+                comment = text[mark + 1:].strip() or None
+            if not continued:
+                break
+        return " ".join(parts) or None, comment
 
 
 def scene_view(scene) -> SceneView:
