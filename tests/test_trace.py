@@ -426,3 +426,13 @@ def test_a_statement_continued_over_lines_is_shown_whole(llvm, write_scene):
     assert root.sphere.statement == "sphere 0 0 0 1 color 1 0 0 reflect 0.2"
     assert root.lights[0].statement == "light 3 3 3 1 0.5 0.5"
     assert "hits scene.scn:5: sphere 0 0 0 1 color 1 0 0 reflect 0.2  # the red one" in str(tree)
+
+
+@pytest.mark.parametrize("name", ["a" * 300 + ".html", "a" * 300 + "/page.html"])
+def test_a_page_name_the_system_refuses_is_one_line(tmp_path, capsys, name):
+    """A file or folder name longer than the file system allows: one line naming it, no
+    traceback (stat's 'File name too long' escaped), nothing written."""
+    assert main(["trace", str(TIR), "--pixel", "1", "1", "-o", str(tmp_path / name)]) == 2
+    captured = capsys.readouterr()
+    assert captured.err.startswith("whitted: error: ") and "File name too long" in captured.err
+    assert len(captured.err.strip().splitlines()) == 1 and not captured.out and not list(tmp_path.iterdir())
