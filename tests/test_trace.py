@@ -436,3 +436,12 @@ def test_a_page_name_the_system_refuses_is_one_line(tmp_path, capsys, name):
     captured = capsys.readouterr()
     assert captured.err.startswith("whitted: error: ") and "File name too long" in captured.err
     assert len(captured.err.strip().splitlines()) == 1 and not captured.out and not list(tmp_path.iterdir())
+
+
+def test_an_xml_without_a_camera_is_named(llvm, tmp_path, capsys):
+    """A Mitsuba XML scene without a sensor: the one line names the file, as whitted render's does."""
+    scene = tmp_path / "nocamera.xml"
+    scene.write_text('<scene version="3.0.0"><shape type="sphere"/></scene>')
+    assert main(["trace", str(scene), "--pixel", "0", "0"]) == 2
+    err = capsys.readouterr().err
+    assert err == f"whitted: error: {scene}: the scene has no sensor (camera) to trace from\n"

@@ -219,7 +219,8 @@ def trace_pixels(scene, pixels, *, variant: str | None = None, max_depth: int | 
     elif variant is not None:
         raise WhittedError("variant applies to a scene given by its path; a loaded scene keeps its own")
     if not scene.sensors():
-        raise WhittedError("the scene has no sensor (camera) to trace from")
+        raise WhittedError(f"{path}: the scene has no sensor (camera) to trace from" if path is not None
+                           else "the scene has no sensor (camera) to trace from")
     width, height = (int(c) for c in scene.sensors()[0].film().crop_size())
     pixels = [(_coordinate(x, width), _coordinate(y, height)) for x, y in pixels]
     for x, y in pixels:
