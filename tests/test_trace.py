@@ -445,3 +445,21 @@ def test_an_xml_without_a_camera_is_named(llvm, tmp_path, capsys):
     assert main(["trace", str(scene), "--pixel", "0", "0"]) == 2
     err = capsys.readouterr().err
     assert err == f"whitted: error: {scene}: the scene has no sensor (camera) to trace from\n"
+
+
+@pytest.mark.parametrize("json_output", [False, True])
+def test_a_full_disk_behind_standard_output_is_one_line(json_output):
+    """``whitted trace ... --json > trees.json`` on a full disk (/dev/full): one line and
+    status 2, not an OSError traceback (and no 'Exception ignored' as Python exits)."""
+    import os
+    import subprocess
+    import sys
+    if not os.path.exists("/dev/full"):
+        pytest.skip("no /dev/full")
+    command = [sys.executable, "-m", "whitted", "trace", str(TIR), "--pixel", "160", "90",
+               "--variant", "scalar_rgb", *(["--json"] if json_output else [])]
+    with open("/dev/full", "w") as full:
+        result = subprocess.run(command, stdout=full, stderr=subprocess.PIPE, text=True, timeout=120)
+    assert result.returncode == 2, result.stderr
+    assert result.stderr == ("whitted: error: cannot write the trees to standard output: "
+                             "No space left on device\n")
