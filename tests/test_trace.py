@@ -463,3 +463,26 @@ def test_a_full_disk_behind_standard_output_is_one_line(json_output):
     assert result.returncode == 2, result.stderr
     assert result.stderr == ("whitted: error: cannot write the trees to standard output: "
                              "No space left on device\n")
+
+
+def test_the_mark_of_a_corner_pixel_is_drawn_whole(llvm, tmp_path):
+    """Pixel (0, 0)'s circle reaches past the image's corner: it is drawn there too, not cut
+    to the quarter inside the image."""
+    from test_compare_page import CHROMIUM_ARGS, chromium
+    executable = chromium()
+    if executable is None:
+        pytest.skip("no Chromium: install Debian's chromium or set $WHITTED_CHROMIUM")
+    sync_playwright = pytest.importorskip("playwright.sync_api").sync_playwright
+    page_file = tmp_path / "corner.html"
+    assert main(["trace", str(TIR), "--pixel", "0", "0", "-o", str(page_file)]) == 0
+    with sync_playwright() as playwright:
+        browser = playwright.chromium.launch(executable_path=executable, headless=True, args=CHROMIUM_ARGS)
+        try:
+            page = browser.new_page(viewport={"width": 1280, "height": 800})
+            page.goto(page_file.as_uri(), wait_until="load")
+            # the circle's left edge, 8 pixels left of the image (its center is 1 pixel in)
+            tag = page.evaluate("(() => { const r = document.querySelector('.stage').getBoundingClientRect();"
+                                " return document.elementFromPoint(r.left - 8, r.top + 1).tagName; })()")
+            assert tag == "circle"
+        finally:
+            browser.close()
