@@ -281,9 +281,10 @@ def test_page_is_self_contained(page_file):
 
 
 @pytest.fixture(scope="module")
-def browser(page_file, tmp_path_factory):
-    """The page opened from disk in headless Chromium: (page, console errors, requests)."""
-    from test_compare_page import CHROMIUM_ARGS, chromium
+def chromium_session():
+    """Playwright and the Chromium to test with, once for the module: a process holds one
+    synchronous Playwright session at a time."""
+    from test_compare_page import chromium
     executable = chromium()
     if executable is None:
         pytest.skip("no Chromium: install Debian's chromium or set $WHITTED_CHROMIUM")
@@ -291,23 +292,31 @@ def browser(page_file, tmp_path_factory):
         from playwright.sync_api import sync_playwright
     except ImportError:
         pytest.skip("playwright is not installed (pip install -e '.[test]')")
-    profile = tmp_path_factory.mktemp("chromium-profile")
     with sync_playwright() as playwright:
-        context = playwright.chromium.launch_persistent_context(
-            str(profile), executable_path=executable, headless=True,
-            args=[*CHROMIUM_ARGS, "--enable-unsafe-swiftshader", "--use-angle=swiftshader"])
-        context.set_default_timeout(30_000)
-        page = context.new_page()
-        errors: list[str] = []
-        requests: list[str] = []
-        page.on("console", lambda message: errors.append(message.text) if message.type == "error" else None)
-        page.on("pageerror", lambda error: errors.append(str(error)))
-        page.on("request", lambda request: requests.append(request.url))
-        page.goto(page_file.as_uri(), wait_until="load")
-        page.wait_for_function("document.querySelector('.js-plotly-plot') && "
-                               "document.querySelector('.js-plotly-plot')._fullLayout")
-        yield page, errors, requests
-        context.close()
+        yield playwright, executable
+
+
+@pytest.fixture(scope="module")
+def browser(page_file, tmp_path_factory, chromium_session):
+    """The page opened from disk in headless Chromium: (page, console errors, requests)."""
+    from test_compare_page import CHROMIUM_ARGS
+    playwright, executable = chromium_session
+    profile = tmp_path_factory.mktemp("chromium-profile")
+    context = playwright.chromium.launch_persistent_context(
+        str(profile), executable_path=executable, headless=True,
+        args=[*CHROMIUM_ARGS, "--enable-unsafe-swiftshader", "--use-angle=swiftshader"])
+    context.set_default_timeout(30_000)
+    page = context.new_page()
+    errors: list[str] = []
+    requests: list[str] = []
+    page.on("console", lambda message: errors.append(message.text) if message.type == "error" else None)
+    page.on("pageerror", lambda error: errors.append(str(error)))
+    page.on("request", lambda request: requests.append(request.url))
+    page.goto(page_file.as_uri(), wait_until="load")
+    page.wait_for_function("document.querySelector('.js-plotly-plot') && "
+                           "document.querySelector('.js-plotly-plot')._fullLayout")
+    yield page, errors, requests
+    context.close()
 
 
 def test_page_shows_the_3d_view_and_the_tables_in_a_browser(browser):
@@ -370,29 +379,25 @@ def test_a_percentage_is_that_share_of_the_size_exactly(llvm, write_scene, x, y,
     assert (tree.x, tree.y) == expected
 
 
-def test_a_deep_tree_s_table_fits_a_projector_s_width(llvm, write_scene, tmp_path):
+def test_a_deep_tree_s_table_fits_a_projector_s_width(llvm, write_scene, tmp_path, chromium_session):
     """A tree 24 rays deep between two mirrors: its table stays within a 1280-pixel window (the
     ray labels wrap and the indent stops growing), where it was 2050 pixels wide and the
     contributions and branch ends lay off the projected screen."""
-    from test_compare_page import CHROMIUM_ARGS, chromium
-    executable = chromium()
-    if executable is None:
-        pytest.skip("no Chromium: install Debian's chromium or set $WHITTED_CHROMIUM")
-    sync_playwright = pytest.importorskip("playwright.sync_api").sync_playwright
+    from test_compare_page import CHROMIUM_ARGS
+    playwright, executable = chromium_session
     path = write_scene("size 8 8\neye 0 0 1.5\nfov 30\ndepth 24\nlight 0 0 0\n"
                        "sphere 0 0 -1002 1000 reflect 1\nsphere 0 0 1002 1000 reflect 1\n")
     page_file = tmp_path / "deep.html"
     assert main(["trace", str(path), "--pixel", "4", "4", "-o", str(page_file)]) == 0
-    with sync_playwright() as playwright:
-        browser = playwright.chromium.launch(executable_path=executable, headless=True, args=CHROMIUM_ARGS)
-        try:
-            page = browser.new_page(viewport={"width": 1280, "height": 800})
-            page.goto(page_file.as_uri(), wait_until="load")
-            assert page.locator("table.tree tbody tr").count() == 24
-            right = page.evaluate("document.querySelector('table.tree').getBoundingClientRect().right")
-            assert right <= 1280 and page.evaluate("document.documentElement.scrollWidth") <= 1280
-        finally:
-            browser.close()
+    browser = playwright.chromium.launch(executable_path=executable, headless=True, args=CHROMIUM_ARGS)
+    try:
+        page = browser.new_page(viewport={"width": 1280, "height": 800})
+        page.goto(page_file.as_uri(), wait_until="load")
+        assert page.locator("table.tree tbody tr").count() == 24
+        right = page.evaluate("document.querySelector('table.tree').getBoundingClientRect().right")
+        assert right <= 1280 and page.evaluate("document.documentElement.scrollWidth") <= 1280
+    finally:
+        browser.close()
 
 
 def test_lights_at_one_spot_are_named_by_their_own_lines(llvm, write_scene):
@@ -465,24 +470,20 @@ def test_a_full_disk_behind_standard_output_is_one_line(json_output):
                              "No space left on device\n")
 
 
-def test_the_mark_of_a_corner_pixel_is_drawn_whole(llvm, tmp_path):
+def test_the_mark_of_a_corner_pixel_is_drawn_whole(llvm, tmp_path, chromium_session):
     """Pixel (0, 0)'s circle reaches past the image's corner: it is drawn there too, not cut
     to the quarter inside the image."""
-    from test_compare_page import CHROMIUM_ARGS, chromium
-    executable = chromium()
-    if executable is None:
-        pytest.skip("no Chromium: install Debian's chromium or set $WHITTED_CHROMIUM")
-    sync_playwright = pytest.importorskip("playwright.sync_api").sync_playwright
+    from test_compare_page import CHROMIUM_ARGS
+    playwright, executable = chromium_session
     page_file = tmp_path / "corner.html"
     assert main(["trace", str(TIR), "--pixel", "0", "0", "-o", str(page_file)]) == 0
-    with sync_playwright() as playwright:
-        browser = playwright.chromium.launch(executable_path=executable, headless=True, args=CHROMIUM_ARGS)
-        try:
-            page = browser.new_page(viewport={"width": 1280, "height": 800})
-            page.goto(page_file.as_uri(), wait_until="load")
-            # the circle's left edge, 8 pixels left of the image (its center is 1 pixel in)
-            tag = page.evaluate("(() => { const r = document.querySelector('.stage').getBoundingClientRect();"
-                                " return document.elementFromPoint(r.left - 8, r.top + 1).tagName; })()")
-            assert tag == "circle"
-        finally:
-            browser.close()
+    browser = playwright.chromium.launch(executable_path=executable, headless=True, args=CHROMIUM_ARGS)
+    try:
+        page = browser.new_page(viewport={"width": 1280, "height": 800})
+        page.goto(page_file.as_uri(), wait_until="load")
+        # the circle's left edge, 8 pixels left of the image (its center is 1 pixel in)
+        tag = page.evaluate("(() => { const r = document.querySelector('.stage').getBoundingClientRect();"
+                            " return document.elementFromPoint(r.left - 8, r.top + 1).tagName; })()")
+        assert tag == "circle"
+    finally:
+        browser.close()
