@@ -281,9 +281,10 @@ def test_page_is_self_contained(page_file):
 
 
 @pytest.fixture(scope="module")
-def browser(page_file, tmp_path_factory):
-    """The page opened from disk in headless Chromium: (page, console errors, requests)."""
-    from test_compare_page import CHROMIUM_ARGS, chromium
+def chromium_session():
+    """Playwright and the Chromium to test with, once for the module: a process holds one
+    synchronous Playwright session at a time."""
+    from test_compare_page import chromium
     executable = chromium()
     if executable is None:
         pytest.skip("no Chromium: install Debian's chromium or set $WHITTED_CHROMIUM")
@@ -291,23 +292,31 @@ def browser(page_file, tmp_path_factory):
         from playwright.sync_api import sync_playwright
     except ImportError:
         pytest.skip("playwright is not installed (pip install -e '.[test]')")
-    profile = tmp_path_factory.mktemp("chromium-profile")
     with sync_playwright() as playwright:
-        context = playwright.chromium.launch_persistent_context(
-            str(profile), executable_path=executable, headless=True,
-            args=[*CHROMIUM_ARGS, "--enable-unsafe-swiftshader", "--use-angle=swiftshader"])
-        context.set_default_timeout(30_000)
-        page = context.new_page()
-        errors: list[str] = []
-        requests: list[str] = []
-        page.on("console", lambda message: errors.append(message.text) if message.type == "error" else None)
-        page.on("pageerror", lambda error: errors.append(str(error)))
-        page.on("request", lambda request: requests.append(request.url))
-        page.goto(page_file.as_uri(), wait_until="load")
-        page.wait_for_function("document.querySelector('.js-plotly-plot') && "
-                               "document.querySelector('.js-plotly-plot')._fullLayout")
-        yield page, errors, requests
-        context.close()
+        yield playwright, executable
+
+
+@pytest.fixture(scope="module")
+def browser(page_file, tmp_path_factory, chromium_session):
+    """The page opened from disk in headless Chromium: (page, console errors, requests)."""
+    from test_compare_page import CHROMIUM_ARGS
+    playwright, executable = chromium_session
+    profile = tmp_path_factory.mktemp("chromium-profile")
+    context = playwright.chromium.launch_persistent_context(
+        str(profile), executable_path=executable, headless=True,
+        args=[*CHROMIUM_ARGS, "--enable-unsafe-swiftshader", "--use-angle=swiftshader"])
+    context.set_default_timeout(30_000)
+    page = context.new_page()
+    errors: list[str] = []
+    requests: list[str] = []
+    page.on("console", lambda message: errors.append(message.text) if message.type == "error" else None)
+    page.on("pageerror", lambda error: errors.append(str(error)))
+    page.on("request", lambda request: requests.append(request.url))
+    page.goto(page_file.as_uri(), wait_until="load")
+    page.wait_for_function("document.querySelector('.js-plotly-plot') && "
+                           "document.querySelector('.js-plotly-plot')._fullLayout")
+    yield page, errors, requests
+    context.close()
 
 
 def test_page_shows_the_3d_view_and_the_tables_in_a_browser(browser):
@@ -358,3 +367,123 @@ def test_a_render_without_an_effect_adds_up_too(llvm, scene_files, effect):
     pixels = chosen_pixels(image)
     for tree, (x, y) in zip(trace_pixels(scene, pixels), pixels):
         assert float(np.abs(np.asarray(tree.total()) - image[y, x]).max()) <= TOLERANCE, (effect, x, y)
+
+
+@pytest.mark.parametrize("x, y, expected", [("29%", "57%", (29, 57)), ("0%", "100%", (0, 99)),
+                                             ("14.5%", "99.99%", (14, 99))])
+def test_a_percentage_is_that_share_of_the_size_exactly(llvm, write_scene, x, y, expected):
+    """29% of 100 pixels is column 29: 0.29 · 100 in binary floating point is 28.999…, which
+    must not round the pixel down to 28."""
+    path = write_scene("size 100 100\neye 0 0 5\nlight 3 3 3\nsphere 0 0 0 1\n")
+    tree = trace_pixel(path, x, y)
+    assert (tree.x, tree.y) == expected
+
+
+def test_a_deep_tree_s_table_fits_a_projector_s_width(llvm, write_scene, tmp_path, chromium_session):
+    """A tree 24 rays deep between two mirrors: its table stays within a 1280-pixel window (the
+    ray labels wrap and the indent stops growing), where it was 2050 pixels wide and the
+    contributions and branch ends lay off the projected screen."""
+    from test_compare_page import CHROMIUM_ARGS
+    playwright, executable = chromium_session
+    path = write_scene("size 8 8\neye 0 0 1.5\nfov 30\ndepth 24\nlight 0 0 0\n"
+                       "sphere 0 0 -1002 1000 reflect 1\nsphere 0 0 1002 1000 reflect 1\n")
+    page_file = tmp_path / "deep.html"
+    assert main(["trace", str(path), "--pixel", "4", "4", "-o", str(page_file)]) == 0
+    browser = playwright.chromium.launch(executable_path=executable, headless=True, args=CHROMIUM_ARGS)
+    try:
+        page = browser.new_page(viewport={"width": 1280, "height": 800})
+        page.goto(page_file.as_uri(), wait_until="load")
+        assert page.locator("table.tree tbody tr").count() == 24
+        right = page.evaluate("document.querySelector('table.tree').getBoundingClientRect().right")
+        assert right <= 1280 and page.evaluate("document.documentElement.scrollWidth") <= 1280
+    finally:
+        browser.close()
+
+
+def test_lights_at_one_spot_are_named_by_their_own_lines(llvm, write_scene):
+    """A red and a blue light at the same position: each term names its own line (the blue
+    one was named by the red one's line, as the first light at that spot)."""
+    path = write_scene("size 20 20\neye 0 0 5\nlight -3 3 3  0 0 0\nlight 3 3 3  1 0 0   # red\n"
+                       "light 3 3 3  0 0 1   # blue\nsphere 0 0 0 1\n")
+    lights = trace_pixel(path, 10, 10).root.lights
+    assert [(t.index, t.line) for t in lights] == [(0, 3), (1, 4), (2, 5)]
+    assert lights[2].statement == "light 3 3 3  0 0 1" and lights[2].term[0] == 0 < lights[2].term[2]
+
+
+def test_of_two_spheres_in_one_place_the_one_whose_surface_was_shaded_is_named(variant, write_scene):
+    """A red and a blue sphere with the same center and radius: the render shades one of them;
+    the tree names that one's line, not the other's beside its color."""
+    path = write_scene("size 20 20\neye 0 0 5\nlight 3 3 3\nsphere 0 0 0 1 color 1 0 0  # red\n"
+                       "sphere 0 0 0 1 color 0 0 1 reflect 0.2  # blue\n")
+    root = trace_pixel(path, 10, 10).root
+    named = {4: (1.0, 0.0, 0.0, 0.0), 5: (0.0, 0.0, 1.0, 0.2)}[root.sphere.line]
+    assert (*root.material["color"], root.material["reflect"]) == pytest.approx(named)
+
+
+def test_a_statement_continued_over_lines_is_shown_whole(llvm, write_scene):
+    """A sphere and a light each written over several lines (a trailing backslash): the tree
+    shows the whole statement and the comment on its last line, not 'sphere 0 0 0 1 \\'."""
+    path = write_scene("size 20 20\neye 0 0 5\nlight 3 3 3 \\\n   1 0.5 0.5\nsphere 0 0 0 1 \\\n"
+                       "  color 1 0 0 \\\n  reflect 0.2   # the red one\n")
+    tree = trace_pixel(path, 10, 10)
+    root = tree.root
+    assert root.sphere.line == 5 and root.sphere.comment == "the red one"
+    assert root.sphere.statement == "sphere 0 0 0 1 color 1 0 0 reflect 0.2"
+    assert root.lights[0].statement == "light 3 3 3 1 0.5 0.5"
+    assert "hits scene.scn:5: sphere 0 0 0 1 color 1 0 0 reflect 0.2  # the red one" in str(tree)
+
+
+@pytest.mark.parametrize("name", ["a" * 300 + ".html", "a" * 300 + "/page.html"])
+def test_a_page_name_the_system_refuses_is_one_line(tmp_path, capsys, name):
+    """A file or folder name longer than the file system allows: one line naming it, no
+    traceback (stat's 'File name too long' escaped), nothing written."""
+    assert main(["trace", str(TIR), "--pixel", "1", "1", "-o", str(tmp_path / name)]) == 2
+    captured = capsys.readouterr()
+    assert captured.err.startswith("whitted: error: ") and "File name too long" in captured.err
+    assert len(captured.err.strip().splitlines()) == 1 and not captured.out and not list(tmp_path.iterdir())
+
+
+def test_an_xml_without_a_camera_is_named(llvm, tmp_path, capsys):
+    """A Mitsuba XML scene without a sensor: the one line names the file, as whitted render's does."""
+    scene = tmp_path / "nocamera.xml"
+    scene.write_text('<scene version="3.0.0"><shape type="sphere"/></scene>')
+    assert main(["trace", str(scene), "--pixel", "0", "0"]) == 2
+    err = capsys.readouterr().err
+    assert err == f"whitted: error: {scene}: the scene has no sensor (camera) to trace from\n"
+
+
+@pytest.mark.parametrize("json_output", [False, True])
+def test_a_full_disk_behind_standard_output_is_one_line(json_output):
+    """``whitted trace ... --json > trees.json`` on a full disk (/dev/full): one line and
+    status 2, not an OSError traceback (and no 'Exception ignored' as Python exits)."""
+    import os
+    import subprocess
+    import sys
+    if not os.path.exists("/dev/full"):
+        pytest.skip("no /dev/full")
+    command = [sys.executable, "-m", "whitted", "trace", str(TIR), "--pixel", "160", "90",
+               "--variant", "scalar_rgb", *(["--json"] if json_output else [])]
+    with open("/dev/full", "w") as full:
+        result = subprocess.run(command, stdout=full, stderr=subprocess.PIPE, text=True, timeout=120)
+    assert result.returncode == 2, result.stderr
+    assert result.stderr == ("whitted: error: cannot write the trees to standard output: "
+                             "No space left on device\n")
+
+
+def test_the_mark_of_a_corner_pixel_is_drawn_whole(llvm, tmp_path, chromium_session):
+    """Pixel (0, 0)'s circle reaches past the image's corner: it is drawn there too, not cut
+    to the quarter inside the image."""
+    from test_compare_page import CHROMIUM_ARGS
+    playwright, executable = chromium_session
+    page_file = tmp_path / "corner.html"
+    assert main(["trace", str(TIR), "--pixel", "0", "0", "-o", str(page_file)]) == 0
+    browser = playwright.chromium.launch(executable_path=executable, headless=True, args=CHROMIUM_ARGS)
+    try:
+        page = browser.new_page(viewport={"width": 1280, "height": 800})
+        page.goto(page_file.as_uri(), wait_until="load")
+        # the circle's left edge, 8 pixels left of the image (its center is 1 pixel in)
+        tag = page.evaluate("(() => { const r = document.querySelector('.stage').getBoundingClientRect();"
+                            " return document.elementFromPoint(r.left - 8, r.top + 1).tagName; })()")
+        assert tag == "circle"
+    finally:
+        browser.close()

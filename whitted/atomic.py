@@ -79,6 +79,13 @@ def remove_stale_leftovers(folder: str | os.PathLike, older_than: float) -> list
 def check_writable(target: str | os.PathLike, inputs: tuple = ()) -> Path:
     """Fail now, naming ``target``, if it could not be written later (or is one of ``inputs``)."""
     target = Path(target)
+    try:
+        return _check_writable(target, inputs)
+    except OSError as error:   # a name the system refuses, which stat answers with an error
+        raise WhittedError(f"{target}: cannot write: {error.strerror or error}") from None
+
+
+def _check_writable(target: Path, inputs: tuple) -> Path:
     if target.is_dir():
         raise WhittedError(f"{target}: is a folder; give a file name")
     if target.exists() and not target.is_file():

@@ -71,9 +71,21 @@ def trace_command(args) -> None:
     if page is not None:
         from .page import write_page
         write_page(page, traces, scene)
-    if args.json:
-        print(json.dumps(traces.json(), indent=1))
-    else:
-        print(str(traces))
+    _print(json.dumps(traces.json(), indent=1) if args.json else str(traces))
     if page is not None:
         print(f"whitted: wrote {page}", file=sys.stderr)
+
+
+def _print(text: str) -> None:
+    """``text`` on standard output; a full disk or a failing device behind it is one error
+    (a closed pipe is the CLI's own quiet status 1), and what is left unwritten is dropped so
+    that Python's exit does not try it again."""
+    import os
+    try:
+        print(text)
+        sys.stdout.flush()
+    except BrokenPipeError:
+        raise
+    except OSError as error:
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        raise WhittedError(f"cannot write the trees to standard output: {error.strerror or error}") from None

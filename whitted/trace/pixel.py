@@ -28,6 +28,7 @@ class SceneView:
     names: list | None = None     # each sphere's name where there is no file (its shape's id)
     colors: np.ndarray | None = None   # (N, 3), each sphere's color (textured ones grey)
     glass: np.ndarray | None = None    # (N,), whether each sphere refracts (KT > 0)
+    surfaces: np.ndarray | None = None   # (N, 6), each sphere's color (nan: textured), KR, KT, IOR
     text: list | None = None      # the file's lines
     lights: list = field(default_factory=list)   # (position, color, line) in the file's terms
     eye: tuple | None = None
@@ -48,9 +49,10 @@ class SceneView:
         return SphereRef(k, center, radius, line=line, statement=statement, comment=comment,
                          name=f"{self.source}:{line}")
 
-    def sphere_at(self, p, n) -> SphereRef | None:
+    def sphere_at(self, p, n, material: dict | None = None) -> SphereRef | None:
         """The sphere whose surface holds the point ``p`` (file coordinates): the nearest relative
-        to its size; of several within float32's reach, the one whose normal there is ``n``."""
+        to its size; of several within float32's reach, one whose surface is the ``material``
+        shaded there (spheres may coincide), then the one whose normal there is ``n``."""
         if not len(self.radii):
             return None
         p, n = np.asarray(p, np.float64), np.asarray(n, np.float64)
@@ -63,26 +65,52 @@ class SceneView:
             k = int(np.argmin(gap))
             return self.sphere(k) if gap[k] <= 1e-2 else None
         if len(near) > 1:
+            near = self._shaded(near, material)
+        if len(near) > 1:
             agree = np.einsum("ij,j->i", offset[near], n) / np.maximum(distance[near], 1e-300)
             return self.sphere(int(near[np.argmax(agree - gap[near])]))
         return self.sphere(int(near[0]))
 
-    def light(self, position) -> int | None:
+    def _shaded(self, near: np.ndarray, material: dict | None) -> np.ndarray:
+        """Of the spheres ``near``, those whose surface is ``material`` (all where none is)."""
+        if material is None or self.surfaces is None:
+            return near
+        m = material
+        shaded = np.array([*m["color"], m["reflect"], m["refract"], m["ior"]], np.float64)
+        surfaces = self.surfaces[near]
+        same = np.isclose(surfaces, shaded, rtol=1e-6, atol=1e-7) | np.isnan(surfaces)
+        same[:, 5] |= surfaces[:, 4] == 0   # (the IOR of a sphere that does not refract: unused)
+        match = near[same.all(axis=1)]
+        return match if len(match) else near
+
+    def light(self, position, index: int | None = None) -> int | None:
+        """The file's light at ``position``: the nearest; of several as near (lights may share a
+        spot), the renderer's ``index`` (its lights are the file's, in order)."""
         if not self.lights:
             return None
         spots = np.array([p for p, _, _ in self.lights], np.float64)
-        return int(np.argmin(np.linalg.norm(spots - np.asarray(position), axis=1)))
+        distance = np.linalg.norm(spots - np.asarray(position), axis=1)
+        if index is not None and index < len(distance) and distance[index] <= distance.min():
+            return index
+        return int(np.argmin(distance))
 
     def words(self, line: int | None) -> tuple[str | None, str | None]:
-        """The statement on ``line`` of the file, and its comment (a ``#`` outside quotes)."""
+        """The statement that starts on ``line`` of the file, its lines continued with a ``\\``
+        joined, and its comment (the first ``#`` outside quotes on those lines), as the parser
+        reads them."""
         if not line or not self.text or not 0 < line <= len(self.text):
             return None, None
         from ..converter.parser import token_spans
-        text = self.text[line - 1]
-        comment = token_spans(text)[2]
-        if comment < 0:
-            return text.strip(), None
-        return text[:comment].strip(), text[comment + 1:].strip() or None
+        parts, comment = [], None
+        for text in self.text[line - 1:]:
+            spans, continued, mark = token_spans(text)
+            if spans:
+                parts.append(text[spans[0][0]:spans[-1][1]].strip())
+            if comment is None and mark >= 0:
+                comment = text[mark + 1:].strip() or None
+            if not continued:
+                break
+        return " ".join(parts) or None, comment
 
 
 def scene_view(scene) -> SceneView:
@@ -100,11 +128,13 @@ def scene_view(scene) -> SceneView:
         palette = np.array([(0.7, 0.7, 0.7) if m.texture is not None else m.color for m in arrays.materials]
                            or [(0.7, 0.7, 0.7)], np.float64)
         glass = np.array([m.refract > 0 for m in arrays.materials] or [False])
+        surfaces = np.array([(*((np.nan,) * 3 if m.texture is not None else m.color), m.reflect, m.refract,
+                              m.ior) for m in arrays.materials] or [(np.nan,) * 6], np.float64)
         material = np.asarray(arrays.material, np.int64)
         return SceneView(source=Path(str(model.source)).name, origin=np.asarray(model.lookat, np.float64),
                          scale=float(source.scale), centers=np.asarray(arrays.center, np.float64).reshape(-1, 3),
                          radii=np.asarray(arrays.radius, np.float64), lines=np.asarray(arrays.line),
-                         colors=palette[material], glass=glass[material],
+                         colors=palette[material], glass=glass[material], surfaces=surfaces[material],
                          text=None if text is None else text.splitlines(),
                          lights=[(tuple(light.position), tuple(light.color), light.line) for light in model.lights],
                          eye=tuple(model.eye))
@@ -189,7 +219,8 @@ def trace_pixels(scene, pixels, *, variant: str | None = None, max_depth: int | 
     elif variant is not None:
         raise WhittedError("variant applies to a scene given by its path; a loaded scene keeps its own")
     if not scene.sensors():
-        raise WhittedError("the scene has no sensor (camera) to trace from")
+        raise WhittedError(f"{path}: the scene has no sensor (camera) to trace from" if path is not None
+                           else "the scene has no sensor (camera) to trace from")
     width, height = (int(c) for c in scene.sensors()[0].film().crop_size())
     pixels = [(_coordinate(x, width), _coordinate(y, height)) for x, y in pixels]
     for x, y in pixels:
@@ -225,11 +256,18 @@ def _coordinate(value, size: int) -> int:
             raise WhittedError(f"pixel coordinate {value!r} is not a percentage such as 45%") from None
         if not 0 <= share <= 1:
             raise WhittedError(f"pixel coordinate {value} must be from 0% to 100%")
-        return min(int(share * size), size - 1)
+        return min(_percent_of(value.strip()[:-1], size), size - 1)
     try:
         return int(value)
     except (TypeError, ValueError):
         raise WhittedError(f"pixel coordinate {value!r} is neither a whole number nor a percentage") from None
+
+
+def _percent_of(number: str, size: int) -> int:
+    """The pixel ``number`` percent into ``size`` pixels, in decimal: 29% of 100 is pixel 29,
+    where binary floating point makes 0.29 · 100 = 28.999… and picks the pixel before."""
+    from decimal import Decimal
+    return int(Decimal(number) * size / 100)
 
 
 def trace_pixel(scene, x: int, y: int, **options) -> PixelTree:
@@ -243,10 +281,10 @@ def _to_file(root: Node, view: SceneView) -> None:
         if node.hit:
             node.position = view.position(node.position)
             node.distance = view.length(node.distance)
-            node.sphere = view.sphere_at(node.position, node.normal)
+            node.sphere = view.sphere_at(node.position, node.normal, node.material)
         for term in node.lights:
             term.position = view.position(term.position)
-            k = view.light(term.position)
+            k = view.light(term.position, term.index)
             if k is not None:
                 term.index = k
                 _, _, term.line = view.lights[k]
