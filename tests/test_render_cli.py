@@ -287,3 +287,23 @@ def test_an_empty_path_is_refused(command, scene_xml, tmp_path, monkeypatch, cap
     err = capsys.readouterr().err
     assert err.splitlines()[-1].endswith(": an empty path names no file or folder"), err
     assert files(tmp_path) == before
+
+
+LONG = "n" * 300   # longer than a file name may be (255 bytes on Linux file systems)
+
+
+@pytest.mark.parametrize("command", [
+    ["render", "{scene}", "-o", "{long}.png"], ["render", "{scene}", "-o", "{long}/x.png"],
+    ["render", "{scene}", "{scene}", "-o", "{long}/"], ["render", "{scene}", "-o", "x.png", "--stats", "{long}"],
+    ["convert", "{scene}", "-o", "{long}.xml"], ["compare", "{scene}", "-o", "{long}"],
+    ["trace", "{scene}", "--pixel", "1", "1", "-o", "{long}.html"]])
+def test_a_name_the_system_refuses_is_one_line(command, scene_xml, tmp_path, monkeypatch, capsys):
+    """A name longer than the file system allows: stat's OSError ended render, convert and
+    compare in a traceback."""
+    monkeypatch.chdir(tmp_path)
+    before = files(tmp_path)
+    assert main([word.format(scene=scene_xml, long=LONG) for word in command]) == 2
+    err = capsys.readouterr().err
+    assert len(err.splitlines()) == 1 and err.startswith("whitted: error: ") and LONG in err, err
+    assert err.rstrip().endswith("File name too long"), err
+    assert files(tmp_path) == before

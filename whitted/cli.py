@@ -253,7 +253,8 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def _run(args) -> int:
-    """The command's status: 2 after a user error (one line per problem), 1 on a closed pipe."""
+    """The command's status: 2 after a user error or a path the system refuses (one line per
+    problem), 1 on a closed pipe."""
     try:
         from .variant import check_environment, check_user_libllvm, request
         check_user_libllvm(getattr(args, "variant", None) or check_environment())
@@ -267,6 +268,11 @@ def _run(args) -> int:
     except BrokenPipeError:
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 1
+    except OSError as error:   # a path the system refuses (a name too long, ...): named, one line
+        if error.filename is None or interrupt.requested():
+            raise
+        report(WhittedError(f"{error.filename}: {error.strerror or error}"))
+        return EXIT_USER_ERROR
 
 
 if __name__ == "__main__":
