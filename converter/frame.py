@@ -201,16 +201,17 @@ def twin_warning(scene: Scene) -> str | None:
 
 def warn_scene(scene: Scene, integrator: str = "whitted") -> None:
     """Every warning about a parsed scene, one line each on stderr."""
-    for message in (sight_warning(scene, integrator), twin_warning(scene)):
-        if message:
-            print(f"whitted: warning: {message}", file=sys.stderr)
+    _warn(sight_warning(scene, integrator), twin_warning(scene))
     warn_precision(scene, integrator)
 
 
 def warn_precision(scene: Scene, integrator: str = "whitted") -> None:
     """:func:`precision_warning` on stderr, or for ``integrator`` "path" :func:`path_warning`
     when there is none; then :func:`ior_warning`."""
-    message = precision_warning(scene) or (path_warning(scene) if integrator == "path" else None)
-    for message in (message, ior_warning(scene)):
-        if message:
-            print(f"whitted: warning: {message}", file=sys.stderr)
+    _warn(precision_warning(scene) or (path_warning(scene) if integrator == "path" else None),
+          ior_warning(scene))
+
+
+def _warn(*messages: str | None) -> None:
+    for message in filter(None, messages):
+        print(f"whitted: warning: {message}", file=sys.stderr)

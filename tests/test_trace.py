@@ -11,6 +11,7 @@ dropped or a weight changed fails these checks.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import json
 
@@ -379,25 +380,36 @@ def test_a_percentage_is_that_share_of_the_size_exactly(llvm, write_scene, x, y,
     assert (tree.x, tree.y) == expected
 
 
-def test_a_deep_tree_s_table_fits_a_projector_s_width(llvm, write_scene, tmp_path, chromium_session):
+@pytest.fixture
+def open_page(chromium_session):
+    """``with open_page(page_file) as page``: the page in a fresh headless Chromium, 1280×800."""
+    from test_compare_page import CHROMIUM_ARGS
+    playwright, executable = chromium_session
+
+    @contextlib.contextmanager
+    def opened(page_file):
+        browser = playwright.chromium.launch(executable_path=executable, headless=True, args=CHROMIUM_ARGS)
+        try:
+            page = browser.new_page(viewport={"width": 1280, "height": 800})
+            page.goto(page_file.as_uri(), wait_until="load")
+            yield page
+        finally:
+            browser.close()
+    return opened
+
+
+def test_a_deep_tree_s_table_fits_a_projector_s_width(llvm, write_scene, tmp_path, open_page):
     """A tree 24 rays deep between two mirrors: its table stays within a 1280-pixel window (the
     ray labels wrap and the indent stops growing), where it was 2050 pixels wide and the
     contributions and branch ends lay off the projected screen."""
-    from test_compare_page import CHROMIUM_ARGS
-    playwright, executable = chromium_session
     path = write_scene("size 8 8\neye 0 0 1.5\nfov 30\ndepth 24\nlight 0 0 0\n"
                        "sphere 0 0 -1002 1000 reflect 1\nsphere 0 0 1002 1000 reflect 1\n")
     page_file = tmp_path / "deep.html"
     assert main(["trace", str(path), "--pixel", "4", "4", "-o", str(page_file)]) == 0
-    browser = playwright.chromium.launch(executable_path=executable, headless=True, args=CHROMIUM_ARGS)
-    try:
-        page = browser.new_page(viewport={"width": 1280, "height": 800})
-        page.goto(page_file.as_uri(), wait_until="load")
+    with open_page(page_file) as page:
         assert page.locator("table.tree tbody tr").count() == 24
         right = page.evaluate("document.querySelector('table.tree').getBoundingClientRect().right")
         assert right <= 1280 and page.evaluate("document.documentElement.scrollWidth") <= 1280
-    finally:
-        browser.close()
 
 
 def test_lights_at_one_spot_are_named_by_their_own_lines(llvm, write_scene):
@@ -470,20 +482,13 @@ def test_a_full_disk_behind_standard_output_is_one_line(json_output):
                              "No space left on device\n")
 
 
-def test_the_mark_of_a_corner_pixel_is_drawn_whole(llvm, tmp_path, chromium_session):
+def test_the_mark_of_a_corner_pixel_is_drawn_whole(llvm, tmp_path, open_page):
     """Pixel (0, 0)'s circle reaches past the image's corner: it is drawn there too, not cut
     to the quarter inside the image."""
-    from test_compare_page import CHROMIUM_ARGS
-    playwright, executable = chromium_session
     page_file = tmp_path / "corner.html"
     assert main(["trace", str(TIR), "--pixel", "0", "0", "-o", str(page_file)]) == 0
-    browser = playwright.chromium.launch(executable_path=executable, headless=True, args=CHROMIUM_ARGS)
-    try:
-        page = browser.new_page(viewport={"width": 1280, "height": 800})
-        page.goto(page_file.as_uri(), wait_until="load")
+    with open_page(page_file) as page:
         # the circle's left edge, 8 pixels left of the image (its center is 1 pixel in)
         tag = page.evaluate("(() => { const r = document.querySelector('.stage').getBoundingClientRect();"
                             " return document.elementFromPoint(r.left - 8, r.top + 1).tagName; })()")
         assert tag == "circle"
-    finally:
-        browser.close()
